@@ -1,0 +1,10 @@
+"""Inertia FMU: a rigid rotating mass with optional ground spring, damper and drive torque."""
+from fmus.physics.elements import InertiaModel
+from fmus.slave import PressSlave, Rotational
+
+
+class Inertia(PressSlave):
+    model = InertiaModel
+    description = ("Rigid inertia J with optional spring/damper to the frame and constant drive torque. "
+                   "Port flange: motion out (phi, w outputs), torque in.")
+    ports = (Rotational("flange", motion="out", doc="flange of the inertia"),)

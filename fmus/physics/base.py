@@ -1,0 +1,142 @@
+"""Common pieces of the equation layer: parameter declarations and the model interface.
+
+A component is a parameter dataclass plus a :class:`Model` subclass.  Parameters are declared once, with
+:func:`param`, carrying default, unit, description and admissible range; the FMU layer registers them from
+here and the tests read them from here.  Nothing in this module knows about FMI.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import MISSING, dataclass, field, fields
+from typing import Any, ClassVar, Sequence
+
+import numpy as np
+
+from . import integrate
+
+
+class ParameterError(ValueError):
+    """A parameter value that is not physical.  The message names the parameter and the value."""
+
+    def __init__(self, name: str, value: Any, requirement: str):
+        self.name, self.value, self.requirement = name, value, requirement
+        super().__init__(f"parameter {name} = {value!r} is not admissible: {requirement}")
+
+
+def param(default, unit: str, doc: str, *, low: float | None = None, high: float | None = None,
+          low_open: bool = False, choices: Sequence[int] | None = None):
+    """Declare one parameter field.
+
+    ``low``/``high`` bound the value (``low_open`` makes the lower bound strict, e.g. lengths > 0);
+    ``choices`` lists the admissible values of an Integer parameter.  ``unit`` is an FMI unit name; an
+    Integer parameter uses ``unit=""``.
+    """
+    meta = dict(unit=unit, doc=doc, low=low, high=high, low_open=low_open,
+                choices=tuple(choices) if choices is not None else None)
+    return field(default=default, metadata=meta)
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    name: str
+    default: Any
+    unit: str
+    doc: str
+    is_integer: bool
+
+
+@dataclass(frozen=True)
+class Params:
+    """Base of every parameter dataclass: range checks from the field metadata."""
+
+    def validate(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            meta = f.metadata
+            if isinstance(value, float) and not math.isfinite(value):
+                raise ParameterError(f.name, value, "must be finite")
+            choices = meta.get("choices")
+            if choices is not None and value not in choices:
+                raise ParameterError(f.name, value, f"must be one of {list(choices)}")
+            low, high = meta.get("low"), meta.get("high")
+            if low is not None:
+                if meta.get("low_open") and not value > low:
+                    raise ParameterError(f.name, value, f"must be > {low:g} {meta['unit']}".rstrip())
+                if not meta.get("low_open") and not value >= low:
+                    raise ParameterError(f.name, value, f"must be >= {low:g} {meta['unit']}".rstrip())
+            if high is not None and not value <= high:
+                raise ParameterError(f.name, value, f"must be <= {high:g} {meta['unit']}".rstrip())
+        self.check()
+
+    def check(self) -> None:
+        """Cross-parameter checks of a component (e.g. Grashof condition); raise ParameterError."""
+
+    @classmethod
+    def specs(cls) -> list[ParamSpec]:
+        out = []
+        for f in fields(cls):
+            default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc]
+            out.append(ParamSpec(f.name, default, f.metadata["unit"], f.metadata["doc"],
+                                 isinstance(default, int) and not isinstance(default, bool)))
+        return out
+
+    @classmethod
+    def from_mapping(cls, values: dict[str, Any]):
+        """Build from a mapping, ignoring keys that are not parameters of this component."""
+        names = {f.name for f in fields(cls)}
+        return cls(**{k: v for k, v in values.items() if k in names})
+
+
+@dataclass(frozen=True)
+class Signal:
+    """A named input, output or state of a model, with its unit and meaning."""
+    name: str
+    unit: str
+    doc: str
+
+
+class Model:
+    """Interface every component model implements (inputs are held constant over a call of advance).
+
+    Class attributes:
+      ``Params``   the parameter dataclass;
+      ``inputs``   input names, the order of the ``u`` sequence passed to every method;
+      ``outputs``  output names, the order of the sequence returned by :meth:`output`;
+      ``states``   :class:`Signal` entries naming the continuous state vector ``x``;
+      ``max_substep`` the largest internal integration step [s] (``inf``: one step per call).
+
+    Instances are immutable after construction: everything that evolves lives in ``x``, so saving ``x``
+    (and the time) saves the component.
+    """
+
+    Params: ClassVar[type[Params]]
+    inputs: ClassVar[tuple[str, ...]] = ()
+    outputs: ClassVar[tuple[str, ...]] = ()
+    states: ClassVar[tuple[Signal, ...]] = ()
+
+    def __init__(self, p: Params):
+        p.validate()
+        self.p = p
+        self.max_substep = self.substep_limit()
+
+    # -- what a component implements -------------------------------------------------------------------
+    def substep_limit(self) -> float:
+        """Largest stable/accurate internal step for these parameters [s]."""
+        return math.inf
+
+    def initial_state(self, u: Sequence[float]) -> np.ndarray:
+        return np.zeros(len(self.states))
+
+    def derivatives(self, t: float, x: np.ndarray, u: Sequence[float], t0: float) -> np.ndarray:
+        """dx/dt at time t inside a step that began at t0 (inputs ``u`` were given at t0)."""
+        return np.zeros(len(self.states))
+
+    def output(self, t: float, x: np.ndarray, u: Sequence[float]) -> Sequence[float]:
+        raise NotImplementedError
+
+    # -- provided ----------------------------------------------------------------------------------------
+    def advance(self, t0: float, h: float, x: np.ndarray, u: Sequence[float]) -> np.ndarray:
+        """State at t0 + h.  Default: classical Runge-Kutta on equal sub-steps no larger than max_substep."""
+        if len(x) == 0:
+            return x
+        return integrate.rk4(self.derivatives, t0, h, x, u, self.max_substep)
