@@ -25,8 +25,12 @@ and this class does the rest:
   Python exception as ``fmi2Fatal``; it offers no way to return ``fmi2Error`` from these calls).
 
 Ports follow the power-bond convention: ``Rotational(name, motion="in")`` has inputs ``name.phi`` [rad],
-``name.w`` [rad/s] and output ``name.tau`` [N.m] (the reaction torque the component exerts on whatever
-drives the port); ``motion="out"`` is the reverse.  ``Translational`` uses ``.s``/``.v``/``.f``.
+``name.w`` [rad/s] and output ``name.tau`` [N.m]; ``motion="out"`` is the reverse.  ``Translational`` uses
+``.s``/``.v``/``.f``.  On every bond, ``tau`` is the torque that the motion-input component exerts on the
+flange of the motion-output component, positive in the positive sense of rotation.  So a motion-output
+component integrates ``J*dw/dt = ... + port.tau``, a motion-input component outputs its reaction on the
+driver (a load gives ``tau < 0`` while it is driven forwards), and ``tau * w`` is the power flowing into
+the motion-output component across the bond.
 """
 from __future__ import annotations
 
@@ -63,7 +67,8 @@ class Port:
     def variables(self) -> list["Variable"]:
         (p, pu, pd), (v, vu, vd), (e, eu, ed) = _TRA if self.translational else _ROT
         motion_c, effort_c = ("input", "output") if self.motion == "in" else ("output", "input")
-        effort_doc = ("reaction on the driver" if self.motion == "in" else "load applied by the connected part")
+        effort_doc = ("reaction this component exerts on the driving flange" if self.motion == "in"
+                      else "torque/force the connected part exerts on this flange")
         return [Variable(f"{self.name}.{p}", motion_c, pu, f"{self.doc}: {pd} (motion {self.motion})"),
                 Variable(f"{self.name}.{v}", motion_c, vu, f"{self.doc}: {vd} (motion {self.motion})"),
                 Variable(f"{self.name}.{e}", effort_c, eu, f"{self.doc}: {ed}, {effort_doc}")]

@@ -6,6 +6,6 @@ from fmus.slave import PressSlave, Rotational
 class SpringInertia(PressSlave):
     model = SpringInertiaModel
     description = ("Inertia J behind a spring-damper (c, d) driven by the motion of port drive; "
-                   "drive.tau = c*(drive.phi - phi) + d*(drive.w - w) is a direct function of the inputs.")
+                   "drive.tau = -(c*(drive.phi - phi) + d*(drive.w - w)), the reaction on the driver, is a direct function of the inputs.")
     ports = (Rotational("drive", motion="in", doc="driving flange of the spring"),)
     feedthrough = {"drive.tau": ("drive.phi", "drive.w")}

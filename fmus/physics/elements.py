@@ -2,9 +2,8 @@
 
 Together they form the classic two-inertia co-simulation benchmark (force-displacement coupling across
 the FMU boundary): ``Inertia`` takes a torque and returns motion, ``SpringInertia`` takes motion and returns
-the spring torque.  Sign convention of every port (see fmus.slave): ``tau`` is the torque transmitted
-through the port from the motion-output side into the motion-input side, so ``tau * w`` is the power that
-flows across the bond in the direction of the motion signal.
+the spring torque.  Sign convention of every bond (see fmus.slave): ``tau`` is the torque the motion-input component exerts
+on the motion-output component's flange; ``tau * w`` is the power flowing into the motion-output side.
 """
 from __future__ import annotations
 
@@ -26,7 +25,7 @@ class InertiaParams(Params):
 
 
 class InertiaModel(Model):
-    """J*dw/dt = tau_drive - c_ground*phi - d_ground*w - flange.tau   (flange: motion out)."""
+    """J*dw/dt = tau_drive - c_ground*phi - d_ground*w + flange.tau   (flange: motion out)."""
     Params = InertiaParams
     inputs = ("flange.tau",)
     outputs = ("flange.phi", "flange.w")
@@ -37,7 +36,7 @@ class InertiaModel(Model):
 
     def derivatives(self, t, x, u, t0):
         p = self.p
-        return np.array([x[1], (p.tau_drive - p.c_ground * x[0] - p.d_ground * x[1] - u[0]) / p.J])
+        return np.array([x[1], (p.tau_drive - p.c_ground * x[0] - p.d_ground * x[1] + u[0]) / p.J])
 
     def output(self, t, x, u):
         return (x[0], x[1])
@@ -61,8 +60,9 @@ class SpringInertiaParams(Params):
 class SpringInertiaModel(Model):
     """Inertia J driven through a spring-damper from a motion-input flange.
 
-    tau = c*(drive.phi - phi) + d*(drive.w - w) is the torque the drive transmits (output drive.tau, a
-    direct function of the inputs); J*dw/dt = tau - c_ground*phi - d_ground*w.
+    The spring torque on the inertia is s = c*(drive.phi - phi) + d*(drive.w - w); J*dw/dt = s -
+    c_ground*phi - d_ground*w.  The reaction on the driving flange is drive.tau = -s (a direct function of
+    the inputs).
     """
     Params = SpringInertiaParams
     inputs = ("drive.phi", "drive.w")
@@ -80,7 +80,7 @@ class SpringInertiaModel(Model):
         return np.array([x[1], (self.spring_torque(x, u) - p.c_ground * x[0] - p.d_ground * x[1]) / p.J])
 
     def output(self, t, x, u):
-        return (self.spring_torque(x, u),)
+        return (-self.spring_torque(x, u),)
 
     def energy(self, x, u) -> float:
         p = self.p

@@ -1,0 +1,88 @@
+"""Clearance (backlash) contact laws, shared by every component with a joint clearance.
+
+A joint with total clearance ``delta_c`` and relative coordinate ``q`` (along the contact normal) is
+separated while ``|q| <= delta_c / 2`` and in contact, with penetration ``pen = |q| - delta_c / 2`` and
+penetration rate ``pen_dot = sign(q) * q_dot``, outside that band.  The contact force acts against the
+penetration and never pulls (the damping part is limited, as in the Modelica ElastoBacklash element).
+
+Laws (``LAWS`` registry, chosen by the Integer ``contact_law`` parameter of a component):
+  0 Kelvin-Voigt          F = k*pen + c*pen_dot, damping ratio from restitution e:
+                          zeta = -ln(e) / sqrt(pi^2 + ln(e)^2), c = 2*zeta*sqrt(k*m_eff)
+  1 Hunt-Crossley         F = k*pen^n * (1 + chi*pen_dot), chi = 3(1 - e)/(2 v0)
+  2 Lankarani-Nikravesh   F = k*pen^n * (1 + chi*pen_dot), chi = 3(1 - e^2)/(4 v0)
+  3 Flores et al.         F = k*pen^n * (1 + chi*pen_dot), chi = 8(1 - e)/(5 e v0)
+For the Hunt-Crossley family v0 is the approach speed at first contact: a component keeps it in its
+state (``v_impact``), set when contact begins.  The Kelvin-Voigt law needs the effective mass ``m_eff``
+of the two contacting bodies reduced to the contact normal.
+
+All functions are scalar (plain floats) because they sit in the innermost loop of the integrators.
+"""
+from __future__ import annotations
+
+import math
+
+KELVIN_VOIGT, HUNT_CROSSLEY, LANKARANI_NIKRAVESH, FLORES = 0, 1, 2, 3
+LAWS = {
+    KELVIN_VOIGT: "Kelvin-Voigt",
+    HUNT_CROSSLEY: "Hunt-Crossley",
+    LANKARANI_NIKRAVESH: "Lankarani-Nikravesh",
+    FLORES: "Flores",
+}
+
+V0_FLOOR = 1e-6  # [m/s] smallest approach speed used in the hysteresis factors (avoids 1/0)
+
+
+def kelvin_voigt_damping(k: float, m_eff: float, e: float) -> float:
+    """Damping coefficient c [N.s/m] for which a Kelvin-Voigt contact rebounds with restitution e."""
+    if not 0.0 < e <= 1.0:
+        raise ValueError(f"restitution coefficient must be in (0, 1], got {e!r}")
+    if e == 1.0:
+        return 0.0
+    ln_e = math.log(e)
+    zeta = -ln_e / math.sqrt(math.pi ** 2 + ln_e ** 2)
+    return 2.0 * zeta * math.sqrt(k * m_eff)
+
+
+def hysteresis_factor(law: int, e: float, v0: float) -> float:
+    """chi [s/m] of the Hunt-Crossley family for restitution e and approach speed v0."""
+    v0 = max(abs(v0), V0_FLOOR)
+    if law == HUNT_CROSSLEY:
+        return 1.5 * (1.0 - e) / v0
+    if law == LANKARANI_NIKRAVESH:
+        return 0.75 * (1.0 - e * e) / v0
+    if law == FLORES:
+        return 1.6 * (1.0 - e) / (e * v0)
+    raise ValueError(f"law {law!r} is not a Hunt-Crossley-type law")
+
+
+def penetration(q: float, q_dot: float, clearance: float) -> tuple[float, float, float]:
+    """(pen, pen_dot, side): side = +1/-1 for contact on the positive/negative wall, 0 when separated."""
+    half = 0.5 * clearance
+    if q > half:
+        return q - half, q_dot, 1.0
+    if q < -half:
+        return -q - half, -q_dot, -1.0
+    return 0.0, 0.0, 0.0
+
+
+def contact_force(q: float, q_dot: float, clearance: float, k: float, law: int, e: float,
+                  v_impact: float, m_eff: float, exponent: float = 1.0) -> float:
+    """Signed force along q [N] that the joint exerts to push q back into the clearance band.
+
+    Returns a value of the sign opposite to q while in contact and 0 while separated.  ``v_impact`` is
+    the approach speed at the start of the current contact (Hunt-Crossley family), ``m_eff`` the reduced
+    mass (Kelvin-Voigt).
+    """
+    pen, pen_dot, side = penetration(q, q_dot, clearance)
+    if side == 0.0:
+        return 0.0
+    if law == KELVIN_VOIGT:
+        f = k * pen + kelvin_voigt_damping(k, m_eff, e) * pen_dot
+    else:
+        f = k * pen ** exponent * (1.0 + hysteresis_factor(law, e, v_impact) * pen_dot)
+    return -side * max(f, 0.0)
+
+
+def contact_frequency(k: float, m_eff: float) -> float:
+    """Angular frequency sqrt(k/m) [rad/s] of the linearised contact; sizes the integration sub-step."""
+    return math.sqrt(k / m_eff)
