@@ -1,0 +1,574 @@
+"""Crank-rocker four-bar linkage: closed-form kinematics, an elastic coupler with a clearance joint
+(seed 000, two-mass model with clearance) and the synthesis/analysis of the bed-drive four-bar of seed 004
+(/work/shared/specs/bed_drives.md section 2.2.2).
+
+Geometry (all levels).  Crank pivot O2 = (0, 0), rocker pivot O5 = (f, 0) (the frame line points from the
+crank pivot to the rocker pivot), crank pin A = a*(cos phi, sin phi), rocker pin D = O5 + r*(cos psi, sin psi).
+``phi`` (crank.phi) and ``psi`` (rocker.phi) are absolute angles from the frame line, counter-clockwise.
+a, b, f, r = crank_length, coupler_length, frame_length, rocker_length.
+
+Closed-form position analysis: with v = A - O5, d = |v|, theta_A = angle of v (computed as
+pi + atan2(-a sin phi, f - a cos phi), continuous because f > a), gamma = acos((r^2 + d^2 - b^2)/(2 r d)):
+
+    psi = theta_A - branch * gamma
+
+``branch = +1`` puts D clockwise from O5->A as seen from O5 (the usual picture with the rocker above the
+frame line); precisely, sign(cross(D - O5, A - O5)) = branch.  With theta_c the coupler angle (A -> D):
+
+    dpsi/dphi   = a sin(theta_c - phi) / (r sin(theta_c - psi))
+    dtheta_c/dphi = a sin(psi - phi) / (b sin(theta_c - psi))
+    d2psi/dphi2 = [-a cos(theta_c - phi) - b theta_c'^2 + r psi'^2 cos(theta_c - psi)] / (r sin(theta_c - psi))
+    transmission angle mu = angle at D between D->A and D->O5, cos mu = cos(theta_c - psi), mu in [0, pi].
+
+Fidelity levels of :class:`FourBarModel` (port crank: motion in; port rocker: motion out):
+
+0. rigid, ideal massless links: rocker.phi, rocker.w from the closed forms above; crank.tau from the power
+   balance.  Sign convention of the toolkit (fmus.slave): crank.tau is the torque the four-bar exerts on the
+   crank flange, rocker.tau the torque the load exerts on the rocker, so power conservation of massless links
+   reads ``crank.tau * crank.w = rocker.tau * rocker.w``, i.e. crank.tau = rocker.tau * dpsi/dphi (a load
+   driven forwards, rocker.tau < 0, gives crank.tau < 0).  NOTE: the issue text wrote
+   "crank.tau*w_crank + rocker.tau*w_rocker = 0"; with the repository's bond convention that would make a
+   load pull the crank forwards, so the convention-consistent form above is used (and tested).
+   joint_force (coupler tension) from the rocker's torque balance: F = rocker.tau / arm,
+   arm = cross(D - O5, e_AD) (the rocker inertia is not used at this level).
+1. elastic coupler: the rocker is a state (psi, w) with inertia I = rocker_inertia + coupler_mass/2 * r^2
+   (ambiguity choice: the coupler mass is lumped half at each pin; the crank-pin half moves with the
+   prescribed crank and, the crank acceleration not being an input, does not appear in crank.tau).
+   Coupler deformation q = |D - A| - b, tension F = k q + c dq/dt (k = coupler_stiffness,
+   c = coupler_damping).  The rocker receives the fraction (1 - chi) of the coupler force, chi =
+   friction_ratio (seed 000 eq. (1): "the elastic force net of friction that reaches the rocker is
+   (1 - chi) x the elastic force"; the crank reacts to the full force):
+       I dw/dt = -(1 - chi) F arm + rocker.tau,      crank.tau = F * cross(A - O2, e_AD).
+   Within a communication step the crank pin moves with the held speed: phi(t) = crank.phi + crank.w (t - t0).
+2. as 1, with a total clearance ``clearance`` (dead band |q| <= clearance/2, seed 000 "total play") at the
+   coupler-rocker joint.  The coupler and the joint are one spring: the contact force is
+   fmus.physics.contact.contact_force(q, dq/dt, clearance, k=coupler_stiffness, contact_law, restitution,
+   v_impact, m_eff) (linear force exponent 1, so coupler_stiffness keeps its unit N/m).  m_eff = I /
+   (arm^2 (1 - chi)) is the rocker inertia reduced to the coupler axis, divided by (1 - chi) so that the
+   Kelvin-Voigt damping still gives the restitution ``restitution`` with the (1 - chi)-scaled force on the
+   rocker.  Contact onsets and separations are located inside ``advance`` (regula falsi on the band edge)
+   and recorded in the state: v_impact (approach speed at the onset, used by the Hunt-Crossley family),
+   impact_count, last_impact_speed, rebound_speed.  coupler_damping is not used at this level (the
+   contact law's damping replaces it).
+   Without a clearance (clearance = 0) the joint is in contact on one side or the other at all times.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from . import contact
+from .base import Model, ParameterError, Params, Signal, param
+from .integrate import substeps
+
+# --------------------------------------------------------------------------------------------------------
+# linkage checks and closed-form kinematics (numpy: scalars or arrays)
+# --------------------------------------------------------------------------------------------------------
+
+_LINK_NAMES = ("crank_length", "coupler_length", "frame_length", "rocker_length")
+
+
+def check_crank_rocker(a: float, b: float, f: float, r: float, names=_LINK_NAMES) -> None:
+    """Raise ParameterError unless (a, b, f, r) is a Grashof crank-rocker with a fully rotating crank a."""
+    values = (a, b, f, r)
+    for n, v in zip(names, values):
+        if not (math.isfinite(v) and v > 0.0):
+            raise ParameterError(n, v, "must be a finite length > 0")
+    if not a < min(b, f, r):
+        raise ParameterError(names[0], a, f"linkage cannot be assembled as a crank-rocker: the crank must be "
+                                          f"the shortest link (coupler {b:g}, frame {f:g}, rocker {r:g})")
+    i = max(range(1, 4), key=lambda k: values[k])
+    others = sum(values[1:]) - values[i]
+    if not a + values[i] < others:
+        raise ParameterError(names[i], values[i], f"linkage cannot be assembled at every crank angle "
+                                                  f"(Grashof crank-rocker needs crank + longest < sum of the "
+                                                  f"other two, got {a + values[i]:g} >= {others:g})")
+
+
+def position(phi, a, b, f, r, branch=1):
+    """(psi, theta_c): rocker angle and coupler angle (A -> D) for crank angle phi (closed form)."""
+    vx = a * np.cos(phi) - f
+    vy = a * np.sin(phi)
+    d = np.hypot(vx, vy)
+    theta_a = np.pi + np.arctan2(-vy, -vx)
+    gamma = np.arccos(np.clip((r * r + d * d - b * b) / (2.0 * r * d), -1.0, 1.0))
+    psi = theta_a - branch * gamma
+    theta_c = np.arctan2(r * np.sin(psi) - vy, f + r * np.cos(psi) - a * np.cos(phi))
+    return psi, theta_c
+
+
+def kinematics(phi, a, b, f, r, branch=1):
+    """(psi, dpsi/dphi, d2psi/dphi2, mu): position, velocity and acceleration ratios, transmission angle."""
+    psi, th = position(phi, a, b, f, r, branch)
+    s_cr = np.sin(th - psi)
+    v = a * np.sin(th - phi) / (r * s_cr)
+    vc = a * np.sin(psi - phi) / (b * s_cr)
+    acc = (-a * np.cos(th - phi) - b * vc * vc + r * v * v * np.cos(th - psi)) / (r * s_cr)
+    mu = np.arccos(np.clip(np.cos(th - psi), -1.0, 1.0))
+    return psi, v, acc, mu
+
+
+def extreme_transmission(a, b, f, r):
+    """Transmission angles mu [rad] at d = |A O5| = f - a and f + a (crank along the frame line)."""
+    mu_near = math.acos(max(-1.0, min(1.0, (b * b + r * r - (f - a) ** 2) / (2 * b * r))))
+    mu_far = math.acos(max(-1.0, min(1.0, (b * b + r * r - (f + a) ** 2) / (2 * b * r))))
+    return mu_near, mu_far
+
+
+def min_transmission(a, b, f, r) -> float:
+    """Smallest deviation-free transmission angle min(mu, pi - mu) over a crank turn [rad].
+
+    mu grows monotonically with d = |A O5|, which spans [f - a, f + a]; the extreme values are at the ends.
+    """
+    m1, m2 = extreme_transmission(a, b, f, r)
+    return min(m1, math.pi - m1, m2, math.pi - m2)
+
+
+# --------------------------------------------------------------------------------------------------------
+# FMU model
+# --------------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class FourBarParams(Params):
+    crank_length: float = param(0.1, "m", "crank O2A (seed 004: 1 x scale)", low=0.0, low_open=True)
+    coupler_length: float = param(0.191579, "m", "coupler AD (seed 004: 1.91579 x crank)", low=0.0, low_open=True)
+    rocker_length: float = param(0.225263, "m", "rocker DO5 (seed 004: 2.25263 x crank)", low=0.0, low_open=True)
+    frame_length: float = param(0.210526, "m", "frame O2O5 (seed 004: 2.10526 x crank)", low=0.0, low_open=True)
+    clearance: float = param(1e-5, "m", "total play of the coupler-rocker joint (fidelity 2; seed 000: 5-20 um)",
+                             low=0.0)
+    fidelity: int = param(0, "", "0 rigid ideal linkage, 1 elastic coupler, 2 elastic coupler + clearance joint",
+                          choices=(0, 1, 2))
+    branch: int = param(1, "", "assembly branch: +1 rocker pin D clockwise from O5->A (seen from O5), -1 mirrored",
+                        choices=(-1, 1))
+    rocker_inertia: float = param(4.3e-4, "kg.m2", "reduced inertia of the rocker and its load I2 (seed 000: 0.00043)",
+                                  low=0.0, low_open=True)
+    coupler_mass: float = param(0.0, "kg", "coupler mass, lumped half at each pin (fidelity >= 1)", low=0.0)
+    coupler_stiffness: float = param(1e6, "N/m", "axial stiffness of coupler + joint c2 (seed 000: 1e5-1e6)",
+                                     low=0.0, low_open=True)
+    coupler_damping: float = param(0.0, "N.s/m", "axial viscous damping of the coupler (fidelity 1)", low=0.0)
+    contact_law: int = param(0, "", "clearance contact law (fmus.physics.contact.LAWS): 0 Kelvin-Voigt, "
+                                    "1 Hunt-Crossley, 2 Lankarani-Nikravesh, 3 Flores", choices=tuple(contact.LAWS))
+    restitution: float = param(0.2, "1", "coefficient of restitution e of the clearance impacts (seed 000: 0.2)",
+                               low=0.0, low_open=True, high=1.0)
+    friction_ratio: float = param(0.0, "1", "seed 000 chi: the rocker receives (1 - chi) of the coupler force "
+                                            "(seed value 0.2)", low=0.0)
+
+    def check(self) -> None:
+        check_crank_rocker(self.crank_length, self.coupler_length, self.frame_length, self.rocker_length)
+        if not self.friction_ratio < 1.0:
+            raise ParameterError("friction_ratio", self.friction_ratio, "must be < 1")
+
+
+PSI, W, V_IMPACT, COUNT, LAST_V, REBOUND = range(6)
+
+
+class FourBarModel(Model):
+    """Crank-rocker four-bar, crank motion in, rocker motion out (see the module docstring)."""
+    Params = FourBarParams
+    inputs = ("crank.phi", "crank.w", "rocker.tau")
+    outputs = ("crank.tau", "rocker.phi", "rocker.w", "transmission_angle", "joint_force", "impact_force",
+               "in_contact", "impact_count", "last_impact_speed", "rebound_speed")
+    states = (Signal("psi", "rad", "rocker angle (fidelity >= 1; kinematic value at fidelity 0)"),
+              Signal("w_rocker", "rad/s", "rocker angular velocity"),
+              Signal("v_impact", "m/s", "approach speed at the onset of the current/last contact"),
+              Signal("onsets", "1", "number of contact onsets so far (output impact_count)"),
+              Signal("v_last_onset", "m/s", "approach speed at the last onset (output last_impact_speed)"),
+              Signal("v_last_separation", "m/s", "separation speed at the end of the last contact "
+                                                 "(output rebound_speed)"))
+
+    def __init__(self, p: FourBarParams):
+        self._a, self._b = p.crank_length, p.coupler_length
+        self._f, self._r = p.frame_length, p.rocker_length
+        self._inertia = p.rocker_inertia + 0.5 * p.coupler_mass * p.rocker_length ** 2
+        self._keep = 1.0 - p.friction_ratio
+        self._half = 0.5 * p.clearance
+        super().__init__(p)
+
+    # -- helpers -----------------------------------------------------------------------------------------
+    def substep_limit(self) -> float:
+        p = self.p
+        if p.fidelity == 0:
+            return math.inf
+        r2_over_i = p.rocker_length ** 2 / (p.rocker_inertia + 0.5 * p.coupler_mass * p.rocker_length ** 2)
+        omega = math.sqrt(p.coupler_stiffness * r2_over_i)      # highest axial frequency (lever arm = r)
+        dt = 0.1 / omega                                         # ~30 sub-steps per contact half-period
+        if p.fidelity == 1 and p.coupler_damping > 0.0:
+            dt = min(dt, 1.0 / (p.coupler_damping * r2_over_i))  # RK4 real-axis stability 2.78
+        return dt
+
+    def rigid(self, phi: float, w: float) -> tuple[float, float]:
+        """Rocker angle and speed of the rigid linkage for crank angle phi and speed w."""
+        psi, v, _, _ = kinematics(phi, self._a, self._b, self._f, self._r, self.p.branch)
+        return float(psi), float(v) * w
+
+    def _geometry(self, phi, wc, psi, w):
+        """(q, qdot, ex, ey, arm_rocker, arm_crank) of the elastic coupler."""
+        a, r = self._a, self._r
+        c, s = math.cos(phi), math.sin(phi)
+        cp, sp = math.cos(psi), math.sin(psi)
+        dx = self._f + r * cp - a * c
+        dy = r * sp - a * s
+        length = math.hypot(dx, dy)
+        ex, ey = dx / length, dy / length
+        qd = ex * (-r * sp * w + a * s * wc) + ey * (r * cp * w - a * c * wc)
+        return length - self._b, qd, ex, ey, r * (cp * ey - sp * ex), a * (c * ey - s * ex)
+
+    def _tension(self, q, qd, arm, v_impact):
+        """Coupler tension [N] (positive pulls the pins together)."""
+        p = self.p
+        if p.fidelity == 1:
+            return p.coupler_stiffness * q + p.coupler_damping * qd
+        m_eff = self._inertia / (max(arm * arm, 1e-300) * self._keep)
+        return -contact.contact_force(q, qd, p.clearance, p.coupler_stiffness, p.contact_law, p.restitution,
+                                      v_impact, m_eff)
+
+    def _side(self, q) -> float:
+        return 1.0 if q > self._half else (-1.0 if q < -self._half else 0.0)
+
+    # -- model interface ---------------------------------------------------------------------------------
+    def initial_state(self, u):
+        psi, w = self.rigid(u[0], u[1])
+        return np.array([psi, w, 0.0, 0.0, 0.0, 0.0])
+
+    def derivatives(self, t, x, u, t0):
+        return self._rates(t, x, u, t0, True)
+
+    def _rates(self, t, x, u, t0, contact_on):
+        phi = u[0] + u[1] * (t - t0)
+        q, qd, _, _, arm, _ = self._geometry(phi, u[1], x[0], x[1])
+        force = self._tension(q, qd, arm, x[2]) if contact_on else 0.0
+        return np.array([x[1], (u[2] - self._keep * force * arm) / self._inertia, 0.0, 0.0, 0.0, 0.0])
+
+    def output(self, t, x, u):
+        p = self.p
+        if p.fidelity == 0:
+            psi, v, _, mu = kinematics(u[0], self._a, self._b, self._f, self._r, p.branch)
+            psi, v, mu = float(psi), float(v), float(mu)
+            _, _, _, _, arm, _ = self._geometry(u[0], u[1], psi, v * u[1])
+            return (u[2] * v, psi, v * u[1], mu, u[2] / arm, 0.0, 1.0, x[3], x[4], x[5])
+        q, qd, ex, ey, arm, arm_crank = self._geometry(u[0], u[1], x[0], x[1])
+        force = self._tension(q, qd, arm, x[2])
+        mu = math.acos(max(-1.0, min(1.0, ex * math.cos(x[0]) + ey * math.sin(x[0]))))
+        if p.fidelity == 1:
+            return (force * arm_crank, x[0], x[1], mu, force, 0.0, 1.0, x[3], x[4], x[5])
+        side = self._side(q)
+        return (force * arm_crank, x[0], x[1], mu, force, abs(force), abs(side), x[3], x[4], x[5])
+
+    def _step(self, t, x, dt, u, t0, contact_on=True):
+        """One classical Runge-Kutta step of length dt from (t, x); phi(t) uses the step start t0.
+
+        ``contact_on=False`` integrates the free flight (no force in the clearance joint)."""
+        def f(tt, xx):
+            return self._rates(tt, xx, u, t0, contact_on)
+        k1 = f(t, x)
+        k2 = f(t + 0.5 * dt, x + 0.5 * dt * k1)
+        k3 = f(t + 0.5 * dt, x + 0.5 * dt * k2)
+        k4 = f(t + dt, x + dt * k3)
+        return x + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+    def _gap(self, t, x, u, t0):
+        q, qd, *_ = self._geometry(u[0] + u[1] * (t - t0), u[1], x[0], x[1])
+        return q, qd
+
+    def _locate(self, t, x, span, u, t0, sgn, contact_on):
+        """Time tau in [0, span] at which sgn*q - clearance/2 changes sign (Illinois regula falsi)."""
+        def g(tau):
+            xs = x if tau == 0.0 else self._step(t, x, tau, u, t0, contact_on)
+            return sgn * self._gap(t + tau, xs, u, t0)[0] - self._half
+        lo, hi = 0.0, span
+        glo, ghi = g(lo), g(hi)
+        if glo * ghi > 0.0:
+            return hi if abs(ghi) < abs(glo) else lo
+        last = 0
+        for _ in range(60):
+            if glo == ghi:
+                break
+            mid = (lo * ghi - hi * glo) / (ghi - glo)
+            gm = g(mid)
+            if gm == 0.0 or abs(hi - lo) <= 1e-13 * span:
+                return mid
+            if gm * ghi < 0.0:          # root between mid and hi: hi becomes the old end
+                lo, glo = hi, ghi
+                last = 0
+            else:                       # same end kept twice: Illinois halving
+                if last == 1:
+                    glo *= 0.5
+                last = 1
+            hi, ghi = mid, gm
+        return hi
+
+    def advance(self, t0, h, x, u):
+        p = self.p
+        if p.fidelity == 0:
+            psi, w = self.rigid(u[0] + u[1] * h, u[1])
+            y = x.copy()
+            y[PSI], y[W] = psi, w
+            return y
+        n = substeps(h, self.max_substep)
+        dt = h / n
+        for i in range(n):
+            t = t0 + i * dt
+            t_end = t0 + (i + 1) * dt if i < n - 1 else t0 + h
+            if p.fidelity == 1:
+                x = self._step(t, x, t_end - t, u, t0)
+            else:
+                x = self._substep_with_events(t, t_end, x, u, t0)
+        return x
+
+    def _substep_with_events(self, t, t_end, x, u, t0):
+        """One sub-step at fidelity 2, split at contact onsets and separations.
+
+        While separated the step is integrated as free flight (no joint force); if the free flight crosses a
+        wall of the clearance band, the onset is located on it (exact: before the onset there is no
+        force), the approach speed is stored (v_impact, last_impact_speed, impact_count + 1) and the rest of
+        the sub-step is integrated with the contact force.  A separation (leaving the wall) is located the
+        same way on the contact step and its speed stored as rebound_speed."""
+        side_now = self._side(self._gap(t, x, u, t0)[0])
+        for _ in range(4):
+            span = t_end - t
+            if span <= 0.0:
+                return x
+            on = side_now != 0.0
+            x_new = self._step(t, x, span, u, t0, on)
+            side_end = self._side(self._gap(t_end, x_new, u, t0)[0])
+            if side_end == side_now:
+                return x_new
+            sgn = side_now if on else side_end
+            tau = self._locate(t, x, span, u, t0, sgn, on)
+            xc = x.copy() if tau == 0.0 else self._step(t, x, tau, u, t0, on)
+            qd = self._gap(t + tau, xc, u, t0)[1]
+            if on:                                   # separation from wall side_now
+                xc[REBOUND] = abs(qd)
+                side_now = 0.0
+            else:                                    # onset on wall side_end
+                v = abs(qd)
+                xc[V_IMPACT], xc[LAST_V], xc[COUNT] = v, v, xc[COUNT] + 1.0
+                side_now = side_end
+            t, x = t + tau, xc
+        return self._step(t, x, t_end - t, u, t0, side_now != 0.0) if t_end > t else x
+
+
+# --------------------------------------------------------------------------------------------------------
+# synthesis and analysis of the bed-drive four-bar (seed 004, bed_drives.md section 2.2.2)
+# --------------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class FourBarAnalysis:
+    """Kinematic quality of a crank-rocker (crank = 1, crank turning counter-clockwise at constant speed).
+
+    time_ratio: K_px, the working stroke's share of the cycle (working = the slower stroke, the crank turns
+    through pi + theta); velocity_peak_*: B = peak of b = dpsi/dtau / psi_Sigma with tau = t / T_stroke, i.e.
+    the peak rocker speed over the stroke's mean speed; accel_runup_* (C1) and accel_runout_* (C3): peaks of
+    |c| = |d2psi/dtau2| / psi_Sigma before and after the velocity peak (seed 004 / spec 2.2.1 normalisation,
+    each stroke by its own duration and swing).  Angles in degrees.
+    """
+    crank: float
+    coupler: float
+    frame: float
+    rocker: float
+    time_ratio: float
+    swing_deg: float
+    min_transmission_deg: float
+    working_stroke_deg: float
+    idle_stroke_deg: float
+    velocity_peak_working: float
+    velocity_peak_idle: float
+    accel_runup_working: float
+    accel_runout_working: float
+    accel_runup_idle: float
+    accel_runout_idle: float
+    working_start_deg: float   # crank angle at the start of the working stroke
+    idle_start_deg: float      # crank angle at the start of the idle stroke
+    branch: int
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def extreme_crank_angles(a, b, f, r, branch=1) -> tuple[float, float]:
+    """Crank angles [rad, in [0, 2pi)] of the two extreme rocker positions (roots of dpsi/dphi)."""
+    from scipy.optimize import brentq
+    grid = np.linspace(0.0, 2 * np.pi, 721)
+    v = kinematics(grid, a, b, f, r, branch)[1]
+    roots = []
+    for k in range(len(grid) - 1):
+        if v[k] == 0.0:
+            roots.append(float(grid[k]))
+        elif v[k] * v[k + 1] < 0.0:
+            roots.append(brentq(lambda x: float(kinematics(x, a, b, f, r, branch)[1]), grid[k], grid[k + 1],
+                                xtol=1e-15, rtol=1e-15))
+    if len(roots) != 2:
+        raise ValueError(f"expected two extreme rocker positions, found {len(roots)}")
+    return roots[0], roots[1]
+
+
+def _peak(fun, lo, hi, n=2001):
+    """Maximum of a smooth scalar function on [lo, hi]: dense sampling refined by a bounded search."""
+    from scipy.optimize import minimize_scalar
+    grid = np.linspace(lo, hi, n)
+    vals = fun(grid)
+    k = int(np.argmax(vals))
+    a_, b_ = grid[max(k - 1, 0)], grid[min(k + 1, n - 1)]
+    res = minimize_scalar(lambda s: -float(fun(s)), bounds=(a_, b_), method="bounded",
+                          options={"xatol": 1e-12 * (hi - lo)})
+    if -res.fun >= vals[k]:
+        return float(res.x), float(-res.fun)
+    return float(grid[k]), float(vals[k])
+
+
+def _stroke(a, b, f, r, branch, start, span):
+    """(swing [rad, signed], B, C1, C3) of the stroke starting at crank angle start, crank span span."""
+    psi0 = float(position(start, a, b, f, r, branch)[0])
+    swing = float(position(start + span, a, b, f, r, branch)[0]) - psi0
+
+    def bee(tau):
+        return kinematics(start + tau * span, a, b, f, r, branch)[1] * span / swing
+
+    def cee(tau):
+        return np.abs(kinematics(start + tau * span, a, b, f, r, branch)[2] * span * span / swing)
+
+    tau_b, big_b = _peak(bee, 0.0, 1.0)
+    c1 = _peak(cee, 0.0, tau_b)[1]
+    c3 = _peak(cee, tau_b, 1.0)[1]
+    return swing, big_b, c1, c3
+
+
+def analyse(crank: float, coupler: float, frame: float, rocker: float, branch: int = 1) -> FourBarAnalysis:
+    """Time ratio, swing, transmission and the motion invariants B, C1, C3 of both strokes.
+
+    The link lengths are scaled to crank = 1.  The crank turns counter-clockwise; the working stroke is the
+    slower one (the larger crank angle between the extreme rocker positions).  Raises ParameterError for a
+    linkage that is not a Grashof crank-rocker.
+    """
+    names = ("crank", "coupler", "frame", "rocker")
+    check_crank_rocker(crank, coupler, frame, rocker, names)
+    if branch not in (-1, 1):
+        raise ParameterError("branch", branch, "must be +1 or -1")
+    a, b, f, r = 1.0, coupler / crank, frame / crank, rocker / crank
+    e1, e2 = extreme_crank_angles(a, b, f, r, branch)
+    span1 = (e2 - e1) % (2 * np.pi)
+    if span1 >= np.pi:
+        w_start, w_span, i_start = e1, span1, e2
+    else:
+        w_start, w_span, i_start = e2, 2 * np.pi - span1, e1
+    i_span = 2 * np.pi - w_span
+    sw_w, bw, c1w, c3w = _stroke(a, b, f, r, branch, w_start, w_span)
+    _, bi, c1i, c3i = _stroke(a, b, f, r, branch, i_start, i_span)
+    deg = math.degrees
+    return FourBarAnalysis(
+        crank=1.0, coupler=b, frame=f, rocker=r, time_ratio=w_span / (2 * np.pi), swing_deg=abs(deg(sw_w)),
+        min_transmission_deg=deg(min_transmission(a, b, f, r)), working_stroke_deg=deg(w_span),
+        idle_stroke_deg=deg(i_span), velocity_peak_working=bw, velocity_peak_idle=bi,
+        accel_runup_working=c1w, accel_runout_working=c3w, accel_runup_idle=c1i, accel_runout_idle=c3i,
+        working_start_deg=deg(w_start) % 360.0, idle_start_deg=deg(i_start) % 360.0, branch=branch)
+
+
+def _family(swing: float, theta: float, s):
+    """Crank-rockers with rocker swing ``swing`` and extreme crank angles pi +/- theta (classical synthesis
+    from two extreme positions): O5 at the origin, rocker = 1, extreme pins D1, D2 on the unit circle; the
+    crank pivot O2 lies on a circle through D1, D2 from which the chord D1D2 is seen under theta (both
+    circles, index by the sign of s: s in (0, 1) one circle, (-1, 0) the other; |s| runs along the arc).
+    Returns arrays (a, b, f, r=1) (nan where the point gives no crank-rocker)."""
+    s = np.atleast_1d(np.asarray(s, dtype=float))
+    h, m = math.sin(swing / 2), math.cos(swing / 2)
+    radius = h / math.sin(theta)
+    sigma = np.where(s >= 0.0, 1.0, -1.0)
+    cy = m + sigma * radius * math.cos(theta)
+    # arc on the centre side of the chord: angle about the centre from -(pi - theta) .. +(pi - theta)
+    # measured from the direction "away from the chord" (sigma * y)
+    ang = (2.0 * np.abs(s) - 1.0) * (np.pi - theta)
+    ox = radius * np.sin(ang)
+    oy = cy + sigma * radius * np.cos(ang)
+    d1 = np.hypot(ox + h, oy - m)
+    d2 = np.hypot(ox - h, oy - m)
+    a = 0.5 * np.abs(d1 - d2)
+    b = 0.5 * (d1 + d2)
+    f = np.hypot(ox, oy)
+    # both extremes must belong to one assembly branch: sign(cross(D - O5, A - O5)) equal at D1 and D2
+    # (D farther from O2 = extended, A between O2 and D; nearer = folded, A beyond O2)
+    far1 = d1 >= d2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sgn1 = np.where(far1, 1.0, -1.0)
+        ax1, ay1 = ox + sgn1 * a * (-h - ox) / d1, oy + sgn1 * a * (m - oy) / d1
+        ax2, ay2 = ox - sgn1 * a * (h - ox) / d2, oy - sgn1 * a * (m - oy) / d2
+        c1 = -h * ay1 - m * ax1
+        c2 = h * ay2 - m * ax2
+    bad = ~(c1 * c2 > 0.0)
+    a = np.where(bad, np.nan, a)
+    return a, b, f, np.ones_like(a)
+
+
+def _best_transmission(swing, theta, n=721):
+    """max over the family of min_transmission (crank-rockers only) and the maximising parameter s."""
+    from scipy.optimize import minimize_scalar
+
+    def mu_of(s):
+        a, b, f, r = _family(swing, theta, s)
+        out = np.full(a.shape, -1.0)
+        for k in range(a.size):
+            ak, bk, fk = a[k], b[k], f[k]
+            if not (ak > 1e-9 and ak < min(bk, fk, 1.0)):
+                continue
+            longest = max(bk, fk, 1.0)
+            if not ak + longest < bk + fk + 1.0 - longest:
+                continue
+            out[k] = min_transmission(ak, bk, fk, 1.0)
+        return out
+
+    best = (-1.0, None)
+    for lo, hi in ((1e-6, 1.0 - 1e-6), (-1.0 + 1e-6, -1e-6)):
+        grid = np.linspace(lo, hi, n)
+        vals = mu_of(grid)
+        k = int(np.argmax(vals))
+        if vals[k] < 0.0:
+            continue
+        a_, b_ = grid[max(k - 1, 0)], grid[min(k + 1, n - 1)]
+        res = minimize_scalar(lambda s: -float(mu_of(s)[0]), bounds=(a_, b_), method="bounded",
+                              options={"xatol": 1e-13})
+        val, sx = (-res.fun, res.x) if -res.fun >= vals[k] else (vals[k], grid[k])
+        if val > best[0]:
+            best = (float(val), float(sx))
+    return best
+
+
+def synthesise(swing_deg: float, min_transmission_deg: float) -> FourBarAnalysis:
+    """Crank-rocker (crank = 1) by the two extreme positions with the largest time ratio the limit allows.
+
+    Exact formulation (ambiguity 17 of the spec; the source gives no algorithm):
+        maximise theta (K_px = (pi + theta) / (2 pi))
+        subject to  rocker swing = swing_deg  and  min over the crank turn of min(mu, 180 - mu) >= limit.
+    The swing is met exactly by construction (:func:`_family`: for a given theta the crank pivot lies on the
+    circle through the two extreme rocker-pin positions); for each theta the best transmission angle over that
+    one-parameter family, M(theta), is found by dense sampling and a bounded search; M decreases with theta
+    and the answer is the root of M(theta) = limit (Brent).  For swing 60 deg, limit 30 deg this gives
+    coupler 1.9518, frame 2.1229, rocker 2.2458, K_px = 0.5986, against the published 1.91579, 2.10526,
+    2.25263 (within 1.9 %, 0.8 %, 0.3 %); the published linkage has min transmission 29.35 deg, i.e. it
+    slightly violates the stated 30 deg (a graphical design: 19 : 36.4 : 40 : 42.8 mm), so no strict
+    formulation can return it exactly.
+    Raises ParameterError if the inputs are out of range or no crank-rocker meets them.
+    """
+    from scipy.optimize import brentq
+    if not 0.0 < swing_deg < 180.0:
+        raise ParameterError("swing", swing_deg, "must be in (0, 180) deg")
+    if not 0.0 < min_transmission_deg < 90.0:
+        raise ParameterError("min_transmission", min_transmission_deg, "must be in (0, 90) deg")
+    swing, lim = math.radians(swing_deg), math.radians(min_transmission_deg)
+
+    def excess(theta):
+        return _best_transmission(swing, theta)[0] - lim
+
+    thetas = np.linspace(1e-4, math.pi / 2 - 1e-3, 60)
+    vals = [excess(t) for t in thetas]
+    if vals[0] < 0.0:
+        raise ParameterError("min_transmission", min_transmission_deg,
+                             f"no crank-rocker with swing {swing_deg:g} deg reaches this transmission angle")
+    k = next((i for i, v in enumerate(vals) if v < 0.0), None)
+    if k is None:
+        raise ParameterError("min_transmission", min_transmission_deg,
+                             "the limit does not bound the time ratio (theta reaches 90 deg)")
+    theta = brentq(excess, thetas[k - 1], thetas[k], xtol=1e-13)
+    s = _best_transmission(swing, theta)[1]
+    a, b, f, r = (float(v[0]) for v in _family(swing, theta, s))
+    return analyse(1.0, b / a, f / a, r / a)

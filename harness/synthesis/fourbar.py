@@ -1,0 +1,90 @@
+"""``synth fourbar``: four-bar synthesis by two extreme positions and kinematic analysis (seed 004).
+
+    synth fourbar --swing DEG --min-transmission DEG [--json]
+    synth fourbar --analyse --coupler L --frame L --rocker L [--branch {1,-1}] [--json]     (crank = 1)
+
+The equations live in fmus.physics.fourbar (``synthesise``, ``analyse``); this module only parses, prints
+and turns a linkage that cannot be built into a one-line error (exit code 2).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+_ROWS = (("crank", "crank O2A", ""), ("coupler", "coupler AD", ""), ("frame", "frame O2O5", ""),
+         ("rocker", "rocker DO5", ""), ("time_ratio", "time ratio K_px (working share)", ""),
+         ("swing_deg", "rocker swing", "deg"), ("min_transmission_deg", "min transmission angle", "deg"),
+         ("working_stroke_deg", "working stroke (crank angle)", "deg"),
+         ("idle_stroke_deg", "idle stroke (crank angle)", "deg"),
+         ("velocity_peak_working", "B working (peak/mean speed)", ""),
+         ("velocity_peak_idle", "B idle", ""),
+         ("accel_runup_working", "C1 working (run-up)", ""), ("accel_runout_working", "C3 working (run-out)", ""),
+         ("accel_runup_idle", "C1 idle (run-up)", ""), ("accel_runout_idle", "C3 idle (run-out)", ""))
+
+
+def _add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--swing", type=float, metavar="DEG", help="rocker swing to synthesise [deg]")
+    p.add_argument("--min-transmission", type=float, metavar="DEG", dest="min_transmission",
+                   help="smallest admissible transmission angle [deg]")
+    p.add_argument("--analyse", "--analyze", action="store_true", help="analyse given lengths instead (crank = 1)")
+    p.add_argument("--coupler", type=float, metavar="L", help="coupler length / crank length")
+    p.add_argument("--frame", type=float, metavar="L", help="frame length / crank length")
+    p.add_argument("--rocker", type=float, metavar="L", help="rocker length / crank length")
+    p.add_argument("--branch", type=int, choices=(1, -1), default=1, help="assembly branch (default 1)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def register(subparsers) -> argparse.ArgumentParser:
+    """Add the ``fourbar`` subcommand to an argparse subparsers object."""
+    p = subparsers.add_parser("fourbar", help="four-bar synthesis by two extreme positions / analysis (seed 004)",
+                              description=__doc__.splitlines()[0])
+    _add_arguments(p)
+    p.set_defaults(func=run)
+    return p
+
+
+def _fail(message: str) -> int:
+    print(f"synth fourbar: {message}", file=sys.stderr)
+    return 2
+
+
+def run(args) -> int:
+    from fmus.physics.base import ParameterError
+    from fmus.physics.fourbar import analyse, synthesise
+
+    try:
+        if args.analyse:
+            missing = [n for n in ("coupler", "frame", "rocker") if getattr(args, n) is None]
+            if missing:
+                return _fail("--analyse needs " + ", ".join(f"--{n}" for n in missing))
+            result = analyse(1.0, args.coupler, args.frame, args.rocker, branch=args.branch)
+        else:
+            if args.swing is None or args.min_transmission is None:
+                return _fail("give --swing and --min-transmission (or --analyse with --coupler/--frame/--rocker)")
+            result = synthesise(args.swing, args.min_transmission)
+    except (ParameterError, ValueError) as e:
+        return _fail(str(e))
+    data = result.as_dict()
+    if args.json:
+        print(json.dumps(data))
+        return 0
+    title = "four-bar analysis" if args.analyse else (f"four-bar synthesis: swing {args.swing:g} deg, "
+                                                       f"min transmission {args.min_transmission:g} deg")
+    print(title + " (crank = 1, crank turning CCW, branch %+d)" % data["branch"])
+    for key, label, unit in _ROWS:
+        print(f"  {label:<34s} {data[key]:>12.6f} {unit}")
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="synth")
+    register(parser.add_subparsers(dest="tool", required=True))
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+    sys.exit(main())

@@ -1,0 +1,235 @@
+"""FourBar: tier 1 (closed-form kinematics, power balance, stiffness convergence, impacts) and tier 2 (FMU)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import fsolve
+
+from fmus.physics import contact
+from fmus.physics.base import ParameterError
+from fmus.physics.fourbar import FourBarModel, FourBarParams
+
+P0 = FourBarParams()
+A, B, F, R = P0.crank_length, P0.coupler_length, P0.frame_length, P0.rocker_length
+
+
+def loop_solution(phi, guess):
+    """Independent position analysis: solve |D - A| = b numerically for the rocker angle."""
+    ax, ay = A * math.cos(phi), A * math.sin(phi)
+
+    def res(psi):
+        return [math.hypot(F + R * math.cos(psi[0]) - ax, R * math.sin(psi[0]) - ay) - B]
+    return fsolve(res, [guess], xtol=1e-13)[0]
+
+
+@pytest.mark.parametrize("branch", [1, -1])
+def test_fidelity0_matches_independent_loop_solution(branch):
+    m = FourBarModel(FourBarParams(branch=branch))
+    w = 12.0
+    guess = None
+    h = 1e-4
+    for t in np.linspace(0.0, 2 * math.pi / w, 97):
+        phi = w * t
+        y = m.output(t, m.initial_state([phi, w, 0.0]), [phi, w, 0.0])
+        psi = y[1]
+        ax, ay = A * math.cos(phi), A * math.sin(phi)
+        dx, dy = F + R * math.cos(psi) - ax, R * math.sin(psi) - ay
+        assert abs(math.hypot(dx, dy) - B) < 1e-12                    # loop closure
+        cross = R * math.cos(psi) * (ay - 0.0) - R * math.sin(psi) * (ax - F)
+        assert math.copysign(1, cross) == branch                         # assembly branch as documented
+        ref = loop_solution(phi, psi + 0.05 if guess is None else guess)
+        guess = ref
+        assert abs(math.remainder(psi - ref, 2 * math.pi)) < 1e-9
+        # speed: central difference of the independent solution
+        p1, m1 = loop_solution(phi + w * h, ref), loop_solution(phi - w * h, ref)
+        p2, m2 = loop_solution(phi + 2 * w * h, ref), loop_solution(phi - 2 * w * h, ref)
+        d = (8 * (p1 - m1) - (p2 - m2)) / (12 * h)          # fourth-order central difference
+        assert abs(y[2] - d) < 1e-7 * max(1.0, abs(d))
+
+
+def test_fidelity0_power_balance_and_statics():
+    m = FourBarModel(P0)
+    for phi in np.linspace(0, 2 * math.pi, 13):
+        u = [phi, 10.0, -3.0]
+        tau_c, psi, w_r, mu, force = m.output(0.0, m.initial_state(u), u)[:5]
+        assert tau_c * u[1] == pytest.approx(u[2] * w_r, rel=1e-12, abs=1e-12)   # crank.tau*w = rocker.tau*w_r
+        # statics: crank torque of the coupler force about O2 equals crank.tau
+        ax, ay = A * math.cos(phi), A * math.sin(phi)
+        ex, ey = F + R * math.cos(psi) - ax, R * math.sin(psi) - ay
+        n = math.hypot(ex, ey)
+        assert force * (ax * ey - ay * ex) / n == pytest.approx(tau_c, rel=1e-9, abs=1e-12)
+        # transmission angle from the law of cosines
+        d2 = (ax - F) ** 2 + ay ** 2
+        assert mu == pytest.approx(math.acos((B * B + R * R - d2) / (2 * B * R)), abs=1e-12)
+    # a load driven forwards loads the crank (tau < 0) when the rocker moves forwards
+    u = [2.0, 10.0, -3.0]
+    y = m.output(0.0, m.initial_state(u), u)
+    assert y[2] > 0 and y[0] < 0
+
+
+def run(model, w, t_end, h=1e-3, tau=0.0, phi0=0.3):
+    x = model.initial_state([phi0, w, tau])
+    out = []
+    for k in range(int(round(t_end / h))):
+        u = [phi0 + w * k * h, w, tau]
+        x = model.advance(k * h, h, x, u)
+        u = [phi0 + w * (k + 1) * h, w, tau]
+        out.append(model.output((k + 1) * h, x, u))
+    return np.array(out)
+
+
+def test_fidelity1_converges_to_rigid_with_stiffness():
+    w, t_end = 15.0, 0.03
+    rigid = run(FourBarModel(P0), w, t_end, tau=-0.5)
+    errors = []
+    for k in (1e5, 1e6, 1e7):
+        y = run(FourBarModel(FourBarParams(fidelity=1, coupler_stiffness=k)), w, t_end, tau=-0.5)
+        errors.append(np.max(np.abs(y[:, 1] - rigid[:, 1])))
+    assert errors[0] > errors[1] > errors[2]
+    assert errors[2] < errors[0] / 20          # ~1/k: static deflection of the coupler
+    assert errors[2] < 1e-5
+
+
+def rebound_ratio_1dof(law, e, v0, k, m_eff):
+    """Independent check: a single mass hitting the same shared contact law (solve_ivp, events)."""
+    def rhs(t, z):
+        return [z[1], contact.contact_force(z[0], z[1], 0.0, k, law, e, v0, m_eff) / m_eff]
+    leave = lambda t, z: z[0] + 0.0
+    leave.terminal, leave.direction = True, -1
+    sol = solve_ivp(rhs, (0, 1.0), [1e-16, v0], events=leave, rtol=1e-10, atol=1e-16, max_step=0.05 / math.sqrt(k / m_eff))
+    return abs(sol.y[1, -1]) / v0
+
+
+def kelvin_voigt_no_pull(e):
+    """Closed form: linear spring-damper that cannot pull; contact ends when k p + c p' = 0."""
+    ln_e = math.log(e)
+    z = -ln_e / math.sqrt(math.pi ** 2 + ln_e ** 2)
+    wd = math.sqrt(1 - z * z)                        # omega = 1, v0 = 1
+    # p = exp(-z t) sin(wd t)/wd ; force zero: p + 2 z p' = 0
+    t = (math.pi - math.atan2(2 * z * wd, 1 - 2 * z * z)) / wd
+    v = math.exp(-z * t) * (math.cos(wd * t) - z * math.sin(wd * t) / wd)
+    return abs(v)
+
+
+def single_impact(law, e, v0=0.01, clearance=1e-4, friction=0.0):
+    m = FourBarModel(FourBarParams(fidelity=2, clearance=clearance, contact_law=law, restitution=e,
+                                   friction_ratio=friction))
+    u = [1.0, 0.0, 0.0]                              # crank held
+    x = m.initial_state(u)
+    arm = m._geometry(1.0, 0.0, x[0], 0.0)[4]
+    x[1] = v0 / arm                                  # rocker coasting towards the tension wall
+    for k in range(40):                              # until the first separation
+        x = m.advance(k * 1e-3, 1e-3, x, u)
+        if x[5] > 0.0:
+            break
+    return m, x, arm
+
+
+@pytest.mark.parametrize("law", sorted(contact.LAWS))
+@pytest.mark.parametrize("e", [0.2, 0.5, 0.9])
+def test_fidelity2_single_impact_rebound(law, e):
+    m, x, arm = single_impact(law, e)
+    y = m.output(0.0, x, [1.0, 0.0, 0.0])
+    assert y[7] == 1.0                                      # exactly one onset
+    assert y[8] == pytest.approx(0.01, rel=1e-3)            # approach speed at the onset
+    assert y[6] == 0.0 and y[5] == 0.0                      # separated again
+    ratio = y[9] / y[8]
+    m_eff = m.p.rocker_inertia / arm ** 2
+    assert ratio == pytest.approx(rebound_ratio_1dof(law, e, 0.01, m.p.coupler_stiffness, m_eff), rel=0.015)
+    if law == contact.KELVIN_VOIGT:
+        # the kink where the clipped force reaches zero is not located: first-order error ~1 %
+        assert ratio == pytest.approx(kelvin_voigt_no_pull(e), rel=0.015)
+    if e >= 0.9:                                            # every law promises e near 1
+        assert ratio == pytest.approx(e, rel=0.02)
+    if law in (contact.KELVIN_VOIGT, contact.FLORES) and e >= 0.5:
+        assert ratio == pytest.approx(e, rel=0.11)
+
+
+@pytest.mark.parametrize("law", [contact.KELVIN_VOIGT, contact.FLORES])
+def test_friction_ratio_keeps_the_restitution(law):
+    _, x0, _ = single_impact(law, 0.7)
+    _, x1, _ = single_impact(law, 0.7, friction=0.2)
+    assert x1[5] / x1[4] == pytest.approx(x0[5] / x0[4], rel=2e-3)
+
+
+def test_fidelity2_driven_linkage_separates_and_impacts():
+    m = FourBarModel(FourBarParams(fidelity=2, clearance=2e-5, restitution=0.2))
+    y = run(m, 15.0, 0.5, h=1e-3)
+    assert y[-1, 7] >= 2                                   # impacts happen (rocker reversals)
+    assert set(np.unique(y[:, 6])) == {0.0, 1.0}           # separated and in contact
+    assert np.all(y[y[:, 6] == 0.0, 5] == 0.0)             # no force while separated
+    rigid = run(FourBarModel(P0), 15.0, 0.5, h=1e-3)
+    assert np.max(np.abs(y[:, 1] - rigid[:, 1])) < 5e-3    # still follows the linkage
+
+
+def test_bad_parameters_name_the_parameter():
+    with pytest.raises(ParameterError, match="rocker_length = 5"):
+        FourBarModel(FourBarParams(rocker_length=5.0))
+    with pytest.raises(ParameterError, match="crank_length"):
+        FourBarModel(FourBarParams(crank_length=0.3))
+    with pytest.raises(ParameterError, match="friction_ratio"):
+        FourBarModel(FourBarParams(friction_ratio=1.0))
+
+
+# -- tier 2: the built FMU through fmpy -------------------------------------------------------------------
+
+def _open(fmu_dir, params, name="fb"):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    path = fmu_dir / "FourBar.fmu"
+    md = read_model_description(str(path))
+    s = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path)),
+                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+    s.instantiate()
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    s.setupExperiment(startTime=0.0)
+    for k, v in params.items():
+        (s.setInteger if isinstance(v, int) else s.setReal)([vr[k]], [v])
+    return s, vr
+
+
+def test_fmu_fidelity0_and_fidelity2(fmu_dir):
+    w, h = 15.0, 1e-3
+    s, vr = _open(fmu_dir, {"fidelity": 0})
+    ins = [vr["crank.phi"], vr["crank.w"], vr["rocker.tau"]]
+    s.setReal(ins, [0.0, w, -1.0])
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    ref = FourBarModel(P0)
+    for k in range(50):
+        s.doStep(k * h, h)
+        u = [w * (k + 1) * h, w, -1.0]
+        s.setReal(ins, u)
+        got = s.getReal([vr["rocker.phi"], vr["rocker.w"], vr["crank.tau"]])
+        assert got == pytest.approx(list(ref.output(0, ref.initial_state(u), u)[1:3]) + [ref.output(0, ref.initial_state(u), u)[0]], abs=1e-12)
+    s.terminate()
+    s.freeInstance()
+
+    s, vr = _open(fmu_dir, {"fidelity": 2, "clearance": 2e-5}, name="fb2")
+    ins = [vr["crank.phi"], vr["crank.w"], vr["rocker.tau"]]
+    s.setReal(ins, [0.3, w, 0.0])
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    obs = [vr[n] for n in ("rocker.phi", "impact_count", "rebound_speed", "crank.tau")]
+    trace = []
+    for k in range(300):
+        s.setReal(ins, [0.3 + w * k * h, w, 0.0])
+        s.doStep(k * h, h)
+        if k == 150:
+            state = s.getFMUstate()
+        if k > 150:
+            trace.append(s.getReal(obs))
+    s.setFMUstate(state)
+    again = []
+    for k in range(151, 300):
+        s.setReal(ins, [0.3 + w * k * h, w, 0.0])
+        s.doStep(k * h, h)
+        again.append(s.getReal(obs))
+    assert np.array_equal(np.array(trace), np.array(again))
+    assert trace[-1][1] >= 1.0
+    s.freeFMUstate(state)
+    s.terminate()
+    s.freeInstance()
