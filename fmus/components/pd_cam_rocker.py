@@ -1,0 +1,21 @@
+"""CamRocker FMU: cam-corrected rocker (slotted rocker with groove, or disc cam with oscillating follower)."""
+from fmus.physics.cam_rocker import CamRockerModel
+from fmus.slave import Output, PressSlave, Rotational
+
+
+class CamRocker(PressSlave):
+    model = CamRockerModel
+    description = ("Cam-corrected rocker driven by a crank: slotted rocker whose kulisa follows a law of periodic motion "
+                   "(LCSM, groove synthesised from the law) or disc cam with oscillating roller follower; rigid, elastic "
+                   "or elastic with pin clearance and impacts.")
+    ports = (Rotational("crank", motion="in", doc="driving crank (cam shaft)"),
+             Rotational("rocker", motion="out", doc="output rocker (kulisa / cam follower)"))
+    signals = (Output("pressure_angle", "rad", "pressure angle at the stone (LCSM, conrod vs groove) or at the cam"),
+               Output("stone_radius", "m", "stone radius |O2B| (LCSM) or roller-centre distance from the cam centre"),
+               Output("impact_force", "N", "magnitude of the contact force at the pin/roller (fidelity 2)"),
+               Output("in_contact", "1", "1 while the clearance is closed (fidelity 2)"),
+               Output("impact_count", "1", "number of impacts so far (fidelity 2)"))
+    feedthrough = {"rocker.phi": ("crank.phi", "crank.w"), "rocker.w": ("crank.phi", "crank.w"),
+                   "crank.tau": ("crank.phi", "crank.w", "rocker.tau"),
+                   "pressure_angle": ("crank.phi",), "stone_radius": ("crank.phi",),
+                   "impact_force": ("crank.phi", "crank.w")}

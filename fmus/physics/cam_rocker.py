@@ -1,0 +1,245 @@
+"""Cam-corrected rocker: a motion transformer from a crank to an output rocker (seeds 000/001/004).
+
+``mechanism``
+  0  slotted rocker (LCSM, seeds 000/001): the kulisa follows a prescribed law of periodic motion; the stone
+     pin runs in a groove synthesised from that law (fmus.physics.groove).  The swing, the extreme positions
+     and the phase angles are those of the base four-bar (crank_radius, lambda1..3) with the optional
+     ``dwell`` centred on its extended dead centre (see groove.py).  rocker.phi is the ABSOLUTE kulisa angle
+     gamma_b in frame F2 (x from the crank pivot towards the kulisa pivot, counter-clockwise); crank.phi is
+     the crank angle in the same frame.  ``stone_radius`` = rho = |O2B| from (K8).
+  1  disc cam with an oscillating roller follower (seed 004's carrier cam): the cam turns with the crank;
+     the follower (pivot at distance ``cam_distance`` from the cam centre, arm ``follower_arm``) rises by
+     ``swing`` over ``phase_forward`` from crank angle ``phi_start``, dwells ``dwell``, returns over
+     ``phase_return`` and dwells for the rest of the turn.  rocker.phi = follower angle above its lowest
+     (base-circle) position.  ``stone_radius`` = distance of the roller centre from the cam centre.
+     Pressure angle: between the pitch-curve normal and the velocity of the roller centre.
+
+``fidelity``
+  0  rigid: rocker.phi = G(crank.phi), rocker.w = G'(crank.phi)*crank.w.  The rocker inertia is carried with
+     the kinematic acceleration G''*w^2 (FMI 2.0 gives no crank acceleration: the G'*dw/dt term is dropped),
+     and crank.tau = -G'*(J*G''*w^2 - rocker.tau) from the power balance.
+  1  elastic: torque T = stiffness*(G - gamma) + damping*(G'*w - omega) between the kinematic angle and the
+     rocker inertia J: J*domega/dt = T + rocker.tau; crank.tau = -G'*T.
+  2  elastic + clearance at the stone pin (LCSM) / roller (cam): the linear play ``clearance`` [m] acts at
+     the radius R (stone radius rho(phi), or the follower arm) so the relative coordinate is
+     q = R*(G - gamma) [m] and the contact law of fmus.physics.contact gives the pin force F [N] with the
+     series stiffness k = 1/(1/contact_stiffness + R^2/stiffness) and m_eff = J/R^2; the rocker gets
+     T = -F*R.  Impacts are counted at every separated -> contact transition.
+
+Inside a communication step the crank angle is extrapolated with the held crank speed,
+phi(t) = crank.phi + crank.w*(t - t0).  State: gamma, omega, v_impact, impacts, contact_flag (the last
+three are discrete memory updated in ``advance``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import contact, groove, integrate
+from .base import Model, ParameterError, Params, Signal, param
+from .laws import LAW_NAMES, TWO_PI, DwellCycle, get_law
+
+DEG = math.pi / 180.0
+
+
+@dataclass(frozen=True)
+class CamRockerParams(Params):
+    mechanism: int = param(0, "", "0 = slotted rocker with groove (LCSM, seeds 000/001), 1 = disc cam with oscillating roller follower (seed 004)", choices=(0, 1))
+    fidelity: int = param(0, "", "0 = rigid kinematics, 1 = elastic transmission, 2 = elastic + clearance with impacts", choices=(0, 1, 2))
+    law: int = param(0, "", "law of periodic motion, index into " + ", ".join(f"{i}={n}" for i, n in enumerate(LAW_NAMES)), choices=tuple(range(len(LAW_NAMES))))
+    law_return: int = param(-1, "", "law of the return phase (same indices), -1 = same as law", choices=tuple(range(-1, len(LAW_NAMES))))
+    law_n: float = param(2.0, "1", "exponent n of the power law", low=0.0, low_open=True)
+    law_km: float = param(0.4, "1", "end of run-up k_m of the P6 stand-in and composite laws", low=0.0, low_open=True, high=1.0)
+    crank_radius: float = param(0.040, "m", "LCSM crank radius r (seed 001: 0.040 m)", low=0.0, low_open=True)
+    lambda1: float = param(3.5, "1", "LCSM frame length / r (seed 001: 3.5)", low=0.0, low_open=True)
+    lambda2: float = param(4.03, "1", "LCSM conrod length / r (inside the K0 feasible interval computed by synth groove)", low=0.0, low_open=True)
+    lambda3: float = param(3.0, "1", "LCSM base four-bar rocker length / r (seed 001: 3)", low=0.0, low_open=True)
+    assembly: int = param(1, "", "LCSM base four-bar assembly mode (+1/-1)", choices=(1, -1))
+    dwell: float = param(0.0, "rad", "dwell after the forward phase (LCSM: centred on the extended dead centre)", low=0.0)
+    swing: float = param(40.0 * DEG, "rad", "cam follower swing (seed 004: 40 deg); the LCSM swing is the base four-bar's", low=0.0, low_open=True, high=math.pi)
+    phase_forward: float = param((216 + 53 / 60 + 10 / 3600) * DEG, "rad", "cam rise phase angle (seed 004: 216 deg 53' 10\")", low=0.0, low_open=True)
+    phase_return: float = param((143 + 6 / 60 + 50 / 3600) * DEG, "rad", "cam return phase angle (seed 004: 143 deg 06' 50\")", low=0.0, low_open=True)
+    phi_start: float = param(0.0, "rad", "cam: crank angle at which the rise begins")
+    cam_base_radius: float = param(0.0663, "m", "cam: base-circle radius of the pitch curve r0 (0.95*S, S = follower_arm*swing, seed 004 r0/S)", low=0.0, low_open=True)
+    follower_arm: float = param(0.1, "m", "cam: follower arm, pivot to roller centre", low=0.0, low_open=True)
+    cam_distance: float = param(0.15, "m", "cam: distance cam centre - follower pivot", low=0.0, low_open=True)
+    rocker_inertia: float = param(0.00043, "kg.m2", "rocker (kulisa/follower) inertia about its pivot (seed 000: I2)", low=0.0, low_open=True)
+    stiffness: float = param(5000.0, "N.m/rad", "transmission stiffness reduced to the rocker angle (fidelity 1, 2)", low=0.0, low_open=True)
+    damping: float = param(0.1, "N.m.s/rad", "transmission damping reduced to the rocker (fidelity 1)", low=0.0)
+    clearance: float = param(10e-6, "m", "total linear play at the stone pin / roller (seed 000: 5-20 um), fidelity 2", low=0.0)
+    contact_stiffness: float = param(5e5, "N/m", "joint stiffness at the pin c2 (seed 000: 1e5-1e6 N/m)", low=0.0, low_open=True)
+    restitution: float = param(0.2, "1", "restitution coefficient (seed 000: 0.2)", low=0.0, low_open=True, high=1.0)
+    contact_law: int = param(0, "", "contact law: 0 Kelvin-Voigt, 1 Hunt-Crossley, 2 Lankarani-Nikravesh, 3 Flores", choices=(0, 1, 2, 3))
+    contact_exponent: float = param(1.0, "1", "force exponent of the Hunt-Crossley family", low=1.0)
+
+    def laws(self):
+        f = get_law(LAW_NAMES[self.law], n=self.law_n, k_m=self.law_km)
+        r = f if self.law_return < 0 else get_law(LAW_NAMES[self.law_return], n=self.law_n, k_m=self.law_km)
+        return f, r
+
+    def check(self) -> None:
+        if not self.law_km < 1.0:
+            raise ParameterError("law_km", self.law_km, "must be < 1")
+        if self.mechanism == 0:
+            l1, l2, l3 = self.lambda1, self.lambda2, self.lambda3
+            if not groove.grashof_crank_rocker(l1, l2, l3):
+                raise ParameterError("lambda2", l2, f"base four-bar (lambda1={l1:g}, lambda3={l3:g}) must be a Grashof crank-rocker")
+            try:
+                law = groove.kulisa_law(l1, l2, l3, *self.laws(), dwell=self.dwell, assembly=self.assembly)
+            except ValueError as e:
+                raise ParameterError("dwell", self.dwell, str(e)) from None
+            p = groove.synthesize_law(law, l1, l2, 1440, groove.base_branch(l1, l2, l3, self.assembly))
+            if not np.all(p.exists):
+                raise ParameterError("lambda2", l2, f"the groove does not exist: kinematic connection breaks "
+                                     f"(|N| - lambda2 = {-float(np.min(l2 - np.abs(p.N))):.4g} > 0); try `synth groove --scan lambda2`")
+            if not np.all(p.rho > 0.0):
+                raise ParameterError("lambda2", l2, "the stone radius rho becomes <= 0")
+        else:
+            total = self.phase_forward + self.dwell + self.phase_return
+            if total > TWO_PI + 1e-9:
+                raise ParameterError("phase_return", self.phase_return, f"phase_forward + dwell + phase_return = {total:.6g} rad exceeds 2*pi")
+            a, l, r0 = self.cam_distance, self.follower_arm, self.cam_base_radius
+            if not abs(a - l) < r0 < a + l:
+                raise ParameterError("cam_base_radius", r0, f"must lie between |cam_distance - follower_arm| = {abs(a - l):g} m and cam_distance + follower_arm = {a + l:g} m")
+            psi0 = math.acos((a * a + l * l - r0 * r0) / (2 * a * l))
+            if psi0 + self.swing >= math.pi:
+                raise ParameterError("swing", self.swing, f"follower would pass the line of centres (psi0 = {psi0:.4g} rad)")
+
+
+class CamRockerModel(Model):
+    Params = CamRockerParams
+    inputs = ("crank.phi", "crank.w", "rocker.tau")
+    outputs = ("crank.tau", "rocker.phi", "rocker.w", "pressure_angle", "stone_radius", "impact_force",
+               "in_contact", "impact_count")
+    states = (Signal("gamma", "rad", "rocker angle (fidelity 1, 2)"),
+              Signal("omega", "rad/s", "rocker angular velocity (fidelity 1, 2)"),
+              Signal("v_impact", "m/s", "approach speed at the start of the current contact (fidelity 2)"),
+              Signal("impacts", "1", "number of impacts so far (fidelity 2), state behind output impact_count"),
+              Signal("contact_flag", "1", "1 while the clearance is closed (fidelity 2), state behind output in_contact"))
+
+    def __init__(self, p: CamRockerParams):
+        super().__init__(p)
+        fwd, ret = p.laws()
+        if p.mechanism == 0:
+            self.branch = groove.base_branch(p.lambda1, p.lambda2, p.lambda3, p.assembly)
+            self.kulisa = groove.kulisa_law(p.lambda1, p.lambda2, p.lambda3, fwd, ret, p.dwell, p.assembly)
+            prof = groove.synthesize_law(self.kulisa, p.lambda1, p.lambda2, 1440, self.branch)
+            radii = prof.rho * p.crank_radius
+        else:
+            self.cycle = DwellCycle(fwd, ret, p.phase_forward, p.phase_return, p.dwell, p.phi_start)
+            a, l, r0 = p.cam_distance, p.follower_arm, p.cam_base_radius
+            self.psi0 = math.acos((a * a + l * l - r0 * r0) / (2 * a * l))
+            radii = np.array([l])
+        self.r_min, self.r_max = float(np.min(radii)), float(np.max(radii))
+        self.max_substep = self.substep_limit()
+
+    # -- kinematics (closed form per call) ------------------------------------------------------------------
+    def kinematics(self, phi: float) -> tuple[float, float, float]:
+        """(G, dG/dphi, d2G/dphi2) of the rocker."""
+        if self.p.mechanism == 0:
+            return self.kulisa.scalar(phi)
+        s, s1, s2 = self.cycle.scalar(phi)
+        sw = self.p.swing
+        return sw * s, sw * s1, sw * s2
+
+    def lever(self, phi: float, g: float) -> float:
+        """Radius R [m] at which the clearance acts (stone radius, or follower arm)."""
+        if self.p.mechanism == 0:
+            return self.p.crank_radius * groove.stone_radius_scalar(phi, g, self.p.lambda1, self.p.lambda2, self.branch)
+        return self.p.follower_arm
+
+    def geometry(self, phi: float) -> tuple[float, float]:
+        """(pressure angle [rad], stone/contact radius [m]) at crank angle phi (rigid kinematics)."""
+        p = self.p
+        g, g1, _ = self.kinematics(phi)
+        if p.mechanism == 0:
+            rho, _, theta = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
+            return theta, rho * p.crank_radius
+        a, l = p.cam_distance, p.follower_arm
+        psi = self.psi0 + g
+        cx, cy = a - l * math.cos(psi), l * math.sin(psi)
+        ex, ey = math.sin(psi), math.cos(psi)            # direction of the roller-centre velocity (psi increasing)
+        vx, vy = l * g1 * ex + cy, l * g1 * ey - cx      # velocity relative to the cam / crank speed
+        vn = math.hypot(vx, vy)
+        theta = 0.0 if vn == 0.0 else math.acos(min(1.0, abs(vx * ey - vy * ex) / vn))
+        return theta, math.hypot(cx, cy)
+
+    # -- model interface --------------------------------------------------------------------------------------
+    def substep_limit(self) -> float:
+        p = self.p
+        if p.fidelity == 0:
+            return math.inf
+        w = math.sqrt(p.stiffness / p.rocker_inertia)
+        if p.fidelity == 2:
+            r_max = getattr(self, "r_max", None)
+            if r_max is None:
+                return math.inf  # set again after the kinematic tables exist
+            w = max(w, math.sqrt(p.contact_stiffness * r_max * r_max / p.rocker_inertia))
+        return 0.1 / w
+
+    def initial_state(self, u):
+        g, g1, _ = self.kinematics(u[0])
+        return np.array([g, g1 * u[1], 0.0, 0.0, 0.0])
+
+    def _pin(self, phi, g, g1, w, x):
+        """(q, q_dot, R, k_pin, m_eff) of the clearance joint."""
+        p = self.p
+        R = self.lever(phi, g)
+        k = 1.0 / (1.0 / p.contact_stiffness + R * R / p.stiffness)
+        return R * (g - x[0]), R * (g1 * w - x[1]), R, k, p.rocker_inertia / (R * R)
+
+    def transmitted(self, phi: float, w: float, x) -> tuple[float, float]:
+        """(torque on the rocker from the transmission [N.m], pin force [N]) at fidelity 1/2."""
+        p = self.p
+        g, g1, _ = self.kinematics(phi)
+        if p.fidelity == 1:
+            return p.stiffness * (g - x[0]) + p.damping * (g1 * w - x[1]), 0.0
+        q, qd, R, k, m = self._pin(phi, g, g1, w, x)
+        F = contact.contact_force(q, qd, p.clearance, k, p.contact_law, p.restitution, x[2], m, p.contact_exponent)
+        return -F * R, F
+
+    def derivatives(self, t, x, u, t0):
+        phi = u[0] + u[1] * (t - t0)
+        T, _ = self.transmitted(phi, u[1], x)
+        return np.array([x[1], (T + u[2]) / self.p.rocker_inertia, 0.0, 0.0, 0.0])
+
+    def _update_contact(self, phi: float, w: float, x: np.ndarray) -> None:
+        g, g1, _ = self.kinematics(phi)
+        q, qd, _, _, _ = self._pin(phi, g, g1, w, x)
+        pen, pen_dot, side = contact.penetration(q, qd, self.p.clearance)
+        if side == 0.0:
+            x[4] = 0.0
+        elif x[4] == 0.0:
+            x[4] = 1.0
+            x[3] += 1.0
+            x[2] = abs(pen_dot)
+
+    def advance(self, t0, h, x, u):
+        p = self.p
+        if p.fidelity == 0:
+            return np.array(x, dtype=float)
+        if p.fidelity == 1:
+            return integrate.rk4(self.derivatives, t0, h, x, u, self.max_substep)
+        n = integrate.substeps(h, self.max_substep)
+        dt = h / n
+        f = lambda t, xx, uu, _t0: self.derivatives(t, xx, uu, t0)  # noqa: E731  (keep the step's t0)
+        x = np.array(x, dtype=float)
+        for i in range(n):
+            t = t0 + i * dt
+            self._update_contact(u[0] + u[1] * (t - t0), u[1], x)
+            x = integrate.rk4(f, t, dt, x, u, math.inf)
+        self._update_contact(u[0] + u[1] * h, u[1], x)
+        return x
+
+    def output(self, t, x, u):
+        p = self.p
+        phi, w, tau_load = u[0], u[1], u[2]
+        g, g1, g2 = self.kinematics(phi)
+        theta, radius = self.geometry(phi)
+        if p.fidelity == 0:
+            T = p.rocker_inertia * g2 * w * w - tau_load   # torque the transmission exerts on the rocker
+            return (-g1 * T, g, g1 * w, theta, radius, 0.0, 0.0, 0.0)
+        T, F = self.transmitted(phi, w, x)
+        return (-g1 * T, x[0], x[1], theta, radius, abs(F), x[4], x[3])

@@ -1,0 +1,289 @@
+"""Centroid-profile (groove) synthesis of the lever cam-slotted-link mechanism (LCSM), feeder.md §2.3-2.4.
+
+Frame F2: origin at the kulisa pivot O2, x-axis from the crank pivot O1 to O2 (O1 = (-L, 0)), angles
+counter-clockwise; the crank turns counter-clockwise (phi increasing).  All lengths are divided by the crank
+radius r: lambda1 = L/r, lambda2 = conrod/r, lambda3 = rocker (kulisa) length of the base four-bar / r.
+For every crank angle phi the kulisa must stand at the prescribed angle gamma_b(phi); the stone pin B lies on
+the kulisa ray and at distance lambda2 from the crank pin A = (-lambda1 + cos phi, sin phi):
+
+  (K6)  N = lambda1 sin g + sin(phi - g)       (signed distance of A from the kulisa line)
+        mu = arcsin(N / lambda2)                (angle between conrod and slot); existence: |N| <= lambda2
+  (K7)  delta1 = g - mu
+  (K8)  rho_i = cos(phi - g) - lambda1 cos g + lambda2 cos mu    (singularity-free form, cos mu >= 0)
+  (K9)  rho = r rho_i,  B = rho (cos g, sin g).
+
+Derivatives with respect to phi are closed forms (chain rule with g' = dgamma/dphi, g'' from the law), so the
+curvature, cusp and pressure-angle checks need no numerical differentiation:
+  Q = lambda2 cos mu = sqrt(lambda2^2 - N^2), Q' = -N N'/Q, Q'' = -(N'^2 + N N'')/Q - N^2 N'^2/Q^3,
+  B' = rho' u + rho g' n,  B'' = (rho'' - rho g'^2) u + (2 rho' g' + rho g'') n   (u along the slot, n = u rotated +90 deg).
+
+Choices where the spec is open (documented in fmus/docs/cam_rocker/index.md as well):
+* Reference geometry: the kulisa law is fixed INDEPENDENTLY of lambda2, from the *centric* base four-bar of
+  the same lambda1, lambda3 (time ratio 1), whose conrod is lambda2c = sqrt(lambda1^2 - lambda3^2 + 1).  The
+  forward stroke starts at its folded extreme (crank and conrod overlapping, |O1B| = lambda2c - 1) and ends
+  at the extended one; the default kulisa swing is its swing 2 arcsin(1/lambda3) and the default phase
+  angles are its forward/return crank angles (pi, pi, no dwell).  A different swing is centred on the same
+  mid-position.  With the law fixed, lambda2 only enters through (K6)/(K8), so the kinematic connection
+  gives a lower bound on lambda2, as in S1-2.
+* Assembly mode: ``assembly = +1`` takes the "+" sign of gamma_b = atan2(A) +/- arccos(...) (default).
+* Which stroke: both; forward and return branches are returned separately (``Profile.forward``).
+* Pressure angle: ``theta`` = angle between the conrod (the two-force member pushing the stone) and the
+  groove tangent (the velocity of B): cos theta = |rho' cos mu - rho g' sin mu| / |B'|.  For the base
+  four-bar (rho' = 0) it is 90 deg - |mu|, the complement of the transmission angle.  The spec's suggestion
+  ``nu`` (angle between the profile normal and the slot, cos nu = |rho g'|/|B'|) is returned too.
+* Limits: the allowable pressure angle default is 60 deg = 90 deg - mu_min with mu_min = 30 deg, the minimum
+  transmission angle used by seed 004's four-bar synthesis (the feeder papers give no value); the roller
+  radius default is 0 (pure cusp check; undercut with a real roller is checked when one is given).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .laws import DwellCycle, Law, TWO_PI
+
+DEFAULT_MAX_PRESSURE = math.radians(60.0)
+CRITERIA = ("connection", "radius", "cusp", "undercut", "pressure")
+
+
+# -- base four-bar -------------------------------------------------------------------------------------------
+def base_fourbar_angle(phi, lam1: float, lam2: float, lam3: float, assembly: int = 1):
+    """Kulisa angle gamma_b of the base four-bar (fixed rocker length lam3), in [0, 2pi)."""
+    phi = np.asarray(phi, dtype=float)
+    ax, ay = -lam1 + np.cos(phi), np.sin(phi)
+    d = np.hypot(ax, ay)
+    cos_arg = (lam3 ** 2 + d ** 2 - lam2 ** 2) / (2.0 * lam3 * d)
+    if np.any(np.abs(cos_arg) > 1.0 + 1e-12):
+        raise ValueError(f"base four-bar lambda1={lam1}, lambda2={lam2}, lambda3={lam3} cannot be assembled at every crank angle")
+    return np.mod(np.arctan2(ay, ax) + assembly * np.arccos(np.clip(cos_arg, -1.0, 1.0)), TWO_PI)
+
+
+def grashof_crank_rocker(lam1: float, lam2: float, lam3: float) -> bool:
+    return 1.0 + max(lam1, lam2, lam3) <= lam1 + lam2 + lam3 - max(lam1, lam2, lam3) + 1e-12 and \
+        min(lam1, lam2, lam3) >= 1.0
+
+
+def fourbar_extremes(lam1: float, lam2: float, lam3: float, assembly: int = 1) -> dict:
+    """Crank and kulisa angles of the folded (|O1B| = lam2-1) and extended (|O1B| = lam2+1) extremes."""
+    if not grashof_crank_rocker(lam1, lam2, lam3):
+        raise ValueError(f"base four-bar lambda1={lam1}, lambda2={lam2}, lambda3={lam3} is not a Grashof crank-rocker")
+    out = {}
+    for name, d, flip in (("folded", lam2 - 1.0, math.pi), ("extended", lam2 + 1.0, 0.0)):
+        alpha = math.acos(max(-1.0, min(1.0, (lam1 ** 2 + d ** 2 - lam3 ** 2) / (2.0 * lam1 * d))))
+        best = None
+        for sgn in (1.0, -1.0):
+            bx, by = -lam1 + d * math.cos(sgn * alpha), d * math.sin(sgn * alpha)
+            g = math.atan2(by, bx) % TWO_PI
+            phi = (sgn * alpha + flip) % TWO_PI
+            err = abs(math.remainder(float(base_fourbar_angle(phi, lam1, lam2, lam3, assembly)) - g, TWO_PI))
+            if best is None or err < best[0]:
+                best = (err, phi, g)
+        out[name] = (best[1], best[2])
+    return out
+
+
+@dataclass(frozen=True)
+class KulisaLaw:
+    """gamma_b(phi) = gamma_start + direction * swing * s(phi), s from a dwell cycle (0 -> 1 -> 0)."""
+    cycle: DwellCycle
+    gamma_start: float
+    direction: float
+    swing: float
+
+    def __call__(self, phi):
+        s, s1, s2 = self.cycle(phi)
+        k = self.direction * self.swing
+        return self.gamma_start + k * s, k * s1, k * s2
+
+    def scalar(self, phi: float) -> tuple[float, float, float]:
+        s, s1, s2 = self.cycle.scalar(phi)
+        k = self.direction * self.swing
+        return self.gamma_start + k * s, k * s1, k * s2
+
+
+def base_design(lam1: float, lam2: float, lam3: float, assembly: int = 1) -> dict:
+    """The base four-bar (same lambda1, lambda2, lambda3) whose extremes fix the kulisa law (module doc)."""
+    ext = fourbar_extremes(lam1, lam2, lam3, assembly)
+    (pf, gf), (pe, ge) = ext["folded"], ext["extended"]
+    dg = math.remainder(ge - gf, TWO_PI)
+    phase_f = (pe - pf) % TWO_PI
+    return dict(phi_start=pf, gamma_start=gf, gamma_end=gf + dg, direction=math.copysign(1.0, dg),
+                swing=abs(dg), phase_forward=phase_f, phase_return=TWO_PI - phase_f)
+
+
+def kulisa_law(lam1: float, lam2: float, lam3: float, forward: Law, ret: Law | None = None, dwell: float = 0.0,
+               assembly: int = 1) -> KulisaLaw:
+    """The prescribed kulisa law: swing and extreme positions of the base four-bar, the dwell centred on its
+    extended dead-centre position, the forward stroke starting at its folded dead centre."""
+    ref = base_design(lam1, lam2, lam3, assembly)
+    pf, pr = ref["phase_forward"] - 0.5 * dwell, ref["phase_return"] - 0.5 * dwell
+    if not (pf > 0.0 and pr > 0.0):
+        raise ValueError(f"dwell = {dwell!r} rad leaves no forward/return phase "
+                         f"(base four-bar phases {ref['phase_forward']:.4f}, {ref['phase_return']:.4f} rad)")
+    cyc = DwellCycle(forward, forward if ret is None else ret, pf, pr, dwell, ref["phi_start"])
+    return KulisaLaw(cyc, ref["gamma_start"], ref["direction"], ref["swing"])
+
+
+def base_branch(lam1: float, lam2: float, lam3: float, assembly: int = 1) -> int:
+    """Root of (K8) the base four-bar takes at its folded dead centre: +1 (cos mu >= 0) or -1."""
+    pf, gf = fourbar_extremes(lam1, lam2, lam3, assembly)["folded"]
+    au = math.cos(pf - gf) - lam1 * math.cos(gf)
+    return 1 if lam3 - au >= 0.0 else -1
+
+
+# -- synthesis -----------------------------------------------------------------------------------------------
+@dataclass
+class Profile:
+    """Synthesised centroid profile over a crank-angle grid (dimensionless, lengths / r)."""
+    phi: np.ndarray
+    gamma: np.ndarray
+    lam1: float
+    lam2: float
+    N: np.ndarray = field(repr=False)
+    exists: np.ndarray = field(repr=False)      # kinematic connection |N| <= lam2 at each point
+    mu: np.ndarray = field(repr=False)
+    rho: np.ndarray = field(repr=False)         # rho_i
+    drho: np.ndarray = field(repr=False)
+    B: np.ndarray = field(repr=False)           # (n, 2) profile points in F2
+    dB: np.ndarray = field(repr=False)
+    speed: np.ndarray = field(repr=False)       # |B'|
+    curvature: np.ndarray = field(repr=False)   # signed, 1/(length/r)
+    theta: np.ndarray = field(repr=False)       # pressure angle conrod vs groove tangent [rad]
+    nu: np.ndarray = field(repr=False)          # angle profile normal vs slot [rad]
+    forward: np.ndarray = field(repr=False)     # True on the forward stroke (s' > 0)
+    moving: np.ndarray = field(repr=False)      # True where the kulisa moves (g' != 0)
+
+
+def synthesize(phi, g, g1, g2, lam1: float, lam2: float, branch: int = 1) -> Profile:
+    """Centroid profile for kulisa angles g(phi) with derivatives g1 = dg/dphi, g2 = d2g/dphi2 (arrays)."""
+    phi, g, g1, g2 = (np.asarray(v, dtype=float) for v in (phi, g, g1, g2))
+    sg, cg = np.sin(g), np.cos(g)
+    d = phi - g
+    sd, cd = np.sin(d), np.cos(d)
+    N = lam1 * sg + sd
+    exists = np.abs(N) <= lam2
+    Q2 = np.maximum(lam2 ** 2 - N ** 2, 0.0)
+    Q = np.sqrt(Q2)
+    Q = branch * Q
+    mu = np.arctan2(N, Q)
+    one = 1.0 - g1
+    N1 = lam1 * cg * g1 + cd * one
+    N2 = -lam1 * sg * g1 ** 2 + lam1 * cg * g2 - sd * one ** 2 - cd * g2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Q1 = -N * N1 / Q
+        Qd2 = -(N1 ** 2 + N * N2) / Q - N ** 2 * N1 ** 2 / Q ** 3
+    rho = cd - lam1 * cg + Q
+    r1 = -sd * one + lam1 * sg * g1 + Q1
+    r2 = -cd * one ** 2 + sd * g2 + lam1 * cg * g1 ** 2 + lam1 * sg * g2 + Qd2
+    ut, nt = r1, rho * g1                     # B' in the (u, n) basis
+    uc, nc = r2 - rho * g1 ** 2, 2.0 * r1 * g1 + rho * g2
+    speed = np.hypot(ut, nt)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        curvature = (ut * nc - nt * uc) / speed ** 3
+        theta = np.arccos(np.clip(np.abs(ut * np.cos(mu) - nt * np.sin(mu)) / np.abs(nt), 0.0, 1.0))
+        nu = np.arccos(np.clip(np.abs(nt) / speed, 0.0, 1.0))
+    B = np.stack([rho * cg, rho * sg], axis=-1)
+    dB = np.stack([ut * cg - nt * sg, ut * sg + nt * cg], axis=-1)
+    return Profile(phi, g, lam1, lam2, N, exists, mu, rho, r1, B, dB, speed, curvature, theta, nu,
+                   g1 > 0.0 if np.mean(g1) >= 0 else g1 < 0.0, g1 != 0.0)
+
+
+def synthesize_law(law: KulisaLaw, lam1: float, lam2: float, n: int = 7200, branch: int = 1) -> Profile:
+    phi = law.cycle.phi_start + np.linspace(0.0, TWO_PI, n, endpoint=False)
+    g, g1, g2 = law(phi)
+    p = synthesize(phi, g, g1, g2, lam1, lam2, branch)
+    s1 = law.cycle(phi)[1]
+    p.forward = s1 > 0.0
+    return p
+
+
+def stone_radius_scalar(phi: float, g: float, lam1: float, lam2: float, branch: int = 1) -> float:
+    """rho_i (K8, singularity-free form) at one point, with math; NaN when the connection is broken."""
+    N = lam1 * math.sin(g) + math.sin(phi - g)
+    q2 = lam2 * lam2 - N * N
+    if q2 < 0.0:
+        return math.nan
+    return math.cos(phi - g) - lam1 * math.cos(g) + branch * math.sqrt(q2)
+
+
+def stone_scalar(phi: float, g: float, g1: float, lam1: float, lam2: float, branch: int = 1) -> tuple[float, float, float]:
+    """(rho_i, drho_i/dphi, pressure angle theta) at one point, with math (per-step outputs)."""
+    sg, cg = math.sin(g), math.cos(g)
+    sd, cd = math.sin(phi - g), math.cos(phi - g)
+    N = lam1 * sg + sd
+    Q = branch * math.sqrt(max(lam2 * lam2 - N * N, 0.0))
+    one = 1.0 - g1
+    N1 = lam1 * cg * g1 + cd * one
+    Q1 = -N * N1 / Q if Q > 0.0 else math.copysign(math.inf, -N * N1)
+    rho = cd - lam1 * cg + Q
+    r1 = -sd * one + lam1 * sg * g1 + Q1
+    nt = rho * g1
+    sp = math.hypot(r1, nt)
+    if not math.isfinite(sp) or sp == 0.0:
+        return rho, r1, 0.0
+    sm = N / lam2
+    cm = Q / lam2
+    if nt == 0.0:
+        return rho, r1, 0.0
+    return rho, r1, math.acos(min(1.0, abs(r1 * cm - nt * sm) / abs(nt)))
+
+
+# -- checks --------------------------------------------------------------------------------------------------
+def cusps(p: Profile) -> np.ndarray:
+    """Indices i where the tangent reverses between grid points i and i+1 inside one stroke (a cusp of a branch).
+
+    The stone stops and turns back at the ends of every stroke (kulisa dead centres, dwell ends): those
+    turning points join the forward and return branches and are not counted; each branch is checked on its
+    own, as the spec stores them separately.
+    """
+    t = p.dB / np.where(p.speed > 0.0, p.speed, 1.0)[:, None]
+    nxt = np.roll(np.arange(len(p.phi)), -1)
+    dots = np.sum(t * t[nxt], axis=1)
+    inside = p.moving & p.moving[nxt] & (p.forward == p.forward[nxt])
+    return np.nonzero((dots < 0.0) & inside)[0]
+
+
+def assess(p: Profile, r: float, roller_radius: float = 0.0, max_pressure: float = DEFAULT_MAX_PRESSURE) -> dict:
+    """Feasibility report: values of each criterion and the first one violated (None if feasible)."""
+    rep: dict = dict(lambda2=p.lam2, connection_margin=float(np.min(p.lam2 - np.abs(p.N))))
+    fails = []
+    if not np.all(p.exists):
+        i = int(np.argmin(p.lam2 - np.abs(p.N)))
+        rep["connection_break_phi"] = float(p.phi[i])
+        fails.append("connection")
+    rep["rho_min"] = float(np.min(p.rho)) * r
+    if not np.all(p.rho > 0.0):
+        fails.append("radius")
+    cu = cusps(p) if not fails else np.array([], dtype=int)
+    rep["cusps"] = int(len(cu))
+    if len(cu):
+        fails.append("cusp")
+    nxt = np.roll(np.arange(len(p.phi)), -1)
+    prv = np.roll(np.arange(len(p.phi)), 1)
+    inside = p.moving & p.moving[nxt] & p.moving[prv]   # away from the stroke-end turning points
+    with np.errstate(divide="ignore"):
+        rc = np.where(inside, np.abs(1.0 / p.curvature) * r, np.nan)
+    rep["curvature_radius_min"] = float(np.nanmin(rc)) if np.any(np.isfinite(rc)) else math.nan
+    if not fails and roller_radius > 0.0 and not rep["curvature_radius_min"] > roller_radius:
+        fails.append("undercut")
+    rep["pressure_angle_max"] = float(np.nanmax(p.theta))
+    if not np.all(p.theta <= max_pressure):
+        fails.append("pressure")
+    rep["nu_max"] = float(np.nanmax(p.nu))
+    rep["failed"] = fails[0] if fails else None
+    rep["all_failed"] = fails
+    return rep
+
+
+def export_points(path, p: Profile, r: float, comment: str = "") -> None:
+    """ASCII point file for CAD: '# ...' header lines then 'x y' per line in metres (frame F2)."""
+    with open(path, "w", encoding="ascii") as f:
+        f.write("# LCSM groove centroid profile (locus of the stone pin B), frame F2: origin at the kulisa pivot O2,\n")
+        f.write("# x from the crank pivot O1 towards O2, counter-clockwise angles; units: metres\n")
+        f.write(f"# r = {r:g} m, lambda1 = {p.lam1:g}, lambda2 = {p.lam2:g}, {len(p.phi)} points over one crank turn\n")
+        for line in comment.splitlines():
+            f.write(f"# {line}\n")
+        for x, y in p.B * r:
+            f.write(f"{x:.9f} {y:.9f}\n")

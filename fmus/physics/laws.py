@@ -1,0 +1,275 @@
+"""Laws of periodic motion (LPM, Tir's notation) and the dwell cycle built from them.
+
+A law maps the normalised phase k in [0, 1] to the displacement invariant a(k) (a(0) = 0, a(1) = 1), the
+velocity invariant b = da/dk and the acceleration invariant c = d2a/dk2 (spec feeder.md §2.1).  A follower
+of stroke H driven over a phase of crank angle Phi at constant crank speed w moves as
+x = H*a, x' = H*b*w/Phi, x'' = H*c*(w/Phi)^2.
+
+Every law is written once as piece functions ``f(k, m)`` where ``m`` is the math namespace (``numpy`` for
+arrays, ``math`` for the scalar fast path used in the integrators' inner loop), so the vectorised and the
+scalar evaluation share the formulas.
+
+Registry (``get_law(name, **params)``):
+
+  K0           harmonic (cosine acceleration), a = (1 - cos pi k)/2                          [T, standard]
+  C0           cycloidal (sine acceleration), a = k - sin(2 pi k)/(2 pi)                       [T, standard]
+  0000         the source names this harmonic-group law without a formula.  OUR READING: the
+               double-harmonic law a = [(1 - cos pi k) - (1 - cos 2 pi k)/4]/2 (a sum of harmonics, so
+               harmonic group; c(0) = 0, c(1) = -pi^2: no soft impact at the start, one at the end).
+  power        eps = C[1 - (2k)^n] on 0 <= k <= 1/2 with point-symmetric completion about k = 1/2 and
+               C = 4(n+1)(n+2)/[n(n+3)] from a(1) = 1 (spec §2.1.3); parameter n > 0 (default 2).
+  polydynamic  3-4-5 polynomial a = 10k^3 - 15k^4 + 6k^5 (Savvin group placeholder, spec §2.1.4);
+  4567         4-5-6-7 polynomial a = 35k^4 - 84k^5 + 70k^6 - 20k^7 (zero jerk at both ends).
+  P6           Stoddart's P6 is only named in the source (no formula).  WE DO NOT HAVE IT: "P6" here is a
+               documented stand-in, the asymmetric cycloidal law: half sine-waves of acceleration on
+               [0, k_m] (run-up) and [k_m, 1] (run-out), c = (pi/k_m)*sin(pi k/k_m) and
+               c = -(pi/(1-k_m))*sin(pi (k-k_m)/(1-k_m)); c = 0 at both ends (no soft impact at the
+               start, S1-8).  Parameter k_m in (0, 1) (default 0.4); k_m = 1/2 gives C0.
+  composite    cycloidal run-up + harmonic run-out with parameter k_m (spec §2.1.5, [T]).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+
+PI = math.pi
+PieceFn = Callable[[object, object], tuple]
+
+
+@dataclass(frozen=True)
+class Law:
+    """A law of periodic motion: pieces ``(k_end, f)`` with ``f(k, m) -> (a, b, c)`` on [k_start, k_end]."""
+    name: str
+    doc: str
+    pieces: tuple[tuple[float, PieceFn], ...]
+    params: tuple[tuple[str, float], ...] = ()
+
+    def __call__(self, k) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(a, b, c) for an array of k (values outside [0, 1] are clipped)."""
+        k = np.clip(np.asarray(k, dtype=float), 0.0, 1.0)
+        if len(self.pieces) == 1:
+            a, b, c = self.pieces[0][1](k, np)
+            return np.broadcast_to(a, k.shape) * 1.0, np.broadcast_to(b, k.shape) * 1.0, np.broadcast_to(c, k.shape) * 1.0
+        a = np.empty_like(k)
+        b = np.empty_like(k)
+        c = np.empty_like(k)
+        start = 0.0
+        for i, (end, f) in enumerate(self.pieces):
+            last = i == len(self.pieces) - 1
+            mask = (k >= start) & ((k <= end) if last else (k < end))
+            if np.any(mask):
+                pa, pb, pc = f(k[mask], np)
+                a[mask], b[mask], c[mask] = pa, pb, pc
+            start = end
+        return a, b, c
+
+    def scalar(self, k: float) -> tuple[float, float, float]:
+        """(a, b, c) at one k, with ``math`` (the per-step fast path)."""
+        k = 0.0 if k < 0.0 else (1.0 if k > 1.0 else k)
+        for end, f in self.pieces:
+            if k < end:
+                return f(k, math)
+        return self.pieces[-1][1](k, math)
+
+    def coefficients(self, n: int = 20001) -> tuple[float, float]:
+        """(C_v, C_a) = (max|b|, max|c|) on a grid of n points."""
+        _, b, c = self(np.linspace(0.0, 1.0, n))
+        return float(np.max(np.abs(b))), float(np.max(np.abs(c)))
+
+
+# -- the laws ------------------------------------------------------------------------------------------------
+def _k0(k, m):
+    return (1.0 - m.cos(PI * k)) / 2.0, (PI / 2.0) * m.sin(PI * k), (PI ** 2 / 2.0) * m.cos(PI * k)
+
+
+def _c0(k, m):
+    return (k - m.sin(2 * PI * k) / (2 * PI), 1.0 - m.cos(2 * PI * k), 2 * PI * m.sin(2 * PI * k))
+
+
+def _double_harmonic(k, m):
+    return (0.5 * ((1.0 - m.cos(PI * k)) - 0.25 * (1.0 - m.cos(2 * PI * k))),
+            0.5 * (PI * m.sin(PI * k) - 0.5 * PI * m.sin(2 * PI * k)),
+            0.5 * PI ** 2 * (m.cos(PI * k) - m.cos(2 * PI * k)))
+
+
+def _p345(k, m):
+    return (10 * k ** 3 - 15 * k ** 4 + 6 * k ** 5, 30 * k ** 2 - 60 * k ** 3 + 30 * k ** 4,
+            60 * k - 180 * k ** 2 + 120 * k ** 3)
+
+
+def _p4567(k, m):
+    return (35 * k ** 4 - 84 * k ** 5 + 70 * k ** 6 - 20 * k ** 7,
+            140 * k ** 3 - 420 * k ** 4 + 420 * k ** 5 - 140 * k ** 6,
+            420 * k ** 2 - 1680 * k ** 3 + 2100 * k ** 4 - 840 * k ** 5)
+
+
+def power_constant(n: float) -> float:
+    """Normalisation C of the power family: a(1) = 1 (spec §2.1.3)."""
+    return 4.0 * (n + 1.0) * (n + 2.0) / (n * (n + 3.0))
+
+
+def _power(n: float) -> Law:
+    if not (n > 0.0 and math.isfinite(n)):
+        raise ValueError(f"law parameter n = {n!r} of law 'power' must be > 0")
+    C = power_constant(n)
+
+    def first(k, m):
+        t = 2.0 * k
+        return (C * (k * k / 2.0 - t ** (n + 2) / (4.0 * (n + 1) * (n + 2))),
+                C * (k - t ** (n + 1) / (2.0 * (n + 1))), C * (1.0 - t ** n))
+
+    def second(k, m):
+        a, b, c = first(1.0 - k, m)
+        return 1.0 - a, b, -c
+
+    return Law("power", f"power family eps = C[1-(2k)^n], n = {n:g}, C = {C:.6g}, point-symmetric completion",
+               ((0.5, first), (1.0, second)), (("n", n),))
+
+
+def _check_km(name: str, km: float) -> None:
+    if not (0.0 < km < 1.0):
+        raise ValueError(f"law parameter k_m = {km!r} of law {name!r} must be in (0, 1)")
+
+
+def _p6(k_m: float) -> Law:
+    _check_km("P6", k_m)
+    A = PI / k_m
+    B = PI / (1.0 - k_m)
+
+    def up(k, m):
+        x = PI * k / k_m
+        return A * k_m / PI * (k - k_m / PI * m.sin(x)), A * k_m / PI * (1.0 - m.cos(x)), A * m.sin(x)
+
+    def down(k, m):
+        L = 1.0 - k_m
+        u = (k - k_m) / L
+        V = 2.0  # velocity at k_m: 2*A*k_m/pi
+        return (k_m + V * L * u - B * L * L / PI * (u - m.sin(PI * u) / PI),
+                V - B * L / PI * (1.0 - m.cos(PI * u)), -B * m.sin(PI * u))
+
+    return Law("P6", f"stand-in for Stoddart P6 (no formula in the source): asymmetric cycloidal, k_m = {k_m:g}",
+               ((k_m, up), (1.0, down)), (("k_m", k_m),))
+
+
+def _composite(k_m: float) -> Law:
+    _check_km("composite", k_m)
+    H1 = (PI / 2.0) * k_m / (2.0 * (1.0 - k_m) + (PI / 2.0) * k_m)
+    H2 = 1.0 - H1
+    L = 1.0 - k_m
+
+    def up(k, m):
+        u = k / (2.0 * k_m)
+        return (2.0 * H1 * (u - m.sin(2 * PI * u) / (2 * PI)), H1 * (1.0 - m.cos(2 * PI * u)) / k_m,
+                H1 * PI * m.sin(2 * PI * u) / k_m ** 2)
+
+    def down(k, m):
+        u = 0.5 + (k - k_m) / (2.0 * L)
+        return (H1 + 2.0 * H2 * ((1.0 - m.cos(PI * u)) / 2.0 - 0.5), H2 * (PI / 2.0) * m.sin(PI * u) / L,
+                H2 * (PI ** 2 / 4.0) * m.cos(PI * u) / L ** 2)
+
+    return Law("composite", f"cycloidal run-up + harmonic run-out, k_m = {k_m:g} (spec 2.1.5)",
+               ((k_m, up), (1.0, down)), (("k_m", k_m),))
+
+
+_FIXED = {
+    "K0": Law("K0", "harmonic (cosine acceleration)", ((1.0, _k0),)),
+    "C0": Law("C0", "cycloidal (sine acceleration)", ((1.0, _c0),)),
+    "0000": Law("0000", "our reading of the undefined harmonic-group law '0000': double-harmonic law",
+                ((1.0, _double_harmonic),)),
+    "polydynamic": Law("polydynamic", "3-4-5 polynomial (polydynamic placeholder)", ((1.0, _p345),)),
+    "4567": Law("4567", "4-5-6-7 polynomial (zero jerk at the ends)", ((1.0, _p4567),)),
+}
+_FAMILIES: dict[str, tuple[Callable[..., Law], dict[str, float]]] = {
+    "power": (_power, {"n": 2.0}),
+    "P6": (_p6, {"k_m": 0.4}),
+    "composite": (_composite, {"k_m": 0.4}),
+}
+LAW_NAMES: tuple[str, ...] = ("K0", "C0", "0000", "power", "polydynamic", "4567", "P6", "composite")
+"""Known law names; the index in this tuple is the Integer ``law`` parameter of the components."""
+
+
+def get_law(name: str, **params: float) -> Law:
+    """The law ``name``; family parameters: ``n`` (power), ``k_m`` (P6, composite).  Unused ones are ignored."""
+    if name in _FIXED:
+        return _FIXED[name]
+    if name in _FAMILIES:
+        make, defaults = _FAMILIES[name]
+        kw = {p: float(params.get(p, v)) for p, v in defaults.items()}
+        return make(**kw)
+    raise ValueError(f"unknown law of periodic motion {name!r}; known laws: {', '.join(LAW_NAMES)}")
+
+
+# -- the dwell cycle -----------------------------------------------------------------------------------------
+TWO_PI = 2.0 * PI
+
+
+class DwellCycle:
+    """Normalised follower position s(phi) in [0, 1] over one turn of the crank.
+
+    Starting at crank angle ``phi_start``: forward phase ``phase_forward`` (s: 0 -> 1 by law ``forward``),
+    dwell ``dwell`` at s = 1, return phase ``phase_return`` (s = 1 - a_return(k)), then a dwell at s = 0 for
+    the rest of the turn, 2*pi - phase_forward - dwell - phase_return (>= 0).  All angles in rad.
+    """
+
+    def __init__(self, forward: Law, ret: Law, phase_forward: float, phase_return: float, dwell: float = 0.0,
+                 phi_start: float = 0.0):
+        for name, v in (("phase_forward", phase_forward), ("phase_return", phase_return)):
+            if not (v > 0.0 and math.isfinite(v)):
+                raise ValueError(f"{name} = {v!r} rad must be > 0")
+        if not (dwell >= 0.0):
+            raise ValueError(f"dwell = {dwell!r} rad must be >= 0")
+        rest = TWO_PI - phase_forward - dwell - phase_return
+        if rest < -1e-12:
+            raise ValueError(f"phase_forward + dwell + phase_return = {TWO_PI - rest!r} rad exceeds 2*pi")
+        self.forward, self.ret = forward, ret
+        self.phase_forward, self.phase_return, self.dwell = phase_forward, phase_return, dwell
+        self.dwell_bottom = max(rest, 0.0)
+        self.phi_start = phi_start
+        self._t1 = phase_forward
+        self._t2 = phase_forward + dwell
+        self._t3 = phase_forward + dwell + phase_return
+
+    def __call__(self, phi) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(s, ds/dphi, d2s/dphi2) for an array of crank angles [rad]."""
+        th = np.mod(np.asarray(phi, dtype=float) - self.phi_start, TWO_PI)
+        s = np.zeros_like(th)
+        s1 = np.zeros_like(th)
+        s2 = np.zeros_like(th)
+        f = th < self._t1
+        a, b, c = self.forward(th[f] / self.phase_forward)
+        s[f], s1[f], s2[f] = a, b / self.phase_forward, c / self.phase_forward ** 2
+        s[(th >= self._t1) & (th < self._t2)] = 1.0
+        r = (th >= self._t2) & (th < self._t3)
+        a, b, c = self.ret((th[r] - self._t2) / self.phase_return)
+        s[r], s1[r], s2[r] = 1.0 - a, -b / self.phase_return, -c / self.phase_return ** 2
+        return s, s1, s2
+
+    def scalar(self, phi: float) -> tuple[float, float, float]:
+        th = (phi - self.phi_start) % TWO_PI
+        if th < self._t1:
+            a, b, c = self.forward.scalar(th / self.phase_forward)
+            return a, b / self.phase_forward, c / self.phase_forward ** 2
+        if th < self._t2:
+            return 1.0, 0.0, 0.0
+        if th < self._t3:
+            P = self.phase_return
+            a, b, c = self.ret.scalar((th - self._t2) / P)
+            return 1.0 - a, -b / P, -c / (P * P)
+        return 0.0, 0.0, 0.0
+
+
+def follower_motion(cycle: DwellCycle, phi, w: float, H: float):
+    """Position, velocity, acceleration (H*s, H*s'*w, H*s''*w^2) of a follower of stroke H at crank speed w."""
+    s, s1, s2 = cycle(phi)
+    return H * s, H * s1 * w, H * s2 * w * w
+
+
+def dwell_cycle(forward: str | Law, phase_forward: float, phase_return: float, dwell: float = 0.0,
+                ret: str | Law | None = None, phi_start: float = 0.0, **law_params: float) -> DwellCycle:
+    """Convenience constructor by law names (``ret`` defaults to the forward law)."""
+    f = forward if isinstance(forward, Law) else get_law(forward, **law_params)
+    r = f if ret is None else (ret if isinstance(ret, Law) else get_law(ret, **law_params))
+    return DwellCycle(f, r, phase_forward, phase_return, dwell, phi_start)

@@ -1,0 +1,177 @@
+"""``synth groove``: LCSM groove (centroid-profile) synthesis, feasibility scan of lambda2, law comparison.
+
+    synth groove --crank-radius 0.04 --lambda1 3.5 --lambda3 3 --law K0 --scan lambda2 --json
+    synth groove ... --lambda2 4.03 --out profile.txt
+    synth groove ... --compare-laws [--lambda2 X]
+
+The equations are in fmus.physics.groove (criteria: kinematic connection, rho > 0, cusps inside a stroke,
+undercut against --roller-radius, pressure angle <= --max-pressure-angle); see its docstring for every choice.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import warnings
+
+import numpy as np
+
+from fmus.physics import groove
+from fmus.physics.laws import LAW_NAMES, get_law
+
+COMPARE = ("K0", "C0", "power", "polydynamic", "P6")
+
+
+def register(subparsers) -> argparse.ArgumentParser:
+    ap = subparsers.add_parser("groove", help="LCSM groove synthesis and feasible lambda2 range",
+                               description=__doc__.splitlines()[0])
+    ap.add_argument("--crank-radius", type=float, default=0.040, help="crank radius r [m] (seed 001: 0.040)")
+    ap.add_argument("--lambda1", type=float, default=3.5, help="frame length / r (seed 001: 3.5)")
+    ap.add_argument("--lambda3", type=float, default=3.0, help="base four-bar rocker length / r (seed 001: 3)")
+    ap.add_argument("--lambda2", type=float, default=None, help="conrod length / r for --out / --compare-laws")
+    ap.add_argument("--law", default="K0", help=f"law of the forward phase ({', '.join(LAW_NAMES)})")
+    ap.add_argument("--law-return", default=None, help="law of the return phase (default: --law)")
+    ap.add_argument("--n", type=float, default=2.0, help="exponent of the power law")
+    ap.add_argument("--k-m", type=float, default=0.4, help="k_m of the P6 stand-in / composite law")
+    ap.add_argument("--dwell", type=float, default=0.0, help="dwell [deg], centred on the extended dead centre")
+    ap.add_argument("--assembly", type=int, default=1, choices=(1, -1))
+    ap.add_argument("--roller-radius", type=float, default=0.0, help="roller radius [m] for the undercut check")
+    ap.add_argument("--max-pressure-angle", type=float, default=math.degrees(groove.DEFAULT_MAX_PRESSURE),
+                    help="allowable pressure angle [deg] (default 60 = 90 - mu_min 30 of seed 004)")
+    ap.add_argument("--scan", choices=("lambda2",), default=None, help="find the feasible interval of lambda2")
+    ap.add_argument("--compare-laws", action="store_true", help="table of K0, C0, power, polydynamic, P6")
+    ap.add_argument("--out", default=None, help="write the profile (x y per line, metres) for --lambda2")
+    ap.add_argument("--points", type=int, default=3600, help="crank-angle grid points")
+    ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap.set_defaults(func=run)
+    return ap
+
+
+def _fail(msg: str) -> int:
+    print(f"synth groove: {msg}", file=sys.stderr)
+    return 2
+
+
+def _design(a, law: str, lam2: float):
+    lf = get_law(law, n=a.n, k_m=a.k_m)
+    lr = lf if a.law_return is None else get_law(a.law_return, n=a.n, k_m=a.k_m)
+    kl = groove.kulisa_law(a.lambda1, lam2, a.lambda3, lf, lr, math.radians(a.dwell), a.assembly)
+    return kl, groove.synthesize_law(kl, a.lambda1, lam2, a.points,
+                                     groove.base_branch(a.lambda1, lam2, a.lambda3, a.assembly))
+
+
+def _scan(a, law: str) -> dict:
+    lf = get_law(law, n=a.n, k_m=a.k_m)
+    lr = lf if a.law_return is None else get_law(a.law_return, n=a.n, k_m=a.k_m)
+    mp = math.radians(a.max_pressure_angle)
+
+    def ok(l2: float):
+        try:
+            kl = groove.kulisa_law(a.lambda1, l2, a.lambda3, lf, lr, math.radians(a.dwell), a.assembly)
+        except ValueError:
+            return "base four-bar"
+        p = groove.synthesize_law(kl, a.lambda1, l2, a.points, groove.base_branch(a.lambda1, l2, a.lambda3, a.assembly))
+        return groove.assess(p, a.crank_radius, a.roller_radius, mp)["failed"]
+
+    step = 0.01
+    grid = np.arange(0.5, a.lambda1 + a.lambda3 + 1.0, step)
+    res = [ok(x) for x in grid]
+    flags = np.array([r is None for r in res])
+    if not flags.any():
+        raise ValueError(f"law {law}: no feasible lambda2 for lambda1 = {a.lambda1:g}, lambda3 = {a.lambda3:g} "
+                         f"(criteria met nowhere on [{grid[0]:g}, {grid[-1]:g}])")
+    runs, i = [], 0
+    while i < len(flags):
+        if flags[i]:
+            j = i
+            while j + 1 < len(flags) and flags[j + 1]:
+                j += 1
+            runs.append((i, j))
+            i = j + 1
+        else:
+            i += 1
+    i0, i1 = max(runs, key=lambda r: r[1] - r[0])
+
+    def bisect(good, bad):
+        for _ in range(40):
+            mid = 0.5 * (good + bad)
+            if ok(mid) is None:
+                good = mid
+            else:
+                bad = mid
+        return good, ok(bad)
+
+    lo, lo_crit = bisect(grid[i0], grid[i0 - 1]) if i0 > 0 else (grid[0], "scan bound")
+    hi, hi_crit = bisect(grid[i1], grid[i1 + 1]) if i1 < len(grid) - 1 else (grid[-1], "scan bound")
+    return dict(law=law, law_return=a.law_return or law, lambda2_min=round(float(lo), 6), lambda2_max=round(float(hi), 6),
+                lower_limit=lo_crit, upper_limit=hi_crit, feasible_intervals=len(runs),
+                max_pressure_angle_deg=a.max_pressure_angle, roller_radius=a.roller_radius,
+                crank_radius=a.crank_radius, lambda1=a.lambda1, lambda3=a.lambda3, dwell_deg=a.dwell,
+                scan_step=step,
+                criteria="connection |N|<=lambda2 (K6); rho>0 (K8); no cusp inside a stroke; "
+                         "curvature radius > roller radius; pressure angle (conrod vs groove, force-based) <= limit")
+
+
+def _compare(a) -> list[dict]:
+    rows = []
+    for law in COMPARE:
+        row = dict(law=law)
+        try:
+            s = _scan(a, law)
+            row.update(lambda2_min=s["lambda2_min"], lambda2_max=s["lambda2_max"], feasible=True)
+            lam2 = a.lambda2 if a.lambda2 is not None else 0.5 * (s["lambda2_min"] + s["lambda2_max"])
+        except ValueError:
+            row.update(feasible=False)
+            lam2 = a.lambda2 if a.lambda2 is not None else math.sqrt(a.lambda1 ** 2 - a.lambda3 ** 2 + 1)
+        kl, p = _design(a, law, lam2)
+        g, g1, g2 = kl(p.phi)
+        rep = groove.assess(p, a.crank_radius, a.roller_radius, math.radians(a.max_pressure_angle))
+        lf = get_law(law, n=a.n, k_m=a.k_m)
+        cv, ca = lf.coefficients()
+        row.update(lambda2=lam2, C_v=cv, C_a=ca, peak_eps_per_w2=float(np.max(np.abs(g2))),
+                   rms_eps_per_w2=float(np.sqrt(np.mean(g2 ** 2))),
+                   peak_inertia_power_per_Jw3=float(np.max(np.abs(g1 * g2))),
+                   dwell_deg=a.dwell, swing_deg=math.degrees(kl.swing),
+                   pressure_angle_max_deg=math.degrees(rep["pressure_angle_max"]), failed=rep["failed"])
+        rows.append(row)
+    return rows
+
+
+def run(args) -> int:
+    warnings.simplefilter("ignore", RuntimeWarning)
+    a = args
+    try:
+        get_law(a.law, n=a.n, k_m=a.k_m)
+        if a.law_return is not None:
+            get_law(a.law_return, n=a.n, k_m=a.k_m)
+        if not a.crank_radius > 0.0:
+            return _fail(f"--crank-radius = {a.crank_radius!r} m must be > 0")
+        if a.compare_laws:
+            rows = _compare(a)
+            if a.json:
+                print(json.dumps(rows))
+            else:
+                keys = ("law", "feasible", "lambda2", "C_v", "C_a", "peak_eps_per_w2", "rms_eps_per_w2",
+                        "peak_inertia_power_per_Jw3", "dwell_deg", "pressure_angle_max_deg", "failed")
+                print(" ".join(f"{k:>12}" for k in keys))
+                for r in rows:
+                    print(" ".join(f"{r.get(k)!s:>12}" if not isinstance(r.get(k), float) else f"{r[k]:12.4f}" for k in keys))
+            return 0
+        if a.scan == "lambda2":
+            out = _scan(a, a.law)
+            print(json.dumps(out) if a.json else "\n".join(f"{k}: {v}" for k, v in out.items()))
+            return 0
+        if a.lambda2 is None:
+            return _fail("give --scan lambda2, --compare-laws, or --lambda2 (with --out)")
+        kl, p = _design(a, a.law, a.lambda2)
+        rep = groove.assess(p, a.crank_radius, a.roller_radius, math.radians(a.max_pressure_angle))
+        if rep["failed"] in ("connection", "radius"):
+            return _fail(f"lambda2 = {a.lambda2:g}: the groove does not exist ({rep['failed']})")
+        if a.out:
+            groove.export_points(a.out, p, a.crank_radius, f"law {a.law}, dwell {a.dwell:g} deg, feasibility: {rep['failed'] or 'ok'}")
+        rep = {k: v for k, v in rep.items() if k != "all_failed"}
+        print(json.dumps(rep) if a.json else "\n".join(f"{k}: {v}" for k, v in rep.items()))
+        return 0
+    except ValueError as e:
+        return _fail(str(e))

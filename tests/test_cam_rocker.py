@@ -1,0 +1,120 @@
+"""CamRocker: tier 1 (equations in-process) and tier 2 (built FMU through fmpy)."""
+import math
+
+import numpy as np
+import pytest
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+from fmus.physics import laws as L
+from fmus.physics.cam_rocker import CamRockerModel, CamRockerParams
+from fmus.physics.base import ParameterError
+
+W = 2 * math.pi * 150 / 60   # 150 rpm (seed 000: 100-200 rpm)
+
+
+def run(m, t_end, h=1e-3, phi0=0.0, load=0.0):
+    u = [phi0, W, load]
+    x = m.initial_state(u)
+    ys = []
+    for k in range(int(round(t_end / h))):
+        t = k * h
+        u = [phi0 + W * t, W, load]
+        x = m.advance(t, h, x, u)
+        ys.append(m.output(t + h, x, [phi0 + W * (t + h), W, load]))
+    return np.array(ys)
+
+
+@pytest.mark.parametrize("mech", [0, 1])
+def test_rigid_reproduces_the_law(mech):
+    p = CamRockerParams(mechanism=mech, law=1)
+    m = CamRockerModel(p)
+    phi = np.linspace(0, 2 * math.pi, 997)
+    if mech == 1:
+        cyc = L.DwellCycle(L.get_law("C0"), L.get_law("C0"), p.phase_forward, p.phase_return, 0.0, p.phi_start)
+        s, s1, _ = cyc(phi)
+        g, g1 = p.swing * s, p.swing * s1
+    else:   # independent: law on the base four-bar's extremes
+        from fmus.physics import groove as G
+        ext = G.fourbar_extremes(p.lambda1, p.lambda2, p.lambda3)
+        (pf, gf), (pe, ge) = ext["folded"], ext["extended"]
+        cyc = L.DwellCycle(L.get_law("C0"), L.get_law("C0"), (pe - pf) % (2 * math.pi), 2 * math.pi - (pe - pf) % (2 * math.pi), 0.0, pf)
+        s, s1, _ = cyc(phi)
+        g, g1 = gf + (ge - gf) * s, (ge - gf) * s1
+    for i in range(0, len(phi), 7):
+        y = m.output(0.0, m.initial_state([phi[i], W, 0]), [phi[i], W, 0.0])
+        assert y[1] == pytest.approx(g[i], abs=1e-9) and y[2] == pytest.approx(g1[i] * W, abs=1e-9)
+
+
+def test_dwell_is_a_dwell_and_power_balance():
+    p = CamRockerParams(mechanism=1, dwell=0.5, phase_forward=3.0, phase_return=2.0, phi_start=0.2)
+    m = CamRockerModel(p)
+    for phi in np.linspace(3.2 + 1e-6, 3.7 - 1e-6, 11):
+        y = m.output(0, m.initial_state([phi, W, 0]), [phi, W, -2.0])
+        assert y[1] == p.swing and y[2] == 0.0 and y[0] == 0.0
+    pz = CamRockerModel(CamRockerParams(mechanism=0, rocker_inertia=1e-12))
+    for phi in np.linspace(0, 2 * math.pi, 13):
+        y = pz.output(0, pz.initial_state([phi, W, 0]), [phi, W, -3.0])
+        # power into the transformer from the crank (-tau*w) plus from the load (tau_load*w_r) is zero
+        assert -y[0] * W + (-3.0) * y[2] == pytest.approx(0.0, abs=1e-9)
+        assert (y[0] < 0) == (y[2] > 0) or y[2] == 0.0     # a resisted load brakes the crank
+
+
+def test_rigid_inertia_torque_from_energy():
+    """Crank work over a cycle portion equals the change of rocker kinetic energy (unloaded)."""
+    m = CamRockerModel(CamRockerParams(mechanism=1))
+    J = m.p.rocker_inertia
+    phi = np.linspace(0.1, 2.5, 20001)
+    tau = np.array([m.output(0, None, [f, W, 0.0])[0] for f in phi])
+    wr = np.array([m.output(0, None, [f, W, 0.0])[2] for f in phi])
+    work = -np.trapezoid(tau, phi)
+    assert work == pytest.approx(0.5 * J * (wr[-1] ** 2 - wr[0] ** 2), rel=1e-5, abs=1e-9)
+
+
+def test_elastic_converges_to_rigid():
+    errs = []
+    for k in (2e3, 2e4, 2e5):
+        p = CamRockerParams(mechanism=1, fidelity=1, stiffness=k, damping=2 * 0.3 * math.sqrt(k * 0.00043))
+        y = run(CamRockerModel(p), 0.4)
+        r = run(CamRockerModel(CamRockerParams(mechanism=1)), 0.4)
+        errs.append(np.max(np.abs(y[:, 1] - r[:, 1])))
+    assert errs[0] > errs[1] > errs[2] and errs[2] < 0.1 * errs[0]
+
+
+def test_clearance_level_shows_impacts_and_separations():
+    p = CamRockerParams(mechanism=0, fidelity=2, law=0, clearance=20e-6)
+    y = run(CamRockerModel(p), 0.4)
+    contact = y[:, 6]
+    assert y[-1, 7] >= 3                                   # several impacts
+    assert np.any(contact == 0.0) and np.any(contact == 1.0)
+    assert np.max(y[:, 5]) > 0.0
+
+
+def test_bad_parameters_name_the_parameter():
+    with pytest.raises(ParameterError, match="lambda2"):
+        CamRockerModel(CamRockerParams(lambda2=3.0))
+    with pytest.raises(ParameterError, match="phase_return"):
+        CamRockerModel(CamRockerParams(mechanism=1, phase_forward=4.0, phase_return=3.0))
+
+
+def test_built_fmu_matches_the_model(fmu_dir):
+    path = fmu_dir / "CamRocker.fmu"
+    md = read_model_description(str(path))
+    s = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path)), modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName="cr")
+    s.instantiate()
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    s.setupExperiment(startTime=0.0)
+    s.setInteger([vr["mechanism"]], [1])
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    m = CamRockerModel(CamRockerParams(mechanism=1))
+    for k in range(20):
+        phi = 0.05 * k
+        s.setReal([vr["crank.phi"], vr["crank.w"], vr["rocker.tau"]], [phi, W, -1.0])
+        got = s.getReal([vr["rocker.phi"], vr["rocker.w"], vr["crank.tau"], vr["pressure_angle"]])
+        ref = m.output(0, None, [phi, W, -1.0])
+        assert got == pytest.approx([ref[1], ref[2], ref[0], ref[3]], abs=1e-12)
+        s.doStep(k * 1e-3, 1e-3)
+    s.terminate()
+    s.freeInstance()

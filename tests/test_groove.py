@@ -1,0 +1,92 @@
+"""Tier 1: LCSM groove synthesis (K6-K9) against geometry, the base four-bar check, and the CLI."""
+import argparse
+import json
+import math
+
+import numpy as np
+import pytest
+
+from fmus.physics import groove as G
+from fmus.physics import laws as L
+from harness.synthesis import groove as cli
+
+LAM1, LAM3 = 3.5, 3.0
+
+
+@pytest.mark.parametrize("lam2", [3.5, 4.5])
+def test_base_fourbar_law_gives_constant_radius(lam2):
+    phi = np.linspace(0, 2 * math.pi, 4001)
+    g = np.unwrap(G.base_fourbar_angle(phi, LAM1, lam2, LAM3))
+    h = phi[1] - phi[0]
+    g1 = np.gradient(g, h)
+    p = G.synthesize(phi, g, g1, np.gradient(g1, h), LAM1, lam2, G.base_branch(LAM1, lam2, LAM3))
+    assert np.max(np.abs(p.rho - LAM3)) < 1e-9
+
+
+def test_profile_point_is_on_the_ray_and_at_conrod_length():
+    lam2 = 4.03
+    law = G.kulisa_law(LAM1, lam2, LAM3, L.get_law("K0"))
+    p = G.synthesize_law(law, LAM1, lam2, 2000, G.base_branch(LAM1, lam2, LAM3))
+    A = np.stack([-LAM1 + np.cos(p.phi), np.sin(p.phi)], axis=1)
+    assert np.allclose(np.hypot(*(p.B - A).T), lam2, atol=1e-12)
+    assert np.allclose(np.arctan2(p.B[:, 1], p.B[:, 0]) % (2 * math.pi), p.gamma % (2 * math.pi), atol=1e-12)
+    # closed-form derivative and curvature equal finite differences of the points
+    h = p.phi[1] - p.phi[0]
+    dB = (np.roll(p.B, -1, 0) - np.roll(p.B, 1, 0)) / (2 * h)
+    inner = p.moving & np.roll(p.moving, 1) & np.roll(p.moving, -1)
+    assert np.max(np.abs(dB - p.dB)[inner]) < 1e-3 * np.max(p.speed)
+    ddB = (np.roll(p.B, -1, 0) - 2 * p.B + np.roll(p.B, 1, 0)) / h ** 2
+    kap = (dB[:, 0] * ddB[:, 1] - dB[:, 1] * ddB[:, 0]) / np.hypot(*dB.T) ** 3
+    sel = inner & (p.speed > 0.2 * np.max(p.speed))
+    assert np.allclose(kap[sel], p.curvature[sel], rtol=1e-3, atol=1e-3)
+    for i in (5, 700, 1500):
+        rho, _, th = G.stone_scalar(p.phi[i], p.gamma[i], law.scalar(p.phi[i])[1], LAM1, lam2, G.base_branch(LAM1, lam2, LAM3))
+        assert rho == pytest.approx(p.rho[i], abs=1e-12) and th == pytest.approx(p.theta[i], abs=1e-9)
+
+
+def test_law_meets_the_base_fourbar_extremes_and_dwell():
+    lam2 = 4.03
+    ext = G.fourbar_extremes(LAM1, lam2, LAM3)
+    for phi_e, g_e in ext.values():
+        assert float(G.base_fourbar_angle(phi_e, LAM1, lam2, LAM3)) == pytest.approx(g_e, abs=1e-12)
+    law = G.kulisa_law(LAM1, lam2, LAM3, L.get_law("K0"), dwell=0.3)
+    g_end = law.scalar(ext["extended"][0])[0]
+    assert g_end == pytest.approx(ext["extended"][1], abs=1e-12)
+    assert law.scalar(ext["extended"][0] + 0.1)[1] == 0.0   # inside the dwell
+
+
+def _args(*extra):
+    ap = argparse.ArgumentParser()
+    cli.register(ap.add_subparsers())
+    return ap.parse_args(["groove", *extra])
+
+
+def test_cli_scan_and_criteria(capsys, tmp_path):
+    a = _args("--crank-radius", "0.040", "--lambda1", "3.5", "--lambda3", "3", "--law", "K0", "--scan", "lambda2", "--json")
+    assert a.func(a) == 0
+    out = json.loads(capsys.readouterr().out)
+    lo, hi = out["lambda2_min"], out["lambda2_max"]
+    assert lo < hi
+    mp = math.radians(out["max_pressure_angle_deg"])
+
+    def verdict(l2):
+        law = G.kulisa_law(LAM1, l2, LAM3, L.get_law("K0"))
+        return G.assess(G.synthesize_law(law, LAM1, l2, 3600, G.base_branch(LAM1, l2, LAM3)), 0.04, 0.0, mp)["failed"]
+
+    assert verdict(0.5 * (lo + hi)) is None
+    assert verdict(lo - 1e-3) is not None and verdict(hi + 1e-3) is not None
+    f = tmp_path / "p.txt"
+    a = _args("--lambda2", str(0.5 * (lo + hi)), "--out", str(f))
+    assert a.func(a) == 0
+    lines = f.read_text().splitlines()
+    data = np.loadtxt(f)
+    assert lines[0].startswith("#") and data.shape == (3600, 2)
+    assert np.all((np.hypot(*data.T) > 0.05) & (np.hypot(*data.T) < 0.2))   # metres, not r units
+
+
+def test_cli_errors(capsys):
+    a = _args("--lambda2", "1.2")
+    assert a.func(a) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    a = _args("--law", "nope", "--scan", "lambda2")
+    assert a.func(a) == 2
