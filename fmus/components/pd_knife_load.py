@@ -1,0 +1,13 @@
+"""KnifeLoad FMU: cutting load of the spine-processing knife on its crank drive (seed 003)."""
+from fmus.physics.knife import KnifeLoadModel
+from fmus.slave import Output, PressSlave, Rotational
+
+
+class KnifeLoad(PressSlave):
+    model = KnifeLoadModel
+    description = ("Knife cutting load (Poliudov & Knysh): feed force polynomial through 4 samples, entry ramp, "
+                   "disturbance moment 0.5 R F (cos beta + f sin beta sin(gamma + alpha3)) over crank angles [phi_s, pi].")
+    ports = (Rotational("knife", motion="in", doc="crank driving the knife"),)
+    signals = (Output("feed_force", "N", "feed force F_T of the book block (eq. 6)"),
+               Output("cutting", "1", "1 while the knife is in the block, else 0"))
+    feedthrough = {"knife.tau": ("knife.phi",), "feed_force": ("knife.phi",), "cutting": ("knife.phi",)}

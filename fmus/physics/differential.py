@@ -1,0 +1,142 @@
+"""James planetary differential (paper B, seed 004, §2.2.3-2.2.5, 2.2.7): ring z3, carrier b, sun z5.
+
+Standard signed Willis form (speeds signed, positive in one common sense of rotation)::
+
+    (w_sun - w_c) / (w_ring - w_c) = -k,   k = z_ring / z_sun        =>  w_sun = -k*w_ring + (1 + k)*w_c
+
+This is MSL ``Modelica.Mechanics.Rotational.Components.IdealPlanetary`` with ``ratio = z_ring/z_sun``
+(there ``(1 + ratio)*w_carrier = w_sun + ratio*w_ring``).  Mapping to the paper's convention (paper B
+gives the ring and the satellites rotations in the *negative* sense, omega3 = -w_ring, omega4 = -w_planet,
+omega5 = w_sun, omega_b = w_c): i^b_53 = (w_sun - w_c)/(w_ring - w_c) = -k (= -3 for k = 3, eq. 8) and
+i^3_5b = (w_sun/w_c)|w_ring=0 = 1 + k (= 4, eq. 11); eq. (12) omega5 = k*omega3 + (1 + k)*omega_b is the
+same relation.  Planet (absolute, eq. 13): w_planet = (z_ring/z_planet)*w_ring + (1 - z_ring/z_planet)*w_c.
+
+Static torques (massless, ideal gearing; T_* = external torque applied TO each shaft of the gear set):
+T_ring = k*T_sun, T_c = -(1 + k)*T_sun, so T_sun + T_ring + T_c = 0 and sum(T*w) = 0 (paper B table:
+M3 = (z3/z5)*M5, M_b = (1 + z3/z5)*M5 = M3 + M5).  Mesh losses (optional ``efficiency`` eta < 1) act
+in the carrier frame, where the set is an ordinary gear pair sun-ring: the side receiving relative power
+gets eta times what the other side gives, so T_ring = eta*k*T_sun when relative power flows sun -> ring
+and T_ring = k*T_sun/eta otherwise (switching on the sign of the relative power; lossless when the
+relative speed is zero).  The carrier torque keeps the static balance T_c = -(T_sun + T_ring).
+
+Port mapping (bond convention of fmus.slave): ring and carrier are motion-IN ports, so ring.tau and
+carrier.tau are the reactions on the drivers: ring.tau = -T_ring, carrier.tau = -T_c.  sun is a
+motion-OUT port, sun.tau is the torque the load exerts on the sun shaft.
+
+fidelity 0 (rigid): sun.phi, sun.w from Willis; T_sun = sun.tau (massless sun).
+fidelity 1 (compliant mesh): the kinematic sun angle phi_k = -k*phi_ring + (1+k)*phi_c drives the sun
+inertia ``sun_inertia`` through the mesh stiffness ``c_alpha`` and damping ``d_mesh`` reduced to the sun:
+mesh_torque M = c_alpha*(phi_k - phi_sun) + d_mesh*(w_k - w_sun), J_sun*dw_sun/dt = M + sun.tau, and the
+gear set sees T_sun = -M.  Both levels share the state (phi_sun, w_sun); at fidelity 0 it is overwritten
+with the kinematic values at each step (so outputs never depend on it).
+
+Angles of all three shafts are measured from a common zero (paper B: both inputs start together from
+their extreme positions).  Ring and carrier positions are extrapolated inside a communication step with
+their (held) speeds.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .base import Model, ParameterError, Params, Signal, param
+
+
+@dataclass(frozen=True)
+class JamesDifferentialParams(Params):
+    c_alpha: float = param(1.0e5, "N.m/rad", "mesh torsional stiffness reduced to the sun (fidelity 1)",
+                           low=0.0, low_open=True)
+    d_mesh: float = param(10.0, "N.m.s/rad", "mesh damping reduced to the sun (fidelity 1)", low=0.0)
+    sun_inertia: float = param(0.02, "kg.m2", "inertia of the sun shaft with pinion z6 (fidelity 1)",
+                               low=0.0, low_open=True)
+    efficiency: float = param(1.0, "1", "basic (carrier-fixed) mesh efficiency sun-ring, 1 = lossless",
+                              low=0.0, low_open=True, high=1.0)
+    z_ring: int = param(72, "", "teeth of the internal ring gear z3 (seed gives only z3/z5 = 3)", low=12, high=2000)
+    z_planet: int = param(24, "", "teeth of each planet (satellite) z4", low=6, high=2000)
+    z_sun: int = param(24, "", "teeth of the sun gear z5", low=6, high=2000)
+    n_planets: int = param(3, "", "number of planets a_p (seed: 3)", low=1, high=64)
+    fidelity: int = param(0, "", "0: rigid kinematic; 1: compliant mesh with sun inertia", choices=(0, 1))
+
+    def check(self) -> None:
+        if self.z_ring != self.z_sun + 2 * self.z_planet:
+            raise ParameterError("z_ring", self.z_ring,
+                                 f"coaxiality needs z_ring = z_sun + 2*z_planet = {self.z_sun + 2 * self.z_planet}")
+        if (self.z_ring + self.z_sun) % self.n_planets:
+            raise ParameterError("n_planets", self.n_planets,
+                                 f"assembly needs (z_ring + z_sun)/n_planets integer, (z_ring + z_sun) = {self.z_ring + self.z_sun}")
+        if self.n_planets > 1 and not (self.z_sun + self.z_planet) * math.sin(math.pi / self.n_planets) > self.z_planet + 2:
+            raise ParameterError("n_planets", self.n_planets,
+                                 "neighbourhood condition (z_sun + z_planet)*sin(pi/n_planets) > z_planet + 2 fails")
+
+
+def willis_sun_speed(w_ring: float, w_carrier: float, k: float) -> float:
+    """Sun speed from the signed Willis equation (w_s - w_c)/(w_r - w_c) = -k."""
+    return -k * w_ring + (1.0 + k) * w_carrier
+
+
+def static_torques(t_sun: float, w_ring: float, w_carrier: float, k: float, eta: float = 1.0):
+    """External torques (T_ring, T_carrier) that hold the massless gear set in equilibrium with T_sun."""
+    if eta == 1.0:
+        t_ring = k * t_sun
+    else:
+        # relative power entering the sun shaft (carrier frame): T_sun*(w_s - w_c) = T_sun*(-k)*(w_r - w_c)
+        p_rel_sun = -t_sun * k * (w_ring - w_carrier)
+        t_ring = eta * k * t_sun if p_rel_sun > 0.0 else k * t_sun / eta
+    return t_ring, -(t_sun + t_ring)
+
+
+class JamesDifferentialModel(Model):
+    Params = JamesDifferentialParams
+    inputs = ("ring.phi", "ring.w", "carrier.phi", "carrier.w", "sun.tau")
+    outputs = ("ring.tau", "carrier.tau", "sun.phi", "sun.w", "power_ring", "power_carrier", "power_sun",
+               "planet_speed", "mesh_torque")
+    states = (Signal("phi_sun", "rad", "angle of the sun shaft"),
+              Signal("w_sun", "rad/s", "angular velocity of the sun shaft"))
+
+    def __init__(self, p: JamesDifferentialParams):
+        super().__init__(p)
+        self.k = p.z_ring / p.z_sun
+        self.kp = p.z_ring / p.z_planet
+
+    def substep_limit(self) -> float:
+        p = self.p
+        if p.fidelity == 0:
+            return math.inf
+        rate = max(math.sqrt(p.c_alpha / p.sun_inertia), p.d_mesh / p.sun_inertia)
+        return 0.25 / rate
+
+    def kinematic(self, u, dt: float = 0.0):
+        k = self.k
+        phi_r, w_r, phi_c, w_c = u[0] + u[1] * dt, u[1], u[2] + u[3] * dt, u[3]
+        return -k * phi_r + (1.0 + k) * phi_c, -k * w_r + (1.0 + k) * w_c
+
+    def initial_state(self, u):
+        return np.array(self.kinematic(u))
+
+    def mesh(self, x, u, dt: float = 0.0) -> float:
+        phi_k, w_k = self.kinematic(u, dt)
+        return self.p.c_alpha * (phi_k - x[0]) + self.p.d_mesh * (w_k - x[1])
+
+    def derivatives(self, t, x, u, t0):
+        return np.array([x[1], (self.mesh(x, u, t - t0) + u[4]) / self.p.sun_inertia])
+
+    def advance(self, t0, h, x, u):
+        if self.p.fidelity == 0:
+            return np.array(self.kinematic(u, h))
+        return super().advance(t0, h, x, u)
+
+    def output(self, t, x, u):
+        k, p = self.k, self.p
+        w_r, w_c = u[1], u[3]
+        if p.fidelity == 0:
+            phi_s, w_s = self.kinematic(u)
+            m = -u[4]
+        else:
+            phi_s, w_s = x[0], x[1]
+            m = self.mesh(x, u)
+        t_ring, t_c = static_torques(-m, w_r, w_c, k, p.efficiency)
+        ring_tau, carrier_tau = -t_ring, -t_c
+        return (ring_tau, carrier_tau, phi_s, w_s, -ring_tau * w_r, -carrier_tau * w_c, -u[4] * w_s,
+                self.kp * w_r + (1.0 - self.kp) * w_c, m)

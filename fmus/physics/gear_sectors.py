@@ -1,0 +1,452 @@
+"""Printing-cylinder drive with eccentric round gear sectors (paper A, seed 002, spec bed_drives.md §2.1).
+
+Sector kinematics in the inverted mechanism (driving sector A fixed, line O_A O_B = carrier at angle beta,
+driven sector B rolls outside A), all lengths divided by R_B (eqs. 3-16)::
+
+    k1 = kappa + 1,  delta = delta0 + k1*beta
+    u = eps2 cos(delta) + k1 cos(beta) - eps1 cos(beta0),   w = eps2 sin(delta) + k1 sin(beta) - eps1 sin(beta0)
+    p = eps2 cos(delta) + cos(beta),  q = eps2 sin(delta) + sin(beta),  D = u^2 + w^2,  N = u p + w q
+    sigma = atan2(w, u) (unwrapped; crank angle in the inverted frame),  psi = delta - sigma (cylinder angle)
+    l_i = sqrt(D),  omega_C = D/N - 1 = d psi/d sigma,  eps_C = D (D_b N - D N_b) / (k1 N^3) = d omega_C/d sigma
+    eps_fwd = eps_C * sign(sigma(0) - sigma(beta0))          (acceleration in forward time, phase 1 -> 2)
+
+beta = 0 is point 2 (end of acceleration) and beta = beta0 point 1; the forward crank angle is
+phi_K = phi2 - |sigma(beta) - sigma(0)| (spec ambiguity 6: the forward-time mapping).  beta0 is both the
+polar angle of C_A and the carrier angle at point 1 (ambiguity 2, as printed).  delta0 is a given quantity
+of the synthesis (ambiguity 1).  Invariants: speeds are per unit crank angle, lengths per r_K*i_CK
+(v = omega_C*D_Ci/2, w = eps_C*D_Ci/2).
+
+Synthesis (eq. 25): solve_sectors() finds (eps1, eps2, kappa, beta0) from a chosen set of 4 of the
+junction residuals r17..r24 (default {r24, r18, r23, r21}, the legible members of (25) plus (24')), or
+least squares over all of them; it starts from several points and always reports every residual.
+
+Full cycle (§2.1.8-2.1.9), crank angle phi measured from the bed's outer dead centre: uniform 4 -> 1
+(omega_Ci = 2 v1/D_Ci, concentric sectors 8/8'), acceleration 1 -> 2 (sectors 9/9'), synchronous 2 -> 3
+(cylinder surface = bed, bed law of a centric slider-crank with skat ratio i_CK:
+S_T = (1 - cos phi) + (1 - sqrt(1 - lam^2 sin^2 phi))/lam), braking 3 -> 4 (sectors 7/7', the same
+synthesis with (v2, w2) -> (v3, -w3) and forward time running with beta).  The CylinderLaw class builds
+this law from the synthesis once and evaluates angle, speed and acceleration invariants at any crank angle.
+
+The GearSectors model drives the cylinder and the bed from the main shaft.  Accelerations used for the
+inertial torques are the analytic second derivatives of the kinematic functions times crank speed squared
+(the crank acceleration is taken as negligible, omega_K = const as in the paper).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize
+
+from .base import Model, ParameterError, Params, Signal, param
+
+RESIDUALS = ("r17", "r18", "r19", "r20", "r21", "r22", "r23", "r24")
+DEFAULT_SET = ("r24", "r18", "r23", "r21")
+UNKNOWNS = ("eps1", "eps2", "kappa", "beta0")
+
+
+# ---------------------------------------------------------------------------------------------- kinematics
+def sector_point(beta: float, eps1: float, eps2: float, kappa: float, beta0: float, delta0: float):
+    """Scalar kinematics at carrier angle beta: (sigma_raw, psi_raw, l_i, omega_C, eps_C) (eq. 3-15).
+
+    sigma_raw is atan2 (not unwrapped); use sector_sigma for a continuous crank angle."""
+    k1 = kappa + 1.0
+    dl = delta0 + k1 * beta
+    cd, sd, cb, sb = math.cos(dl), math.sin(dl), math.cos(beta), math.sin(beta)
+    u = eps2 * cd + k1 * cb - eps1 * math.cos(beta0)
+    w = eps2 * sd + k1 * sb - eps1 * math.sin(beta0)
+    p = eps2 * cd + cb
+    q = eps2 * sd + sb
+    D = u * u + w * w
+    N = u * p + w * q
+    Db = 2.0 * k1 * (w * p - u * q)
+    Nb = w * (eps2 * k1 * cd + cb) - u * (eps2 * k1 * sd + sb)
+    sigma = math.atan2(w, u)
+    return sigma, dl - sigma, math.sqrt(D), D / N - 1.0, D * (Db * N - D * Nb) / (k1 * N ** 3)
+
+
+def sector_arrays(beta, eps1, eps2, kappa, beta0, delta0):
+    """Vectorised kinematics over an increasing array beta starting at 0: sigma (unwrapped), psi, l_i,
+    omega_C, eps_C (eqs. 3-15)."""
+    beta = np.asarray(beta, dtype=float)
+    k1 = kappa + 1.0
+    dl = delta0 + k1 * beta
+    cd, sd, cb, sb = np.cos(dl), np.sin(dl), np.cos(beta), np.sin(beta)
+    u = eps2 * cd + k1 * cb - eps1 * math.cos(beta0)
+    w = eps2 * sd + k1 * sb - eps1 * math.sin(beta0)
+    p = eps2 * cd + cb
+    q = eps2 * sd + sb
+    D = u * u + w * w
+    N = u * p + w * q
+    Db = 2.0 * k1 * (w * p - u * q)
+    Nb = w * (eps2 * k1 * cd + cb) - u * (eps2 * k1 * sd + sb)
+    sigma = np.unwrap(np.arctan2(w, u))
+    return sigma, dl - sigma, np.sqrt(D), D / N - 1.0, D * (Db * N - D * Nb) / (k1 * N ** 3)
+
+
+@dataclass(frozen=True)
+class SectorSummary:
+    """Phase quantities of one sector pair (eqs. 17-23): values at point 2 (beta = 0) and point 1 (beta0)."""
+    omega2: float      # omega_C(0)
+    eps2_fwd: float    # forward-time acceleration invariant at beta = 0
+    omega1: float      # omega_C(beta0)
+    eps1_fwd: float    # at beta0
+    l_i: float         # centre distance / R_B at beta = 0 (eq. 21)
+    phi12: float       # crank angle of the phase |sigma(beta0) - sigma(0)| (eq. 22)
+    phiC12: float      # cylinder rotation on the phase, sign*(psi(beta0) - psi(0)) = (sigma0 - sigma1) + (kappa+1) beta0 for sign = +1 (eq. 23)
+    sign: float        # sign(sigma(beta0) - sigma(0))
+    monotonic: bool    # N has one sign on [0, beta0] (sigma monotonic) and omega_C > 0
+
+
+def summarize(eps1, eps2, kappa, beta0, delta0, n: int = 65) -> SectorSummary:
+    beta = np.linspace(0.0, beta0, n)
+    sigma, psi, li, om, ec = sector_arrays(beta, eps1, eps2, kappa, beta0, delta0)
+    ds = sigma[-1] - sigma[0]
+    s = 1.0 if ds >= 0.0 else -1.0
+    dsig = np.diff(sigma)
+    mono = bool(np.all(dsig * s > 0.0) and np.all(om > 0.0) and np.all(np.isfinite(om)))
+    return SectorSummary(om[0], -s * ec[0], om[-1], -s * ec[-1], li[0], abs(ds),
+                         s * (psi[-1] - psi[0]), s, mono)
+
+
+# ---------------------------------------------------------------------------------------------- synthesis
+@dataclass(frozen=True)
+class SectorTask:
+    """Given quantities of the synthesis problem (invariants, paper A §2.1.7)."""
+    D_Ci: float      # cylinder diameter / (r_K i_CK)
+    v1: float        # uniform cylinder surface speed invariant
+    v2: float        # bed speed invariant at point 2
+    w2: float        # bed acceleration invariant at point 2 (forward time)
+    l_i: float       # centre distance / R_B when impression is on (beta = 0)
+    phi12: float     # crank angle of the phase [rad]
+    phiC12: float    # cylinder rotation on the phase [rad]
+    c1: float        # character coefficient of the phase law (eq. 24)
+    delta0: float    # angle of O_B C_B at beta = 0 [rad]
+
+
+def residuals(x, task: SectorTask) -> dict[str, float]:
+    """All junction residuals r17..r24 (spec §2.1.7) at unknowns x = (eps1, eps2, kappa, beta0)."""
+    eps1, eps2, kappa, beta0 = x
+    s = summarize(eps1, eps2, kappa, beta0, task.delta0)
+    return {"r17": s.omega1 - 2.0 * task.v1 / task.D_Ci,
+            "r18": s.eps1_fwd,
+            "r19": s.omega2 - 2.0 * task.v2 / task.D_Ci,
+            "r20": s.eps2_fwd - 2.0 * task.w2 / task.D_Ci,
+            "r21": s.l_i - task.l_i,
+            "r22": s.phi12 - task.phi12,
+            "r23": s.phiC12 - task.phiC12,
+            "r24": s.phi12 * s.eps2_fwd - task.c1 * (s.omega2 - s.omega1)}
+
+
+@dataclass
+class SectorSolution:
+    eps1: float
+    eps2: float
+    kappa: float
+    beta0: float
+    residuals: dict[str, float]
+    converged: bool
+    feasible: bool
+    message: str
+    used: tuple[str, ...] = field(default=DEFAULT_SET)
+
+    @property
+    def x(self):
+        return (self.eps1, self.eps2, self.kappa, self.beta0)
+
+    def as_dict(self) -> dict:
+        return {"eps1": self.eps1, "eps2": self.eps2, "kappa": self.kappa, "beta0": self.beta0,
+                "residuals": dict(self.residuals), "used": list(self.used), "converged": self.converged,
+                "feasible": self.feasible, "message": self.message}
+
+
+def _feasible(x, delta0) -> tuple[bool, str]:
+    eps1, eps2, kappa, beta0 = x
+    if not (kappa > 0.0):
+        return False, f"kappa = {kappa:.6g} must be > 0"
+    if not (abs(eps1) < kappa):
+        return False, f"|eps1| = {abs(eps1):.6g} must be < kappa = {kappa:.6g} (pivot inside sector A)"
+    if not (abs(eps2) < 1.0):
+        return False, f"|eps2| = {abs(eps2):.6g} must be < 1 (pivot inside sector B)"
+    if not (0.0 < beta0 < math.pi):
+        return False, f"beta0 = {beta0:.6g} rad must lie in (0, pi)"
+    if not summarize(eps1, eps2, kappa, beta0, delta0).monotonic:
+        return False, "sigma is not monotonic or omega_C <= 0 on [0, beta0]"
+    return True, "ok"
+
+
+DEFAULT_STARTS = ((0.3, 0.3, 1.0, 0.8), (0.1, 0.1, 1.5, 0.5), (0.5, 0.2, 2.0, 1.0), (0.2, 0.5, 0.8, 1.2),
+                  (-0.2, 0.3, 1.2, 0.6), (0.4, -0.3, 1.0, 0.9), (0.6, 0.6, 1.5, 1.5), (0.05, 0.05, 1.0, 0.3))
+
+
+def solve_sectors(task: SectorTask, use: tuple[str, ...] | str = DEFAULT_SET, starts=None,
+                  tol: float = 1e-9) -> SectorSolution:
+    """Solve the transcendental system (25) for (eps1, eps2, kappa, beta0).
+
+    ``use``: four residual names (root finding, scipy.optimize.root, hybr) or "lsq" (least squares over
+    all eight with scipy.optimize.least_squares).  Several starting points; the first converged feasible
+    solution with the smallest residual norm wins.  ``converged`` means every used residual is below
+    ``tol`` (for "lsq": the solver converged; the residuals tell how well the data fit)."""
+    lsq = use == "lsq"
+    names = RESIDUALS if lsq else tuple(use)
+    if not lsq:
+        bad = [n for n in names if n not in RESIDUALS]
+        if bad or len(names) != 4:
+            raise ValueError(f"residual set {','.join(names)} must name 4 of {','.join(RESIDUALS)}")
+
+    def f(x):
+        try:
+            r = residuals(x, task)
+        except (ZeroDivisionError, FloatingPointError):
+            return np.full(len(names), 1e6)
+        out = np.array([r[n] for n in names])
+        return np.where(np.isfinite(out), out, 1e6)
+
+    best = None
+    with np.errstate(all="ignore"):
+        for x0 in (starts or DEFAULT_STARTS):
+            if lsq:
+                sol = optimize.least_squares(f, x0, bounds=([-5, -0.999, 1e-3, 1e-3], [5, 0.999, 20, math.pi - 1e-3]),
+                                             xtol=1e-14, ftol=1e-14, gtol=1e-14)
+                x, ok = sol.x, sol.success
+            else:
+                sol = optimize.root(f, x0, method="hybr", options={"xtol": 1e-13})
+                x = sol.x
+                ok = bool(np.all(np.isfinite(x))) and float(np.max(np.abs(f(x)))) < tol
+            feas, why = _feasible(x, task.delta0) if np.all(np.isfinite(x)) else (False, "non-finite")
+            norm = float(np.linalg.norm(f(x)))
+            cand = (not (ok and feas), norm, x, ok, feas, why)
+            if best is None or cand[:2] < best[:2]:
+                best = cand
+            if ok and feas and not lsq:
+                break
+    _, norm, x, ok, feas, why = best
+    res = residuals(x, task)
+    msg = ("converged" if ok else f"not converged (|r| = {norm:.3g})") + ("" if feas else f"; infeasible: {why}")
+    return SectorSolution(*map(float, x), res, bool(ok), bool(feas), msg, names)
+
+
+def task_from_geometry(eps1, eps2, kappa, beta0, delta0, D_Ci: float, c1: float | None = None) -> SectorTask:
+    """The 'given' quantities that a known sector geometry produces (forward problem, used to build
+    self-consistent test cases; c1 defaults to the value that satisfies (24'))."""
+    s = summarize(eps1, eps2, kappa, beta0, delta0)
+    if c1 is None:
+        c1 = s.phi12 * s.eps2_fwd / (s.omega2 - s.omega1)
+    return SectorTask(D_Ci=D_Ci, v1=s.omega1 * D_Ci / 2.0, v2=s.omega2 * D_Ci / 2.0, w2=s.eps2_fwd * D_Ci / 2.0,
+                      l_i=s.l_i, phi12=s.phi12, phiC12=s.phiC12, c1=c1, delta0=delta0)
+
+
+# ---------------------------------------------------------------------------------------------- bed law
+def bed_law(phi: float, lam: float):
+    """Centric slider-crank with skat, invariants per r_K*i_CK: (S_T, v_T = dS/dphi, w_T = d2S/dphi2)."""
+    s, c = math.sin(phi), math.cos(phi)
+    if lam == 0.0:
+        return 1.0 - c, s, c
+    r = math.sqrt(1.0 - lam * lam * s * s)
+    S = (1.0 - c) + (1.0 - r) / lam
+    v = s + lam * s * c / r
+    w = c + lam * (c * c - s * s) / r + lam ** 3 * s * s * c * c / r ** 3
+    return S, v, w
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class _Sector:
+    """One solved sector pair evaluated at a distance theta in crank angle from its point beta = 0."""
+
+    def __init__(self, x, delta0):
+        self.eps1, self.eps2, self.kappa, self.beta0 = x
+        self.delta0 = delta0
+        self.k1 = self.kappa + 1.0
+        self.summary = summarize(*x, delta0)
+        self.sign = self.summary.sign
+        beta = np.linspace(0.0, self.beta0, 257)
+        sigma = sector_arrays(beta, *x, delta0)[0]
+        self._theta_tab = self.sign * (sigma - sigma[0])   # increasing from 0 to phi12
+        self._beta_tab = beta
+        self.sigma0 = math.atan2(*reversed(self._uw(0.0)))
+
+    def _uw(self, beta):
+        dl = self.delta0 + self.k1 * beta
+        return (self.eps2 * math.cos(dl) + self.k1 * math.cos(beta) - self.eps1 * math.cos(self.beta0),
+                self.eps2 * math.sin(dl) + self.k1 * math.sin(beta) - self.eps1 * math.sin(self.beta0))
+
+    def at(self, theta: float):
+        """(beta, dpsi, omega_C, eps_C) where |sigma(beta) - sigma(0)| = theta; dpsi = sign*(psi - psi(0))."""
+        beta = float(np.interp(theta, self._theta_tab, self._beta_tab))
+        args = (self.eps1, self.eps2, self.kappa, self.beta0, self.delta0)
+        for _ in range(3):   # Newton on sign*(sigma(beta) - sigma0) = theta, d sigma/d beta = k1*N/D = k1/(1 + omega_C)
+            sig, _, _, om, _ = sector_point(beta, *args)
+            g = self.sign * _wrap(sig - self.sigma0) - theta
+            beta = min(max(beta - g * (1.0 + om) / (self.k1 * self.sign), 0.0), self.beta0)
+        sig, _, _, om, ec = sector_point(beta, *args)
+        dsig = _wrap(sig - self.sigma0)
+        return beta, self.sign * (self.k1 * beta - dsig), om, ec
+
+
+class CylinderLaw:
+    """Full-cycle cylinder motion law phi_C(phi) of paper A (4 phases), built once from two syntheses.
+
+    Crank angle phi from the bed's outer dead centre; phase 1 -> 2 ends at phi2, 2 -> 3 is [phi2, phi3],
+    3 -> 4 starts at phi3; cylinder angle 0 at point 1 of cycle 0.  evaluate() returns the cylinder angle
+    [rad], its speed and acceleration invariants (d/dphi, d2/dphi2) and the phase number (1: acceleration
+    1->2, 2: synchronous 2->3, 3: braking 3->4, 4: uniform 4->1)."""
+
+    def __init__(self, lam, D_Ci, phi2, phi3, v1, acc: SectorSolution, acc_delta0, brk: SectorSolution, brk_delta0):
+        self.lam, self.D_Ci, self.phi2, self.phi3, self.v1 = lam, D_Ci, phi2, phi3, v1
+        self.acc, self.brk = _Sector(acc.x, acc_delta0), _Sector(brk.x, brk_delta0)
+        self.om1 = 2.0 * v1 / D_Ci
+        self.phi12 = self.acc.summary.phi12
+        self.phi34 = self.brk.summary.phi12
+        self.phi1 = phi2 - self.phi12
+        self.phi23 = phi3 - phi2
+        self.phi41 = 2.0 * math.pi - self.phi12 - self.phi23 - self.phi34
+        self.S2 = bed_law(phi2, lam)[0]
+        self.C12 = self.acc.summary.phiC12
+        self.C23 = 2.0 * (bed_law(phi3, lam)[0] - self.S2) / D_Ci
+        self.C34 = self.brk.summary.phiC12
+        self.C41 = self.om1 * self.phi41
+        self.per_cycle = self.C12 + self.C23 + self.C34 + self.C41     # eq. (1) divided by D_Ci/2
+        self.n_rev = max(1, round(self.per_cycle / (2.0 * math.pi)))
+        self.cycle_error = self.per_cycle - 2.0 * math.pi * self.n_rev  # [rad]; 0 when eq. (1) holds
+
+    def point2_angle(self, phi: float) -> float:
+        """Cylinder angle at point 2 of the cycle that contains crank angle phi."""
+        k = math.floor((phi - self.phi1) / (2.0 * math.pi))
+        return k * self.per_cycle + self.C12
+
+    def evaluate(self, phi: float):
+        k = math.floor((phi - self.phi1) / (2.0 * math.pi))
+        th = phi - self.phi1 - 2.0 * math.pi * k
+        base = k * self.per_cycle
+        if th < self.phi12:
+            _, dpsi, om, ec = self.acc.at(self.phi12 - th)
+            return base + self.C12 - dpsi, om, -self.acc.sign * ec, 1
+        th -= self.phi12
+        if th <= self.phi23:
+            S, v, w = bed_law(self.phi2 + th, self.lam)
+            return base + self.C12 + 2.0 * (S - self.S2) / self.D_Ci, 2.0 * v / self.D_Ci, 2.0 * w / self.D_Ci, 2
+        th -= self.phi23
+        if th < self.phi34:
+            _, dpsi, om, ec = self.brk.at(th)
+            return base + self.C12 + self.C23 + dpsi, om, self.brk.sign * ec, 3
+        th -= self.phi34
+        return base + self.C12 + self.C23 + self.C34 + self.om1 * th, self.om1, 0.0, 4
+
+
+def build_law(lam, D_Ci, phi2, phi3, v1, delta0_acc, delta0_brk, use=("r17", "r18", "r19", "r20")):
+    """Synthesise the acceleration and braking sector pairs from the junction conditions and build the
+    cycle law.  Returns (law, acc_solution, brk_solution); raises ValueError naming the phase if a
+    synthesis does not converge to a feasible geometry."""
+    _, v2, w2 = bed_law(phi2, lam)
+    _, v3, w3 = bed_law(phi3, lam)
+    nan = float("nan")
+    sols = []
+    for name, v, w, d0 in (("acceleration", v2, w2, delta0_acc), ("braking", v3, -w3, delta0_brk)):
+        task = SectorTask(D_Ci=D_Ci, v1=v1, v2=v, w2=w, l_i=nan, phi12=nan, phiC12=nan, c1=nan, delta0=d0)
+        sol = solve_sectors(task, use)
+        if not (sol.converged and sol.feasible):
+            raise ValueError(f"{name} sectors: {sol.message}")
+        sols.append(sol)
+    law = CylinderLaw(lam, D_Ci, phi2, phi3, v1, sols[0], delta0_acc, sols[1], delta0_brk)
+    if not law.phi41 > 0.0:
+        raise ValueError(f"phases overlap: uniform phase 4->1 = {law.phi41:.4g} rad <= 0")
+    return law, sols[0], sols[1]
+
+
+# ---------------------------------------------------------------------------------------------- component
+@dataclass(frozen=True)
+class GearSectorsParams(Params):
+    J_cyl: float = param(2.5, "kg.m2", "moment of inertia of the printing cylinder", low=0.0, low_open=True)
+    m_bed: float = param(300.0, "kg", "reduced mass of the bed (taler)", low=0.0)
+    r_K: float = param(0.1, "m", "crank radius OA of the bed slider-crank", low=0.0, low_open=True)
+    i_CK: float = param(2.0, "1", "skat ratio: bed displacement / slider displacement (rolling gear: 2)",
+                        low=0.0, low_open=True)
+    lambda_s: float = param(0.25, "1", "slider-crank ratio r_K / L_AB (0 = Scotch yoke)", low=0.0, high=0.9)
+    D_C: float = param(0.33638082647978446, "m", "cylinder diameter (rims 6' on racks 6); default closes eq. (1) with n = 1",
+                       low=0.0, low_open=True)
+    phi2: float = param(1.0117953358399812, "rad", "crank angle of point 2 (start of printing) from bed outer dead centre",
+                        low=0.0, low_open=True, high=math.pi)
+    phi3: float = param(1.7, "rad", "crank angle of point 3 (end of printing)", low=0.0, low_open=True, high=math.pi)
+    v1: float = param(0.8035873393247397, "1", "uniform cylinder surface speed invariant v1 = V/(omega_K r_K i_CK)",
+                      low=0.0, low_open=True)
+    delta0_acc: float = param(-1.2, "rad", "angle delta0 of O_B C_B at point 2, acceleration sectors 9/9'")
+    delta0_brk: float = param(-1.2, "rad", "angle delta0 of O_B C_B at point 3, braking sectors 7/7'")
+    c_cyl: float = param(2.0e5, "N.m/rad", "torsional stiffness sectors -> cylinder (fidelity 1)", low=0.0, low_open=True)
+    d_cyl: float = param(50.0, "N.m.s/rad", "torsional damping sectors -> cylinder (fidelity 1)", low=0.0)
+    fidelity: int = param(0, "", "0: rigid kinematic cylinder; 1: cylinder inertia behind a torsional compliance",
+                          choices=(0, 1))
+
+    def check(self) -> None:
+        if not self.phi3 > self.phi2:
+            raise ParameterError("phi3", self.phi3, f"must be > phi2 = {self.phi2:g} rad")
+
+
+class GearSectorsModel(Model):
+    """Main shaft (crank) -> printing cylinder by the 4-phase law, and -> bed by the slider-crank with skat.
+
+    crank.tau is the reaction on the main shaft from the power balance
+    -crank.tau*w_K = (J_cyl*a_cyl - cylinder.tau)*w_cyl + (m_bed*a_bed - bed.f)*v_bed, with the kinematic
+    accelerations a = (d2x/dphi2)*w_K^2 (crank acceleration neglected), divided by w_K analytically, so it
+    stays defined at w_K = 0.  Fidelity 1: the kinematic cylinder angle drives the cylinder inertia through
+    (c_cyl, d_cyl); the spring torque replaces the cylinder term."""
+    Params = GearSectorsParams
+    inputs = ("crank.phi", "crank.w", "cylinder.tau", "bed.f")
+    outputs = ("crank.tau", "cylinder.phi", "cylinder.w", "bed.s", "bed.v", "sync_error", "phase")
+    states = (Signal("phi_cyl", "rad", "angle of the cylinder (fidelity 1; kinematic at fidelity 0)"),
+              Signal("w_cyl", "rad/s", "angular velocity of the cylinder"))
+
+    def __init__(self, p: GearSectorsParams):
+        super().__init__(p)
+        self.L = p.r_K * p.i_CK
+        D_Ci = p.D_C / self.L
+        try:
+            self.law, self.acc, self.brk = build_law(p.lambda_s, D_Ci, p.phi2, p.phi3, p.v1, p.delta0_acc, p.delta0_brk)
+        except ValueError as e:
+            name = "phi3" if str(e).startswith("braking") else "phi2"
+            raise ParameterError(name, getattr(p, name), f"no feasible sector synthesis: {e}") from None
+
+    def substep_limit(self) -> float:
+        p = self.p
+        if p.fidelity == 0:
+            return math.inf
+        return 0.25 / max(math.sqrt(p.c_cyl / p.J_cyl), p.d_cyl / p.J_cyl)
+
+    def kinematic(self, phi, w):
+        phic, om, ec, _ = self.law.evaluate(phi)
+        return phic, om * w
+
+    def initial_state(self, u):
+        return np.array(self.kinematic(u[0], u[1]))
+
+    def derivatives(self, t, x, u, t0):
+        p = self.p
+        phic, wc = self.kinematic(u[0] + u[1] * (t - t0), u[1])
+        m = p.c_cyl * (phic - x[0]) + p.d_cyl * (wc - x[1])
+        return np.array([x[1], (m + u[2]) / p.J_cyl])
+
+    def advance(self, t0, h, x, u):
+        if self.p.fidelity == 0:
+            return np.array(self.kinematic(u[0] + u[1] * h, u[1]))
+        return super().advance(t0, h, x, u)
+
+    def output(self, t, x, u):
+        p, L = self.p, self.L
+        phi, wk, tau_c, f_bed = u
+        phic, om, ec, phase = self.law.evaluate(phi)
+        S, v, w = bed_law(phi, p.lambda_s)
+        bed_term = (p.m_bed * L * w * wk * wk - f_bed) * L * v
+        if p.fidelity == 0:
+            phi_cyl, w_cyl = phic, om * wk
+            crank_tau = -(p.J_cyl * ec * wk * wk - tau_c) * om - bed_term
+        else:
+            phi_cyl, w_cyl = x[0], x[1]
+            m = p.c_cyl * (phic - x[0]) + p.d_cyl * (om * wk - x[1])
+            crank_tau = -m * om - bed_term
+        sync = 0.0
+        if phase == 2:
+            sync = 0.5 * p.D_C * (phi_cyl - self.law.point2_angle(phi)) - L * (S - self.law.S2)
+        return (crank_tau, phi_cyl, w_cyl, L * S, L * v * wk, sync, float(phase))

@@ -1,0 +1,80 @@
+"""``synth sectors``: synthesis of the eccentric round gear sectors of paper A (seed 002, eq. 25).
+
+    synth sectors [--residuals r24,r18,r23,r21 | lsq] [--D-Ci ..] [--v1 ..] ... [--json]
+
+Solves for eps1, eps2, kappa, beta0 and prints them with all residuals r17..r24 and whether the solver
+converged.  Given quantities left out take the values of a worked example: the forward kinematics of
+eps1 = 0.3, eps2 = 0.3, kappa = 1.5, beta0 = 0.8 rad, delta0 = -1.2 rad, D_Ci = 1.68 (so the default
+problem has that exact solution).  No feasible solution: one line on stderr, exit code 2.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from fmus.physics import gear_sectors as gs
+
+EXAMPLE = dict(eps1=0.3, eps2=0.3, kappa=1.5, beta0=0.8, delta0=-1.2, D_Ci=1.68)
+GIVEN = ("D_Ci", "v1", "v2", "w2", "l_i", "phi12", "phiC12", "c1", "delta0")
+HELP = {"D_Ci": "cylinder diameter / (r_K i_CK)", "v1": "uniform surface speed invariant",
+        "v2": "bed speed invariant at point 2", "w2": "bed acceleration invariant at point 2",
+        "l_i": "centre distance / R_B with impression on", "phi12": "crank angle of the phase [rad]",
+        "phiC12": "cylinder rotation on the phase [rad]", "c1": "character coefficient of eq. (24)",
+        "delta0": "angle of O_B C_B at point 2 [rad]"}
+
+
+def example_task() -> gs.SectorTask:
+    e = EXAMPLE
+    return gs.task_from_geometry(e["eps1"], e["eps2"], e["kappa"], e["beta0"], e["delta0"], D_Ci=e["D_Ci"])
+
+
+def register(subparsers) -> argparse.ArgumentParser:
+    ap = subparsers.add_parser("sectors", help="solve the eccentric gear-sector synthesis (paper A, eq. 25)",
+                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--residuals", default=",".join(gs.DEFAULT_SET),
+                    help="four of r17..r24 separated by commas, or 'lsq' (least squares over all); "
+                         "default %(default)s")
+    for name in GIVEN:
+        ap.add_argument(f"--{name.replace('_', '-')}", dest=name, type=float, default=None,
+                        help=f"{HELP[name]} (default: worked example)")
+    ap.add_argument("--json", action="store_true", help="print the result as JSON")
+    ap.set_defaults(func=run)
+    return ap
+
+
+def run(args) -> int:
+    base = example_task()
+    values = {n: (getattr(args, n) if getattr(args, n, None) is not None else getattr(base, n)) for n in GIVEN}
+    task = gs.SectorTask(**values)
+    use = "lsq" if args.residuals.strip() == "lsq" else tuple(s.strip() for s in args.residuals.split(","))
+    try:
+        sol = gs.solve_sectors(task, use)
+    except ValueError as e:
+        print(f"synth sectors: {e}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps({"given": values, **sol.as_dict()}, indent=2))
+    else:
+        print(f"residual set: {','.join(sol.used)}")
+        for n in gs.UNKNOWNS:
+            print(f"  {n:7s} = {getattr(sol, n): .10g}")
+        print("residuals:")
+        for n, r in sol.residuals.items():
+            print(f"  {n}{'*' if n in sol.used else ' '} = {r: .3e}")
+        print(f"converged: {sol.converged}  feasible: {sol.feasible}  ({sol.message})")
+    if not (sol.converged and sol.feasible):
+        print(f"synth sectors: no feasible solution: {sol.message}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="synth")
+    register(ap.add_subparsers(dest="tool", required=True))
+    args = ap.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
