@@ -233,3 +233,33 @@ def test_fmu_fidelity0_and_fidelity2(fmu_dir):
     s.freeFMUstate(state)
     s.terminate()
     s.freeInstance()
+
+
+def test_double_crank_output_is_continuous_and_turns_once_per_crank_turn():
+    m = FourBarModel(FourBarParams(crank_length=0.1, coupler_length=0.12, rocker_length=0.11, frame_length=0.05))
+    assert m.kind == "double-crank"
+    phis = np.linspace(0.0, 4 * np.pi, 4001)
+    psi = np.array([m.rigid(p, 1.0)[0] for p in phis])
+    assert np.max(np.abs(np.diff(psi))) < 0.05          # no 2*pi jumps
+    # one output turn per crank turn, and the loop closes at every sample
+    assert psi[2000] - psi[0] == pytest.approx(2 * np.pi, abs=1e-9)
+    for p, q in zip(phis[::97], psi[::97]):
+        ax, ay = 0.1 * np.cos(p), 0.1 * np.sin(p)
+        assert np.hypot(0.05 + 0.11 * np.cos(q) - ax, 0.11 * np.sin(q) - ay) == pytest.approx(0.12, abs=1e-12)
+
+
+def test_parallelogram_keeps_its_branch_through_the_dead_points():
+    p = FourBarParams(crank_length=0.05, coupler_length=0.2, rocker_length=0.05, frame_length=0.2)
+    rigid = FourBarModel(p)
+    assert rigid.kind == "parallelogram"
+    assert rigid.rigid(2.5, 3.0) == (2.5, 3.0)
+    elastic = FourBarModel(FourBarParams(**{**p.__dict__, "fidelity": 1, "coupler_stiffness": 1e7,
+                                            "rocker_inertia": 1e-3}))
+    y = run(elastic, 60.0, 0.2, h=1e-4, tau=-1.0, phi0=0.0)   # two crank turns, four dead points
+    crank = 0.0 + 60.0 * np.arange(1, len(y) + 1) * 1e-4
+    assert np.max(np.abs(y[:, 1] - crank)) < 0.05   # stays a parallelogram: a flip would put it radians off
+
+
+def test_non_grashof_and_non_parallelogram_linkages_are_refused():
+    with pytest.raises(ParameterError, match="frame_length"):
+        FourBarModel(FourBarParams(crank_length=0.1, coupler_length=0.3, rocker_length=0.11, frame_length=0.05))

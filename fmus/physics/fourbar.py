@@ -87,6 +87,25 @@ def check_crank_rocker(a: float, b: float, f: float, r: float, names=_LINK_NAMES
                                                   f"other two, got {a + values[i]:g} >= {others:g})")
 
 
+def linkage_type(a: float, b: float, f: float, r: float, tol: float = 1e-12) -> str:
+    """'parallelogram' (crank = rocker, coupler = frame), 'double-crank' (Grashof, frame shortest) or
+    'crank-rocker' (Grashof, crank shortest); anything else raises ParameterError naming the link at fault."""
+    for n, v in zip(_LINK_NAMES, (a, b, f, r)):
+        if not (math.isfinite(v) and v > 0.0):
+            raise ParameterError(n, v, "must be a finite length > 0")
+    scale = max(a, b, f, r)
+    if abs(a - r) <= tol * scale and abs(b - f) <= tol * scale and a < f:
+        return "parallelogram"
+    if f < min(a, b, r):
+        longest = max(a, b, r)
+        if not f + longest < a + b + r - longest:
+            raise ParameterError("frame_length", f, f"double-crank linkage is not Grashof (frame + longest = "
+                                                    f"{f + longest:g} >= sum of the other two {a + b + r - longest:g})")
+        return "double-crank"
+    check_crank_rocker(a, b, f, r)
+    return "crank-rocker"
+
+
 def position(phi, a, b, f, r, branch=1):
     """(psi, theta_c): rocker angle and coupler angle (A -> D) for crank angle phi (closed form)."""
     vx = a * np.cos(phi) - f
@@ -156,7 +175,7 @@ class FourBarParams(Params):
                                             "(seed value 0.2)", low=0.0)
 
     def check(self) -> None:
-        check_crank_rocker(self.crank_length, self.coupler_length, self.frame_length, self.rocker_length)
+        linkage_type(self.crank_length, self.coupler_length, self.frame_length, self.rocker_length)
         if not self.friction_ratio < 1.0:
             raise ParameterError("friction_ratio", self.friction_ratio, "must be < 1")
 
@@ -185,6 +204,10 @@ class FourBarModel(Model):
         self._keep = 1.0 - p.friction_ratio
         self._half = 0.5 * p.clearance
         super().__init__(p)
+        self.kind = linkage_type(self._a, self._b, self._f, self._r)
+        # a double crank's output turns fully: keep rocker.phi continuous as phi + (psi - phi), with the
+        # difference unwrapped around its value at phi = 0 (it stays within +-pi of it for a Grashof linkage)
+        self._offset0 = float(kinematics(0.0, self._a, self._b, self._f, self._r, p.branch)[0])
 
     # -- helpers -----------------------------------------------------------------------------------------
     def substep_limit(self) -> float:
@@ -198,10 +221,27 @@ class FourBarModel(Model):
             dt = min(dt, 1.0 / (p.coupler_damping * r2_over_i))  # RK4 real-axis stability 2.78
         return dt
 
+    def rigid_kinematics(self, phi: float) -> tuple[float, float, float]:
+        """(psi, dpsi/dphi, mu) of the rigid linkage, psi continuous over full turns of a double crank.
+
+        The parallelogram is taken on its parallelogram branch (psi = phi), the branch seed 003's belt
+        between the two crank shafts holds at the dead points; its transmission angle is the angle between
+        coupler (parallel to the frame) and rocker.
+        """
+        if self.kind == "parallelogram":
+            mu = abs(math.atan2(math.sin(phi), math.cos(phi)))
+            return float(phi), 1.0, mu
+        psi, v, _, mu = kinematics(phi, self._a, self._b, self._f, self._r, self.p.branch)
+        psi, v, mu = float(psi), float(v), float(mu)
+        if self.kind == "double-crank":
+            d = psi - phi - self._offset0
+            psi = phi + self._offset0 + math.atan2(math.sin(d), math.cos(d))
+        return psi, v, mu
+
     def rigid(self, phi: float, w: float) -> tuple[float, float]:
         """Rocker angle and speed of the rigid linkage for crank angle phi and speed w."""
-        psi, v, _, _ = kinematics(phi, self._a, self._b, self._f, self._r, self.p.branch)
-        return float(psi), float(v) * w
+        psi, v, _ = self.rigid_kinematics(phi)
+        return psi, v * w
 
     def _geometry(self, phi, wc, psi, w):
         """(q, qdot, ex, ey, arm_rocker, arm_crank) of the elastic coupler."""
@@ -244,8 +284,7 @@ class FourBarModel(Model):
     def output(self, t, x, u):
         p = self.p
         if p.fidelity == 0:
-            psi, v, _, mu = kinematics(u[0], self._a, self._b, self._f, self._r, p.branch)
-            psi, v, mu = float(psi), float(v), float(mu)
+            psi, v, mu = self.rigid_kinematics(u[0])
             _, _, _, _, arm, _ = self._geometry(u[0], u[1], psi, v * u[1])
             return (u[2] * v, psi, v * u[1], mu, u[2] / arm, 0.0, 1.0, x[3], x[4], x[5])
         q, qd, ex, ey, arm, arm_crank = self._geometry(u[0], u[1], x[0], x[1])
