@@ -286,7 +286,10 @@ class FourBarModel(Model):
         if p.fidelity == 0:
             psi, v, mu = self.rigid_kinematics(u[0])
             _, _, _, _, arm, _ = self._geometry(u[0], u[1], psi, v * u[1])
-            return (u[2] * v, psi, v * u[1], mu, u[2] / arm, 0.0, 1.0, x[3], x[4], x[5])
+            # at a dead point (arm = 0, reached exactly only by a parallelogram) the coupler force of the
+            # rigid linkage is indeterminate; seed 003's belt between the crank shafts carries the torque
+            force = u[2] / arm if abs(arm) > 1e-12 * self._r else 0.0
+            return (u[2] * v, psi, v * u[1], mu, force, 0.0, 1.0, x[3], x[4], x[5])
         q, qd, ex, ey, arm, arm_crank = self._geometry(u[0], u[1], x[0], x[1])
         force = self._tension(q, qd, arm, x[2])
         mu = math.acos(max(-1.0, min(1.0, ex * math.cos(x[0]) + ey * math.sin(x[0]))))

@@ -1,0 +1,11 @@
+"""TorqueLoad FMU: generic torque load of a rotating link (constant + Coulomb + viscous + spring)."""
+from fmus.physics.loads import TorqueLoadModel
+from fmus.slave import PressSlave, Rotational
+
+
+class TorqueLoad(PressSlave):
+    model = TorqueLoadModel
+    description = ("Torque load on a driven flange: flange.tau = -(T_const + T_coulomb*tanh(w/w_reg) + d*w + "
+                   "c*(phi - phi_ref)); fidelity 0 (static law) only.")
+    ports = (Rotational("flange", motion="in", doc="driven flange of the loaded link"),)
+    feedthrough = {"flange.tau": ("flange.phi", "flange.w")}

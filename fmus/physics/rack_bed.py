@@ -1,0 +1,148 @@
+"""Pinion and rack driving the flat bed (taler) of a flat-bed press (seed 004: z6 and the bed rack).
+
+The pinion belongs to the differential (its sun-gear shaft): port ``pinion`` is motion in, the output
+``pinion.tau`` is the reaction of the rack on the pinion.  Pinion pitch radius R = module*z_pinion/2.
+
+Forces on the bed (positive forward)
+
+    m_T*a = F_mesh - F_friction(v) - F_load(s, v)
+    F_friction = mu*m_T*g*tanh(v/v_reg) + d_visc*v                      (smoothed Coulomb + viscous guideway)
+    F_load     = F_print*g_zone(s)*max(0, tanh(v/v_reg))                  (printing load)
+
+Printing-load profile (the seeds give none; choice documented here): the impression force F_print acts
+against the motion only while the bed moves forward (v > 0, switched on smoothly over v_reg) inside the
+printing zone [s_print_start, s_print_end]; g_zone rises from 0 to 1 over the first ``ramp`` metres of the
+zone and falls back over its last ``ramp`` metres with the cubic smoothstep 3*x**2 - 2*x**3, so the force
+is continuous in s.  The zone must be at least 2*ramp long.  F_load*v >= 0 always (it only dissipates).
+
+Fidelity levels
+  1  (default) elastic rack mesh between the pinion pitch point R*phi and the bed (state s, v):
+     F_mesh = c_mesh*(R*phi - s) + d_mesh*(R*w - v).  Inside a communication step the pinion angle is
+     extrapolated linearly, phi(t) = pinion.phi + pinion.w*(t - t0).  Initial state: s = R*pinion.phi,
+     v = R*pinion.w (mesh relaxed).
+  0  rigid mesh: s = R*pinion.phi, v = R*pinion.w (direct functions of the inputs).  The acceleration is
+     the backward difference of the pinion speed inputs received at the starts of the last two
+     communication steps, a = R*(w(t_k) - w(t_k-1))/(t_k - t_k-1), kept in a state entry: first order and
+     lagging by about one communication step; 0 until two inputs have been seen.
+     F_mesh = m_T*a + F_friction(v) + F_load(s, v).
+Both levels: pinion.tau = -R*F_mesh, mesh_force = F_mesh (force of the pinion on the rack).
+
+Default data (representative; seed 004 gives no bed mass, pinion radius or printing load): bed 250 kg,
+module 4 mm with 25 teeth (R = 50 mm), mesh stiffness 4e8 N/m (about 14 N/(mm*um) per mm of face width,
+ISO 6336 single-pair value, times 30 mm), 10 % mesh damping ratio, lubricated slideway mu = 0.05,
+impression force 500 N over a 0.6 m zone.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .base import Model, ParameterError, Params, Signal, param
+
+GRAVITY = 9.80665
+
+
+@dataclass(frozen=True)
+class RackBedParams(Params):
+    fidelity: int = param(1, "", "0: rigid rack mesh (bed acceleration from the input history); "
+                          "1: elastic rack mesh (bed has its own state)", choices=(0, 1))
+    m_T: float = param(250.0, "kg", "reduced mass of the bed (taler)", low=0.0, low_open=True)
+    module: float = param(0.004, "m", "gear module of pinion and rack", low=0.0, low_open=True)
+    z_pinion: int = param(25, "", "number of pinion teeth", low=5)
+    c_mesh: float = param(4.0e8, "N/m", "rack mesh stiffness (fidelity 1)", low=0.0, low_open=True)
+    d_mesh: float = param(6.3e4, "N.s/m", "rack mesh damping (fidelity 1)", low=0.0)
+    mu: float = param(0.05, "1", "guideway friction coefficient", low=0.0)
+    v_reg: float = param(0.01, "m/s", "regularisation speed of friction and load switching", low=0.0,
+                         low_open=True)
+    d_visc: float = param(100.0, "N.s/m", "viscous guideway damping", low=0.0)
+    F_print: float = param(500.0, "N", "printing (impression) load force against forward motion", low=0.0)
+    s_print_start: float = param(0.1, "m", "bed position where the printing zone begins")
+    s_print_end: float = param(0.7, "m", "bed position where the printing zone ends")
+    ramp: float = param(0.02, "m", "length of the smooth load ramps at both ends of the zone", low=0.0,
+                        low_open=True)
+
+    def check(self):
+        if not self.s_print_end - self.s_print_start >= 2.0 * self.ramp:
+            raise ParameterError("s_print_end", self.s_print_end,
+                                 f"must be >= s_print_start + 2*ramp = {self.s_print_start + 2.0 * self.ramp:g} m")
+
+
+class RackBedModel(Model):
+    """Pinion-rack-bed; see the module docstring."""
+    Params = RackBedParams
+    inputs = ("pinion.phi", "pinion.w")
+    outputs = ("pinion.tau", "bed.s", "bed.v", "bed.a", "mesh_force")
+    states = (Signal("s", "m", "bed position (fidelity 1; fidelity 0: R*phi extrapolated to the step end)"),
+              Signal("v", "m/s", "bed velocity"),
+              Signal("w_last", "rad/s", "pinion speed input at the start of the last step (fidelity 0)"),
+              Signal("h_last", "s", "length of the last communication step (fidelity 0)"),
+              Signal("a_est", "m/s2", "bed acceleration estimated from the pinion speed inputs (fidelity 0)"))
+
+    def __init__(self, p: RackBedParams):
+        p.validate()
+        self.R = 0.5 * p.module * p.z_pinion
+        self.F_coulomb = p.mu * p.m_T * GRAVITY
+        super().__init__(p)
+
+    # -- force laws ----------------------------------------------------------------------------------------
+    def friction(self, v: float) -> float:
+        p = self.p
+        return self.F_coulomb * math.tanh(v / p.v_reg) + p.d_visc * v
+
+    def zone(self, s: float) -> float:
+        """Printing-zone profile g_zone(s) in [0, 1] (cubic smoothstep ramps at both ends)."""
+        p = self.p
+        x = min(max((s - p.s_print_start) / p.ramp, 0.0), 1.0)
+        y = min(max((p.s_print_end - s) / p.ramp, 0.0), 1.0)
+        return x * x * (3.0 - 2.0 * x) * y * y * (3.0 - 2.0 * y)
+
+    def printing_load(self, s: float, v: float) -> float:
+        p = self.p
+        if v <= 0.0 or p.F_print == 0.0:
+            return 0.0
+        return p.F_print * self.zone(s) * math.tanh(v / p.v_reg)
+
+    # -- Model interface -----------------------------------------------------------------------------------
+    def substep_limit(self) -> float:
+        p = self.p
+        if p.fidelity == 0:
+            return math.inf
+        w_mesh = math.sqrt(p.c_mesh / p.m_T)
+        rate = (p.d_mesh + p.d_visc + (self.F_coulomb + p.F_print) / p.v_reg) / p.m_T
+        return min(0.25 / w_mesh, 0.5 / rate)
+
+    def initial_state(self, u):
+        return np.array([self.R * u[0], self.R * u[1], u[1], 0.0, 0.0])
+
+    def derivatives(self, t, x, u, t0):
+        p = self.p
+        if p.fidelity == 0:
+            return np.zeros(5)
+        s, v = x[0], x[1]
+        f_mesh = p.c_mesh * (self.R * (u[0] + u[1] * (t - t0)) - s) + p.d_mesh * (self.R * u[1] - v)
+        a = (f_mesh - self.friction(v) - self.printing_load(s, v)) / p.m_T
+        return np.array([v, a, 0.0, 0.0, 0.0])
+
+    def advance(self, t0, h, x, u):
+        if self.p.fidelity == 1:
+            return super().advance(t0, h, x, u)
+        a_est = self.R * (u[1] - x[2]) / x[3] if x[3] > 0.0 else 0.0
+        return np.array([self.R * (u[0] + u[1] * h), self.R * u[1], u[1], h, a_est])
+
+    def output(self, t, x, u):
+        p = self.p
+        if p.fidelity == 0:
+            s, v, a = self.R * u[0], self.R * u[1], x[4]
+            f_mesh = p.m_T * a + self.friction(v) + self.printing_load(s, v)
+        else:
+            s, v = x[0], x[1]
+            f_mesh = p.c_mesh * (self.R * u[0] - s) + p.d_mesh * (self.R * u[1] - v)
+            a = (f_mesh - self.friction(v) - self.printing_load(s, v)) / p.m_T
+        return (-self.R * f_mesh, s, v, a, f_mesh)
+
+    def mesh_energy(self, x, phi: float) -> float:
+        """Elastic energy of the rack mesh [J] (fidelity 1)."""
+        stretch = self.R * phi - x[0]
+        return 0.5 * self.p.c_mesh * stretch * stretch
