@@ -1,0 +1,229 @@
+"""Coupling stability of the two-inertia benchmark (harness.stability).
+
+Tier 1: the amplification-matrix theory against closed forms (energy argument for the zero-order-hold
+growth rate, decay rate of the continuous system for h -> 0, unit-circle spectrum of the undamped monolithic
+map) and against an independent in-process co-simulation of the physics models.
+Tier 2: the stability boundary measured by bisection on FMU co-simulations matches the theory within 5 %.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.linalg import expm
+
+from fmus.physics.elements import InertiaModel, InertiaParams, SpringInertiaModel, SpringInertiaParams
+from harness import stability as st
+from harness.stability import TwoInertia
+
+METHODS = [(m, q) for m in ("jacobi", "gauss-seidel") for q in (0, 1, 2)]
+FREE = TwoInertia()  # systems/two_inertia.py: free-free, undamped
+
+
+# -- an independent co-simulation of the physics models (test code, written from harness.extrapolation) -----
+def _poly_at(ts, ys, te):
+    """Lagrange polynomial through (ts, ys) at te."""
+    val = 0.0
+    for j, tj in enumerate(ts):
+        w = 1.0
+        for m, tm in enumerate(ts):
+            if m != j:
+                w *= (te - tm) / (tj - tm)
+        val += w * ys[j]
+    return val
+
+
+def _held(samples, order, t, h):
+    """samples: list of (time, value-array), newest first."""
+    if order == 0:
+        return samples[0][1]
+    use = samples[:order + 1]
+    return _poly_at([s[0] for s in use], [s[1] for s in use], t + 0.5 * h)
+
+
+def cosimulate(p: TwoInertia, h, n, master, order, x0):
+    """States (phi1, w1, phi2, w2) at the n+1 communication points, stepping InertiaModel and
+    SpringInertiaModel with their own advance() (RK4) and the masters' coupling rules."""
+    ip = p.instance_parameters()
+    A = InertiaModel(InertiaParams(**ip["a"]))
+    B = SpringInertiaModel(SpringInertiaParams(**ip["b"]))
+    xa, xb = np.array(x0[:2], float), np.array(x0[2:], float)
+    ya = [(0.0, xa.copy())]                                # motion samples of a (newest first)
+    yb = [(0.0, np.array(B.output(0.0, xb, xa)))]           # torque samples of b (point inputs)
+    out = [np.concatenate([xa, xb])]
+    for k in range(n):
+        t = k * h
+        tau = _held(yb, order, t, h)
+        if master == "jacobi":
+            motion = _held(ya, order, t, h)
+            xa = A.advance(t, h, xa, tau)
+        else:
+            xa = A.advance(t, h, xa, tau)
+            ya.insert(0, (t + h, xa.copy()))
+            motion = _held(ya, order, t, h)
+            ya.pop(0)
+        xb = B.advance(t, h, xb, motion)
+        ya.insert(0, (t + h, xa.copy()))
+        yb.insert(0, (t + h, np.array(B.output(t + h, xb, xa))))
+        del ya[3:], yb[3:]
+        out.append(np.concatenate([xa, xb]))
+    return np.array(out)
+
+
+# -- tier 1 ---------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("master,order", METHODS)
+def test_one_step_prediction_matches_models(master, order):
+    """z_{k+1} = M z_k reproduces the in-process co-simulation of the models (all terms of both models)."""
+    p = TwoInertia(J1=0.013, J2=0.021, c=90.0, d=0.05, c1=15.0, d1=0.02, c2=7.0, d2=0.01)
+    h = 2.3e-3
+    xs = cosimulate(p, h, 8, master, order, [0.1, 1.0, -0.05, 0.3])
+    M = st.amplification_matrix(p, h, master, order)
+    assert M.shape == (4 * (order + 1),) * 2
+    for k in range(3, 8):
+        z = np.concatenate([xs[k - j] for j in range(order + 1)])
+        pred = (M @ z)[:4]
+        np.testing.assert_allclose(pred, xs[k + 1], rtol=1e-12, atol=1e-13)
+
+
+def test_exact_integrator_is_the_limit_of_rk4_substeps():
+    A, B = TwoInertia(c1=20.0, d=0.1).subsystem_b()
+    Phi, Gam = st.held_input_map(A, B, 4e-3, "exact")
+    E = expm(np.block([[A, B], [np.zeros((2, 4))]]) * 4e-3)
+    np.testing.assert_allclose(Phi, E[:2, :2], rtol=1e-13)
+    Phi64, Gam64 = st.held_input_map(A, B, 4e-3, "rk4", 64)
+    np.testing.assert_allclose(Phi64, Phi, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(Gam64, Gam, rtol=1e-9, atol=1e-12)
+    Phi1, _ = st.held_input_map(A, B, 4e-3, "rk4", 1)
+    assert np.max(np.abs(Phi1 - Phi)) > 1e-9   # one RK4 step is not exact at this step
+
+
+def test_models_take_one_rk4_step_per_communication_step():
+    """The assumption behind integrator='rk4': substep_limit() = inf for both models."""
+    assert st.model_substeps(FREE, 1e-3) == (1, 1)
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "exact"])
+def test_zero_order_hold_growth_rate_closed_form(integrator):
+    """Undamped free-free, zero-order hold: energy argument (module tests doc).  Per step the coupled energy
+    grows by c dphi1 (dphi1/2 - dphi2) (Jacobi) or c dphi1^2/2 (Gauss-Seidel); averaged over the relative
+    mode this gives rho - 1 = c h^2 (J1 + J2/2) / (2 J1 (J1+J2)) and c h^2 J2 / (4 J1 (J1+J2)): the radius
+    tends to 1 FROM THE RIGHT as h^2."""
+    p = FREE
+    for h in (1e-4, 3e-5):
+        jac = p.c * h * h * (p.J1 + 0.5 * p.J2) / (2 * p.J1 * (p.J1 + p.J2))
+        gs = p.c * h * h * p.J2 / (4 * p.J1 * (p.J1 + p.J2))
+        assert st.spectral_radius(p, h, "jacobi", 0, integrator) - 1 == pytest.approx(jac, rel=5e-3)
+        assert st.spectral_radius(p, h, "gauss-seidel", 0, integrator) - 1 == pytest.approx(gs, rel=5e-3)
+
+
+@pytest.mark.parametrize("master,order", METHODS)
+def test_small_steps_decay_like_the_continuous_system(master, order):
+    """Damped system: rho = exp(-sigma h) + higher order, sigma = -max Re eig(A): 1 FROM THE LEFT."""
+    p = st.STUDY_BASE
+    sigma = -np.max(np.linalg.eigvals(p.coupled()).real)
+    h = 1e-6
+    rho = st.spectral_radius(p, h, master, order)
+    assert rho < 1.0
+    assert (1.0 - rho) / h == pytest.approx(sigma, rel=0.02)
+
+
+def test_monolithic_map_is_on_the_unit_circle_when_undamped():
+    for p in (TwoInertia(c1=20.0, c2=5.0), TwoInertia(J2=0.05, c=300.0, c1=1.0)):
+        for h in (1e-4, 3e-3, 0.05):
+            ev = np.abs(np.linalg.eigvals(st.monolithic_matrix(p, h)))
+            np.testing.assert_allclose(ev, 1.0, atol=1e-10)
+    # free-free: rigid-body Jordan block; the exact map keeps energy, so rho stays 1 up to round-off
+    assert st.spectral_radius(st.monolithic_matrix(FREE, 1e-3)) == pytest.approx(1.0, abs=1e-7)
+    damped = TwoInertia(c1=20.0, d=0.1)
+    assert st.spectral_radius(st.monolithic_matrix(damped, 1e-3)) < 1.0
+
+
+def test_free_system_rest_is_an_exact_eigenvalue():
+    for master, order in METHODS:
+        M = st.amplification_matrix(FREE, 1e-3, master, order)
+        s = st.rigid_shift(order + 1)
+        np.testing.assert_allclose(M @ s, s, atol=1e-12)
+
+
+@pytest.mark.parametrize("master,order", [("jacobi", 1), ("gauss-seidel", 2), ("jacobi", 0)])
+def test_theory_boundary_is_a_crossing_of_one(master, order):
+    p = st.STUDY_BASE
+    hb = st.stability_boundary(p, master, order)
+    assert math.isfinite(hb)
+    assert st.spectral_radius(p, 0.999 * hb, master, order) <= 1.0 + 1e-9
+    assert st.spectral_radius(p, 1.001 * hb, master, order) > 1.0
+    # and every smaller step on a grid is stable (it is the FIRST crossing)
+    for h in np.geomspace(hb * 1e-3, 0.999 * hb, 40):
+        assert st.spectral_radius(p, h, master, order) <= 1.0 + 1e-9
+
+
+def test_undamped_jacobi_zero_order_hold_is_never_stable():
+    assert st.stability_boundary(FREE, "jacobi", 0, h_lo=1e-6, h_hi=1e-2) == 1e-6
+
+
+def test_growth_criterion_on_synthetic_runs():
+    t = np.arange(801) * 1e-3
+    for rate, unstable in ((-0.5, False), (0.5, True), (-3.0, False)):
+        df = pd.DataFrame({"b.drive.tau": np.exp(rate * t) * np.sin(80 * t) + 2.0,
+                           "a.flange.phi": 5.0 * t}, index=pd.Index(t, name="time"))
+        assert st.is_unstable(df) is unstable
+    df.attrs["complete"] = False
+    assert st.is_unstable(df)
+
+
+def test_bad_input_names_the_parameter():
+    with pytest.raises(ValueError, match="master"):
+        st.amplification_matrix(FREE, 1e-3, "newton", 0)
+    with pytest.raises(ValueError, match="order"):
+        st.amplification_matrix(FREE, 1e-3, "jacobi", 3)
+    with pytest.raises(ValueError, match="step h"):
+        st.amplification_matrix(FREE, -1e-3, "jacobi", 0)
+    with pytest.raises(ValueError, match="J2"):
+        TwoInertia(J2=0.0)
+    with pytest.raises(ValueError, match="integrator"):
+        st.amplification_matrix(FREE, 1e-3, "jacobi", 0, integrator="euler")
+    with pytest.raises(ValueError, match="h_lo"):
+        st.measured_boundary(lambda h: None, 1e-3, 1e-4)
+
+
+def test_study_cli_theory_only(tmp_path):
+    ap = argparse.ArgumentParser()
+    sub = ap.add_subparsers(dest="command", required=True)
+    st.register(sub)
+    args = ap.parse_args(["study", "stability", "two_inertia", "--no-measure", "--values", "0.5", "2",
+                          "--out", str(tmp_path)])
+    assert args.func(args) == 0
+    table = pd.read_csv(tmp_path / "stability_two_inertia_inertia.csv")
+    assert len(table) == 2 * 6
+    assert table["h_measured"].isna().all()
+    row = table[(table.ratio == 2.0) & (table.master == "gauss-seidel") & (table.order == 1)].iloc[0]
+    p = TwoInertia(J1=row.p_J1, J2=row.p_J2, c=row.p_c, d=row.p_d, c1=row.p_c1, d1=row.p_d1, c2=row.p_c2,
+                   d2=row.p_d2)
+    assert p.J2 == pytest.approx(2.0 * p.J1)
+    assert st.spectral_radius(p, 0.99 * row.h_theory, "gauss-seidel", 1) <= 1.0 + 1e-9
+    assert st.spectral_radius(p, 1.01 * row.h_theory, "gauss-seidel", 1) > 1.0
+    for ext in ("png", "svg"):
+        assert (tmp_path / f"stability_two_inertia_inertia.{ext}").stat().st_size > 1000
+
+
+# -- tier 2: measured on the FMUs ------------------------------------------------------------------------------
+@pytest.mark.parametrize("master,order", METHODS)
+def test_measured_boundary_matches_theory(fmu_dir, master, order):
+    """Bisection on real co-simulation runs (blow-up criterion of harness.stability) within 5 % of the
+    amplification-matrix boundary."""
+    p = st.STUDY_BASE
+    h_theory = st.stability_boundary(p, master, order)
+    run = st.two_inertia_run(p, master, order, periods=30, min_steps=200, fmu_dir=fmu_dir)
+    h_measured = st.measured_boundary(run, 0.8 * h_theory, 1.25 * h_theory, rtol=0.01)
+    assert h_measured == pytest.approx(h_theory, rel=0.05)
+
+
+def test_measured_runs_are_judged_both_ways(fmu_dir):
+    p = st.STUDY_BASE
+    hb = st.stability_boundary(p, "jacobi", 1)
+    run = st.two_inertia_run(p, "jacobi", 1, periods=30, min_steps=200, fmu_dir=fmu_dir)
+    assert st.growth_ratio(run(0.9 * hb)) < 1.0
+    assert st.growth_ratio(run(1.1 * hb)) > 1.0
