@@ -126,6 +126,10 @@ class PressSlave(Fmi2Slave):
     ports: ClassVar[tuple[Port, ...]] = ()
     signals: ClassVar[tuple[Variable, ...]] = ()
     feedthrough: ClassVar[dict[str, tuple[str, ...]]] = {}
+    # motion-input ports whose position the model advances over a step with the held velocity input
+    # (phi(t) = port.phi + port.w*(t - t0)); declared in the modelDescription (VendorAnnotations, tool
+    # "org.pressdrive") so a master hands these positions over at the step start, not extrapolated
+    advances_position: ClassVar[bool] = True
     author = "press-drive toolkit"
     license = "MIT"
     version = "0.1.0"
@@ -307,6 +311,13 @@ class PressSlave(Fmi2Slave):
         pos = list(root).index(root.find("CoSimulation")) + 1
         root.insert(pos, unit_defs)
 
+        advanced = [f"{port.name}.{'s' if port.translational else 'phi'}" for port in type(self).ports
+                    if port.motion == "in" and type(self).advances_position]
+        if advanced:
+            vendor = Element("VendorAnnotations")
+            tool = SubElement(vendor, "Tool", name="org.pressdrive")
+            SubElement(tool, "AdvancedPositions", variables=" ".join(advanced))
+            root.insert(list(root).index(root.find("ModelVariables")), vendor)
         root.remove(root.find("ModelStructure"))
         structure = SubElement(root, "ModelStructure")
         outputs = [v.name for v in self._io if v.causality == "output"]

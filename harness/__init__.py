@@ -1,0 +1,29 @@
+"""The co-simulation master: wire FMI 2.0 co-simulation FMUs into a system and run it.
+
+    from harness import load, simulate
+    df = simulate(load("two_inertia"), stop_time=1.0, step=1e-3, master="gauss-seidel", extrapolation=1)
+
+Modules: :mod:`harness.model` (the system as data), :mod:`harness.fmu` (checked FMU wrapper),
+:mod:`harness.graph` (dependency graphs, loops), :mod:`harness.masters` (jacobi, gauss-seidel, iterative),
+:mod:`harness.extrapolation`, :mod:`harness.stepcontrol` (richardson, ecco), :mod:`harness.results`,
+:mod:`harness.run` (``simulate`` and the ``run`` CLI command).  Heavy imports happen on first use.
+"""
+from __future__ import annotations
+
+__all__ = ["load", "simulate", "RunOptions", "bond_energy", "to_csv", "MASTERS"]
+
+
+def __getattr__(name):
+    if name in ("load", "simulate", "RunOptions"):
+        from harness import run
+
+        return getattr(run, name)
+    if name in ("bond_energy", "to_csv"):
+        from harness import results
+
+        return getattr(results, name)
+    if name == "MASTERS":
+        from harness.masters import MASTERS
+
+        return MASTERS
+    raise AttributeError(f"module 'harness' has no attribute {name!r}")

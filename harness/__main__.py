@@ -1,0 +1,44 @@
+"""``python -m harness <command>``: run, export (SSP), synth, study, scene, sweep.
+
+A failure exits non-zero with a one-line error on stderr and no traceback (``--debug`` shows it)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="python -m harness", description=__doc__.splitlines()[0])
+    ap.add_argument("--debug", action="store_true", help="show the traceback of a failure")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    from harness import run, scenes, ssp, stability, sweep, synthesis
+
+    run.register(sub)             # run a system
+    ssp.register(sub)             # export a system as SSP
+    synthesis.register(sub)       # synth fourbar|groove|sectors|knife
+    stability.register(sub)       # study stability
+    scenes.register(sub)          # scene X NAME
+    sweep.register(sub)           # sweep X --grid spec
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    debug = "--debug" in argv
+    try:
+        ap = build_parser()
+        args = ap.parse_args(argv)
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:  # one line, no traceback
+        if debug:
+            raise
+        text = str(e).strip().splitlines()[0] if str(e).strip() else ""
+        print(f"error: {type(e).__name__}: {text}" if text else f"error: {type(e).__name__}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,58 @@
+"""Exceptions of the co-simulation master.  Every message is one line naming what failed and where."""
+from __future__ import annotations
+
+
+class HarnessError(Exception):
+    """Base of every error raised by the harness."""
+
+
+class SystemError_(HarnessError, ValueError):
+    """A system that cannot be simulated as described: unknown instance or variable, a variable connected
+    twice, causality or unit mismatch, an unknown parameter, an unknown master/extrapolation/step control."""
+
+
+class AlgebraicLoopError(SystemError_):
+    """Direct feed-through around a cycle of connections that the chosen master cannot solve.
+
+    ``loops`` lists every loop as the sorted ``Instance.variable`` names in it."""
+
+    def __init__(self, message: str, loops: list[list[str]]):
+        super().__init__(message)
+        self.loops = loops
+
+
+class FMUError(HarnessError):
+    """An FMI call that did not return fmi2OK/fmi2Warning (or returned a non-finite value).
+
+    Carries ``instance``, ``function`` (the FMI call), ``time`` [s], ``status`` (FMI status code, or None)
+    and ``log`` (the last error message the FMU logged, if any)."""
+
+    def __init__(self, instance: str, function: str, time: float | None, status: int | None,
+                 log: str = "", detail: str = ""):
+        self.instance, self.function, self.time, self.status, self.log = instance, function, time, status, log
+        label = {1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}.get(status, str(status))
+        where = f" at t = {time:.9g} s" if time is not None else ""
+        text = f"instance {instance}: {function} failed{where}"
+        if status is not None:
+            text += f" with status {label}"
+        if detail:
+            text += f": {detail}"
+        if log:
+            text += f": {log}"
+        super().__init__(" ".join(text.split()))
+
+
+class StepDiscarded(FMUError):
+    """fmi2DoStep returned fmi2Discard (the FMU could not complete the step; a variable-step master may retry
+    with a smaller step after a rollback)."""
+
+
+class SimulationError(HarnessError):
+    """A run that stopped before its end.  ``partial`` is the result DataFrame up to the last good
+    communication point (``partial.attrs["complete"]`` is False); ``time``, ``instance`` and ``variable``
+    say where it failed (each may be None)."""
+
+    def __init__(self, message: str, partial=None, time: float | None = None, instance: str | None = None,
+                 variable: str | None = None):
+        super().__init__(message)
+        self.partial, self.time, self.instance, self.variable = partial, time, instance, variable

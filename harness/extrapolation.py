@@ -1,0 +1,149 @@
+"""Input extrapolation: the value an FMU holds on an input over a communication step.
+
+FMI 2.0 FMUs without ``canInterpolateInputs`` hold each input constant over ``[t, t+h]``.  The constant
+that minimises the coupling error is the source signal's value at the step MIDPOINT, not at its start: the
+held value then matches the signal's mean over the step to O(h^2), so the global coupling error is of order 2
+instead of 1.  So, for polynomial order ``k``:
+
+* ``k = 0`` (zero-order hold): the newest known sample of the source (time t for Jacobi; time t+h for a
+  source that Gauss-Seidel has already stepped);
+* ``k >= 1``: the polynomial of degree ``k`` through the newest ``k+1`` samples, evaluated at ``t + h/2``
+  (extrapolation for Jacobi; interpolation where the newest sample is already at t+h);
+* an FMU that declares ``canInterpolateInputs`` receives the polynomial's value at the step START and its
+  derivatives there (fmi2SetRealInputDerivatives, orders 1..k), so it can follow the polynomial itself.
+
+Until ``k+1`` samples exist (the first steps) the degree drops to what the samples allow.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from harness.errors import SystemError_
+
+DEPTH = 3  # samples kept per signal (enough for degree 2)
+
+
+class History:
+    """The last :data:`DEPTH` samples (time, value) of each coupling signal; row 0 is the newest.
+
+    Samples are pushed per instance (a slice of the signal vector), because Gauss-Seidel advances instances
+    one after the other; pushing again at the newest time overwrites that sample (iterations of a step)."""
+
+    __slots__ = ("t", "y", "n")
+
+    def __init__(self, n_signals: int):
+        self.t = np.zeros((DEPTH, n_signals))
+        self.y = np.zeros((DEPTH, n_signals))
+        self.n = np.zeros(n_signals, dtype=np.int64)
+
+    def push(self, sl: slice, t: float, values: np.ndarray) -> None:
+        if sl.stop == sl.start:
+            return
+        if self.n[sl.start] > 0 and self.t[0, sl.start] == t:
+            self.y[0, sl] = values
+            return
+        self.t[1:, sl] = self.t[:-1, sl]
+        self.y[1:, sl] = self.y[:-1, sl]
+        self.t[0, sl] = t
+        self.y[0, sl] = values
+        np.minimum(self.n[sl] + 1, DEPTH, out=self.n[sl])
+
+    def copy_from(self, other: "History") -> None:
+        self.t[:] = other.t
+        self.y[:] = other.y
+        self.n[:] = other.n
+
+    def snapshot(self) -> "History":
+        h = History(self.t.shape[1])
+        h.copy_from(self)
+        return h
+
+
+class Polynomial:
+    """Extrapolation of polynomial order ``order`` (0, 1 or 2).  ``uses_midpoint`` is True for order >= 1."""
+
+    name = "polynomial"
+
+    def __init__(self, order: int):
+        if order not in (0, 1, 2):
+            raise SystemError_(f"extrapolation = {order!r} is not admissible: must be 0, 1 or 2")
+        self.order = order
+        self.uses_midpoint = order >= 1
+
+    def __repr__(self) -> str:
+        return f"Polynomial({self.order})"
+
+    def _coefficients(self, hist: History, idx: np.ndarray, te: float):
+        """Weights w (3 x len(idx)) with p(te) = sum w * y, and dw, ddw for p', p''."""
+        t0, t1, t2 = hist.t[0, idx], hist.t[1, idx], hist.t[2, idx]
+        k = np.minimum(self.order, hist.n[idx] - 1)
+        m = len(idx)
+        w = np.zeros((3, m))
+        dw = np.zeros((3, m))
+        ddw = np.zeros((3, m))
+        w[0] = 1.0
+        lin = k == 1
+        if lin.any():
+            d = np.where(lin, t0 - t1, 1.0)
+            a = (te - t0) / d
+            w[0] = np.where(lin, 1.0 + a, w[0])
+            w[1] = np.where(lin, -a, w[1])
+            dw[0] = np.where(lin, 1.0 / d, 0.0)
+            dw[1] = np.where(lin, -1.0 / d, 0.0)
+        quad = k == 2
+        if quad.any():
+            d0 = np.where(quad, (t0 - t1) * (t0 - t2), 1.0)
+            d1 = np.where(quad, (t1 - t0) * (t1 - t2), 1.0)
+            d2 = np.where(quad, (t2 - t0) * (t2 - t1), 1.0)
+            for j, (ta, tb, dj) in enumerate(((t1, t2, d0), (t0, t2, d1), (t0, t1, d2))):
+                w[j] = np.where(quad, (te - ta) * (te - tb) / dj, w[j])
+                dw[j] = np.where(quad, ((te - ta) + (te - tb)) / dj, dw[j])
+                ddw[j] = np.where(quad, 2.0 / dj, ddw[j])
+        return w, dw, ddw
+
+    def held(self, hist: History, idx: np.ndarray, t: float, h: float) -> np.ndarray:
+        """The constant to hold on the inputs fed by signals ``idx`` over ``[t, t+h]``."""
+        if self.order == 0:
+            return hist.y[0, idx]
+        te = t + 0.5 * h
+        if hist.n[idx].min() > self.order:  # fast path: every signal has its full set of samples
+            y, ts = hist.y[:, idx], hist.t[:, idx]
+            if self.order == 1:
+                return y[0] + (te - ts[0]) / (ts[0] - ts[1]) * (y[0] - y[1])
+            a, b, c = te - ts[0], te - ts[1], te - ts[2]
+            return (y[0] * b * c / ((ts[0] - ts[1]) * (ts[0] - ts[2]))
+                    + y[1] * a * c / ((ts[1] - ts[0]) * (ts[1] - ts[2]))
+                    + y[2] * a * b / ((ts[2] - ts[0]) * (ts[2] - ts[1])))
+        w, _, _ = self._coefficients(hist, idx, te)
+        return np.einsum("ij,ij->j", w, hist.y[:, idx])
+
+    def at_start(self, hist: History, idx: np.ndarray, t: float) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Value and derivatives (orders 1..order) of the polynomial at the step start ``t`` (for FMUs that
+        can interpolate inputs)."""
+        w, dw, ddw = self._coefficients(hist, idx, t)
+        y = hist.y[:, idx]
+        value = np.einsum("ij,ij->j", w, y)
+        ders = [np.einsum("ij,ij->j", dw, y), np.einsum("ij,ij->j", ddw, y)][: self.order]
+        return value, ders
+
+
+EXTRAPOLATIONS = {"hold": 0, "zoh": 0, "linear": 1, "quadratic": 2}
+
+
+def extrapolation(spec) -> Polynomial:
+    """An extrapolation strategy from an order (0, 1, 2), a name (hold/zoh, linear, quadratic) or itself."""
+    if isinstance(spec, Polynomial):
+        return spec
+    if spec is None:
+        return Polynomial(0)
+    if isinstance(spec, str):
+        key = spec.strip().lower()
+        if key in EXTRAPOLATIONS:
+            return Polynomial(EXTRAPOLATIONS[key])
+        if key.isdigit():
+            return Polynomial(int(key))
+        raise SystemError_(f"extrapolation = {spec!r} is not admissible: use 0, 1, 2 or one of "
+                           f"{', '.join(EXTRAPOLATIONS)}")
+    if isinstance(spec, bool) or not isinstance(spec, int):
+        raise SystemError_(f"extrapolation = {spec!r} is not admissible: must be 0, 1 or 2")
+    return Polynomial(spec)

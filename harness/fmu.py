@@ -1,0 +1,333 @@
+"""A thin, checked wrapper over fmpy's low-level FMI 2.0 co-simulation interface.
+
+* The FMU archive is extracted once per process (cached by path and modification time) and its shared
+  library stays loaded for the life of the process: pythonfmu FMUs run Python inside the process, and
+  unloading and reloading their library is neither cheap nor safe.  ``free()`` frees the instance only.
+* Value references are resolved once (:meth:`FMU.reals` returns a :class:`RealBlock`: the references and a
+  preallocated value buffer as ctypes arrays with a numpy view); get/set of reals are one C call on those
+  buffers, without per-call allocation.
+* Every FMI status is checked; anything but fmi2OK/fmi2Warning raises :class:`~harness.errors.FMUError`
+  naming the instance, the FMI call and the time, with the last error message the FMU logged (pythonfmu
+  reports a Python exception as fmi2Fatal with the text only in the log).  fmi2Discard from fmi2DoStep raises
+  :class:`~harness.errors.StepDiscarded`.
+"""
+from __future__ import annotations
+
+import ctypes
+import shutil
+import tempfile
+from collections import deque
+from ctypes import POINTER, byref, c_char_p, c_double, c_int, c_uint, c_void_p
+from pathlib import Path
+
+import numpy as np
+from fmpy import read_model_description
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2FMUstate)
+from fmpy.fmi1 import calloc, free
+
+from harness.errors import FMUError, StepDiscarded
+
+OK, WARNING, DISCARD, ERROR, FATAL, PENDING = range(6)
+_LABELS = ("ok", "warning", "discard", "error", "fatal", "pending")
+
+# -- extraction cache (path + mtime -> (model description, unzip dir)) ---------------------------------------
+# Extracted FMUs are NOT deleted at exit: the shared libraries (and, for pythonfmu FMUs, the Python modules
+# they loaded) stay in use until the interpreter is gone, and removing them in an atexit hook crashes the
+# finalisation.  Instead the folder is a content-keyed cache shared by processes (no accumulation).
+_EXTRACTED: dict[tuple[str, float], tuple[object, Path]] = {}
+
+
+def cache_dir() -> Path:
+    """$PRESSDRIVE_CACHE/fmus, else <temp>/pressdrive_fmu_cache."""
+    import os
+
+    env = os.environ.get("PRESSDRIVE_CACHE")
+    return Path(env) / "fmus" if env else Path(tempfile.gettempdir()) / "pressdrive_fmu_cache"
+
+
+def extracted(path: str | Path):
+    """(model description, unzip directory) of an FMU, extracted once per process and modification time."""
+    p = Path(path).resolve()
+    if not p.is_file():
+        raise FMUError(str(path), "extract", None, None, detail=f"no such FMU file {p}")
+    key = (str(p), p.stat().st_mtime)
+    hit = _EXTRACTED.get(key)
+    if hit is None:
+        import zipfile
+
+        md = read_model_description(str(p))
+        if md.coSimulation is None:
+            raise FMUError(p.stem, "read_model_description", None, None,
+                           detail=f"{p.name} is not an FMI 2.0 co-simulation FMU")
+        import hashlib
+        import os
+
+        st = p.stat()
+        digest = hashlib.sha1(f"{p}|{st.st_mtime_ns}|{st.st_size}".encode()).hexdigest()[:16]
+        root = cache_dir()
+        d = root / f"{p.stem}_{digest}"
+        if not (d / ".complete").is_file():
+            root.mkdir(parents=True, exist_ok=True)
+            tmp = Path(tempfile.mkdtemp(prefix=f".{p.stem}_", dir=root))
+            with zipfile.ZipFile(p) as z:
+                z.extractall(tmp)
+            (tmp / ".complete").write_text("ok")
+            try:
+                os.replace(tmp, d)  # atomic; another process may have won the race
+            except OSError:
+                shutil.rmtree(tmp, ignore_errors=True)
+        hit = _EXTRACTED[key] = (md, d)
+    return hit
+
+
+# -- log capture ------------------------------------------------------------------------------------------------
+# One logger for every instance (fmpy's native proxy formats the variadic message first); messages are routed
+# to the wrapper by instance name.
+_BY_NAME: dict[bytes, "FMU"] = {}
+
+
+def _log(env, instance_name, status, category, message):
+    fmu = _BY_NAME.get(instance_name)
+    text = message.decode("utf-8", "replace") if message else ""
+    if fmu is None:  # fmpy's native proxy keeps ONE Python logger for all FMUs: behave like fmpy's for others
+        print(f"[{_LABELS[status].upper() if 0 <= status < 6 else status}] {text}")
+        return
+    if fmu is not None:
+        fmu.log.append((status, text))
+        if status >= ERROR:
+            fmu.errors.append(" ".join(text.split()))
+
+
+_CALLBACKS = fmi2CallbackFunctions()
+_CALLBACKS.logger = fmi2CallbackLoggerTYPE(_log)
+_CALLBACKS.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+_CALLBACKS.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+
+
+def _install_proxy() -> None:
+    """fmpy's native proxy formats variadic messages; it holds a single Python logger for the process, so it
+    is (re)installed before each instantiation (unknown instances are printed as fmpy does)."""
+    try:
+        from fmpy.logging import addLoggerProxy
+
+        addLoggerProxy(byref(_CALLBACKS))
+    except Exception:  # pragma: no cover - no native proxy: messages arrive unformatted
+        pass
+
+
+_install_proxy()
+
+
+def advanced_positions(unzip_dir: Path) -> frozenset:
+    """Motion-input positions the FMU advances itself over a step with the held speed (the toolkit's
+    VendorAnnotations tool "org.pressdrive"; empty for any other FMU)."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(Path(unzip_dir) / "modelDescription.xml").getroot()
+    except (OSError, ET.ParseError):
+        return frozenset()
+    el = root.find("VendorAnnotations/Tool[@name='org.pressdrive']/AdvancedPositions")
+    return frozenset((el.get("variables") or "").split()) if el is not None else frozenset()
+
+
+_LEAKED: list = []  # instances that failed and are deliberately never freed (see FMU.free)
+
+
+class RealBlock:
+    """Value references of some Real variables and a preallocated value buffer (``values`` is a numpy view
+    of the ctypes buffer).  ``names`` are the variable names, in order."""
+
+    __slots__ = ("names", "n", "vr", "buf", "values")
+
+    def __init__(self, names: list[str], refs: list[int]):
+        self.names = list(names)
+        self.n = len(refs)
+        self.vr = (c_uint * max(1, self.n))(*refs)
+        self.buf = (c_double * max(1, self.n))()
+        self.values = np.ctypeslib.as_array(self.buf)[: self.n]
+
+
+class FMU:
+    """One instance of an FMI 2.0 co-simulation FMU.
+
+    ``path`` is the .fmu file; ``name`` the instance name (used in every error message).  Attributes:
+    ``md`` (fmpy model description), ``variables`` (name -> fmpy ModelVariable), ``time`` (the current
+    communication point, for messages), ``log`` (the last 200 log messages as (status, text)), ``last_error``.
+    """
+
+    def __init__(self, path: str | Path, name: str, logging_on: bool = True):
+        self.path = Path(path)
+        self.name = name
+        self.md, self.unzip_dir = extracted(self.path)
+        cs = self.md.coSimulation
+        self.variables = {v.name: v for v in self.md.modelVariables}
+        self.can_get_set_state = bool(cs.canGetAndSetFMUstate)
+        self.can_vary_step = bool(cs.canHandleVariableCommunicationStepSize)
+        self.can_interpolate_inputs = bool(cs.canInterpolateInputs)
+        self.advanced_positions = advanced_positions(self.unzip_dir)
+        self.max_input_derivative_order = 2 if self.can_interpolate_inputs else 0
+        self.log: deque = deque(maxlen=200)
+        self.errors: list[str] = []   # error messages logged by the FMU
+        self._reported = 0
+        self.failed = False  # set once the instance returned fmi2Error or fmi2Fatal
+        self.time: float | None = None
+        self._states: list = []
+        self._slave = FMU2Slave(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
+                                modelIdentifier=cs.modelIdentifier, instanceName=name)
+        f = self._slave._functions
+        self._f = f
+        self._do_step = f["fmi2DoStep"]
+        self._get_real = f["fmi2GetReal"]
+        self._set_real = f["fmi2SetReal"]
+        self._key = name.encode("utf-8")
+        _BY_NAME[self._key] = self
+        _install_proxy()
+        resource = (self.unzip_dir / "resources").as_uri().encode("utf-8")
+        self.c = f["fmi2Instantiate"](self._key, 1, self.md.guid.encode("utf-8"), resource, byref(_CALLBACKS),
+                                      0, 1 if logging_on else 0)
+        if not self.c:
+            raise FMUError(name, "fmi2Instantiate", None, None, self.last_error)
+
+    # -- checking ----------------------------------------------------------------------------------------------
+    @property
+    def last_error(self) -> str:
+        """The error messages logged since the last reported failure (the FMU's own lines first; the generic
+        'Fatal py exception' line of pythonfmu only when there is nothing else)."""
+        msgs = self.errors[self._reported:]
+        specific = [m for m in msgs if not m.startswith("Fatal py exception")]
+        return "; ".join(specific or msgs[-1:])
+
+    def _check(self, status: int, function: str) -> None:
+        if status > WARNING:
+            if status >= ERROR:
+                self.failed = True
+            cls = StepDiscarded if status == DISCARD else FMUError
+            log = self.last_error
+            self._reported = len(self.errors)
+            raise cls(self.name, function, self.time, status, log)
+
+    def var(self, name: str):
+        v = self.variables.get(name)
+        if v is None:
+            raise FMUError(self.name, "lookup", None, None,
+                           detail=f"FMU {self.md.modelName} has no variable {name!r}")
+        return v
+
+    def reals(self, names) -> RealBlock:
+        """A :class:`RealBlock` for these Real variables (references resolved once)."""
+        refs = []
+        for n in names:
+            v = self.var(n)
+            if v.type != "Real":
+                raise FMUError(self.name, "lookup", None, None, detail=f"variable {n} is {v.type}, not Real")
+            refs.append(v.valueReference)
+        return RealBlock(list(names), refs)
+
+    # -- life cycle --------------------------------------------------------------------------------------------
+    def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
+        self.time = start_time
+        self._check(self._f["fmi2SetupExperiment"](self.c, tolerance is not None, tolerance or 0.0, start_time,
+                                                   stop_time is not None, stop_time or 0.0),
+                    "fmi2SetupExperiment")
+
+    def enter_initialization(self) -> None:
+        self._check(self._f["fmi2EnterInitializationMode"](self.c), "fmi2EnterInitializationMode")
+
+    def exit_initialization(self) -> None:
+        self._check(self._f["fmi2ExitInitializationMode"](self.c), "fmi2ExitInitializationMode")
+
+    def terminate(self) -> None:
+        if self.failed or not self.c:  # no further calls into an instance that failed
+            return
+        self._check(self._f["fmi2Terminate"](self.c), "fmi2Terminate")
+
+    def free(self) -> None:
+        """Free the instance and its saved states (the shared library stays loaded).
+
+        An instance that reported fmi2Error or fmi2Fatal is left allocated (a small leak): freeing a pythonfmu
+        0.7 instance after a Python exception corrupts the heap and crashes the process later."""
+        if self.c and self.failed:
+            _LEAKED.append(self.c)
+            self.c = None
+            return
+        if self.c:
+            for s in self._states:
+                self._f["fmi2FreeFMUstate"](self.c, byref(s))
+            self._states.clear()
+            self._f["fmi2FreeInstance"](self.c)
+            self.c = None
+            if _BY_NAME.get(self._key) is self:
+                del _BY_NAME[self._key]
+
+    # -- values ------------------------------------------------------------------------------------------------
+    def get(self, block: RealBlock) -> np.ndarray:
+        """Read the block's variables into its buffer and return the numpy view."""
+        if block.n:
+            self._check(self._get_real(self.c, block.vr, block.n, block.buf), "fmi2GetReal")
+        return block.values
+
+    def set(self, block: RealBlock, values=None) -> None:
+        """Write ``values`` (or the block's own buffer, if None) to the block's variables."""
+        if values is not None:
+            block.values[:] = values
+        if block.n:
+            self._check(self._set_real(self.c, block.vr, block.n, block.buf), "fmi2SetReal")
+
+    def set_input_derivatives(self, block: RealBlock, order: int, values) -> None:
+        """fmi2SetRealInputDerivatives of one derivative order for the block's variables."""
+        n = block.n
+        if not n:
+            return
+        orders = (c_int * n)(*([order] * n))
+        vals = (c_double * n)(*values)
+        self._check(self._f["fmi2SetRealInputDerivatives"](self.c, block.vr, n, orders, vals),
+                    "fmi2SetRealInputDerivatives")
+
+    def set_value(self, name: str, value) -> None:
+        """Set one variable of any type (parameters, start values); ``value`` is converted to its type."""
+        v = self.var(name)
+        vr = (c_uint * 1)(v.valueReference)
+        if v.type == "Real":
+            self._check(self._f["fmi2SetReal"](self.c, vr, 1, (c_double * 1)(float(value))), "fmi2SetReal")
+        elif v.type in ("Integer", "Enumeration"):
+            iv = int(value)
+            if iv != value:
+                raise FMUError(self.name, "fmi2SetInteger", self.time, None,
+                               detail=f"{name} = {value!r} is not an integer")
+            self._check(self._f["fmi2SetInteger"](self.c, vr, 1, (c_int * 1)(iv)), "fmi2SetInteger")
+        elif v.type == "Boolean":
+            self._check(self._f["fmi2SetBoolean"](self.c, vr, 1, (c_int * 1)(1 if value else 0)), "fmi2SetBoolean")
+        elif v.type == "String":
+            self._check(self._f["fmi2SetString"](self.c, vr, 1, (c_char_p * 1)(str(value).encode())),
+                        "fmi2SetString")
+        else:  # pragma: no cover
+            raise FMUError(self.name, "set", self.time, None, detail=f"{name}: unsupported type {v.type}")
+
+    # -- stepping ----------------------------------------------------------------------------------------------
+    def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
+        self.time = t
+        status = self._do_step(self.c, t, h, 1 if no_prior_state else 0)
+        if status > WARNING:
+            self._check(status, f"fmi2DoStep(h = {h:.6g} s)")
+        self.time = t + h
+
+    # -- FMU state (rollback) ----------------------------------------------------------------------------------
+    def get_state(self, state=None):
+        """fmi2GetFMUstate; pass a state returned before to overwrite it (no new allocation)."""
+        if state is None:
+            state = fmi2FMUstate()
+            self._states.append(state)
+        self._check(self._f["fmi2GetFMUstate"](self.c, byref(state)), "fmi2GetFMUstate")
+        return state
+
+    def set_state(self, state) -> None:
+        self._check(self._f["fmi2SetFMUstate"](self.c, state), "fmi2SetFMUstate")
+
+    def free_state(self, state) -> None:
+        self._check(self._f["fmi2FreeFMUstate"](self.c, byref(state)), "fmi2FreeFMUstate")
+        self._states = [s for s in self._states if s is not state]
+
+    def __repr__(self) -> str:
+        return f"FMU({self.name!r}, {self.path.name})"

@@ -1,0 +1,493 @@
+"""Co-simulation masters: one stepping loop, one ``_step_impl`` per method (scipy.integrate._ivp style).
+
+The base class :class:`Master` owns the coupling data (prepared once: value-reference blocks, a signal
+vector ``y`` of every Real output, the connection index arrays, the extrapolation :class:`History`), the
+communication-point exchange, rollback snapshots, failure checks, the power-bond bookkeeping and the run
+loop.  A method only says how one communication step ``[t, t+h]`` is taken:
+
+``jacobi``        every FMU steps on inputs computed from the outputs known at ``t`` (in parallel in principle);
+``gauss-seidel``  FMUs step one after the other in :func:`harness.graph.stepping_order` (outputs without
+                  direct feed-through first); each uses the newest outputs, including those already at ``t+h``;
+``iterative``     the step is repeated with get/set-FMU-state rollback until the held inputs are a fixed point
+                  (fixed-point, Anderson-accelerated or Newton iteration; :class:`IterationOptions`); the same
+                  solver resolves algebraic loops at each communication point.
+
+At every communication point the outputs are made consistent (:meth:`Master._exchange`): instances are
+evaluated in the direct-feed-through order of :func:`harness.graph.evaluation_order`; an instance with
+feed-through gets the point values of its sources before its outputs are read.  A feed-through cycle (an
+algebraic loop) is detected when the master is built: ``jacobi`` and ``gauss-seidel`` refuse it
+(:class:`AlgebraicLoopError` naming the loop), ``iterative`` solves it.
+
+Master time is an integer number of nanoseconds; ``t = t_ns / 1e9`` is computed from it, never accumulated.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from harness import graph
+from harness.errors import AlgebraicLoopError, FMUError, HarnessError, SimulationError, SystemError_
+from harness.extrapolation import History, Polynomial
+
+NS = 1_000_000_000
+
+
+class ConvergenceError(HarnessError):
+    """An iteration (coupled step or algebraic loop) that did not reach its tolerance."""
+
+
+@dataclass
+class IterationOptions:
+    """Options of the ``iterative`` master.  ``method``: ``fixed-point``, ``anderson`` or ``newton``;
+    ``tolerance``: max |G(u) - u| / (1 + |u|) over the held inputs (None: the run's tolerance, else 1e-10);
+    ``memory``: Anderson depth."""
+    method: str = "anderson"
+    tolerance: float | None = None
+    max_iterations: int = 100
+    memory: int = 5
+
+    def __post_init__(self):
+        if self.method not in ("fixed-point", "anderson", "newton"):
+            raise SystemError_(f"iteration method = {self.method!r} is not admissible: must be fixed-point, "
+                               f"anderson or newton")
+        if not (isinstance(self.max_iterations, int) and self.max_iterations >= 1):
+            raise SystemError_(f"max_iterations = {self.max_iterations!r} must be an integer >= 1")
+        if self.tolerance is not None and not self.tolerance > 0:
+            raise SystemError_(f"iteration tolerance = {self.tolerance!r} must be > 0")
+
+
+def solve_fixed_point(g, u0: np.ndarray, options: IterationOptions, tol: float, what: str):
+    """Solve ``u = g(u)``; return (u, g(u) evaluated last, iterations).  The last call of ``g`` is always at
+    the returned ``u`` (callers keep side effects of that call)."""
+    u = np.array(u0, dtype=float)
+    gu = g(u)
+    if u.size == 0:
+        return u, gu, 1
+    method, m = options.method, options.memory
+    dF, dG = [], []
+    f_prev = g_prev = None
+    for it in range(1, options.max_iterations + 1):
+        f = gu - u
+        err = float(np.max(np.abs(f) / (1.0 + np.abs(u))))
+        if not math.isfinite(err):
+            raise ConvergenceError(f"{what}: the iteration diverged (non-finite residual) after {it} evaluations")
+        if err <= tol:
+            return u, gu, it
+        if method == "newton":
+            n = u.size
+            jac = np.empty((n, n))
+            for j in range(n):
+                d = 1e-7 * (1.0 + abs(u[j]))
+                up = u.copy()
+                up[j] += d
+                jac[:, j] = ((g(up) - up) - f) / d
+            try:
+                u = u - np.linalg.solve(jac, f)
+            except np.linalg.LinAlgError:
+                u = gu
+        elif method == "anderson" and f_prev is not None:
+            dF.append(f - f_prev)
+            dG.append(gu - g_prev)
+            if len(dF) > m:
+                dF.pop(0)
+                dG.pop(0)
+            F = np.array(dF).T
+            gamma = np.linalg.lstsq(F, f, rcond=None)[0]
+            f_prev, g_prev = f, gu
+            u = gu - np.array(dG).T @ gamma
+        else:
+            f_prev, g_prev = f, gu
+            u = gu
+        gu = g(u)
+    raise ConvergenceError(f"{what}: no convergence in {options.max_iterations} iterations of {method} "
+                           f"(residual {err:.3g} > tolerance {tol:.3g})")
+
+
+class _Inst:
+    """Prepared coupling data of one instance (built once)."""
+    __slots__ = ("name", "fmu", "sl", "out", "inp", "src", "fac", "off", "held", "feedthrough", "interp",
+                 "input_pos", "pos_idx")
+
+    def __init__(self, name, fmu):
+        self.name, self.fmu = name, fmu
+
+
+class Master:
+    """Base class: the coupling machinery and the run loop.  Subclasses implement :meth:`_step_impl`."""
+
+    name: ClassVar[str] = "base"
+    solves_loops: ClassVar[bool] = False
+
+    def __init__(self, fmus: dict, connections, bonds=(), extrapolation: Polynomial | None = None,
+                 iteration: IterationOptions | None = None, tolerance: float | None = None,
+                 blowup: float = 1e12):
+        self.extrapolation = extrapolation or Polynomial(0)
+        self.iteration = iteration or IterationOptions()
+        self.tol = self.iteration.tolerance or tolerance or 1e-10
+        self.blowup = blowup
+        self.fmus = fmus
+        mds = {n: f.md for n, f in fmus.items()}
+        self.connections = list(connections)
+        self.groups = graph.evaluation_order(self.connections, mds)
+        loops = graph.algebraic_loops(self.connections, mds)
+        if loops and not self.solves_loops:
+            text = "; ".join(" -> ".join(loop) for loop in loops)
+            raise AlgebraicLoopError(f"algebraic loop(s) of direct feed-through: {text}; master {self.name!r} "
+                                     f"cannot solve them, use master='iterative'", loops)
+        self.loops = loops
+        # signal vector: every Real output of every instance
+        self.insts: list[_Inst] = []
+        self.index: dict[str, int] = {}
+        names: list[str] = []
+        for name, fmu in fmus.items():
+            it = _Inst(name, fmu)
+            outs = [v.name for v in fmu.md.modelVariables if v.causality == "output" and v.type == "Real"]
+            it.sl = slice(len(names), len(names) + len(outs))
+            it.out = fmu.reals(outs)
+            names.extend(f"{name}.{o}" for o in outs)
+            self.index[name] = len(self.insts)
+            self.insts.append(it)
+        self.signal_names = names
+        self.signal_index = {n: k for k, n in enumerate(names)}
+        self.y = np.zeros(len(names))
+        self.history = History(len(names))
+        by_target: dict[str, list] = {n: [] for n in fmus}
+        for c in self.connections:
+            by_target[c.target.split(".", 1)[0]].append(c)
+        for it in self.insts:
+            cs = by_target[it.name]
+            it.inp = it.fmu.reals([c.target.split(".", 1)[1] for c in cs])
+            it.input_pos = {c.target.split(".", 1)[1]: k for k, c in enumerate(cs)}
+            it.src = np.array([self.signal_index[c.source] for c in cs], dtype=np.intp)
+            it.fac = np.array([float(c.factor) for c in cs])
+            it.off = np.array([float(c.offset) for c in cs])
+            it.held = np.zeros(len(cs))
+            deps = graph.direct_dependencies(it.fmu.md)
+            ft = {d for ds in deps.values() for d in ds}
+            it.feedthrough = any(c.target.split(".", 1)[1] in ft for c in cs)
+            it.interp = it.fmu.can_interpolate_inputs and self.extrapolation.order > 0
+        self._group_idx = [[self.index[n] for n in g] for g in self.groups]
+        in_loops = {n.split(".", 1)[0] for loop in loops for n in loop}
+        self._loop_groups = {k for k, g in enumerate(self.groups) if any(n in in_loops for n in g)}
+        for it in self.insts:
+            it.pos_idx = np.zeros(0, dtype=np.intp)
+        self._prepare_bonds(bonds)
+        for b in bonds:  # positions of power bonds: see _held_values
+            inst, port = b.motion_in.split(".", 1)
+            it = self.insts[self.index[inst]]
+            for var in (f"{port}.phi", f"{port}.s"):
+                if var in it.input_pos and var in it.fmu.advanced_positions:
+                    it.pos_idx = np.append(it.pos_idx, it.input_pos[var]).astype(np.intp)
+        self._slots: dict[str, tuple] = {}
+        self.t_ns = 0
+        self.iterations = 0  # total iterations (iterative master)
+
+    # -- power bonds -------------------------------------------------------------------------------------------
+    def _prepare_bonds(self, bonds) -> None:
+        """Per bond: indices of (tau held by the motion-out instance, its w output, w held by the motion-in
+        instance, its tau output).  ``bond_energy`` accumulates the coupling energy error per bond."""
+        self.bond_labels, rows = [], []
+        for b in bonds:
+            a_inst, a_port = b.motion_out.split(".", 1)
+            b_inst, b_port = b.motion_in.split(".", 1)
+            ia, ib = self.insts[self.index[a_inst]], self.insts[self.index[b_inst]]
+            tr = f"{a_inst}.{a_port}.v" in self.signal_index
+            _, v, e = ("s", "v", "f") if tr else ("phi", "w", "tau")
+            try:
+                rows.append((self.index[a_inst], ia.input_pos[f"{a_port}.{e}"],
+                             self.signal_index[f"{a_inst}.{a_port}.{v}"],
+                             self.index[b_inst], ib.input_pos[f"{b_port}.{v}"],
+                             self.signal_index[f"{b_inst}.{b_port}.{e}"]))
+            except KeyError as err:
+                raise SystemError_(f"bond {b.label}: variable {err.args[0]} is not part of the bond's connections")
+            self.bond_labels.append(b.label)
+        self._bonds = rows
+        nb = len(rows)
+        self.bond_power = np.zeros((2, nb))     # [P_out, P_in] over the last step [W]
+        self.bond_energy = np.zeros(nb)          # accumulated integral of P_out - P_in [J]
+
+    def _bond_step(self, y0: np.ndarray, h: float) -> None:
+        for k, (ia, ktau, iw, ib, kw, itau) in enumerate(self._bonds):
+            p_out = self.insts[ia].held[ktau] * 0.5 * (y0[iw] + self.y[iw])
+            p_in = 0.5 * (y0[itau] + self.y[itau]) * self.insts[ib].held[kw]
+            self.bond_power[0, k] = p_out
+            self.bond_power[1, k] = p_in
+            self.bond_energy[k] += (p_out - p_in) * h
+
+    # -- coupling primitives -----------------------------------------------------------------------------------
+    def _read(self, it: _Inst) -> None:
+        self.y[it.sl] = it.fmu.get(it.out)
+
+    def _set_point_inputs(self, it: _Inst) -> None:
+        if it.inp.n:
+            it.fmu.set(it.inp, it.fac * self.y[it.src] + it.off)
+
+    def _set_held_inputs(self, it: _Inst, t: float, h: float) -> None:
+        """Inputs of ``it`` for the step [t, t+h] from the source histories (see harness.extrapolation)."""
+        if not it.inp.n:
+            return
+        if it.interp:
+            value, ders = self.extrapolation.at_start(self.history, it.src, t)
+            it.held[:] = it.fac * value + it.off
+            it.fmu.set(it.inp, it.held)
+            for order, d in enumerate(ders, start=1):
+                it.fmu.set_input_derivatives(it.inp, order, it.fac * d)
+        else:
+            it.held[:] = self._held_values(it, t, h)
+            it.fmu.set(it.inp, it.held)
+
+    def _held_values(self, it: _Inst, t: float, h: float) -> np.ndarray:
+        """Held inputs of ``it`` over [t, t+h]: the extrapolation's value (harness.extrapolation), except for
+        the position of a power bond (phi or s at a motion-input port) that the FMU declares it advances
+        itself with the held speed over the step (fmus.slave.PressSlave.advances_position): it gets the
+        position at the step START (for Gauss-Seidel the sample at t, not the newer one at t+h)."""
+        held = it.fac * self.extrapolation.held(self.history, it.src, t, h) + it.off
+        if it.pos_idx.size:
+            src = it.src[it.pos_idx]
+            newer = self.history.t[0, src] > t
+            start = np.where(newer, self.history.y[1, src], self.history.y[0, src])
+            held[it.pos_idx] = it.fac[it.pos_idx] * start + it.off[it.pos_idx]
+        return held
+
+    def _exchange(self, t: float) -> None:
+        """Consistent outputs at communication point t; pushes them to the history.
+
+        A group with several members whose variable graph has no loop (e.g. a four-bar and the load on its
+        rocker: each feeds the other, but through different variables) is swept as often as it has members,
+        which settles every output exactly."""
+        for k, group in enumerate(self._group_idx):
+            if k in self._loop_groups:
+                self._solve_loop(group, t)
+                continue
+            for _sweep in range(len(group)):
+                for i in group:
+                    it = self.insts[i]
+                    if it.feedthrough:
+                        self._set_point_inputs(it)
+                    self._read(it)
+        for it in self.insts:
+            self.history.push(it.sl, t, self.y[it.sl])
+
+    def _solve_loop(self, group: list[int], t: float) -> None:
+        """Resolve an algebraic loop among ``group`` at a communication point (iterative master)."""
+        members = [self.insts[i] for i in group]
+        u0 = np.concatenate([it.fac * self.y[it.src] + it.off for it in members])
+
+        def g(u):
+            k = 0
+            for it in members:
+                n = it.inp.n
+                it.fmu.set(it.inp, u[k:k + n])
+                k += n
+            for it in members:
+                self._read(it)
+            return np.concatenate([it.fac * self.y[it.src] + it.off for it in members])
+
+        where = (f"algebraic loop {' / '.join(it.name for it in members)} at t = {t:.9g} s")
+        _u, _gu, n = solve_fixed_point(g, u0, self.iteration, self.tol, where)
+        self.iterations += n
+
+    # -- rollback ----------------------------------------------------------------------------------------------
+    def snapshot(self, slot: str = "step") -> None:
+        """Save every FMU's state and the master's coupling data under ``slot``."""
+        old = self._slots.get(slot)
+        states = []
+        for k, it in enumerate(self.insts):
+            if old is not None:
+                it.fmu.free_state(old[0][k])
+            states.append(it.fmu.get_state())
+        self._slots[slot] = (states, self.y.copy(), self.history.snapshot(),
+                             [it.held.copy() for it in self.insts], self.bond_power.copy(),
+                             self.bond_energy.copy(), self.t_ns)
+
+    def restore(self, slot: str = "step") -> None:
+        states, y, hist, held, bp, be, t_ns = self._slots[slot]
+        for it, s in zip(self.insts, states):
+            it.fmu.set_state(s)
+        self.y[:] = y
+        self.history.copy_from(hist)
+        for it, hd in zip(self.insts, held):
+            it.held[:] = hd
+        self.bond_power[:] = bp
+        self.bond_energy[:] = be
+        self.t_ns = t_ns
+
+    def needs_rollback(self) -> bool:
+        return False
+
+    def coupling_signals(self) -> np.ndarray:
+        """Indices into ``y`` of the outputs that feed a connection (all outputs when none does)."""
+        idx = sorted({int(s) for it in self.insts for s in it.src})
+        return np.array(idx if idx else range(len(self.y)), dtype=np.intp)
+
+    # -- life cycle --------------------------------------------------------------------------------------------
+    def initialize(self, start_ns: int = 0, stop_ns: int | None = None, tolerance: float | None = None,
+                   parameters: dict | None = None) -> None:
+        """setupExperiment, parameters (``{instance: {name: value}}``), initialization with consistent
+        inputs and outputs."""
+        t = start_ns / NS
+        stop = stop_ns / NS if stop_ns is not None else None
+        for it in self.insts:
+            it.fmu.setup(t, stop, tolerance)
+            for k, v in (parameters or {}).get(it.name, {}).items():
+                it.fmu.set_value(k, v)
+        for it in self.insts:
+            it.fmu.enter_initialization()
+        self._exchange(t)  # outputs in initialization mode, then every input from them
+        for it in self.insts:
+            self._set_point_inputs(it)
+        self._exchange(t)
+        for it in self.insts:
+            it.fmu.exit_initialization()
+        self.history = History(len(self.y))
+        self._exchange(t)
+        self._check(t)
+        self.t_ns = start_ns
+
+    def step(self, t_ns: int, h_ns: int) -> None:
+        """One communication step from t_ns (must be the current time) of h_ns nanoseconds."""
+        t, h = t_ns / NS, h_ns / NS
+        y0 = self.y.copy()
+        self._step_impl(t, h, (t_ns + h_ns) / NS)
+        self._check((t_ns + h_ns) / NS)
+        if self._bonds:
+            self._bond_step(y0, h)
+        self.t_ns = t_ns + h_ns
+
+    def _step_impl(self, t: float, h: float, t_next: float) -> None:
+        """Advance every FMU from t to t_next (= t + h) and leave consistent outputs at t_next in
+        ``self.y`` (and the history)."""
+        raise NotImplementedError
+
+    def _check(self, t: float) -> None:
+        y = self.y
+        bad = ~np.isfinite(y) | (np.abs(y) > self.blowup)
+        if bad.any():
+            k = int(np.argmax(bad))
+            name = self.signal_names[k]
+            inst, var = name.split(".", 1)
+            what = "is not finite" if not math.isfinite(y[k]) else f"exceeds the blow-up limit {self.blowup:g}"
+            raise SimulationError(f"t = {t:.9g} s: instance {inst}: output {var} = {y[k]!r} {what}",
+                                  time=t, instance=inst, variable=var)
+
+    def terminate(self) -> None:
+        for it in self.insts:
+            try:
+                it.fmu.terminate()
+            except FMUError:
+                pass
+
+    def free(self) -> None:
+        for it in self.insts:
+            it.fmu.free()
+        self._slots.clear()
+
+
+class Jacobi(Master):
+    """Every FMU steps on inputs extrapolated from the outputs at t."""
+    name = "jacobi"
+
+    def _step_impl(self, t, h, t_next):
+        for it in self.insts:
+            self._set_held_inputs(it, t, h)
+        for it in self.insts:
+            it.fmu.do_step(t, h, True)
+        self._exchange(t_next)
+
+
+class JacobiSampled(Jacobi):
+    """Jacobi as libcosim, Ecos and FMPy's ``simulate_ssp`` do it: outputs are sampled right after
+    ``fmi2DoStep`` and passed on at the next step; an output with direct feed-through is NOT refreshed with
+    the new inputs at the communication point (``jacobi`` does refresh it, which is more accurate).  Use it
+    to compare with those tools step for step."""
+    name = "jacobi-sampled"
+
+    def _step_impl(self, t, h, t_next):
+        for it in self.insts:
+            self._set_held_inputs(it, t, h)
+        for it in self.insts:
+            it.fmu.do_step(t, h, True)
+        for it in self.insts:
+            self._read(it)
+            self.history.push(it.sl, t_next, self.y[it.sl])
+
+
+class GaussSeidel(Master):
+    """FMUs step in dependency order; each uses the newest outputs (samples at t+h where available)."""
+    name = "gauss-seidel"
+
+    def __init__(self, fmus, connections, *args, **kwargs):
+        super().__init__(fmus, connections, *args, **kwargs)
+        order = graph.stepping_order(self.connections, {n: f.md for n, f in fmus.items()})
+        self.order = [self.insts[self.index[n]] for n in order]
+
+    def _step_impl(self, t, h, t_next):
+        for it in self.order:
+            self._set_held_inputs(it, t, h)
+            it.fmu.do_step(t, h, True)
+            self._read(it)
+            self.history.push(it.sl, t_next, self.y[it.sl])
+        self._exchange(t_next)
+
+
+class Iterative(Master):
+    """Each step is repeated with rollback until the held inputs are a fixed point: u = G(u), where G takes
+    the step on held inputs u and returns the held inputs computed from the resulting outputs at t+h (their
+    polynomial through the newest samples at the step midpoint, or the end value for order 0).  Converged,
+    this is the implicit (order 0) or trapezoidal (order >= 1) coupling.  Algebraic loops at communication
+    points are solved with the same iteration."""
+    name = "iterative"
+    solves_loops = True
+
+    def __init__(self, fmus, connections, *args, **kwargs):
+        super().__init__(fmus, connections, *args, **kwargs)
+        for it in self.insts:
+            it.interp = False  # the iteration converges the held (midpoint) values; no input derivatives
+            if not it.fmu.can_get_set_state:
+                raise SystemError_(f"master 'iterative' needs fmi2GetFMUstate/fmi2SetFMUstate, but instance "
+                                   f"{it.name} does not declare canGetAndSetFMUstate")
+
+    def needs_rollback(self) -> bool:
+        return True
+
+    def _step_impl(self, t, h, t_next):
+        coupled = [it for it in self.insts if it.inp.n]
+        for it in self.insts:
+            self._set_held_inputs(it, t, h)
+        u0 = np.concatenate([it.held for it in coupled]) if coupled else np.zeros(0)
+        self.snapshot("iterate")
+        first = [True]
+
+        def g(u):
+            if not first[0]:
+                self.restore("iterate")
+            first[0] = False
+            k = 0
+            for it in coupled:
+                n = it.inp.n
+                it.held[:] = u[k:k + n]
+                it.fmu.set(it.inp, it.held)
+                k += n
+            for it in self.insts:
+                it.fmu.do_step(t, h, False)
+            self._exchange(t_next)
+            out = [self._held_values(it, t, h) for it in coupled]
+            return np.concatenate(out) if out else np.zeros(0)
+
+        _u, _gu, n = solve_fixed_point(g, u0, self.iteration, self.tol, f"coupled step at t = {t:.9g} s")
+        self.iterations += n
+
+
+MASTERS: dict[str, type[Master]] = {"jacobi": Jacobi, "jacobi-sampled": JacobiSampled, "gauss-seidel": GaussSeidel,
+                                    "iterative": Iterative}
+
+
+def master_class(name: str) -> type[Master]:
+    key = str(name).strip().lower().replace("_", "-")
+    key = {"gauss seidel": "gauss-seidel", "gaussseidel": "gauss-seidel", "gs": "gauss-seidel"}.get(key, key)
+    if key not in MASTERS:
+        raise SystemError_(f"master = {name!r} is not admissible: must be one of {', '.join(MASTERS)}")
+    return MASTERS[key]

@@ -1,0 +1,296 @@
+"""The system model: instances of FMUs, connections, power bonds and the default experiment (pure data).
+
+A system module ``systems/<name>.py`` defines ``SYSTEM = System(...)``.  :meth:`System.validate` checks it
+against the FMUs' model descriptions before anything runs: unknown instances or variables, an input
+connected twice, causality mismatches (the source must be an output, the target an input), unit mismatches
+(an error unless the connection declares ``unit_conversion=True``: its factor/offset convert the units) and
+unknown parameters are errors naming the offending variable; an unconnected input is a warning (it keeps
+its start value).
+
+Power bonds (:class:`Bond`) pair a motion connection with the effort connection back: ``Bond("a.flange",
+"b.drive")`` expands to ``a.flange.phi -> b.drive.phi``, ``a.flange.w -> b.drive.w`` and ``b.drive.tau ->
+a.flange.tau`` (``.s``/``.v``/``.f`` for translational ports).  The motion-output side is ``motion_out``.
+"""
+from __future__ import annotations
+
+import os
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from harness.errors import SystemError_
+
+ROOT = Path(__file__).resolve().parents[1]
+FMU_DIR_ENV = "PRESSDRIVE_FMU_DIR"
+
+_ROT = ("phi", "w", "tau")
+_TRA = ("s", "v", "f")
+
+
+class SystemWarning(UserWarning):
+    """A system that runs but may not be what was meant (e.g. an unconnected input)."""
+
+
+def _split(ref: str, what: str) -> tuple[str, str]:
+    inst, dot, var = str(ref).partition(".")
+    if not dot or not inst or not var:
+        raise SystemError_(f"{what} {ref!r} must be written 'Instance.variable'")
+    return inst, var
+
+
+@dataclass
+class Instance:
+    """One FMU instance: ``fmu`` is a path to a .fmu or a bare model name (``"FourBar"``, see
+    :func:`resolve_fmu`); ``parameters`` maps parameter names to values."""
+    name: str
+    fmu: str | Path
+    parameters: dict = field(default_factory=dict)
+
+
+@dataclass
+class Connection:
+    """``target = factor * source + offset`` (``"Instance.variable"`` strings).  Connected variables must
+    have the same unit unless ``unit_conversion`` is True (then factor/offset convert between the units)."""
+    source: str
+    target: str
+    factor: float = 1.0
+    offset: float = 0.0
+    unit_conversion: bool = False
+
+
+@dataclass
+class Bond:
+    """A power bond between port ``motion_out`` (its motion variables are outputs) and port ``motion_in``
+    (``"Instance.port"``).  ``translational``: None detects the port kind from the FMU (System.all_connections)."""
+    motion_out: str
+    motion_in: str
+    translational: bool | None = None
+
+    def names(self, translational: bool | None = None) -> tuple[str, str, str]:
+        tr = self.translational if self.translational is not None else bool(translational)
+        return _TRA if tr else _ROT
+
+    def connections(self, translational: bool | None = None) -> list[Connection]:
+        """The three connections of the bond: position and velocity forward, effort back."""
+        p, v, e = self.names(translational)
+        a, b = self.motion_out, self.motion_in
+        return [Connection(f"{a}.{p}", f"{b}.{p}"), Connection(f"{a}.{v}", f"{b}.{v}"),
+                Connection(f"{b}.{e}", f"{a}.{e}")]
+
+    @property
+    def label(self) -> str:
+        return f"{self.motion_out}->{self.motion_in}"
+
+
+def bond(a: str, b: str, translational: bool | None = None) -> Bond:
+    """Power bond from motion-output port ``a`` to motion-input port ``b`` (``"Instance.port"``)."""
+    return Bond(a, b, translational)
+
+
+@dataclass
+class Experiment:
+    stop_time: float
+    step: float
+    master: str = "jacobi"
+    extrapolation: int = 0
+    step_control: str | None = None
+    tolerance: float | None = None
+
+
+@dataclass
+class System:
+    name: str
+    instances: list[Instance]
+    connections: list[Connection] = field(default_factory=list)
+    bonds: list[Bond] = field(default_factory=list)
+    experiment: Experiment | None = None
+    description: str = ""
+    scenes: list = field(default_factory=list)
+
+    def instance(self, name: str) -> Instance:
+        for inst in self.instances:
+            if inst.name == name:
+                return inst
+        raise SystemError_(f"system {self.name}: unknown instance {name!r} "
+                           f"(instances: {', '.join(i.name for i in self.instances)})")
+
+    def _bond_is_translational(self, b: Bond, model_descriptions: dict | None) -> bool:
+        if b.translational is not None:
+            return b.translational
+        inst, port = _split(b.motion_out, "bond port")
+        if model_descriptions is not None and inst in model_descriptions:
+            md = model_descriptions[inst]
+        else:
+            md = model_description(resolve_fmu(self.instance(inst).fmu))
+        names = {v.name for v in md.modelVariables}
+        return f"{port}.s" in names and f"{port}.phi" not in names
+
+    def all_connections(self, model_descriptions: dict | None = None) -> list[Connection]:
+        """Explicit connections plus the expanded power bonds (bond kinds detected from the FMUs)."""
+        out = list(self.connections)
+        for b in self.bonds:
+            out.extend(b.connections(self._bond_is_translational(b, model_descriptions)))
+        return out
+
+    def validate(self, model_descriptions: dict, parameters: dict | None = None) -> list[str]:
+        """Check the system against the FMUs (``model_descriptions``: instance name -> fmpy model
+        description).  Raises :class:`SystemError_` on the first error; returns the warnings (also issued
+        as :class:`SystemWarning`).  ``parameters``: extra ``{"Instance.param": value}`` to check."""
+        names = [i.name for i in self.instances]
+        seen = set()
+        for n in names:
+            if n in seen:
+                raise SystemError_(f"system {self.name}: instance name {n!r} is used twice")
+            if "." in n or not n:
+                raise SystemError_(f"system {self.name}: instance name {n!r} must be non-empty without '.'")
+            seen.add(n)
+        variables = {i: {v.name: v for v in model_descriptions[i].modelVariables} for i in names}
+
+        def lookup(ref: str, what: str):
+            inst, var = _split(ref, what)
+            if inst not in variables:
+                raise SystemError_(f"{what} {ref}: unknown instance {inst!r}")
+            v = variables[inst].get(var)
+            if v is None:
+                raise SystemError_(f"{what} {ref}: FMU {model_descriptions[inst].modelName} of instance "
+                                   f"{inst} has no variable {var!r}")
+            return v
+
+        for inst in self.instances:
+            for p, value in inst.parameters.items():
+                _check_parameter(lookup(f"{inst.name}.{p}", "parameter"), f"{inst.name}.{p}", value)
+        for ref, value in (parameters or {}).items():
+            _check_parameter(lookup(ref, "parameter"), ref, value)
+        for b in self.bonds:
+            for port in (b.motion_out, b.motion_in):
+                _split(port, "bond port")
+        targets: dict[str, str] = {}
+        for c in self.all_connections(model_descriptions):
+            src = lookup(c.source, "connection source")
+            dst = lookup(c.target, "connection target")
+            where = f"connection {c.source} -> {c.target}"
+            if src.causality != "output":
+                raise SystemError_(f"{where}: causality mismatch: source {c.source} is {src.causality}, "
+                                   f"not an output")
+            if dst.causality != "input":
+                raise SystemError_(f"{where}: causality mismatch: target {c.target} is {dst.causality}, "
+                                   f"not an input")
+            if src.type != "Real" or dst.type != "Real":
+                raise SystemError_(f"{where}: only Real variables can be connected ({src.type} -> {dst.type})")
+            if c.target in targets:
+                raise SystemError_(f"input {c.target} is connected twice: from {targets[c.target]} and "
+                                   f"from {c.source}")
+            targets[c.target] = c.source
+            for attr in ("factor", "offset"):
+                value = getattr(c, attr)
+                if not isinstance(value, (int, float)) or value != value or value in (float("inf"), float("-inf")):
+                    raise SystemError_(f"{where}: {attr} = {value!r} must be a finite number")
+            su, du = _unit(src), _unit(dst)
+            if su and du and su != du and not c.unit_conversion:
+                raise SystemError_(f"{where}: unit mismatch: {c.source} is in {su} but {c.target} is in {du} "
+                                   f"(declare unit_conversion=True with the converting factor/offset)")
+        warns = []
+        for inst in names:
+            for v in variables[inst].values():
+                ref = f"{inst}.{v.name}"
+                if v.causality == "input" and ref not in targets:
+                    start = v.start
+                    if v.type == "Real" and start is not None:
+                        start = float(start)
+                    warns.append(f"input {ref} is not connected: it keeps its start value {start}")
+        for w in warns:
+            warnings.warn(w, SystemWarning, stacklevel=3)
+        return warns
+
+
+def _unit(v) -> str:
+    if v.unit:
+        return v.unit
+    dt = getattr(v, "declaredType", None)
+    return getattr(dt, "unit", None) or "" if dt is not None else ""
+
+
+def _check_parameter(v, ref: str, value) -> None:
+    if v.causality not in ("parameter", "input") or v.variability == "constant":
+        raise SystemError_(f"parameter {ref}: the variable has causality {v.causality} and variability "
+                           f"{v.variability}; only parameters (and inputs) can be set")
+    if v.type == "Real":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise SystemError_(f"parameter {ref} = {value!r} must be a number")
+    elif v.type in ("Integer", "Enumeration"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or int(value) != value:
+            raise SystemError_(f"parameter {ref} = {value!r} must be an integer")
+
+
+# -- FMU resolution ---------------------------------------------------------------------------------------------
+_MD_CACHE: dict[tuple[str, float], object] = {}
+
+
+def model_description(path: str | Path):
+    """fmpy model description of an FMU file (cached by path and modification time)."""
+    from fmpy import read_model_description
+
+    p = Path(path).resolve()
+    if not p.is_file():
+        raise SystemError_(f"FMU file {p} does not exist")
+    key = (str(p), p.stat().st_mtime)
+    if key not in _MD_CACHE:
+        try:
+            _MD_CACHE[key] = read_model_description(str(p))
+        except Exception as e:
+            raise SystemError_(f"{p}: not a readable FMU ({type(e).__name__}: {e})".splitlines()[0]) from None
+    return _MD_CACHE[key]
+
+
+def fmu_dir() -> Path:
+    """Where bare model names resolve: $PRESSDRIVE_FMU_DIR or <repo>/build/fmus."""
+    env = os.environ.get(FMU_DIR_ENV)
+    return Path(env) if env else ROOT / "build" / "fmus"
+
+
+def component_module(model: str) -> Path | None:
+    """The fmus/components/pd_*.py file that declares FMU class ``model`` (found by scanning the sources)."""
+    pattern = re.compile(rf"^class\s+{re.escape(model)}\s*\(", re.M)
+    for script in sorted((ROOT / "fmus" / "components").glob("pd_*.py")):
+        if pattern.search(script.read_text(encoding="utf-8")):
+            return script
+    return None
+
+
+def _sources_newer_than(fmu: Path, script: Path) -> bool:
+    t = fmu.stat().st_mtime
+    sources = [script, ROOT / "fmus" / "slave.py", ROOT / "fmus" / "units.py",
+               *(ROOT / "fmus" / "physics").glob("*.py")]
+    return any(s.stat().st_mtime > t for s in sources if s.exists())
+
+
+def resolve_fmu(fmu: str | Path) -> Path:
+    """Path of the FMU file of an instance.
+
+    A path ending in ``.fmu`` must exist.  A bare model name (``"FourBar"``) resolves to
+    ``<fmu_dir()>/<name>.fmu``; if that is missing or older than its sources, it is built with
+    ``build_fmus.main(["--out", dir, "--only", module])`` (module found by scanning fmus/components).
+    """
+    s = str(fmu)
+    if s.lower().endswith(".fmu") or os.sep in s or "/" in s:
+        p = Path(s)
+        if not p.is_file():
+            raise SystemError_(f"FMU file {p} does not exist")
+        return p
+    script = component_module(s)
+    out = fmu_dir()
+    path = out / f"{s}.fmu"
+    if script is None:
+        if path.is_file():
+            return path
+        raise SystemError_(f"unknown FMU model {s!r}: no {path} and no class {s} in fmus/components/pd_*.py")
+    if not path.is_file() or _sources_newer_than(path, script):
+        import sys
+
+        sys.path.insert(0, str(ROOT))
+        import build_fmus
+
+        if build_fmus.main(["--out", str(out), "--only", script.stem]) != 0 or not path.is_file():
+            raise SystemError_(f"building FMU {s} from {script.name} failed (see stderr)")
+    return path

@@ -1,0 +1,102 @@
+"""Quantities of interest: small expressions over a result DataFrame.
+
+An expression is Python syntax over these names only:
+
+* ``r["Instance.variable"]`` -- a result column as a numpy array (``r`` also answers ``in``);
+* ``t`` -- the time array;
+* reductions ``peak(x)`` (max |x|), ``rms(x)``, ``mean``, ``max``, ``min``, ``ptp`` (max - min), ``final(x)``
+  (last value), ``at(x, time)`` (linear interpolation at a time), ``count_rises(x)`` (number of 0 -> nonzero
+  transitions of a flag), ``abs``, ``sqrt``, ``where``;
+* ``window(x, t0, t1)`` -- the part of ``x`` with ``t0 <= t <= t1``.
+
+Example: ``peak(window(r["fourbar.impact_force"], 0.5, 1.0))``.  Anything else (attributes, imports,
+builtins) is refused, with the expression in the message.
+"""
+from __future__ import annotations
+
+import ast
+
+import numpy as np
+import pandas as pd
+
+_ALLOWED_NODES = (ast.Expression, ast.Call, ast.Name, ast.Load, ast.Constant, ast.Subscript, ast.BinOp,
+                  ast.UnaryOp, ast.Compare, ast.BoolOp, ast.IfExp, ast.Tuple, ast.List, ast.operator,
+                  ast.unaryop, ast.cmpop, ast.boolop, ast.Slice, ast.keyword)
+
+
+class QoIError(ValueError):
+    pass
+
+
+class _Columns:
+    def __init__(self, df: pd.DataFrame, expr: str):
+        self.df, self.expr = df, expr
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name not in self.df.columns:
+            raise QoIError(f"quantity {self.expr!r}: no result column {name!r}")
+        return self.df[name].to_numpy()
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.df.columns
+
+
+def _count_rises(x) -> int:
+    b = np.asarray(x) != 0
+    return int(np.count_nonzero(b[1:] & ~b[:-1]) + (1 if b.size and b[0] else 0))
+
+
+def _namespace(df: pd.DataFrame, expr: str) -> dict:
+    t = df.index.to_numpy(dtype=float)
+
+    def window(x, t0, t1):
+        x = np.asarray(x)
+        return x[(t >= t0) & (t <= t1)]
+
+    def at(x, time):
+        return float(np.interp(time, t, np.asarray(x, dtype=float)))
+
+    return {
+        "r": _Columns(df, expr), "t": t,
+        "peak": lambda x: float(np.max(np.abs(x))), "rms": lambda x: float(np.sqrt(np.mean(np.square(x)))),
+        "mean": lambda x: float(np.mean(x)), "max": lambda x: float(np.max(x)), "min": lambda x: float(np.min(x)),
+        "ptp": lambda x: float(np.ptp(x)), "final": lambda x: float(np.asarray(x)[-1]), "at": at,
+        "window": window, "count_rises": _count_rises, "abs": np.abs, "sqrt": np.sqrt, "where": np.where,
+    }
+
+
+def check(expr: str) -> ast.Expression:
+    try:
+        tree = ast.parse(expr, mode="eval")
+    except SyntaxError as e:
+        raise QoIError(f"quantity {expr!r}: not an expression ({e.msg})") from None
+    for node in ast.walk(tree):
+        if not isinstance(node, _ALLOWED_NODES):
+            raise QoIError(f"quantity {expr!r}: {type(node).__name__} is not allowed")
+    return tree
+
+
+def evaluate(expr: str, df: pd.DataFrame) -> float:
+    """Value of the expression on a result; a QoIError names the expression on any problem."""
+    tree = check(expr)
+    ns = _namespace(df, expr)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name) and node.id not in ns:
+            raise QoIError(f"quantity {expr!r}: unknown name {node.id!r}")
+    try:
+        value = eval(compile(tree, "<qoi>", "eval"), {"__builtins__": {}}, ns)  # noqa: S307 (names checked above)
+    except QoIError:
+        raise
+    except Exception as e:  # empty window, shape mismatch, ...
+        raise QoIError(f"quantity {expr!r}: {type(e).__name__}: {e}") from None
+    return float(value)
+
+
+def columns(expr: str) -> list[str]:
+    """Result columns an expression reads (so a run can record only those)."""
+    out = []
+    for node in ast.walk(check(expr)):
+        if (isinstance(node, ast.Subscript) and isinstance(node.value, ast.Name) and node.value.id == "r"
+                and isinstance(node.slice, ast.Constant) and isinstance(node.slice.value, str)):
+            out.append(node.slice.value)
+    return out

@@ -1,0 +1,155 @@
+"""Results: recording as an observer of the stepping loop, one DataFrame type, CSV output.
+
+A result is a pandas DataFrame indexed by time (index name ``time``) with columns ``Instance.variable``.
+``df.attrs`` carries ``complete`` (False if the run stopped early), ``error`` (the one-line reason),
+``system``, ``master``, ``steps`` (accepted communication steps) and ``bonds`` (a :class:`BondLog`: power on
+each side of every power bond and the accumulated coupling energy error; see :func:`bond_energy`).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from harness.errors import SystemError_
+
+
+class BondLog:
+    """Per power bond, at each recorded communication point: ``P_out`` (tau held by the motion-output side
+    times its own speed, trapezoidal mean over the last step), ``P_in`` (the motion-input side's torque,
+    trapezoidal mean, times the speed it held) [W] and ``energy_error`` = integral of ``P_out - P_in`` from
+    the start [J].  Positive ``energy_error``: the coupling has put energy into the system.
+
+    Immutable once the run is over; copies and comparisons are by identity (cheap in ``df.attrs``)."""
+
+    def __init__(self, labels: list[str], time: np.ndarray, p_out: np.ndarray, p_in: np.ndarray,
+                 energy: np.ndarray):
+        self.labels, self.time, self.p_out, self.p_in, self.energy = labels, time, p_out, p_in, energy
+
+    def __deepcopy__(self, memo):
+        return self
+
+    def __copy__(self):
+        return self
+
+    def __eq__(self, other):
+        return self is other
+
+    __hash__ = object.__hash__
+
+    def frame(self, label: str) -> pd.DataFrame:
+        if label not in self.labels:
+            raise KeyError(f"no power bond {label!r} (bonds: {', '.join(self.labels)})")
+        k = self.labels.index(label)
+        return pd.DataFrame({"P_out": self.p_out[:, k], "P_in": self.p_in[:, k],
+                             "mismatch": self.p_out[:, k] - self.p_in[:, k], "energy_error": self.energy[:, k]},
+                            index=pd.Index(self.time, name="time"))
+
+
+def bond_energy(result: pd.DataFrame, label: str | None = None) -> pd.DataFrame:
+    """Power on each side of a power bond and its accumulated coupling energy error, from a result.
+
+    ``label`` is ``"a.port->b.port"`` (default: the only bond).  Columns P_out, P_in, mismatch [W],
+    energy_error [J], indexed by time."""
+    log = result.attrs.get("bonds")
+    if not isinstance(log, BondLog) or not log.labels:
+        raise KeyError("this result has no power bonds")
+    if label is None:
+        if len(log.labels) != 1:
+            raise KeyError(f"several power bonds, name one of: {', '.join(log.labels)}")
+        label = log.labels[0]
+    return log.frame(label)
+
+
+class Recorder:
+    """Records the requested variables at every accepted communication point.
+
+    ``columns``: ``Instance.variable`` names (outputs come from the master's signal vector; other Real
+    variables, e.g. inputs or local states, are read from the FMU); None records every output.  Buffers are
+    preallocated for ``expected_rows`` and doubled when a variable-step run needs more."""
+
+    def __init__(self, master, columns: list[str] | None = None, expected_rows: int = 1024):
+        self.master = master
+        if columns is None:
+            columns = list(master.signal_names)
+        seen = set()
+        self.columns = [c for c in columns if not (c in seen or seen.add(c))]
+        self._from_y = []      # (column position, y index)
+        self._extra = []       # (instance, RealBlock, column positions)
+        by_inst: dict[str, list[tuple[int, str]]] = {}
+        for k, c in enumerate(self.columns):
+            if c in master.signal_index:
+                self._from_y.append((k, master.signal_index[c]))
+                continue
+            inst, dot, var = c.partition(".")
+            if not dot or inst not in master.index:
+                raise SystemError_(f"output {c!r}: unknown instance {inst!r} (write 'Instance.variable')")
+            fmu = master.insts[master.index[inst]].fmu
+            v = fmu.variables.get(var)
+            if v is None:
+                raise SystemError_(f"output {c!r}: FMU {fmu.md.modelName} of instance {inst} has no variable {var!r}")
+            if v.type != "Real":
+                raise SystemError_(f"output {c!r}: only Real variables are recorded ({var} is {v.type})")
+            by_inst.setdefault(inst, []).append((k, var))
+        for inst, items in by_inst.items():
+            fmu = master.insts[master.index[inst]].fmu
+            self._extra.append((fmu, fmu.reals([v for _, v in items]), np.array([k for k, _ in items])))
+        self._cols_y = np.array([k for k, _ in self._from_y], dtype=np.intp)
+        self._idx_y = np.array([i for _, i in self._from_y], dtype=np.intp)
+        n = max(2, int(expected_rows))
+        self.time = np.empty(n)
+        self.data = np.empty((n, len(self.columns)))
+        nb = len(master.bond_labels)
+        self.p_out = np.empty((n, nb))
+        self.p_in = np.empty((n, nb))
+        self.energy = np.empty((n, nb))
+        self.rows = 0
+
+    def record(self, t: float) -> None:
+        k = self.rows
+        if k == len(self.time):
+            self._grow()
+        self.time[k] = t
+        row = self.data[k]
+        row[self._cols_y] = self.master.y[self._idx_y]
+        for fmu, block, cols in self._extra:
+            row[cols] = fmu.get(block)
+        if self.p_out.shape[1]:
+            self.p_out[k] = self.master.bond_power[0]
+            self.p_in[k] = self.master.bond_power[1]
+            self.energy[k] = self.master.bond_energy
+        self.rows = k + 1
+
+    def _grow(self) -> None:
+        for name in ("time", "data", "p_out", "p_in", "energy"):
+            a = getattr(self, name)
+            b = np.empty((2 * a.shape[0],) + a.shape[1:])
+            b[: a.shape[0]] = a
+            setattr(self, name, b)
+
+    def frame(self, complete: bool = True, error: str = "", **attrs) -> pd.DataFrame:
+        n = self.rows
+        df = pd.DataFrame(self.data[:n].copy(), columns=self.columns, index=pd.Index(self.time[:n].copy(), name="time"))
+        df.attrs.update(attrs)
+        df.attrs["complete"] = bool(complete)
+        df.attrs["error"] = error
+        df.attrs["bonds"] = BondLog(list(self.master.bond_labels), self.time[:n].copy(), self.p_out[:n].copy(),
+                                    self.p_in[:n].copy(), self.energy[:n].copy())
+        return df
+
+
+def to_csv(result: pd.DataFrame, path: str | Path) -> Path:
+    """Write a result as CSV with a leading ``time`` column."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    result.to_csv(path, index=True, index_label="time")
+    return path
+
+
+def read_csv(path: str | Path) -> pd.DataFrame:
+    """Read a CSV written by :func:`to_csv` back into the result shape."""
+    return pd.read_csv(path, index_col="time")
+
+
+__all__ = ["BondLog", "Recorder", "bond_energy", "to_csv", "read_csv"]

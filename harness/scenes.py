@@ -1,0 +1,208 @@
+"""Scenes: a question asked of a press drive, answered with the coarsest model that still answers it.
+
+A scene (declared as data in a ``systems/`` module, ``SYSTEM.scenes``) names a quantity of interest (a
+:mod:`harness.qoi` expression), a tolerance and a time window.  :func:`choose` then
+
+1. runs the full model (every component at its highest ``fidelity``, the system's default step and master)
+   and caches its quantity of interest (``results/cache/``, keyed by a hash of the system and the scene);
+2. greedy search over components, in the order the system lists them (stated, reproducible): for each
+   component with a ``fidelity`` parameter, try its lower levels from the lowest up and keep the lowest whose
+   quantity stays within tolerance of the full model, given the choices already made;
+3. then doubles the communication step while the quantity stays within tolerance (and the run completes);
+4. measures the chosen model's cost against the full model's in the same process, side by side.
+
+Every candidate run is recorded (fidelities, step, quantity, error, wall time) for the cost-vs-error chart.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from harness import qoi
+
+
+@dataclass
+class Scene:
+    name: str
+    question: str
+    quantity: str                 # harness.qoi expression
+    tolerance: float              # admissible |error| of the quantity (absolute, in its own unit) ...
+    relative: bool = True         # ... or relative to the full model's value when True
+    stop_time: float | None = None
+    window: tuple[float, float] | None = None  # documented time window (use window() in the quantity)
+    unit: str = ""
+
+
+@dataclass
+class Candidate:
+    fidelities: dict[str, int]
+    step: float
+    value: float | None
+    error: float | None
+    wall_time: float
+    ok: bool
+    note: str = ""
+
+
+@dataclass
+class SceneResult:
+    scene: Scene
+    full: Candidate
+    chosen: Candidate
+    candidates: list[Candidate] = field(default_factory=list)
+    speedup: float = float("nan")
+
+    def table(self) -> pd.DataFrame:
+        rows = [dict(asdict(c), **{f"fidelity:{k}": v for k, v in c.fidelities.items()}) for c in self.candidates]
+        return pd.DataFrame(rows).drop(columns=["fidelities"])
+
+
+def fidelity_levels(system) -> dict[str, tuple[int, ...]]:
+    """Instance -> admissible fidelity levels (ascending), for instances whose component has one."""
+    from harness.reference import _model_name, component_classes
+
+    classes = component_classes()
+    out = {}
+    for inst in system.instances:
+        cls = classes.get(_model_name(inst.fmu))
+        if cls is None:
+            continue
+        f = cls.model.Params.__dataclass_fields__.get("fidelity")
+        if f is not None and f.metadata.get("choices"):
+            out[inst.name] = tuple(sorted(f.metadata["choices"]))
+    return out
+
+
+def _key(system, scene: Scene) -> str:
+    text = repr((system, asdict(scene)))
+    return hashlib.sha1(text.encode()).hexdigest()[:16]
+
+
+def _run(system, scene: Scene, fidelities: dict[str, int], step: float, full_value: float | None) -> Candidate:
+    from harness import simulate
+
+    params = {f"{k}.fidelity": v for k, v in fidelities.items()}
+    exp = system.experiment
+    t0 = time.perf_counter()
+    try:
+        df = simulate(system, stop_time=scene.stop_time or exp.stop_time, step=step, master=exp.master,
+                      extrapolation=exp.extrapolation, parameters=params,
+                      outputs=qoi.columns(scene.quantity) or None)
+        wall = time.perf_counter() - t0
+        if df.attrs.get("complete") is False:
+            return Candidate(dict(fidelities), step, None, None, wall, False, df.attrs.get("error", "incomplete"))
+        value = qoi.evaluate(scene.quantity, df)
+    except Exception as e:
+        return Candidate(dict(fidelities), step, None, None, time.perf_counter() - t0, False,
+                         f"{type(e).__name__}: {e}".splitlines()[0])
+    if full_value is None:
+        return Candidate(dict(fidelities), step, value, 0.0, wall, True)
+    err = abs(value - full_value)
+    bound = scene.tolerance * (abs(full_value) if scene.relative else 1.0)
+    return Candidate(dict(fidelities), step, value, err, wall, err <= bound)
+
+
+def choose(system, scene: Scene, cache_dir: Path = Path("results/cache"), max_doublings: int = 6) -> SceneResult:
+    levels = fidelity_levels(system)
+    full_f = {k: v[-1] for k, v in levels.items()}
+    step0 = system.experiment.step
+    cache = cache_dir / f"{system.name}_{scene.name}_{_key(system, scene)}.json"
+    if cache.exists():
+        full = Candidate(**json.loads(cache.read_text()))
+    else:
+        full = _run(system, scene, full_f, step0, None)
+        if not full.ok:
+            raise RuntimeError(f"scene {scene.name}: the full model failed: {full.note}")
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        cache.write_text(json.dumps(asdict(full)))
+    candidates = [full]
+    current = dict(full_f)
+    for inst, lv in levels.items():  # greedy, in the system's instance order
+        for level in lv[:-1]:
+            trial = dict(current, **{inst: level})
+            c = _run(system, scene, trial, step0, full.value)
+            candidates.append(c)
+            if c.ok:
+                current = trial
+                break
+    chosen = next((c for c in reversed(candidates) if c.ok and c.fidelities == current and c.step == step0), full)
+    step = step0
+    for _ in range(max_doublings):
+        c = _run(system, scene, current, step * 2, full.value)
+        candidates.append(c)
+        if not c.ok:
+            break
+        step, chosen = step * 2, c
+    # cost side by side in this process: re-time the full model and the chosen one once more each
+    full_again = _run(system, scene, full_f, step0, full.value)
+    chosen_again = _run(system, scene, chosen.fidelities, chosen.step, full.value)
+    speedup = full_again.wall_time / chosen_again.wall_time if chosen_again.wall_time > 0 else float("nan")
+    return SceneResult(scene, full_again, chosen_again, candidates, speedup)
+
+
+def chart(result: SceneResult, out: Path) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    ok = [c for c in result.candidates if c.ok and c.error is not None]
+    bad = [c for c in result.candidates if not c.ok and c.error is not None]
+    floor = 1e-16
+    ax.scatter([c.wall_time for c in ok], [max(c.error, floor) for c in ok], label="within tolerance", color="tab:green")
+    ax.scatter([c.wall_time for c in bad], [max(c.error, floor) for c in bad], label="outside tolerance",
+               color="tab:red", marker="x")
+    ch = result.chosen
+    ax.scatter([ch.wall_time], [max(ch.error or 0.0, floor)], s=160, facecolors="none", edgecolors="k",
+               label=f"chosen (speed-up {result.speedup:.1f}x)")
+    tol = result.scene.tolerance * (abs(result.full.value) if result.scene.relative else 1.0)
+    ax.axhline(tol, color="grey", ls="--", lw=1, label="tolerance")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("wall time per run [s]")
+    ax.set_ylabel(f"|error| of the quantity {result.scene.unit}".strip())
+    ax.set_title(f"{result.scene.name}: {result.scene.question}", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    paths = [out.with_suffix(".png"), out.with_suffix(".svg")]
+    for p in paths:
+        fig.savefig(p)
+    plt.close(fig)
+    return paths
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("scene", help="answer a scene's question with the coarsest adequate model")
+    p.add_argument("system", help="system module name in systems/")
+    p.add_argument("scene", help="scene name (see the system's SYSTEM.scenes)")
+    p.add_argument("--out", type=Path, default=Path("results"), help="folder for the chart and table")
+    p.set_defaults(func=_run_cli)
+
+
+def _run_cli(args) -> int:
+    from harness import load
+
+    system = load(args.system)
+    scenes = {s.name: s for s in getattr(system, "scenes", [])}
+    if args.scene not in scenes:
+        raise SystemExit(f"error: system {system.name} has no scene {args.scene!r}; "
+                         f"known: {', '.join(sorted(scenes)) or 'none'}")
+    res = choose(system, scenes[args.scene], cache_dir=args.out / "cache")
+    stem = args.out / f"scene_{system.name}_{args.scene}"
+    res.table().to_csv(stem.with_suffix(".csv"), index=False)
+    paths = chart(res, stem)
+    print(f"scene {args.scene}: {res.scene.question}")
+    print(f"  chosen fidelities: {res.chosen.fidelities}, step {res.chosen.step:g} s")
+    print(f"  quantity: {res.chosen.value:.6g} {res.scene.unit} (full model {res.full.value:.6g}); "
+          f"error {res.chosen.error:.3g}")
+    print(f"  wall time: full {res.full.wall_time:.3f} s, chosen {res.chosen.wall_time:.3f} s, "
+          f"speed-up {res.speedup:.2f}x (measured side by side in this run)")
+    print(f"  chart: {paths[0]}")
+    return 0

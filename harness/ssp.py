@@ -1,0 +1,380 @@
+"""SSP 1.0 export and import (System Structure and Parameterization).
+
+Export (``python -m harness export X OUT.ssp``) writes ``SystemStructure.ssd`` with
+
+* one ``ssd:Component`` per instance (``source="resources/<Model>.fmu"``), its connectors typed and with
+  units (inputs, outputs and the parameters it sets), and its parameter values inline as an
+  ``ssv:ParameterSet`` named ``default`` (Ecos applies it with ``init(parameter_set="default")``; libcosim
+  applies inline values on load);
+* every connection (power bonds expanded), with ``ssc:LinearTransformation`` where one is declared;
+* the units used, a ``DefaultExperiment`` carrying the OSP ``FixedStepAlgorithm`` annotation so libcosim takes
+  the same step, and a ``org.pressdrive`` annotation that keeps what SSP cannot say (power bonds, master,
+  extrapolation) so that export -> import is a lossless round trip;
+
+and packs the FMUs into ``resources/``.
+
+Import (:func:`load_ssp`) reads SSP written by any tool: components with ``source`` relative to the
+archive (or the .ssd's folder), inline and referenced (``.ssv``) parameter values on components or on the
+system (``Component.parameter`` names, optional ``prefix``), connections with linear transformations, the
+default experiment and the OSP fixed-step annotation.  Anything else that changes the meaning of the system
+(nested systems, signal dictionaries, parameter mappings, non-FMU components, system-level connectors,
+non-linear transformations) is refused with one line naming the element and the file.
+"""
+from __future__ import annotations
+
+import hashlib
+import shutil
+import tempfile
+import zipfile
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+from fmus.units import BASE_UNITS
+from harness.errors import SystemError_
+from harness.model import Bond, Connection, Experiment, Instance, System, model_description, resolve_fmu
+
+NS = {
+    "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+    "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
+    "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
+    "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
+    "pd": "https://pressdrive.example/ssp-annotations",
+}
+for _prefix, _uri in NS.items():
+    ET.register_namespace(_prefix, _uri)
+
+OSP_ANNOTATION = "com.opensimulationplatform"
+OWN_ANNOTATION = "org.pressdrive"
+FMU_TYPE = "application/x-fmu-sharedlibrary"
+PARAMETER_SET = "default"
+
+
+def _q(tag: str) -> str:
+    prefix, name = tag.split(":")
+    return f"{{{NS[prefix]}}}{name}"
+
+
+def _num(value) -> str:
+    return repr(float(value)) if isinstance(value, float) else str(value)
+
+
+# --------------------------------------------------------------------------------------------------------
+# export
+# --------------------------------------------------------------------------------------------------------
+def export_ssp(system: System, out: str | Path) -> Path:
+    """Write ``system`` as an SSP archive at ``out`` (FMUs included) and return its path."""
+    out = Path(out)
+    if out.suffix.lower() != ".ssp":
+        raise SystemError_(f"{out}: an SSP archive must end in .ssp")
+    fmu_paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
+    ssd = build_ssd(system, {name: f"resources/{p.name}" for name, p in fmu_paths.items()})
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_suffix(".ssp.part")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("SystemStructure.ssd", ET.tostring(ssd, encoding="utf-8", xml_declaration=True))
+        for p in sorted(set(fmu_paths.values())):
+            z.write(p, f"resources/{p.name}")
+    tmp.replace(out)
+    return out
+
+
+def build_ssd(system: System, sources: dict[str, str]) -> ET.Element:
+    """The SystemStructure.ssd element tree of a system (``sources``: instance -> FMU path in the archive)."""
+    root = ET.Element(_q("ssd:SystemStructureDescription"), {"version": "1.0", "name": system.name})
+    sys_el = ET.SubElement(root, _q("ssd:System"), {"name": system.name})
+    if system.description:
+        sys_el.set("description", system.description.strip().splitlines()[0])
+    elements = ET.SubElement(sys_el, _q("ssd:Elements"))
+    connections = system.all_connections()
+    used_units: set[str] = set()
+    for inst in system.instances:
+        md = model_description(resolve_fmu(inst.fmu))
+        comp = ET.SubElement(elements, _q("ssd:Component"),
+                             {"name": inst.name, "type": FMU_TYPE, "source": sources[inst.name]})
+        conns = ET.SubElement(comp, _q("ssd:Connectors"))
+        variables = {v.name: v for v in md.modelVariables}
+        for v in md.modelVariables:
+            if v.causality in ("input", "output") or (v.causality == "parameter" and v.name in inst.parameters):
+                c = ET.SubElement(conns, _q("ssd:Connector"), {"name": v.name, "kind": v.causality})
+                attrs = {}
+                if v.type == "Real" and v.unit:
+                    attrs["unit"] = v.unit
+                    used_units.add(v.unit)
+                ET.SubElement(c, _q(f"ssc:{v.type}"), attrs)
+        if inst.parameters:
+            bindings = ET.SubElement(comp, _q("ssd:ParameterBindings"))
+            binding = ET.SubElement(bindings, _q("ssd:ParameterBinding"))
+            values = ET.SubElement(binding, _q("ssd:ParameterValues"))
+            pset = ET.SubElement(values, _q("ssv:ParameterSet"), {"version": "1.0", "name": PARAMETER_SET})
+            params = ET.SubElement(pset, _q("ssv:Parameters"))
+            for name, value in inst.parameters.items():
+                if name not in variables:
+                    raise SystemError_(f"instance {inst.name}: FMU {md.modelName} has no parameter {name}")
+                v = variables[name]
+                p = ET.SubElement(params, _q("ssv:Parameter"), {"name": name})
+                attrs = {"value": _num(float(value) if v.type == "Real" else int(value))}
+                if v.type == "Real" and v.unit:
+                    attrs["unit"] = v.unit
+                ET.SubElement(p, _q(f"ssv:{v.type}"), attrs)
+    conn_el = ET.SubElement(sys_el, _q("ssd:Connections"))
+    for c in connections:
+        src_inst, src_var = c.source.split(".", 1)
+        dst_inst, dst_var = c.target.split(".", 1)
+        e = ET.SubElement(conn_el, _q("ssd:Connection"), {"startElement": src_inst, "startConnector": src_var,
+                                                          "endElement": dst_inst, "endConnector": dst_var})
+        if c.factor != 1.0 or c.offset != 0.0:
+            ET.SubElement(e, _q("ssc:LinearTransformation"), {"factor": _num(float(c.factor)),
+                                                              "offset": _num(float(c.offset))})
+    own = _annotation(sys_el, OWN_ANNOTATION)
+    bonds_el = ET.SubElement(own, _q("pd:Bonds"))
+    for b in system.bonds:
+        kind = "true" if system._bond_is_translational(b, None) else "false"
+        ET.SubElement(bonds_el, _q("pd:Bond"), {"motionOut": b.motion_out, "motionIn": b.motion_in,
+                                                 "translational": kind})
+    conv = ET.SubElement(own, _q("pd:UnitConversions"))
+    for c in system.connections:
+        if c.unit_conversion:
+            ET.SubElement(conv, _q("pd:Conversion"), {"source": c.source, "target": c.target})
+    exp = system.experiment
+    if exp is not None:
+        ET.SubElement(own, _q("pd:Experiment"), {k: str(v) for k, v in (
+            ("master", exp.master), ("extrapolation", exp.extrapolation), ("stepControl", exp.step_control),
+            ("tolerance", exp.tolerance)) if v is not None})
+    units_el = ET.SubElement(root, _q("ssd:Units"))
+    for name in sorted(used_units):
+        u = ET.SubElement(units_el, _q("ssc:Unit"), {"name": name})
+        ET.SubElement(u, _q("ssc:BaseUnit"), {k: str(e) for k, e in BASE_UNITS.get(name, {}).items()})
+    if exp is not None:
+        de = ET.SubElement(root, _q("ssd:DefaultExperiment"), {"startTime": "0.0", "stopTime": _num(float(exp.stop_time))})
+        osp = _annotation(de, OSP_ANNOTATION)
+        algorithm = ET.SubElement(osp, _q("osp:Algorithm"))
+        ET.SubElement(algorithm, _q("osp:FixedStepAlgorithm"), {"baseStepSize": _num(float(exp.step))})
+    return root
+
+
+def _annotation(parent: ET.Element, kind: str) -> ET.Element:
+    anns = parent.find(_q("ssd:Annotations"))
+    if anns is None:
+        anns = ET.SubElement(parent, _q("ssd:Annotations"))
+    return ET.SubElement(anns, _q("ssc:Annotation"), {"type": kind})
+
+
+# --------------------------------------------------------------------------------------------------------
+# import
+# --------------------------------------------------------------------------------------------------------
+_EXTRACTED: dict[tuple[str, float], Path] = {}
+
+
+def _unpack(path: Path) -> Path:
+    """Extract an .ssp once per process (cached by path and mtime); return the folder."""
+    key = (str(path.resolve()), path.stat().st_mtime)
+    if key not in _EXTRACTED:
+        digest = hashlib.sha1(key[0].encode()).hexdigest()[:10]
+        folder = Path(tempfile.mkdtemp(prefix=f"ssp_{path.stem}_{digest}_"))
+        try:
+            with zipfile.ZipFile(path) as z:
+                z.extractall(folder)
+        except zipfile.BadZipFile as e:
+            shutil.rmtree(folder, ignore_errors=True)
+            raise SystemError_(f"{path}: not an SSP archive ({e})") from None
+        _EXTRACTED[key] = folder
+    return _EXTRACTED[key]
+
+
+def load_ssp(path: str | Path) -> System:
+    """Read an .ssp archive or an .ssd file into a System."""
+    path = Path(path)
+    if not path.exists():
+        raise SystemError_(f"{path}: no such file")
+    if path.suffix.lower() == ".ssp":
+        root_dir = _unpack(path)
+        ssd_path = root_dir / "SystemStructure.ssd"
+        if not ssd_path.exists():
+            raise SystemError_(f"{path}: the archive has no SystemStructure.ssd")
+    elif path.suffix.lower() == ".ssd":
+        ssd_path, root_dir = path, path.parent
+    else:
+        raise SystemError_(f"{path}: expected an .ssp or .ssd file")
+    try:
+        tree = ET.parse(ssd_path)
+    except ET.ParseError as e:
+        raise SystemError_(f"{ssd_path}: not well-formed XML ({e})") from None
+    return _Reader(ssd_path, root_dir).system(tree.getroot())
+
+
+class _Reader:
+    def __init__(self, ssd_path: Path, root_dir: Path):
+        self.ssd_path, self.root_dir = ssd_path, root_dir
+
+    def fail(self, what: str) -> SystemError_:
+        return SystemError_(f"{self.ssd_path}: {what}")
+
+    def system(self, root: ET.Element) -> System:
+        if root.tag != _q("ssd:SystemStructureDescription"):
+            raise self.fail(f"root element is <{root.tag}>, not ssd:SystemStructureDescription")
+        sys_el = root.find(_q("ssd:System"))
+        if sys_el is None:
+            raise self.fail("no ssd:System element")
+        name = sys_el.get("name") or root.get("name") or self.ssd_path.stem
+        if sys_el.find(_q("ssd:SignalDictionaries")) is not None:
+            raise self.fail(f"ssd:SignalDictionaries in system '{name}' are not supported")
+        system_connectors = {c.get("name") for c in sys_el.findall(f"{_q('ssd:Connectors')}/{_q('ssd:Connector')}")}
+        instances = []
+        elements = sys_el.find(_q("ssd:Elements"))
+        for el in (list(elements) if elements is not None else []):
+            if el.tag == _q("ssd:System"):
+                raise self.fail(f"nested ssd:System '{el.get('name')}' is not supported (flatten the system)")
+            if el.tag == _q("ssd:SignalDictionaryReference"):
+                raise self.fail(f"ssd:SignalDictionaryReference '{el.get('name')}' is not supported")
+            if el.tag != _q("ssd:Component"):
+                raise self.fail(f"element <{el.tag}> in ssd:Elements is not supported")
+            instances.append(self.component(el))
+        system_params = self.parameter_bindings(sys_el, f"system '{name}'")
+        by_name = {i.name: i for i in instances}
+        for pname, value in system_params.items():
+            comp, _, var = pname.partition(".")
+            if comp not in by_name or not var:
+                raise self.fail(f"system parameter '{pname}' names no component (expected Component.parameter)")
+            by_name[comp].parameters[var] = value
+        connections = []
+        for c in sys_el.findall(f"{_q('ssd:Connections')}/{_q('ssd:Connection')}"):
+            connections.append(self.connection(c, system_connectors))
+        bonds, conversions, exp_extra = self.own_annotation(sys_el)
+        bonded = set()
+        for b in bonds:
+            bonded.update((c.source, c.target) for c in b.connections())
+        for c in connections:
+            if (c.source, c.target) in conversions:
+                c.unit_conversion = True
+        connections = [c for c in connections if (c.source, c.target) not in bonded]
+        experiment = self.experiment(root, exp_extra)
+        return System(name=name, instances=instances, connections=connections, bonds=bonds,
+                      experiment=experiment, description=sys_el.get("description", ""))
+
+    def component(self, el: ET.Element) -> Instance:
+        name = el.get("name")
+        if not name:
+            raise self.fail("an ssd:Component has no name")
+        ctype = el.get("type", FMU_TYPE)
+        if ctype != FMU_TYPE:
+            raise self.fail(f"component '{name}' has type '{ctype}'; only FMUs ({FMU_TYPE}) are supported")
+        source = el.get("source")
+        if not source:
+            raise self.fail(f"component '{name}' has no source")
+        if source.startswith("file:"):
+            source = source[5:].lstrip("/") if not source.startswith("file:///") else source[7:]
+        fmu = Path(source)
+        if not fmu.is_absolute():
+            fmu = (self.root_dir / source) if (self.root_dir / source).exists() else (self.ssd_path.parent / source)
+        if not fmu.exists():
+            raise self.fail(f"component '{name}': source {source} not found")
+        if el.find(f"{_q('ssd:ParameterBindings')}/{_q('ssd:ParameterBinding')}/{_q('ssd:ParameterMapping')}") is not None:
+            raise self.fail(f"component '{name}': ssd:ParameterMapping is not supported")
+        return Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'"))
+
+    def parameter_bindings(self, el: ET.Element, owner: str) -> dict:
+        values: dict = {}
+        for b in el.findall(f"{_q('ssd:ParameterBindings')}/{_q('ssd:ParameterBinding')}"):
+            if b.find(_q("ssd:ParameterMapping")) is not None:
+                raise self.fail(f"{owner}: ssd:ParameterMapping is not supported")
+            prefix = b.get("prefix", "")
+            inline = b.find(_q("ssd:ParameterValues"))
+            if b.get("source"):
+                src = b.get("source")
+                p = self.root_dir / src if (self.root_dir / src).exists() else self.ssd_path.parent / src
+                if not p.exists():
+                    raise self.fail(f"{owner}: parameter values source {src} not found")
+                try:
+                    pset = ET.parse(p).getroot()
+                except ET.ParseError as e:
+                    raise SystemError_(f"{p}: not well-formed XML ({e})") from None
+            elif inline is not None:
+                pset = inline.find(_q("ssv:ParameterSet"))
+                if pset is None:
+                    raise self.fail(f"{owner}: ssd:ParameterValues holds no ssv:ParameterSet")
+            else:
+                continue
+            for p in pset.findall(f"{_q('ssv:Parameters')}/{_q('ssv:Parameter')}"):
+                pname = p.get("name", "")
+                if prefix and pname.startswith(prefix):
+                    pname = pname[len(prefix):]
+                values[pname] = self.parameter_value(p, owner)
+        return values
+
+    def parameter_value(self, p: ET.Element, owner: str):
+        for child in p:
+            kind = child.tag.rsplit("}", 1)[-1]
+            raw = child.get("value")
+            if kind == "Real":
+                return float(raw)
+            if kind in ("Integer", "Enumeration"):
+                return int(raw)
+            if kind == "Boolean":
+                return 1 if raw in ("true", "1") else 0
+            raise self.fail(f"{owner}: parameter '{p.get('name')}' of type ssv:{kind} is not supported")
+        raise self.fail(f"{owner}: parameter '{p.get('name')}' has no value")
+
+    def connection(self, c: ET.Element, system_connectors: set) -> Connection:
+        s_el, e_el = c.get("startElement"), c.get("endElement")
+        s_con, e_con = c.get("startConnector"), c.get("endConnector")
+        if not s_el or not e_el:
+            which = s_con if not s_el else e_con
+            raise self.fail(f"connection to system connector '{which}' is not supported (only component to component)")
+        factor, offset = 1.0, 0.0
+        for t in c:
+            kind = t.tag.rsplit("}", 1)[-1]
+            if kind == "LinearTransformation":
+                factor = float(t.get("factor", "1")); offset = float(t.get("offset", "0"))
+            elif kind != "Annotations":
+                raise self.fail(f"connection {s_el}.{s_con} -> {e_el}.{e_con}: ssc:{kind} is not supported")
+        return Connection(source=f"{s_el}.{s_con}", target=f"{e_el}.{e_con}", factor=factor, offset=offset)
+
+    def own_annotation(self, sys_el: ET.Element):
+        bonds, conversions, extra = [], set(), {}
+        for ann in sys_el.findall(f"{_q('ssd:Annotations')}/{_q('ssc:Annotation')}"):
+            if ann.get("type") != OWN_ANNOTATION:
+                continue
+            for b in ann.findall(f"{_q('pd:Bonds')}/{_q('pd:Bond')}"):
+                bonds.append(Bond(b.get("motionOut"), b.get("motionIn"), b.get("translational") == "true"))
+            for cv in ann.findall(f"{_q('pd:UnitConversions')}/{_q('pd:Conversion')}"):
+                conversions.add((cv.get("source"), cv.get("target")))
+            e = ann.find(_q("pd:Experiment"))
+            if e is not None:
+                extra = dict(e.attrib)
+        return bonds, conversions, extra
+
+    def experiment(self, root: ET.Element, extra: dict) -> Experiment | None:
+        de = root.find(_q("ssd:DefaultExperiment"))
+        if de is None:
+            return None
+        start = float(de.get("startTime", "0"))
+        if start != 0.0:
+            raise self.fail(f"ssd:DefaultExperiment startTime={start}: only 0 is supported")
+        stop = de.get("stopTime")
+        step = None
+        for info in de.iter(_q("osp:FixedStepAlgorithm")):   # libcosim's form
+            step = float(info.get("baseStepSize"))
+        for info in de.iter(_q("osp:FixedStepMaster")):      # the older SimulationInformation form
+            step = float(info.get("stepSize"))
+        return Experiment(stop_time=float(stop) if stop is not None else None, step=step,
+                          master=extra.get("master", "jacobi"), extrapolation=int(extra.get("extrapolation", 0)),
+                          step_control=extra.get("stepControl"),
+                          tolerance=float(extra["tolerance"]) if "tolerance" in extra else None)
+
+
+# --------------------------------------------------------------------------------------------------------
+# CLI
+# --------------------------------------------------------------------------------------------------------
+def register(subparsers) -> None:
+    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included)")
+    p.add_argument("system", help="system module name in systems/, or a .ssp/.ssd file")
+    p.add_argument("out", type=Path, help="output .ssp file")
+    p.set_defaults(func=_run_export)
+
+
+def _run_export(args) -> int:
+    from harness import load
+
+    out = export_ssp(load(args.system), args.out)
+    print(f"wrote {out}")
+    return 0

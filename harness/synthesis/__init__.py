@@ -1,0 +1,20 @@
+"""Mechanism synthesis tools of the seeds, as ``python -m harness synth <tool>``.
+
+Each tool module exposes ``register(subparsers)`` (adds its subcommand, with ``func`` set to its
+``run(args) -> int``); the analysis itself lives in the pure equation layer (fmus.physics).
+"""
+from __future__ import annotations
+
+import importlib
+
+TOOLS = ("fourbar", "groove", "sectors", "knife")
+
+
+def register(subparsers) -> None:
+    synth = subparsers.add_parser("synth", help="mechanism synthesis and analysis tools of the seeds")
+    tools = synth.add_subparsers(dest="tool", metavar="TOOL", required=True)
+    for name in TOOLS:
+        module = importlib.import_module(f"harness.synthesis.{name}")
+        module.register(tools)
+        if "func" not in tools.choices[name]._defaults:
+            tools.choices[name].set_defaults(func=module.run)

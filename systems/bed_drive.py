@@ -1,0 +1,90 @@
+"""Bed (taler) drive of the two-revolution flat-bed press with a James differential (seed 004).
+
+    motor (MotorBelt) <-pulley- flywheel (FlywheelShaft) -crank-> fourbar (FourBar O2ADO5) =ring=> diff
+                                                        -aux---> cam (CamRocker, disc cam) -rocker-> diff.carrier
+    diff (JamesDifferential) -sun-> bed (RackBed: pinion z6, rack, bed mass m_T)
+
+* Four-bar O2ADO5 with the published relative lengths 1 : 1.91579 : 2.10526 : 2.25263 (crank 0.1 m, an
+  assumed scale), synthesised for a 60 deg rocker swing and a 30 deg minimum transmission angle.
+* The disc cam on the same main shaft swings the carrier by 40 deg with the published rise / return phases
+  216 deg 53' 10" / 143 deg 06' 50"; its rise starts with the four-bar's working stroke (both inputs leave their
+  extreme positions together, as the seed requires), so the run starts there too (flywheel phi0).
+* Differential z_ring/z_sun = 3 with 3 planets (seed: i_53^b = -3, i_5b^3 = 4).  The inputs add only when ring
+  and carrier turn in opposite senses (seed: -w3 and +w_b); the four-bar rocker turns counter-clockwise on its
+  working stroke, like the cam follower, so it drives the ring through a reversing pair: the connection
+  rocker -> ring carries factor -1 on the motion and ring -> rocker factor -1 on the torque (power is kept),
+  with an offset that puts the ring at 0 in the starting extreme position.
+* Bed: pinion z6 = 25 teeth, module 4 mm (R6 = 0.05 m, assumed), m_T = 250 kg (assumed: the seed gives no
+  mass); stroke = R6 * alpha_Sigma with alpha_Sigma = 3*60 + 4*40 = 340 deg, about 0.297 m; a printing load of
+  500 N acts on the forward stroke between 0.08 and 0.24 m.
+* Main shaft at 60 rpm: a 4-pole motor (1425 rpm) through a reduction of 23.75 written as one belt ratio (the
+  seed gives no drive data).
+"""
+import math
+
+from fmus.physics import fourbar
+from harness.model import Connection, Experiment, Instance, System, bond
+from harness.scenes import Scene
+
+RPM = 2 * math.pi / 60
+CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m
+_analysis = fourbar.analyse(1.0, COUPLER / CRANK, FRAME / CRANK, ROCKER / CRANK)
+PHI_START = math.radians(_analysis.working_start_deg)  # crank angle where the working stroke begins
+ROCKER_START = float(fourbar.position(PHI_START, CRANK, COUPLER, FRAME, ROCKER, 1)[0])  # rad
+
+SYSTEM = System(
+    name="bed_drive",
+    description="Two-revolution flat-bed press: bed drive by four-bar + disc cam through a James differential "
+                "and rack (seed 004)",
+    instances=[
+        Instance("motor", "MotorBelt", {
+            "fidelity": 1, "P_rated": 2200.0, "w_rated": 1425.0 * RPM, "w_sync": 1500.0 * RPM,  # W, rad/s
+            "breakdown_ratio": 2.2, "J_motor": 0.007,                                         # 1, kg.m2
+            "d_motor_pulley": 0.04, "d_driven_pulley": 0.95,                                  # m: ratio 23.75
+            "c_belt": 4.0e5, "d_belt": 400.0,                                                 # N/m, N.s/m
+        }),
+        Instance("flywheel", "FlywheelShaft", {
+            "fidelity": 1, "J_flywheel": 8.0, "J_crank": 0.5,     # kg.m2
+            "G": 8.1e10, "d": 0.06, "l": 0.8, "psi": 0.5,         # Pa, m, m, 1
+            "w0": 60.0 * RPM, "phi0": PHI_START,                  # rad/s, rad
+        }),
+        Instance("fourbar", "FourBar", {
+            "crank_length": CRANK, "coupler_length": COUPLER, "frame_length": FRAME, "rocker_length": ROCKER,
+            "fidelity": 1, "coupler_stiffness": 5e7, "coupler_damping": 2e3,  # N/m, N.s/m (assumed)
+            "rocker_inertia": 0.5, "clearance": 0.0,                            # kg.m2 (ring gear z3 + rocker)
+        }),
+        Instance("cam", "CamRocker", {
+            "mechanism": 1, "fidelity": 0, "law": 0,                 # disc cam, rigid, harmonic law
+            "swing": math.radians(40.0), "phi_start": PHI_START,     # rad
+            "rocker_inertia": 0.05,                                  # kg.m2 (carrier + follower)
+        }),
+        Instance("diff", "JamesDifferential", {"z_ring": 72, "z_planet": 24, "z_sun": 24, "n_planets": 3,
+                                               "fidelity": 0}),
+        Instance("bed", "RackBed", {
+            "fidelity": 1, "m_T": 250.0, "module": 0.004, "z_pinion": 25,     # kg, m, teeth
+            "c_mesh": 2.0e7,                  # N/m: rack mesh in series with the drive-train compliance
+            "F_print": 500.0, "s_print_start": 0.08, "s_print_end": 0.24,     # N, m, m
+        }),
+    ],
+    bonds=[
+        bond("flywheel.pulley", "motor.pulley"),
+        bond("flywheel.crank", "fourbar.crank"),
+        bond("flywheel.aux", "cam.crank"),
+        bond("cam.rocker", "diff.carrier"),
+        bond("diff.sun", "bed.pinion"),
+    ],
+    connections=[  # the reversing pair between the four-bar rocker and the ring gear
+        Connection("fourbar.rocker.phi", "diff.ring.phi", factor=-1.0, offset=ROCKER_START),
+        Connection("fourbar.rocker.w", "diff.ring.w", factor=-1.0),
+        Connection("diff.ring.tau", "fourbar.rocker.tau", factor=-1.0),
+    ],
+    experiment=Experiment(stop_time=2.0, step=2e-4, master="jacobi"),
+    scenes=[
+        Scene("bed_stroke", "What is the bed stroke?", 'ptp(window(r["bed.bed.s"], 0.0, 1.0))',
+              tolerance=0.005, unit="m"),
+        Scene("print_speed_ripple", "How uniform is the bed speed inside the printing zone?",
+              'ptp(window(r["bed.bed.v"], 0.25, 0.45))', tolerance=0.05, unit="m/s"),
+        Scene("peak_crank_torque", "What peak torque does the main shaft carry?",
+              'peak(window(r["flywheel.shaft_torque"], 0.2, 2.0))', tolerance=0.05, unit="N.m"),
+    ],
+)

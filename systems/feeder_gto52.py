@@ -1,0 +1,65 @@
+"""Sheet feeder of the Printmaster GTO-52 with the cam-corrected slotted rocker (seeds 000 and 001).
+
+Chain (power bonds, motion -> / <- effort):
+
+    motor (MotorBelt) <-pulley- flywheel (FlywheelShaft) -crank-> feeder (CamRocker) -rocker-> head (TorqueLoad)
+
+* ``feeder`` is the seed's mechanism: crank r = 0.040 m, conrod and slotted rocker (kulisa) whose stone runs
+  in the correcting groove (lambda1 = 3.5, lambda3 = 3 from seed 001; lambda2 = 4.03 lies inside the feasible
+  interval ``python -m harness synth groove`` computes for law K0).  Its fidelity 2 is the four-bar with
+  clearance of seed 000: a clearance of 10 um (seed: 5-20 um) at the stone pin, joint stiffness c2 = 5e5 N/m
+  (seed: 1e5-1e6), restitution e = 0.2 (seed), rocker inertia I2 = 0.00043 kg.m2 (seed).
+* The crank turns at about 150 rpm (seed 000: 100-200 rpm): a 6-pole motor, 960 rpm rated, through a belt of
+  ratio 6.4 (the seed gives no drive data: motor, belt and flywheel values are assumptions, documented here).
+* ``head`` is the feeder head on the rocker: friction and damping of its guides (assumed values); its inertia
+  is lumped into the rocker inertia (a motion-input load cannot carry inertia without the acceleration).
+"""
+import math
+
+from harness.model import Experiment, Instance, System, bond
+from harness.scenes import Scene
+
+RPM = 2 * math.pi / 60
+N_CRANK = 960.0 / 6.4  # rpm, motor rated speed over the belt ratio
+
+SYSTEM = System(
+    name="feeder_gto52",
+    description="Printmaster GTO-52 sheet feeder: motor, V-belt, flywheel shaft, cam-corrected slotted rocker "
+                "with clearance (seeds 000/001), feeder head",
+    instances=[
+        Instance("motor", "MotorBelt", {
+            "fidelity": 1, "P_rated": 750.0,                  # W
+            "w_rated": 960.0 * RPM, "w_sync": 1000.0 * RPM,   # rad/s (6-pole, 50 Hz)
+            "breakdown_ratio": 2.2, "J_motor": 0.004,         # 1, kg.m2
+            "d_motor_pulley": 0.1, "d_driven_pulley": 0.64,   # m: ratio 6.4
+            "c_belt": 2.0e5, "d_belt": 200.0,                 # N/m, N.s/m
+        }),
+        Instance("flywheel", "FlywheelShaft", {
+            "fidelity": 1, "J_flywheel": 0.4, "J_crank": 0.02,  # kg.m2
+            "G": 8.1e10, "d": 0.03, "l": 0.4, "psi": 0.5,      # Pa, m, m, 1 (seed 003's loss coefficient)
+            "w0": N_CRANK * RPM,                              # rad/s
+        }),
+        Instance("feeder", "CamRocker", {
+            "mechanism": 0, "fidelity": 2, "law": 0,          # slotted rocker, clearance level, law K0
+            "crank_radius": 0.040, "lambda1": 3.5, "lambda2": 4.03, "lambda3": 3.0,  # seed 001
+            "rocker_inertia": 0.00043,                        # kg.m2, seed 000: I2
+            "clearance": 10e-6, "contact_stiffness": 5e5,     # m, N/m: seed 000
+            "restitution": 0.2, "stiffness": 5000.0,          # 1 (seed 000), N.m/rad (assumed)
+        }),
+        Instance("head", "TorqueLoad", {"T_coulomb": 0.05, "w_reg": 0.05, "d": 0.002}),  # N.m, rad/s, N.m.s/rad
+    ],
+    bonds=[
+        bond("flywheel.pulley", "motor.pulley"),
+        bond("flywheel.crank", "feeder.crank"),
+        bond("feeder.rocker", "head.flange"),
+    ],
+    experiment=Experiment(stop_time=1.0, step=1e-4, master="jacobi"),
+    scenes=[
+        Scene("rocker_swing", "What is the swing of the feeder rocker at running speed?",
+              'ptp(window(r["feeder.rocker.phi"], 0.4, 1.0))', tolerance=0.01, unit="rad"),
+        Scene("impact_force", "How large are the impact forces in the stone-pin clearance at 150 rpm?",
+              'peak(window(r["feeder.impact_force"], 0.2, 1.0))', tolerance=0.10, unit="N"),
+        Scene("motor_power", "What mean electrical power does the motor draw at running speed?",
+              'mean(window(r["motor.power_electrical"], 0.4, 1.0))', tolerance=0.02, unit="W"),
+    ],
+)

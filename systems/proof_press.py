@@ -1,0 +1,50 @@
+"""Flat-bed proof press PP-84: bed and printing cylinder synchronised through eccentric gear sectors (seed 002).
+
+    motor (MotorBelt) <-pulley- flywheel (FlywheelShaft) -crank-> press (GearSectors) -cylinder-> cylinder (TorqueLoad)
+
+* ``press`` carries the main shaft's slider-crank with the skat (i_CK = 2) that drives the bed, and the
+  sector pairs that accelerate the cylinder (9/9'), synchronise it with the bed through rims and racks,
+  brake it (7/7') and turn it uniformly (8/8').  Its sector geometry is solved once from the synthesis
+  system of the seed at construction (``python -m harness synth sectors`` shows it); the seed publishes no
+  numbers, so the given quantities are the component's documented defaults.
+* ``cylinder`` is the bearing friction of the printing cylinder (assumed 2 N.m).
+* The main shaft turns at 30 rpm: a 4-pole motor through a reduction of 47.5 written as one belt ratio.
+"""
+import math
+
+from harness.model import Experiment, Instance, System, bond
+from harness.scenes import Scene
+
+RPM = 2 * math.pi / 60
+
+SYSTEM = System(
+    name="proof_press",
+    description="Flat-bed proof press PP-84: printing cylinder driven by non-round gear sectors, synchronous "
+                "with the bed (seed 002)",
+    instances=[
+        Instance("motor", "MotorBelt", {
+            "fidelity": 1, "P_rated": 1100.0, "w_rated": 1425.0 * RPM, "w_sync": 1500.0 * RPM,  # W, rad/s
+            "J_motor": 0.004, "d_motor_pulley": 0.02, "d_driven_pulley": 0.95,                  # kg.m2, m, m
+            "c_belt": 2.0e5, "d_belt": 300.0,                                                   # N/m, N.s/m
+        }),
+        Instance("flywheel", "FlywheelShaft", {
+            "fidelity": 1, "J_flywheel": 3.0, "J_crank": 0.3,      # kg.m2
+            "G": 8.1e10, "d": 0.05, "l": 0.5, "psi": 0.5,          # Pa, m, m, 1
+            "w0": 30.0 * RPM,                                      # rad/s
+        }),
+        Instance("press", "GearSectors", {"fidelity": 1, "J_cyl": 2.5, "m_bed": 300.0}),  # kg.m2, kg
+        Instance("cylinder", "TorqueLoad", {"T_coulomb": 2.0, "w_reg": 0.05}),         # N.m, rad/s
+    ],
+    bonds=[
+        bond("flywheel.pulley", "motor.pulley"),
+        bond("flywheel.crank", "press.crank"),
+        bond("press.cylinder", "cylinder.flange"),
+    ],
+    experiment=Experiment(stop_time=4.0, step=2e-4, master="jacobi"),
+    scenes=[
+        Scene("sync_error", "How far does the cylinder surface slip against the bed while printing?",
+              'peak(window(r["press.sync_error"], 0.0, 4.0))', tolerance=1e-4, relative=False, unit="m"),
+        Scene("peak_shaft_torque", "What peak torque does the main shaft carry?",
+              'peak(window(r["flywheel.shaft_torque"], 0.5, 4.0))', tolerance=0.05, unit="N.m"),
+    ],
+)

@@ -1,0 +1,19 @@
+"""Two inertias coupled by a spring-damper across the FMU boundary (force-displacement coupling).
+
+The classic co-simulation benchmark: ``a`` (Inertia, motion out) drives ``b`` (SpringInertia, motion in,
+feed-through torque).  Its one-step map is known in closed form (harness.stability), so it measures
+convergence orders and stability limits of the masters.  Undamped and free-free by default: the coupled
+system conserves energy, so any energy change is made by the coupling.
+"""
+from harness.model import Experiment, Instance, System, bond
+
+SYSTEM = System(
+    name="two_inertia",
+    description="Two inertias coupled by a spring-damper across the FMU boundary (co-simulation benchmark)",
+    instances=[
+        Instance("a", "Inertia", {"J": 0.01, "w0": 1.0}),            # J [kg.m2], w0 [rad/s]
+        Instance("b", "SpringInertia", {"J": 0.02, "c": 100.0, "d": 0.0}),  # J [kg.m2], c [N.m/rad], d [N.m.s/rad]
+    ],
+    bonds=[bond("a.flange", "b.drive")],
+    experiment=Experiment(stop_time=1.0, step=1e-3, master="jacobi"),
+)
