@@ -248,6 +248,8 @@ def register(subparsers) -> None:
     p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
                    help="record only these variables (repeatable; default: every output)")
     p.add_argument("--out", type=Path, default=None, help="write the result as CSV to this file")
+    p.add_argument("--plot", type=Path, default=None, metavar="DIR",
+                   help="write a chart of the run (bond speeds and torques, scene quantities) as DIR/<system>.png/.svg")
     p.set_defaults(func=run_cli)
 
 
@@ -260,6 +262,10 @@ def run_cli(args) -> int:
         to_csv(df, args.out)
     a = df.attrs
     where = f"wrote {args.out}" if args.out is not None else "no --out given, result not written"
+    if args.plot is not None and len(df):
+        from harness.charts import plot_result
+
+        where += "; chart " + str(plot_result(load(args.system), df, args.plot)[0])
     print(f"{a['system']}: {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s, master {a['master']}, "
           f"{a['steps']} steps in {a['wall_time']:.3g} s; {where}")
     if not a["complete"]:
