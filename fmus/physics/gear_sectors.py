@@ -47,42 +47,40 @@ UNKNOWNS = ("eps1", "eps2", "kappa", "beta0")
 
 
 # ---------------------------------------------------------------------------------------------- kinematics
-def sector_point(beta: float, eps1: float, eps2: float, kappa: float, beta0: float, delta0: float):
-    """Scalar kinematics at carrier angle beta: (sigma_raw, psi_raw, l_i, omega_C, eps_C) (eq. 3-15).
-
-    sigma_raw is atan2 (not unwrapped); use sector_sigma for a continuous crank angle."""
+def _sector_terms(beta, eps1, eps2, kappa, beta0, delta0, cos, sin):
+    """(u, w, delta_x, D, N, dD/dbeta, dN/dbeta) of eqs. 3-15, written once for math (scalars) and numpy."""
     k1 = kappa + 1.0
     dl = delta0 + k1 * beta
-    cd, sd, cb, sb = math.cos(dl), math.sin(dl), math.cos(beta), math.sin(beta)
+    cd, sd, cb, sb = cos(dl), sin(dl), cos(beta), sin(beta)
     u = eps2 * cd + k1 * cb - eps1 * math.cos(beta0)
     w = eps2 * sd + k1 * sb - eps1 * math.sin(beta0)
     p = eps2 * cd + cb
     q = eps2 * sd + sb
-    D = u * u + w * w
-    N = u * p + w * q
-    Db = 2.0 * k1 * (w * p - u * q)
     Nb = w * (eps2 * k1 * cd + cb) - u * (eps2 * k1 * sd + sb)
+    return u, w, dl, u * u + w * w, u * p + w * q, 2.0 * k1 * (w * p - u * q), Nb
+
+
+def _sector_invariants(D, N, Db, Nb, kappa):
+    """(omega_C, eps_C): eq. 12 as the magnitude D/N - 1, and eq. 15."""
+    return D / N - 1.0, D * (Db * N - D * Nb) / ((kappa + 1.0) * N ** 3)
+
+
+def sector_point(beta: float, eps1: float, eps2: float, kappa: float, beta0: float, delta0: float):
+    """Scalar kinematics at carrier angle beta: (sigma_raw, psi_raw, l_i, omega_C, eps_C) (eq. 3-15).
+
+    sigma_raw is atan2 (not unwrapped); use sector_sigma for a continuous crank angle."""
+    u, w, dl, D, N, Db, Nb = _sector_terms(beta, eps1, eps2, kappa, beta0, delta0, math.cos, math.sin)
     sigma = math.atan2(w, u)
-    return sigma, dl - sigma, math.sqrt(D), D / N - 1.0, D * (Db * N - D * Nb) / (k1 * N ** 3)
+    return (sigma, dl - sigma, math.sqrt(D), *_sector_invariants(D, N, Db, Nb, kappa))
 
 
 def sector_arrays(beta, eps1, eps2, kappa, beta0, delta0):
     """Vectorised kinematics over an increasing array beta starting at 0: sigma (unwrapped), psi, l_i,
     omega_C, eps_C (eqs. 3-15)."""
     beta = np.asarray(beta, dtype=float)
-    k1 = kappa + 1.0
-    dl = delta0 + k1 * beta
-    cd, sd, cb, sb = np.cos(dl), np.sin(dl), np.cos(beta), np.sin(beta)
-    u = eps2 * cd + k1 * cb - eps1 * math.cos(beta0)
-    w = eps2 * sd + k1 * sb - eps1 * math.sin(beta0)
-    p = eps2 * cd + cb
-    q = eps2 * sd + sb
-    D = u * u + w * w
-    N = u * p + w * q
-    Db = 2.0 * k1 * (w * p - u * q)
-    Nb = w * (eps2 * k1 * cd + cb) - u * (eps2 * k1 * sd + sb)
+    u, w, dl, D, N, Db, Nb = _sector_terms(beta, eps1, eps2, kappa, beta0, delta0, np.cos, np.sin)
     sigma = np.unwrap(np.arctan2(w, u))
-    return sigma, dl - sigma, np.sqrt(D), D / N - 1.0, D * (Db * N - D * Nb) / (k1 * N ** 3)
+    return (sigma, dl - sigma, np.sqrt(D), *_sector_invariants(D, N, Db, Nb, kappa))
 
 
 @dataclass(frozen=True)

@@ -18,3 +18,13 @@ def register(subparsers) -> None:
         module.register(tools)
         if "func" not in tools.choices[name]._defaults:
             tools.choices[name].set_defaults(func=module.run)
+
+
+def standalone(register_tool, argv=None) -> int:
+    """Run one tool module directly (``python -m harness.synthesis.knife ...``)."""
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="synth")
+    register_tool(ap.add_subparsers(dest="tool", required=True))
+    args = ap.parse_args(argv)
+    return args.func(args)

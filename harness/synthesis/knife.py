@@ -74,10 +74,9 @@ def run(args) -> int:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="synth")
-    register(ap.add_subparsers(dest="tool", required=True))
-    args = ap.parse_args(argv)
-    return args.func(args)
+    from harness.synthesis import standalone
+
+    return standalone(register, argv)
 
 
 if __name__ == "__main__":
