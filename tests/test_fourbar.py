@@ -103,10 +103,8 @@ def rebound_ratio_1dof(law, e, v0, k, m_eff):
     return abs(sol.y[1, -1]) / v0
 
 
-def kelvin_voigt_no_pull(e):
-    """Closed form: linear spring-damper that cannot pull; contact ends when k p + c p' = 0."""
-    ln_e = math.log(e)
-    z = -ln_e / math.sqrt(math.pi ** 2 + ln_e ** 2)
+def no_pull_restitution(z):
+    """Closed form: linear spring-damper (damping ratio z) that cannot pull; contact ends when k p + c p' = 0."""
     wd = math.sqrt(1 - z * z)                        # omega = 1, v0 = 1
     # p = exp(-z t) sin(wd t)/wd ; force zero: p + 2 z p' = 0
     t = (math.pi - math.atan2(2 * z * wd, 1 - 2 * z * z)) / wd
@@ -138,10 +136,14 @@ def test_fidelity2_single_impact_rebound(law, e):
     assert y[6] == 0.0 and y[5] == 0.0                      # separated again
     ratio = y[9] / y[8]
     m_eff = m.p.rocker_inertia / arm ** 2
-    assert ratio == pytest.approx(rebound_ratio_1dof(law, e, 0.01, m.p.coupler_stiffness, m_eff), rel=0.015)
+    # sub-stepping does not locate the kink where the clipped force reaches zero: first-order error, up
+    # to ~3 % for the strongly damped Kelvin-Voigt contact at low e (0.2045 for e = 0.2), ~1 % otherwise
+    kink = 0.03 if law == contact.KELVIN_VOIGT and e < 0.5 else 0.015
+    assert ratio == pytest.approx(rebound_ratio_1dof(law, e, 0.01, m.p.coupler_stiffness, m_eff), rel=kink)
     if law == contact.KELVIN_VOIGT:
-        # the kink where the clipped force reaches zero is not located: first-order error ~1 %
-        assert ratio == pytest.approx(kelvin_voigt_no_pull(e), rel=0.015)
+        # the damping is solved for the no-pull contact, so the rebound meets e itself; the kink where the
+        # clipped force reaches zero is not located inside a sub-step: first-order error ~1 %
+        assert ratio == pytest.approx(e, rel=kink)
     if e >= 0.9:                                            # every law promises e near 1
         assert ratio == pytest.approx(e, rel=0.02)
     if law in (contact.KELVIN_VOIGT, contact.FLORES) and e >= 0.5:
@@ -263,3 +265,11 @@ def test_parallelogram_keeps_its_branch_through_the_dead_points():
 def test_non_grashof_and_non_parallelogram_linkages_are_refused():
     with pytest.raises(ParameterError, match="frame_length"):
         FourBarModel(FourBarParams(crank_length=0.1, coupler_length=0.3, rocker_length=0.11, frame_length=0.05))
+
+
+@pytest.mark.parametrize("e", [0.15, 0.2, 0.5, 0.9, 0.99])
+def test_kelvin_voigt_damping_gives_the_no_pull_restitution(e):
+    zeta = contact.kelvin_voigt_zeta(e)
+    assert no_pull_restitution(zeta) == pytest.approx(e, rel=1e-10)
+    c = contact.kelvin_voigt_damping(4.0, 0.25, e)
+    assert c == pytest.approx(2 * zeta * math.sqrt(4.0 * 0.25))
