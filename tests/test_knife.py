@@ -200,3 +200,16 @@ def test_fmu_knife_reaction(fmu_dir):
     assert cut == 1.0 and Fo == pytest.approx(Fe) and tau == pytest.approx(-0.5 * p.R * kg * Fe)
     s.terminate()
     s.freeInstance()
+
+
+def test_fidelity_zero_drops_the_entry_ramp_only():
+    from fmus.physics.knife import KnifeLoadModel, KnifeLoadParams
+
+    full, coarse = KnifeLoadModel(KnifeLoadParams(fidelity=1)), KnifeLoadModel(KnifeLoadParams(fidelity=0))
+    T_entry = full.T_entry
+    u = [2.0, 62.8]
+    # during the entry the full model scales the force by t/T_entry; after it both agree
+    t = 0.25 * T_entry
+    assert full.output(t, (), u)[1] == pytest.approx(0.25 * coarse.output(t, (), u)[1], rel=1e-12)
+    t = 2.0 * T_entry
+    assert full.output(t, (), u) == coarse.output(t, (), u)

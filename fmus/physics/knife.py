@@ -229,6 +229,8 @@ class KnifeLoadParams(Params):
     phi_s: float = param(math.pi / 2, "rad", "crank angle at the start of the cut (cut over [phi_s, pi])",
                          low=0.0, high=math.pi)
     t_block: float = param(0.0, "s", "time at which the block reaches the knife (start of the entry ramp)")
+    fidelity: int = param(1, "", "0: stable cutting only (K1 = 1); 1: with the entry ramp K1 of eq. (6)",
+                          choices=(0, 1))
 
     def check(self) -> None:
         if not self.phi_s < math.pi:
@@ -254,7 +256,7 @@ class KnifeLoadModel(Model):
         theta = phi % (2.0 * math.pi)
         if not (p.phi_s <= theta <= math.pi):
             return 0.0, 0.0
-        K1 = ramp(t - p.t_block, self.T_entry)
+        K1 = ramp(t - p.t_block, self.T_entry) if p.fidelity >= 1 else 1.0
         if K1 == 0.0:
             return 0.0, 0.0
         return poly_force((theta - p.phi_s) * self.scale, self.A) * K1, 1.0
