@@ -15,7 +15,8 @@ and packs the FMUs into ``resources/``.
 
 Import (:func:`load_ssp`) reads SSP written by any tool: components with ``source`` relative to the
 archive (or the .ssd's folder), inline and referenced (``.ssv``) parameter values on components or on the
-system (``Component.parameter`` names, optional ``prefix``), connections with linear transformations, the
+system (``Component.parameter`` names; a binding's ``prefix`` is prepended to the names of its source, as
+the SSP 1.0 schema says), connections with linear transformations, the
 default experiment and the OSP fixed-step annotation.  Anything else that changes the meaning of the system
 (nested systems, signal dictionaries, parameter mappings, non-FMU components, system-level connectors,
 non-linear transformations) is refused with one line naming the element and the file.
@@ -47,6 +48,7 @@ OSP_ANNOTATION = "com.opensimulationplatform"
 OWN_ANNOTATION = "org.pressdrive"
 FMU_TYPE = "application/x-fmu-sharedlibrary"
 PARAMETER_SET = "default"
+PARAMETER_SET_TYPE = "application/x-ssp-parameter-set"
 
 
 def _q(tag: str) -> str:
@@ -278,6 +280,10 @@ class _Reader:
             if b.find(_q("ssd:ParameterMapping")) is not None:
                 raise self.fail(f"{owner}: ssd:ParameterMapping is not supported")
             prefix = b.get("prefix", "")
+            btype = b.get("type", PARAMETER_SET_TYPE)
+            if btype != PARAMETER_SET_TYPE:
+                raise self.fail(f"{owner}: ssd:ParameterBinding of type '{btype}' is not supported "
+                                f"(only {PARAMETER_SET_TYPE})")
             inline = b.find(_q("ssd:ParameterValues"))
             if b.get("source"):
                 src = b.get("source")
@@ -288,6 +294,9 @@ class _Reader:
                     pset = ET.parse(p).getroot()
                 except ET.ParseError as e:
                     raise SystemError_(f"{p}: not well-formed XML ({e})") from None
+                if pset.tag != _q("ssv:ParameterSet"):
+                    raise SystemError_(f"{p}: root element is <{pset.tag}>, not ssv:ParameterSet "
+                                       f"(referenced by a ParameterBinding of {owner})")
             elif inline is not None:
                 pset = inline.find(_q("ssv:ParameterSet"))
                 if pset is None:
@@ -295,9 +304,10 @@ class _Reader:
             else:
                 continue
             for p in pset.findall(f"{_q('ssv:Parameters')}/{_q('ssv:Parameter')}"):
-                pname = p.get("name", "")
-                if prefix and pname.startswith(prefix):
-                    pname = pname[len(prefix):]
+                # SSP 1.0 (SystemStructureDescription.xsd, ParameterBinding/@prefix): the prefix is PREPENDED
+                # to every name of the parameter source, so a set of bare names can be bound at system level
+                # to one element with prefix="Element.".  (Until issue 6 the prefix was stripped instead.)
+                pname = prefix + p.get("name", "")
                 values[pname] = self.parameter_value(p, owner)
         return values
 

@@ -50,6 +50,7 @@ class SweepSpec:
     set: dict[str, str] = field(default_factory=dict)
     outputs: dict[str, str] = field(default_factory=dict)
     run: dict = field(default_factory=dict)  # stop_time, step, master, extrapolation
+    system: str | None = None  # the system the spec was written for (``system:`` key; informative)
 
     def parameters(self, point: dict[str, float]) -> dict[str, float]:
         """The run's parameters for one point: dotted sweep variables plus the ``set`` expressions."""
@@ -102,6 +103,11 @@ def parse_spec(data: dict, source: str = "<spec>") -> SweepSpec:
         points = [dict(zip(names, combo)) for combo in itertools.product(*axes)]
     else:
         s = data["sample"]
+        if not isinstance(s, dict) or "n" not in s or not isinstance(s.get("ranges"), dict) or not s["ranges"]:
+            raise SweepError(f"{source}: sample needs 'n' and 'ranges: {{name: [lo, hi], ...}}'")
+        for n_, r_ in s["ranges"].items():
+            if not (isinstance(r_, (list, tuple)) and len(r_) == 2 and float(r_[0]) < float(r_[1])):
+                raise SweepError(f"{source}: sample range {n_} = {r_!r} must be [lo, hi] with lo < hi")
         if s.get("method", "lhs") != "lhs":
             raise SweepError(f"{source}: sample method {s.get('method')!r} is not supported (lhs)")
         from scipy.stats import qmc
@@ -115,7 +121,7 @@ def parse_spec(data: dict, source: str = "<spec>") -> SweepSpec:
         qoi.check(expr)
     run = {k: data[k] for k in ("stop_time", "step", "master", "extrapolation") if k in data}
     return SweepSpec(variables=names, points=points, set=dict(data.get("set", {})),
-                     outputs=dict(data.get("outputs", {})), run=run)
+                     outputs=dict(data.get("outputs", {})), run=run, system=data.get("system"))
 
 
 def read_spec(path: str | Path) -> SweepSpec:
@@ -141,18 +147,26 @@ def run_point(system_name: str, spec: SweepSpec, point: dict[str, float]) -> dic
     """One co-simulation; never raises: the error is part of the row."""
     from harness import load, simulate
 
+    import warnings
+
     row: dict = dict(point)
+    row.update({name: math.nan for name in spec.outputs})  # a failed point keeps every column (NaN)
     t0 = time.perf_counter()
     try:
         params = spec.parameters(point)
         row.update({f"set:{k}": v for k, v in params.items() if k not in point})
         wanted = sorted({c for e in spec.outputs.values() for c in qoi.columns(e)})
-        df = simulate(load(system_name), parameters=params, outputs=wanted or None, **spec.run)
+        with warnings.catch_warnings():  # the failure is recorded in the row, not warned about per point
+            warnings.simplefilter("ignore")
+            df = simulate(load(system_name), parameters=params, outputs=wanted or None, **spec.run)
         if df.attrs.get("complete") is False:
-            row["error"] = df.attrs.get("error", "incomplete run")
-        for name, expr in spec.outputs.items():
-            row[name] = qoi.evaluate(expr, df)
-        row.setdefault("error", "")
+            # the run's own message (e.g. the FMU refusing a parameter) is the error; quantities of a partial
+            # run would be misleading, so they stay NaN (evaluating them would also replace the message)
+            row["error"] = (str(df.attrs.get("error") or "incomplete run").splitlines() or ["incomplete run"])[0]
+        else:
+            for name, expr in spec.outputs.items():
+                row[name] = qoi.evaluate(expr, df)
+            row["error"] = ""
     except Exception as e:  # recorded, never aborts the sweep
         row["error"] = f"{type(e).__name__}: {e}".splitlines()[0]
     row["wall_time"] = time.perf_counter() - t0
