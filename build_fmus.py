@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import os
 import shutil
 import sys
 import tempfile
@@ -81,18 +82,27 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="pressdrive_runtime_") as tmp:
         runtime = stage_runtime(Path(tmp))
         for script in scripts:
+            # built into a private folder and moved into place atomically: another process (a sweep worker, a
+            # test run) that builds or loads the same FMU at the same time never sees a half-written archive
+            stage = Path(tempfile.mkdtemp(prefix=f".{script.stem}_", dir=args.out))
             try:
-                fmu = build_one(script, args.out, runtime)
-            except Exception as e:  # report and continue with the others
-                print(f"build_fmus: FAILED {script.name}: {type(e).__name__}: {e}", file=sys.stderr)
-                failed.append(script.name)
-                continue
-            problems = [] if args.no_validate else validate(fmu)
-            if problems:
-                print(f"build_fmus: INVALID {fmu.name}: " + "; ".join(p.strip() for p in problems), file=sys.stderr)
-                failed.append(fmu.name)
-            else:
+                try:
+                    staged = build_one(script, stage, runtime)
+                except Exception as e:  # report and continue with the others
+                    print(f"build_fmus: FAILED {script.name}: {type(e).__name__}: {e}", file=sys.stderr)
+                    failed.append(script.name)
+                    continue
+                problems = [] if args.no_validate else validate(staged)
+                if problems:
+                    print(f"build_fmus: INVALID {staged.name}: " + "; ".join(p.strip() for p in problems),
+                          file=sys.stderr)
+                    failed.append(staged.name)
+                    continue
+                fmu = args.out / staged.name
+                os.replace(staged, fmu)
                 print(f"built {fmu.relative_to(Path.cwd()) if fmu.is_relative_to(Path.cwd()) else fmu}")
+            finally:
+                shutil.rmtree(stage, ignore_errors=True)
     if failed:
         print(f"build_fmus: {len(failed)} of {len(scripts)} FMU(s) failed: {', '.join(failed)}", file=sys.stderr)
         return 1

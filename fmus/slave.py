@@ -139,7 +139,7 @@ class PressSlave(Fmi2Slave):
         super().__init_subclass__(**kwargs)
         _hold_module_dict(cls)
 
-    _NOT_STATE = frozenset({"vars", "log_queue", "_io", "_param_specs", "_names_by_vr"})
+    _NOT_STATE = frozenset({"vars", "log_queue", "_io", "_param_specs", "_names_by_vr", "_out_by_vr", "_in_by_vr"})
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -156,6 +156,12 @@ class PressSlave(Fmi2Slave):
         self._initialised = False
         self._stale = True  # outputs must be recomputed before the next get
         self._register()
+        # fast paths of get_real/set_real (one Python call per FMI call instead of one getter per variable)
+        n_in = len(cls.model.inputs)
+        self._out_by_vr = {vr: i - n_in for vr, v in self.vars.items() for i, io in enumerate(self._io)
+                           if io.causality == "output" and v.name == io.name}
+        self._in_by_vr = {vr: i for vr, v in self.vars.items() for i, io in enumerate(self._io)
+                          if io.causality == "input" and v.name == io.name}
 
     # -- declaration -----------------------------------------------------------------------------------
     @classmethod
@@ -229,6 +235,30 @@ class PressSlave(Fmi2Slave):
                 self._refresh()
             return float(self._x[i])
         return get
+
+    # -- FMI value access (fast paths; anything else goes through pythonfmu's per-variable getters) ----------
+    def get_real(self, vrs):
+        """Outputs only: refresh once, then index (same values as the per-variable getters)."""
+        out = self._out_by_vr
+        try:
+            idx = [out[vr] for vr in vrs]
+        except KeyError:
+            return super().get_real(vrs)
+        if self._stale and idx:
+            self._refresh()
+        y = self._y
+        return [y[i] for i in idx]
+
+    def set_real(self, vrs, values):
+        """Inputs only: store and mark the outputs stale (as the per-variable setters do)."""
+        inp = self._in_by_vr
+        for vr in vrs:
+            if vr not in inp:
+                return super().set_real(vrs, values)
+        u = self._u
+        for vr, value in zip(vrs, values):
+            u[inp[vr]] = value
+            self._stale = True
 
     # -- behaviour ---------------------------------------------------------------------------------------
     def _fail(self, message: str):

@@ -11,12 +11,16 @@ def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m harness", description=__doc__.splitlines()[0])
     ap.add_argument("--debug", action="store_true", help="show the traceback of a failure")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    from harness import run, scenes, ssp, stability, sweep, synthesis
+    from harness import precision, run, scenes, ssp, stability, sweep, synthesis
 
     run.register(sub)             # run a system
     ssp.register(sub)             # export a system as SSP
     synthesis.register(sub)       # synth fourbar|groove|sectors|knife
-    stability.register(sub)       # study stability
+    study = sub.add_parser("study", help="numerical studies (stability, precision)",
+                           description="Numerical studies of the co-simulation masters.")
+    group = study.add_subparsers(dest="study", metavar="STUDY", required=True)
+    stability.register_stability(group)    # study stability two_inertia
+    precision.register_precision(group)    # study precision SYSTEM
     scenes.register(sub)          # scene X NAME
     sweep.register(sub)           # sweep X --grid spec
     return ap

@@ -265,7 +265,9 @@ class FMU:
     def get(self, block: RealBlock) -> np.ndarray:
         """Read the block's variables into its buffer and return the numpy view."""
         if block.n:
-            self._check(self._get_real(self.c, block.vr, block.n, block.buf), "fmi2GetReal")
+            status = self._get_real(self.c, block.vr, block.n, block.buf)
+            if status > WARNING:
+                self._check(status, "fmi2GetReal")
         return block.values
 
     def set(self, block: RealBlock, values=None) -> None:
@@ -273,7 +275,9 @@ class FMU:
         if values is not None:
             block.values[:] = values
         if block.n:
-            self._check(self._set_real(self.c, block.vr, block.n, block.buf), "fmi2SetReal")
+            status = self._set_real(self.c, block.vr, block.n, block.buf)
+            if status > WARNING:
+                self._check(status, "fmi2SetReal")
 
     def set_input_derivatives(self, block: RealBlock, order: int, values) -> None:
         """fmi2SetRealInputDerivatives of one derivative order for the block's variables."""

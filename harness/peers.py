@@ -195,15 +195,31 @@ def _ssp_fmus(path: Path) -> list[Path]:
     import zipfile
 
     if path.is_file() and zipfile.is_zipfile(path):
-        from harness.fmu import _TMP_DIRS
+        import hashlib
+        import os
+        import shutil
         import tempfile
+
+        from harness.fmu import cache_dir
 
         hit = _SSP_EXTRACTED.get(str(path))
         if hit is None:
-            hit = Path(tempfile.mkdtemp(prefix=f"peers_{path.stem}_"))
-            _TMP_DIRS.append(hit)   # removed at exit with the FMU extractions
-            with zipfile.ZipFile(path) as z:
-                z.extractall(hit)
+            # the same content-keyed, persistent cache as the FMU extractions (the peers keep the FMUs'
+            # libraries loaded until the process ends, so nothing is removed at exit)
+            st = path.stat()
+            digest = hashlib.sha1(f"{path.resolve()}|{st.st_mtime_ns}|{st.st_size}".encode()).hexdigest()[:16]
+            root = cache_dir() / "_ssp"
+            hit = root / f"{path.stem}_{digest}"
+            if not (hit / ".complete").is_file():
+                root.mkdir(parents=True, exist_ok=True)
+                tmp = Path(tempfile.mkdtemp(prefix=f".{path.stem}_", dir=root))
+                with zipfile.ZipFile(path) as z:
+                    z.extractall(tmp)
+                (tmp / ".complete").write_text("ok")
+                try:
+                    os.replace(tmp, hit)  # atomic; another process may have won the race
+                except OSError:
+                    shutil.rmtree(tmp, ignore_errors=True)
             _SSP_EXTRACTED[str(path)] = hit
         return sorted(hit.rglob("*.fmu"))
     folder = path.parent if path.is_file() else path

@@ -6,8 +6,21 @@ An expression is Python syntax over these names only:
 * ``t`` -- the time array;
 * reductions ``peak(x)`` (max |x|), ``rms(x)``, ``mean``, ``max``, ``min``, ``ptp`` (max - min), ``final(x)``
   (last value), ``at(x, time)`` (linear interpolation at a time), ``count_rises(x)`` (number of 0 -> nonzero
-  transitions of a flag), ``abs``, ``sqrt``, ``where``;
-* ``window(x, t0, t1)`` -- the part of ``x`` with ``t0 <= t <= t1``.
+  transitions of a flag), ``sum``, ``abs``, ``sqrt``, ``where``;
+* ``window(x, t0, t1)`` -- the part of ``x`` with ``t0 <= t <= t1``;
+* ``at_rises(s, x)`` -- the values of ``x`` at the samples where ``s`` increases from the previous sample: a
+  0 -> 1 flag or an event counter (a flag already set at the first sample is not a rise here: inside a
+  window it is a contact that began earlier);
+  ``normalize(x)`` -- ``(x - min(x)) / ptp(x)`` (0 at the smallest, 1 at the largest value);
+  ``between(x, lo, hi)`` -- the elementwise test ``lo <= x <= hi`` (count with ``sum``).
+
+The reductions peak, rms, mean, max, min and ptp refuse an empty array unless given a default:
+``peak(x, empty=0.0)``.
+
+Example: the number of impacts in 0.4-1 s at intermediate rocker positions (10-90 % of the swing)::
+
+    sum(between(at_rises(window(r["feeder.impact_count"], 0.4, 1.0),
+                         normalize(window(r["feeder.rocker.phi"], 0.4, 1.0))), 0.1, 0.9))
 
 Example: ``peak(window(r["fourbar.impact_force"], 0.5, 1.0))``.  Anything else (attributes, imports,
 builtins) is refused, with the expression in the message.
@@ -46,6 +59,32 @@ def _count_rises(x) -> int:
     return int(np.count_nonzero(b[1:] & ~b[:-1]) + (1 if b.size and b[0] else 0))
 
 
+def _at_rises(s, x) -> np.ndarray:
+    s, x = np.asarray(s, dtype=float), np.asarray(x)
+    if s.shape != x.shape:
+        raise ValueError(f"at_rises: the two arrays differ in length ({s.size} and {x.size})")
+    return x[1:][s[1:] > s[:-1]]
+
+
+def _reduction(f):
+    def g(x, empty=None):
+        x = np.asarray(x)
+        if x.size == 0:
+            if empty is None:
+                raise ValueError("reduction of an empty array (give empty=value for a default)")
+            return float(empty)
+        return float(f(x))
+    return g
+
+
+def _normalize(x) -> np.ndarray:
+    x = np.asarray(x, dtype=float)
+    span = float(np.ptp(x))
+    if not span > 0.0:
+        raise ValueError("normalize: the values are constant (or empty)")
+    return (x - np.min(x)) / span
+
+
 def _namespace(df: pd.DataFrame, expr: str) -> dict:
     t = df.index.to_numpy(dtype=float)
 
@@ -58,10 +97,11 @@ def _namespace(df: pd.DataFrame, expr: str) -> dict:
 
     return {
         "r": _Columns(df, expr), "t": t,
-        "peak": lambda x: float(np.max(np.abs(x))), "rms": lambda x: float(np.sqrt(np.mean(np.square(x)))),
-        "mean": lambda x: float(np.mean(x)), "max": lambda x: float(np.max(x)), "min": lambda x: float(np.min(x)),
-        "ptp": lambda x: float(np.ptp(x)), "final": lambda x: float(np.asarray(x)[-1]), "at": at,
+        "peak": _reduction(lambda x: np.max(np.abs(x))), "rms": _reduction(lambda x: np.sqrt(np.mean(np.square(x)))),
+        "mean": _reduction(np.mean), "max": _reduction(np.max), "min": _reduction(np.min), "ptp": _reduction(np.ptp), "final": lambda x: float(np.asarray(x)[-1]), "at": at,
         "window": window, "count_rises": _count_rises, "abs": np.abs, "sqrt": np.sqrt, "where": np.where,
+        "sum": lambda x: float(np.sum(x)), "at_rises": _at_rises, "normalize": _normalize,
+        "between": lambda x, lo, hi: (np.asarray(x) >= lo) & (np.asarray(x) <= hi),
     }
 
 

@@ -8,10 +8,21 @@ in topological order of the strongly connected components of the instance graph,
 and a differential that feed each other's reactions) is swept as often as it has members, which is exact
 whenever the variable-level graph has no algebraic loop (the masters detect and report those).
 
-Models with discrete memory (contact onset speeds, impact counters) may declare event functions:
-``events(t, x, u) -> sequence of floats`` (a sign change is an event) and ``on_event(t, x, u, index) -> x``.
-The reference stops scipy at each event (``solve_ivp`` root finding) and applies the update, so impacts are
-resolved to the integrator's tolerance instead of to a sub-step.
+Three kinds of state are not plain ODE states and get explicit treatment here (the table ``_KINDS`` below,
+keyed by model class and fidelity, is the only place that knows about them):
+
+* *algebraic* states of rigid (fidelity-0) levels that ``advance`` sets from the held inputs (FourBar,
+  JamesDifferential and GearSectors kinematics, the FlywheelShaft's rigid-shaft torque): their derivative is
+  taken as 0 and the state is projected with a zero-length ``advance(t, 0, x, u)`` before every output
+  evaluation, which is the FMU's own equation at h -> 0;
+* *contact memory* of clearance joints (CamRocker and FourBar at fidelity 2: approach speed at the onset,
+  onset counter, contact flag, separation speed): contact onset and separation are ``solve_ivp`` events on
+  ``|q| - clearance/2`` (direction chosen by the joint's current mode, so a root is never counted twice); at
+  each the memory is updated exactly as the FMU's ``advance`` does and the integration restarts, so impacts
+  are resolved to the integrator's tolerance instead of to a sub-step;
+* *step memory*: RackBed at fidelity 0 estimates the bed acceleration from the inputs of successive
+  communication steps; a monolithic model has no steps, so that level is refused with a one-line error
+  (use fidelity 1).
 
 The result has the co-simulation's shape: a DataFrame on the given time grid with ``Instance.variable``
 columns for every input and output.
@@ -63,6 +74,70 @@ class _Wire:
     offset: float
 
 
+
+class _Contact:
+    """A clearance joint of instance ``i`` seen by the reference: its gap and its memory update."""
+
+    def __init__(self, i: int, model):
+        self.i, self.model = i, model
+        self.half = 0.5 * model.p.clearance
+        self.in_contact = False
+
+    def gap(self, t, x, u) -> tuple[float, float]:
+        raise NotImplementedError
+
+    def switch(self, t, x, u) -> np.ndarray:
+        """The joint's memory after the onset (mode separated) or the separation (mode in contact)."""
+        raise NotImplementedError
+
+
+class _FourBarContact(_Contact):
+    def gap(self, t, x, u):
+        return self.model._gap(t, x, u, t)
+
+    def switch(self, t, x, u):
+        from fmus.physics.fourbar import COUNT, LAST_V, REBOUND, V_IMPACT
+
+        x = np.array(x, dtype=float)
+        v = abs(self.gap(t, x, u)[1])
+        if self.in_contact:          # separation: the FMU stores the separation speed
+            x[REBOUND] = v
+        else:                        # onset: approach speed, last onset speed, onset counter
+            x[V_IMPACT], x[LAST_V], x[COUNT] = v, v, x[COUNT] + 1.0
+        self.in_contact = not self.in_contact
+        return x
+
+
+class _CamRockerContact(_Contact):
+    def gap(self, t, x, u):
+        m = self.model
+        g, g1, _ = m.kinematics(u[0])
+        q, qd, *_ = m._pin(u[0], g, g1, u[1], x)
+        return q, qd
+
+    def switch(self, t, x, u):
+        x = np.array(x, dtype=float)
+        if self.in_contact:          # separation: contact flag down (CamRockerModel._update_contact)
+            x[4] = 0.0
+        else:                        # onset: flag up, counter + 1, approach speed
+            x[4], x[3], x[2] = 1.0, x[3] + 1.0, abs(self.gap(t, x, u)[1])
+        self.in_contact = not self.in_contact
+        return x
+
+
+# (model class name, fidelity) -> kind of the non-ODE state (see the module docstring)
+_KINDS: dict[tuple[str, int], object] = {
+    ("FourBarModel", 0): "algebraic",
+    ("JamesDifferentialModel", 0): "algebraic",
+    ("GearSectorsModel", 0): "algebraic",
+    ("FlywheelShaftModel", 0): "algebraic",
+    ("FourBarModel", 2): _FourBarContact,
+    ("CamRockerModel", 2): _CamRockerContact,
+    ("RackBedModel", 0): "RackBed fidelity 0 estimates the bed acceleration from the inputs of successive "
+                         "communication steps, which a monolithic model does not have; use fidelity 1",
+}
+
+
 class Monolithic:
     """The assembled ODE of a system: ``rhs(t, X)``, ``signals(t, X)`` and ``simulate(...)``."""
 
@@ -88,6 +163,16 @@ class Monolithic:
             self.slices.append(slice(n, n + len(cls.model.states)))
             n += len(cls.model.states)
         self.n_states = n
+        self.project = [False] * len(self.models)
+        self.contacts: list[_Contact] = []
+        for i, m in enumerate(self.models):
+            kind = _KINDS.get((type(m).__name__, getattr(m.p, "fidelity", None)))
+            if kind == "algebraic":
+                self.project[i] = True
+            elif isinstance(kind, str):
+                raise ReferenceError_(f"instance {self.names[i]}: no monolithic reference: {kind}")
+            elif kind is not None and m.p.clearance > 0.0:
+                self.contacts.append(kind(i, m))
         index = {name: i for i, name in enumerate(self.names)}
         self.wires: list[list[_Wire | None]] = [[None] * len(m.inputs) for m in self.models]
         for c in system.all_connections():
@@ -126,10 +211,18 @@ class Monolithic:
         """Consistent initial states: each model's initial_state from the inputs its neighbours produce."""
         x = np.zeros(self.n_states)
         u = [list(s) for s in self.start_inputs]
-        for _ in range(2):  # initial states may depend on inputs that depend on other initial states
-            for i in self.sweeps:
-                x[self.slices[i]] = self.models[i].initial_state(u[i])
+        for i in self.sweeps:
+            x[self.slices[i]] = self.models[i].initial_state(u[i])
+        # initial states may depend on inputs that depend on other initial states (a chain of n instances
+        # needs up to n passes): repeat until nothing changes
+        for _ in range(len(self.models) + 2):
             u, _y = self.signals(0.0, x)
+            x_new = x.copy()
+            for i in self.sweeps:
+                x_new[self.slices[i]] = self.models[i].initial_state(u[i])
+            if np.array_equal(x_new, x):
+                break
+            x = x_new
         return x
 
     def signals(self, t: float, x: np.ndarray):
@@ -140,7 +233,10 @@ class Monolithic:
             for j, w in enumerate(self.wires[i]):
                 if w is not None and y[w.src] is not None:
                     u[i][j] = w.factor * y[w.src][w.out] + w.offset
-            y[i] = self.models[i].output(t, x[self.slices[i]], u[i])
+            xi = x[self.slices[i]]
+            if self.project[i]:
+                xi = self.models[i].advance(t, 0.0, xi, u[i])
+            y[i] = self.models[i].output(t, xi, u[i])
         for i, wires in enumerate(self.wires):  # final assignment with every output known
             for j, w in enumerate(wires):
                 if w is not None:
@@ -151,22 +247,20 @@ class Monolithic:
         u, _ = self.signals(t, x)
         dx = np.empty_like(x)
         for i, m in enumerate(self.models):
-            dx[self.slices[i]] = m.derivatives(t, x[self.slices[i]], u[i], t)
+            dx[self.slices[i]] = 0.0 if self.project[i] else m.derivatives(t, x[self.slices[i]], u[i], t)
         return dx
 
     def _event_functions(self):
+        """(contact adapter, event function) for every clearance joint, with the direction of its mode."""
         funcs = []
-        for i, m in enumerate(self.models):
-            if not hasattr(m, "events"):
-                continue
-            x0 = np.zeros(len(m.states))
-            k = len(m.events(0.0, x0, self.start_inputs[i]))
-            for e in range(k):
-                def f(t, x, i=i, e=e):
-                    u, _ = self.signals(t, x)
-                    return m_events(self.models[i], t, x[self.slices[i]], u[i])[e]
-                f.terminal = True
-                funcs.append((i, e, f))
+        for c in self.contacts:
+            def f(t, x, c=c):
+                u, _ = self.signals(t, x)
+                q, _qd = c.gap(t, x[self.slices[c.i]], u[c.i])
+                return abs(q) - c.half
+            f.terminal = True
+            f.direction = -1.0 if c.in_contact else 1.0
+            funcs.append((c, f))
         return funcs
 
     def simulate(self, stop_time: float, step: float, method: str = "Radau", rtol: float = 1e-9,
@@ -174,7 +268,11 @@ class Monolithic:
         n_steps = int(round(stop_time / step))
         grid = np.arange(n_steps + 1) * step
         x = self.initial_state()
+        u0, _ = self.signals(0.0, x)
+        for c in self.contacts:
+            c.in_contact = abs(c.gap(0.0, x[self.slices[c.i]], u0[c.i])[0]) > c.half
         events = self._event_functions()
+        self.n_events = 0
         t = 0.0
         states = np.empty((len(grid), self.n_states))
         states[0] = x
@@ -184,7 +282,7 @@ class Monolithic:
         t_wall = time.perf_counter()
         while k_next <= n_steps:
             sol = solve_ivp(self.rhs, (t, grid[-1]), x, method=method, rtol=rtol, atol=atol, max_step=limit,
-                            dense_output=True, events=[f for _, _, f in events] or None, t_eval=None)
+                            dense_output=True, events=[f for _, f in events] or None, t_eval=None)
             if sol.status < 0:
                 raise ReferenceError_(f"reference integration failed at t = {sol.t[-1]:.6g} s: {sol.message}")
             t_end = sol.t[-1]
@@ -193,11 +291,13 @@ class Monolithic:
                 k_next += 1
             x = sol.y[:, -1].copy()
             t = t_end
-            if sol.status == 1:  # an event: apply the model's discrete update and restart
-                for (i, e, _f), te in zip(events, sol.t_events):
+            if sol.status == 1:  # contact onset or separation: update the joint's memory and restart
+                u, _ = self.signals(t, x)
+                for (c, _f), te in zip(events, sol.t_events):
                     if len(te):
-                        u, _ = self.signals(t, x)
-                        x[self.slices[i]] = self.models[i].on_event(t, x[self.slices[i]], u[i], e)
+                        x[self.slices[c.i]] = c.switch(t, x[self.slices[c.i]], u[c.i])
+                        self.n_events += 1
+                events = self._event_functions()
         self.wall_time = time.perf_counter() - t_wall
         return self.frame(grid, states)
 
@@ -213,10 +313,6 @@ class Monolithic:
         df = pd.DataFrame(cols, index=pd.Index(grid, name="time"))
         df.attrs["complete"] = True
         return df
-
-
-def m_events(model, t, x, u):
-    return model.events(t, x, u)
 
 
 def reference(system, stop_time: float | None = None, step: float | None = None, parameters: dict | None = None,

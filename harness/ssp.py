@@ -16,7 +16,8 @@ and packs the FMUs into ``resources/``.
 Import (:func:`load_ssp`) reads SSP written by any tool: components with ``source`` relative to the
 archive (or the .ssd's folder), inline and referenced (``.ssv``) parameter values on components or on the
 system (``Component.parameter`` names; a binding's ``prefix`` is prepended to the names of its source, as
-the SSP 1.0 schema says), connections with linear transformations, the
+the SSP 1.0 schema says; ``sourceBase="component"`` reads the .ssv from inside the component's FMU, as
+SSP 1.0 resolves it against the component's source), connections with linear transformations, the
 default experiment and the OSP fixed-step annotation.  Anything else that changes the meaning of the system
 (nested systems, signal dictionaries, parameter mappings, non-FMU components, system-level connectors,
 non-linear transformations) is refused with one line naming the element and the file.
@@ -272,9 +273,31 @@ class _Reader:
             raise self.fail(f"component '{name}': source {source} not found")
         if el.find(f"{_q('ssd:ParameterBindings')}/{_q('ssd:ParameterBinding')}/{_q('ssd:ParameterMapping')}") is not None:
             raise self.fail(f"component '{name}': ssd:ParameterMapping is not supported")
-        return Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'"))
+        return Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'", fmu))
 
-    def parameter_bindings(self, el: ET.Element, owner: str) -> dict:
+    def _source_text(self, src: str, base: str, owner: str, component_source: Path | None) -> tuple[str, bytes]:
+        """(label, bytes) of a ParameterBinding's ``source``.  ``sourceBase="SSD"`` (default): relative to the
+        archive root or the .ssd's folder.  ``sourceBase="component"`` (SSP 1.0: resolved against the source
+        of the component, so only on an ssd:Component): a path inside the component's FMU archive."""
+        if base == "SSD":
+            p = self.root_dir / src if (self.root_dir / src).exists() else self.ssd_path.parent / src
+            if not p.exists():
+                raise self.fail(f"{owner}: parameter values source {src} not found")
+            return str(p), p.read_bytes()
+        if base != "component":
+            raise self.fail(f"{owner}: ssd:ParameterBinding sourceBase='{base}' is not 'SSD' or 'component'")
+        if component_source is None:
+            raise self.fail(f"{owner}: ssd:ParameterBinding sourceBase='component' is only allowed on an "
+                            f"ssd:Component (SSP 1.0)")
+        inner = src[5:].lstrip("/") if src.startswith("file:") else src.lstrip("/")
+        try:
+            with zipfile.ZipFile(component_source) as z:
+                return f"{component_source}!{inner}", z.read(inner)
+        except (KeyError, zipfile.BadZipFile, OSError):
+            raise self.fail(f"{owner}: parameter values source {src} (sourceBase='component') not found in "
+                            f"{component_source.name}") from None
+
+    def parameter_bindings(self, el: ET.Element, owner: str, component_source: Path | None = None) -> dict:
         values: dict = {}
         for b in el.findall(f"{_q('ssd:ParameterBindings')}/{_q('ssd:ParameterBinding')}"):
             if b.find(_q("ssd:ParameterMapping")) is not None:
@@ -286,12 +309,9 @@ class _Reader:
                                 f"(only {PARAMETER_SET_TYPE})")
             inline = b.find(_q("ssd:ParameterValues"))
             if b.get("source"):
-                src = b.get("source")
-                p = self.root_dir / src if (self.root_dir / src).exists() else self.ssd_path.parent / src
-                if not p.exists():
-                    raise self.fail(f"{owner}: parameter values source {src} not found")
+                p, text = self._source_text(b.get("source"), b.get("sourceBase", "SSD"), owner, component_source)
                 try:
-                    pset = ET.parse(p).getroot()
+                    pset = ET.fromstring(text)
                 except ET.ParseError as e:
                     raise SystemError_(f"{p}: not well-formed XML ({e})") from None
                 if pset.tag != _q("ssv:ParameterSet"):

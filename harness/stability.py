@@ -63,6 +63,14 @@ Study CLI
 group).  For each sweep value and each method (jacobi / gauss-seidel x order 0, 1, 2) it finds the largest
 stable macro step from the theory and from co-simulation runs of the FMUs (bisection, ``--no-measure`` skips
 it), writes ``stability_two_inertia.csv`` and draws the stability map (PNG + SVG).
+
+``python -m harness study stability {bed_drive,spine_knife,feeder_gto52,proof_press} [--sweep INST.PARAM]
+[--values ...] [--masters ...] [--orders ...] [--quick]``: the same map for a press drive, measured only (the
+drives are nonlinear): for each value of the coupling parameter (default per drive in :data:`PRESS_STUDIES`,
+e.g. ``bed.c_mesh``) and each master x order, the largest stable communication step by doubling/halving from
+the default step and bisection on runs, judged against a reference run (criterion and search: the
+press-drive section below).  Writes ``stability_<system>_<inst>_<param>.csv`` and the map with the system's
+default step marked (:func:`plot_press_map`).
 """
 from __future__ import annotations
 
@@ -456,22 +464,29 @@ def is_unstable(df, columns=None, threshold: float = 1.0) -> bool:
 
 
 def measured_boundary(run: Callable[[float], "object"], h_lo: float, h_hi: float, rtol: float = 0.005,
-                      columns=None, threshold: float = 1.0, max_runs: int = 40) -> float:
+                      columns=None, threshold: float = 1.0, max_runs: int = 40, *,
+                      judge: Callable[["object"], bool] | None = None, checked: bool = False,
+                      bracket: list | None = None) -> float:
     """Largest stable step by bisection on co-simulation runs: ``run(h)`` returns a result DataFrame,
-    judged by :func:`is_unstable`.  ``run(h_lo)`` must be stable and ``run(h_hi)`` unstable; bisection stops
-    at a relative bracket width ``rtol`` and returns the bracket midpoint."""
+    judged by :func:`is_unstable` (or by ``judge(df) -> unstable?``).  ``run(h_lo)`` must be stable and
+    ``run(h_hi)`` unstable (``checked=True``: the caller has already run both, they are not re-run);
+    bisection stops at a relative bracket width ``rtol`` and returns the bracket midpoint.  ``bracket``: a
+    list that receives the final ``[lo, hi]`` and the number of runs made."""
     lo, hi = _check_h(h_lo), _check_h(h_hi)
     if not hi > lo:
         raise ValueError(f"h_hi = {h_hi!r} must be larger than h_lo = {h_lo!r}")
 
     def unstable(h):
-        return is_unstable(run(h), columns, threshold)
+        df = run(h)
+        return judge(df) if judge is not None else is_unstable(df, columns, threshold)
 
-    if unstable(lo):
-        raise ValueError(f"h_lo = {lo!r}: the run is already unstable; give a smaller h_lo")
-    if not unstable(hi):
-        raise ValueError(f"h_hi = {hi!r}: the run is still stable; give a larger h_hi")
-    runs = 2
+    runs = 0
+    if not checked:
+        if unstable(lo):
+            raise ValueError(f"h_lo = {lo!r}: the run is already unstable; give a smaller h_lo")
+        if not unstable(hi):
+            raise ValueError(f"h_hi = {hi!r}: the run is still stable; give a larger h_hi")
+        runs = 2
     while hi - lo > rtol * hi:
         if runs >= max_runs:
             raise ValueError(f"measured_boundary: no bracket of relative width {rtol} after {max_runs} runs")
@@ -481,6 +496,8 @@ def measured_boundary(run: Callable[[float], "object"], h_lo: float, h_hi: float
         else:
             lo = mid
         runs += 1
+    if bracket is not None:
+        bracket[:] = [lo, hi, runs]
     return 0.5 * (lo + hi)
 
 
@@ -629,21 +646,382 @@ def plot_stability_map(table, path_stem: Path) -> list[Path]:
     return out
 
 
-STUDIES = {"two_inertia": "the two-inertia coupling benchmark (systems/two_inertia.py)"}
+# -- press drives -----------------------------------------------------------------------------------------------
+# The press drives are nonlinear, forced and never at rest, so the growth criterion of the linear benchmark
+# (amplitude of the last quarter against the second quarter) is blind there: load events (a cut starting, an
+# impact) change the amplitude of a perfectly stable run.  Their criterion is a deviation from a reference:
+#
+#   reference  the same system and parameters at the system's default step (``experiment.step``) with
+#              gauss-seidel, order 0 (halved up to 3 times if that run does not complete);
+#   unstable   the run did not complete (FMU error, non-finite output, an output beyond the master's blow-up
+#              limit) or, on any analysed column (names ending in .tau .f .w .v), the largest deviation from
+#              the reference (linearly interpolated to the run's communication points) over the LAST QUARTER
+#              of the run exceeds ``tol`` (default 1) times that column's own variation in the reference
+#              (max |y_ref - mean y_ref| over the run; floored at 1e-6 max |y_ref| + 1e-12 so that a column
+#              that is physically zero does not turn round-off into a blow-up).
+#
+# A deviation as large as the signal itself is a blow-up, not a discretisation error: every run compares the
+# same physical window [0, T], T = max(duration, periods * 2 pi / omega) with omega an estimate of the stiffest
+# coupled mode from the parameters (``PressStudy.omega``), so a weakly unstable step whose growth over T stays
+# below the signal size counts as stable -- the measured boundary is the largest step whose co-simulation stays
+# usable over T.  The search: the default step is judged first, then doubled (or halved) until the verdict
+# changes (at most up to ``cap`` x the default step, and never fewer than 16 steps in T), then bisected
+# (:func:`measured_boundary`) to a relative bracket width ``rtol``.
+PRESS_MASTERS = ("jacobi", "gauss-seidel")
+"""Default masters of the press maps; ``jacobi-sampled`` (libcosim/FMPy style) via ``--masters``."""
+
+
+@dataclass(frozen=True)
+class PressStudy:
+    """Defaults of the stability map of one press drive: the swept parameter (the stiffness that couples two
+    FMUs), its values, the physical run length [s] and an estimate of the stiffest coupled mode [rad/s] from
+    the parameters (``omega(p)`` with ``p("inst.param") -> value``; a LOWER estimate lengthens the runs)."""
+    system: str
+    sweep: str
+    values: tuple
+    quick_values: tuple
+    duration: float
+    omega: Callable
+    doc: str
+
+
+def _torsion(p, inst):
+    return p(f"{inst}.G") * math.pi * p(f"{inst}.d") ** 4 / (32.0 * p(f"{inst}.l"))
+
+
+PRESS_STUDIES = {
+    "bed_drive": PressStudy(
+        "bed_drive", "bed.c_mesh", (5e6, 1e7, 2e7, 5e7, 1e8), (5e6, 2e7, 1e8), 0.1,
+        lambda p: math.sqrt(p("bed.c_mesh") * (1.0 / p("bed.m_T")
+                                               + (0.5 * p("bed.module") * p("bed.z_pinion")) ** 2
+                                               / p("diff.sun_inertia"))),
+        "rack mesh stiffness c_mesh [N/m] between the differential's sun (diff) and the bed (RackBed); "
+        "omega ~ sqrt(c_mesh (1/m_T + R^2/J_sun)), R = module z_pinion / 2 (bed mass and sun inertia on the "
+        "mesh)"),
+    "spine_knife": PressStudy(
+        "spine_knife", "shaft.d", (0.02, 0.025, 0.03, 0.04, 0.05), (0.02, 0.03, 0.05), 0.05,
+        lambda p: math.sqrt(_torsion(p, "shaft") * (1.0 / p("shaft.J_flywheel") + 1.0 / p("shaft.J_crank"))),
+        "driving-shaft diameter d [m] (torsional stiffness G pi d^4 / (32 l)) of the FlywheelShaft that drives "
+        "the linkage; omega ~ sqrt(c1 (1/J_flywheel + 1/J_crank))"),
+    "feeder_gto52": PressStudy(
+        "feeder_gto52", "feeder.stiffness", (1000.0, 2000.0, 5000.0, 10000.0, 20000.0), (1000.0, 5000.0, 20000.0),
+        0.1, lambda p: math.sqrt(p("feeder.stiffness") / p("feeder.rocker_inertia")),
+        "transmission (conrod / slotted-rocker) stiffness [N.m/rad] of the CamRocker, whose crank torque "
+        "couples it to the flywheel shaft; omega ~ sqrt(stiffness / rocker_inertia)"),
+    "proof_press": PressStudy(
+        "proof_press", "press.c_cyl", (5e4, 1e5, 2e5, 5e5, 1e6), (5e4, 2e5, 1e6), 0.2,
+        lambda p: math.sqrt(p("press.c_cyl") / p("press.J_cyl")),
+        "torsional stiffness sectors -> cylinder c_cyl [N.m/rad] of GearSectors, whose crank torque couples "
+        "it to the flywheel shaft; omega ~ sqrt(c_cyl / J_cyl)"),
+}
+
+
+def _parameter_table(system) -> dict:
+    """``{"inst.param": (value, model_variable)}`` of every Real parameter of the system's FMUs: the system's
+    value, else the FMU's start value."""
+    from harness.model import model_description, resolve_fmu
+
+    out = {}
+    for inst in system.instances:
+        md = model_description(resolve_fmu(inst.fmu))
+        for v in md.modelVariables:
+            if v.causality != "parameter":
+                continue
+            val = inst.parameters.get(v.name, v.start)
+            out[f"{inst.name}.{v.name}"] = (val, v)
+    return out
+
+
+def check_sweep(system, sweep: str, values=None) -> None:
+    """One-line ValueError unless ``sweep`` is ``INST.PARAM``, a Real parameter of an instance of ``system``,
+    and every value a finite number."""
+    from harness import load
+
+    system = load(system)
+    inst, dot, name = str(sweep).partition(".")
+    if not dot or not inst or not name:
+        raise ValueError(f"--sweep {sweep!r} is not admissible: write it INSTANCE.PARAMETER (e.g. bed.c_mesh)")
+    names = [i.name for i in system.instances]
+    if inst not in names:
+        raise ValueError(f"--sweep {sweep}: system {system.name} has no instance {inst!r} "
+                         f"(instances: {', '.join(names)})")
+    table = _parameter_table(system)
+    own = sorted(k.partition(".")[2] for k, (_, v) in table.items() if k.startswith(inst + ".") and v.type == "Real")
+    if f"{inst}.{name}" not in table or table[f"{inst}.{name}"][1].type != "Real":
+        raise ValueError(f"--sweep {sweep}: instance {inst} ({system.instance(inst).fmu}) has no Real parameter "
+                         f"{name!r} (parameters: {', '.join(own)})")
+    for v in values or ():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ValueError(f"--values: {v!r} is not admissible for {sweep}: must be a finite number")
+
+
+def deviation_ratio(df, ref, columns=None) -> float:
+    """Max over the analysed columns of max |y - y_ref| over the last quarter of ``df`` divided by the
+    column's variation in the reference (see the press-drive criterion above); inf for an incomplete or
+    non-finite run."""
+    if not df.attrs.get("complete", True):
+        return math.inf
+    if columns is None:
+        columns = [c for c in ref.columns if str(c).endswith(GROWTH_SUFFIXES)] or list(ref.columns)
+    missing = [c for c in columns if c not in df.columns or c not in ref.columns]
+    if missing:
+        raise ValueError(f"column {missing[0]!r} is not in both the run and the reference")
+    t = df.index.to_numpy(dtype=float)
+    tr = ref.index.to_numpy(dtype=float)
+    if t[-1] > tr[-1] * (1 + 1e-12):
+        raise ValueError(f"the reference ends at {tr[-1]:g} s, before the run ({t[-1]:g} s)")
+    n = len(t)
+    if n < 8:
+        raise ValueError(f"a run of {n} points is too short to judge: need at least 8 communication points")
+    y = df[list(columns)].to_numpy(dtype=float)
+    if not np.all(np.isfinite(y)):
+        return math.inf
+    worst = 0.0
+    for j, c in enumerate(columns):
+        yr_full = ref[c].to_numpy(dtype=float)
+        yr = np.interp(t, tr, yr_full)
+        scale = float(np.max(np.abs(yr - yr.mean())))
+        scale = max(scale, 1e-6 * float(np.max(np.abs(yr_full))) + 1e-12)
+        dev = float(np.max(np.abs(y[3 * n // 4:, j] - yr[3 * n // 4:])))
+        worst = max(worst, dev / scale)
+    return worst
+
+
+def _quiet_simulate(*args, **kwargs):
+    import warnings
+
+    from harness import simulate
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return simulate(*args, **kwargs)
+
+
+def _with_fmu_dir(system, fmu_dir):
+    from harness import load
+    from harness.model import Instance
+
+    system = load(system)
+    if fmu_dir is None:
+        return system
+    inst = [Instance(i.name, Path(fmu_dir) / f"{i.fmu}.fmu" if not str(i.fmu).endswith(".fmu") else i.fmu,
+                     dict(i.parameters)) for i in system.instances]
+    return replace(system, instances=inst)
+
+
+class PressRun:
+    """``run(h)`` for :func:`measured_boundary` on a press drive, plus its reference and judge.
+
+    ``parameters``: overrides ``{"inst.param": value}``; ``duration``: the physical window T [s] every run
+    covers (``n = floor(T / h)`` steps, at least 8)."""
+
+    def __init__(self, system, master: str, order: int, parameters: Mapping | None = None,
+                 duration: float = 0.1, fmu_dir=None, tol: float = 1.0, reference=None):
+        from harness.masters import master_class
+
+        self.system = _with_fmu_dir(system, fmu_dir)
+        self.master = master_class(master).name
+        self.order = _order(order)
+        self.parameters = dict(parameters or {})
+        self.duration = _check_h(duration)
+        self.tol = float(tol)
+        self.h_default = float(self.system.experiment.step)
+        self.ref = reference if reference is not None else self.reference()
+        self.runs = 0
+
+    def reference(self):
+        """Gauss-seidel, order 0 at the default step (halved up to 3 times until it completes)."""
+        h = self.h_default
+        for _ in range(4):
+            n = int(math.ceil(self.duration / h - 1e-9))
+            df = _quiet_simulate(self.system, stop_time=n * h, step=h, master="gauss-seidel", extrapolation=0,
+                                 parameters=self.parameters, on_error="return")
+            if df.attrs.get("complete", True):
+                return df
+            err = df.attrs.get("error", "")
+            h *= 0.5
+        sets = ", ".join(f"{k} = {v:g}" for k, v in self.parameters.items()) or "default parameters"
+        raise ValueError(f"{self.system.name} ({sets}): the reference run failed even at step {2 * h:g} s: {err}")
+
+    def n_steps(self, h: float) -> int:
+        return max(8, int(math.floor(self.duration / h + 1e-9)))
+
+    def __call__(self, h: float):
+        h = _check_h(h)
+        n = self.n_steps(h)
+        self.runs += 1
+        return _quiet_simulate(self.system, stop_time=n * h, step=h, master=self.master,
+                               extrapolation=self.order, parameters=self.parameters, on_error="return")
+
+    def judge(self, df) -> bool:
+        """True if the run is unstable (deviation criterion of the press-drive section)."""
+        return deviation_ratio(df, self.ref) > self.tol
+
+    def unstable(self, h: float) -> bool:
+        return self.judge(self(h))
+
+
+def press_boundary(prun: PressRun, rtol: float = 0.02, cap: float = 64.0, floor: float = 1.0 / 16) -> dict:
+    """Largest stable step of one method (search of the press-drive section).  Returns ``h_stable`` (largest
+    step judged stable), ``h_unstable`` (smallest judged unstable), ``h_boundary`` (their midpoint; NaN if not
+    bracketed), ``status`` (``bracketed``, ``stable to cap``, ``unstable at floor``) and ``runs``."""
+    h0 = prun.h_default
+    h_max = min(cap * h0, prun.duration / 16.0)
+    h_min = floor * h0
+    prun.runs = 0
+    h = min(h0, h_max)
+    if not prun.unstable(h):
+        lo = h
+        while True:
+            if lo >= h_max * (1 - 1e-12):
+                return dict(h_stable=lo, h_unstable=math.nan, h_boundary=math.nan, status="stable to cap",
+                            runs=prun.runs)
+            hi = min(2.0 * lo, h_max)
+            if prun.unstable(hi):
+                break
+            lo = hi
+    else:
+        hi = h
+        while True:
+            if hi <= h_min * (1 + 1e-12):
+                return dict(h_stable=math.nan, h_unstable=hi, h_boundary=math.nan, status="unstable at floor",
+                            runs=prun.runs)
+            lo = max(0.5 * hi, h_min)
+            if not prun.unstable(lo):
+                break
+            hi = lo
+    br: list = []
+    hb = measured_boundary(prun, lo, hi, rtol=rtol, judge=prun.judge, checked=True, bracket=br)
+    lo, hi = br[0], br[1]
+    return dict(h_stable=lo, h_unstable=hi, h_boundary=hb, status="bracketed", runs=prun.runs)
+
+
+def press_stability_table(system: str, sweep: str | None = None, values=None, masters=PRESS_MASTERS,
+                          orders=ORDERS, periods: float = 10.0, duration: float | None = None, rtol: float = 0.03,
+                          cap: float = 64.0, fmu_dir=None, quick: bool = False, progress=None):
+    """DataFrame: one row per (value, master, order) with the largest stable communication step of a press
+    drive (:func:`press_boundary`) as the coupling parameter ``sweep`` (``INST.PARAM``) takes ``values``."""
+    import pandas as pd
+
+    from harness import load
+    from harness.masters import master_class
+
+    if system not in PRESS_STUDIES:
+        raise ValueError(f"system {system!r} has no stability study: use one of "
+                         f"{', '.join(sorted(PRESS_STUDIES))} or two_inertia")
+    study = PRESS_STUDIES[system]
+    sweep = sweep or study.sweep
+    if values is None:
+        values = study.quick_values if quick else study.values
+        if sweep != study.sweep:
+            raise ValueError(f"--sweep {sweep}: give --values (defaults exist only for {study.sweep})")
+    values = [float(v) for v in values]
+    masters = [master_class(m).name for m in masters]
+    orders = [_order(q) for q in orders]
+    base = _with_fmu_dir(load(system), fmu_dir)
+    check_sweep(base, sweep, values)
+    table = _parameter_table(base)
+    h_default = float(base.experiment.step)
+    rows = []
+    for v in values:
+        def p(name, _v=v):
+            return _v if name == sweep else float(table[name][0])
+
+        try:
+            omega = float(study.omega(p))
+        except (KeyError, ValueError, ZeroDivisionError, TypeError):
+            omega = math.nan
+        T = duration if duration is not None else study.duration * (0.5 if quick else 1.0)
+        if math.isfinite(omega) and omega > 0:
+            T = max(T, periods * 2.0 * math.pi / omega)
+        ref_run = PressRun(base, "gauss-seidel", 0, {sweep: v}, duration=T)
+        for master in masters:
+            for order in orders:
+                prun = PressRun(base, master, order, {sweep: v}, duration=T, reference=ref_run.ref)
+                r = press_boundary(prun, rtol=rtol, cap=cap)
+                rows.append(dict(system=system, sweep=sweep, value=v, master=master, order=order,
+                                 h_default=h_default, omega_est=omega, duration=T, **r))
+                if progress:
+                    progress(f"{sweep} = {v:g}  {master:14s} order {order}: {r['status']:17s} "
+                             f"h_stable {r['h_stable']:.4g} s, h_unstable {r['h_unstable']:.4g} s "
+                             f"({r['runs']} runs)")
+    return pd.DataFrame(rows)
+
+
+def plot_press_map(table, path_stem: Path) -> list[Path]:
+    """Largest stable step vs the swept parameter for every method, the default step dashed; <stem>.png/.svg.
+    A method stable up to the cap is drawn at the cap with an upward triangle; unstable at the floor with a
+    downward one."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    colors = {0: "tab:blue", 1: "tab:orange", 2: "tab:green"}
+    styles = {"jacobi": "-", "gauss-seidel": "--", "jacobi-sampled": ":"}
+    markers = {"jacobi": "o", "gauss-seidel": "s", "jacobi-sampled": "d"}
+    for (master, order), g in table.groupby(["master", "order"], sort=False):
+        g = g.sort_values("value")
+        y = np.where(g["status"] == "bracketed", g["h_boundary"],
+                     np.where(g["status"] == "stable to cap", g["h_stable"], g["h_unstable"]))
+        ax.plot(g["value"], y, styles.get(master, "-"), marker=markers.get(master, "o"), color=colors[order],
+                mfc="none", ms=6, label=f"{master}, order {order}")
+        for st_, mk in (("stable to cap", "^"), ("unstable at floor", "v")):
+            m = (g["status"] == st_).to_numpy()
+            if m.any():
+                ax.plot(g["value"][m], y[m], mk, color=colors[order], ms=9)
+    hd = float(table["h_default"].iloc[0])
+    ax.axhline(hd, color="k", ls="-.", lw=1.0, label=f"system default step {hd:g} s")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    from matplotlib.ticker import FormatStrFormatter, NullFormatter
+
+    ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_xticks(sorted(table["value"].unique()))
+    ax.set_xlabel(str(table["sweep"].iloc[0]))
+    ax.set_ylabel("largest stable communication step  H  [s]")
+    ax.set_title(f"{table['system'].iloc[0]}: stability map (bisection on co-simulation runs)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, loc="best", ncol=2)
+    fig.tight_layout()
+    out = []
+    for ext in ("png", "svg"):
+        f = path_stem.with_suffix(f".{ext}")
+        fig.savefig(f, dpi=150)
+        out.append(f)
+    plt.close(fig)
+    return out
+
+
+STUDIES = {"two_inertia": "the two-inertia coupling benchmark (systems/two_inertia.py)",
+           **{k: v.doc for k, v in PRESS_STUDIES.items()}}
 
 
 def register_stability(study_subparsers) -> None:
     """Add ``stability`` to an existing ``study`` sub-parser group."""
-    p = study_subparsers.add_parser("stability", help="coupling-stability map (theory and measured)",
-                                    description="Largest stable macro step of jacobi / gauss-seidel with "
-                                                "extrapolation orders 0, 1, 2 versus a coupling parameter: "
-                                                "amplification-matrix theory and bisection on co-simulations.")
-    p.add_argument("benchmark", choices=sorted(STUDIES), help="benchmark system")
-    p.add_argument("--sweep", default="inertia", choices=sorted(SWEEPS),
-                   help="swept parameter: inertia (J2/J1) or stiffness (c/c1)")
-    p.add_argument("--values", type=float, nargs="+", default=None, help="values of the swept ratio")
-    p.add_argument("--no-measure", action="store_true", help="theory only (no co-simulation runs)")
-    p.add_argument("--periods", type=float, default=60.0, help="run length in coupled periods (measured)")
+    p = study_subparsers.add_parser(
+        "stability", help="coupling-stability map (theory and measured)",
+        description="Largest stable macro step of each master (jacobi, gauss-seidel, jacobi-sampled for press "
+                    "drives) with extrapolation orders 0, 1, 2 versus a coupling parameter.  two_inertia: "
+                    "amplification-matrix theory and bisection on co-simulations; press drives (bed_drive, "
+                    "spine_knife, feeder_gto52, proof_press): bisection on co-simulations against a reference.")
+    p.add_argument("benchmark", choices=sorted(STUDIES), help="system")
+    p.add_argument("--sweep", default=None,
+                   help="swept parameter: two_inertia: inertia (J2/J1) or stiffness (c/c1); press drive: "
+                        "INSTANCE.PARAMETER (default: the system's coupling stiffness, e.g. bed.c_mesh)")
+    p.add_argument("--values", type=float, nargs="+", default=None, help="values of the swept parameter")
+    p.add_argument("--masters", nargs="+", default=None, help="press drives: masters (default: "
+                                                               + " ".join(PRESS_MASTERS) + "; also jacobi-sampled)")
+    p.add_argument("--orders", type=int, nargs="+", default=None, help="extrapolation orders (default 0 1 2)")
+    p.add_argument("--quick", action="store_true",
+                   help="fewer values, shorter runs, coarser bisection (press drives: 3 values, half the run length, rtol 6 %%; "
+                        "two_inertia: theory only)")
+    p.add_argument("--rtol", type=float, default=None, help="relative width of the final bracket")
+    p.add_argument("--no-measure", action="store_true", help="two_inertia: theory only (no co-simulation runs)")
+    p.add_argument("--periods", type=float, default=None,
+                   help="run length in periods of the (estimated) stiffest coupled mode (two_inertia 60, press 10)")
     p.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results/)")
     p.set_defaults(func=stability_cli)
 
@@ -660,19 +1038,37 @@ def register(subparsers) -> None:
 def stability_cli(args) -> int:
     import sys
 
-    table = stability_table(sweep=args.sweep, values=args.values, measure=not args.no_measure,
-                            periods=args.periods, progress=lambda s: print(s, file=sys.stderr))
+    progress = lambda s: print(s, file=sys.stderr)  # noqa: E731
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    stem = out / f"stability_{args.benchmark}_{args.sweep}"
-    csv = stem.with_suffix(".csv")
-    table.to_csv(csv, index=False)
-    figs = plot_stability_map(table, stem)
-    print(f"wrote {csv}, {', '.join(str(f) for f in figs)}")
+    if args.benchmark == "two_inertia":
+        sweep = args.sweep or "inertia"
+        if sweep not in SWEEPS:
+            raise ValueError(f"--sweep {sweep!r} is not admissible for two_inertia: must be one of "
+                             f"{', '.join(SWEEPS)}")
+        table = stability_table(sweep=sweep, values=args.values, measure=not (args.no_measure or args.quick),
+                                periods=args.periods or 60.0, rtol=args.rtol or 0.005, progress=progress)
+        stem = out / f"stability_two_inertia_{sweep}"
+        out.mkdir(parents=True, exist_ok=True)
+        table.to_csv(stem.with_suffix(".csv"), index=False)
+        figs = plot_stability_map(table, stem)
+    else:
+        quick = bool(args.quick)
+        table = press_stability_table(args.benchmark, sweep=args.sweep, values=args.values,
+                                      masters=args.masters or PRESS_MASTERS, orders=args.orders or ORDERS,
+                                      periods=args.periods or (5.0 if quick else 10.0),
+                                      rtol=args.rtol or (0.06 if quick else 0.03), quick=quick,
+                                      progress=progress)
+        sweep = str(table["sweep"].iloc[0])
+        stem = out / f"stability_{args.benchmark}_{sweep.replace('.', '_')}"
+        out.mkdir(parents=True, exist_ok=True)
+        table.to_csv(stem.with_suffix(".csv"), index=False)
+        figs = plot_press_map(table, stem)
+    print(f"wrote {stem.with_suffix('.csv')}, {', '.join(str(f) for f in figs)}")
     return 0
 
 
 __all__ = ["TwoInertia", "amplification_matrix", "monolithic_matrix", "spectral_radius", "stability_boundary",
            "measured_boundary", "is_unstable", "growth_ratio", "two_inertia_run", "hold_weights",
            "lagrange_weights", "held_input_map", "subsystem_maps", "stability_table", "plot_stability_map",
-           "register", "register_stability", "STUDY_BASE"]
+           "register", "register_stability", "STUDY_BASE", "PressStudy", "PRESS_STUDIES", "PressRun",
+           "press_boundary", "press_stability_table", "plot_press_map", "deviation_ratio", "check_sweep"]

@@ -17,6 +17,17 @@ A sweep is described by a YAML or JSON file::
       feeder.w0: "rpm * 2 * pi / 60"    # a sweep variable named like "Instance.param" is set directly
     outputs:                            # quantities of interest (harness.qoi expressions)
       impact_force: 'peak(r["fourbar.impact_force"])'
+    plot:                               # optional: charts written by ``sweep ... --plot DIR``
+      x: alpha_c                        # a column of the result (sweep variable, output or set:...)
+      y: [impact_force]                 # one row of panels per entry
+      hue: [rpm, clearance]             # one line per combination (optional)
+      facet: law                        # one column of panels per value (optional)
+      reduce: max                       # max | mean | min over the sweep variables not named above
+      logx: false                       # logy too
+
+``python -m harness sweep SYSTEM --grid SPEC --plot DIR`` writes the result file and
+``DIR/<spec stem>.png`` + ``.svg`` in one command.  Spec errors are one line naming the file and the key
+(``spec.yaml: set.flywheel.d: ... uses unknown name 'alpha'``).
 
 Each worker process loads the FMUs itself (pythonfmu FMUs hold the GIL, so threads would not help).  A
 failed point is recorded with its error and never aborts the sweep.  The result is one DataFrame: the sweep
@@ -51,6 +62,8 @@ class SweepSpec:
     outputs: dict[str, str] = field(default_factory=dict)
     run: dict = field(default_factory=dict)  # stop_time, step, master, extrapolation
     system: str | None = None  # the system the spec was written for (``system:`` key; informative)
+    plot: dict | None = None   # the checked ``plot:`` section
+    source: str = "<spec>"
 
     def parameters(self, point: dict[str, float]) -> dict[str, float]:
         """The run's parameters for one point: dotted sweep variables plus the ``set`` expressions."""
@@ -58,7 +71,10 @@ class SweepSpec:
         ns = dict(point)
         ns.update(pi=math.pi, sqrt=math.sqrt)
         for name, expr in self.set.items():
-            params[name] = _arith(expr, ns, name)
+            try:
+                params[name] = _arith(expr, ns, f"set.{name}")
+            except ZeroDivisionError:
+                raise SweepError(f"set.{name}: {expr!r} divides by zero at {point}") from None
         return params
 
 
@@ -66,50 +82,108 @@ _ARITH_NODES = (ast.Expression, ast.BinOp, ast.UnaryOp, ast.Constant, ast.Name, 
                 ast.unaryop)
 
 
-def _arith(expr, ns: dict, what: str) -> float:
-    if isinstance(expr, (int, float)):
+def _arith(expr, ns: dict, what: str, check_only: bool = False) -> float:
+    if isinstance(expr, (int, float)) and not isinstance(expr, bool):
         return float(expr)
-    tree = ast.parse(str(expr), mode="eval")
+    try:
+        tree = ast.parse(str(expr), mode="eval")
+    except SyntaxError as e:
+        raise SweepError(f"{what}: {expr!r} is not an expression ({e.msg})") from None
     for node in ast.walk(tree):
         if not isinstance(node, _ARITH_NODES):
-            raise SweepError(f"set {what}: {expr!r} is not an arithmetic expression")
+            raise SweepError(f"{what}: {expr!r} is not an arithmetic expression")
         if isinstance(node, ast.Name) and node.id not in ns:
-            raise SweepError(f"set {what}: {expr!r} uses unknown name {node.id!r}")
+            raise SweepError(f"{what}: {expr!r} uses unknown name {node.id!r}")
+        if isinstance(node, ast.Call) and not (isinstance(node.func, ast.Name) and node.func.id == "sqrt"):
+            raise SweepError(f"{what}: {expr!r}: only sqrt(...) may be called")
+    if check_only:
+        return math.nan
     return float(eval(compile(tree, "<set>", "eval"), {"__builtins__": {}}, ns))  # noqa: S307
 
 
-def _values(name: str, spec) -> list[float]:
-    if isinstance(spec, list):
-        return [float(v) for v in spec]
-    if isinstance(spec, dict) and "linspace" in spec:
-        lo, hi, n = spec["linspace"]
-        return [float(v) for v in np.linspace(lo, hi, int(n))]
-    if isinstance(spec, dict) and "logspace" in spec:
-        lo, hi, n = spec["logspace"]
-        return [float(v) for v in np.logspace(math.log10(lo), math.log10(hi), int(n))]
-    raise SweepError(f"grid variable {name}: give a list, {{linspace: [lo, hi, n]}} or {{logspace: [lo, hi, n]}}")
+def _values(name: str, spec, source: str) -> list[float]:
+    try:
+        if isinstance(spec, list) and spec:
+            return [float(v) for v in spec]
+        if isinstance(spec, dict) and "linspace" in spec:
+            lo, hi, n = spec["linspace"]
+            return [float(v) for v in np.linspace(float(lo), float(hi), int(n))]
+        if isinstance(spec, dict) and "logspace" in spec:
+            lo, hi, n = spec["logspace"]
+            return [float(v) for v in np.logspace(math.log10(float(lo)), math.log10(float(hi)), int(n))]
+    except (TypeError, ValueError) as e:
+        raise SweepError(f"{source}: grid.{name}: {spec!r} is not numeric ({e})") from None
+    raise SweepError(f"{source}: grid.{name}: give a non-empty list, {{linspace: [lo, hi, n]}} or "
+                     f"{{logspace: [lo, hi, n]}}, not {spec!r}")
+
+
+PLOT_KEYS = ("x", "y", "hue", "facet", "reduce", "logx", "logy")
+
+
+def _names(value, what: str, source: str) -> list[str]:
+    if value is None:
+        return []
+    vals = [value] if isinstance(value, str) else value
+    if not isinstance(vals, list) or not all(isinstance(v, str) for v in vals):
+        raise SweepError(f"{source}: {what}: expected a column name or a list of names, not {value!r}")
+    return list(vals)
+
+
+def _check_plot(plot, names: list[str], sets: dict, outputs: dict, source: str) -> dict:
+    if not isinstance(plot, dict):
+        raise SweepError(f"{source}: plot: expected a mapping with keys {list(PLOT_KEYS)}")
+    unknown = set(plot) - set(PLOT_KEYS)
+    if unknown:
+        raise SweepError(f"{source}: plot: unknown key(s) {sorted(unknown)}; expected some of {list(PLOT_KEYS)}")
+    if "x" not in plot or "y" not in plot:
+        raise SweepError(f"{source}: plot: needs 'x' and 'y'")
+    columns = set(names) | set(outputs) | {f"set:{k}" for k in sets if k not in names} | {"wall_time"}
+    out = {"reduce": plot.get("reduce", "max"), "logx": bool(plot.get("logx", False)),
+           "logy": bool(plot.get("logy", False))}
+    for key in ("x", "y", "hue", "facet"):
+        vals = _names(plot.get(key), f"plot.{key}", source)
+        for v in vals:
+            if v not in columns:
+                raise SweepError(f"{source}: plot.{key}: unknown column {v!r}; columns are {sorted(columns)}")
+        if key in ("x", "facet") and len(vals) > 1:
+            raise SweepError(f"{source}: plot.{key}: give one column, not {vals!r}")
+        out[key] = vals
+    if out["reduce"] not in ("max", "mean", "min"):
+        raise SweepError(f"{source}: plot.reduce: {out['reduce']!r} is not one of max, mean, min")
+    return out
 
 
 def parse_spec(data: dict, source: str = "<spec>") -> SweepSpec:
-    known = {"grid", "sample", "set", "outputs", "stop_time", "step", "master", "extrapolation", "system"}
+    known = {"grid", "sample", "set", "outputs", "stop_time", "step", "master", "extrapolation", "system", "plot"}
     unknown = set(data) - known
     if unknown:
         raise SweepError(f"{source}: unknown key(s) {sorted(unknown)}; expected some of {sorted(known)}")
     if ("grid" in data) == ("sample" in data):
         raise SweepError(f"{source}: give exactly one of 'grid' or 'sample'")
+    for key in ("grid", "set", "outputs"):
+        if key in data and not isinstance(data[key], dict):
+            raise SweepError(f"{source}: {key}: expected a mapping, not {type(data[key]).__name__}")
     if "grid" in data:
         names = list(data["grid"])
-        axes = [_values(n, data["grid"][n]) for n in names]
+        if not names:
+            raise SweepError(f"{source}: grid: no variables")
+        axes = [_values(n, data["grid"][n], source) for n in names]
         points = [dict(zip(names, combo)) for combo in itertools.product(*axes)]
     else:
         s = data["sample"]
         if not isinstance(s, dict) or "n" not in s or not isinstance(s.get("ranges"), dict) or not s["ranges"]:
-            raise SweepError(f"{source}: sample needs 'n' and 'ranges: {{name: [lo, hi], ...}}'")
+            raise SweepError(f"{source}: sample: needs 'n' and 'ranges: {{name: [lo, hi], ...}}'")
         for n_, r_ in s["ranges"].items():
-            if not (isinstance(r_, (list, tuple)) and len(r_) == 2 and float(r_[0]) < float(r_[1])):
-                raise SweepError(f"{source}: sample range {n_} = {r_!r} must be [lo, hi] with lo < hi")
+            try:
+                ok = isinstance(r_, (list, tuple)) and len(r_) == 2 and float(r_[0]) < float(r_[1])
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                raise SweepError(f"{source}: sample.ranges.{n_}: {r_!r} must be [lo, hi] with lo < hi")
         if s.get("method", "lhs") != "lhs":
-            raise SweepError(f"{source}: sample method {s.get('method')!r} is not supported (lhs)")
+            raise SweepError(f"{source}: sample.method: {s.get('method')!r} is not supported (lhs)")
+        if not (isinstance(s["n"], int) and s["n"] > 0):
+            raise SweepError(f"{source}: sample.n: {s['n']!r} must be a positive integer")
         from scipy.stats import qmc
 
         names = list(s["ranges"])
@@ -117,11 +191,24 @@ def parse_spec(data: dict, source: str = "<spec>") -> SweepSpec:
         hi = np.array([s["ranges"][n][1] for n in names], float)
         unit = qmc.LatinHypercube(d=len(names), seed=s.get("seed", 0)).random(int(s["n"]))
         points = [dict(zip(names, map(float, row))) for row in qmc.scale(unit, lo, hi)]
-    for name, expr in data.get("outputs", {}).items():
-        qoi.check(expr)
+    sets = dict(data.get("set") or {})
+    ns = {n: 1.0 for n in names}
+    ns.update(pi=math.pi, sqrt=math.sqrt)
+    for name, expr in sets.items():  # names and syntax now; values per point (a zero division shows there)
+        try:
+            _arith(expr, ns, name, check_only=True)
+        except SweepError as e:
+            raise SweepError(f"{source}: set.{e}") from None
+    outputs = dict(data.get("outputs") or {})
+    for name, expr in outputs.items():
+        try:
+            qoi.check(str(expr))
+        except qoi.QoIError as e:
+            raise SweepError(f"{source}: outputs.{name}: {e}") from None
+    plot = _check_plot(data["plot"], names, sets, outputs, source) if "plot" in data else None
     run = {k: data[k] for k in ("stop_time", "step", "master", "extrapolation") if k in data}
-    return SweepSpec(variables=names, points=points, set=dict(data.get("set", {})),
-                     outputs=dict(data.get("outputs", {})), run=run, system=data.get("system"))
+    return SweepSpec(variables=names, points=points, set=sets, outputs=outputs, run=run,
+                     system=data.get("system"), plot=plot, source=source)
 
 
 def read_spec(path: str | Path) -> SweepSpec:
@@ -187,7 +274,7 @@ def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, w
         from dask.distributed import Client, LocalCluster, as_completed
 
         cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                      dashboard_address=None)
+                                                      dashboard_address=":0")
         with Client(scheduler or cluster) as client:
             futures = [client.submit(run_point, system_name, spec, p, pure=False) for p in spec.points]
             index = {f.key: i for i, f in enumerate(futures)}
@@ -229,13 +316,76 @@ def register(subparsers) -> None:
     p.add_argument("--scheduler", default=None, help="address of an existing dask scheduler")
     p.add_argument("--workers", type=int, default=2, help="local worker processes (0: run serially)")
     p.add_argument("--out", type=Path, default=None, help="result file (.parquet or .csv)")
+    p.add_argument("--plot", type=Path, default=None, metavar="DIR",
+                   help="also write the charts of the spec's plot section to DIR/<spec stem>.png and .svg")
     p.set_defaults(func=_run_cli)
 
 
 def _run_cli(args) -> int:
     spec = read_spec(args.grid)
+    if args.plot is not None and spec.plot is None:
+        raise SweepError(f"{args.grid}: --plot needs a 'plot:' section in the spec")
     df = run_sweep(args.system, spec, scheduler=args.scheduler, workers=args.workers)
     out = save(df, args.out or Path("results") / f"sweep_{Path(args.system).stem}.csv")
     failed = int((df["error"] != "").sum())
     print(f"{len(df)} points, {failed} failed; wrote {out}")
+    if args.plot is not None:
+        paths = plot_sweep(df, spec, args.plot / Path(args.grid).stem, title=f"{Path(args.system).stem}: {Path(args.grid).name}")
+        print("charts: " + ", ".join(str(p) for p in paths))
     return 0
+
+
+def plot_sweep(df: pd.DataFrame, spec: SweepSpec, out_stem: str | Path, title: str = "") -> list[Path]:
+    """Charts of a sweep result after the spec's ``plot`` section: a row of panels per ``y``, a column per
+    ``facet`` value, a line per ``hue`` combination over ``x``; the sweep variables not named are reduced
+    (max/mean/min).  Failed points (NaN) are left out.  Writes ``<out_stem>.png`` and ``.svg``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pl = spec.plot
+    if pl is None:
+        raise SweepError(f"{spec.source}: no 'plot:' section")
+    x, ys, hue, facet = pl["x"][0], pl["y"], pl["hue"], pl["facet"]
+    missing = [c for c in [x, *ys, *hue, *facet] if c not in df.columns]
+    if missing:
+        raise SweepError(f"{spec.source}: plot: result has no column(s) {missing}")
+    fvals = sorted(df[facet[0]].dropna().unique()) if facet else [None]
+    fig, axes = plt.subplots(len(ys), len(fvals), figsize=(4.2 * len(fvals), 2.6 * len(ys)), squeeze=False,
+                             sharex=True)
+    for j, fv in enumerate(fvals):
+        sub = df if fv is None else df[df[facet[0]] == fv]
+        groups = sub.groupby(hue, sort=True) if hue else [((), sub)]
+        for key, g in groups:
+            key = key if isinstance(key, tuple) else (key,)
+            label = ", ".join(f"{h}={k:g}" if isinstance(k, (int, float)) else f"{h}={k}" for h, k in zip(hue, key))
+            agg = g.groupby(x, sort=True)[ys].agg(pl["reduce"])
+            for i, y in enumerate(ys):
+                axes[i][j].plot(agg.index.to_numpy(), agg[y].to_numpy(), marker="o", ms=3, lw=1.0,
+                                label=label or None)
+        for i, y in enumerate(ys):
+            ax = axes[i][j]
+            ax.set_title((f"{facet[0]} = {fv:g}: " if fv is not None else "") + y, fontsize=8)
+            ax.tick_params(labelsize=7)
+            ax.grid(alpha=0.3)
+            if pl["logx"]:
+                ax.set_xscale("log")
+            if pl["logy"]:
+                ax.set_yscale("log")
+            if i == len(ys) - 1:
+                ax.set_xlabel(x, fontsize=8)
+    if hue:
+        axes[0][-1].legend(fontsize=6, loc="best")
+    n_fail = int((df["error"] != "").sum()) if "error" in df.columns else 0
+    rest = [v for v in spec.variables if v not in (x, *hue, *facet)]
+    note = f"; {pl['reduce']} over {', '.join(rest)}" if rest else ""
+    fig.suptitle(f"{title}{note}; {len(df)} points, {n_fail} failed", fontsize=9)
+    fig.tight_layout()
+    stem = Path(out_stem)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    paths = [stem.with_suffix(".png"), stem.with_suffix(".svg")]
+    for p in paths:
+        fig.savefig(p, dpi=110)
+    plt.close(fig)
+    return paths

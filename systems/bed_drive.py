@@ -81,10 +81,10 @@ SYSTEM = System(
     experiment=Experiment(stop_time=2.0, step=2e-4, master="jacobi"),
     scenes=[
         Scene("bed_stroke", "What is the bed stroke?", 'ptp(window(r["bed.bed.s"], 0.0, 1.0))',
-              tolerance=0.005, unit="m"),
+              tolerance=0.005, unit="m", stop_time=1.0),
         Scene("print_speed_ripple", "How uniform is the bed speed inside the printing zone?",
-              'ptp(window(r["bed.bed.v"], 0.25, 0.45))', tolerance=0.05, unit="m/s"),
+              'ptp(window(r["bed.bed.v"], 0.25, 0.45))', tolerance=0.05, unit="m/s", stop_time=0.5),
         Scene("peak_crank_torque", "What peak torque does the main shaft carry?",
-              'peak(window(r["flywheel.shaft_torque"], 0.2, 2.0))', tolerance=0.05, unit="N.m"),
+              'peak(window(r["flywheel.shaft_torque"], 0.2, 1.0))', tolerance=0.05, unit="N.m", stop_time=1.0),
     ],
 )

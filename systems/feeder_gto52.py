@@ -56,10 +56,10 @@ SYSTEM = System(
     experiment=Experiment(stop_time=1.0, step=1e-4, master="jacobi"),
     scenes=[
         Scene("rocker_swing", "What is the swing of the feeder rocker at running speed?",
-              'ptp(window(r["feeder.rocker.phi"], 0.4, 1.0))', tolerance=0.01, unit="rad"),
+              'ptp(window(r["feeder.rocker.phi"], 0.2, 0.6))', tolerance=0.01, unit="rad", stop_time=0.6),
         Scene("impact_force", "How large are the impact forces in the stone-pin clearance at 150 rpm?",
-              'peak(window(r["feeder.impact_force"], 0.2, 1.0))', tolerance=0.10, unit="N"),
+              'peak(window(r["feeder.impact_force"], 0.2, 0.6))', tolerance=0.10, unit="N", stop_time=0.6),
         Scene("motor_power", "What mean electrical power does the motor draw at running speed?",
-              'mean(window(r["motor.power_electrical"], 0.4, 1.0))', tolerance=0.02, unit="W"),
+              'mean(window(r["motor.power_electrical"], 0.2, 0.6))', tolerance=0.02, unit="W", stop_time=0.6),
     ],
 )

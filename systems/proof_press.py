@@ -43,8 +43,9 @@ SYSTEM = System(
     experiment=Experiment(stop_time=4.0, step=2e-4, master="jacobi"),
     scenes=[
         Scene("sync_error", "How far does the cylinder surface slip against the bed while printing?",
-              'peak(window(r["press.sync_error"], 0.0, 4.0))', tolerance=1e-4, relative=False, unit="m"),
+              'peak(window(r["press.sync_error"], 0.0, 2.0))', tolerance=5e-6, relative=False, unit="m",
+              stop_time=2.0),
         Scene("peak_shaft_torque", "What peak torque does the main shaft carry?",
-              'peak(window(r["flywheel.shaft_torque"], 0.5, 4.0))', tolerance=0.05, unit="N.m"),
+              'peak(window(r["flywheel.shaft_torque"], 0.5, 2.0))', tolerance=0.05, unit="N.m", stop_time=2.0),
     ],
 )

@@ -56,8 +56,8 @@ SYSTEM = System(
     experiment=Experiment(stop_time=0.5, step=5e-5, master="jacobi"),
     scenes=[
         Scene("shaft_twist", "How large is the torsional deformation of the knife shaft?",
-              'peak(window(r["shaft.shaft_twist"], 0.1, 0.5))', tolerance=0.05, unit="rad"),
+              'peak(window(r["shaft.shaft_twist"], 0.1, 0.3))', tolerance=0.05, unit="rad", stop_time=0.3),
         Scene("knife_torque", "What peak torque does the cutting put on the drive?",
-              'peak(window(r["knife.knife.tau"], 0.1, 0.5))', tolerance=0.02, unit="N.m"),
+              'peak(window(r["knife.knife.tau"], 0.1, 0.3))', tolerance=0.02, unit="N.m", stop_time=0.3),
     ],
 )

@@ -6,6 +6,7 @@ convergence orders and stability limits of the masters.  Undamped and free-free 
 system conserves energy, so any energy change is made by the coupling.
 """
 from harness.model import Experiment, Instance, System, bond
+from harness.scenes import Scene
 
 SYSTEM = System(
     name="two_inertia",
@@ -16,4 +17,10 @@ SYSTEM = System(
     ],
     bonds=[bond("a.flange", "b.drive")],
     experiment=Experiment(stop_time=1.0, step=1e-3, master="jacobi"),
+    scenes=[  # no component has fidelity levels: the scenes differ in the step and master they need
+        Scene("mean_speed", "At what mean speed does the pair turn (momentum)?",
+              'mean(window(r["a.flange.w"], 0.0, 0.2))', tolerance=0.05, unit="rad/s", stop_time=0.2, step=2.5e-5),
+        Scene("peak_torque", "What peak torque does the coupling spring carry?",
+              'peak(window(r["b.drive.tau"], 0.0, 0.2))', tolerance=0.01, unit="N.m", stop_time=0.2, step=2.5e-5),
+    ],
 )

@@ -227,3 +227,104 @@ def test_measured_runs_are_judged_both_ways(fmu_dir):
     run = st.two_inertia_run(p, "jacobi", 1, periods=30, min_steps=200, fmu_dir=fmu_dir)
     assert st.growth_ratio(run(0.9 * hb)) < 1.0
     assert st.growth_ratio(run(1.1 * hb)) > 1.0
+
+
+# -- press drives (harness.stability press-drive section) -------------------------------------------------------
+def _own_deviation(df, ref, columns):
+    """Independent re-implementation of the press criterion: max over columns of the last-quarter deviation
+    from the interpolated reference over the column's variation in the reference."""
+    t = df.index.to_numpy(float)
+    n = len(t)
+    worst = 0.0
+    for c in columns:
+        yr = np.interp(t, ref.index.to_numpy(float), ref[c].to_numpy(float))
+        scale = np.max(np.abs(yr - yr.mean()))
+        dev = np.max(np.abs(df[c].to_numpy(float)[3 * n // 4:] - yr[3 * n // 4:]))
+        worst = max(worst, dev / max(scale, 1e-6 * np.max(np.abs(ref[c].to_numpy(float))) + 1e-12))
+    return worst
+
+
+def test_deviation_criterion_on_synthetic_runs():
+    t = np.linspace(0.0, 1.0, 401)
+    ref = pd.DataFrame({"x.f": np.sin(20 * t), "x.w": 0.0 * t}, index=pd.Index(t, name="time"))
+    tt = t[::4]
+    ok = pd.DataFrame({"x.f": np.sin(20 * tt) + 0.05, "x.w": 1e-14 * tt}, index=pd.Index(tt, name="time"))
+    yr = np.sin(20 * tt)
+    assert st.deviation_ratio(ok, ref) == pytest.approx(0.05 / np.max(np.abs(yr - yr.mean())), rel=1e-9)
+    bad = ok.copy()
+    bad["x.f"] = np.sin(20 * tt) + np.exp(8 * tt) * 1e-3      # grows to ~3 at the end
+    assert st.deviation_ratio(bad, ref) > 1.0
+    bad.attrs["complete"] = False
+    assert st.deviation_ratio(bad, ref) == math.inf
+
+
+def test_bad_sweep_names_error_in_one_line(fmu_dir):
+    system = st._with_fmu_dir("bed_drive", fmu_dir)
+    for sweep, words in (("bedd.c_mesh", ["bedd", "instances"]), ("bed.c_mush", ["c_mush", "bed"]),
+                         ("c_mesh", ["INSTANCE.PARAMETER"]), ("bed.z_pinion", ["z_pinion"])):
+        with pytest.raises(ValueError) as e:
+            st.check_sweep(system, sweep)
+        msg = str(e.value)
+        assert "\n" not in msg and all(w in msg for w in words), msg
+    st.check_sweep(system, "bed.c_mesh", [1e7])
+    with pytest.raises(ValueError, match="xyz"):
+        st.press_stability_table("bed_drive", sweep="xyz.c", values=[1.0], fmu_dir=fmu_dir)
+    with pytest.raises(ValueError, match="no stability study"):
+        st.press_stability_table("two_inertias", fmu_dir=fmu_dir)
+
+
+def test_press_drive_boundary_is_bracketed_by_direct_runs(fmu_dir):
+    """Tiny configuration of the press path end to end (spine_knife, one value, jacobi order 0), then the
+    bracket is checked with direct harness.simulate runs judged by an independent implementation of the
+    criterion: stable at the largest stable step, unstable at the smallest unstable one, and further above
+    the boundary the deviation grows (or the run fails)."""
+    import warnings
+
+    from harness import simulate
+
+    table = st.press_stability_table("spine_knife", values=[0.03], masters=["jacobi"], orders=[0], rtol=0.05,
+                                     periods=10.0, duration=0.03, fmu_dir=fmu_dir)
+    assert len(table) == 1
+    row = table.iloc[0]
+    assert row.status == "bracketed"
+    assert row.h_stable < row.h_boundary < row.h_unstable <= row.h_stable * 1.06
+    system = st._with_fmu_dir("spine_knife", fmu_dir)
+    par = {"shaft.d": 0.03}
+    T = row.duration
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        h0 = system.experiment.step
+        ref = simulate(system, stop_time=math.ceil(T / h0 - 1e-9) * h0, step=h0, master="gauss-seidel",
+                       extrapolation=0, parameters=par)
+        cols = [c for c in ref.columns if c.endswith((".tau", ".f", ".w", ".v"))]
+
+        def direct(h):
+            n = max(8, int(math.floor(T / h + 1e-9)))
+            return simulate(system, stop_time=n * h, step=h, master="jacobi", extrapolation=0, parameters=par)
+
+        below, above, far = direct(row.h_stable), direct(row.h_unstable), direct(1.5 * row.h_unstable)
+    assert below.attrs["complete"] and _own_deviation(below, ref, cols) <= 1.0
+    assert (not above.attrs["complete"]) or _own_deviation(above, ref, cols) > 1.0
+    if above.attrs["complete"]:  # further above the boundary the deviation only grows (or the run fails)
+        assert (not far.attrs["complete"]) or _own_deviation(far, ref, cols) > _own_deviation(above, ref, cols)
+
+
+@pytest.mark.slow
+def test_full_press_map_cli(tmp_path, fmu_dir, monkeypatch):
+    """The full default map of one drive through the CLI: every method bracketed (or stable to the cap), the
+    boundary of each row confirmed by a direct run just below it, CSV + PNG + SVG written."""
+    monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
+    ap = argparse.ArgumentParser()
+    sub = ap.add_subparsers(dest="command", required=True)
+    st.register(sub)
+    args = ap.parse_args(["study", "stability", "proof_press", "--out", str(tmp_path)])
+    assert args.func(args) == 0
+    table = pd.read_csv(tmp_path / "stability_proof_press_press_c_cyl.csv")
+    assert len(table) == len(st.PRESS_STUDIES["proof_press"].values) * len(st.PRESS_MASTERS) * 3
+    assert set(table.status) <= {"bracketed", "stable to cap"}
+    for ext in ("png", "svg"):
+        assert (tmp_path / f"stability_proof_press_press_c_cyl.{ext}").stat().st_size > 1000
+    row = table[table.status == "bracketed"].iloc[0]
+    prun = st.PressRun("proof_press", row.master, int(row.order), {row.sweep: row.value}, duration=row.duration,
+                       fmu_dir=fmu_dir)
+    assert not prun.unstable(row.h_stable) and prun.unstable(row.h_unstable)

@@ -1,0 +1,21 @@
+"""Performance benchmarks of the co-simulation master against its peers (issue 10).
+
+``python -m benchmarks`` times, in ONE run and side by side, the same co-simulation in every tool:
+
+* the cases: a ring of six trivial pythonfmu FMUs (:func:`benchmarks.cases.ring`: Gain FMUs, each one's
+  ``integral`` feeding the next one's ``u``, so no algebraic loop) and the exported SSP of each press drive
+  (feeder_gto52, bed_drive, spine_knife, proof_press), all at one fixed step per case;
+* the tools (:mod:`benchmarks.runners`): the harness with each master, libcosim (libcosimpy), Ecos (ecospy,
+  the SSP's parameter set ``default`` passed to ``init``), CoFmuPy (NOT installed: it pins pythonfmu 0.6.3 /
+  fmpy 0.3.20, which would downgrade the pythonfmu that builds our FMUs; reported as skipped), the bare fmpy
+  loop (``FMU2Slave.setReal/doStep/getReal``, the "fmpy floor") and a ctypes floor (prepared arrays, direct
+  FMI calls, no checks: what no Python master can beat);
+* pinned (``taskset -c 0``) and unpinned; every configuration runs in its own subprocess
+  (``python -m benchmarks.worker``).
+
+It prints the cost per FMU-step [us] and the ratios harness/peer, writes ``benchmark.csv`` and the bar chart
+``docs/images/benchmark.png`` (+ .svg), checks that every tool computed the same thing (final values of the
+outputs without direct feed-through, against the harness with master ``jacobi-sampled``, which is the
+algorithm of libcosim and Ecos) and checks the targets of the issue.  ``--quick`` runs tiny sizes (a smoke
+test, timings meaningless).  Timings on a shared machine are noisy: run the final benchmark on a quiet one.
+"""

@@ -1,0 +1,276 @@
+"""The benchmark driver (``python -m benchmarks``; see the package docstring).
+
+    python -m benchmarks                      # everything, pinned and unpinned
+    python -m benchmarks --quick --cases ring --tools jacobi-sampled,fmpy --modes unpinned --out /tmp/b
+
+Each configuration (case x tool x mode) runs in its own subprocess; ``pinned`` prefixes ``taskset -c 0``.
+Results: ``<out>/benchmark.csv`` (one row per configuration), the chart (``--chart``, default
+docs/images/benchmark.png and .svg), and a printed table with the cost per FMU-step, the ratios harness/peer,
+the result check and the targets.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from benchmarks.cases import CASES, check_columns, ssp_folder
+from benchmarks.runners import COFMUPY_SKIP, HARNESS_TOOLS, SAME_ALGORITHM, TOOLS
+
+ROOT = Path(__file__).resolve().parents[1]
+MODES = ("pinned", "unpinned")
+RTOL = 1e-9          # result check: |value - reference| <= RTOL * (|reference| + column scale)
+REFERENCE = "jacobi-sampled"
+FIELDS = ("case", "tool", "mode", "fmus", "steps", "step", "seconds", "us_per_fmu_step", "ratio_harness_to_tool",
+          "same_result", "max_rel_deviation", "note")
+
+
+def _csv_list(text: str, allowed, what: str) -> list[str]:
+    items = [t.strip() for t in text.split(",") if t.strip()]
+    bad = [t for t in items if t not in allowed]
+    if bad or not items:
+        raise SystemExit(f"--{what} {text!r}: unknown {', '.join(bad) or '(empty)'}; choose from {', '.join(allowed)}")
+    return items
+
+
+def run_config(spec: dict, mode: str, timeout: float) -> dict:
+    """One configuration in a fresh subprocess (pinned to CPU 0 with taskset in mode 'pinned')."""
+    cmd = [sys.executable, "-m", "benchmarks.worker", json.dumps(spec)]
+    if mode == "pinned":
+        if shutil.which("taskset") is None:
+            return {"error": "taskset not found: cannot pin"}
+        cmd = ["taskset", "-c", "0"] + cmd
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=str(ROOT))
+    except subprocess.TimeoutExpired:
+        return {"error": f"timed out after {timeout:g} s"}
+    for line in reversed(proc.stdout.splitlines()):
+        if line.startswith("RESULT "):
+            return json.loads(line[len("RESULT "):])
+    tail = " ".join((proc.stderr or "").strip().splitlines()[-2:])
+    return {"error": f"worker exit code {proc.returncode}: {tail}"[:300]}
+
+
+def compare(final: dict, reference: dict, scales: dict) -> float:
+    """Largest |value - reference| / (|reference| + scale) over the check columns (inf if one is missing)."""
+    worst = 0.0
+    for c, ref in reference.items():
+        v = final.get(c)
+        if v is None or not math.isfinite(v):
+            return math.inf
+        worst = max(worst, abs(v - ref) / (abs(ref) + scales[c]))
+    return worst
+
+
+def run_all(cases: list[str], tools: list[str], modes: list[str], quick: bool, work: Path,
+            timeout: float, realtime: bool, log=print) -> list[dict]:
+    rows: list[dict] = []
+    work.mkdir(parents=True, exist_ok=True)
+    for name in cases:
+        case = CASES[name]
+        system = case.system()
+        folder = ssp_folder(system, work)
+        columns = check_columns(system)
+        n = case.n_steps(quick)
+        pset = "default" if any(i.parameters for i in system.instances) else None
+        results = {}
+        for mode in modes:
+            for tool in tools:
+                row = {"case": name, "tool": tool, "mode": mode, "fmus": len(system.instances), "steps": n,
+                       "step": case.step, "note": ""}
+                if tool == "cofmupy":
+                    row["note"] = "skipped: " + COFMUPY_SKIP
+                    rows.append(row)
+                    continue
+                spec = {"case": name, "tool": tool, "folder": str(folder), "step": case.step, "n": n,
+                        "columns": columns, "parameter_set": pset}
+                out = run_config(spec, mode, timeout)
+                if "error" in out:
+                    row["note"] = "failed: " + out["error"]
+                else:
+                    row["seconds"] = out["seconds"]
+                    row["us_per_fmu_step"] = 1e6 * out["seconds"] / (out["steps"] * out["fmus"])
+                    results[(tool, mode)] = out["final"]
+                log(f"{name:13s} {mode:9s} {tool:15s} "
+                    + (f"{row['us_per_fmu_step']:9.2f} us/FMU-step" if "seconds" in row else row["note"]))
+                rows.append(row)
+        _check(rows, name, results, columns)
+    if realtime:
+        for mode in modes:
+            out = run_config({"case": "bed_drive", "tool": "realtime", "quick": quick}, mode, timeout)
+            row = {"case": "bed_drive(default scene)", "tool": "jacobi", "mode": mode, "step": None, "note": ""}
+            if "error" in out:
+                row["note"] = "failed: " + out["error"]
+            else:
+                row.update(seconds=out["seconds"], steps=out["steps"], fmus=out["fmus"],
+                           us_per_fmu_step=1e6 * out["seconds"] / (out["steps"] * out["fmus"]))
+                row["note"] = f"real-time factor {out['final']['stop_time'] / out['seconds']:.3g}"
+            log(f"bed_drive default scene {mode}: {row['note']}")
+            rows.append(row)
+    _ratios(rows)
+    return rows
+
+
+def _check(rows: list[dict], case: str, results: dict, columns: list[str]) -> None:
+    """Result check of one case: every tool that runs the jacobi-sampled algorithm must give the final values
+    of the harness's jacobi-sampled (same mode, else any mode) to RTOL; other masters are only reported."""
+    refs = [results[k] for k in results if k[0] == REFERENCE]
+    for row in rows:
+        if row["case"] != case or (row["tool"], row["mode"]) not in results:
+            continue
+        ref = results.get((REFERENCE, row["mode"])) or (refs[0] if refs else None)
+        if ref is None:
+            row["note"] = (row["note"] + "; no jacobi-sampled reference to check against").lstrip("; ")
+            continue
+        scales = {c: 1e-12 + 1e-6 * max(abs(r[c]) for r in refs) for c in columns}
+        dev = compare(results[(row["tool"], row["mode"])], ref, scales)
+        row["max_rel_deviation"] = dev
+        if row["tool"] in SAME_ALGORITHM:
+            row["same_result"] = bool(dev <= RTOL)
+            if not row["same_result"]:
+                row["note"] = (row["note"] + f"; RESULT DIFFERS from jacobi-sampled ({dev:.3g})").lstrip("; ")
+        else:
+            row["same_result"] = "n/a (other algorithm)"
+
+
+def _ratios(rows: list[dict]) -> None:
+    """ratio_harness_to_tool: harness jacobi-sampled cost / this tool's cost, same case and mode."""
+    base = {(r["case"], r["mode"]): r["us_per_fmu_step"] for r in rows
+            if r["tool"] == REFERENCE and "us_per_fmu_step" in r}
+    for r in rows:
+        b = base.get((r["case"], r["mode"]))
+        if b is not None and "us_per_fmu_step" in r:
+            r["ratio_harness_to_tool"] = b / r["us_per_fmu_step"]
+
+
+def targets(rows: list[dict]) -> list[tuple[str, bool | None, str]]:
+    """(target, met (None: not measured), evidence) for each target of the issue."""
+    cost = {(r["case"], r["tool"], r["mode"]): r["us_per_fmu_step"] for r in rows if "us_per_fmu_step" in r}
+    peers = ("libcosim", "ecos", "cofmupy")
+    out = []
+    ring = {t: cost.get(("ring", t, "pinned")) for t in TOOLS}
+    h = ring.get(REFERENCE)
+    measured = {t: v for t, v in ring.items() if t in peers and v is not None}
+    if h is not None and measured:
+        out.append(("ring pinned: harness faster than every peer", all(h < v for v in measured.values()),
+                    ", ".join(f"{t} {v / h:.2f}x the harness" for t, v in measured.items())))
+    else:
+        out.append(("ring pinned: harness faster than every peer", None, "not measured"))
+    f = ring.get("fmpy")
+    out.append(("ring pinned: harness within 1.3x of the fmpy floor", None if h is None or f is None else h <= 1.3 * f,
+                "not measured" if h is None or f is None else f"harness/fmpy = {h / f:.2f}"
+                + (f", harness/ctypes floor = {h / ring['ctypes']:.2f}" if ring.get("ctypes") else "")))
+    for case in CASES:
+        if case == "ring":
+            continue
+        h = cost.get((case, REFERENCE, "pinned"))
+        measured = {t: cost[(case, t, "pinned")] for t in peers if (case, t, "pinned") in cost}
+        what = f"{case} pinned: harness faster than the fastest peer"
+        if h is None or not measured:
+            out.append((what, None, "not measured"))
+            continue
+        best = min(measured, key=measured.get)
+        out.append((what, h < measured[best], f"fastest peer {best}: harness/{best} = {h / measured[best]:.2f}"))
+    rt = [r for r in rows if r["case"] == "bed_drive(default scene)" and "seconds" in r]
+    for r in rt:
+        factor = float(r["note"].split()[-1])
+        out.append((f"bed_drive default scene >= 5x faster than real time ({r['mode']})", factor >= 5.0,
+                    r["note"]))
+    return out
+
+
+def write_csv(rows: list[dict], path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=FIELDS, extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: r.get(k, "") for k in FIELDS})
+    return path
+
+
+def chart(rows: list[dict], path: Path) -> list[Path]:
+    """Grouped bars: cost per FMU-step [us] per case and tool (pinned if measured, else unpinned)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    mode = "pinned" if any(r["mode"] == "pinned" and "us_per_fmu_step" in r for r in rows) else "unpinned"
+    data = [r for r in rows if r["mode"] == mode and "us_per_fmu_step" in r and r["step"] is not None]
+    cases = list(dict.fromkeys(r["case"] for r in data))
+    tools = [t for t in TOOLS if any(r["tool"] == t for r in data)]
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(cases) + 2), 4.2))
+    width = 0.8 / max(1, len(tools))
+    for j, tool in enumerate(tools):
+        xs, ys = [], []
+        for i, case in enumerate(cases):
+            v = next((r["us_per_fmu_step"] for r in data if r["case"] == case and r["tool"] == tool), None)
+            if v is not None:
+                xs.append(i + (j - (len(tools) - 1) / 2) * width)
+                ys.append(v)
+        label = tool if tool not in HARNESS_TOOLS else f"harness {tool}"
+        ax.bar(xs, ys, width, label=label)
+    ax.set_xticks(range(len(cases)), cases)
+    ax.set_yscale("log")
+    ax.set_ylabel("wall time per FMU-step [us]")
+    ax.set_title(f"Co-simulation cost per FMU-step ({mode}; lower is better)")
+    ax.legend(fontsize=7, ncol=3)
+    ax.grid(axis="y", which="both", alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    written = [path]
+    fig.savefig(path, dpi=120)
+    svg = path.with_suffix(".svg")
+    fig.savefig(svg)
+    written.append(svg)
+    plt.close(fig)
+    return written
+
+
+def report(rows: list[dict], log=print) -> None:
+    log("")
+    log(f"{'case':24s} {'mode':9s} {'tool':15s} {'us/FMU-step':>12s} {'harness/tool':>12s}  result")
+    for r in rows:
+        cost = f"{r['us_per_fmu_step']:12.2f}" if "us_per_fmu_step" in r else f"{'-':>12s}"
+        ratio = f"{r['ratio_harness_to_tool']:12.2f}" if "ratio_harness_to_tool" in r else f"{'-':>12s}"
+        same = r.get("same_result", "")
+        log(f"{r['case']:24s} {r['mode']:9s} {r['tool']:15s} {cost} {ratio}  {same} {r['note']}".rstrip())
+    log("")
+    for what, met, evidence in targets(rows):
+        flag = "n/a " if met is None else ("MET " if met else "MISS")
+        log(f"[{flag}] {what}: {evidence}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m benchmarks", description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="tiny sizes (smoke test; timings meaningless)")
+    ap.add_argument("--cases", default=",".join(CASES), help=f"comma list of {', '.join(CASES)}")
+    ap.add_argument("--tools", default=",".join(TOOLS), help=f"comma list of {', '.join(TOOLS)}")
+    ap.add_argument("--modes", default=",".join(MODES), help="pinned, unpinned or both")
+    ap.add_argument("--out", type=Path, default=ROOT / "results" / "benchmark", help="folder of the CSV and SSPs")
+    ap.add_argument("--chart", type=Path, default=ROOT / "docs" / "images" / "benchmark.png",
+                    help="bar chart path (.png; an .svg is written beside it)")
+    ap.add_argument("--no-chart", action="store_true")
+    ap.add_argument("--no-realtime", action="store_true", help="skip the bed_drive default-scene run")
+    ap.add_argument("--timeout", type=float, default=1800.0, help="per configuration [s]")
+    args = ap.parse_args(argv)
+    cases = _csv_list(args.cases, CASES, "cases")
+    tools = _csv_list(args.tools, TOOLS, "tools")
+    modes = _csv_list(args.modes, MODES, "modes")
+    rows = run_all(cases, tools, modes, args.quick, args.out, args.timeout, not args.no_realtime)
+    path = write_csv(rows, args.out / "benchmark.csv")
+    report(rows)
+    print(f"\nwrote {path}")
+    if not args.no_chart:
+        print("chart " + ", ".join(str(p) for p in chart(rows, args.chart)))
+    bad = [r for r in rows if r.get("same_result") is False]
+    return 1 if bad else 0

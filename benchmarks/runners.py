@@ -1,0 +1,215 @@
+"""One timed run of one case in one tool.  Every runner returns ``{"seconds", "steps", "fmus", "final"}``:
+``seconds`` covers initialisation and the stepping loop only (not loading/instantiating, which differ per
+tool and do not scale with the run), ``final`` maps each check column to its value at the stop time.
+
+Every tool runs the SAME exported SSP (the FMU files of its ``resources/``), at the same step, from t = 0,
+and records only the check columns (libcosim: a last-value observer; Ecos: read after the run; the
+harness: its recorder, every step, so the harness pays for recording and the peers do not).
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+NS = 1_000_000_000
+
+TOOLS = ("jacobi", "jacobi-sampled", "gauss-seidel", "iterative", "libcosim", "ecos", "cofmupy", "fmpy",
+         "ctypes")
+HARNESS_TOOLS = ("jacobi", "jacobi-sampled", "gauss-seidel", "iterative")
+# tools that compute exactly what the harness computes with master "jacobi-sampled"
+SAME_ALGORITHM = ("jacobi-sampled", "libcosim", "ecos", "fmpy", "ctypes")
+COFMUPY_SKIP = ("CoFmuPy is not installed: it pins pythonfmu 0.6.3 and fmpy 0.3.20, which would downgrade the "
+                "pythonfmu 0.7 that builds our FMUs (install it in a separate virtual environment)")
+
+
+def _ssd(folder: Path) -> str:
+    return str(Path(folder) / "SystemStructure.ssd")
+
+
+def _split(column: str, instances) -> tuple[str, str]:
+    for inst in sorted(instances, key=len, reverse=True):
+        if column.startswith(inst + "."):
+            return inst, column[len(inst) + 1:]
+    raise ValueError(f"column {column!r} names no instance of {sorted(instances)}")
+
+
+def _preload(folder: Path) -> None:
+    from harness.peers import _preload as preload
+
+    preload(sorted(Path(folder).rglob("*.fmu")))
+
+
+def run_harness(folder: Path, master: str, step: float, n: int, columns: list[str]) -> dict:
+    from harness import load, simulate
+
+    system = load(_ssd(folder))
+    df = simulate(system, stop_time=n * step, step=step, master=master, extrapolation=0, outputs=columns)
+    if not df.attrs["complete"]:
+        raise RuntimeError(f"harness {master}: {df.attrs['error']}")
+    return {"seconds": df.attrs["wall_time"], "steps": int(df.attrs["steps"]), "fmus": len(system.instances),
+            "final": {c: float(df[c].iloc[-1]) for c in columns}}
+
+
+def run_libcosim(folder: Path, step: float, n: int, columns: list[str]) -> dict:
+    from libcosimpy import CosimEnums, CosimExecution, CosimLogging, CosimObserver
+
+    from harness.peers import step_nanoseconds
+
+    CosimLogging.log_output_level(CosimLogging.CosimLogLevel.WARNING)
+    _preload(folder)
+    step_ns = step_nanoseconds(step)
+    execution = CosimExecution.CosimExecution.from_ssp_file(str(folder), step_ns)
+    observer = CosimObserver.CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    slaves = {info.name.decode(): info.index for info in execution.slave_infos()}
+    refs = {i: {v.name.decode(): v.reference for v in execution.slave_variables(i)
+                if v.type == CosimEnums.CosimVariableType.REAL.value} for i in slaves.values()}
+    t0 = time.perf_counter()
+    ok = execution.step(n)
+    seconds = time.perf_counter() - t0
+    status = execution.status()
+    if not ok or status.error_code != 0 or status.current_time != n * step_ns:
+        raise RuntimeError(f"libcosim: step failed (error code {status.error_code}, t = {status.current_time} ns)")
+    final = {}
+    for c in columns:
+        inst, var = _split(c, slaves)
+        final[c] = float(observer.last_real_values(slaves[inst], [refs[slaves[inst]][var]])[0])
+    return {"seconds": seconds, "steps": n, "fmus": len(slaves), "final": final}
+
+
+def run_ecos(folder: Path, step: float, n: int, columns: list[str], parameter_set: str | None) -> dict:
+    import ecospy
+
+    ecospy.EcosLib.set_log_level("warn")
+    _preload(folder)
+    sim = ecospy.EcosSimulation(ssp_path=str(folder), step_size=step)
+    with sim:
+        t0 = time.perf_counter()
+        if not sim.init(0.0, parameter_set):
+            raise RuntimeError(f"ecos: init failed: {ecospy.EcosLib.get_last_error()}")
+        t_end = sim.step(n)
+        seconds = time.perf_counter() - t0
+        if abs(t_end - n * step) > 1e-9 * n * step:
+            raise RuntimeError(f"ecos: ended at t = {t_end!r} s, expected {n * step!r} s")
+        final = {}
+        for c in columns:
+            inst, _, var = c.partition(".")
+            final[c] = float(sim.get_real(f"{inst}::{var}"))
+        sim.terminate()
+    return {"seconds": seconds, "steps": n, "fmus": len(_instances(folder)), "final": final}
+
+
+def _instances(folder: Path) -> list[str]:
+    from harness import load
+
+    return [i.name for i in load(_ssd(folder)).instances]
+
+
+def _initialised_master(folder: Path, step: float, n: int):
+    """The harness's jacobi-sampled master, built and initialised exactly as ``simulate`` does (so the floors
+    start from the same consistent point); the floors then step it with their own loops."""
+    from harness import load
+    from harness.extrapolation import Polynomial
+    from harness.fmu import FMU
+    from harness.masters import JacobiSampled
+    from harness.model import model_description, resolve_fmu
+    from harness.run import _split_parameters
+
+    system = load(_ssd(folder))
+    params = _split_parameters(system, None)
+    paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
+    mds = {name: model_description(p) for name, p in paths.items()}
+    connections = system.all_connections(mds)
+    fmus = {inst.name: FMU(paths[inst.name], inst.name) for inst in system.instances}
+    m = JacobiSampled(fmus, connections, system.bonds, Polynomial(0))
+    step_ns = int(round(step * NS))
+    return m, step_ns, params
+
+
+def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str) -> dict:
+    """``kind`` "fmpy": the bare fmpy loop (FMU2Slave.setReal / doStep / getReal, fmpy's status checks);
+    "ctypes": value references and buffers prepared once, the FMI functions called directly, status
+    ignored.  Both take the steps of jacobi-sampled with the harness's time doubles t_k = k*step_ns/1e9."""
+    m, step_ns, params = _initialised_master(folder, step, n)
+    h = step_ns / NS
+    t0 = time.perf_counter()
+    m.initialize(0, n * step_ns, None, params)
+    y = m.y
+    insts = m.insts
+    if kind == "fmpy":
+        prep = []
+        for it in insts:
+            s = it.fmu._slave
+            s.component = it.fmu.c
+            prep.append((s, list(it.inp.vr)[: it.inp.n], it.src, it.fac, it.off, list(it.out.vr)[: it.out.n],
+                         it.sl))
+        for k in range(n):
+            t = (k * step_ns) / NS
+            for s, ivr, src, fac, off, _ovr, _sl in prep:
+                if ivr:
+                    s.setReal(ivr, list(fac * y[src] + off))
+            for s, *_ in prep:
+                s.doStep(t, h)
+            for s, _ivr, _src, _fac, _off, ovr, sl in prep:
+                y[sl] = s.getReal(ovr)
+    else:
+        prep = []
+        for it in insts:
+            f = it.fmu._f
+            prep.append((f["fmi2SetReal"], f["fmi2DoStep"], f["fmi2GetReal"], it.fmu.c, it.inp, it.src, it.fac,
+                         it.off, it.out, it.sl))
+        for k in range(n):
+            t = (k * step_ns) / NS
+            for set_real, _ds, _gr, c, inp, src, fac, off, _out, _sl in prep:
+                if inp.n:
+                    np.multiply(fac, y[src], out=inp.values)
+                    inp.values += off
+                    set_real(c, inp.vr, inp.n, inp.buf)
+            for _sr, do_step, _gr, c, *_ in prep:
+                do_step(c, t, h, 1)
+            for _sr, _ds, get_real, c, _inp, _src, _fac, _off, out, sl in prep:
+                get_real(c, out.vr, out.n, out.buf)
+                y[sl] = out.values
+    seconds = time.perf_counter() - t0
+    final = {c: float(y[m.signal_index[c]]) for c in columns}
+    m.terminate()
+    m.free()
+    return {"seconds": seconds, "steps": n, "fmus": len(insts), "final": final}
+
+
+def run_realtime(system_name: str, quick: bool) -> dict:
+    """The system's default experiment (its own step, master and stop time; a 100th of it with ``quick``) in
+    the harness: ``seconds`` is the wall time, ``final`` holds ``stop_time`` (the real-time factor is
+    stop_time / seconds)."""
+    from harness import load, simulate
+
+    system = load(system_name)
+    exp = system.experiment
+    stop = exp.stop_time / 100 if quick else exp.stop_time
+    df = simulate(system, stop_time=stop, outputs=check_columns_of(system)[:1])
+    if not df.attrs["complete"]:
+        raise RuntimeError(f"{system_name}: {df.attrs['error']}")
+    return {"seconds": df.attrs["wall_time"], "steps": int(df.attrs["steps"]), "fmus": len(system.instances),
+            "final": {"stop_time": stop}}
+
+
+def check_columns_of(system):
+    from benchmarks.cases import check_columns
+
+    return check_columns(system)
+
+
+def run(tool: str, folder: Path, step: float, n: int, columns: list[str], parameter_set: str | None) -> dict:
+    if tool in HARNESS_TOOLS:
+        return run_harness(folder, tool, step, n, columns)
+    if tool == "libcosim":
+        return run_libcosim(folder, step, n, columns)
+    if tool == "ecos":
+        return run_ecos(folder, step, n, columns, parameter_set)
+    if tool in ("fmpy", "ctypes"):
+        return run_floor(folder, step, n, columns, tool)
+    if tool == "cofmupy":
+        raise NotImplementedError(COFMUPY_SKIP)
+    raise ValueError(f"tool = {tool!r} is not one of {', '.join(TOOLS)}")

@@ -1,0 +1,104 @@
+"""Scenes (issue 9): the coarsest adequate model, its cost, the cache and the CLI.
+
+The fast tests use the two-inertia scene ``mean_speed`` shortened to 0.06 s: its full model (step 2.5e-5 s)
+and the chosen one run in a few seconds.  The tolerance check re-runs the chosen configuration and evaluates
+the quantity itself (not the value choose() reports); the speed-up is a wall-time ratio measured in the same
+process with a wide margin (expected about 5-8x, asserted > 2x).
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+import warnings
+
+import pytest
+
+from harness import load, qoi, scenes, simulate
+from harness.__main__ import main
+
+
+@pytest.fixture(autouse=True)
+def _fmus(fmu_dir, monkeypatch):
+    monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
+    warnings.simplefilter("ignore")
+
+
+def _cheap():
+    system = load("two_inertia")
+    scene = next(s for s in system.scenes if s.name == "mean_speed")
+    return system, dataclasses.replace(scene, stop_time=0.06)
+
+
+@pytest.fixture(scope="module")
+def out_dir(tmp_path_factory):
+    """Shared by the choose() test and the CLI test, so the CLI finds the full model in the cache."""
+    return tmp_path_factory.mktemp("scenes")
+
+
+def test_chosen_model_meets_tolerance_is_cheaper_and_a_repeat_uses_the_cache(out_dir, monkeypatch):
+    tmp_path = out_dir / "cache"
+    system, scene = _cheap()
+    t0 = time.perf_counter()
+    res = scenes.choose(system, scene, cache_dir=tmp_path)
+    first = time.perf_counter() - t0
+    assert not res.cached_full
+    # independent check of the tolerance: run the chosen configuration again and evaluate the quantity
+    df = simulate(system, stop_time=scene.stop_time, step=res.chosen.step, master=res.chosen.master,
+                  outputs=qoi.columns(scene.quantity))
+    value = qoi.evaluate(scene.quantity, df)
+    full_df = simulate(system, stop_time=scene.stop_time, step=scene.step, master=system.experiment.master,
+                       outputs=qoi.columns(scene.quantity))
+    full_value = qoi.evaluate(scene.quantity, full_df)
+    assert abs(value - full_value) <= scene.tolerance * abs(full_value)
+    assert res.chosen.step > scene.step  # a coarser model was found ...
+    assert res.speedup > 2.0, res.speedup  # ... and it is measurably cheaper (measured side by side)
+    assert res.full.wall_time > 2.0 * res.chosen.wall_time
+
+    # the repeat: no full-model run at all (the full model is the one with the scene's own step)
+    calls = []
+    real_run = scenes._run
+
+    def spy(system_, scene_, fidelities, step, full_value_, master=None):
+        calls.append((step, master))
+        return real_run(system_, scene_, fidelities, step, full_value_, master)
+
+    monkeypatch.setattr(scenes, "_run", spy)
+    t0 = time.perf_counter()
+    again = scenes.choose(system, scene, cache_dir=tmp_path)
+    second = time.perf_counter() - t0
+    assert again.cached_full and again.full.value == res.full.value
+    assert all(step != scene.step or master != system.experiment.master for step, master in calls), calls
+    assert again.chosen.step == res.chosen.step and again.chosen.master == res.chosen.master
+    assert second < first
+
+
+def test_cli_runs_and_writes_table_and_chart(out_dir, monkeypatch, capsys):
+    tmp_path = out_dir
+    system, scene = _cheap()
+    monkeypatch.setattr(system, "scenes", [scene])
+    assert main(["scene", "two_inertia", "mean_speed", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "chosen fidelities" in out and "speed-up" in out
+    assert (tmp_path / "scene_two_inertia_mean_speed.png").stat().st_size > 1000
+    assert (tmp_path / "scene_two_inertia_mean_speed.csv").read_text().count("\n") >= 3
+
+
+def test_unknown_scene_is_one_line_naming_system_and_scenes():
+    with pytest.raises(SystemExit) as e:
+        main(["scene", "two_inertia", "no_such_scene"])
+    text = str(e.value.code)
+    assert "\n" not in text and "two_inertia" in text and "no_such_scene" in text
+    assert "mean_speed" in text and "peak_torque" in text
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["two_inertia", "feeder_gto52", "spine_knife", "proof_press", "bed_drive"])
+def test_every_scene_of_a_system_and_two_choose_different_models(name, tmp_path):
+    system = load(name)
+    chosen = []
+    for scene in system.scenes:
+        res = scenes.choose(system, scene, cache_dir=tmp_path)
+        bound = scene.tolerance * (abs(res.full.value) if scene.relative else 1.0)
+        assert res.chosen.ok and res.chosen.error <= bound, (scene.name, res.chosen)
+        chosen.append((tuple(sorted(res.chosen.fidelities.items())), res.chosen.step, res.chosen.master))
+    assert len(set(chosen)) >= 2, chosen

@@ -1,0 +1,267 @@
+"""SSP 1.0 export/import (issue 6, part 2): round trip, other tools (libcosim, Ecos), SSP written by others.
+
+* Round trip: export -> load_ssp -> simulate reproduces the original run EXACTLY (DataFrame.equals).
+* Peers: the exported archive runs in libcosim and in Ecos; with ``master="jacobi-sampled"`` (the algorithm
+  those tools use) the results agree with the harness.  libcosim: every column to 1e-9 of its largest
+  magnitude (the only difference is libcosim's integer-nanosecond time, harness.peers docstring; measured
+  <= 4e-11).  Ecos: the dynamics are the same (every output WITHOUT direct feed-through agrees to 1e-9,
+  measured bit-identical or ~1e-13), but Ecos reads the variables AFTER it has passed the new outputs on to
+  the inputs, so an output WITH direct feed-through (ModelStructure dependencies, e.g. a spring torque) is
+  reported refreshed with the inputs of t_k+1 (what ``jacobi`` would record), not the value sampled right
+  after fmi2DoStep that ``jacobi-sampled`` and libcosim record: those columns are not compared.
+  bed_drive needs a short step for the sampled algorithm (2e-4 s, its ``jacobi`` default, blows up within
+  0.05 s in all three tools alike; 1e-4 s is stable).
+* Import of hand-written SSDs: every supported feature, and a one-line error naming the element/file for
+  each unsupported one.
+"""
+from __future__ import annotations
+
+import dataclasses
+import shutil
+import warnings
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import harness.fmu
+from harness import load, simulate
+from harness import peers
+from harness.errors import SystemError_
+from harness.model import Instance, SystemWarning, model_description
+from harness.ssp import export_ssp, load_ssp
+
+SYSTEMS = ("two_inertia", "feeder_gto52", "bed_drive", "spine_knife", "proof_press")
+# (stop time, step) per system for the cross-tool check: sampled Jacobi stable, a few hundred steps
+PEER_RUNS = {"two_inertia": (0.1, 1e-3), "feeder_gto52": (0.02, 1e-4), "bed_drive": (0.02, 1e-4),
+             "spine_knife": (0.01, 5e-5), "proof_press": (0.04, 2e-4)}
+RTOL = 1e-9
+AVAILABLE = peers.available()
+
+
+def on_fmus(name: str, fmu_dir: Path):
+    s = load(name)
+    return dataclasses.replace(s, instances=[Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters))
+                                             for i in s.instances])
+
+
+def quiet_simulate(system, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SystemWarning)
+        df = simulate(system, on_error="raise", **kw)
+    assert df.attrs["complete"]
+    return df
+
+
+@pytest.fixture(scope="module")
+def archives(fmu_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("ssp")
+    return {name: export_ssp(on_fmus(name, fmu_dir), out / f"{name}.ssp") for name in SYSTEMS}
+
+
+# ------------------------------------------------------------------------------------------------ round trip
+@pytest.mark.parametrize("name", SYSTEMS)
+def test_round_trip_reproduces_the_run_exactly(fmu_dir, archives, name):
+    original = on_fmus(name, fmu_dir)
+    back = load_ssp(archives[name])
+    assert [i.name for i in back.instances] == [i.name for i in original.instances]
+    assert [i.parameters for i in back.instances] == [i.parameters for i in original.instances]
+    # bond kinds are resolved from the FMUs on export (None -> False/True), ports must be the same
+    assert [(b.motion_out, b.motion_in) for b in back.bonds] == [(b.motion_out, b.motion_in) for b in original.bonds]
+    assert back.experiment == original.experiment and back.connections == original.connections
+    stop = 20 * original.experiment.step
+    a = quiet_simulate(original, stop_time=stop)
+    b = quiet_simulate(back, stop_time=stop)
+    assert a.equals(b)
+
+
+# ------------------------------------------------------------------------------------------------ peers
+def _feedthrough(system) -> set[str]:
+    out = set()
+    for inst in system.instances:
+        md = model_description(inst.fmu)
+        out.update(f"{inst.name}.{o.variable.name}" for o in md.outputs if o.dependencies)
+    return out
+
+
+@pytest.fixture
+def peer_ok(monkeypatch):
+    # harness.peers._ssp_fmus imports harness.fmu._TMP_DIRS, which harness.fmu no longer defines (reported):
+    # provide it for the test so that a .ssp ARCHIVE can be handed to the peers.
+    monkeypatch.setattr(harness.fmu, "_TMP_DIRS", [], raising=False)
+
+
+@pytest.mark.interop
+@pytest.mark.parametrize("tool", ["libcosim", "ecos"])
+@pytest.mark.parametrize("name", SYSTEMS)
+def test_exported_ssp_runs_in_peer_like_jacobi_sampled(fmu_dir, archives, peer_ok, name, tool):
+    if AVAILABLE[tool]:
+        pytest.skip(AVAILABLE[tool])
+    stop, step = PEER_RUNS[name]
+    system = on_fmus(name, fmu_dir)
+    ref = quiet_simulate(system, stop_time=stop, step=step, master="jacobi-sampled")
+    cols = list(ref.columns)
+    if tool == "libcosim":
+        df = peers.run_ssp_libcosim(archives[name], stop, step, cols)
+    else:
+        df = peers.run_ssp_ecos(archives[name], stop, step, cols, parameter_set="default")
+        cols = [c for c in cols if c not in _feedthrough(system)]
+    assert len(df) == len(ref)
+    np.testing.assert_allclose(df.index.to_numpy(), ref.index.to_numpy(), rtol=1e-12, atol=1e-15)
+    scale = np.maximum(ref[cols].abs().max().to_numpy(), 1e-300)
+    err = (df[cols] - ref[cols]).abs().max().to_numpy() / scale
+    worst = cols[int(np.argmax(err))]
+    assert err.max() <= RTOL, f"{tool} {name}: {worst} differs by {err.max():.3g} of its magnitude"
+    assert len(cols) >= 2                      # two_inertia under Ecos: a.flange.phi, a.flange.w
+
+
+# ------------------------------------------------------------------------------------------------ hand-written SSD
+SSD_HEAD = ('<?xml version="1.0" encoding="UTF-8"?>\n'
+            '<ssd:SystemStructureDescription version="1.0" name="hand"'
+            ' xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription"'
+            ' xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon"'
+            ' xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"'
+            ' xmlns:ssm="http://ssp-standard.org/SSP1/SystemStructureParameterMapping"'
+            ' xmlns:osp="http://opensimulationplatform.com/SSP/OSPAnnotations">\n')
+FMU = "application/x-fmu-sharedlibrary"
+
+
+def ssv(params: dict, name="p") -> str:
+    body = "".join(f'<ssv:Parameter name="{k}"><ssv:Real value="{v!r}"/></ssv:Parameter>' for k, v in params.items())
+    return ('<?xml version="1.0" encoding="UTF-8"?>\n<ssv:ParameterSet version="1.0" name="' + name + '"'
+            ' xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues">'
+            f'<ssv:Parameters>{body}</ssv:Parameters></ssv:ParameterSet>')
+
+
+def ssd(components: str, connections: str = "", system_extra: str = "", elements_extra: str = "",
+        experiment: str = "") -> str:
+    return (SSD_HEAD + f'<ssd:System name="hand">{system_extra}<ssd:Elements>{components}{elements_extra}'
+            f'</ssd:Elements><ssd:Connections>{connections}</ssd:Connections></ssd:System>{experiment}'
+            '</ssd:SystemStructureDescription>')
+
+
+def comp(name, fmu, inner=""):
+    return f'<ssd:Component name="{name}" type="{FMU}" source="{fmu}">{inner}</ssd:Component>'
+
+
+def conn(a, ac, b, bc, inner=""):
+    return f'<ssd:Connection startElement="{a}" startConnector="{ac}" endElement="{b}" endConnector="{bc}">{inner}</ssd:Connection>'
+
+
+BOND = (conn("a", "flange.phi", "b", "drive.phi") + conn("a", "flange.w", "b", "drive.w")
+        + conn("b", "drive.tau", "a", "flange.tau"))
+
+
+@pytest.fixture
+def folder(fmu_dir, tmp_path):
+    (tmp_path / "resources").mkdir()
+    for m in ("Inertia", "SpringInertia", "Gain"):
+        shutil.copy(fmu_dir / f"{m}.fmu", tmp_path / "resources" / f"{m}.fmu")
+    return tmp_path
+
+
+def test_hand_written_ssd_with_every_supported_feature(folder):
+    (folder / "a.ssv").write_text(ssv({"J": 0.01, "w0": 1.5}))
+    (folder / "sys.ssv").write_text(ssv({"J": 0.02, "c": 80.0}))          # bare names + prefix "b."
+    (folder / "g.ssv").write_text(ssv({"b.d": 0.1}))                       # system-level Component.param
+    components = (
+        comp("a", "resources/Inertia.fmu",
+             '<ssd:ParameterBindings><ssd:ParameterBinding source="a.ssv"/></ssd:ParameterBindings>')
+        + comp("b", "resources/SpringInertia.fmu")
+        + comp("g", "resources/Gain.fmu", '<ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues>'
+               '<ssv:ParameterSet version="1.0" name="x"><ssv:Parameters><ssv:Parameter name="k">'
+               '<ssv:Real value="2.0"/></ssv:Parameter></ssv:Parameters></ssv:ParameterSet>'
+               '</ssd:ParameterValues></ssd:ParameterBinding></ssd:ParameterBindings>'))
+    bindings = ('<ssd:ParameterBindings><ssd:ParameterBinding source="sys.ssv" prefix="b."/>'
+                '<ssd:ParameterBinding source="g.ssv"/></ssd:ParameterBindings>')
+    connections = BOND + conn("a", "flange.w", "g", "u",
+                              '<ssc:LinearTransformation factor="3.0" offset="0.5"/>')
+    experiment = ('<ssd:DefaultExperiment startTime="0" stopTime="0.05"><ssd:Annotations>'
+                  '<ssc:Annotation type="com.opensimulationplatform"><osp:Algorithm>'
+                  '<osp:FixedStepAlgorithm baseStepSize="0.001"/></osp:Algorithm></ssc:Annotation>'
+                  '</ssd:Annotations></ssd:DefaultExperiment>')
+    text = ssd(components, connections, system_extra=bindings, experiment=experiment)
+    # the unit of g.u is "1", a.flange.w is rad/s: the hand-written SSD does not say it converts, so mark it
+    (folder / "hand.ssd").write_text(text)
+    s = load_ssp(folder / "hand.ssd")
+    assert s.instance("a").parameters == {"J": 0.01, "w0": 1.5}
+    assert s.instance("b").parameters == {"J": 0.02, "c": 80.0, "d": 0.1}    # prefix PREPENDED (SSP 1.0)
+    assert s.instance("g").parameters == {"k": 2.0}
+    assert (s.experiment.stop_time, s.experiment.step) == (0.05, 0.001)
+    lin = [c for c in s.connections if c.target == "g.u"][0]
+    assert (lin.factor, lin.offset) == (3.0, 0.5)
+    lin.unit_conversion = True
+    # the same archive as an .ssp zip runs and gives what the hand-built system gives
+    ssp = folder / "hand.ssp"
+    with zipfile.ZipFile(ssp, "w") as z:
+        z.write(folder / "hand.ssd", "SystemStructure.ssd")
+        for f in ("a.ssv", "sys.ssv", "g.ssv", *(f"resources/{m}.fmu" for m in ("Inertia", "SpringInertia", "Gain"))):
+            z.write(folder / f, f)
+    z_sys = load_ssp(ssp)
+    [c for c in z_sys.connections if c.target == "g.u"][0].unit_conversion = True
+    df = quiet_simulate(z_sys, outputs=["a.flange.w", "g.u", "g.y"])
+    assert len(df) == 51 and df["a.flange.w"].iloc[0] == 1.5
+    np.testing.assert_allclose(df["g.u"], 3.0 * df["a.flange.w"] + 0.5, rtol=1e-14)
+    np.testing.assert_allclose(df["g.y"], 2.0 * df["g.u"], rtol=1e-14)
+    assert quiet_simulate(s, outputs=["a.flange.w", "g.u", "g.y"]).equals(df)
+
+
+def test_source_base_component_reads_the_ssv_inside_the_fmu(folder):
+    fmu = folder / "resources" / "Inertia.fmu"
+    with zipfile.ZipFile(fmu, "a") as z:
+        z.writestr("resources/start.ssv", ssv({"J": 0.03, "w0": 2.5}))
+    inner = ('<ssd:ParameterBindings><ssd:ParameterBinding source="resources/start.ssv" sourceBase="component"/>'
+             '</ssd:ParameterBindings>')
+    (folder / "c.ssd").write_text(ssd(comp("a", "resources/Inertia.fmu", inner) + comp("b", "resources/SpringInertia.fmu"), BOND))
+    assert load_ssp(folder / "c.ssd").instance("a").parameters == {"J": 0.03, "w0": 2.5}
+    (folder / "d.ssd").write_text(ssd(comp("a", "resources/Inertia.fmu", inner.replace("start.ssv", "none.ssv"))))
+    with pytest.raises(SystemError_, match=r"source resources/none.ssv \(sourceBase='component'\) not found in Inertia.fmu"):
+        load_ssp(folder / "d.ssd")
+    (folder / "e.ssd").write_text(ssd(comp("a", "resources/Inertia.fmu"), system_extra=inner))
+    with pytest.raises(SystemError_, match="sourceBase='component' is only allowed on an ssd:Component"):
+        load_ssp(folder / "e.ssd")
+
+
+A = comp("a", "resources/Inertia.fmu")
+B = comp("b", "resources/SpringInertia.fmu")
+
+
+@pytest.mark.parametrize("text,message", [
+    (ssd(A + B, BOND, elements_extra='<ssd:System name="inner"/>'), "nested ssd:System 'inner' is not supported"),
+    (ssd(A, system_extra='<ssd:SignalDictionaries><ssd:SignalDictionary name="sd"/></ssd:SignalDictionaries>'),
+     "ssd:SignalDictionaries in system 'hand' are not supported"),
+    (ssd(comp("a", "resources/Inertia.fmu", '<ssd:ParameterBindings><ssd:ParameterBinding source="x.ssv">'
+              '<ssd:ParameterMapping source="m.ssm"/></ssd:ParameterBinding></ssd:ParameterBindings>')),
+     "component 'a': ssd:ParameterMapping is not supported"),
+    (ssd(A + '<ssd:Component name="s" type="application/x-ssp-package" source="resources/x.ssp"/>'),
+     "component 's' has type 'application/x-ssp-package'; only FMUs"),
+    (ssd(A + B, BOND + conn("a", "flange.w", "b", "drive.w",
+                            '<ssc:BooleanMappingTransformation><ssc:MapEntry source="true" target="false"/>'
+                            '</ssc:BooleanMappingTransformation>')),
+     "ssc:BooleanMappingTransformation is not supported"),
+    (ssd(A, '<ssd:Connection startConnector="in" endElement="a" endConnector="flange.tau"/>',
+         system_extra='<ssd:Connectors><ssd:Connector name="in" kind="input"><ssc:Real/></ssd:Connector></ssd:Connectors>'),
+     "connection to system connector 'in' is not supported"),
+    (ssd(comp("a", "resources/Missing.fmu")), "component 'a': source resources/Missing.fmu not found"),
+    (SSD_HEAD + '<ssd:System name="x"><ssd:Elements>', "not well-formed XML"),
+])
+def test_unsupported_features_fail_with_one_line(folder, text, message):
+    path = folder / "bad.ssd"
+    path.write_text(text)
+    with pytest.raises(SystemError_) as info:
+        load_ssp(path)
+    text = str(info.value)
+    assert message in text and "\n" not in text and str(path) in text
+
+
+def test_bad_parameter_file_and_archive_are_named(folder):
+    (folder / "broken.ssv").write_text("<ssv:ParameterSet")
+    (folder / "p.ssd").write_text(ssd(comp("a", "resources/Inertia.fmu",
+                                           '<ssd:ParameterBindings><ssd:ParameterBinding source="broken.ssv"/>'
+                                           '</ssd:ParameterBindings>')))
+    with pytest.raises(SystemError_, match=r"broken.ssv: not well-formed XML"):
+        load_ssp(folder / "p.ssd")
+    (folder / "junk.ssp").write_bytes(b"not a zip")
+    with pytest.raises(SystemError_, match=r"junk.ssp: not an SSP archive"):
+        load_ssp(folder / "junk.ssp")

@@ -1,0 +1,176 @@
+"""Parameter sweeps (harness.sweep): spec parsing and errors, Latin hypercube, failed points, charts, and a
+2-worker dask LocalCluster giving exactly the serial results."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from harness import sweep
+
+ROOT = Path(__file__).resolve().parents[1]
+STUDIES = ROOT / "systems" / "studies"
+
+# two_inertia: a (Inertia J, w0) drives b (SpringInertia J, c, d)
+TINY = {
+    "stop_time": 0.02, "step": 1e-3, "master": "jacobi",
+    "grid": {"b.c": [50.0, 200.0], "w": [1.0, 2.0]},
+    "set": {"a.w0": "w * 1.5"},
+    "outputs": {"w_end": 'final(r["a.flange.w"])', "tau_peak": 'peak(r["b.drive.tau"])'},
+    "plot": {"x": "w", "y": ["w_end", "tau_peak"], "hue": "b.c"},
+}
+
+
+def write_yaml(path: Path, data: dict) -> Path:
+    import yaml
+
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+# -- parsing ---------------------------------------------------------------------------------------------------
+def test_yaml_and_json_give_the_same_spec(tmp_path):
+    a = sweep.read_spec(write_yaml(tmp_path / "s.yaml", TINY))
+    (tmp_path / "s.json").write_text(json.dumps(TINY))
+    b = sweep.read_spec(tmp_path / "s.json")
+    assert a.points == b.points and a.set == b.set and a.outputs == b.outputs and a.run == b.run
+    assert a.plot == b.plot
+    # full factorial in the order of the keys, the last varying fastest
+    assert a.points == [{"b.c": 50.0, "w": 1.0}, {"b.c": 50.0, "w": 2.0},
+                        {"b.c": 200.0, "w": 1.0}, {"b.c": 200.0, "w": 2.0}]
+    # dotted sweep variables are parameters, the others only feed the set expressions
+    assert a.parameters(a.points[3]) == {"b.c": 200.0, "a.w0": 3.0}
+
+
+def test_linspace_logspace():
+    spec = sweep.parse_spec({"grid": {"x": {"linspace": [0, 1, 5]}, "y": {"logspace": [1, 100, 3]}}})
+    xs = sorted({p["x"] for p in spec.points})
+    ys = sorted({p["y"] for p in spec.points})
+    assert xs == [0.0, 0.25, 0.5, 0.75, 1.0]
+    assert ys == pytest.approx([1.0, 10.0, 100.0], rel=1e-14)
+
+
+def test_lhs_reproducible_and_stratified():
+    data = {"sample": {"method": "lhs", "n": 8, "seed": 7, "ranges": {"p": [10.0, 20.0], "q": [-1.0, 1.0]}}}
+    a, b = sweep.parse_spec(data), sweep.parse_spec(data)
+    assert a.points == b.points
+    c = sweep.parse_spec({"sample": dict(data["sample"], seed=8)})
+    assert c.points != a.points
+    # Latin hypercube: each of the n equal strata of every range holds exactly one point
+    for name, (lo, hi) in data["sample"]["ranges"].items():
+        v = np.array([p[name] for p in a.points])
+        strata = np.floor((v - lo) / (hi - lo) * 8).astype(int)
+        assert sorted(strata) == list(range(8))
+
+
+@pytest.mark.parametrize("change, key", [
+    ({"colour": 1}, "unknown key(s) ['colour']"),
+    ({"grid": {"b.c": "many"}}, "grid.b.c"),
+    ({"grid": {"b.c": ["x"]}}, "grid.b.c"),
+    ({"set": {"a.w0": "v * 2"}}, "set.a.w0"),
+    ({"set": {"a.w0": "__import__('os')"}}, "set.a.w0"),
+    ({"outputs": {"bad": "peak(r['a.x'].sum())"}}, "outputs.bad"),
+    ({"plot": {"x": "w", "y": ["nope"]}}, "plot.y"),
+    ({"plot": {"x": "w", "y": ["w_end"], "reduce": "median"}}, "plot.reduce"),
+    ({"sample": {"n": 3, "ranges": {"p": [2, 1]}}}, "sample.ranges.p"),
+])
+def test_spec_errors_are_one_line_naming_file_and_key(tmp_path, change, key):
+    data = dict(TINY, **change)
+    if "sample" in change:
+        data.pop("grid")
+    path = write_yaml(tmp_path / "bad.yaml", data)
+    with pytest.raises(sweep.SweepError) as e:
+        sweep.read_spec(path)
+    msg = str(e.value)
+    assert msg.startswith(str(path) + ": ") and key in msg and "\n" not in msg
+
+
+def test_unparsable_and_missing_files(tmp_path):
+    p = tmp_path / "x.json"
+    p.write_text("{not json")
+    with pytest.raises(sweep.SweepError, match=r"x.json: cannot parse"):
+        sweep.read_spec(p)
+    with pytest.raises(sweep.SweepError, match=r"no such sweep file"):
+        sweep.read_spec(tmp_path / "none.yaml")
+
+
+# -- running ----------------------------------------------------------------------------------------------------
+def _without_wall(df: pd.DataFrame) -> pd.DataFrame:
+    return df.drop(columns=["wall_time"])
+
+
+def test_failed_point_is_recorded_and_does_not_abort():
+    data = dict(TINY, grid={"b.c": [-5.0, 100.0], "w": [1.0]})   # c below its bound 0 in the first point
+    spec = sweep.parse_spec({k: v for k, v in data.items() if k != "plot"})
+    df = sweep.run_sweep("two_inertia", spec, workers=0, progress=False)
+    assert len(df) == 2
+    assert "c" in df.loc[0, "error"] and "-5" in df.loc[0, "error"]
+    assert math.isnan(df.loc[0, "w_end"]) and math.isnan(df.loc[0, "tau_peak"])
+    assert df.loc[1, "error"] == "" and np.isfinite(df.loc[1, "w_end"])
+    # a bad set expression (division by zero at this point) is recorded too
+    spec = sweep.parse_spec(dict(TINY, grid={"w": [0.0]}, set={"a.w0": "1 / w"}, plot={"x": "w", "y": "w_end"}))
+    row = sweep.run_point("two_inertia", spec, spec.points[0])
+    assert "set.a.w0" in row["error"] and "divides by zero" in row["error"]
+
+
+def test_two_worker_cluster_equals_serial_exactly():
+    spec = sweep.parse_spec(TINY)
+    serial = sweep.run_sweep("two_inertia", spec, workers=0, progress=False)
+    dist = sweep.run_sweep("two_inertia", spec, workers=2, progress=False)
+    assert (serial["error"] == "").all()
+    # the physics answers: the quantities differ between points (the test would notice a mix-up of rows)
+    assert serial["w_end"].nunique() == 4
+    pd.testing.assert_frame_equal(_without_wall(serial), _without_wall(dist), check_exact=True)
+
+
+@pytest.mark.parametrize("name, system", [("feeder_clearance", "feeder_gto52"),
+                                          ("knife_resonance", "spine_knife")])
+def test_one_point_of_each_study_runs(name, system):
+    """The study spec parses, its set expressions give parameters the FMUs accept, its quantities read
+    existing columns; run short (the quantities' windows start later, so read final values here)."""
+    spec = sweep.read_spec(STUDIES / f"{name}.yaml")
+    assert spec.system == system and spec.plot is not None
+    cols = sorted({c for e in spec.outputs.values() for c in sweep.qoi.columns(e)})
+    spec.run["stop_time"] = 5 * spec.run["step"]
+    spec.outputs = {c: f'final(r["{c}"])' for c in cols}
+    row = sweep.run_point(system, spec, spec.points[-1])
+    assert row["error"] == "", row["error"]
+    assert all(np.isfinite(row[c]) for c in cols)
+
+
+def test_study_quantities_on_a_synthetic_result():
+    """The feeder study's impact quantities on a made-up record of two impacts, one at a rocker extreme and
+    one at mid swing."""
+    spec = sweep.read_spec(STUDIES / "feeder_clearance.yaml")
+    t = np.linspace(0.0, 1.0, 10001)
+    phi = 0.3 * np.sin(2 * np.pi * 2.5 * t)                   # rocker: extremes at t = 0.5, 0.7, 0.9
+    count = (t >= 0.5).astype(float) + (t >= 0.6).astype(float)   # impacts at 0.5 (extreme) and 0.6 (middle)
+    v = np.where(t >= 0.6, 0.03, np.where(t >= 0.5, 0.05, 0.9))   # 0.9 before the window: not an impact in it
+    df = pd.DataFrame({"feeder.impact_count": count, "feeder.rocker.phi": phi, "feeder.v_impact": v,
+                       "feeder.impact_force": 2.0 * np.sin(t), "flywheel.shaft_twist": 1e-4 * np.cos(t),
+                       "flywheel.crank.w": np.full_like(t, 2 * np.pi * 150 / 60)}, index=t)
+    q = {k: sweep.qoi.evaluate(e, df) for k, e in spec.outputs.items()}
+    assert q["impacts"] == 2 and q["impacts_intermediate"] == 1
+    assert q["impact_velocity"] == 0.05
+    assert q["crank_speed"] == pytest.approx(150.0, rel=1e-12)
+
+
+def test_cli_one_command_writes_csv_and_charts(tmp_path):
+    from harness.__main__ import main
+
+    grid = write_yaml(tmp_path / "tiny.yaml", dict(TINY, grid={"b.c": [50.0, 200.0], "w": [1.0, 2.0, -1.0]}))
+    out, charts = tmp_path / "r.csv", tmp_path / "charts"
+    assert main(["sweep", "two_inertia", "--grid", str(grid), "--workers", "0", "--out", str(out),
+                 "--plot", str(charts)]) == 0
+    df = pd.read_csv(out, keep_default_na=False)
+    assert len(df) == 6 and list(df.columns[:2]) == ["b.c", "w"]
+    for ext in (".png", ".svg"):
+        assert (charts / f"tiny{ext}").stat().st_size > 1000
+    # --plot without a plot section: one-line error, exit code 1
+    nop = write_yaml(tmp_path / "noplot.yaml", {k: v for k, v in TINY.items() if k != "plot"})
+    assert main(["sweep", "two_inertia", "--grid", str(nop), "--workers", "0", "--out", str(out),
+                 "--plot", str(charts)]) == 1
