@@ -117,6 +117,14 @@ class Polynomial:
         w, _, _ = self._coefficients(hist, idx, te)
         return np.einsum("ij,ij->j", w, hist.y[:, idx])
 
+    def value(self, hist: History, idx: np.ndarray, te: float) -> np.ndarray:
+        """The polynomial through the newest samples at the point ``te`` (the newest sample itself if it is at
+        ``te``, whatever the order)."""
+        if self.order == 0:
+            return hist.y[0, idx]
+        w, _, _ = self._coefficients(hist, idx, te)
+        return np.einsum("ij,ij->j", w, hist.y[:, idx])
+
     def at_start(self, hist: History, idx: np.ndarray, t: float) -> tuple[np.ndarray, list[np.ndarray]]:
         """Value and derivatives (orders 1..order) of the polynomial at the step start ``t`` (for FMUs that
         can interpolate inputs)."""

@@ -449,9 +449,16 @@ class GaussSeidel(Master):
         self.order = [self.insts[self.index[n]] for n in order]
 
     def _step_impl(self, t, h, t_next):
+        point = self.extrapolation.order >= 1
         for it in self.order:
             self._set_held_inputs(it, t, h)
             it.fmu.do_step(t, h, True)
+            if point and it.feedthrough and it.inp.n:
+                # the FMUs after this one take its sample at t+h as exact: a feed-through output must see its
+                # inputs AT t+h (newest samples, or the polynomial at t+h for sources not yet stepped), not
+                # the midpoint values held over the step -- otherwise a rigid link hands a midpoint value on
+                # as the end value and the coupling drops to first order
+                it.fmu.set(it.inp, it.fac * self.extrapolation.value(self.history, it.src, t_next) + it.off)
             self._read(it)
             self.history.push(it.sl, t_next, self.y[it.sl])
         self._exchange(t_next)

@@ -5,10 +5,13 @@ Chain (power bonds, motion -> / <- effort):
     motor (MotorBelt) <-pulley- flywheel (FlywheelShaft) -crank-> feeder (CamRocker) -rocker-> head (TorqueLoad)
 
 * ``feeder`` is the seed's mechanism: crank r = 0.040 m, conrod and slotted rocker (kulisa) whose stone runs
-  in the correcting groove (lambda1 = 3.5, lambda3 = 3 from seed 001; lambda2 = 4.03 lies inside the feasible
-  interval ``python -m harness synth groove`` computes for law K0).  Its fidelity 2 is the four-bar with
-  clearance of seed 000: a clearance of 10 um (seed: 5-20 um) at the stone pin, joint stiffness c2 = 5e5 N/m
-  (seed: 1e5-1e6), restitution e = 0.2 (seed), rocker inertia I2 = 0.00043 kg.m2 (seed).
+  in the correcting groove (lambda1 = 3.5, lambda3 = 3 from seed 001).  The correction exists to give the
+  head a dwell at the feed table (seed 000 S0-1; seed 001: dwells up to 80 deg): here 30 deg, centred on the
+  extended dead centre.  With a dwell, ``python -m harness synth groove --dwell 30 --scan lambda2`` finds no
+  groove for the harmonic law K0 within the 60 deg pressure-angle limit, and for the cycloidal law C0 the
+  interval lambda2 in [4.115, 4.277]: the system takes C0 and lambda2 = 4.2 (the middle).  Its fidelity 2 is
+  the four-bar with clearance of seed 000: a clearance of 10 um (seed: 5-20 um) at the stone pin, joint
+  stiffness c2 = 5e5 N/m (seed: 1e5-1e6), restitution e = 0.2 (seed), rocker inertia I2 = 0.00043 kg.m2 (seed).
 * The crank turns at about 150 rpm (seed 000: 100-200 rpm): a 6-pole motor, 960 rpm rated, through a belt of
   ratio 6.4 (the seed gives no drive data: motor, belt and flywheel values are assumptions, documented here).
 * ``head`` is the feeder head on the rocker: friction and damping of its guides (assumed values); its inertia
@@ -40,8 +43,9 @@ SYSTEM = System(
             "w0": N_CRANK * RPM,                              # rad/s
         }),
         Instance("feeder", "CamRocker", {
-            "mechanism": 0, "fidelity": 2, "law": 0,          # slotted rocker, clearance level, law K0
-            "crank_radius": 0.040, "lambda1": 3.5, "lambda2": 4.03, "lambda3": 3.0,  # seed 001
+            "mechanism": 0, "fidelity": 2, "law": 1,          # slotted rocker, clearance level, law C0
+            "crank_radius": 0.040, "lambda1": 3.5, "lambda2": 4.2, "lambda3": 3.0,   # seed 001 (lambda2: above)
+            "dwell": math.radians(30.0),                      # rad: head dwell at the feed table
             "rocker_inertia": 0.00043,                        # kg.m2, seed 000: I2
             "clearance": 10e-6, "contact_stiffness": 5e5,     # m, N/m: seed 000
             "restitution": 0.2, "stiffness": 5000.0,          # 1 (seed 000), N.m/rad (assumed)

@@ -18,13 +18,12 @@ curvature, cusp and pressure-angle checks need no numerical differentiation:
   B' = rho' u + rho g' n,  B'' = (rho'' - rho g'^2) u + (2 rho' g' + rho g'') n   (u along the slot, n = u rotated +90 deg).
 
 Choices where the spec is open (documented in fmus/docs/cam_rocker/index.md as well):
-* Reference geometry: the kulisa law is fixed INDEPENDENTLY of lambda2, from the *centric* base four-bar of
-  the same lambda1, lambda3 (time ratio 1), whose conrod is lambda2c = sqrt(lambda1^2 - lambda3^2 + 1).  The
-  forward stroke starts at its folded extreme (crank and conrod overlapping, |O1B| = lambda2c - 1) and ends
-  at the extended one; the default kulisa swing is its swing 2 arcsin(1/lambda3) and the default phase
-  angles are its forward/return crank angles (pi, pi, no dwell).  A different swing is centred on the same
-  mid-position.  With the law fixed, lambda2 only enters through (K6)/(K8), so the kinematic connection
-  gives a lower bound on lambda2, as in S1-2.
+* Reference geometry: the kulisa law takes the swing and the extreme positions of the BASE four-bar of the same
+  lambda1, lambda2, lambda3 (crank 1, conrod lambda2, frame lambda1, rocker lambda3; :func:`base_design`).
+  The forward stroke starts at its folded dead centre (crank and conrod overlapping) and ends at the extended
+  one; the phase angles are its forward/return crank angles, each shortened by half the dwell, which is
+  centred on the extended dead centre.  So for the base four-bar's own law the groove is the circle
+  rho = lambda3 (the spec's check), and (K6)/(K8) decide which lambda2 admit a kinematic connection.
 * Assembly mode: ``assembly = +1`` takes the "+" sign of gamma_b = atan2(A) +/- arccos(...) (default).
 * Which stroke: both; forward and return branches are returned separately (``Profile.forward``).
 * Pressure angle: ``theta`` = angle between the conrod (the two-force member pushing the stone) and the
