@@ -44,5 +44,18 @@ def main(argv: list[str] | None = None) -> int:
         return 1
 
 
+def _exit(status: int) -> None:
+    """Leave without interpreter finalisation: pythonfmu 0.7 FMUs run their Python inside this interpreter and
+    tearing it down with their instances alive has, rarely, aborted the process after the work was done
+    ("corrupted double-linked list"), turning a finished run into exit status 134.  Output is flushed first."""
+    import os
+
+    sys.stdout.flush()
+    sys.stderr.flush()
+    if "PRESSDRIVE_NORMAL_EXIT" in os.environ:
+        sys.exit(status)
+    os._exit(status)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    _exit(main())

@@ -255,6 +255,11 @@ def plot_work_precision(study: Study, path_stem: Path, metric: str = "max_abs") 
     ax.axvline(study.reference_time, color="k", lw=1.4, ls="-.",
                label=f"monolithic reference (Radau, rtol 1e-9): {study.reference_time:.2g} s")
     ax.set_xscale("log")
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
+
+    ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))  # 0.2, 0.5, 1, 2 s: no crowded minor labels
+    ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
     if (q[metric] > 0).any():
         ax.set_yscale("log")
     else:  # every error is zero (e.g. a quantity that stays 0 in a short window): nothing to put on a log axis

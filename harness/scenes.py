@@ -221,7 +221,7 @@ def chart(result: SceneResult, out: Path) -> list[Path]:
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("wall time per run [s]")
-    ax.set_ylabel(f"|error| of the quantity {result.scene.unit}".strip())
+    ax.set_ylabel(f"|error| of the quantity [{result.scene.unit}]" if result.scene.unit else "|error| of the quantity")
     ax.set_title(f"{result.scene.name}: {result.scene.question}", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()

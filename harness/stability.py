@@ -67,7 +67,7 @@ it), writes ``stability_two_inertia.csv`` and draws the stability map (PNG + SVG
 ``python -m harness study stability {bed_drive,spine_knife,feeder_gto52,proof_press} [--sweep INST.PARAM]
 [--values ...] [--masters ...] [--orders ...] [--quick]``: the same map for a press drive, measured only (the
 drives are nonlinear): for each value of the coupling parameter (default per drive in :data:`PRESS_STUDIES`,
-e.g. ``bed.c_mesh``) and each master x order, the largest stable communication step by doubling/halving from
+e.g. ``fourbar.rocker_inertia`` of the bed drive) and each master x order, the largest stable communication step by doubling/halving from
 the default step and bisection on runs, judged against a reference run (criterion and search: the
 press-drive section below).  Writes ``stability_<system>_<inst>_<param>.csv`` and the map with the system's
 default step marked (:func:`plot_press_map`).
@@ -690,14 +690,17 @@ def _torsion(p, inst):
 
 
 PRESS_STUDIES = {
+    # Measured with --quick (jacobi, order 0): the step limit hardly moves with the rack mesh (c_mesh 5e6..1e8:
+    # 5.5e-4..6.3e-4 s), the coupler, shaft or belt stiffness (no change), but scales with the ring + rocker
+    # inertia on the four-bar's motion OUTPUT side of the reversing pair (0.1 -> 1.3e-4 s, 0.5 -> 6.0e-4 s,
+    # 2.5 -> 2.1e-3 s): the rigid differential hands the effort of the bed's side straight back, so the
+    # inertia ratio across that FMU boundary sets the limit (the force-displacement coupling's mass ratio).
     "bed_drive": PressStudy(
-        "bed_drive", "bed.c_mesh", (5e6, 1e7, 2e7, 5e7, 1e8), (5e6, 2e7, 1e8), 0.1,
-        lambda p: math.sqrt(p("bed.c_mesh") * (1.0 / p("bed.m_T")
-                                               + (0.5 * p("bed.module") * p("bed.z_pinion")) ** 2
-                                               / p("diff.sun_inertia"))),
-        "rack mesh stiffness c_mesh [N/m] between the differential's sun (diff) and the bed (RackBed); "
-        "omega ~ sqrt(c_mesh (1/m_T + R^2/J_sun)), R = module z_pinion / 2 (bed mass and sun inertia on the "
-        "mesh)"),
+        "bed_drive", "fourbar.rocker_inertia", (0.1, 0.25, 0.5, 1.0, 2.5), (0.1, 0.5, 2.5), 0.1,
+        lambda p: math.sqrt(p("fourbar.coupler_stiffness") * p("fourbar.rocker_length") ** 2
+                            / p("fourbar.rocker_inertia")),
+        "inertia of the ring gear and rocker [kg.m2] on the four-bar's motion-output port (FourBar), coupled "
+        "through the rigid James differential to the bed; omega ~ sqrt(c_coupler l_rocker^2 / J_rocker)"),
     "spine_knife": PressStudy(
         "spine_knife", "shaft.d", (0.02, 0.025, 0.03, 0.04, 0.05), (0.02, 0.03, 0.05), 0.05,
         lambda p: math.sqrt(_torsion(p, "shaft") * (1.0 / p("shaft.J_flywheel") + 1.0 / p("shaft.J_crank"))),
@@ -1010,7 +1013,7 @@ def register_stability(study_subparsers) -> None:
     p.add_argument("benchmark", choices=sorted(STUDIES), help="system")
     p.add_argument("--sweep", default=None,
                    help="swept parameter: two_inertia: inertia (J2/J1) or stiffness (c/c1); press drive: "
-                        "INSTANCE.PARAMETER (default: the system's coupling stiffness, e.g. bed.c_mesh)")
+                        "INSTANCE.PARAMETER (default: the system's coupling parameter, e.g. fourbar.rocker_inertia)")
     p.add_argument("--values", type=float, nargs="+", default=None, help="values of the swept parameter")
     p.add_argument("--masters", nargs="+", default=None, help="press drives: masters (default: "
                                                                + " ".join(PRESS_MASTERS) + "; also jacobi-sampled)")

@@ -18,3 +18,26 @@ def fmu_dir(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("fmus")
     assert build_fmus.main(["--out", str(out)]) == 0, "build_fmus.py failed (see stderr)"
     return out
+
+
+# -- process exit ---------------------------------------------------------------------------------------------
+# pythonfmu 0.7's C wrapper runs the FMUs' Python inside THIS interpreter and keeps references into it.  Tearing
+# the interpreter down with such instances alive has, rarely (1 run in ~25 of tests/test_systems.py on a loaded
+# machine), aborted AFTER the last test with "corrupted double-linked list" (glibc), turning a green run red.
+# Every result is reported by then, so the session leaves with os._exit and its real status, skipping the
+# finalisation (harness/__main__.py does the same for the CLI).
+_EXIT_STATUS: list[int] = []
+
+
+def pytest_sessionfinish(session, exitstatus):
+    _EXIT_STATUS.append(int(exitstatus))
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_unconfigure(config):
+    if _EXIT_STATUS and "PRESSDRIVE_NORMAL_EXIT" not in __import__("os").environ:
+        import os
+
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(_EXIT_STATUS[-1])
