@@ -34,7 +34,6 @@ the motion-output component across the bond.
 """
 from __future__ import annotations
 
-import copy
 import math
 import sys
 from dataclasses import dataclass
@@ -134,12 +133,9 @@ class PressSlave(Fmi2Slave):
     license = "MIT"
     version = "0.1.0"
 
-    # attributes that are not part of the saved state (FMI plumbing, immutable after construction)
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
         _hold_module_dict(cls)
-
-    _NOT_STATE = frozenset({"vars", "log_queue", "_io", "_param_specs", "_names_by_vr", "_out_by_vr", "_in_by_vr"})
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -297,15 +293,16 @@ class PressSlave(Fmi2Slave):
         self._stale = True
 
     def _check_inputs(self) -> None:
+        if math.isfinite(sum(self._u)):  # every input is finite (a NaN or an infinity makes the sum non-finite)
+            return
         for v, value in zip(self._io, self._u):
             if not math.isfinite(value):
                 self._fail(f"input {v.name} = {value!r} at t = {self._time:.9g} s is not finite")
 
     def do_step(self, current_time, step_size):
         self._check_inputs()
-        mdl = self._mdl
-        x = mdl.advance(current_time, step_size, self._x, self._u)
-        if not np.all(np.isfinite(x)):
+        x = self._mdl.advance(current_time, step_size, self._x, self._u)
+        if not math.isfinite(sum(x.tolist())) and not np.all(np.isfinite(x)):  # the sum alone may overflow
             bad = type(self).model.states[int(np.argmin(np.isfinite(x)))].name
             self._fail(f"state {bad} became non-finite in the step from t = {current_time:.9g} s, h = {step_size:.3g} s")
         self._x = x
@@ -313,11 +310,16 @@ class PressSlave(Fmi2Slave):
         self._stale = True
         return True
 
+    # The complete internal state.  The model object (self._mdl) is immutable once built (fmus.physics.base.Model:
+    # everything that evolves lives in x), so it is kept by reference; the containers are copied both ways, so
+    # a saved state can be restored any number of times.
     def _get_fmu_state(self):
-        return copy.deepcopy({k: v for k, v in self.__dict__.items() if k not in self._NOT_STATE})
+        return (self._x.copy(), list(self._u), list(self._y), self._time, self._stale, self._initialised,
+                dict(self._par), self._mdl)
 
     def _set_fmu_state(self, state):
-        self.__dict__.update(copy.deepcopy(state))
+        x, u, y, self._time, self._stale, self._initialised, par, self._mdl = state
+        self._x, self._u, self._y, self._par = x.copy(), list(u), list(y), dict(par)
 
     # -- model description -------------------------------------------------------------------------------
     def to_xml(self, model_options=dict()) -> Element:
@@ -343,11 +345,13 @@ class PressSlave(Fmi2Slave):
 
         advanced = [f"{port.name}.{'s' if port.translational else 'phi'}" for port in type(self).ports
                     if port.motion == "in" and type(self).advances_position]
-        if advanced:
-            vendor = Element("VendorAnnotations")
-            tool = SubElement(vendor, "Tool", name="org.pressdrive")
-            SubElement(tool, "AdvancedPositions", variables=" ".join(advanced))
-            root.insert(list(root).index(root.find("ModelVariables")), vendor)
+        # one element (the FMI 2.0 schema allows one child per Tool): the slave module and class, which the
+        # toolkit's master may call directly in its own process (harness.inprocess), and the advanced positions
+        vendor = Element("VendorAnnotations")
+        tool = SubElement(vendor, "Tool", name="org.pressdrive")
+        SubElement(tool, "Slave", {"module": type(self).__module__, "class": type(self).__name__,
+                                   "advancedPositions": " ".join(advanced)})
+        root.insert(list(root).index(root.find("ModelVariables")), vendor)
         root.remove(root.find("ModelStructure"))
         structure = SubElement(root, "ModelStructure")
         outputs = [v.name for v in self._io if v.causality == "output"]

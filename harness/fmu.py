@@ -119,17 +119,24 @@ def _install_proxy() -> None:
 _install_proxy()
 
 
-def advanced_positions(unzip_dir: Path) -> frozenset:
-    """Motion-input positions the FMU advances itself over a step with the held speed (the toolkit's
-    VendorAnnotations tool "org.pressdrive"; empty for any other FMU)."""
+def toolkit_annotation(unzip_dir: Path):
+    """The toolkit's own annotation of an FMU built by fmus.slave.PressSlave (VendorAnnotations, tool
+    "org.pressdrive", element ``Slave`` with the attributes ``module``, ``class`` and ``advancedPositions``),
+    or None for any other FMU."""
     import xml.etree.ElementTree as ET
 
     try:
         root = ET.parse(Path(unzip_dir) / "modelDescription.xml").getroot()
     except (OSError, ET.ParseError):
-        return frozenset()
-    el = root.find("VendorAnnotations/Tool[@name='org.pressdrive']/AdvancedPositions")
-    return frozenset((el.get("variables") or "").split()) if el is not None else frozenset()
+        return None
+    return root.find("VendorAnnotations/Tool[@name='org.pressdrive']/Slave")
+
+
+def advanced_positions(unzip_dir: Path) -> frozenset:
+    """Motion-input positions the FMU advances itself over a step with the held speed (from the toolkit's
+    annotation; empty for any other FMU)."""
+    el = toolkit_annotation(unzip_dir)
+    return frozenset((el.get("advancedPositions") or "").split()) if el is not None else frozenset()
 
 
 _LEAKED: list = []  # instances that failed and are deliberately never freed (see FMU.free)
@@ -137,27 +144,32 @@ _LEAKED: list = []  # instances that failed and are deliberately never freed (se
 
 class RealBlock:
     """Value references of some Real variables and a preallocated value buffer (``values`` is a numpy view
-    of the ctypes buffer).  ``names`` are the variable names, in order."""
+    of the ctypes buffer).  ``names`` are the variable names, in order; ``refs`` the references as a list
+    (for the in-process path, which calls Python instead of C)."""
 
-    __slots__ = ("names", "n", "vr", "buf", "values")
+    __slots__ = ("names", "n", "vr", "refs", "buf", "values")
 
     def __init__(self, names: list[str], refs: list[int]):
         self.names = list(names)
         self.n = len(refs)
+        self.refs = [int(r) for r in refs]
         self.vr = (c_uint * max(1, self.n))(*refs)
         self.buf = (c_double * max(1, self.n))()
         self.values = np.ctypeslib.as_array(self.buf)[: self.n]
 
 
-class FMU:
-    """One instance of an FMI 2.0 co-simulation FMU.
+class Instance:
+    """What every FMU instance offers the master, whatever runs it (the C library through FMI, or a
+    pythonfmu slave object called in this process: :mod:`harness.inprocess`).
 
     ``path`` is the .fmu file; ``name`` the instance name (used in every error message).  Attributes:
     ``md`` (fmpy model description), ``variables`` (name -> fmpy ModelVariable), ``time`` (the current
-    communication point, for messages), ``log`` (the last 200 log messages as (status, text)), ``last_error``.
-    """
+    communication point, for messages), ``log`` (the last 200 log messages as (status, text)), ``last_error``,
+    ``failed`` (True once the instance returned fmi2Error or fmi2Fatal)."""
 
-    def __init__(self, path: str | Path, name: str, logging_on: bool = True):
+    path_kind = "fmi"  # how the instance is called: "fmi" (the FMU's shared library) or "in-process"
+
+    def __init__(self, path: str | Path, name: str):
         self.path = Path(path)
         self.name = name
         self.md, self.unzip_dir = extracted(self.path)
@@ -171,24 +183,8 @@ class FMU:
         self.log: deque = deque(maxlen=200)
         self.errors: list[str] = []   # error messages logged by the FMU
         self._reported = 0
-        self.failed = False  # set once the instance returned fmi2Error or fmi2Fatal
+        self.failed = False
         self.time: float | None = None
-        self._states: list = []
-        self._slave = FMU2Slave(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
-                                modelIdentifier=cs.modelIdentifier, instanceName=name)
-        f = self._slave._functions
-        self._f = f
-        self._do_step = f["fmi2DoStep"]
-        self._get_real = f["fmi2GetReal"]
-        self._set_real = f["fmi2SetReal"]
-        self._key = name.encode("utf-8")
-        _BY_NAME[self._key] = self
-        _install_proxy()
-        resource = (self.unzip_dir / "resources").as_uri().encode("utf-8")
-        self.c = f["fmi2Instantiate"](self._key, 1, self.md.guid.encode("utf-8"), resource, byref(_CALLBACKS),
-                                      0, 1 if logging_on else 0)
-        if not self.c:
-            raise FMUError(name, "fmi2Instantiate", None, None, self.last_error)
 
     # -- checking ----------------------------------------------------------------------------------------------
     @property
@@ -224,6 +220,50 @@ class FMU:
                 raise FMUError(self.name, "lookup", None, None, detail=f"variable {n} is {v.type}, not Real")
             refs.append(v.valueReference)
         return RealBlock(list(names), refs)
+
+    def _typed(self, name: str, value):
+        """(variable, value converted to the variable's FMI type) for :meth:`set_value`."""
+        v = self.var(name)
+        if v.type == "Real":
+            return v, float(value)
+        if v.type in ("Integer", "Enumeration"):
+            iv = int(value)
+            if iv != value:
+                raise FMUError(self.name, "fmi2SetInteger", self.time, None,
+                               detail=f"{name} = {value!r} is not an integer")
+            return v, iv
+        if v.type == "Boolean":
+            return v, bool(value)
+        if v.type == "String":
+            return v, str(value)
+        raise FMUError(self.name, "set", self.time, None, detail=f"{name}: unsupported type {v.type}")  # pragma: no cover
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r}, {self.path.name})"
+
+
+class FMU(Instance):
+    """One instance of an FMI 2.0 co-simulation FMU, called through its shared library (fmi2* functions)."""
+
+    def __init__(self, path: str | Path, name: str, logging_on: bool = True):
+        super().__init__(path, name)
+        self._states: list = []
+        cs = self.md.coSimulation
+        self._slave = FMU2Slave(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
+                                modelIdentifier=cs.modelIdentifier, instanceName=name)
+        f = self._slave._functions
+        self._f = f
+        self._do_step = f["fmi2DoStep"]
+        self._get_real = f["fmi2GetReal"]
+        self._set_real = f["fmi2SetReal"]
+        self._key = name.encode("utf-8")
+        _BY_NAME[self._key] = self
+        _install_proxy()
+        resource = (self.unzip_dir / "resources").as_uri().encode("utf-8")
+        self.c = f["fmi2Instantiate"](self._key, 1, self.md.guid.encode("utf-8"), resource, byref(_CALLBACKS),
+                                      0, 1 if logging_on else 0)
+        if not self.c:
+            raise FMUError(name, "fmi2Instantiate", None, None, self.last_error)
 
     # -- life cycle --------------------------------------------------------------------------------------------
     def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
@@ -279,6 +319,24 @@ class FMU:
             if status > WARNING:
                 self._check(status, "fmi2SetReal")
 
+    def get_list(self, block: RealBlock) -> list:
+        """The block's variables as a list of floats (same values as :meth:`get`)."""
+        if not block.n:
+            return []
+        status = self._get_real(self.c, block.vr, block.n, block.buf)
+        if status > WARNING:
+            self._check(status, "fmi2GetReal")
+        return block.buf[:block.n]
+
+    def set_list(self, block: RealBlock, values: list) -> None:
+        """Write a list of floats to the block's variables (same effect as :meth:`set`)."""
+        n = block.n
+        if n:
+            block.buf[:n] = values
+            status = self._set_real(self.c, block.vr, n, block.buf)
+            if status > WARNING:
+                self._check(status, "fmi2SetReal")
+
     def set_input_derivatives(self, block: RealBlock, order: int, values) -> None:
         """fmi2SetRealInputDerivatives of one derivative order for the block's variables."""
         n = block.n
@@ -291,23 +349,16 @@ class FMU:
 
     def set_value(self, name: str, value) -> None:
         """Set one variable of any type (parameters, start values); ``value`` is converted to its type."""
-        v = self.var(name)
+        v, value = self._typed(name, value)
         vr = (c_uint * 1)(v.valueReference)
         if v.type == "Real":
-            self._check(self._f["fmi2SetReal"](self.c, vr, 1, (c_double * 1)(float(value))), "fmi2SetReal")
+            self._check(self._f["fmi2SetReal"](self.c, vr, 1, (c_double * 1)(value)), "fmi2SetReal")
         elif v.type in ("Integer", "Enumeration"):
-            iv = int(value)
-            if iv != value:
-                raise FMUError(self.name, "fmi2SetInteger", self.time, None,
-                               detail=f"{name} = {value!r} is not an integer")
-            self._check(self._f["fmi2SetInteger"](self.c, vr, 1, (c_int * 1)(iv)), "fmi2SetInteger")
+            self._check(self._f["fmi2SetInteger"](self.c, vr, 1, (c_int * 1)(value)), "fmi2SetInteger")
         elif v.type == "Boolean":
             self._check(self._f["fmi2SetBoolean"](self.c, vr, 1, (c_int * 1)(1 if value else 0)), "fmi2SetBoolean")
-        elif v.type == "String":
-            self._check(self._f["fmi2SetString"](self.c, vr, 1, (c_char_p * 1)(str(value).encode())),
-                        "fmi2SetString")
-        else:  # pragma: no cover
-            raise FMUError(self.name, "set", self.time, None, detail=f"{name}: unsupported type {v.type}")
+        else:
+            self._check(self._f["fmi2SetString"](self.c, vr, 1, (c_char_p * 1)(value.encode())), "fmi2SetString")
 
     # -- stepping ----------------------------------------------------------------------------------------------
     def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
@@ -333,5 +384,24 @@ class FMU:
         self._check(self._f["fmi2FreeFMUstate"](self.c, byref(state)), "fmi2FreeFMUstate")
         self._states = [s for s in self._states if s is not state]
 
-    def __repr__(self) -> str:
-        return f"FMU({self.name!r}, {self.path.name})"
+
+IN_PROCESS_CHOICES = (None, True, False)
+
+
+def open_instance(path: str | Path, name: str, logging_on: bool = True, in_process: bool | None = None) -> Instance:
+    """An instance of the FMU at ``path``, called in-process or through FMI.
+
+    ``in_process``: None (default) runs the pythonfmu FMUs of this toolkit (they carry its vendor annotation)
+    in this process (:class:`harness.inprocess.InProcessFMU`, bit-identical to the FMI path and faster) and
+    every other FMU through its shared library; True runs every pythonfmu FMU in-process (any other FMU still
+    through FMI); False runs everything through FMI."""
+    if in_process not in IN_PROCESS_CHOICES:
+        raise FMUError(name, "instantiate", None, None,
+                       detail=f"in_process = {in_process!r} is not admissible: must be None, True or False")
+    if in_process is not False:
+        from harness import inprocess
+
+        md, unzip_dir = extracted(path)
+        if inprocess.is_pythonfmu(unzip_dir) and (in_process or inprocess.is_toolkit_fmu(unzip_dir)):
+            return inprocess.InProcessFMU(path, name, logging_on)
+    return FMU(path, name, logging_on)

@@ -107,12 +107,69 @@ def solve_fixed_point(g, u0: np.ndarray, options: IterationOptions, tol: float, 
 
 
 class _Inst:
-    """Prepared coupling data of one instance (built once)."""
-    __slots__ = ("name", "fmu", "sl", "out", "inp", "src", "fac", "off", "held", "feedthrough", "interp",
+    """Prepared coupling data of one instance (built once).  ``isl`` is its slice of the held-input vector
+    ``Master.u`` (``held``, ``src``, ``fac``, ``off`` are views of the master's arrays over it); ``sl`` its
+    slice of the signal vector ``Master.y``; ``pos_idx`` the positions (in its inputs) of bond positions it
+    advances itself; ``feedthrough`` whether any connected input reaches an output directly."""
+    __slots__ = ("name", "fmu", "sl", "isl", "out", "inp", "src", "fac", "off", "held", "feedthrough", "interp",
                  "input_pos", "pos_idx")
 
     def __init__(self, name, fmu):
         self.name, self.fmu = name, fmu
+
+
+def exchange_plan(groups: list[list[int]], insts: list[_Inst], connections, mds: dict,
+                  loop_groups: set[int]) -> list[tuple]:
+    """The operations that make every output consistent at a communication point, computed once.
+
+    ``("read", i)`` reads instance i; ``("visit", i)`` sets its point inputs from the current outputs, then
+    reads it; ``("loop", members)`` solves an algebraic loop.  Groups come in evaluation order (every source
+    of a feed-through input before its target).  Inside a group whose instances feed each other without an
+    algebraic loop at the variable level (e.g. a four-bar and the load on its rocker), the outputs are taken
+    in topological order of the variable graph and an instance is visited again only when one of its outputs
+    depends on a value that became final after its last visit; so each output is read last with final
+    inputs, and no instance is visited more often than that needs."""
+    import networkx as nx
+
+    plan: list[tuple] = []
+    for k, group in enumerate(groups):
+        if k in loop_groups:
+            plan.append(("loop", group))
+            continue
+        if len(group) == 1:
+            plan.append(("visit" if insts[group[0]].feedthrough else "read", group[0]))
+            continue
+        names = {insts[i].name: i for i in group}
+        g = nx.DiGraph()
+        deps: dict[str, list[str]] = {}
+        for i in group:
+            it = insts[i]
+            for out, ds in graph.direct_dependencies(mds[it.name]).items():
+                node = f"{it.name}.{out}"
+                g.add_node(node)
+                deps[node] = []
+                for d in ds:
+                    for c in connections:
+                        if c.target == f"{it.name}.{d}" and c.source.split(".", 1)[0] in names:
+                            g.add_edge(c.source, node)
+                            deps[node].append(c.source)
+        final: dict[str, int] = {}       # output -> position of the op after which it is final
+        last: dict[int, int] = {}        # instance -> position of its last op
+        first: dict[int, int] = {}
+        order = {n: j for j, n in enumerate(sorted(g.nodes))}
+        system_order = {insts[i].name: r for r, i in enumerate(group)}
+        for node in nx.lexicographical_topological_sort(
+                g, key=lambda n: (system_order[n.split(".", 1)[0]], order[n])):
+            i = names[node.split(".", 1)[0]]
+            ready = max((final[s] for s in deps.get(node, ())), default=-1)
+            if i in last and last[i] > ready:
+                final[node] = last[i] if deps.get(node) else first[i]
+                continue
+            plan.append(("visit" if insts[i].feedthrough else "read", i))
+            last[i] = len(plan) - 1
+            first.setdefault(i, last[i])
+            final[node] = last[i]
+    return plan
 
 
 class Master:
@@ -138,7 +195,7 @@ class Master:
             raise AlgebraicLoopError(f"algebraic loop(s) of direct feed-through: {text}; master {self.name!r} "
                                      f"cannot solve them, use master='iterative'", loops)
         self.loops = loops
-        # signal vector: every Real output of every instance
+        # signal vector y: every Real output of every instance, instance after instance
         self.insts: list[_Inst] = []
         self.index: dict[str, int] = {}
         names: list[str] = []
@@ -154,26 +211,32 @@ class Master:
         self.signal_index = {n: k for k, n in enumerate(names)}
         self.y = np.zeros(len(names))
         self.history = History(len(names))
+        # held-input vector u: every connected input, instance after instance (u = fac * y[src] + off)
         by_target: dict[str, list] = {n: [] for n in fmus}
         for c in self.connections:
             by_target[c.target.split(".", 1)[0]].append(c)
+        ordered = [c for it in self.insts for c in by_target[it.name]]
+        self.src = np.array([self.signal_index[c.source] for c in ordered], dtype=np.intp)
+        self.fac = np.array([float(c.factor) for c in ordered])
+        self.off = np.array([float(c.offset) for c in ordered])
+        self.u = np.zeros(len(ordered))
+        start = 0
         for it in self.insts:
             cs = by_target[it.name]
+            it.isl = slice(start, start + len(cs))
+            start += len(cs)
             it.inp = it.fmu.reals([c.target.split(".", 1)[1] for c in cs])
             it.input_pos = {c.target.split(".", 1)[1]: k for k, c in enumerate(cs)}
-            it.src = np.array([self.signal_index[c.source] for c in cs], dtype=np.intp)
-            it.fac = np.array([float(c.factor) for c in cs])
-            it.off = np.array([float(c.offset) for c in cs])
-            it.held = np.zeros(len(cs))
+            it.src, it.fac, it.off, it.held = self.src[it.isl], self.fac[it.isl], self.off[it.isl], self.u[it.isl]
             deps = graph.direct_dependencies(it.fmu.md)
             ft = {d for ds in deps.values() for d in ds}
             it.feedthrough = any(c.target.split(".", 1)[1] in ft for c in cs)
             it.interp = it.fmu.can_interpolate_inputs and self.extrapolation.order > 0
+            it.pos_idx = np.zeros(0, dtype=np.intp)
         self._group_idx = [[self.index[n] for n in g] for g in self.groups]
         in_loops = {n.split(".", 1)[0] for loop in loops for n in loop}
         self._loop_groups = {k for k, g in enumerate(self.groups) if any(n in in_loops for n in g)}
-        for it in self.insts:
-            it.pos_idx = np.zeros(0, dtype=np.intp)
+        self._plan = exchange_plan(self._group_idx, self.insts, self.connections, mds, self._loop_groups)
         self._prepare_bonds(bonds)
         for b in bonds:  # positions of power bonds: see _held_values
             inst, port = b.motion_in.split(".", 1)
@@ -181,14 +244,20 @@ class Master:
             for var in (f"{port}.phi", f"{port}.s"):
                 if var in it.input_pos and var in it.fmu.advanced_positions:
                     it.pos_idx = np.append(it.pos_idx, it.input_pos[var]).astype(np.intp)
+        # the same positions in u, for the held inputs of all instances at once (_hold_all)
+        self._pos = np.concatenate([it.pos_idx + it.isl.start for it in self.insts]).astype(np.intp)
+        self._pos_src = self.src[self._pos]
+        self._batched = [it for it in self.insts if it.inp.n and not it.interp]
+        self._interp = [it for it in self.insts if it.inp.n and it.interp]
         self._slots: dict[str, tuple] = {}
         self.t_ns = 0
         self.iterations = 0  # total iterations (iterative master)
 
     # -- power bonds -------------------------------------------------------------------------------------------
     def _prepare_bonds(self, bonds) -> None:
-        """Per bond: indices of (tau held by the motion-out instance, its w output, w held by the motion-in
-        instance, its tau output).  ``bond_energy`` accumulates the coupling energy error per bond."""
+        """Per bond: indices of the effort held by the motion-out instance (in ``u``), its speed output (in
+        ``y``), the speed held by the motion-in instance (in ``u``) and its effort output (in ``y``).
+        ``bond_energy`` accumulates the coupling energy error per bond."""
         self.bond_labels, rows = [], []
         for b in bonds:
             a_inst, a_port = b.motion_out.split(".", 1)
@@ -197,29 +266,40 @@ class Master:
             tr = f"{a_inst}.{a_port}.v" in self.signal_index
             _, v, e = ("s", "v", "f") if tr else ("phi", "w", "tau")
             try:
-                rows.append((self.index[a_inst], ia.input_pos[f"{a_port}.{e}"],
+                rows.append((ia.isl.start + ia.input_pos[f"{a_port}.{e}"],
                              self.signal_index[f"{a_inst}.{a_port}.{v}"],
-                             self.index[b_inst], ib.input_pos[f"{b_port}.{v}"],
+                             ib.isl.start + ib.input_pos[f"{b_port}.{v}"],
                              self.signal_index[f"{b_inst}.{b_port}.{e}"]))
             except KeyError as err:
                 raise SystemError_(f"bond {b.label}: variable {err.args[0]} is not part of the bond's connections")
             self.bond_labels.append(b.label)
-        self._bonds = rows
+        self._bonds = np.array(rows, dtype=np.intp).reshape(len(rows), 4).T.copy()
         nb = len(rows)
         self.bond_power = np.zeros((2, nb))     # [P_out, P_in] over the last step [W]
         self.bond_energy = np.zeros(nb)          # accumulated integral of P_out - P_in [J]
 
     def _bond_step(self, y0: np.ndarray, h: float) -> None:
-        for k, (ia, ktau, iw, ib, kw, itau) in enumerate(self._bonds):
-            p_out = self.insts[ia].held[ktau] * 0.5 * (y0[iw] + self.y[iw])
-            p_in = 0.5 * (y0[itau] + self.y[itau]) * self.insts[ib].held[kw]
-            self.bond_power[0, k] = p_out
-            self.bond_power[1, k] = p_in
-            self.bond_energy[k] += (p_out - p_in) * h
+        """P_out = held effort x mean speed, P_in = mean effort x held speed over the step; energy += (P_out -
+        P_in) * h (trapezoidal means of the outputs at both ends of the step)."""
+        tau_held, w_out, w_held, tau_out = self._bonds
+        y, u = self.y, self.u
+        p_out = u[tau_held] * 0.5 * (y0[w_out] + y[w_out])
+        p_in = 0.5 * (y0[tau_out] + y[tau_out]) * u[w_held]
+        self.bond_power[0] = p_out
+        self.bond_power[1] = p_in
+        self.bond_energy += (p_out - p_in) * h
 
     # -- coupling primitives -----------------------------------------------------------------------------------
     def _read(self, it: _Inst) -> None:
         self.y[it.sl] = it.fmu.get(it.out)
+
+    def _read_all(self, t: float) -> None:
+        """Every instance's outputs at t, then one history sample of all of them (Jacobi family)."""
+        values: list = []
+        for it in self.insts:
+            values += it.fmu.get_list(it.out)
+        self.y[:] = values
+        self.history.push_all(t, self.y)
 
     def _set_point_inputs(self, it: _Inst) -> None:
         if it.inp.n:
@@ -239,6 +319,26 @@ class Master:
             it.held[:] = self._held_values(it, t, h)
             it.fmu.set(it.inp, it.held)
 
+    def _hold_all(self, t: float, h: float) -> None:
+        """:meth:`_set_held_inputs` for every instance at once (the same values, computed on the whole input
+        vector with one extrapolation; Jacobi family, where every source's history is at t)."""
+        u = self.u
+        np.multiply(self.fac, self.extrapolation.held(self.history, self.src, t, h), out=u)
+        u += self.off
+        pos = self._pos
+        if pos.size:
+            src = self._pos_src
+            hist = self.history
+            newer = hist.t[0, src] > t
+            if self.extrapolation.order or newer.any():
+                start = np.where(newer, hist.y[1, src], hist.y[0, src])
+                u[pos] = self.fac[pos] * start + self.off[pos]
+        values = u.tolist()
+        for it in self._batched:
+            it.fmu.set_list(it.inp, values[it.isl])
+        for it in self._interp:
+            self._set_held_inputs(it, t, h)
+
     def _held_values(self, it: _Inst, t: float, h: float) -> np.ndarray:
         """Held inputs of ``it`` over [t, t+h]: the extrapolation's value (harness.extrapolation), except for
         the position of a power bond (phi or s at a motion-input port) that the FMU declares it advances
@@ -255,41 +355,21 @@ class Master:
         return held
 
     def _exchange(self, t: float) -> None:
-        """Consistent outputs at communication point t; pushes them to the history.
-
-        A group with several members whose variable graph has no loop (e.g. a four-bar and the load on its
-        rocker: each feeds the other, but through different variables) is swept as often as it has members,
-        which settles every output exactly."""
-        for k, group in enumerate(self._group_idx):
-            if k in self._loop_groups:
-                self._solve_loop(group, t)
-                continue
-            if len(group) == 1:
-                it = self.insts[group[0]]
-                if it.feedthrough:
-                    self._set_point_inputs(it)
-                self._read(it)
-                continue
-            # later sweeps skip an instance whose outputs cannot have changed: no feed-through (its outputs do
-            # not depend on inputs), or the same point inputs (bit for bit) as it was last read with
-            last: dict[int, bytes | None] = {}
-            for _sweep in range(len(group)):
-                for i in group:
-                    it = self.insts[i]
-                    if it.feedthrough:
-                        u = it.fac * self.y[it.src] + it.off
-                        key = u.tobytes()
-                        if last.get(i) == key:
-                            continue
-                        it.fmu.set(it.inp, u)
-                        last[i] = key
-                    elif i in last:
-                        continue
-                    else:
-                        last[i] = None
-                    self._read(it)
-        for it in self.insts:
-            self.history.push(it.sl, t, self.y[it.sl])
+        """Consistent outputs at communication point t (the plan of :func:`exchange_plan`); pushes them to the
+        history."""
+        y = self.y
+        for op, arg in self._plan:
+            if op == "read":
+                it = self.insts[arg]
+                y[it.sl] = it.fmu.get(it.out)
+            elif op == "visit":
+                it = self.insts[arg]
+                if it.inp.n:
+                    it.fmu.set(it.inp, it.fac * y[it.src] + it.off)
+                y[it.sl] = it.fmu.get(it.out)
+            else:
+                self._solve_loop(arg, t)
+        self.history.push_all(t, y)
 
     def _solve_loop(self, group: list[int], t: float) -> None:
         """Resolve an algebraic loop among ``group`` at a communication point (iterative master)."""
@@ -319,18 +399,16 @@ class Master:
             if old is not None:
                 it.fmu.free_state(old[0][k])
             states.append(it.fmu.get_state())
-        self._slots[slot] = (states, self.y.copy(), self.history.snapshot(),
-                             [it.held.copy() for it in self.insts], self.bond_power.copy(),
-                             self.bond_energy.copy(), self.t_ns)
+        self._slots[slot] = (states, self.y.copy(), self.history.snapshot(), self.u.copy(),
+                             self.bond_power.copy(), self.bond_energy.copy(), self.t_ns)
 
     def restore(self, slot: str = "step") -> None:
-        states, y, hist, held, bp, be, t_ns = self._slots[slot]
+        states, y, hist, u, bp, be, t_ns = self._slots[slot]
         for it, s in zip(self.insts, states):
             it.fmu.set_state(s)
         self.y[:] = y
         self.history.copy_from(hist)
-        for it, hd in zip(self.insts, held):
-            it.held[:] = hd
+        self.u[:] = u
         self.bond_power[:] = bp
         self.bond_energy[:] = be
         self.t_ns = t_ns
@@ -340,7 +418,7 @@ class Master:
 
     def coupling_signals(self) -> np.ndarray:
         """Indices into ``y`` of the outputs that feed a connection (all outputs when none does)."""
-        idx = sorted({int(s) for it in self.insts for s in it.src})
+        idx = sorted({int(s) for s in self.src})
         return np.array(idx if idx else range(len(self.y)), dtype=np.intp)
 
     # -- life cycle --------------------------------------------------------------------------------------------
@@ -370,11 +448,14 @@ class Master:
     def step(self, t_ns: int, h_ns: int) -> None:
         """One communication step from t_ns (must be the current time) of h_ns nanoseconds."""
         t, h = t_ns / NS, h_ns / NS
-        y0 = self.y.copy()
-        self._step_impl(t, h, (t_ns + h_ns) / NS)
-        self._check((t_ns + h_ns) / NS)
-        if self._bonds:
+        if self._bonds.size:
+            y0 = self.y.copy()
+            self._step_impl(t, h, (t_ns + h_ns) / NS)
+            self._check((t_ns + h_ns) / NS)
             self._bond_step(y0, h)
+        else:
+            self._step_impl(t, h, (t_ns + h_ns) / NS)
+            self._check((t_ns + h_ns) / NS)
         self.t_ns = t_ns + h_ns
 
     def _step_impl(self, t: float, h: float, t_next: float) -> None:
@@ -415,8 +496,7 @@ class Jacobi(Master):
     name = "jacobi"
 
     def _step_impl(self, t, h, t_next):
-        for it in self.insts:
-            self._set_held_inputs(it, t, h)
+        self._hold_all(t, h)
         for it in self.insts:
             it.fmu.do_step(t, h, True)
         self._exchange(t_next)
@@ -430,13 +510,10 @@ class JacobiSampled(Jacobi):
     name = "jacobi-sampled"
 
     def _step_impl(self, t, h, t_next):
-        for it in self.insts:
-            self._set_held_inputs(it, t, h)
+        self._hold_all(t, h)
         for it in self.insts:
             it.fmu.do_step(t, h, True)
-        for it in self.insts:
-            self._read(it)
-            self.history.push(it.sl, t_next, self.y[it.sl])
+        self._read_all(t_next)
 
 
 class GaussSeidel(Master):
@@ -480,15 +557,16 @@ class Iterative(Master):
             if not it.fmu.can_get_set_state:
                 raise SystemError_(f"master 'iterative' needs fmi2GetFMUstate/fmi2SetFMUstate, but instance "
                                    f"{it.name} does not declare canGetAndSetFMUstate")
+        self._batched = [it for it in self.insts if it.inp.n]
+        self._interp = []
 
     def needs_rollback(self) -> bool:
         return True
 
     def _step_impl(self, t, h, t_next):
-        coupled = [it for it in self.insts if it.inp.n]
-        for it in self.insts:
-            self._set_held_inputs(it, t, h)
-        u0 = np.concatenate([it.held for it in coupled]) if coupled else np.zeros(0)
+        coupled = self._batched
+        self._hold_all(t, h)
+        u0 = self.u.copy()
         self.snapshot("iterate")
         first = [True]
 
@@ -496,17 +574,17 @@ class Iterative(Master):
             if not first[0]:
                 self.restore("iterate")
             first[0] = False
-            k = 0
+            self.u[:] = u
+            values = u.tolist()
             for it in coupled:
-                n = it.inp.n
-                it.held[:] = u[k:k + n]
-                it.fmu.set(it.inp, it.held)
-                k += n
+                it.fmu.set_list(it.inp, values[it.isl])
             for it in self.insts:
                 it.fmu.do_step(t, h, False)
             self._exchange(t_next)
-            out = [self._held_values(it, t, h) for it in coupled]
-            return np.concatenate(out) if out else np.zeros(0)
+            out = np.empty_like(u)
+            for it in coupled:
+                out[it.isl] = self._held_values(it, t, h)
+            return out
 
         _u, _gu, n = solve_fixed_point(g, u0, self.iteration, self.tol, f"coupled step at t = {t:.9g} s")
         self.iterations += n

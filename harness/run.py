@@ -28,7 +28,7 @@ import pandas as pd
 
 from harness.errors import FMUError, HarnessError, SimulationError, SystemError_
 from harness.extrapolation import extrapolation as make_extrapolation
-from harness.fmu import FMU
+from harness.fmu import Instance, open_instance
 from harness.masters import NS, ConvergenceError, IterationOptions, master_class
 from harness.model import System, model_description, resolve_fmu
 from harness.results import Recorder, to_csv
@@ -45,12 +45,16 @@ class RunOptions:
 
     ``iteration``: the ``iterative`` master's solver; ``steps``: limits of the variable-step controllers;
     ``blowup``: an output whose magnitude exceeds it stops the run (amplitude blow-up); ``progress``: tqdm
-    progress bar (None: only when stderr is a terminal, shown after 2 s); ``logging``: FMU debug logging."""
+    progress bar (None: only when stderr is a terminal, shown after 2 s); ``logging``: FMU debug logging;
+    ``in_process``: how pythonfmu FMUs are called (:func:`harness.fmu.open_instance`: None runs the toolkit's
+    own FMUs in this process and every other FMU through FMI; True runs every pythonfmu FMU in-process;
+    False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs."""
     iteration: IterationOptions = field(default_factory=IterationOptions)
     steps: StepOptions = field(default_factory=StepOptions)
     blowup: float = 1e12
     progress: bool | None = None
     logging: bool = True
+    in_process: bool | None = None
 
 
 def load(x) -> System:
@@ -132,11 +136,11 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     system.validate(mds, {f"{i}.{k}": v for i, d in params.items() for k, v in d.items()})
     connections = system.all_connections(mds)
 
-    fmus: dict[str, FMU] = {}
+    fmus: dict[str, Instance] = {}
     m = None
     try:
         for inst in system.instances:
-            fmus[inst.name] = FMU(paths[inst.name], inst.name, logging_on=opts.logging)
+            fmus[inst.name] = open_instance(paths[inst.name], inst.name, opts.logging, opts.in_process)
         m = cls(fmus, connections, system.bonds, extra, opts.iteration, tolerance, opts.blowup)
         controller = make_step_control(step_control, m, step_ns, tolerance, opts.steps)
         if not controller.variable and stop_ns % step_ns:

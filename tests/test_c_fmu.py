@@ -276,3 +276,13 @@ def test_get_set_fmu_state_is_bit_exact(c_fmu):
     finally:
         f.terminate()
         f.free()
+
+
+def test_a_c_fmu_always_runs_through_fmi(c_fmu):
+    """The in-process path is for pythonfmu FMUs only: asking for it everywhere still calls the C FMU's library."""
+    from harness.fmu import FMU, open_instance
+
+    for in_process in (None, True, False):
+        fmu = open_instance(c_fmu, f"osc_{in_process}", in_process=in_process)
+        assert isinstance(fmu, FMU) and fmu.path_kind == "fmi"
+        fmu.free()

@@ -1,0 +1,235 @@
+"""The in-process path for pythonfmu FMUs: the slave object called directly, without the C round trip.
+
+A pythonfmu FMU is a C library that, on ``fmi2Instantiate``, puts the FMU's ``resources/`` folder on
+``sys.path``, imports the module named in ``resources/slavemodule.txt``, instantiates its ``Fmi2Slave``
+subclass with ``instance_name``, ``resources``, ``logger`` and ``visible``, and then forwards every FMI call
+to a method of that object (``do_step``, ``get_real``, ``set_real``, ``_get_fmu_state``...), converting
+each double to a Python float and back.  Because the object lives in the master's own interpreter anyway,
+:class:`InProcessFMU` does the same thing without the C layer: it imports the same module from the same
+extracted folder, instantiates the same class with the same arguments and calls the same methods with the
+same float values.  So the results are bit-identical to the FMI path (``tests/test_inprocess.py`` checks
+every press drive), and each FMI call saves the ctypes call, ``PyGILState_Ensure``, the conversion of every
+value to and from C, and the log-queue flush the C wrapper does after every call.
+
+Status mapping (as the pythonfmu 0.7 C wrapper does it): a Python exception in any call is ``fmi2Fatal``
+(:class:`~harness.errors.FMUError` with the FMU's logged error line, or the exception's text); ``do_step``
+returning False is ``fmi2Discard`` (:class:`~harness.errors.StepDiscarded`).  Messages the slave logs
+(``Fmi2Slave.log``) go to the same ``log``/``errors`` lists as on the FMI path.
+
+Which FMUs run here is decided by :func:`harness.fmu.open_instance`: by default only the toolkit's own FMUs
+(their VendorAnnotations name the slave module and class: :func:`harness.fmu.toolkit_annotation`);
+any other FMU runs through FMI unless the caller asks for the in-process path explicitly.
+"""
+from __future__ import annotations
+
+import importlib
+import inspect
+import sys
+from pathlib import Path
+
+from harness.errors import FMUError, StepDiscarded
+from harness.fmu import DISCARD, ERROR, FATAL, Instance, RealBlock, extracted, toolkit_annotation
+
+_SLAVE_BASE = "Fmi2Slave"
+
+
+def is_pythonfmu(unzip_dir: Path) -> bool:
+    """True for an FMU made with pythonfmu (its resources name the slave module)."""
+    return (Path(unzip_dir) / "resources" / "slavemodule.txt").is_file()
+
+
+def is_toolkit_fmu(unzip_dir: Path) -> bool:
+    """True for the toolkit's own FMUs (fmus.slave.PressSlave names its slave class in an annotation)."""
+    return toolkit_annotation(unzip_dir) is not None
+
+
+def _depth(cls: type) -> int:
+    """Position of pythonfmu's ``Fmi2Slave`` in the class's MRO (-1 if it is not a slave)."""
+    for i, base in enumerate(cls.__mro__):
+        if base.__name__ == _SLAVE_BASE:
+            return i
+    return -1
+
+
+def slave_class(unzip_dir: Path) -> type:
+    """Import the FMU's slave module from its resources folder and return the slave class.
+
+    The class is the one the FMU's annotation names, else (any pythonfmu FMU) the class pythonfmu's C
+    wrapper takes: among the module's classes, the first whose MRO has ``Fmi2Slave`` deepest."""
+    resources = Path(unzip_dir) / "resources"
+    module_name = (resources / "slavemodule.txt").read_text().strip().splitlines()[0].strip()
+    if str(resources) not in sys.path:
+        sys.path.insert(0, str(resources))
+    module = importlib.import_module(module_name)
+    ann = toolkit_annotation(unzip_dir)
+    if ann is not None and ann.get("class"):
+        return getattr(module, ann.get("class"))
+    best, depth = None, 0
+    for value in vars(module).values():
+        if inspect.isclass(value) and _depth(value) > depth:
+            best, depth = value, _depth(value)
+    if best is None:
+        raise ImportError(f"module {module_name} of {unzip_dir} defines no Fmi2Slave subclass")
+    return best
+
+
+class _State:
+    """A saved slave state (the object returned by ``_get_fmu_state``), overwritable like an fmi2FMUstate."""
+    __slots__ = ("value",)
+
+    def __init__(self):
+        self.value = None
+
+
+class InProcessFMU(Instance):
+    """A pythonfmu FMU whose slave object is called directly in this process (module docstring)."""
+
+    path_kind = "in-process"
+
+    def __init__(self, path: str | Path, name: str, logging_on: bool = True):
+        super().__init__(path, name)
+        self.logging_on = logging_on
+        try:
+            cls = slave_class(self.unzip_dir)
+            self._slave = cls(instance_name=name, resources=str(self.unzip_dir / "resources"), logger=0,
+                              visible=0)
+        except Exception as e:
+            self.failed = True
+            raise FMUError(name, "fmi2Instantiate", None, FATAL, detail=f"{type(e).__name__}: {e}") from None
+        self._queue = self._slave.log_queue
+        s = self._slave
+        self._get_real = s.get_real
+        self._set_real = s.set_real
+        self._step = s.do_step
+
+    # -- failures and the log ------------------------------------------------------------------------------------
+    def _drain(self) -> None:
+        """Move the slave's queued log messages to ``log``/``errors`` (the C wrapper does this after each call)."""
+        for msg in self._queue:
+            status = int(msg.status)
+            text = str(msg.msg)
+            self.log.append((status, text))
+            if status >= ERROR:
+                self.errors.append(" ".join(text.split()))
+        del self._queue[:]
+
+    def _fail(self, function: str, exc: BaseException):
+        """Raise the FMUError of a call that raised ``exc`` (fmi2Fatal, as pythonfmu reports it)."""
+        self._drain()
+        if not self.errors[self._reported:]:
+            self.errors.append(" ".join(f"{type(exc).__name__}: {exc}".split()))
+        self.failed = True
+        log = self.last_error
+        self._reported = len(self.errors)
+        raise FMUError(self.name, function, self.time, FATAL, log) from None
+
+    def _call(self, function: str, method, *args):
+        if self.failed:
+            raise FMUError(self.name, function, self.time, FATAL, detail="the instance failed before")
+        try:
+            out = method(*args)
+        except Exception as e:
+            self._fail(function, e)
+        if self._queue:
+            self._drain()
+        return out
+
+    # -- life cycle --------------------------------------------------------------------------------------------
+    def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
+        self.time = start_time
+        self._call("fmi2SetupExperiment", self._slave.setup_experiment, float(start_time),
+                   None if stop_time is None else float(stop_time), None if tolerance is None else float(tolerance))
+
+    def enter_initialization(self) -> None:
+        self._call("fmi2EnterInitializationMode", self._slave.enter_initialization_mode)
+
+    def exit_initialization(self) -> None:
+        self._call("fmi2ExitInitializationMode", self._slave.exit_initialization_mode)
+
+    def terminate(self) -> None:
+        if self.failed or self._slave is None:
+            return
+        self._call("fmi2Terminate", self._slave.terminate)
+
+    def free(self) -> None:
+        self._slave = None
+        self._get_real = self._set_real = self._step = None
+
+    # -- values ------------------------------------------------------------------------------------------------
+    def get(self, block: RealBlock):
+        """Read the block's variables into its buffer and return the numpy view."""
+        if block.n:
+            try:
+                block.values[:] = self._get_real(block.refs)
+            except Exception as e:
+                self._fail("fmi2GetReal", e)
+        return block.values
+
+    def set(self, block: RealBlock, values=None) -> None:
+        """Write ``values`` (or the block's own buffer, if None) to the block's variables."""
+        if values is not None:
+            block.values[:] = values
+        if block.n:
+            try:
+                self._set_real(block.refs, block.values.tolist())
+            except Exception as e:
+                self._fail("fmi2SetReal", e)
+
+    def get_list(self, block: RealBlock) -> list:
+        """The block's variables as a list of floats (same values as :meth:`get`)."""
+        try:
+            return self._get_real(block.refs)
+        except Exception as e:
+            self._fail("fmi2GetReal", e)
+
+    def set_list(self, block: RealBlock, values: list) -> None:
+        """Write a list of floats to the block's variables (same effect as :meth:`set`)."""
+        try:
+            self._set_real(block.refs, values)
+        except Exception as e:
+            self._fail("fmi2SetReal", e)
+
+    def set_input_derivatives(self, block: RealBlock, order: int, values) -> None:
+        raise FMUError(self.name, "fmi2SetRealInputDerivatives", self.time, ERROR,
+                       detail="pythonfmu FMUs cannot interpolate inputs")
+
+    _SETTERS = {"Real": ("set_real", "fmi2SetReal"), "Integer": ("set_integer", "fmi2SetInteger"),
+                "Enumeration": ("set_integer", "fmi2SetInteger"), "Boolean": ("set_boolean", "fmi2SetBoolean"),
+                "String": ("set_string", "fmi2SetString")}
+
+    def set_value(self, name: str, value) -> None:
+        """Set one variable of any type (parameters, start values); ``value`` is converted to its type."""
+        v, value = self._typed(name, value)
+        method, function = self._SETTERS[v.type]
+        self._call(function, getattr(self._slave, method), [v.valueReference], [value])
+
+    # -- stepping ----------------------------------------------------------------------------------------------
+    def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
+        self.time = t
+        try:
+            ok = self._step(t, h)
+        except Exception as e:
+            self._fail(f"fmi2DoStep(h = {h:.6g} s)", e)
+        if self._queue:
+            self._drain()
+        if not ok:
+            log = self.last_error
+            self._reported = len(self.errors)
+            raise StepDiscarded(self.name, f"fmi2DoStep(h = {h:.6g} s)", t, DISCARD, log)
+        self.time = t + h
+
+    # -- FMU state (rollback) ----------------------------------------------------------------------------------
+    def get_state(self, state=None):
+        if state is None:
+            state = _State()
+        state.value = self._call("fmi2GetFMUstate", self._slave._get_fmu_state)
+        return state
+
+    def set_state(self, state) -> None:
+        self._call("fmi2SetFMUstate", self._slave._set_fmu_state, state.value)
+
+    def free_state(self, state) -> None:
+        state.value = None
+
+
+__all__ = ["InProcessFMU", "is_pythonfmu", "is_toolkit_fmu", "slave_class", "extracted"]
