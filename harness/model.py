@@ -107,6 +107,7 @@ class System:
     experiment: Experiment | None = None
     description: str = ""
     scenes: list = field(default_factory=list)
+    default_scene: str | None = None   # the scene asked when none is named (harness.scenes.find_scene)
 
     def instance(self, name: str) -> Instance:
         for inst in self.instances:

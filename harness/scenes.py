@@ -74,6 +74,20 @@ class SceneResult:
         return pd.DataFrame(rows).drop(columns=["fidelities"])
 
 
+def find_scene(system, name: str | None = None) -> Scene:
+    """The scene ``name`` of ``system``, or its default scene when ``name`` is None."""
+    from harness.errors import SystemError_
+
+    scenes = {s.name: s for s in getattr(system, "scenes", [])}
+    key = name if name is not None else getattr(system, "default_scene", None)
+    if key is None:
+        raise SystemError_(f"system {system.name} has no default scene: name one of "
+                           f"{', '.join(sorted(scenes)) or '(none)'}")
+    if key not in scenes:
+        raise SystemError_(f"system {system.name} has no scene {key!r}; known: {', '.join(sorted(scenes)) or 'none'}")
+    return scenes[key]
+
+
 def fidelity_levels(system) -> dict[str, tuple[int, ...]]:
     """Instance -> admissible fidelity levels (ascending), for instances whose component has one."""
     from harness.reference import _model_name, component_classes
@@ -236,7 +250,8 @@ def chart(result: SceneResult, out: Path) -> list[Path]:
 def register(subparsers) -> None:
     p = subparsers.add_parser("scene", help="answer a scene's question with the coarsest adequate model")
     p.add_argument("system", help="system module name in systems/")
-    p.add_argument("scene", help="scene name (see the system's SYSTEM.scenes)")
+    p.add_argument("scene", nargs="?", default=None,
+                   help="scene name (see the system's SYSTEM.scenes; default: its default scene)")
     p.add_argument("--out", type=Path, default=Path("results"), help="folder for the chart and table")
     p.add_argument("--remeasure", action="store_true", help="time the full model again even if it is cached")
     p.set_defaults(func=_run_cli)
@@ -246,15 +261,12 @@ def _run_cli(args) -> int:
     from harness import load
 
     system = load(args.system)
-    scenes = {s.name: s for s in getattr(system, "scenes", [])}
-    if args.scene not in scenes:
-        raise SystemExit(f"error: system {system.name} has no scene {args.scene!r}; "
-                         f"known: {', '.join(sorted(scenes)) or 'none'}")
-    res = choose(system, scenes[args.scene], cache_dir=args.out / "cache", remeasure=args.remeasure)
-    stem = args.out / f"scene_{system.name}_{args.scene}"
+    scene = find_scene(system, args.scene)
+    res = choose(system, scene, cache_dir=args.out / "cache", remeasure=args.remeasure)
+    stem = args.out / f"scene_{system.name}_{scene.name}"
     res.table().to_csv(stem.with_suffix(".csv"), index=False)
     paths = chart(res, stem)
-    print(f"scene {args.scene}: {res.scene.question}")
+    print(f"scene {scene.name}: {res.scene.question}")
     print(f"  chosen fidelities: {res.chosen.fidelities}, step {res.chosen.step:g} s, master {res.chosen.master}")
     print(f"  quantity: {res.chosen.value:.6g} {res.scene.unit} (full model {res.full.value:.6g}); "
           f"error {res.chosen.error:.3g}")

@@ -83,12 +83,21 @@ def test_cli_runs_and_writes_table_and_chart(out_dir, monkeypatch, capsys):
     assert (tmp_path / "scene_two_inertia_mean_speed.csv").read_text().count("\n") >= 3
 
 
-def test_unknown_scene_is_one_line_naming_system_and_scenes():
-    with pytest.raises(SystemExit) as e:
-        main(["scene", "two_inertia", "no_such_scene"])
-    text = str(e.value.code)
+def test_unknown_scene_is_one_line_naming_system_and_scenes(capsys):
+    assert main(["scene", "two_inertia", "no_such_scene"]) == 1
+    text = capsys.readouterr().err.strip()
     assert "\n" not in text and "two_inertia" in text and "no_such_scene" in text
     assert "mean_speed" in text and "peak_torque" in text
+
+
+def test_the_default_scene_is_asked_when_none_is_named(monkeypatch):
+    system = load("two_inertia")
+    monkeypatch.setattr(system, "default_scene", "peak_torque")
+    assert scenes.find_scene(system).name == "peak_torque"
+    assert scenes.find_scene(system, "mean_speed").name == "mean_speed"
+    monkeypatch.setattr(system, "default_scene", None)
+    with pytest.raises(ValueError, match="two_inertia has no default scene: name one of mean_speed, peak_torque"):
+        scenes.find_scene(system)
 
 
 @pytest.mark.slow
