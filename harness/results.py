@@ -129,12 +129,16 @@ class Recorder:
             setattr(self, name, b)
 
     def frame(self, complete: bool = True, error: str = "", **attrs) -> pd.DataFrame:
+        """The result; the recorder hands its buffers over (no copy when they are full, as in a fixed-step run:
+        the run never holds its result twice) and is done."""
         n = self.rows
-        df = pd.DataFrame(self.data[:n].copy(), columns=self.columns, index=pd.Index(self.time[:n].copy(), name="time"))
+        data = self.data if n == len(self.data) else self.data[:n].copy()
+        time = self.time if n == len(self.time) else self.time[:n].copy()
+        df = pd.DataFrame(data, columns=self.columns, index=pd.Index(time, name="time", copy=False), copy=False)
         df.attrs.update(attrs)
         df.attrs["complete"] = bool(complete)
         df.attrs["error"] = error
-        df.attrs["bonds"] = BondLog(list(self.master.bond_labels), self.time[:n].copy(), self.p_out[:n].copy(),
+        df.attrs["bonds"] = BondLog(list(self.master.bond_labels), time, self.p_out[:n].copy(),
                                     self.p_in[:n].copy(), self.energy[:n].copy())
         return df
 

@@ -60,9 +60,17 @@ def kelvin_voigt_zeta(e: float) -> float:
         return 0.0
     if e <= E_MIN_KELVIN_VOIGT:
         return ZETA_MAX
-    from scipy.optimize import brentq
-
-    return brentq(lambda z: _restitution_no_pull(z) - e, 1e-12, ZETA_MAX, xtol=1e-14)
+    # the restitution falls monotonically with zeta: bisection to the last bit, in plain floats (no scipy
+    # import in the middle of a run, when the first contact closes)
+    lo, hi = 0.0, ZETA_MAX
+    while True:
+        mid = 0.5 * (lo + hi)
+        if mid in (lo, hi):
+            return mid
+        if _restitution_no_pull(mid) > e:
+            lo = mid
+        else:
+            hi = mid
 
 
 def kelvin_voigt_damping(k: float, m_eff: float, e: float) -> float:

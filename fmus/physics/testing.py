@@ -18,6 +18,7 @@ class GainParams(Params):
     k: float = param(0.5, "1", "gain from u to y")
     offset: float = param(0.0, "1", "constant added to the output")
     limit: float = param(1e6, "1", "magnitude limit of the output y (saturation)", low=0.0, low_open=True)
+    q0: float = param(0.0, "s", "initial value of the integral")
 
 
 class GainModel(Model):
@@ -26,6 +27,9 @@ class GainModel(Model):
     inputs = ("u",)
     outputs = ("y", "integral")
     states = (Signal("q", "s", "state: time integral of the input u"),)
+
+    def initial_state(self, u):
+        return np.array([self.p.q0])
 
     def derivatives(self, t, x, u, t0):
         return np.array([u[0]])
