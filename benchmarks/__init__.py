@@ -4,18 +4,25 @@
 
 * the cases: a ring of six trivial pythonfmu FMUs (:func:`benchmarks.cases.ring`: Gain FMUs, each one's
   ``integral`` feeding the next one's ``u``, so no algebraic loop) and the exported SSP of each press drive
-  (feeder_gto52, bed_drive, spine_knife, proof_press), all at one fixed step per case;
-* the tools (:mod:`benchmarks.runners`): the harness with each master, libcosim (libcosimpy), Ecos (ecospy,
-  the SSP's parameter set ``default`` passed to ``init``), CoFmuPy (NOT installed: it pins pythonfmu 0.6.3 /
-  fmpy 0.3.20, which would downgrade the pythonfmu that builds our FMUs; reported as skipped), the bare fmpy
-  loop (``FMU2Slave.setReal/doStep/getReal``, the "fmpy floor") and a ctypes floor (prepared arrays, direct
-  FMI calls, no checks: what no Python master can beat);
+  (feeder_gto52, bed_drive, spine_knife, proof_press) and of the two-inertia benchmark, all at one fixed step
+  per case;
+* the tools (:mod:`benchmarks.runners`): the harness with each master (its default path: the toolkit's
+  pythonfmu FMUs called in-process, :mod:`harness.inprocess`), the harness's ``jacobi-sampled`` on the plain
+  FMI path (``jacobi-sampled-fmi``: every FMU through its C library), libcosim (libcosimpy), Ecos (ecospy,
+  the SSP's parameter set ``default`` passed to ``init``), CoFmuPy (in a virtual environment of its own,
+  :mod:`benchmarks.cofmupy`: it pins an older pythonfmu and fmpy), the bare fmpy loop
+  (``FMU2Slave.setReal/doStep/getReal``, the "fmpy floor") and a ctypes floor (prepared arrays, direct FMI
+  calls, no checks: the least a Python master on the FMI path can cost);
 * pinned (``taskset -c 0``) and unpinned; every configuration runs in its own subprocess
-  (``python -m benchmarks.worker``).
+  (``python -m benchmarks.worker``);
+* the real-time factor of bed_drive: its default scene (the coarsest model that answers the scene's question
+  within tolerance, :func:`harness.scenes.choose`) and, for comparison, its default experiment (the
+  declared model).
 
 It prints the cost per FMU-step [us] and the ratios harness/peer, writes ``benchmark.csv`` and the bar chart
 ``docs/images/benchmark.png`` (+ .svg), checks that every tool computed the same thing (final values of the
 outputs without direct feed-through, against the harness with master ``jacobi-sampled``, which is the
-algorithm of libcosim and Ecos) and checks the targets of the issue.  ``--quick`` runs tiny sizes (a smoke
-test, timings meaningless).  Timings on a shared machine are noisy: run the final benchmark on a quiet one.
+algorithm of libcosim, Ecos and CoFmuPy) and checks the targets of the issue.  ``--quick`` runs tiny sizes
+(a smoke test, timings meaningless).  Timings on a shared machine are noisy: run the final benchmark on a
+quiet one.
 """

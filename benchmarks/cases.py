@@ -18,15 +18,14 @@ RING_SIZE = 6
 
 
 def ring(n: int = RING_SIZE) -> System:
-    """``n`` Gain FMUs in a ring: ``g[i].integral -> g[i+1].u`` (factor 1; the first link adds 1.0, so the
-    integrals grow as t, t^2/2, ... instead of staying 0).  ``integral`` does not depend directly on ``u``: no
-    algebraic loop, every master can run it."""
+    """``n`` Gain FMUs in a ring: ``g[i].integral -> g[i+1].u``, plain connections (factor 1, offset 0: every
+    tool can express them); the first integral starts at 1 so the values are not all 0.  ``integral`` does not
+    depend directly on ``u``: no algebraic loop, every master can run it."""
     return System(
         name="ring",
         description=f"ring of {n} trivial FMUs (Gain: integral -> next u)",
-        instances=[Instance(f"g{i}", "Gain", {"k": 1.0}) for i in range(n)],
-        connections=[Connection(f"g{i}.integral", f"g{(i + 1) % n}.u", 1.0, 1.0 if i == 0 else 0.0,
-                                unit_conversion=True) for i in range(n)],
+        instances=[Instance(f"g{i}", "Gain", {"k": 1.0, "q0": 1.0 if i == 0 else 0.0}) for i in range(n)],
+        connections=[Connection(f"g{i}.integral", f"g{(i + 1) % n}.u", unit_conversion=True) for i in range(n)],
         experiment=Experiment(stop_time=10.0, step=1e-3, master="jacobi"),
     )
 
@@ -53,7 +52,9 @@ class Case:
 # harness's jacobi-sampled) is unstable (blow-up at t = 0.035 s); the harness's jacobi is stable there.
 CASES = {
     "ring": Case("ring", 1e-3, 10_000, 200),
-    "two_inertia": Case("two_inertia", 1e-3, 10_000, 200),
+    # two_inertia (undamped, free-free) is unstable under Jacobi with zero-order hold at every step (README,
+    # Coupling stability): 2 000 steps keep the growth far below the blow-up limit, so every tool finishes
+    "two_inertia": Case("two_inertia", 1e-3, 2_000, 200),
     "feeder_gto52": Case("feeder_gto52", 1e-4, 2_000, 20),
     "bed_drive": Case("bed_drive", 1e-4, 2_000, 20),
     "spine_knife": Case("spine_knife", 5e-5, 2_000, 20),

@@ -15,13 +15,14 @@ import numpy as np
 
 NS = 1_000_000_000
 
-TOOLS = ("jacobi", "jacobi-sampled", "gauss-seidel", "iterative", "libcosim", "ecos", "cofmupy", "fmpy",
-         "ctypes")
-HARNESS_TOOLS = ("jacobi", "jacobi-sampled", "gauss-seidel", "iterative")
-# tools that compute exactly what the harness computes with master "jacobi-sampled"
-SAME_ALGORITHM = ("jacobi-sampled", "libcosim", "ecos", "fmpy", "ctypes")
-COFMUPY_SKIP = ("CoFmuPy is not installed: it pins pythonfmu 0.6.3 and fmpy 0.3.20, which would downgrade the "
-                "pythonfmu 0.7 that builds our FMUs (install it in a separate virtual environment)")
+TOOLS = ("jacobi", "jacobi-sampled", "jacobi-sampled-fmi", "gauss-seidel", "iterative", "libcosim", "ecos",
+         "cofmupy", "fmpy", "ctypes")
+# the harness's masters; "-fmi": the same master calling every FMU through its C library (the plain FMI path)
+# instead of the default in-process path for the toolkit's pythonfmu FMUs (harness.inprocess)
+HARNESS_TOOLS = ("jacobi", "jacobi-sampled", "jacobi-sampled-fmi", "gauss-seidel", "iterative")
+# tools that compute exactly what the harness computes with master "jacobi-sampled" (cofmupy: its Jacobi
+# within one strongly connected group, the only systems benchmarks.cofmupy lets it run)
+SAME_ALGORITHM = ("jacobi-sampled", "jacobi-sampled-fmi", "libcosim", "ecos", "cofmupy", "fmpy", "ctypes")
 
 
 def _ssd(folder: Path) -> str:
@@ -41,13 +42,15 @@ def _preload(folder: Path) -> None:
     preload(sorted(Path(folder).rglob("*.fmu")))
 
 
-def run_harness(folder: Path, master: str, step: float, n: int, columns: list[str]) -> dict:
-    from harness import load, simulate
+def run_harness(folder: Path, tool: str, step: float, n: int, columns: list[str]) -> dict:
+    from harness import RunOptions, load, simulate
 
     system = load(_ssd(folder))
-    df = simulate(system, stop_time=n * step, step=step, master=master, extrapolation=0, outputs=columns)
+    master = tool.removesuffix("-fmi")
+    df = simulate(system, stop_time=n * step, step=step, master=master, extrapolation=0, outputs=columns,
+                  options=RunOptions(in_process=False if tool.endswith("-fmi") else None))
     if not df.attrs["complete"]:
-        raise RuntimeError(f"harness {master}: {df.attrs['error']}")
+        raise RuntimeError(f"harness {tool}: {df.attrs['error']}")
     return {"seconds": df.attrs["wall_time"], "steps": int(df.attrs["steps"]), "fmus": len(system.instances),
             "final": {c: float(df[c].iloc[-1]) for c in columns}}
 
@@ -179,16 +182,17 @@ def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str) 
     return {"seconds": seconds, "steps": n, "fmus": len(insts), "final": final}
 
 
-def run_realtime(system_name: str, quick: bool) -> dict:
-    """The system's default experiment (its own step, master and stop time; a 100th of it with ``quick``) in
-    the harness: ``seconds`` is the wall time, ``final`` holds ``stop_time`` (the real-time factor is
-    stop_time / seconds)."""
+def run_realtime(system_name: str, run: dict, quick: bool) -> dict:
+    """One run of a system in the harness as ``run`` says (``stop_time``, ``step``, ``master``,
+    ``parameters``: a scene's chosen model, or the default experiment), a 100th of it with ``quick``:
+    ``seconds`` is the wall time of initialisation and stepping, ``final`` holds ``stop_time`` (the real-time
+    factor is stop_time / seconds)."""
     from harness import load, simulate
 
     system = load(system_name)
-    exp = system.experiment
-    stop = exp.stop_time / 100 if quick else exp.stop_time
-    df = simulate(system, stop_time=stop, outputs=check_columns_of(system)[:1])
+    stop = run["stop_time"] / 100 if quick else run["stop_time"]
+    df = simulate(system, stop_time=stop, step=run["step"], master=run["master"], parameters=run["parameters"],
+                  outputs=check_columns_of(system)[:1])
     if not df.attrs["complete"]:
         raise RuntimeError(f"{system_name}: {df.attrs['error']}")
     return {"seconds": df.attrs["wall_time"], "steps": int(df.attrs["steps"]), "fmus": len(system.instances),
@@ -211,5 +215,5 @@ def run(tool: str, folder: Path, step: float, n: int, columns: list[str], parame
     if tool in ("fmpy", "ctypes"):
         return run_floor(folder, step, n, columns, tool)
     if tool == "cofmupy":
-        raise NotImplementedError(COFMUPY_SKIP)
+        raise ValueError("cofmupy runs in its own virtual environment: benchmarks.cofmupy.run_config, not here")
     raise ValueError(f"tool = {tool!r} is not one of {', '.join(TOOLS)}")

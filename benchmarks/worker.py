@@ -14,7 +14,7 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         if spec["tool"] == "realtime":
-            out = runners.run_realtime(spec["case"], spec["quick"])
+            out = runners.run_realtime(spec["case"], spec["run"], spec["quick"])
         else:
             out = runners.run(spec["tool"], spec["folder"], spec["step"], spec["n"], spec["columns"],
                               spec.get("parameter_set"))

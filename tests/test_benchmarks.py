@@ -3,22 +3,28 @@ flags a tool that computed something else; the targets are evaluated from the me
 from __future__ import annotations
 
 import csv
+import json
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-from benchmarks import bench
-from benchmarks.cases import check_columns, ring
+from benchmarks import bench, cofmupy
+from benchmarks.cases import CASES, check_columns, ring, ssp_folder
+from harness.model import Connection
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_quick_run_writes_csv_and_checks_results(fmu_dir, tmp_path):
-    env = dict(os.environ, PRESSDRIVE_FMU_DIR=str(fmu_dir), PYTHONPATH=str(ROOT))
+    # a venv that cannot be created: the run must not install CoFmuPy (the ring is refused before, anyway)
+    (tmp_path / "blocker").write_text("")
+    env = dict(os.environ, PRESSDRIVE_FMU_DIR=str(fmu_dir), PYTHONPATH=str(ROOT),
+               PRESSDRIVE_COFMUPY_VENV=str(tmp_path / "blocker" / "venv"))
     proc = subprocess.run([sys.executable, "-m", "benchmarks", "--quick", "--cases", "ring", "--tools",
                            "jacobi-sampled,fmpy,ctypes,cofmupy", "--modes", "unpinned", "--no-realtime",
                            "--out", str(tmp_path), "--chart", str(tmp_path / "b.png")],
@@ -32,7 +38,8 @@ def test_quick_run_writes_csv_and_checks_results(fmu_dir, tmp_path):
         assert r["same_result"] == "True", r
         assert float(r["us_per_fmu_step"]) > 0 and int(r["steps"]) == 200 and int(r["fmus"]) == 6
     assert float(by_tool["fmpy"]["max_rel_deviation"]) == 0.0  # same time doubles: bit for bit
-    assert by_tool["cofmupy"]["note"].startswith("skipped: CoFmuPy is not installed")
+    # the CoFmuPy venv cannot be created here: the row says why, the others go on
+    assert by_tool["cofmupy"]["note"].startswith("skipped: CoFmuPy virtual environment")
     assert (tmp_path / "b.png").stat().st_size > 0 and (tmp_path / "b.svg").is_file()
 
 
@@ -59,14 +66,76 @@ def test_result_check_refuses_a_missing_or_non_finite_value():
 
 def test_targets_are_judged_from_the_rows():
     rows = [{"case": "ring", "tool": t, "mode": "pinned", "us_per_fmu_step": v}
-            for t, v in (("jacobi-sampled", 5.0), ("libcosim", 28.0), ("ecos", 4.0), ("fmpy", 4.5))]
+            for t, v in (("jacobi-sampled", 5.0), ("jacobi-sampled-fmi", 6.0), ("libcosim", 28.0), ("ecos", 4.0),
+                         ("fmpy", 4.5))]
+    rows += [{"case": "bed_drive (scene)", "kind": "scene", "mode": "pinned", "realtime_factor": 4.9, "note": "x"},
+             {"case": "bed_drive (experiment)", "kind": "experiment", "mode": "pinned", "realtime_factor": 0.5}]
     got = {what: met for what, met, _ in bench.targets(rows)}
     assert got["ring pinned: harness faster than every peer"] is False      # Ecos 4.0 < 5.0
-    assert got["ring pinned: harness within 1.3x of the fmpy floor"] is True  # 5.0 <= 1.3 * 4.5
+    # the plain FMI path: 6.0 > 1.3 * 4.5
+    assert got["ring pinned: harness on its plain FMI path within 1.3x of the fmpy floor"] is False
     assert got["bed_drive pinned: harness faster than the fastest peer"] is None  # not measured
+    assert got["bed_drive default scene >= 5x faster than real time (pinned)"] is False  # 4.9 < 5
+    assert not any("experiment" in what for what in got)  # the declared model's factor is reported, not judged
 
 
 def test_ring_check_columns_are_the_states_only(fmu_dir, monkeypatch):
     monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
     # Gain.y depends directly on u (feed-through: sampled differently by the tools), integral does not
     assert check_columns(ring()) == [f"g{i}.integral" for i in range(6)]
+
+
+# -- CoFmuPy (benchmarks/cofmupy.py: its own venv, its configuration generated from the SSP) ------------------
+def test_cofmupy_venv_that_cannot_be_created_gives_a_one_line_reason(monkeypatch, tmp_path):
+    (tmp_path / "blocker").write_text("")
+    venv = tmp_path / "blocker" / "venv"  # under a regular file: nothing can be created there
+    monkeypatch.setenv(cofmupy.VENV_ENV, str(venv))
+    python, reason = cofmupy.ensure_venv(timeout=60)
+    assert python is None
+    assert reason.startswith(f"CoFmuPy virtual environment {venv} could not be created: ") and "\n" not in reason
+
+
+def test_cofmupy_config_gives_every_input_its_consistent_initial_value(fmu_dir, monkeypatch, tmp_path):
+    monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
+    folder = ssp_folder(CASES["two_inertia"].system(), tmp_path)
+    made = cofmupy.write_config(folder, 1e-3)
+    config = json.loads(open(made["config"]).read())
+    assert made["fmus"] == 2 and made["typed_parameters"] == {} and config["cosim_method"] == "jacobi"
+    init = {f["id"]: f["initialization"] for f in config["fmus"]}
+    # a starts at w0 = 1 rad/s: CoFmuPy does not pass the outputs at t = 0 on, so the config must
+    assert init["b"] == {"J": 0.02, "c": 100.0, "d": 0.0, "drive.phi": 0.0, "drive.w": 1.0}
+    assert init["a"]["w0"] == 1.0 and init["a"]["flange.tau"] == 0.0
+    links = {(c["source"]["id"], c["source"]["variable"], t["id"], t["variable"])
+             for c in config["connections"] for t in c["target"]}
+    assert links == {("a", "flange.phi", "b", "drive.phi"), ("a", "flange.w", "b", "drive.w"),
+                     ("b", "drive.tau", "a", "flange.tau")}
+
+
+def test_cofmupy_config_refuses_what_cofmupy_cannot_express(fmu_dir, monkeypatch, tmp_path):
+    monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
+    made = cofmupy.write_config(ssp_folder(CASES["bed_drive"].system(), tmp_path), 1e-4)
+    assert set(made) == {"skipped"}
+    assert re.fullmatch(r"connection fourbar.rocker.phi -> diff.ring.phi has factor -1, offset [0-9.]+: CoFmuPy 1.0 "
+                        r"copies values along a connection \(no linear transformation\)", made["skipped"])
+    # a -> b -> c with c not feeding back: CoFmuPy would step c after {a, b} on their NEW outputs (Gauss-Seidel)
+    chain = [Connection("a.y", "b.u"), Connection("b.y", "a.u"), Connection("b.z", "c.u")]
+    with pytest.raises(cofmupy.Unsupported, match=r"connection b.z -> c.u links two strongly connected groups"):
+        cofmupy._check_one_group(["a", "b", "c"], chain)
+
+
+@pytest.mark.slow  # creates the CoFmuPy venv on first use (pip install: about a minute)
+def test_cofmupy_runs_in_its_venv_and_agrees_with_the_harness(fmu_dir, tmp_path):
+    python, reason = cofmupy.ensure_venv()
+    if python is None:
+        pytest.skip(reason)
+    env = dict(os.environ, PRESSDRIVE_FMU_DIR=str(fmu_dir), PYTHONPATH=str(ROOT))
+    proc = subprocess.run([sys.executable, "-m", "benchmarks", "--quick", "--cases", "ring,two_inertia,feeder_gto52",
+                           "--tools", "jacobi-sampled,cofmupy", "--modes", "unpinned", "--no-realtime", "--no-chart",
+                           "--out", str(tmp_path)], capture_output=True, text=True, cwd=str(ROOT), env=env, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    rows = {(r["case"], r["tool"]): r for r in csv.DictReader(open(tmp_path / "benchmark.csv"))}
+    for case, fmus, steps in (("ring", 6, 200), ("two_inertia", 2, 200), ("feeder_gto52", 4, 20)):  # feeder: Integer parameters
+        r = rows[(case, "cofmupy")]
+        assert r["same_result"] == "True" and r["note"] == "", r
+        assert float(r["us_per_fmu_step"]) > 0 and int(r["fmus"]) == fmus and int(r["steps"]) == steps
+        assert float(r["max_rel_deviation"]) <= 1e-12  # same algorithm, same start: bit for bit in practice
