@@ -9,6 +9,16 @@
 * The disc cam on the same main shaft swings the carrier by 40 deg with the published rise / return phases
   216 deg 53' 10" / 143 deg 06' 50"; its rise starts with the four-bar's working stroke (both inputs leave their
   extreme positions together, as the seed requires), so the run starts there too (flywheel phi0).
+* The cam is declared rigid (fidelity 0); its elastic levels (1, 2: the scenes' full model) get values for
+  this drive, not the component defaults, which are the seed-000 feeder's (5000 N.m/rad and 5e5 N/m for a
+  0.00043 kg.m2 rocker): against the bed's inertia reflected to the carrier, (1 + z3/z5)^2 * m_T * R6^2 =
+  10 kg.m2, those put a 2.5-3.6 Hz mode into the carrier drive and doubled the follower swing.  Assumed: the
+  transmission from the cam to the carrier (follower arm, shaft, carrier) is as stiff and as damped,
+  reduced to its output, as the four-bar that drives the ring: coupler 5e7 N/m and 2e3 N.s/m times
+  rocker_length^2 = 2.5e6 N.m/rad and 101 N.m.s/rad (about 14 % of critical for the 0.05 kg.m2 follower
+  alone, 1 % for the follower with the reflected bed); roller contact stiffness 1e8 N/m (steel roller on
+  the cam, a line contact of order 1e9 N/m, in series with the roller's bearing and pin); a groove cam's
+  running play of 10 um at the roller (the carrier is driven both ways, so the cam must be form-closed).
 * Differential z_ring/z_sun = 3 with 3 planets (seed: i_53^b = -3, i_5b^3 = 4).  The inputs add only when ring
   and carrier turn in opposite senses (seed: -w3 and +w_b); the four-bar rocker turns counter-clockwise on its
   working stroke, like the cam follower, so it drives the ring through a reversing pair: the connection
@@ -28,6 +38,7 @@ from harness.scenes import Scene
 
 RPM = 2 * math.pi / 60
 CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m
+C_COUPLER, D_COUPLER = 5e7, 2e3  # N/m, N.s/m: four-bar coupler (assumed); the cam transmission copies them
 _analysis = fourbar.analyse(1.0, COUPLER / CRANK, FRAME / CRANK, ROCKER / CRANK)
 PHI_START = math.radians(_analysis.working_start_deg)  # crank angle where the working stroke begins
 ROCKER_START = float(fourbar.position(PHI_START, CRANK, COUPLER, FRAME, ROCKER, 1)[0])  # rad
@@ -50,19 +61,23 @@ SYSTEM = System(
         }),
         Instance("fourbar", "FourBar", {
             "crank_length": CRANK, "coupler_length": COUPLER, "frame_length": FRAME, "rocker_length": ROCKER,
-            "fidelity": 1, "coupler_stiffness": 5e7, "coupler_damping": 2e3,  # N/m, N.s/m (assumed)
+            "fidelity": 1, "coupler_stiffness": C_COUPLER, "coupler_damping": D_COUPLER,  # N/m, N.s/m
             "rocker_inertia": 0.5, "clearance": 0.0,                            # kg.m2 (ring gear z3 + rocker)
         }),
         Instance("cam", "CamRocker", {
             "mechanism": 1, "fidelity": 0, "law": 0,                 # disc cam, rigid, harmonic law
             "swing": math.radians(40.0), "phi_start": PHI_START,     # rad
             "rocker_inertia": 0.05,                                  # kg.m2 (carrier + follower)
+            # fidelity 1, 2 (module docstring): transmission as the four-bar's, reduced to its output
+            "stiffness": C_COUPLER * ROCKER ** 2, "damping": D_COUPLER * ROCKER ** 2,  # N.m/rad, N.m.s/rad
+            "contact_stiffness": 1e8, "clearance": 10e-6,                            # N/m, m (roller)
         }),
         Instance("diff", "JamesDifferential", {"z_ring": 72, "z_planet": 24, "z_sun": 24, "n_planets": 3,
                                                "fidelity": 0}),
         Instance("bed", "RackBed", {
             "fidelity": 1, "m_T": 250.0, "module": 0.004, "z_pinion": 25,     # kg, m, teeth
             "c_mesh": 2.0e7,                  # N/m: rack mesh in series with the drive-train compliance
+            "d_mesh": 0.2 * math.sqrt(2.0e7 * 250.0),  # N.s/m: 10 % of critical for the bed on that mesh
             "F_print": 500.0, "s_print_start": 0.08, "s_print_end": 0.24,     # N, m, m
         }),
     ],
@@ -87,4 +102,5 @@ SYSTEM = System(
         Scene("peak_crank_torque", "What peak torque does the main shaft carry?",
               'peak(window(r["flywheel.shaft_torque"], 0.2, 1.0))', tolerance=0.05, unit="N.m", stop_time=1.0),
     ],
+    default_scene="print_speed_ripple",  # the seed's aim: a uniform bed speed while printing
 )

@@ -66,4 +66,5 @@ SYSTEM = System(
         Scene("motor_power", "What mean electrical power does the motor draw at running speed?",
               'mean(window(r["motor.power_electrical"], 0.2, 0.6))', tolerance=0.02, unit="W", stop_time=0.6),
     ],
+    default_scene="impact_force",  # seed 000's question: the impacts in the clearance joint
 )

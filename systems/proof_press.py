@@ -48,4 +48,5 @@ SYSTEM = System(
         Scene("peak_shaft_torque", "What peak torque does the main shaft carry?",
               'peak(window(r["flywheel.shaft_torque"], 0.5, 2.0))', tolerance=0.05, unit="N.m", stop_time=2.0),
     ],
+    default_scene="sync_error",  # seed 002's aim: the cylinder rolls on the bed without slip while printing
 )

@@ -11,7 +11,12 @@
   ``python -m harness synth knife``).
 * Parallelogram linkage with equal cranks R = 50 mm (seed: double crank with equal cranks; the belt between
   the crank shafts keeps it from flipping into an antiparallelogram, modelled by taking the parallelogram
-  branch).
+  branch).  Its elastic levels (1, 2: the scenes' full model) have the belt as an element: the seed gives
+  no c2, b2, so a V-belt like the motor belt here (2e5 N/m, 300 N.s/m along the pitch line) on equal
+  pulleys of 0.1 m pitch diameter is assumed, c2 = 2e5*0.05^2 = 500 N.m/rad, b2 = 300*0.05^2 = 0.75
+  N.m.s/rad.  Without it the cut, which ends at the dead point pi, stops the rocker there and the linkage
+  runs on as an antiparallelogram (rocker backwards).  Coupler: 5e7 N/m (assumed), axial damping 141 N.s/m
+  = 5 % of critical for the rocker inertia reduced to the coupler at the full arm R (2*0.05*sqrt(c*J)/R).
 * Cutting load: feed-force samples 150/260/280/120 N over T_cut = 25 ms, cut over crank angles [pi/2, pi],
   one plunge per turn: the crank turns at 600 rpm (T_pause/T_cut = 3 > 2.5, the seed's rule).  The
   samples are assumptions: the seed prints none.
@@ -41,7 +46,9 @@ SYSTEM = System(
         }),
         Instance("linkage", "FourBar", {
             "crank_length": 0.05, "coupler_length": 0.2, "rocker_length": 0.05, "frame_length": 0.2,  # m
-            "fidelity": 0, "rocker_inertia": 1e-4, "coupler_stiffness": 5e7, "clearance": 0.0,
+            "fidelity": 0, "rocker_inertia": 1e-4, "coupler_stiffness": 5e7, "clearance": 0.0,  # kg.m2, N/m, m
+            "coupler_damping": 2 * 0.05 * math.sqrt(5e7 * 1e-4) / 0.05,                      # N.s/m
+            "belt_stiffness": 2.0e5 * 0.05 ** 2, "belt_damping": 300.0 * 0.05 ** 2,        # N.m/rad, N.m.s/rad
         }),
         Instance("knife", "KnifeLoad", {
             "T_cut": 0.025, "F_T1": 150.0, "F_T2": 260.0, "F_T3": 280.0, "F_T4": 120.0,   # s, N
@@ -60,4 +67,5 @@ SYSTEM = System(
         Scene("knife_torque", "What peak torque does the cutting put on the drive?",
               'peak(window(r["knife.knife.tau"], 0.1, 0.3))', tolerance=0.02, unit="N.m", stop_time=0.3),
     ],
+    default_scene="shaft_twist",  # seed 003's question: torsional deformation and resonance of the knife shaft
 )

@@ -262,6 +262,77 @@ def test_parallelogram_keeps_its_branch_through_the_dead_points():
     assert np.max(np.abs(y[:, 1] - crank)) < 0.05   # stays a parallelogram: a flip would put it radians off
 
 
+KNIFE_PARALLELOGRAM = dict(crank_length=0.05, coupler_length=0.2, rocker_length=0.05, frame_length=0.2,
+                           rocker_inertia=1e-4, coupler_stiffness=5e7, coupler_damping=141.0, clearance=0.0)
+
+
+def run_cut(model, w, t_end, h, torque):
+    """Crank at constant speed from phi = 0; the load torque depends on the crank angle (a cut)."""
+    x = model.initial_state([0.0, w, torque(0.0)])
+    out = []
+    for k in range(int(round(t_end / h))):
+        phi, phi1 = w * k * h, w * (k + 1) * h
+        x = model.advance(k * h, h, x, [phi, w, torque(phi)])
+        out.append([phi1, *model.output((k + 1) * h, x, [phi1, w, torque(phi1)])])
+    return np.array(out)
+
+
+@pytest.mark.parametrize("fidelity", [1, 2])
+def test_parallelogram_belt_holds_the_branch_when_a_load_brakes_the_rocker_at_a_dead_point(fidelity):
+    """Seed 003: a cut over crank angles [pi/2, pi] ends at a dead point (pins collinear, no coupler arm).
+
+    Without the belt between the crank shafts the rocker stops there and runs back as an antiparallelogram
+    (what the seed's belt is fitted against); with it the linkage stays a parallelogram, rocker = crank
+    to within the belt's static deflection T/c_belt."""
+    def cut(phi, torque=8.0):
+        return -torque if math.pi / 2 <= phi % (2 * math.pi) < math.pi else 0.0
+    w, c_belt = 62.8, 500.0                                  # 600 rpm; N.m/rad
+    bare = FourBarModel(FourBarParams(fidelity=fidelity, **KNIFE_PARALLELOGRAM))
+    y = run_cut(bare, w, 0.2, 5e-5, cut)                      # two crank turns
+    assert np.max(np.abs(y[:, 2] - y[:, 0])) > 1.0             # flipped: rocker radians off the crank
+    belted = FourBarModel(FourBarParams(fidelity=fidelity, belt_stiffness=c_belt, belt_damping=0.75,
+                                        **KNIFE_PARALLELOGRAM))
+    y = run_cut(belted, w, 0.2, 5e-5, cut)
+    assert np.max(np.abs(y[:, 2] - y[:, 0])) < 2 * 8.0 / c_belt
+    assert y[-1, 2] - y[0, 2] == pytest.approx(y[-1, 0] - y[0, 0], abs=0.05)   # same turns as the crank
+
+
+def test_parallelogram_joint_damping_stays_bounded_through_the_dead_points():
+    """Fidelity 2 without play: the contact law's damping must not grow without bound where the rocker's arm
+    vanishes (a dead point), or the crank, still off its own dead point while the belt lets the rocker lag,
+    takes impulses many times the load.  The crank carries about the load torque (plus the rocker's small
+    inertia torque), as at fidelity 1."""
+    def cut(phi, torque=8.0):
+        return -torque if math.pi / 2 <= phi % (2 * math.pi) < math.pi else 0.0
+    peaks = {}
+    for fidelity in (1, 2):
+        m = FourBarModel(FourBarParams(fidelity=fidelity, belt_stiffness=500.0, belt_damping=0.75,
+                                       **KNIFE_PARALLELOGRAM))
+        y = run_cut(m, 62.8, 0.2, 5e-5, cut)
+        peaks[fidelity] = np.max(np.abs(y[:, 1]))              # crank.tau
+    assert peaks[1] < 2 * 8.0
+    assert peaks[2] < 2 * 8.0
+
+
+def test_parallelogram_belt_torque_acts_on_rocker_and_crank_equal_and_opposite():
+    base = dict(KNIFE_PARALLELOGRAM, fidelity=1)
+    with_belt = FourBarModel(FourBarParams(belt_stiffness=500.0, belt_damping=0.75, **base))
+    without = FourBarModel(FourBarParams(**base))
+    phi, w, tau = 1.0, 60.0, -2.0
+    x = np.array([phi - 0.01, w - 3.0, 0.0, 0.0, 0.0, 0.0])  # rocker lagging the crank: belt pulls it on
+    u = [phi, w, tau]
+    belt = 500.0 * 0.01 + 0.75 * 3.0
+    d_acc = with_belt.derivatives(0.0, x, u, 0.0)[1] - without.derivatives(0.0, x, u, 0.0)[1]
+    d_crank = with_belt.output(0.0, x, u)[0] - without.output(0.0, x, u)[0]
+    assert d_acc * KNIFE_PARALLELOGRAM["rocker_inertia"] == pytest.approx(belt, rel=1e-12)
+    assert d_crank == pytest.approx(-belt, rel=1e-12)        # the crank shaft carries the reaction
+
+
+def test_belt_is_refused_on_a_crank_rocker():
+    with pytest.raises(ParameterError, match="belt_stiffness"):
+        FourBarModel(FourBarParams(fidelity=1, belt_stiffness=500.0))
+
+
 def test_non_grashof_and_non_parallelogram_linkages_are_refused():
     with pytest.raises(ParameterError, match="frame_length"):
         FourBarModel(FourBarParams(crank_length=0.1, coupler_length=0.3, rocker_length=0.11, frame_length=0.05))

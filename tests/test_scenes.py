@@ -100,6 +100,13 @@ def test_the_default_scene_is_asked_when_none_is_named(monkeypatch):
         scenes.find_scene(system)
 
 
+@pytest.mark.parametrize("name", ["two_inertia", "feeder_gto52", "spine_knife", "proof_press", "bed_drive"])
+def test_every_system_names_a_default_scene_of_its_own(name):
+    system = load(name)
+    assert system.default_scene in {s.name for s in system.scenes}
+    assert scenes.find_scene(system).name == system.default_scene
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["two_inertia", "feeder_gto52", "spine_knife", "proof_press", "bed_drive"])
 def test_every_scene_of_a_system_and_two_choose_different_models(name, tmp_path):

@@ -51,6 +51,26 @@ Fidelity levels of :class:`FourBarModel` (port crank: motion in; port rocker: mo
    impact_count, last_impact_speed, rebound_speed.  coupler_damping is not used at this level (the
    contact law's damping replaces it).
    Without a clearance (clearance = 0) the joint is in contact on one side or the other at all times.
+   A parallelogram's arm vanishes at its dead points, and with it the m_eff above would grow without
+   bound, and so would the contact law's damping coefficient (Kelvin-Voigt: 2*zeta*sqrt(k*m_eff)): the
+   crank, whose arm is not zero while the rocker lags it through a dead point, would take impulses from a
+   damper no real joint has.  For a parallelogram m_eff is therefore the rocker inertia reduced at the full
+   arm, I / (r^2 (1 - chi)): a damping coefficient of the joint, as a real joint's, not of the pose.
+
+Parallelogram (crank = rocker, coupler = frame, seed 003's double crank).  At its two dead points (crank
+along the frame line) all four pins are collinear: the coupler's arm on the rocker vanishes and the
+parallelogram branch meets the antiparallelogram branch, so a single coupler cannot say which way the
+rocker goes on.  Seed 003 fits a belt between the two crank shafts for exactly this reason; the rigid
+level takes the parallelogram branch (the belt's job).  At fidelity 1 and 2 the belt is an element of
+its own: a torsional spring-damper between the crank and the rocker shaft (equal pulleys, ratio 1),
+``belt_stiffness`` and ``belt_damping`` reduced to the shafts (c2, b2 of seed 003).  The belt torque
+T_b = belt_stiffness*(phi - psi) + belt_damping*(crank.w - w) acts on the rocker, -T_b on the crank:
+
+    I dw/dt = -(1 - chi) F arm + T_b + rocker.tau,      crank.tau = F * cross(A - O2, e_AD) - T_b.
+
+Without a belt (both 0, the default) an elastic parallelogram under a load that brakes the rocker at a
+dead point can turn into an antiparallelogram and run backwards: the linkage without its belt does that
+too.  A belt is refused for any other linkage (its ratio-1 drive would fight the coupler).
 """
 from __future__ import annotations
 
@@ -173,11 +193,20 @@ class FourBarParams(Params):
                                low=0.0, low_open=True, high=1.0)
     friction_ratio: float = param(0.0, "1", "seed 000 chi: the rocker receives (1 - chi) of the coupler force "
                                             "(seed value 0.2)", low=0.0)
+    belt_stiffness: float = param(0.0, "N.m/rad", "parallelogram only: torsional stiffness of the belt between "
+                                  "the crank and rocker shafts, ratio 1 (seed 003 c2; fidelity 1, 2; 0 = no belt)",
+                                  low=0.0)
+    belt_damping: float = param(0.0, "N.m.s/rad", "parallelogram only: damping of that belt (seed 003 b2; "
+                                "fidelity 1, 2)", low=0.0)
 
     def check(self) -> None:
-        linkage_type(self.crank_length, self.coupler_length, self.frame_length, self.rocker_length)
+        kind = linkage_type(self.crank_length, self.coupler_length, self.frame_length, self.rocker_length)
         if not self.friction_ratio < 1.0:
             raise ParameterError("friction_ratio", self.friction_ratio, "must be < 1")
+        for name in ("belt_stiffness", "belt_damping"):
+            if getattr(self, name) > 0.0 and kind != "parallelogram":
+                raise ParameterError(name, getattr(self, name), f"a belt between the crank shafts (ratio 1) "
+                                                                f"needs a parallelogram linkage, not a {kind}")
 
 
 PSI, W, V_IMPACT, COUNT, LAST_V, REBOUND = range(6)
@@ -219,6 +248,11 @@ class FourBarModel(Model):
         dt = 0.1 / omega                                         # ~30 sub-steps per contact half-period
         if p.fidelity == 1 and p.coupler_damping > 0.0:
             dt = min(dt, 1.0 / (p.coupler_damping * r2_over_i))  # RK4 real-axis stability 2.78
+        inertia = p.rocker_inertia + 0.5 * p.coupler_mass * p.rocker_length ** 2
+        if p.belt_stiffness > 0.0:
+            dt = min(dt, 0.1 / math.sqrt(p.belt_stiffness / inertia))
+        if p.belt_damping > 0.0:
+            dt = min(dt, inertia / p.belt_damping)
         return dt
 
     def rigid_kinematics(self, phi: float) -> tuple[float, float, float]:
@@ -260,9 +294,15 @@ class FourBarModel(Model):
         p = self.p
         if p.fidelity == 1:
             return p.coupler_stiffness * q + p.coupler_damping * qd
+        if self.kind == "parallelogram":   # arm -> 0 at the dead points (module docstring)
+            arm = self._r
         m_eff = self._inertia / (max(arm * arm, 1e-300) * self._keep)
         return -contact.contact_force(q, qd, p.clearance, p.coupler_stiffness, p.contact_law, p.restitution,
                                       v_impact, m_eff)
+
+    def _belt(self, phi, wc, psi, w) -> float:
+        """Torque [N.m] of the shaft-to-shaft belt on the rocker (parallelogram, fidelity >= 1)."""
+        return self.p.belt_stiffness * (phi - psi) + self.p.belt_damping * (wc - w)
 
     def _side(self, q) -> float:
         return 1.0 if q > self._half else (-1.0 if q < -self._half else 0.0)
@@ -279,7 +319,8 @@ class FourBarModel(Model):
         phi = u[0] + u[1] * (t - t0)
         q, qd, _, _, arm, _ = self._geometry(phi, u[1], x[0], x[1])
         force = self._tension(q, qd, arm, x[2]) if contact_on else 0.0
-        return np.array([x[1], (u[2] - self._keep * force * arm) / self._inertia, 0.0, 0.0, 0.0, 0.0])
+        belt = self._belt(phi, u[1], x[0], x[1])
+        return np.array([x[1], (u[2] - self._keep * force * arm + belt) / self._inertia, 0.0, 0.0, 0.0, 0.0])
 
     def output(self, t, x, u):
         p = self.p
@@ -293,10 +334,11 @@ class FourBarModel(Model):
         q, qd, ex, ey, arm, arm_crank = self._geometry(u[0], u[1], x[0], x[1])
         force = self._tension(q, qd, arm, x[2])
         mu = math.acos(max(-1.0, min(1.0, ex * math.cos(x[0]) + ey * math.sin(x[0]))))
+        crank_tau = force * arm_crank - self._belt(u[0], u[1], x[0], x[1])
         if p.fidelity == 1:
-            return (force * arm_crank, x[0], x[1], mu, force, 0.0, 1.0, x[3], x[4], x[5])
+            return (crank_tau, x[0], x[1], mu, force, 0.0, 1.0, x[3], x[4], x[5])
         side = self._side(q)
-        return (force * arm_crank, x[0], x[1], mu, force, abs(force), abs(side), x[3], x[4], x[5])
+        return (crank_tau, x[0], x[1], mu, force, abs(force), abs(side), x[3], x[4], x[5])
 
     def _step(self, t, x, dt, u, t0, contact_on=True):
         """One classical Runge-Kutta step of length dt from (t, x); phi(t) uses the step start t0.
