@@ -24,55 +24,86 @@ DEPTH = 3  # samples kept per signal (enough for degree 2)
 
 
 class History:
-    """The last :data:`DEPTH` samples (time, value) of each coupling signal; row 0 is the newest.
+    """The last ``depth`` (at most :data:`DEPTH`) samples (time, value) of each coupling signal; row 0 is the
+    newest.
 
     Samples are pushed per instance (a slice of the signal vector), because Gauss-Seidel advances instances
     one after the other; pushing again at the newest time overwrites that sample (iterations of a step)."""
 
-    __slots__ = ("t", "y", "n")
+    __slots__ = ("t", "y", "n", "depth", "_newest", "_full")
 
-    def __init__(self, n_signals: int):
+    def __init__(self, n_signals: int, depth: int = DEPTH):
+        if not 1 <= depth <= DEPTH:
+            raise ValueError(f"history depth {depth!r} must be 1 to {DEPTH}")
+        self.depth = depth                  # samples kept (a master that needs the newest only keeps 1)
         self.t = np.zeros((DEPTH, n_signals))
         self.y = np.zeros((DEPTH, n_signals))
         self.n = np.zeros(n_signals, dtype=np.int64)
+        self._newest: float | None = None   # time of the newest sample when it is the same for every signal
+        self._full = False                  # every signal holds ``depth`` samples
 
     def push(self, sl: slice, t: float, values: np.ndarray) -> None:
         if sl.stop == sl.start:
             return
+        self._newest = None
         if self.n[sl.start] > 0 and self.t[0, sl.start] == t:
             self.y[0, sl] = values
             return
-        self.t[1:, sl] = self.t[:-1, sl]
-        self.y[1:, sl] = self.y[:-1, sl]
+        d = self.depth
+        if d > 1:
+            self.t[1:d, sl] = self.t[:d - 1, sl]
+            self.y[1:d, sl] = self.y[:d - 1, sl]
         self.t[0, sl] = t
         self.y[0, sl] = values
-        np.minimum(self.n[sl] + 1, DEPTH, out=self.n[sl])
+        np.minimum(self.n[sl] + 1, d, out=self.n[sl])
 
     def push_all(self, t: float, values: np.ndarray) -> None:
         """:meth:`push` of every signal at once (the same result as pushing each instance's slice)."""
+        if self._newest is not None:  # the newest samples share one time (Jacobi family): no search
+            if self._newest == t:
+                self.y[0] = values
+                return
+            self._shift()
+            self.t[0] = t
+            self.y[0] = values
+            if not self._full:
+                self._count()
+            self._newest = t
+            return
         same = self.t[0] == t
         same &= self.n > 0
         if same.all():
             self.y[0] = values
-            return
-        if same.any():  # some signals already hold a sample at t (Gauss-Seidel): overwrite those only
+        elif same.any():  # some signals already hold a sample at t (Gauss-Seidel): overwrite those only
             for k in np.flatnonzero(~same):
                 self.push(slice(k, k + 1), t, values[k:k + 1])
             self.y[0, same] = values[same]
-            return
-        self.t[1:] = self.t[:-1]
-        self.y[1:] = self.y[:-1]
-        self.t[0] = t
-        self.y[0] = values
-        np.minimum(self.n + 1, DEPTH, out=self.n)
+            self._full = bool(self.n.min() == self.depth)
+        else:
+            self._shift()
+            self.t[0] = t
+            self.y[0] = values
+            self._count()
+        self._newest = t
+
+    def _shift(self) -> None:
+        d = self.depth
+        if d > 1:
+            self.t[1:d] = self.t[:d - 1]
+            self.y[1:d] = self.y[:d - 1]
+
+    def _count(self) -> None:
+        np.minimum(self.n + 1, self.depth, out=self.n)
+        self._full = bool(self.n.size == 0 or self.n.min() == self.depth)
 
     def copy_from(self, other: "History") -> None:
         self.t[:] = other.t
         self.y[:] = other.y
         self.n[:] = other.n
+        self._newest, self._full = other._newest, other._full
 
     def snapshot(self) -> "History":
-        h = History(self.t.shape[1])
+        h = History(self.t.shape[1], self.depth)
         h.copy_from(self)
         return h
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from harness import graph
 from harness.errors import AlgebraicLoopError, FMUError, HarnessError, SimulationError, SystemError_
-from harness.extrapolation import History, Polynomial
+from harness.extrapolation import DEPTH, History, Polynomial
 
 NS = 1_000_000_000
 
@@ -210,7 +210,7 @@ class Master:
         self.signal_names = names
         self.signal_index = {n: k for k, n in enumerate(names)}
         self.y = np.zeros(len(names))
-        self.history = History(len(names))
+        self.history = History(len(names), self.history_depth())
         # held-input vector u: every connected input, instance after instance (u = fac * y[src] + off)
         by_target: dict[str, list] = {n: [] for n in fmus}
         for c in self.connections:
@@ -250,8 +250,13 @@ class Master:
         self._batched = [it for it in self.insts if it.inp.n and not it.interp]
         self._interp = [it for it in self.insts if it.inp.n and it.interp]
         self._slots: dict[str, tuple] = {}
+        self._y_list: list | None = None  # y as a list at the end of the last step (None: recompute)
         self.t_ns = 0
         self.iterations = 0  # total iterations (iterative master)
+
+    def history_depth(self) -> int:
+        """Samples of each output the master keeps for its held inputs (all that any method needs)."""
+        return DEPTH
 
     # -- power bonds -------------------------------------------------------------------------------------------
     def _prepare_bonds(self, bonds) -> None:
@@ -273,21 +278,20 @@ class Master:
             except KeyError as err:
                 raise SystemError_(f"bond {b.label}: variable {err.args[0]} is not part of the bond's connections")
             self.bond_labels.append(b.label)
-        self._bonds = np.array(rows, dtype=np.intp).reshape(len(rows), 4).T.copy()
-        nb = len(rows)
-        self.bond_power = np.zeros((2, nb))     # [P_out, P_in] over the last step [W]
-        self.bond_energy = np.zeros(nb)          # accumulated integral of P_out - P_in [J]
+        self._bonds = [tuple(r) for r in rows]
+        self.bond_log = np.zeros((3, len(rows)))  # rows P_out, P_in [W] over the last step, energy error [J]
+        self.bond_power = self.bond_log[:2]       # [P_out, P_in] (views of bond_log)
+        self.bond_energy = self.bond_log[2]       # accumulated integral of P_out - P_in
 
-    def _bond_step(self, y0: np.ndarray, h: float) -> None:
+    def _bond_step(self, y0: list, y: list, h: float) -> None:
         """P_out = held effort x mean speed, P_in = mean effort x held speed over the step; energy += (P_out -
-        P_in) * h (trapezoidal means of the outputs at both ends of the step)."""
-        tau_held, w_out, w_held, tau_out = self._bonds
-        y, u = self.y, self.u
-        p_out = u[tau_held] * 0.5 * (y0[w_out] + y[w_out])
-        p_in = 0.5 * (y0[tau_out] + y[tau_out]) * u[w_held]
-        self.bond_power[0] = p_out
-        self.bond_power[1] = p_in
-        self.bond_energy += (p_out - p_in) * h
+        P_in) * h (trapezoidal means of the outputs at both ends of the step).  In plain floats: a drive has
+        a handful of bonds, too few for numpy to pay."""
+        u = self.u.tolist()
+        p_out = [u[tau_held] * 0.5 * (y0[w_out] + y[w_out]) for tau_held, w_out, _, _ in self._bonds]
+        p_in = [0.5 * (y0[tau_out] + y[tau_out]) * u[w_held] for _, _, w_held, tau_out in self._bonds]
+        energy = [e + (a - b) * h for e, a, b in zip(self.bond_log[2].tolist(), p_out, p_in)]
+        self.bond_log[:] = (p_out, p_in, energy)
 
     # -- coupling primitives -----------------------------------------------------------------------------------
     def _read(self, it: _Inst) -> None:
@@ -326,9 +330,9 @@ class Master:
         np.multiply(self.fac, self.extrapolation.held(self.history, self.src, t, h), out=u)
         u += self.off
         pos = self._pos
-        if pos.size:
+        hist = self.history
+        if pos.size and (self.extrapolation.order or hist._newest is None or hist._newest > t):
             src = self._pos_src
-            hist = self.history
             newer = hist.t[0, src] > t
             if self.extrapolation.order or newer.any():
                 start = np.where(newer, hist.y[1, src], hist.y[0, src])
@@ -400,17 +404,17 @@ class Master:
                 it.fmu.free_state(old[0][k])
             states.append(it.fmu.get_state())
         self._slots[slot] = (states, self.y.copy(), self.history.snapshot(), self.u.copy(),
-                             self.bond_power.copy(), self.bond_energy.copy(), self.t_ns)
+                             self.bond_log.copy(), self.t_ns)
 
     def restore(self, slot: str = "step") -> None:
-        states, y, hist, u, bp, be, t_ns = self._slots[slot]
+        states, y, hist, u, bonds, t_ns = self._slots[slot]
         for it, s in zip(self.insts, states):
             it.fmu.set_state(s)
         self.y[:] = y
         self.history.copy_from(hist)
         self.u[:] = u
-        self.bond_power[:] = bp
-        self.bond_energy[:] = be
+        self.bond_log[:] = bonds
+        self._y_list = None
         self.t_ns = t_ns
 
     def needs_rollback(self) -> bool:
@@ -440,22 +444,21 @@ class Master:
         self._exchange(t)
         for it in self.insts:
             it.fmu.exit_initialization()
-        self.history = History(len(self.y))
+        self.history = History(len(self.y), self.history_depth())
         self._exchange(t)
         self._check(t)
+        self._y_list = None
         self.t_ns = start_ns
 
     def step(self, t_ns: int, h_ns: int) -> None:
         """One communication step from t_ns (must be the current time) of h_ns nanoseconds."""
-        t, h = t_ns / NS, h_ns / NS
-        if self._bonds.size:
-            y0 = self.y.copy()
-            self._step_impl(t, h, (t_ns + h_ns) / NS)
-            self._check((t_ns + h_ns) / NS)
-            self._bond_step(y0, h)
-        else:
-            self._step_impl(t, h, (t_ns + h_ns) / NS)
-            self._check((t_ns + h_ns) / NS)
+        t, h, t_next = t_ns / NS, h_ns / NS, (t_ns + h_ns) / NS
+        y0 = self._y_list if self._y_list is not None else self.y.tolist()
+        self._step_impl(t, h, t_next)
+        y = self._y_list = self.y.tolist()
+        self._check(t_next, y)
+        if self._bonds:
+            self._bond_step(y0, y, h)
         self.t_ns = t_ns + h_ns
 
     def _step_impl(self, t: float, h: float, t_next: float) -> None:
@@ -463,12 +466,13 @@ class Master:
         ``self.y`` (and the history)."""
         raise NotImplementedError
 
-    def _check(self, t: float) -> None:
+    def _check(self, t: float, values: list | None = None) -> None:
+        """Stop on a non-finite output or one beyond the blow-up limit (``values``: ``y`` as a list)."""
+        values = self.y.tolist() if values is None else values
+        # every value is finite when the sum is (else: find the culprit below); then the largest magnitude
+        if not values or (math.isfinite(sum(values)) and max(map(abs, values)) <= self.blowup):
+            return
         y = self.y
-        if y.size:
-            top = np.abs(y).max()  # NaN propagates; inf exceeds any finite limit
-            if top <= self.blowup and top != math.inf:
-                return
         bad = ~np.isfinite(y) | (np.abs(y) > self.blowup)
         if bad.any():
             k = int(np.argmax(bad))
@@ -494,6 +498,9 @@ class Master:
 class Jacobi(Master):
     """Every FMU steps on inputs extrapolated from the outputs at t."""
     name = "jacobi"
+
+    def history_depth(self) -> int:
+        return self.extrapolation.order + 1  # every source's newest sample is at t: the polynomial's nodes
 
     def _step_impl(self, t, h, t_next):
         self._hold_all(t, h)

@@ -97,13 +97,11 @@ class Recorder:
             self._extra.append((fmu, fmu.reals([v for _, v in items]), np.array([k for k, _ in items])))
         self._cols_y = np.array([k for k, _ in self._from_y], dtype=np.intp)
         self._idx_y = np.array([i for _, i in self._from_y], dtype=np.intp)
+        self._y_first = [k for k, _ in self._from_y] == list(range(len(self._from_y)))
         n = max(2, int(expected_rows))
         self.time = np.empty(n)
         self.data = np.empty((n, len(self.columns)))
-        nb = len(master.bond_labels)
-        self.p_out = np.empty((n, nb))
-        self.p_in = np.empty((n, nb))
-        self.energy = np.empty((n, nb))
+        self.bonds = np.empty((n,) + master.bond_log.shape)  # per row: P_out, P_in, energy of every bond
         self.rows = 0
 
     def record(self, t: float) -> None:
@@ -112,17 +110,18 @@ class Recorder:
             self._grow()
         self.time[k] = t
         row = self.data[k]
-        row[self._cols_y] = self.master.y[self._idx_y]
+        if self._y_first:  # the columns from y come first, in order: one gather into the row
+            np.take(self.master.y, self._idx_y, out=row[:len(self._idx_y)])
+        else:
+            row[self._cols_y] = self.master.y[self._idx_y]
         for fmu, block, cols in self._extra:
             row[cols] = fmu.get(block)
-        if self.p_out.shape[1]:
-            self.p_out[k] = self.master.bond_power[0]
-            self.p_in[k] = self.master.bond_power[1]
-            self.energy[k] = self.master.bond_energy
+        if self.bonds.shape[2]:
+            self.bonds[k] = self.master.bond_log
         self.rows = k + 1
 
     def _grow(self) -> None:
-        for name in ("time", "data", "p_out", "p_in", "energy"):
+        for name in ("time", "data", "bonds"):
             a = getattr(self, name)
             b = np.empty((2 * a.shape[0],) + a.shape[1:])
             b[: a.shape[0]] = a
@@ -138,8 +137,9 @@ class Recorder:
         df.attrs.update(attrs)
         df.attrs["complete"] = bool(complete)
         df.attrs["error"] = error
-        df.attrs["bonds"] = BondLog(list(self.master.bond_labels), time, self.p_out[:n].copy(),
-                                    self.p_in[:n].copy(), self.energy[:n].copy())
+        b = self.bonds[:n]
+        df.attrs["bonds"] = BondLog(list(self.master.bond_labels), time, b[:, 0].copy(), b[:, 1].copy(),
+                                    b[:, 2].copy())
         return df
 
 
