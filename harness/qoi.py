@@ -12,7 +12,10 @@ An expression is Python syntax over these names only:
   0 -> 1 flag or an event counter (a flag already set at the first sample is not a rise here: inside a
   window it is a contact that began earlier);
   ``normalize(x)`` -- ``(x - min(x)) / ptp(x)`` (0 at the smallest, 1 at the largest value);
-  ``between(x, lo, hi)`` -- the elementwise test ``lo <= x <= hi`` (count with ``sum``).
+  ``between(x, lo, hi)`` -- the elementwise test ``lo <= x <= hi`` (count with ``sum``);
+  ``on_durations(flag, time)`` -- for each rise of a 0/1 flag (the samples ``at_rises(flag, x)`` picks), the
+  time from that sample to the next sample where the flag is 0 again: how long each contact lasted (``inf``
+  for one still on at the last sample).
 
 The reductions peak, rms, mean, max, min and ptp refuse an empty array unless given a default:
 ``peak(x, empty=0.0)``.
@@ -77,6 +80,19 @@ def _reduction(f):
     return g
 
 
+def _on_durations(flag, time) -> np.ndarray:
+    flag, time = np.asarray(flag, dtype=float), np.asarray(time, dtype=float)
+    if flag.shape != time.shape:
+        raise ValueError(f"on_durations: the two arrays differ in length ({flag.size} and {time.size})")
+    rises = np.flatnonzero(flag[1:] > flag[:-1]) + 1          # the samples at_rises uses
+    offs = np.flatnonzero(flag == 0.0)
+    if offs.size == 0:
+        return np.full(rises.size, np.inf)
+    nxt = np.searchsorted(offs, rises)                          # first sample after each rise with flag 0
+    ends = np.where(nxt < offs.size, time[offs[np.minimum(nxt, offs.size - 1)]], np.inf)
+    return ends - time[rises]
+
+
 def _normalize(x) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     span = float(np.ptp(x))
@@ -102,6 +118,7 @@ def _namespace(df: pd.DataFrame, expr: str) -> dict:
         "window": window, "count_rises": _count_rises, "abs": np.abs, "sqrt": np.sqrt, "where": np.where,
         "sum": lambda x: float(np.sum(x)), "at_rises": _at_rises, "normalize": _normalize,
         "between": lambda x, lo, hi: (np.asarray(x) >= lo) & (np.asarray(x) <= hi),
+        "on_durations": _on_durations,
     }
 
 

@@ -24,6 +24,7 @@ A sweep is described by a YAML or JSON file::
       facet: law                        # one column of panels per value (optional)
       reduce: max                       # max | mean | min over the sweep variables not named above
       logx: false                       # logy too
+      xspan: [0.3, 0.4, "seed: threshold"]   # optional: a shaded band over x on every panel (label optional)
 
 ``python -m harness sweep SYSTEM --grid SPEC --plot DIR`` writes the result file and
 ``DIR/<spec stem>.png`` + ``.svg`` in one command.  Spec errors are one line naming the file and the key
@@ -117,7 +118,7 @@ def _values(name: str, spec, source: str) -> list[float]:
                      f"{{logspace: [lo, hi, n]}}, not {spec!r}")
 
 
-PLOT_KEYS = ("x", "y", "hue", "facet", "reduce", "logx", "logy")
+PLOT_KEYS = ("x", "y", "hue", "facet", "reduce", "logx", "logy", "xspan")
 
 
 def _names(value, what: str, source: str) -> list[str]:
@@ -150,7 +151,22 @@ def _check_plot(plot, names: list[str], sets: dict, outputs: dict, source: str) 
         out[key] = vals
     if out["reduce"] not in ("max", "mean", "min"):
         raise SweepError(f"{source}: plot.reduce: {out['reduce']!r} is not one of max, mean, min")
+    out["xspan"] = _check_xspan(plot.get("xspan"), source)
     return out
+
+
+def _check_xspan(span, source: str):
+    """``[lo, hi]`` or ``[lo, hi, label]`` with lo < hi: a band shaded over x on every panel."""
+    if span is None:
+        return None
+    ok = isinstance(span, list) and len(span) in (2, 3) and (len(span) == 2 or isinstance(span[2], str))
+    try:
+        ok = ok and float(span[0]) < float(span[1])
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise SweepError(f"{source}: plot.xspan: {span!r} must be [lo, hi] or [lo, hi, label] with lo < hi")
+    return [float(span[0]), float(span[1]), span[2] if len(span) == 3 else None]
 
 
 def parse_spec(data: dict, source: str = "<spec>") -> SweepSpec:
@@ -366,6 +382,9 @@ def plot_sweep(df: pd.DataFrame, spec: SweepSpec, out_stem: str | Path, title: s
                                 label=label or None)
         for i, y in enumerate(ys):
             ax = axes[i][j]
+            if pl.get("xspan"):
+                lo, hi, lab = pl["xspan"]
+                ax.axvspan(lo, hi, color="0.85", zorder=0, label=lab if (i, j) == (0, len(fvals) - 1) else None)
             ax.set_title((f"{facet[0]} = {fv:g}: " if fv is not None else "") + y, fontsize=8)
             ax.tick_params(labelsize=7)
             ax.grid(alpha=0.3)
@@ -375,7 +394,7 @@ def plot_sweep(df: pd.DataFrame, spec: SweepSpec, out_stem: str | Path, title: s
                 ax.set_yscale("log")
             if i == len(ys) - 1:
                 ax.set_xlabel(x, fontsize=8)
-    if hue:
+    if hue or (pl.get("xspan") and pl["xspan"][2]):
         axes[0][-1].legend(fontsize=6, loc="best")
     n_fail = int((df["error"] != "").sum()) if "error" in df.columns else 0
     rest = [v for v in spec.variables if v not in (x, *hue, *facet)]

@@ -97,3 +97,21 @@ def test_errors_name_the_expression(df):
 def test_columns():
     expr = 'peak(window(r["a.x"], 0, 1)) + final(r["b.y"]) * at(r["a.x"], 0.5)'
     assert sorted(set(qoi.columns(expr))) == ["a.x", "b.y"]
+
+
+def test_on_durations():
+    # contacts on samples 10-12, 500, 900-901 (still on at the end of a window that stops at 901)
+    flag = np.zeros(N)
+    flag[[10, 11, 12, 500, 900, 901]] = 1.0
+    d = frame(**{"c.f": flag, "c.R": 1.0 + T})
+    dt = T[1] - T[0]
+    assert list(qoi._on_durations(flag, T)) == pytest.approx([3 * dt, dt, 2 * dt], rel=1e-12)
+    assert qoi.evaluate('sum(on_durations(r["c.f"], t) <= 1.5 * 0.001)', d) == 1
+    # aligned with at_rises: a per-contact limit compares element by element
+    assert qoi.evaluate('sum(on_durations(r["c.f"], t) < at_rises(r["c.f"], r["c.R"]) * 0.002)', d) == 2
+    w = 'on_durations(window(r["c.f"], 0.0, T901), window(t, 0.0, T901))'.replace("T901", repr(float(T[901])))
+    assert qoi.evaluate(f'sum({w} > 1.0)', d) == 1            # the contact not ended in the window: inf
+    assert qoi.evaluate('min(on_durations(r["c.f"], t))', d) == pytest.approx(dt, rel=1e-12)
+    assert qoi._on_durations(np.ones(5), np.arange(5.0)).size == 0   # on from the start: no rise
+    with pytest.raises(qoi.QoIError, match="on_durations"):
+        qoi.evaluate('sum(on_durations(r["c.f"], window(t, 0.0, 0.5)))', d)

@@ -76,6 +76,8 @@ def test_lhs_reproducible_and_stratified():
     ({"outputs": {"bad": "peak(r['a.x'].sum())"}}, "outputs.bad"),
     ({"plot": {"x": "w", "y": ["nope"]}}, "plot.y"),
     ({"plot": {"x": "w", "y": ["w_end"], "reduce": "median"}}, "plot.reduce"),
+    ({"plot": {"x": "w", "y": ["w_end"], "xspan": [0.4, 0.3]}}, "plot.xspan"),
+    ({"plot": {"x": "w", "y": ["w_end"], "xspan": [0.3, 0.4, 5]}}, "plot.xspan"),
     ({"sample": {"n": 3, "ranges": {"p": [2, 1]}}}, "sample.ranges.p"),
 ])
 def test_spec_errors_are_one_line_naming_file_and_key(tmp_path, change, key):
@@ -150,19 +152,34 @@ def test_study_quantities_on_a_synthetic_result():
     phi = 0.3 * np.sin(2 * np.pi * 2.5 * t)                   # rocker: extremes at t = 0.5, 0.7, 0.9
     count = (t >= 0.5).astype(float) + (t >= 0.6).astype(float)   # impacts at 0.5 (extreme) and 0.6 (middle)
     v = np.where(t >= 0.6, 0.03, np.where(t >= 0.5, 0.05, 0.9))   # 0.9 before the window: not an impact in it
+    # contact flag: 1.5 ms from the extreme impact (a rebound), 50 ms from the mid-swing one (closed joint)
+    contact = (((t >= 0.5) & (t < 0.5015 - 1e-9)) | ((t >= 0.6) & (t < 0.65))).astype(float)
     df = pd.DataFrame({"feeder.impact_count": count, "feeder.rocker.phi": phi, "feeder.v_impact": v,
                        "feeder.impact_force": 2.0 * np.sin(t), "flywheel.shaft_twist": 1e-4 * np.cos(t),
-                       "flywheel.crank.w": np.full_like(t, 2 * np.pi * 150 / 60)}, index=t)
+                       "flywheel.crank.w": np.full_like(t, 2 * np.pi * 150 / 60), "feeder.in_contact": contact,
+                       "feeder.stone_radius": np.full_like(t, 0.12)}, index=t)
     q = {k: sweep.qoi.evaluate(e, df) for k, e in spec.outputs.items()}
     assert q["impacts"] == 2 and q["impacts_intermediate"] == 1
     assert q["impact_velocity"] == 0.05
     assert q["crank_speed"] == pytest.approx(150.0, rel=1e-12)
+    # one period of the contact oscillation at R = 0.12 m: k = 1/(1/5e5 + 0.12^2/1e5), I2 = 0.00043 kg.m2
+    k = 1.0 / (1.0 / 5.0e5 + 0.12 ** 2 / 1.0e5)
+    period = 2 * np.pi / np.sqrt(k * 0.12 ** 2 / 0.00043)
+    assert 1.5e-3 < period < 1.6e-3
+    assert q["impacts_classical"] == 1 and q["impacts_classical_intermediate"] == 0
+    assert q["shortest_contact_ms"] == pytest.approx(1.5, rel=1e-9)
+    # the same record with a 1.7 ms first contact: longer than one period, no classical impact
+    df["feeder.in_contact"] = (((t >= 0.5) & (t < 0.5017 - 1e-9)) | ((t >= 0.6) & (t < 0.65))).astype(float)
+    assert sweep.qoi.evaluate(spec.outputs["impacts_classical"], df) == 0
 
 
 def test_cli_one_command_writes_csv_and_charts(tmp_path):
     from harness.__main__ import main
 
-    grid = write_yaml(tmp_path / "tiny.yaml", dict(TINY, grid={"b.c": [50.0, 200.0], "w": [1.0, 2.0, -1.0]}))
+    plot = dict(TINY["plot"], xspan=[1.2, 1.8, "a band"])
+    grid = write_yaml(tmp_path / "tiny.yaml", dict(TINY, grid={"b.c": [50.0, 200.0], "w": [1.0, 2.0, -1.0]},
+                                                   plot=plot))
+    assert sweep.read_spec(grid).plot["xspan"] == [1.2, 1.8, "a band"]
     out, charts = tmp_path / "r.csv", tmp_path / "charts"
     assert main(["sweep", "two_inertia", "--grid", str(grid), "--workers", "0", "--out", str(out),
                  "--plot", str(charts)]) == 0
