@@ -18,6 +18,7 @@ import os
 import shutil
 import sys
 import tempfile
+import zipfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent
@@ -44,15 +45,22 @@ def stage_runtime(dest: Path) -> Path:
 
 
 def build_one(script: Path, out: Path, runtime: Path) -> Path:
+    import pythonfmu
     from pythonfmu.builder import FmuBuilder
 
     doc_dir = DOCS / script.stem.removeprefix("pd_")
     with contextlib.redirect_stdout(io.StringIO()):
-        return Path(FmuBuilder.build_FMU(
+        fmu = Path(FmuBuilder.build_FMU(
             script, dest=out, project_files=[runtime],
             documentation_folder=doc_dir if doc_dir.is_dir() else None,
             canGetAndSetFMUstate=True, canHandleVariableCommunicationStepSize=True,
             needsExecutionTool=False))
+    with zipfile.ZipFile(fmu) as z:
+        if not any(n.startswith("binaries/") and not n.endswith("/") for n in z.namelist()):
+            # the pythonfmu in use is a copy from some FMU's resources (no binaries of its own)
+            raise RuntimeError(f"{fmu.name} has no binaries: the pythonfmu imported from "
+                               f"{Path(pythonfmu.__file__).parent} is not an installed package")
+    return fmu
 
 
 def validate(fmu: Path) -> list[str]:

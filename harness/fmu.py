@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import ctypes
 import shutil
+import sys
 import tempfile
 from collections import deque
 from ctypes import POINTER, byref, c_char_p, c_double, c_int, c_uint, c_void_p
@@ -158,6 +159,21 @@ class RealBlock:
         self.values = np.ctypeslib.as_array(self.buf)[: self.n]
 
 
+def _keep_installed_pythonfmu() -> None:
+    """Import the installed pythonfmu before any FMU's resources folder goes on ``sys.path``.
+
+    A pythonfmu FMU carries a copy of the pythonfmu package in its resources, without pythonfmu's binaries,
+    and its C wrapper (like :mod:`harness.inprocess`) puts that folder FIRST on ``sys.path``.  Were the
+    package first imported after that, the process would hold the FMU's copy, and an FMU built later in the
+    same process (build_fmus, or :func:`harness.model.resolve_fmu` rebuilding a stale FMU) would come out
+    without binaries."""
+    if "pythonfmu" not in sys.modules:
+        try:
+            import pythonfmu  # noqa: F401
+        except ImportError:  # pragma: no cover - not a pythonfmu installation: nothing to protect
+            pass
+
+
 class Instance:
     """What every FMU instance offers the master, whatever runs it (the C library through FMI, or a
     pythonfmu slave object called in this process: :mod:`harness.inprocess`).
@@ -170,6 +186,7 @@ class Instance:
     path_kind = "fmi"  # how the instance is called: "fmi" (the FMU's shared library) or "in-process"
 
     def __init__(self, path: str | Path, name: str):
+        _keep_installed_pythonfmu()
         self.path = Path(path)
         self.name = name
         self.md, self.unzip_dir = extracted(self.path)

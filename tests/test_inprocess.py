@@ -157,3 +157,20 @@ def test_a_foreign_pythonfmu_fmu_runs_through_fmi_by_default_and_in_process_on_r
     _same(runs[2], runs[3])
     assert runs[0].attrs["complete"] and runs[2].attrs["complete"]
     assert runs[0]["a.x"].iloc[-1] != runs[0]["a.x"].iloc[0]
+
+
+def test_loading_an_fmu_first_does_not_break_later_builds(fmu_dir, tmp_path):
+    """A pythonfmu FMU carries pythonfmu without its binaries and goes first on sys.path when loaded; a fresh
+    process that loads one and then builds an FMU must still build it with binaries (the installed pythonfmu)."""
+    import subprocess
+    import sys
+    import zipfile
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    code = (f"from harness.fmu import open_instance; open_instance({str(fmu_dir / 'Gain.fmu')!r}, 'g');"
+            f"import build_fmus; raise SystemExit(build_fmus.main(['--out', {str(tmp_path)!r}, '--only', 'pd_gain']))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=str(root), timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    with zipfile.ZipFile(tmp_path / "Gain.fmu") as z:
+        assert any(n.startswith("binaries/linux64/") and n.endswith(".so") for n in z.namelist())
