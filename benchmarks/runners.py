@@ -131,12 +131,36 @@ def _initialised_master(folder: Path, step: float, n: int):
     return m, step_ns, params
 
 
-def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str) -> dict:
+# the time doubles each tool hands fmi2DoStep (harness.peers.communication_points has the same conventions)
+CONVENTIONS = {"libcosim": "libcosim", "ecos": "accumulate", "cofmupy": "accumulate"}
+
+
+def communication_points(n: int, step_ns: int, convention: str = "exact") -> tuple[list[float], list[float]]:
+    """(t_k, h_k) for k < n: ``exact`` (the harness) t_k = k*step_ns/1e9, h_k = step_ns/1e9; ``libcosim`` the same
+    t_k with h_k = t_k+1 - t_k; ``accumulate`` (Ecos, CoFmuPy) t_k+1 = t_k + h, h = step_ns/1e9."""
+    h = step_ns / NS
+    if convention == "accumulate":
+        times, t = [], 0.0
+        for _ in range(n):
+            times.append(t)
+            t += h
+        return times, [h] * n
+    times = [(k * step_ns) / NS for k in range(n + 1)]
+    if convention == "libcosim":
+        return times[:-1], [b - a for a, b in zip(times, times[1:])]
+    if convention == "exact":
+        return times[:-1], [h] * n
+    raise ValueError(f"time convention {convention!r} is not one of exact, libcosim, accumulate")
+
+
+def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str, convention: str = "exact") -> dict:
     """``kind`` "fmpy": the bare fmpy loop (FMU2Slave.setReal / doStep / getReal, fmpy's status checks);
     "ctypes": value references and buffers prepared once, the FMI functions called directly, status
-    ignored.  Both take the steps of jacobi-sampled with the harness's time doubles t_k = k*step_ns/1e9."""
+    ignored.  Both take the steps of jacobi-sampled, with the harness's time doubles t_k = k*step_ns/1e9
+    unless ``convention`` names another tool's (:func:`communication_points`: the fmpy loop then computes
+    what that tool must compute, bit for bit)."""
     m, step_ns, params = _initialised_master(folder, step, n)
-    h = step_ns / NS
+    times, steps = communication_points(n, step_ns, convention)
     t0 = time.perf_counter()
     m.initialize(0, n * step_ns, None, params)
     y = m.y
@@ -148,8 +172,7 @@ def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str) 
             s.component = it.fmu.c
             prep.append((s, list(it.inp.vr)[: it.inp.n], it.src, it.fac, it.off, list(it.out.vr)[: it.out.n],
                          it.sl))
-        for k in range(n):
-            t = (k * step_ns) / NS
+        for t, h in zip(times, steps):
             for s, ivr, src, fac, off, _ovr, _sl in prep:
                 if ivr:
                     s.setReal(ivr, list(fac * y[src] + off))
@@ -163,8 +186,7 @@ def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str) 
             f = it.fmu._f
             prep.append((f["fmi2SetReal"], f["fmi2DoStep"], f["fmi2GetReal"], it.fmu.c, it.inp, it.src, it.fac,
                          it.off, it.out, it.sl))
-        for k in range(n):
-            t = (k * step_ns) / NS
+        for t, h in zip(times, steps):
             for set_real, _ds, _gr, c, inp, src, fac, off, _out, _sl in prep:
                 if inp.n:
                     np.multiply(fac, y[src], out=inp.values)
@@ -214,6 +236,8 @@ def run(tool: str, folder: Path, step: float, n: int, columns: list[str], parame
         return run_ecos(folder, step, n, columns, parameter_set)
     if tool in ("fmpy", "ctypes"):
         return run_floor(folder, step, n, columns, tool)
+    if tool.startswith("reference-"):  # the fmpy loop with another tool's time doubles (result check only)
+        return run_floor(folder, step, n, columns, "fmpy", tool.removeprefix("reference-"))
     if tool == "cofmupy":
         raise ValueError("cofmupy runs in its own virtual environment: benchmarks.cofmupy.run_config, not here")
     raise ValueError(f"tool = {tool!r} is not one of {', '.join(TOOLS)}")

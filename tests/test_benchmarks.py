@@ -139,3 +139,22 @@ def test_cofmupy_runs_in_its_venv_and_agrees_with_the_harness(fmu_dir, tmp_path)
         assert r["same_result"] == "True" and r["note"] == "", r
         assert float(r["us_per_fmu_step"]) > 0 and int(r["fmus"]) == fmus and int(r["steps"]) == steps
         assert float(r["max_rel_deviation"]) <= 1e-12  # same algorithm, same start: bit for bit in practice
+
+
+def test_time_conventions_of_the_peers():
+    from benchmarks.runners import communication_points
+
+    n, step_ns = 7, 50_000
+    t, h = communication_points(n, step_ns, "exact")
+    assert t == [k * 5e-5 if k == 0 else (k * step_ns) / 1e9 for k in range(n)] and h == [5e-5] * n
+    t, h = communication_points(n, step_ns, "libcosim")   # integer ns, h from the differences
+    assert t == [(k * step_ns) / 1e9 for k in range(n)]
+    assert h == [((k + 1) * step_ns) / 1e9 - (k * step_ns) / 1e9 for k in range(n)]
+    assert any(x != 5e-5 for x in h)  # the doubles differ in the last bits: why each peer has its reference
+    t, h = communication_points(n, step_ns, "accumulate")  # Ecos, CoFmuPy: t += h
+    acc = [0.0]
+    for _ in range(n - 1):
+        acc.append(acc[-1] + 5e-5)
+    assert t == acc and h == [5e-5] * n
+    with pytest.raises(ValueError, match="time convention 'gps'"):
+        communication_points(n, step_ns, "gps")
