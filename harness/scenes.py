@@ -221,11 +221,14 @@ def chart(result: SceneResult, out: Path) -> list[Path]:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    ok = [c for c in result.candidates if c.ok and c.error is not None]
-    bad = [c for c in result.candidates if not c.ok and c.error is not None]
-    floor = 1e-16
-    ax.scatter([c.wall_time for c in ok], [max(c.error, floor) for c in ok], label="within tolerance", color="tab:green")
-    ax.scatter([c.wall_time for c in bad], [max(c.error, floor) for c in bad], label="outside tolerance",
+    # the full model is the reference (error 0): a vertical line at its cost, not a point at an arbitrary floor
+    others = [c for c in result.candidates if c.error is not None and c.error > 0.0]
+    ok = [c for c in others if c.ok]
+    bad = [c for c in others if not c.ok]
+    floor = min([c.error for c in others] + [result.scene.tolerance]) / 10.0
+    ax.axvline(result.full.wall_time, color="tab:blue", ls=":", lw=1.2, label="full model (the reference)")
+    ax.scatter([c.wall_time for c in ok], [c.error for c in ok], label="within tolerance", color="tab:green")
+    ax.scatter([c.wall_time for c in bad], [c.error for c in bad], label="outside tolerance",
                color="tab:red", marker="x")
     ch = result.chosen
     ax.scatter([ch.wall_time], [max(ch.error or 0.0, floor)], s=160, facecolors="none", edgecolors="k",
