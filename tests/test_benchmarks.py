@@ -158,3 +158,12 @@ def test_time_conventions_of_the_peers():
     assert t == acc and h == [5e-5] * n
     with pytest.raises(ValueError, match="time convention 'gps'"):
         communication_points(n, step_ns, "gps")
+
+
+def test_component_costs_replay_each_instance(fmu_dir, monkeypatch):
+    from benchmarks.fmu_costs import component_costs
+
+    monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
+    rows = component_costs("two_inertia", steps=20)
+    assert [(r["instance"], r["fmu"]) for r in rows] == [("a", "Inertia"), ("b", "SpringInertia")]
+    assert all(r["do_step_us"] > 0 and r["get_real_us"] > 0 for r in rows)
