@@ -157,6 +157,53 @@ def test_friction_ratio_keeps_the_restitution(law):
     assert x1[5] / x1[4] == pytest.approx(x0[5] / x0[4], rel=2e-3)
 
 
+def slow_take_up(law, h, e=0.2, tension=5.0, v0=1e-4, t_end=0.05):
+    """Crank held, rocker at rest s short of the tension wall, a constant torque that loads the joint with
+    ``tension`` at rest: the play is taken up at v0 = sqrt(2 (tension/m_eff) s) (a slow take-up), then the
+    joint carries the load.  Returns the outputs, the torque and the final rocker arm (computed here)."""
+    m = FourBarModel(FourBarParams(fidelity=2, contact_law=law, restitution=e))
+    phi = 1.0
+    x = m.initial_state([phi, 0.0, 0.0])
+
+    def gap_and_arm(psi):                      # independent of the model: coupler length and arm about O5
+        ax, ay = A * math.cos(phi), A * math.sin(phi)
+        dx, dy = F + R * math.cos(psi) - ax, R * math.sin(psi) - ay
+        n = math.hypot(dx, dy)
+        return n - B, R * (math.cos(psi) * dy - math.sin(psi) * dx) / n
+    arm = gap_and_arm(x[0])[1]
+    s = v0 ** 2 / (2 * tension * arm ** 2 / P0.rocker_inertia)
+    for _ in range(5):                         # Newton on the coupler deformation q = clearance/2 - s
+        q, arm = gap_and_arm(x[0])
+        x[0] += (0.5 * P0.clearance - s - q) / arm
+    x[1] = 0.0
+    u = [phi, 0.0, tension * arm]
+    ys = []
+    for k in range(int(round(t_end / h))):
+        x = m.advance(k * h, h, x, u)
+        ys.append(m.output((k + 1) * h, x, u))
+    return np.array(ys), u[2], gap_and_arm(x[0])[1]
+
+
+@pytest.mark.parametrize("law,e", [(contact.HUNT_CROSSLEY, 0.2), (contact.LANKARANI_NIKRAVESH, 0.2),
+                                   (contact.FLORES, 0.2), (contact.FLORES, 0.02)])
+def test_fidelity2_slow_take_up_then_carries_the_load_at_the_communication_step(law, e):
+    """A Hunt-Crossley-family contact closed at 0.1 mm/s and then loaded: its penetration (5 um) is the
+    load's, 500 times what the impact alone would make, and with chi ~ 1/v0 the damping rate reached
+    0.6-3e7 1/s; RK4 sub-steps sized on the contact stiffness went unstable and the joint force chattered
+    between 0 and ~7 N (it ended between 0 and 1.6 N instead of 5 N, at 1e-4 s and at 1e-5 s alike).  The joint must end at rest carrying the static
+    tension torque/arm, with one onset and no separation, at h = 1e-4 s as at 1e-5 s (Flores at e = 0.02:
+    the damping is bounded but 78 times the contact frequency; the sub-step must follow it)."""
+    runs = {h: slow_take_up(law, h, e) for h in (1e-4, 1e-5)}
+    for h, (y, torque, arm) in runs.items():
+        assert y[-1, 7] == 1.0 and y[-1, 9] == 0.0                      # one onset, never separated
+        assert np.all(y[:, 6] == 1.0)
+        assert y[0, 8] == pytest.approx(1e-4, rel=1e-3)                 # it was a slow take-up
+        assert y[-1, 4] == pytest.approx(torque / arm, rel=2e-3), h     # static: tension * arm = torque
+        assert np.all(y[len(y) // 2:, 5] > 0.9 * torque / arm), h       # no chatter once loaded
+    (yc, *_), (yf, *_) = runs[1e-4], runs[1e-5]
+    assert np.max(yc[:, 5]) == pytest.approx(np.max(yf[9::10, 5]), rel=0.01)
+
+
 def test_fidelity2_driven_linkage_separates_and_impacts():
     m = FourBarModel(FourBarParams(fidelity=2, clearance=2e-5, restitution=0.2))
     y = run(m, 15.0, 0.5, h=1e-3)

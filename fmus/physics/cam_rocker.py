@@ -25,6 +25,13 @@
      q = R*(G - gamma) [m] and the contact law of fmus.physics.contact gives the pin force F [N] with the
      series stiffness k = 1/(1/contact_stiffness + R^2/stiffness) and m_eff = J/R^2; the rocker gets
      T = -F*R.  Impacts are counted at every separated -> contact transition.
+     Integration: RK4 on sub-steps of at most 0.1/omega (omega = the larger of the transmission's and the
+     contact's frequency sqrt(contact_stiffness*r_max^2/J)) and of at most 1/(the contact law's largest
+     damping rate), contact.max_substep; the Hunt-Crossley family's damping is bounded in a persistent
+     contact (its v0 is calibrated on the elastic energy the contact holds, see fmus.physics.contact), so
+     a slow take-up of the play followed by a loaded contact stays stable.  The contact flag and v_impact
+     are memory updated at the sub-step boundaries; a contact that begins inside a sub-step (flag still 0)
+     uses its present penetration rate as its approach speed.
 
 Inside a communication step the crank angle is extrapolated with the held crank speed,
 phi(t) = crank.phi + crank.w*(t - t0).  State: gamma, omega, v_impact, impacts, contact_flag (the last
@@ -176,7 +183,10 @@ class CamRockerModel(Model):
             r_max = getattr(self, "r_max", None)
             if r_max is None:
                 return math.inf  # set again after the kinematic tables exist
-            w = max(w, math.sqrt(p.contact_stiffness * r_max * r_max / p.rocker_inertia))
+            # contact: 0.1/omega_c and the contact law's damping rate (bounded by contact.damping_per_frequency
+            # times omega_c, whatever the approach speed) times the sub-step <= 1: RK4 stays stable
+            w_c = math.sqrt(p.contact_stiffness * r_max * r_max / p.rocker_inertia)
+            return min(0.1 / w, contact.max_substep(w_c, p.contact_law, p.restitution, p.contact_exponent))
         return 0.1 / w
 
     def initial_state(self, u):
@@ -197,7 +207,11 @@ class CamRockerModel(Model):
         if p.fidelity == 1:
             return p.stiffness * (g - x[0]) + p.damping * (g1 * w - x[1]), 0.0
         q, qd, R, k, m = self._pin(phi, g, g1, w, x)
-        F = contact.contact_force(q, qd, p.clearance, k, p.contact_law, p.restitution, x[2], m, p.contact_exponent)
+        # v_impact and the contact flag are memory set at the sub-step boundaries (advance): a contact that
+        # began inside the present sub-step (flag still 0) approaches at its present penetration rate, not
+        # at the stored speed of the previous contact (0 before the first one)
+        v0 = x[2] if x[4] != 0.0 else abs(qd)
+        F = contact.contact_force(q, qd, p.clearance, k, p.contact_law, p.restitution, v0, m, p.contact_exponent)
         return -F * R, F
 
     def derivatives(self, t, x, u, t0):

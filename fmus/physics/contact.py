@@ -12,8 +12,32 @@ Laws (``LAWS`` registry, chosen by the Integer ``contact_law`` parameter of a co
   2 Lankarani-Nikravesh   F = k*pen^n * (1 + chi*pen_dot), chi = 3(1 - e^2)/(4 v0)
   3 Flores et al.         F = k*pen^n * (1 + chi*pen_dot), chi = 8(1 - e)/(5 e v0)
 For the Hunt-Crossley family v0 is the approach speed at first contact: a component keeps it in its
-state (``v_impact``), set when contact begins.  The Kelvin-Voigt law needs the effective mass ``m_eff``
-of the two contacting bodies reduced to the contact normal.
+state (``v_impact``), set when contact begins.  Every law needs the effective mass ``m_eff`` of the two
+contacting bodies reduced to the contact normal (Kelvin-Voigt: its damping; Hunt-Crossley family: the
+energy speed below).
+
+Persistent contact (Hunt-Crossley family).  chi ~ 1/v0 is calibrated on ONE impact (Lankarani and
+Nikravesh 1990: the hysteresis loss is equated to the kinetic-energy loss (1 - e^2) m v0^2 / 2 of a contact
+whose elastic energy comes from the approach, so pen_max ~ v0 sqrt(m/k)); then c = k pen^n chi stays of the
+order of the critical damping.  Hunt and Crossley's own law has a material constant instead (e = 1 - alpha
+v0, chi = 3 alpha / 2, independent of the approach; the form Simbody's HuntCrossleyForce implements, alpha
+read off a measured e(v) curve), which no contact history can make unbounded.  When a contact closes with a negligible approach speed (a slow take-up of the play) and the
+load then compresses it, the penetration is set by the load, not by v0, and the damping c/m_eff =
+k pen^n chi / m_eff grows without bound as v0 -> 0 (its time constant falls to nanoseconds at V0_FLOOR):
+no joint has such a damper, the result depends on how exactly a vanishing onset speed was sampled, and
+no explicit integrator sized on the contact frequency stays stable (spurious rattling).  The laws here
+therefore calibrate chi on the energy the contact holds:
+
+    v0 = max(approach speed at the onset, v_E(pen)),   v_E = sqrt(2 E_el / m_eff),  E_el = k pen^(n+1)/(n+1)
+
+v_E is the approach speed of the impact whose elastic energy at this penetration equals the contact's.
+During a free impact the elastic energy never exceeds the kinetic energy the contact started with
+(E_el <= m_eff v0^2 / 2 - dissipated), so v_E < v0 and an impact is integrated exactly as before, to the
+bit; only a contact loaded beyond what its own impact could have compressed it gets v0 = v_E.  There the
+damping is c = C k pen^n / v_E = C sqrt((n + 1) k m_eff pen^(n-1) / 2) (C = chi v0 of the law, e.g. 6.4
+for Flores at e = 0.2): the largest damping the same law reaches at the peak of an impact of that depth,
+bounded by C sqrt((n + 1) / (2 n)) times the linearised contact frequency.  The criterion has no free
+constant.  That bound (``damping_per_frequency``) sizes the integrators' sub-steps (``max_substep``).
 
 All functions are scalar (plain floats) because they sit in the innermost loop of the integrators.
 """
@@ -78,6 +102,12 @@ def kelvin_voigt_damping(k: float, m_eff: float, e: float) -> float:
     return 2.0 * kelvin_voigt_zeta(e) * math.sqrt(k * m_eff)
 
 
+def energy_speed(pen: float, k: float, m_eff: float, exponent: float = 1.0) -> float:
+    """v_E = sqrt(2 E_el / m_eff) [m/s], E_el = k pen^(n+1) / (n+1): the approach speed of the impact that
+    stores the contact's present elastic energy (see the module docstring)."""
+    return math.sqrt(2.0 * k * pen ** (exponent + 1.0) / ((exponent + 1.0) * m_eff))
+
+
 def hysteresis_factor(law: int, e: float, v0: float) -> float:
     """chi [s/m] of the Hunt-Crossley family for restitution e and approach speed v0."""
     v0 = max(abs(v0), V0_FLOOR)
@@ -106,7 +136,7 @@ def contact_force(q: float, q_dot: float, clearance: float, k: float, law: int, 
 
     Returns a value of the sign opposite to q while in contact and 0 while separated.  ``v_impact`` is
     the approach speed at the start of the current contact (Hunt-Crossley family), ``m_eff`` the reduced
-    mass (Kelvin-Voigt).
+    mass (Kelvin-Voigt damping; Hunt-Crossley family: energy speed of a persistent contact).
     """
     pen, pen_dot, side = penetration(q, q_dot, clearance)
     if side == 0.0:
@@ -114,10 +144,38 @@ def contact_force(q: float, q_dot: float, clearance: float, k: float, law: int, 
     if law == KELVIN_VOIGT:
         f = k * pen + kelvin_voigt_damping(k, m_eff, e) * pen_dot
     else:
-        f = k * pen ** exponent * (1.0 + hysteresis_factor(law, e, v_impact) * pen_dot)
+        v0 = max(abs(v_impact), energy_speed(pen, k, m_eff, exponent))   # persistent contact: module docstring
+        f = k * pen ** exponent * (1.0 + hysteresis_factor(law, e, v0) * pen_dot)
     return -side * max(f, 0.0)
 
 
 def contact_frequency(k: float, m_eff: float) -> float:
     """Angular frequency sqrt(k/m) [rad/s] of the linearised contact; sizes the integration sub-step."""
     return math.sqrt(k / m_eff)
+
+
+def damping_per_frequency(law: int, e: float, exponent: float = 1.0) -> float:
+    """Upper bound of the contact's damping rate c/m_eff [1/s] over its linearised frequency [rad/s].
+
+    Kelvin-Voigt: 2 zeta.  Hunt-Crossley family: C sqrt((n + 1) / (2 n)), C = chi v0, thanks to the
+    energy-calibrated v0 (module docstring), whatever the approach speed; e.g. Flores at e = 0.2: 6.4,
+    at e = 0.05: 30.4, Hunt-Crossley at most 1.5."""
+    if law == KELVIN_VOIGT:
+        return 2.0 * kelvin_voigt_zeta(e)
+    return hysteresis_factor(law, e, 1.0) * math.sqrt((exponent + 1.0) / (2.0 * exponent))
+
+
+SUBSTEP_PER_PERIOD = 0.1  # [rad] sub-step times the contact frequency: ~60 RK4 sub-steps per contact period
+RATE_STEP = 1.0           # largest sub-step times the damping rate c/m_eff (RK4 is stable up to 2.78 on the
+                          # negative real axis; at 1 it damps 0.375 per sub-step where exp(-1) = 0.368)
+
+
+def max_substep(omega: float, law: int, e: float, exponent: float = 1.0) -> float:
+    """Largest explicit (RK4) sub-step [s] for a clearance contact whose linearised frequency is at most
+    omega [rad/s]: SUBSTEP_PER_PERIOD / omega for the stiffness, and RATE_STEP over the bound of the
+    damping rate (``damping_per_frequency`` * omega), so that a strongly damped law (Flores at low e) is
+    integrated as stably as a soft one.  Depends on parameters only: sub-steps stay deterministic, runs
+    bit-reproducible and rollback exact.  (For an exponent n > 1 omega must bound sqrt(n k pen^(n-1) / m);
+    the components take sqrt(k / m), which does for pen < n^(-1/(n-1)) m, 0.44 m at n = 1.5.)"""
+    d = damping_per_frequency(law, e, exponent)
+    return (SUBSTEP_PER_PERIOD if d * SUBSTEP_PER_PERIOD <= RATE_STEP else RATE_STEP / d) / omega

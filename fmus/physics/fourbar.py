@@ -49,7 +49,10 @@ Fidelity levels of :class:`FourBarModel` (port crank: motion in; port rocker: mo
    rocker.  Contact onsets and separations are located inside ``advance`` (regula falsi on the band edge)
    and recorded in the state: v_impact (approach speed at the onset, used by the Hunt-Crossley family),
    impact_count, last_impact_speed, rebound_speed.  coupler_damping is not used at this level (the
-   contact law's damping replaces it).
+   contact law's damping replaces it).  RK4 sub-steps of at most 0.1/omega (omega = sqrt(k r^2 / I)) and
+   of at most 1/(the contact law's largest damping rate), contact.max_substep: the Hunt-Crossley family's
+   damping is bounded also in a contact that closed at a negligible approach speed and then carries a
+   load (v0 calibrated on the contact's elastic energy, fmus.physics.contact), so it stays stable.
    Without a clearance (clearance = 0) the joint is in contact on one side or the other at all times.
    A parallelogram's arm vanishes at its dead points, and with it the m_eff above would grow without
    bound, and so would the contact law's damping coefficient (Kelvin-Voigt: 2*zeta*sqrt(k*m_eff)): the
@@ -246,6 +249,8 @@ class FourBarModel(Model):
         r2_over_i = p.rocker_length ** 2 / (p.rocker_inertia + 0.5 * p.coupler_mass * p.rocker_length ** 2)
         omega = math.sqrt(p.coupler_stiffness * r2_over_i)      # highest axial frequency (lever arm = r)
         dt = 0.1 / omega                                         # ~30 sub-steps per contact half-period
+        if p.fidelity == 2:   # and the contact law's damping rate (bounded, contact.max_substep) * dt <= 1
+            dt = contact.max_substep(omega, p.contact_law, p.restitution)
         if p.fidelity == 1 and p.coupler_damping > 0.0:
             dt = min(dt, 1.0 / (p.coupler_damping * r2_over_i))  # RK4 real-axis stability 2.78
         inertia = p.rocker_inertia + 0.5 * p.coupler_mass * p.rocker_length ** 2
