@@ -9,17 +9,31 @@
  * Variables (value references, see modelDescription.xml):
  *     0 m     [kg]     parameter, > 0          4 v0    [m/s]  parameter (start speed)
  *     1 k     [N/m]    parameter, >= 0         5 h_max [s]    parameter, > 0: largest internal step
- *     2 d     [N.s/m]  parameter, >= 0         6 F     [N]    input (held constant over a step)
+ *     2 d     [N.s/m]  parameter, >= 0         6 F     [N]    input
  *     3 x0    [m]      parameter (start pos.)  7 x     [m]    output      8 v [m/s] output
  * The outputs are the state: they depend on no input directly (ModelStructure dependencies="").
  *
+ * Two builds of this one source (tests/test_c_fmu.py makes both):
+ *  - "oscillator" (default): canInterpolateInputs="false"; F is held constant over a communication step and
+ *    fmi2SetRealInputDerivatives is an error.
+ *  - "oscillator_interp" (-DINTERPOLATE_INPUTS; its own GUID): canInterpolateInputs="true".  The master may
+ *    set dF/dt (order 1) and d2F/dt2 (order 2) of F with fmi2SetRealInputDerivatives; any other order or
+ *    variable is an error.  Over the next step from t0 the force is the polynomial
+ *        F(t0 + tau) = F + dF * tau + ddF * tau^2 / 2,
+ *    evaluated at the stage times of every RK4 sub-step.  Derivatives apply to the NEXT fmi2DoStep only
+ *    (FMI 2.0: inputs and their derivatives are set with respect to the beginning of a communication step):
+ *    a successful step resets them to 0, so a master that stops sending them gets a held input, never a
+ *    stale slope; F keeps the value the master set.  They are part of the FMU state (rollback).  With
+ *    logging on, every derivative received is logged (category logInputDerivatives, fmi2OK) as
+ *        "fmi2SetRealInputDerivatives: t = <FMU time>, F order <k> = <value>"   (%.17g: exact in decimal).
+ *
  * fmi2DoStep integrates with classical RK4 on n = ceil(h / h_max) EQUAL sub-steps, so the step lands exactly
  * on t + h; the time after the step is t + h as given by the master (never accumulated sub-step by sub-step).
- * fmi2GetFMUstate / fmi2SetFMUstate copy the evolving part of the instance (time, state, parameters, input,
- * mode) so that a master can roll a step back and repeat it; serialization is not supported.
- * Functions this FMU does not support (Integer/Boolean/String variables, input derivatives, directional
- * derivatives, asynchronous steps, serialization) return fmi2Error with a log message (fmi2OK when called
- * with zero value references).
+ * fmi2GetFMUstate / fmi2SetFMUstate copy the evolving part of the instance (time, state, parameters, input and
+ * its derivatives, mode) so that a master can roll a step back and repeat it; serialization is not supported.
+ * Functions this FMU does not support (Integer/Boolean/String variables, input derivatives in the default
+ * build, directional derivatives, asynchronous steps, serialization) return fmi2Error with a log message
+ * (fmi2OK when called with zero value references).
  */
 #include <math.h>
 #include <stdarg.h>
@@ -29,7 +43,13 @@
 
 #include "fmi2Functions.h"
 
+#ifdef INTERPOLATE_INPUTS
+#define MODEL_GUID "{b2d7e9c4-58a1-4f63-9e0d-7c3a1f5b8e26}"
+#define CAN_INTERPOLATE_INPUTS 1
+#else
 #define MODEL_GUID "{6f1c3a52-9d0e-4b7a-8c21-0b5e3f7d9a41}"
+#define CAN_INTERPOLATE_INPUTS 0
+#endif
 
 enum { VR_M, VR_K, VR_D, VR_X0, VR_V0, VR_HMAX, VR_F, VR_X, VR_V, N_REAL };
 
@@ -40,6 +60,7 @@ typedef struct {
     Mode mode;
     double time;
     double r[N_REAL];       /* indexed by value reference */
+    double dF[2];           /* dF/dt, d2F/dt2 at the step start for the next step (0 unless interpolating) */
 } State;
 
 typedef struct {
@@ -84,9 +105,25 @@ static const char *requirement(unsigned vr, double value) {
     }
 }
 
-static void rhs(const double *r, double x, double v, double *dx, double *dv) {
+static void initial_state(State *s) {
+    memset(s, 0, sizeof *s);
+    s->mode = MODE_INSTANTIATED;
+    memcpy(s->r, DEFAULTS, sizeof DEFAULTS);
+}
+
+/* The force tau seconds after the step start. */
+static double force(const State *s, double tau) {
+#ifdef INTERPOLATE_INPUTS
+    return s->r[VR_F] + (s->dF[0] + 0.5 * s->dF[1] * tau) * tau;
+#else
+    (void)tau;
+    return s->r[VR_F];
+#endif
+}
+
+static void rhs(const double *r, double F, double x, double v, double *dx, double *dv) {
     *dx = v;
-    *dv = (r[VR_F] - r[VR_K] * x - r[VR_D] * v) / r[VR_M];
+    *dv = (F - r[VR_K] * x - r[VR_D] * v) / r[VR_M];
 }
 
 static void advance(State *s, double h) {
@@ -97,11 +134,12 @@ static void advance(State *s, double h) {
     if (n < 1) n = 1;
     dt = h / n;
     for (i = 0; i < n; i++) {
-        double k1x, k1v, k2x, k2v, k3x, k3v, k4x, k4v;
-        rhs(s->r, x, v, &k1x, &k1v);
-        rhs(s->r, x + 0.5 * dt * k1x, v + 0.5 * dt * k1v, &k2x, &k2v);
-        rhs(s->r, x + 0.5 * dt * k2x, v + 0.5 * dt * k2v, &k3x, &k3v);
-        rhs(s->r, x + dt * k3x, v + dt * k3v, &k4x, &k4v);
+        double k1x, k1v, k2x, k2v, k3x, k3v, k4x, k4v, tau = i * dt;
+        double F0 = force(s, tau), Fm = force(s, tau + 0.5 * dt), F1 = force(s, tau + dt);
+        rhs(s->r, F0, x, v, &k1x, &k1v);
+        rhs(s->r, Fm, x + 0.5 * dt * k1x, v + 0.5 * dt * k1v, &k2x, &k2v);
+        rhs(s->r, Fm, x + 0.5 * dt * k2x, v + 0.5 * dt * k2v, &k3x, &k3v);
+        rhs(s->r, F1, x + dt * k3x, v + dt * k3v, &k4x, &k4v);
         x += dt / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
         v += dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
     }
@@ -151,9 +189,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     strcpy(inst->name, instanceName);
     inst->cb = *functions;
     inst->logging = loggingOn ? 1 : 0;
-    inst->s.mode = MODE_INSTANTIATED;
-    inst->s.time = 0.0;
-    memcpy(inst->s.r, DEFAULTS, sizeof DEFAULTS);
+    initial_state(&inst->s);
     return inst;
 }
 
@@ -206,9 +242,7 @@ fmi2Status fmi2Terminate(fmi2Component c) {
 fmi2Status fmi2Reset(fmi2Component c) {
     Instance *inst = (Instance *)c;
     if (!inst) return fmi2Error;
-    inst->s.mode = MODE_INSTANTIATED;
-    inst->s.time = 0.0;
-    memcpy(inst->s.r, DEFAULTS, sizeof DEFAULTS);
+    initial_state(&inst->s);
     return fmi2OK;
 }
 
@@ -339,12 +373,45 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
 }
 
 /* ---------------------------------------------------------------------------------------------------------- */
+/* Orders 1 and 2 of F (see the top of the file); every entry is checked before any is stored. */
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[]) {
-    (void)vr; (void)order; (void)value;
-    if (!c) return fmi2Error;
+    Instance *inst = (Instance *)c;
+    size_t i;
+    if (!inst) return fmi2Error;
     if (nvr == 0) return fmi2OK;
-    return fail((Instance *)c, "fmi2SetRealInputDerivatives", "canInterpolateInputs is false");
+    if (!CAN_INTERPOLATE_INPUTS) return fail(inst, "fmi2SetRealInputDerivatives", "canInterpolateInputs is false");
+    if (!vr || !order || !value) return fail(inst, "fmi2SetRealInputDerivatives", "NULL argument");
+    if (inst->s.mode == MODE_TERMINATED || inst->s.mode == MODE_ERROR)
+        return fail(inst, "fmi2SetRealInputDerivatives", "instance is terminated or failed");
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] >= N_REAL) {
+            logmsg(inst, fmi2Error, "logStatusError",
+                   "fmi2SetRealInputDerivatives: unknown value reference %u", vr[i]);
+            return fmi2Error;
+        }
+        if (vr[i] != VR_F) {
+            logmsg(inst, fmi2Error, "logStatusError",
+                   "fmi2SetRealInputDerivatives: %s is not an input (only F has derivatives)", NAMES[vr[i]]);
+            return fmi2Error;
+        }
+        if (order[i] < 1 || order[i] > 2) {
+            logmsg(inst, fmi2Error, "logStatusError",
+                   "fmi2SetRealInputDerivatives: order %d of F is not supported: must be 1 or 2", (int)order[i]);
+            return fmi2Error;
+        }
+        if (!isfinite(value[i])) {
+            logmsg(inst, fmi2Error, "logStatusError",
+                   "fmi2SetRealInputDerivatives: F order %d = %g must be a finite number", (int)order[i], value[i]);
+            return fmi2Error;
+        }
+    }
+    for (i = 0; i < nvr; i++) {
+        inst->s.dF[order[i] - 1] = value[i];
+        logmsg(inst, fmi2OK, "logInputDerivatives", "fmi2SetRealInputDerivatives: t = %.17g, F order %d = %.17g",
+               inst->s.time, (int)order[i], value[i]);
+    }
+    return fmi2OK;
 }
 
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
@@ -377,6 +444,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
         return fail(inst, "fmi2DoStep", "the state is no longer finite");
     }
     inst->s.time = t + h;
+    inst->s.dF[0] = inst->s.dF[1] = 0.0;  /* input derivatives apply to one step only */
     return fmi2OK;
 }
 
