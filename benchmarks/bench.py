@@ -76,6 +76,7 @@ def compare(final: dict, reference: dict, scales: dict) -> float:
 def run_all(cases: list[str], tools: list[str], modes: list[str], quick: bool, work: Path,
             timeout: float, realtime: bool, log=print) -> list[dict]:
     rows: list[dict] = []
+    work = Path(work).resolve()  # the workers (and CoFmuPy's venv) run in other folders
     work.mkdir(parents=True, exist_ok=True)
     for name in cases:
         case = CASES[name]
