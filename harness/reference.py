@@ -19,7 +19,11 @@ keyed by model class and fidelity, is the only place that knows about them):
   onset counter, contact flag, separation speed): contact onset and separation are ``solve_ivp`` events on
   ``|q| - clearance/2`` (direction chosen by the joint's current mode, so a root is never counted twice); at
   each the memory is updated exactly as the FMU's ``advance`` does and the integration restarts, so impacts
-  are resolved to the integrator's tolerance instead of to a sub-step;
+  are resolved to the integrator's tolerance instead of to a sub-step.  A restart sits ON the contact's
+  kink (the Kelvin-Voigt damping force jumps at the onset, the no-pull clip bends it), where Radau's Newton
+  iteration may fail to take any step ("required step size is less than spacing between numbers"): that
+  segment is then integrated with ``BDF``, the other stiff method, at the same tolerances (counted in
+  ``attrs["fallbacks"]``);
 * *step memory*: RackBed at fidelity 0 estimates the bed acceleration from the inputs of successive
   communication steps; a monolithic model has no steps, so that level is refused with a one-line error
   (use fidelity 1).
@@ -280,9 +284,14 @@ class Monolithic:
         limit = max_step if max_step is not None else min(m.max_substep for m in self.models) * 10
         limit = limit if np.isfinite(limit) else step
         t_wall = time.perf_counter()
+        self.fallbacks = 0
         while k_next <= n_steps:
             sol = solve_ivp(self.rhs, (t, grid[-1]), x, method=method, rtol=rtol, atol=atol, max_step=limit,
                             dense_output=True, events=[f for _, f in events] or None, t_eval=None)
+            if sol.status < 0 and sol.t[-1] == t and method != "BDF":  # stuck on a kink at the restart
+                self.fallbacks += 1
+                sol = solve_ivp(self.rhs, (t, grid[-1]), x, method="BDF", rtol=rtol, atol=atol, max_step=limit,
+                                dense_output=True, events=[f for _, f in events] or None, t_eval=None)
             if sol.status < 0:
                 raise ReferenceError_(f"reference integration failed at t = {sol.t[-1]:.6g} s: {sol.message}")
             t_end = sol.t[-1]
@@ -299,7 +308,9 @@ class Monolithic:
                         self.n_events += 1
                 events = self._event_functions()
         self.wall_time = time.perf_counter() - t_wall
-        return self.frame(grid, states)
+        df = self.frame(grid, states)
+        df.attrs["fallbacks"] = self.fallbacks
+        return df
 
     def frame(self, grid: np.ndarray, states: np.ndarray) -> pd.DataFrame:
         cols: dict[str, list] = {}
