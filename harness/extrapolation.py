@@ -42,6 +42,11 @@ class History:
         self._newest: float | None = None   # time of the newest sample when it is the same for every signal
         self._full = False                  # every signal holds ``depth`` samples
 
+    @property
+    def newest(self) -> float | None:
+        """Time of the newest sample when every signal's newest sample has that time, else None."""
+        return self._newest
+
     def push(self, sl: slice, t: float, values: np.ndarray) -> None:
         if sl.stop == sl.start:
             return

@@ -28,7 +28,7 @@ import sys
 from pathlib import Path
 
 from harness.errors import FMUError, StepDiscarded
-from harness.fmu import DISCARD, ERROR, FATAL, Instance, RealBlock, extracted, toolkit_annotation
+from harness.fmu import DISCARD, ERROR, FATAL, WARNING, Instance, RealBlock, toolkit_annotation
 
 _SLAVE_BASE = "Fmi2Slave"
 
@@ -66,8 +66,9 @@ def slave_class(unzip_dir: Path) -> type:
         return getattr(module, ann.get("class"))
     best, depth = None, 0
     for value in vars(module).values():
-        if inspect.isclass(value) and _depth(value) > depth:
-            best, depth = value, _depth(value)
+        d = _depth(value) if inspect.isclass(value) else -1
+        if d > depth:
+            best, depth = value, d
     if best is None:
         raise ImportError(f"module {module_name} of {unzip_dir} defines no Fmi2Slave subclass")
     return best
@@ -88,7 +89,7 @@ class InProcessFMU(Instance):
 
     def __init__(self, path: str | Path, name: str, logging_on: bool = True):
         super().__init__(path, name)
-        self.logging_on = logging_on
+        self.logging_on = logging_on  # False: keep only warnings and errors (FMI debug logging off)
         try:
             cls = slave_class(self.unzip_dir)
             self._slave = cls(instance_name=name, resources=str(self.unzip_dir / "resources"), logger=0,
@@ -107,6 +108,8 @@ class InProcessFMU(Instance):
         """Move the slave's queued log messages to ``log``/``errors`` (the C wrapper does this after each call)."""
         for msg in self._queue:
             status = int(msg.status)
+            if status < WARNING and not self.logging_on:
+                continue
             text = str(msg.msg)
             self.log.append((status, text))
             if status >= ERROR:
@@ -232,4 +235,4 @@ class InProcessFMU(Instance):
         state.value = None
 
 
-__all__ = ["InProcessFMU", "is_pythonfmu", "is_toolkit_fmu", "slave_class", "extracted"]
+__all__ = ["InProcessFMU", "is_pythonfmu", "is_toolkit_fmu", "slave_class"]

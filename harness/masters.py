@@ -331,7 +331,8 @@ class Master:
         u += self.off
         pos = self._pos
         hist = self.history
-        if pos.size and (self.extrapolation.order or hist._newest is None or hist._newest > t):
+        newest = hist.newest  # no source has a sample newer than t: the held position IS the start sample
+        if pos.size and (self.extrapolation.order or newest is None or newest > t):
             src = self._pos_src
             newer = hist.t[0, src] > t
             if self.extrapolation.order or newer.any():
