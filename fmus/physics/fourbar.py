@@ -320,12 +320,41 @@ class FourBarModel(Model):
     def derivatives(self, t, x, u, t0):
         return self._rates(t, x, u, t0, True)
 
-    def _rates(self, t, x, u, t0, contact_on):
+    def _acceleration(self, t, psi, w, v_impact, u, t0, contact_on):
+        """Rocker angular acceleration [rad/s2] at time t for rocker angle psi and speed w."""
         phi = u[0] + u[1] * (t - t0)
-        q, qd, _, _, arm, _ = self._geometry(phi, u[1], x[0], x[1])
-        force = self._tension(q, qd, arm, x[2]) if contact_on else 0.0
-        belt = self._belt(phi, u[1], x[0], x[1])
-        return np.array([x[1], (u[2] - self._keep * force * arm + belt) / self._inertia, 0.0, 0.0, 0.0, 0.0])
+        q, qd, _, _, arm, _ = self._geometry(phi, u[1], psi, w)
+        force = self._tension(q, qd, arm, v_impact) if contact_on else 0.0
+        belt = self._belt(phi, u[1], psi, w)
+        return (u[2] - self._keep * force * arm + belt) / self._inertia
+
+    def _rates(self, t, x, u, t0, contact_on):
+        return np.array([x[1], self._acceleration(t, x[0], x[1], x[2], u, t0, contact_on), 0.0, 0.0, 0.0, 0.0])
+
+    def _elastic_steps(self, t0, h, n, x, u):
+        """Fidelity 1 over [t0, t0 + h]: the classical RK4 of :meth:`_step` on the two evolving states
+        (psi, w) in plain floats, n equal sub-steps (no per-stage arrays: the same numbers, a third of the
+        cost)."""
+        acc = self._acceleration
+        v_imp = float(x[V_IMPACT])
+        psi, w = float(x[PSI]), float(x[W])
+        dt = h / n
+        for i in range(n):
+            t = t0 + i * dt
+            d = (t0 + (i + 1) * dt if i < n - 1 else t0 + h) - t
+            hd = 0.5 * d
+            a1 = acc(t, psi, w, v_imp, u, t0, True)
+            p2, w2 = psi + hd * w, w + hd * a1
+            a2 = acc(t + hd, p2, w2, v_imp, u, t0, True)
+            p3, w3 = psi + hd * w2, w + hd * a2
+            a3 = acc(t + hd, p3, w3, v_imp, u, t0, True)
+            p4, w4 = psi + d * w3, w + d * a3
+            a4 = acc(t + d, p4, w4, v_imp, u, t0, True)
+            psi, w = (psi + (d / 6.0) * (w + 2.0 * w2 + 2.0 * w3 + w4),
+                      w + (d / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4))
+        y = np.array(x, dtype=float)
+        y[PSI], y[W] = psi, w
+        return y
 
     def output(self, t, x, u):
         p = self.p
@@ -396,14 +425,13 @@ class FourBarModel(Model):
             y[PSI], y[W] = psi, w
             return y
         n = substeps(h, self.max_substep)
+        if p.fidelity == 1:
+            return self._elastic_steps(t0, h, n, x, u)
         dt = h / n
         for i in range(n):
             t = t0 + i * dt
             t_end = t0 + (i + 1) * dt if i < n - 1 else t0 + h
-            if p.fidelity == 1:
-                x = self._step(t, x, t_end - t, u, t0)
-            else:
-                x = self._substep_with_events(t, t_end, x, u, t0)
+            x = self._substep_with_events(t, t_end, x, u, t0)
         return x
 
     def _substep_with_events(self, t, t_end, x, u, t0):
