@@ -214,10 +214,13 @@ class CamRockerModel(Model):
         F = contact.contact_force(q, qd, p.clearance, k, p.contact_law, p.restitution, v0, m, p.contact_exponent)
         return -F * R, F
 
+    def _acceleration(self, t, gamma, omega, x, u, t0) -> float:
+        """Rocker angular acceleration [rad/s2] at time t (x: the contact memory, entries 2..4)."""
+        T, _ = self.transmitted(u[0] + u[1] * (t - t0), u[1], (gamma, omega, x[2], x[3], x[4]))
+        return (T + u[2]) / self.p.rocker_inertia
+
     def derivatives(self, t, x, u, t0):
-        phi = u[0] + u[1] * (t - t0)
-        T, _ = self.transmitted(phi, u[1], x)
-        return np.array([x[1], (T + u[2]) / self.p.rocker_inertia, 0.0, 0.0, 0.0])
+        return np.array([x[1], self._acceleration(t, x[0], x[1], x, u, t0), 0.0, 0.0, 0.0])
 
     def _update_contact(self, phi: float, w: float, x: np.ndarray) -> None:
         g, g1, _ = self.kinematics(phi)
@@ -231,20 +234,29 @@ class CamRockerModel(Model):
             x[2] = abs(pen_dot)
 
     def advance(self, t0, h, x, u):
+        """RK4 on equal sub-steps of (gamma, omega) in plain floats (integrate.rk4_pair: the numbers of
+        integrate.rk4 without an array per stage); at fidelity 2 the contact memory is updated at every
+        sub-step boundary."""
         p = self.p
+        x = np.array(x, dtype=float)
         if p.fidelity == 0:
-            return np.array(x, dtype=float)
-        if p.fidelity == 1:
-            return integrate.rk4(self.derivatives, t0, h, x, u, self.max_substep)
+            return x
         n = integrate.substeps(h, self.max_substep)
         dt = h / n
-        f = lambda t, xx, uu, _t0: self.derivatives(t, xx, uu, t0)  # noqa: E731  (keep the step's t0)
-        x = np.array(x, dtype=float)
+
+        def acc(t, gamma, omega):
+            return self._acceleration(t, gamma, omega, x, u, t0)
+
+        gamma, omega = float(x[0]), float(x[1])
         for i in range(n):
             t = t0 + i * dt
-            self._update_contact(u[0] + u[1] * (t - t0), u[1], x)
-            x = integrate.rk4(f, t, dt, x, u, math.inf)
-        self._update_contact(u[0] + u[1] * h, u[1], x)
+            if p.fidelity == 2:
+                x[0], x[1] = gamma, omega
+                self._update_contact(u[0] + u[1] * (t - t0), u[1], x)
+            gamma, omega = integrate.rk4_pair(acc, t, dt, gamma, omega)
+        x[0], x[1] = gamma, omega
+        if p.fidelity == 2:
+            self._update_contact(u[0] + u[1] * h, u[1], x)
         return x
 
     def output(self, t, x, u):

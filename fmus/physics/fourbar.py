@@ -84,7 +84,7 @@ import numpy as np
 
 from . import contact
 from .base import Model, ParameterError, Params, Signal, param
-from .integrate import substeps
+from .integrate import rk4_pair, substeps
 
 # --------------------------------------------------------------------------------------------------------
 # linkage checks and closed-form kinematics (numpy: scalars or arrays)
@@ -333,25 +333,17 @@ class FourBarModel(Model):
 
     def _elastic_steps(self, t0, h, n, x, u):
         """Fidelity 1 over [t0, t0 + h]: the classical RK4 of :meth:`_step` on the two evolving states
-        (psi, w) in plain floats, n equal sub-steps (no per-stage arrays: the same numbers, a third of the
-        cost)."""
-        acc = self._acceleration
+        (psi, w), in plain floats (integrate.rk4_pair: the same numbers without an array per stage)."""
         v_imp = float(x[V_IMPACT])
+
+        def acc(t, psi, w):
+            return self._acceleration(t, psi, w, v_imp, u, t0, True)
+
         psi, w = float(x[PSI]), float(x[W])
         dt = h / n
         for i in range(n):
             t = t0 + i * dt
-            d = (t0 + (i + 1) * dt if i < n - 1 else t0 + h) - t
-            hd = 0.5 * d
-            a1 = acc(t, psi, w, v_imp, u, t0, True)
-            p2, w2 = psi + hd * w, w + hd * a1
-            a2 = acc(t + hd, p2, w2, v_imp, u, t0, True)
-            p3, w3 = psi + hd * w2, w + hd * a2
-            a3 = acc(t + hd, p3, w3, v_imp, u, t0, True)
-            p4, w4 = psi + d * w3, w + d * a3
-            a4 = acc(t + d, p4, w4, v_imp, u, t0, True)
-            psi, w = (psi + (d / 6.0) * (w + 2.0 * w2 + 2.0 * w3 + w4),
-                      w + (d / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4))
+            psi, w = rk4_pair(acc, t, (t0 + (i + 1) * dt if i < n - 1 else t0 + h) - t, psi, w)
         y = np.array(x, dtype=float)
         y[PSI], y[W] = psi, w
         return y

@@ -36,6 +36,24 @@ def rk4(f: Derivatives, t0: float, h: float, x: np.ndarray, u: Sequence[float], 
     return x
 
 
+def rk4_pair(acc: Callable[[float, float, float], float], t: float, dt: float, q: float, v: float):
+    """ONE classical RK4 step of q' = v, v' = acc(t, q, v) from t over dt, in plain floats: (q, v) at t + dt.
+
+    The same numbers as :func:`rk4` on a state array [q, v, ...] whose other entries do not change (every
+    product and sum in the same order), without an array per stage: for the mechanisms whose only evolving
+    state is one coordinate and its speed (an elastic link or contact driven by held inputs)."""
+    hd = 0.5 * dt
+    a1 = acc(t, q, v)
+    q2, v2 = q + hd * v, v + hd * a1
+    a2 = acc(t + hd, q2, v2)
+    q3, v3 = q + hd * v2, v + hd * a2
+    a3 = acc(t + hd, q3, v3)
+    q4, v4 = q + dt * v3, v + dt * a3
+    a4 = acc(t + dt, q4, v4)
+    return (q + (dt / 6.0) * (v + 2.0 * v2 + 2.0 * v3 + v4),
+            v + (dt / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4))
+
+
 def implicit_midpoint(f: Derivatives, t0: float, h: float, x: np.ndarray, u: Sequence[float],
                       max_substep: float, jacobian: Callable | None = None, tol: float = 1e-12,
                       max_iter: int = 20) -> np.ndarray:
