@@ -160,7 +160,7 @@ def run_realtime(system_name: str, modes: list[str], quick: bool, work: Path, ti
 def convention_references(tools: list[str], spec: dict, timeout: float) -> dict[str, dict]:
     """Final values of jacobi-sampled computed with the time doubles of each peer in ``tools`` that hands
     fmi2DoStep other doubles than the harness (libcosim: h_k = t_k+1 - t_k; Ecos, CoFmuPy: t += h): the fmpy
-    loop with that convention (runners.communication_points), run once, unpinned and untimed.  A drive with
+    loop with that convention (harness.peers.communication_points), run once, unpinned and untimed.  A drive with
     a sensitive trajectory (contact, a dead point) can turn those last bits into 1e-8 of the result."""
     out = {}
     for conv in sorted({CONVENTIONS[t] for t in tools if t in CONVENTIONS}):

@@ -131,36 +131,21 @@ def _initialised_master(folder: Path, step: float, n: int):
     return m, step_ns, params
 
 
-# the time doubles each tool hands fmi2DoStep (harness.peers.communication_points has the same conventions)
+# the time doubles each peer hands fmi2DoStep (harness.peers.communication_points)
 CONVENTIONS = {"libcosim": "libcosim", "ecos": "accumulate", "cofmupy": "accumulate"}
 
 
-def communication_points(n: int, step_ns: int, convention: str = "exact") -> tuple[list[float], list[float]]:
-    """(t_k, h_k) for k < n: ``exact`` (the harness) t_k = k*step_ns/1e9, h_k = step_ns/1e9; ``libcosim`` the same
-    t_k with h_k = t_k+1 - t_k; ``accumulate`` (Ecos, CoFmuPy) t_k+1 = t_k + h, h = step_ns/1e9."""
-    h = step_ns / NS
-    if convention == "accumulate":
-        times, t = [], 0.0
-        for _ in range(n):
-            times.append(t)
-            t += h
-        return times, [h] * n
-    times = [(k * step_ns) / NS for k in range(n + 1)]
-    if convention == "libcosim":
-        return times[:-1], [b - a for a, b in zip(times, times[1:])]
-    if convention == "exact":
-        return times[:-1], [h] * n
-    raise ValueError(f"time convention {convention!r} is not one of exact, libcosim, accumulate")
-
-
-def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str, convention: str = "exact") -> dict:
+def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str, convention: str = "harness") -> dict:
     """``kind`` "fmpy": the bare fmpy loop (FMU2Slave.setReal / doStep / getReal, fmpy's status checks);
     "ctypes": value references and buffers prepared once, the FMI functions called directly, status
     ignored.  Both take the steps of jacobi-sampled, with the harness's time doubles t_k = k*step_ns/1e9
-    unless ``convention`` names another tool's (:func:`communication_points`: the fmpy loop then computes
-    what that tool must compute, bit for bit)."""
+    unless ``convention`` names another tool's (:func:`harness.peers.communication_points`: the fmpy loop
+    then computes what that tool must compute, bit for bit)."""
+    from harness.peers import communication_points
+
     m, step_ns, params = _initialised_master(folder, step, n)
-    times, steps = communication_points(n, step_ns, convention)
+    times, steps = communication_points(n, step_ns / NS, convention)
+    times, steps = times[:-1].tolist(), steps.tolist()
     t0 = time.perf_counter()
     m.initialize(0, n * step_ns, None, params)
     y = m.y

@@ -242,20 +242,22 @@ def _fmpy_set(slave, var, value) -> None:
         slave.setString(vr, [str(value)])
 
 
-TIME_CONVENTIONS = ("exact", "libcosim", "accumulate")
+TIME_CONVENTIONS = ("exact", "harness", "libcosim", "accumulate")
 
 
 def communication_points(n: int, step: float, convention: str = "exact") -> tuple[np.ndarray, np.ndarray]:
     """(t_0 .. t_n, h_0 .. h_n-1): the doubles a tool hands ``fmi2DoStep``, by its time convention.
 
-    * ``exact`` (fmpy loop here, our master): t_k = k * step, h_k = step;
-    * ``libcosim``: integer nanoseconds, t_k = (k * step_ns) / 1e9 and h_k = t_k+1 - t_k;
+    * ``exact`` (the fmpy loop here): t_k = k * step, h_k = step;
+    * ``harness`` (our master's integer nanoseconds): t_k = (k * step_ns) / 1e9, h_k = step_ns / 1e9;
+    * ``libcosim``: the same t_k, and h_k = t_k+1 - t_k;
     * ``accumulate`` (Ecos, CoFmuPy): t_k+1 = t_k + step, h_k = step."""
     if convention == "exact":
         return np.arange(n + 1) * step, np.full(n, float(step))
-    if convention == "libcosim":
-        t = (np.arange(n + 1, dtype=np.int64) * step_nanoseconds(step)) / 1e9
-        return t, np.diff(t)
+    if convention in ("harness", "libcosim"):
+        step_ns = step_nanoseconds(step)
+        t = (np.arange(n + 1, dtype=np.int64) * step_ns) / 1e9
+        return t, (np.full(n, step_ns / 1e9) if convention == "harness" else np.diff(t))
     if convention == "accumulate":
         t = np.empty(n + 1)
         t[0] = acc = 0.0

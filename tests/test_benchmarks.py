@@ -142,22 +142,22 @@ def test_cofmupy_runs_in_its_venv_and_agrees_with_the_harness(fmu_dir, tmp_path)
 
 
 def test_time_conventions_of_the_peers():
-    from benchmarks.runners import communication_points
+    from harness.peers import communication_points
 
     n, step_ns = 7, 50_000
-    t, h = communication_points(n, step_ns, "exact")
-    assert t == [k * 5e-5 if k == 0 else (k * step_ns) / 1e9 for k in range(n)] and h == [5e-5] * n
-    t, h = communication_points(n, step_ns, "libcosim")   # integer ns, h from the differences
-    assert t == [(k * step_ns) / 1e9 for k in range(n)]
-    assert h == [((k + 1) * step_ns) / 1e9 - (k * step_ns) / 1e9 for k in range(n)]
+    t, h = communication_points(n, step_ns / 1e9, "harness")  # the master: integer ns, h = step_ns / 1e9
+    assert t.tolist() == [(k * step_ns) / 1e9 for k in range(n + 1)] and h.tolist() == [5e-5] * n
+    t, h = communication_points(n, step_ns / 1e9, "libcosim")   # the same times, h from their differences
+    assert t.tolist() == [(k * step_ns) / 1e9 for k in range(n + 1)]
+    assert h.tolist() == [((k + 1) * step_ns) / 1e9 - (k * step_ns) / 1e9 for k in range(n)]
     assert any(x != 5e-5 for x in h)  # the doubles differ in the last bits: why each peer has its reference
-    t, h = communication_points(n, step_ns, "accumulate")  # Ecos, CoFmuPy: t += h
+    t, h = communication_points(n, step_ns / 1e9, "accumulate")  # Ecos, CoFmuPy: t += h
     acc = [0.0]
-    for _ in range(n - 1):
+    for _ in range(n):
         acc.append(acc[-1] + 5e-5)
-    assert t == acc and h == [5e-5] * n
+    assert t.tolist() == acc and h.tolist() == [5e-5] * n
     with pytest.raises(ValueError, match="time convention 'gps'"):
-        communication_points(n, step_ns, "gps")
+        communication_points(n, step_ns / 1e9, "gps")
 
 
 def test_component_costs_replay_each_instance(fmu_dir, monkeypatch):
