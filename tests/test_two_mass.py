@@ -1,4 +1,4 @@
-"""Seed 000's two-mass frequency analysis (harness.two_mass) against independent computations: the roots
+"""Seed 000's two-mass frequency analysis (fmus.physics.two_mass) against independent computations: the roots
 of the quartic characteristic equation (3) by numpy.roots, the eigenvalues of the take-up equations (5)
 by numpy.linalg.eigvals, and the decoupled limit cos(beta) = 0."""
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from harness.two_mass import seed_frequencies, two_mass_frequencies
+from fmus.physics.two_mass import seed_frequencies, two_mass_frequencies
 
 CASES = [  # alpha_m, alpha_c, beta, theta, chi
     (0.5, 0.05, 0.0, 0.0, 0.2),
