@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import ctypes
+import functools
 import shutil
 import sys
 import tempfile
@@ -123,7 +124,13 @@ _install_proxy()
 def toolkit_annotation(unzip_dir: Path):
     """The toolkit's own annotation of an FMU built by fmus.slave.PressSlave (VendorAnnotations, tool
     "org.pressdrive", element ``Slave`` with the attributes ``module``, ``class`` and ``advancedPositions``),
-    or None for any other FMU."""
+    or None for any other FMU.  Read once per extraction folder (its content never changes: a changed FMU is
+    extracted into another folder, see :func:`extracted`)."""
+    return _annotation(str(unzip_dir))
+
+
+@functools.lru_cache(maxsize=None)
+def _annotation(unzip_dir: str):
     import xml.etree.ElementTree as ET
 
     try:
@@ -418,7 +425,7 @@ def open_instance(path: str | Path, name: str, logging_on: bool = True, in_proce
     if in_process is not False:
         from harness import inprocess
 
-        md, unzip_dir = extracted(path)
+        _, unzip_dir = extracted(path)
         if inprocess.is_pythonfmu(unzip_dir) and (in_process or inprocess.is_toolkit_fmu(unzip_dir)):
             return inprocess.InProcessFMU(path, name, logging_on)
     return FMU(path, name, logging_on)
