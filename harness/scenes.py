@@ -225,7 +225,8 @@ def chart(result: SceneResult, out: Path) -> list[Path]:
     others = [c for c in result.candidates if c.error is not None and c.error > 0.0]
     ok = [c for c in others if c.ok]
     bad = [c for c in others if not c.ok]
-    floor = min([c.error for c in others] + [result.scene.tolerance]) / 10.0
+    tol = result.scene.tolerance * (abs(result.full.value) if result.scene.relative else 1.0)
+    floor = min([c.error for c in others] + [tol]) / 10.0  # where a chosen model with error 0 is drawn
     ax.axvline(result.full.wall_time, color="tab:blue", ls=":", lw=1.2, label="full model (the reference)")
     ax.scatter([c.wall_time for c in ok], [c.error for c in ok], label="within tolerance", color="tab:green")
     ax.scatter([c.wall_time for c in bad], [c.error for c in bad], label="outside tolerance",
@@ -233,7 +234,6 @@ def chart(result: SceneResult, out: Path) -> list[Path]:
     ch = result.chosen
     ax.scatter([ch.wall_time], [max(ch.error or 0.0, floor)], s=160, facecolors="none", edgecolors="k",
                label=f"chosen (speed-up {result.speedup:.1f}x)")
-    tol = result.scene.tolerance * (abs(result.full.value) if result.scene.relative else 1.0)
     ax.axhline(tol, color="grey", ls="--", lw=1, label="tolerance")
     ax.set_xscale("log")
     ax.set_yscale("log")
