@@ -21,8 +21,8 @@ Nikravesh 1990: the hysteresis loss is equated to the kinetic-energy loss (1 - e
 whose elastic energy comes from the approach, so pen_max ~ v0 sqrt(m/k)); then c = k pen^n chi stays of the
 order of the critical damping.  Hunt and Crossley's own law has a material constant instead (e = 1 - alpha
 v0, chi = 3 alpha / 2, independent of the approach; the form Simbody's HuntCrossleyForce implements, alpha
-read off a measured e(v) curve), which no contact history can make unbounded.  When a contact closes with a negligible approach speed (a slow take-up of the play) and the
-load then compresses it, the penetration is set by the load, not by v0, and the damping c/m_eff =
+read off a measured e(v) curve), which no contact history can make unbounded.  When a contact closes with
+a negligible approach speed (a slow take-up of the play) and the load then compresses it, the penetration is set by the load, not by v0, and the damping c/m_eff =
 k pen^n chi / m_eff grows without bound as v0 -> 0 (its time constant falls to nanoseconds at V0_FLOOR):
 no joint has such a damper, the result depends on how exactly a vanishing onset speed was sampled, and
 no explicit integrator sized on the contact frequency stays stable (spurious rattling).  The laws here
