@@ -22,8 +22,8 @@ whose elastic energy comes from the approach, so pen_max ~ v0 sqrt(m/k)); then c
 order of the critical damping.  Hunt and Crossley's own law has a material constant instead (e = 1 - alpha
 v0, chi = 3 alpha / 2, independent of the approach; the form Simbody's HuntCrossleyForce implements, alpha
 read off a measured e(v) curve), which no contact history can make unbounded.  When a contact closes with
-a negligible approach speed (a slow take-up of the play) and the load then compresses it, the penetration is set by the load, not by v0, and the damping c/m_eff =
-k pen^n chi / m_eff grows without bound as v0 -> 0 (its time constant falls to nanoseconds at V0_FLOOR):
+a negligible approach speed (a slow take-up of the play) and the load then compresses it, the penetration
+is set by the load, not by v0, and the damping c/m_eff = k pen^n chi / m_eff grows without bound as v0 -> 0 (its time constant falls to nanoseconds at V0_FLOOR):
 no joint has such a damper, the result depends on how exactly a vanishing onset speed was sampled, and
 no explicit integrator sized on the contact frequency stays stable (spurious rattling).  The laws here
 therefore calibrate chi on the energy the contact holds:
