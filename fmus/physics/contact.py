@@ -16,17 +16,17 @@ state (``v_impact``), set when contact begins.  Every law needs the effective ma
 contacting bodies reduced to the contact normal (Kelvin-Voigt: its damping; Hunt-Crossley family: the
 energy speed below).
 
-Persistent contact (Hunt-Crossley family).  chi ~ 1/v0 is calibrated on ONE impact (Lankarani and
-Nikravesh 1990: the hysteresis loss is equated to the kinetic-energy loss (1 - e^2) m v0^2 / 2 of a contact
-whose elastic energy comes from the approach, so pen_max ~ v0 sqrt(m/k)); then c = k pen^n chi stays of the
-order of the critical damping.  Hunt and Crossley's own law has a material constant instead (e = 1 - alpha
-v0, chi = 3 alpha / 2, independent of the approach; the form Simbody's HuntCrossleyForce implements, alpha
-read off a measured e(v) curve), which no contact history can make unbounded.  When a contact closes with
-a negligible approach speed (a slow take-up of the play) and the load then compresses it, the penetration
-is set by the load, not by v0, and the damping c/m_eff = k pen^n chi / m_eff grows without bound as v0 -> 0 (its time constant falls to nanoseconds at V0_FLOOR):
-no joint has such a damper, the result depends on how exactly a vanishing onset speed was sampled, and
-no explicit integrator sized on the contact frequency stays stable (spurious rattling).  The laws here
-therefore calibrate chi on the energy the contact holds:
+Persistent contact (Hunt-Crossley family). chi ~ 1/v0 is calibrated on ONE impact (Lankarani and Nikravesh
+1990: the hysteresis loss is equated to the kinetic-energy loss (1 - e^2) m v0^2 / 2 of a contact whose
+elastic energy comes from the approach, so pen_max ~ v0 sqrt(m/k)); then c = k pen^n chi stays of the order of
+the critical damping. Hunt and Crossley's own law has a material constant instead (e = 1 - alpha v0, chi = 3
+alpha / 2, independent of the approach; the form Simbody's HuntCrossleyForce implements, alpha read off a
+measured e(v) curve), which no contact history can make unbounded. When a contact closes with a negligible
+approach speed (a slow take-up of the play) and the load then compresses it, the penetration is set by the
+load, not by v0, and the damping c/m_eff = k pen^n chi / m_eff grows without bound as v0 -> 0 (its time
+constant falls to nanoseconds at V0_FLOOR): no joint has such a damper, the result depends on how exactly a
+vanishing onset speed was sampled, and no explicit integrator sized on the contact frequency stays stable
+(spurious rattling). The laws here therefore calibrate chi on the energy the contact holds:
 
     v0 = max(approach speed at the onset, v_E(pen)),   v_E = sqrt(2 E_el / m_eff),  E_el = k pen^(n+1)/(n+1)
 
