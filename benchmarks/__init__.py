@@ -7,7 +7,7 @@
   (feeder_gto52, bed_drive, spine_knife, proof_press) and of the two-inertia benchmark, all at one fixed step
   per case;
 * the tools (:mod:`benchmarks.runners`): the harness with each master (its default path: the toolkit's
-  pythonfmu FMUs called in-process, :mod:`harness.inprocess`), the harness's ``jacobi-sampled`` on the plain
+  pythonfmu FMUs called in-process, :mod:`harness.fmi.inprocess`), the harness's ``jacobi-sampled`` on the plain
   FMI path (``jacobi-sampled-fmi``: every FMU through its C library), libcosim (libcosimpy), Ecos (ecospy,
   the SSP's parameter set ``default`` passed to ``init``), CoFmuPy (in a virtual environment of its own,
   :mod:`benchmarks.cofmupy`: it pins an older pythonfmu and fmpy), the bare fmpy loop
@@ -16,7 +16,7 @@
 * pinned (``taskset -c 0``) and unpinned; every configuration runs in its own subprocess
   (``python -m benchmarks.worker``);
 * the real-time factor of bed_drive: its default scene (the coarsest model that answers the scene's question
-  within tolerance, :func:`harness.scenes.choose`) and, for comparison, its default experiment (the
+  within tolerance, :func:`harness.studies.scenes.choose`) and, for comparison, its default experiment (the
   declared model).
 
 It prints the cost per FMU-step [us] and the ratios harness/peer, writes ``benchmark.csv`` and the bar chart

@@ -118,11 +118,11 @@ def run_all(cases: list[str], tools: list[str], modes: list[str], quick: bool, w
 def realtime_runs(system_name: str, cache: Path, log=print) -> list[tuple[str, str, dict]]:
     """(kind, label, run) of the system's default scene and of its default experiment.
 
-    The default scene is answered by :func:`harness.scenes.choose` (the coarsest model within the scene's
+    The default scene is answered by :func:`harness.studies.scenes.choose` (the coarsest model within the scene's
     tolerance of the full model; the full model is cached in ``cache``): the run is that model over the
     scene's time.  The default experiment is the system's declared model over its stop time."""
     from harness import load
-    from harness.scenes import choose, find_scene
+    from harness.studies.scenes import choose, find_scene
 
     system = load(system_name)
     exp = system.experiment
@@ -160,7 +160,7 @@ def run_realtime(system_name: str, modes: list[str], quick: bool, work: Path, ti
 def convention_references(tools: list[str], spec: dict, timeout: float) -> dict[str, dict]:
     """Final values of jacobi-sampled computed with the time doubles of each peer in ``tools`` that hands
     fmi2DoStep other doubles than the harness (libcosim: h_k = t_k+1 - t_k; Ecos, CoFmuPy: t += h): the fmpy
-    loop with that convention (harness.peers.communication_points), run once, unpinned and untimed.  A drive with
+    loop with that convention (benchmarks.peers.communication_points), run once, unpinned and untimed.  A drive with
     a sensitive trajectory (contact, a dead point) can turn those last bits into 1e-8 of the result."""
     out = {}
     for conv in sorted({CONVENTIONS[t] for t in tools if t in CONVENTIONS}):

@@ -32,7 +32,7 @@ def _slave(cls, name: str, parameters: dict):
 def component_costs(system_name: str, steps: int = 400) -> list[dict]:
     """One row per instance: FMU, fidelity, do_step and get_real [us per call] over ``steps`` replayed steps."""
     from harness import load, simulate
-    from harness.reference import _model_name, component_classes
+    from harness.studies.reference import _model_name, component_classes
 
     system = load(system_name)
     exp = system.experiment

@@ -18,7 +18,7 @@ NS = 1_000_000_000
 TOOLS = ("jacobi", "jacobi-sampled", "jacobi-sampled-fmi", "gauss-seidel", "iterative", "libcosim", "ecos",
          "cofmupy", "fmpy", "ctypes")
 # the harness's masters; "-fmi": the same master calling every FMU through its C library (the plain FMI path)
-# instead of the default in-process path for the toolkit's pythonfmu FMUs (harness.inprocess)
+# instead of the default in-process path for the toolkit's pythonfmu FMUs (harness.fmi.inprocess)
 HARNESS_TOOLS = ("jacobi", "jacobi-sampled", "jacobi-sampled-fmi", "gauss-seidel", "iterative")
 # tools that compute exactly what the harness computes with master "jacobi-sampled" (cofmupy: its Jacobi
 # within one strongly connected group, the only systems benchmarks.cofmupy lets it run)
@@ -37,7 +37,7 @@ def _split(column: str, instances) -> tuple[str, str]:
 
 
 def _preload(folder: Path) -> None:
-    from harness.peers import _preload as preload
+    from benchmarks.peers import _preload as preload
 
     preload(sorted(Path(folder).rglob("*.fmu")))
 
@@ -58,7 +58,7 @@ def run_harness(folder: Path, tool: str, step: float, n: int, columns: list[str]
 def run_libcosim(folder: Path, step: float, n: int, columns: list[str]) -> dict:
     from libcosimpy import CosimEnums, CosimExecution, CosimLogging, CosimObserver
 
-    from harness.peers import step_nanoseconds
+    from benchmarks.peers import step_nanoseconds
 
     CosimLogging.log_output_level(CosimLogging.CosimLogLevel.WARNING)
     _preload(folder)
@@ -115,7 +115,7 @@ def _initialised_master(folder: Path, step: float, n: int):
     start from the same consistent point); the floors then step it with their own loops."""
     from harness import load
     from harness.extrapolation import Polynomial
-    from harness.fmu import FMU
+    from harness.fmi.fmu import FMU
     from harness.masters import JacobiSampled
     from harness.model import model_description, resolve_fmu
     from harness.run import _split_parameters
@@ -131,7 +131,7 @@ def _initialised_master(folder: Path, step: float, n: int):
     return m, step_ns, params
 
 
-# the time doubles each peer hands fmi2DoStep (harness.peers.communication_points)
+# the time doubles each peer hands fmi2DoStep (benchmarks.peers.communication_points)
 CONVENTIONS = {"libcosim": "libcosim", "ecos": "accumulate", "cofmupy": "accumulate"}
 
 
@@ -139,9 +139,9 @@ def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str, 
     """``kind`` "fmpy": the bare fmpy loop (FMU2Slave.setReal / doStep / getReal, fmpy's status checks);
     "ctypes": value references and buffers prepared once, the FMI functions called directly, status
     ignored.  Both take the steps of jacobi-sampled, with the harness's time doubles t_k = k*step_ns/1e9
-    unless ``convention`` names another tool's (:func:`harness.peers.communication_points`: the fmpy loop
+    unless ``convention`` names another tool's (:func:`benchmarks.peers.communication_points`: the fmpy loop
     then computes what that tool must compute, bit for bit)."""
-    from harness.peers import communication_points
+    from benchmarks.peers import communication_points
 
     m, step_ns, params = _initialised_master(folder, step, n)
     times, steps = communication_points(n, step_ns / NS, convention)

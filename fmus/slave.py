@@ -346,7 +346,7 @@ class PressSlave(Fmi2Slave):
         advanced = [f"{port.name}.{'s' if port.translational else 'phi'}" for port in type(self).ports
                     if port.motion == "in" and type(self).advances_position]
         # one element (the FMI 2.0 schema allows one child per Tool): the slave module and class, which the
-        # toolkit's master may call directly in its own process (harness.inprocess), and the advanced positions
+        # toolkit's master may call directly in its own process (harness.fmi.inprocess), and the advanced positions
         vendor = Element("VendorAnnotations")
         tool = SubElement(vendor, "Tool", name="org.pressdrive")
         SubElement(tool, "Slave", {"module": type(self).__module__, "class": type(self).__name__,

@@ -3,7 +3,7 @@
     from harness import load, simulate
     df = simulate(load("two_inertia"), stop_time=1.0, step=1e-3, master="gauss-seidel", extrapolation=1)
 
-Modules: :mod:`harness.model` (the system as data), :mod:`harness.fmu` (checked FMU wrapper),
+Modules: :mod:`harness.model` (the system as data), :mod:`harness.fmi.fmu` (checked FMU wrapper),
 :mod:`harness.graph` (dependency graphs, loops), :mod:`harness.masters` (jacobi, gauss-seidel, iterative),
 :mod:`harness.extrapolation`, :mod:`harness.stepcontrol` (richardson, ecco), :mod:`harness.results`,
 :mod:`harness.run` (``simulate`` and the ``run`` CLI command).  Heavy imports happen on first use.

@@ -11,7 +11,8 @@ def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m harness", description=__doc__.splitlines()[0])
     ap.add_argument("--debug", action="store_true", help="show the traceback of a failure")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    from harness import precision, run, scenes, ssp, stability, sweep, synthesis
+    from harness import run, ssp, synthesis
+    from harness.studies import precision, scenes, stability, sweep
 
     run.register(sub)             # run a system
     ssp.register(sub)             # export a system as SSP

@@ -107,7 +107,7 @@ class System:
     experiment: Experiment | None = None
     description: str = ""
     scenes: list = field(default_factory=list)
-    default_scene: str | None = None   # the scene asked when none is named (harness.scenes.find_scene)
+    default_scene: str | None = None   # the scene asked when none is named (harness.studies.scenes.find_scene)
 
     def instance(self, name: str) -> Instance:
         for inst in self.instances:
@@ -271,7 +271,7 @@ def resolve_fmu(fmu: str | Path) -> Path:
 
     A path ending in ``.fmu`` must exist.  A bare model name (``"FourBar"``) resolves to
     ``<fmu_dir()>/<name>.fmu``; if that is missing or older than its sources, it is built with
-    ``build_fmus.main(["--out", dir, "--only", module])`` (module found by scanning fmus/components).
+    ``fmus.build.main(["--out", dir, "--only", module])`` (module found by scanning fmus/components).
     """
     s = str(fmu)
     if s.lower().endswith(".fmu") or os.sep in s or "/" in s:
@@ -287,11 +287,8 @@ def resolve_fmu(fmu: str | Path) -> Path:
             return path
         raise SystemError_(f"unknown FMU model {s!r}: no {path} and no class {s} in fmus/components/pd_*.py")
     if not path.is_file() or _sources_newer_than(path, script):
-        import sys
+        from fmus.build import main as build_main
 
-        sys.path.insert(0, str(ROOT))
-        import build_fmus
-
-        if build_fmus.main(["--out", str(out), "--only", script.stem]) != 0 or not path.is_file():
+        if build_main(["--out", str(out), "--only", script.stem]) != 0 or not path.is_file():
             raise SystemError_(f"building FMU {s} from {script.name} failed (see stderr)")
     return path

@@ -28,7 +28,7 @@ import pandas as pd
 
 from harness.errors import FMUError, HarnessError, SimulationError, SystemError_
 from harness.extrapolation import extrapolation as make_extrapolation
-from harness.fmu import Instance, open_instance
+from harness.fmi import Instance, open_instance
 from harness.masters import NS, ConvergenceError, IterationOptions, master_class
 from harness.model import System, model_description, resolve_fmu
 from harness.results import Recorder, to_csv
@@ -46,7 +46,7 @@ class RunOptions:
     ``iteration``: the ``iterative`` master's solver; ``steps``: limits of the variable-step controllers;
     ``blowup``: an output whose magnitude exceeds it stops the run (amplitude blow-up); ``progress``: tqdm
     progress bar (None: only when stderr is a terminal, shown after 2 s); ``logging``: FMU debug logging;
-    ``in_process``: how pythonfmu FMUs are called (:func:`harness.fmu.open_instance`: None runs the toolkit's
+    ``in_process``: how pythonfmu FMUs are called (:func:`harness.fmi.open_instance`: None runs the toolkit's
     own FMUs in this process and every other FMU through FMI; True runs every pythonfmu FMU in-process;
     False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs."""
     iteration: IterationOptions = field(default_factory=IterationOptions)

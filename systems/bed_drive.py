@@ -34,7 +34,7 @@ import math
 
 from fmus.physics import fourbar
 from harness.model import Connection, Experiment, Instance, System, bond
-from harness.scenes import Scene
+from harness.studies.scenes import Scene
 
 RPM = 2 * math.pi / 60
 CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m

@@ -20,7 +20,7 @@ Chain (power bonds, motion -> / <- effort):
 import math
 
 from harness.model import Experiment, Instance, System, bond
-from harness.scenes import Scene
+from harness.studies.scenes import Scene
 
 RPM = 2 * math.pi / 60
 N_CRANK = 960.0 / 6.4  # rpm, motor rated speed over the belt ratio

@@ -13,7 +13,7 @@
 import math
 
 from harness.model import Experiment, Instance, System, bond
-from harness.scenes import Scene
+from harness.studies.scenes import Scene
 
 RPM = 2 * math.pi / 60
 

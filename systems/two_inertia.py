@@ -1,12 +1,12 @@
 """Two inertias coupled by a spring-damper across the FMU boundary (force-displacement coupling).
 
 The classic co-simulation benchmark: ``a`` (Inertia, motion out) drives ``b`` (SpringInertia, motion in,
-feed-through torque).  Its one-step map is known in closed form (harness.stability), so it measures
+feed-through torque).  Its one-step map is known in closed form (harness.studies.stability), so it measures
 convergence orders and stability limits of the masters.  Undamped and free-free by default: the coupled
 system conserves energy, so any energy change is made by the coupling.
 """
 from harness.model import Experiment, Instance, System, bond
-from harness.scenes import Scene
+from harness.studies.scenes import Scene
 
 SYSTEM = System(
     name="two_inertia",

@@ -142,7 +142,7 @@ def test_cofmupy_runs_in_its_venv_and_agrees_with_the_harness(fmu_dir, tmp_path)
 
 
 def test_time_conventions_of_the_peers():
-    from harness.peers import communication_points
+    from benchmarks.peers import communication_points
 
     n, step_ns = 7, 50_000
     t, h = communication_points(n, step_ns / 1e9, "harness")  # the master: integer ns, h = step_ns / 1e9

@@ -288,7 +288,7 @@ def test_ring_iterative_matches_fine_jacobi(c_fmu):
 @contextmanager
 def _running(fmu_path, name="direct"):
     """An FMU instance of ``fmu_path`` in step mode at t = 0 (terminated and freed afterwards)."""
-    from harness.fmu import FMU
+    from harness.fmi.fmu import FMU
 
     f = FMU(fmu_path, name)
     try:
@@ -362,7 +362,7 @@ LOGGED = re.compile(r"fmi2SetRealInputDerivatives: t = (\S+), F order (\d) = (\S
 
 def _kept_logs(monkeypatch) -> dict[str, list[str]]:
     """Instance name -> the messages its FMU logged, kept when the run frees the instance."""
-    from harness import fmu as hfmu
+    from harness.fmi import fmu as hfmu
 
     logs: dict[str, list[str]] = {}
     free = hfmu.FMU.free
@@ -496,7 +496,7 @@ def test_ring_linear_extrapolation_error_constants(c_fmu, c_fmu_interp):
 # -- rollback ----------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("build", ["c_fmu", "c_fmu_interp"])
 def test_iterative_master_rolls_back_the_c_fmu(request, build, monkeypatch):
-    from harness import fmu as hfmu
+    from harness.fmi import fmu as hfmu
 
     calls = {"get": 0, "set": 0}
     get_state, set_state = hfmu.FMU.get_state, hfmu.FMU.set_state
@@ -553,7 +553,7 @@ def test_get_set_fmu_state_is_bit_exact(c_fmu):
 
 def test_a_c_fmu_always_runs_through_fmi(c_fmu):
     """The in-process path is for pythonfmu FMUs only: asking for it everywhere still calls the C FMU's library."""
-    from harness.fmu import FMU, open_instance
+    from harness.fmi import FMU, open_instance
 
     for in_process in (None, True, False):
         fmu = open_instance(c_fmu, f"osc_{in_process}", in_process=in_process)

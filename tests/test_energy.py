@@ -1,4 +1,4 @@
-"""Power-bond energy diagnostics (harness.energy).
+"""Power-bond energy diagnostics (harness.studies.energy).
 
 Tier 1: held-value reconstruction against polynomials, and the coupling energy of an in-process Jacobi
 zero-order-hold co-simulation of the physics models against the true energy drift of the coupled system
@@ -15,8 +15,8 @@ import pandas as pd
 import pytest
 
 from fmus.physics.elements import InertiaModel, InertiaParams, SpringInertiaModel, SpringInertiaParams
-from harness import energy as en
-from harness.stability import TwoInertia
+from harness.studies import energy as en
+from harness.studies.stability import TwoInertia
 
 COLS = ["a.flange.phi", "a.flange.w", "b.drive.tau", "b.phi", "b.w"]
 

@@ -11,7 +11,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-import build_fmus
+from fmus import build as build_fmus
 
 SCRIPTS = [s.stem for s in build_fmus.component_scripts()]
 

@@ -12,7 +12,7 @@ import pytest
 
 from harness import load, simulate
 from harness.errors import FMUError, SystemError_
-from harness.fmu import FMU
+from harness.fmi.fmu import FMU
 from harness.model import Connection, Experiment, Instance, System, SystemWarning, bond
 from harness.results import read_csv, to_csv
 
@@ -128,7 +128,7 @@ def test_fmu_wrapper_checks_status_and_names_instance_call_and_time(fmu_dir):
     finally:
         f.free()
     text = _isolated(f"""
-from harness.fmu import FMU
+from harness.fmi.fmu import FMU
 g = FMU(r"{fmu_dir / 'Gain.fmu'}", "gbad")
 g.setup(0.25)
 g.set_value("limit", -2.0)

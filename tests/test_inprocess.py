@@ -1,4 +1,4 @@
-"""The in-process path for pythonfmu FMUs (harness.inprocess) against the FMI path through the FMUs' C library.
+"""The in-process path for pythonfmu FMUs (harness.fmi.inprocess) against the FMI path through the FMUs' C library.
 
 * every press drive, with every master (and extrapolation 0 and 1): values, times, bond energies and the
   completion flag are bit-identical between the two paths;
@@ -18,8 +18,8 @@ import pytest
 
 from harness import RunOptions, load, simulate
 from harness.errors import FMUError
-from harness.fmu import FMU, open_instance
-from harness.inprocess import InProcessFMU, slave_class
+from harness.fmi import FMU, open_instance
+from harness.fmi.inprocess import InProcessFMU, slave_class
 
 SYSTEMS = ["feeder_gto52", "bed_drive", "spine_knife", "proof_press", "two_inertia"]
 FMI = RunOptions(in_process=False)
@@ -136,7 +136,7 @@ def foreign_fmu(tmp_path_factory):
 
 
 def test_a_foreign_pythonfmu_fmu_runs_through_fmi_by_default_and_in_process_on_request(foreign_fmu):
-    from harness.fmu import extracted
+    from harness.fmi.fmu import extracted
     from harness.model import Connection, Experiment, Instance, System
 
     _, unzip_dir = extracted(foreign_fmu)
@@ -168,8 +168,8 @@ def test_loading_an_fmu_first_does_not_break_later_builds(fmu_dir, tmp_path):
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
-    code = (f"from harness.fmu import open_instance; open_instance({str(fmu_dir / 'Gain.fmu')!r}, 'g');"
-            f"import build_fmus; raise SystemExit(build_fmus.main(['--out', {str(tmp_path)!r}, '--only', 'pd_gain']))")
+    code = (f"from harness.fmi import open_instance; open_instance({str(fmu_dir / 'Gain.fmu')!r}, 'g');"
+            f"from fmus.build import main; raise SystemExit(main(['--out', {str(tmp_path)!r}, '--only', 'pd_gain']))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=str(root), timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     with zipfile.ZipFile(tmp_path / "Gain.fmu") as z:

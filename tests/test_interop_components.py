@@ -7,7 +7,7 @@ relative (only time-dependent FMUs, e.g. KnifeLoad, see the time difference at a
 convention, fmpy reproduces each peer BIT FOR BIT (test_peer_is_bit_identical_with_its_time_convention).
 Tolerance of the cross-tool check: 1e-12 of each column's largest magnitude.  A peer whose package does not
 import is skipped with the import error.  Failing FMUs crash both peers (abort / segfault): those cases run
-in a subprocess (harness.peers.run_isolated).
+in a subprocess (benchmarks.peers.run_isolated).
 """
 from __future__ import annotations
 
@@ -18,8 +18,8 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
-import build_fmus
-from harness import peers
+from fmus import build as build_fmus
+from benchmarks import peers
 from harness.errors import FMUError, SystemError_
 
 pytestmark = pytest.mark.interop
@@ -206,7 +206,7 @@ def test_time_check_catches_a_wrong_grid():
 def test_fmu_error_is_reported_by_every_tool(inertia):
     """A parameter outside its bounds (J <= 0) makes the FMU fail in initialisation; every tool must raise.
     libcosim aborts its process on this and Ecos ignores the failed initialisation and segfaults in the
-    first step (see harness.peers.run_isolated), so those two run in a separate process."""
+    first step (see benchmarks.peers.run_isolated), so those two run in a separate process."""
     for peer in ("fmpy", "ecos", "libcosim"):
         if AVAILABLE[peer] is not None:
             continue

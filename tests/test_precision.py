@@ -1,4 +1,4 @@
-"""Error metrics (harness.metrics) and the work-precision study (harness.precision, ``study precision``).
+"""Error metrics (harness.studies.metrics) and the work-precision study (harness.studies.precision, ``study precision``).
 
 Tier 1: the metrics on synthetic data against hand-computed values.  Tier 2: a tiny study of spine_knife
 through the built FMUs (convergence orders of the measured errors, files), the CLI; slow: the default study
@@ -12,8 +12,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from harness.metrics import MetricsError, align, error_metrics
-from harness import precision as pr
+from harness.studies.metrics import MetricsError, align, error_metrics
+from harness.studies import precision as pr
 
 
 def frame(t, **cols):

@@ -1,4 +1,4 @@
-"""The monolithic reference (harness.reference): every system, exactness, and convergence of the masters to it.
+"""The monolithic reference (harness.studies.reference): every system, exactness, and convergence of the masters to it.
 
 Expected values are independent of the code under test: the matrix exponential of the two-inertia ODE
 written out here, and convergence orders from the theory of explicit co-simulation (zero-order hold: 1,
@@ -14,7 +14,7 @@ import pytest
 from scipy.linalg import expm
 
 from harness import load, simulate
-from harness.reference import Monolithic, ReferenceError_, reference
+from harness.studies.reference import Monolithic, ReferenceError_, reference
 
 SHORT = {"two_inertia": 0.05, "feeder_gto52": 0.03, "bed_drive": 0.03, "spine_knife": 0.02, "proof_press": 0.05}
 

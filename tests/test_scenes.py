@@ -13,7 +13,8 @@ import warnings
 
 import pytest
 
-from harness import load, qoi, scenes, simulate
+from harness import load, qoi, simulate
+from harness.studies import scenes
 from harness.__main__ import main
 
 

@@ -3,7 +3,7 @@
 * Round trip: export -> load_ssp -> simulate reproduces the original run EXACTLY (DataFrame.equals).
 * Peers: the exported archive runs in libcosim and in Ecos; with ``master="jacobi-sampled"`` (the algorithm
   those tools use) the results agree with the harness.  libcosim: every column to 1e-9 of its largest
-  magnitude (the only difference is libcosim's integer-nanosecond time, harness.peers docstring; measured
+  magnitude (the only difference is libcosim's integer-nanosecond time, benchmarks.peers docstring; measured
   <= 4e-11).  Ecos: the dynamics are the same (every output WITHOUT direct feed-through agrees to 1e-9,
   measured bit-identical or ~1e-13), but Ecos reads the variables AFTER it has passed the new outputs on to
   the inputs, so an output WITH direct feed-through (ModelStructure dependencies, e.g. a spring torque) is
@@ -25,9 +25,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import harness.fmu
+import harness.fmi.fmu
 from harness import load, simulate
-from harness import peers
+from benchmarks import peers
 from harness.errors import SystemError_
 from harness.model import Instance, SystemWarning, model_description
 from harness.ssp import export_ssp, load_ssp
@@ -87,9 +87,9 @@ def _feedthrough(system) -> set[str]:
 
 @pytest.fixture
 def peer_ok(monkeypatch):
-    # harness.peers._ssp_fmus imports harness.fmu._TMP_DIRS, which harness.fmu no longer defines (reported):
+    # benchmarks.peers._ssp_fmus imports harness.fmi.fmu._TMP_DIRS, which harness.fmi.fmu no longer defines (reported):
     # provide it for the test so that a .ssp ARCHIVE can be handed to the peers.
-    monkeypatch.setattr(harness.fmu, "_TMP_DIRS", [], raising=False)
+    monkeypatch.setattr(harness.fmi.fmu, "_TMP_DIRS", [], raising=False)
 
 
 @pytest.mark.interop

@@ -1,4 +1,4 @@
-"""Coupling stability of the two-inertia benchmark (harness.stability).
+"""Coupling stability of the two-inertia benchmark (harness.studies.stability).
 
 Tier 1: the amplification-matrix theory against closed forms (energy argument for the zero-order-hold
 growth rate, decay rate of the continuous system for h -> 0, unit-circle spectrum of the undamped monolithic
@@ -16,8 +16,8 @@ import pytest
 from scipy.linalg import expm
 
 from fmus.physics.elements import InertiaModel, InertiaParams, SpringInertiaModel, SpringInertiaParams
-from harness import stability as st
-from harness.stability import TwoInertia
+from harness.studies import stability as st
+from harness.studies.stability import TwoInertia
 
 METHODS = [(m, q) for m in ("jacobi", "gauss-seidel") for q in (0, 1, 2)]
 FREE = TwoInertia()  # systems/two_inertia.py: free-free, undamped
@@ -212,7 +212,7 @@ def test_study_cli_theory_only(tmp_path):
 # -- tier 2: measured on the FMUs ------------------------------------------------------------------------------
 @pytest.mark.parametrize("master,order", METHODS)
 def test_measured_boundary_matches_theory(fmu_dir, master, order):
-    """Bisection on real co-simulation runs (blow-up criterion of harness.stability) within 5 % of the
+    """Bisection on real co-simulation runs (blow-up criterion of harness.studies.stability) within 5 % of the
     amplification-matrix boundary."""
     p = st.STUDY_BASE
     h_theory = st.stability_boundary(p, master, order)
@@ -229,7 +229,7 @@ def test_measured_runs_are_judged_both_ways(fmu_dir):
     assert st.growth_ratio(run(1.1 * hb)) > 1.0
 
 
-# -- press drives (harness.stability press-drive section) -------------------------------------------------------
+# -- press drives (harness.studies.stability press-drive section) -------------------------------------------------------
 def _own_deviation(df, ref, columns):
     """Independent re-implementation of the press criterion: max over columns of the last-quarter deviation
     from the interpolated reference over the column's variation in the reference."""

@@ -1,4 +1,4 @@
-"""Parameter sweeps (harness.sweep): spec parsing and errors, Latin hypercube, failed points, charts, and a
+"""Parameter sweeps (harness.studies.sweep): spec parsing and errors, Latin hypercube, failed points, charts, and a
 2-worker dask LocalCluster giving exactly the serial results."""
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from harness import sweep
+from harness.studies import sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDIES = ROOT / "systems" / "studies"

@@ -21,7 +21,7 @@ import pytest
 
 from fmus.physics import fourbar
 from harness import load, simulate
-from harness.energy import bond_power
+from harness.studies.energy import bond_power
 from harness.model import Instance, SystemWarning
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -245,7 +245,7 @@ def _shaft_energy_balance(df, inst: str, bonds: list, p: dict):
     """Work done on a FlywheelShaft through its bonds vs its energy change plus shaft dissipation [J].
 
     The work is exact in a co-simulation: each side holds the other's torque over a step and its angle is
-    the exact integral of its speed, so W = sum tau_held * dphi (harness.energy.bond_power's P_out).  The
+    the exact integral of its speed, so W = sum tau_held * dphi (harness.studies.energy.bond_power's P_out).  The
     dissipation b * int(dq/dt)^2 dt uses dq/dt = (T - c q)/b from the outputs shaft_torque T and shaft_twist
     q at the communication points (trapezoidal rule), with c and b recomputed from the parameters."""
     H = np.diff(df.index.to_numpy(dtype=float))

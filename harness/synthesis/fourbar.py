@@ -85,6 +85,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    from pathlib import Path
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
     sys.exit(main())

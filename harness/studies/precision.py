@@ -2,12 +2,12 @@
 
 The study runs a grid of co-simulation methods (master x extrapolation order x step control) at several
 step sizes (fixed step) or tolerances (variable step: ``richardson``, ``ecco``), measures each run's wall
-time and its error against the monolithic reference (:func:`harness.reference.reference`, the same
+time and its error against the monolithic reference (:func:`harness.studies.reference.reference`, the same
 equations as one ODE integrated by Radau to rtol 1e-9), and writes
 
 * ``<out>/precision_<system>.csv``: one row per run and compared variable (the reference itself is the row
   with ``master = "reference"``): the method, step/tolerance, wall time, accepted/rejected steps, whether it
-  completed, and the metrics of :mod:`harness.metrics` (max / RMS, absolute / relative).  ``quantity`` is
+  completed, and the metrics of :mod:`harness.studies.metrics` (max / RMS, absolute / relative).  ``quantity`` is
   True on the rows of the system's quantity of interest.
 * ``<out>/precision_<system>.png`` / ``.svg``: the work-precision chart, log-log error of the quantity of
   interest (``--metric``, default ``max_abs``) versus wall time, one line per method, and the reference's own
@@ -42,7 +42,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.metrics import METRICS, error_metrics
+from harness.studies.metrics import METRICS, error_metrics
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,7 @@ def precision_spec(system) -> PrecisionSpec:
         return spec
     if system.name not in PRECISION:
         raise ValueError(f"system {system.name!r} has no precision quantity: add it to "
-                         f"harness.precision.PRECISION (known: {', '.join(sorted(PRECISION))})")
+                         f"harness.studies.precision.PRECISION (known: {', '.join(sorted(PRECISION))})")
     return PRECISION[system.name]
 
 
@@ -140,7 +140,7 @@ def precision_study(system, stop_time: float | None = None, steps=None, toleranc
                     reference_options: dict | None = None, progress=None) -> Study:
     """Run the grid and measure it (module docstring).  ``progress``: callable taking one line of text."""
     from harness.masters import MASTERS
-    from harness.reference import component_classes, reference
+    from harness.studies.reference import component_classes, reference
     from harness.run import load, simulate
     from harness.stepcontrol import STEP_CONTROLS
 

@@ -6,7 +6,7 @@ with columns ``<instance>.<variable>``; the first row is t = 0 after initialisat
 communication step.  ``df.attrs`` carries ``peer`` and ``steps``.  Parameters and inputs are constants, set
 once before initialisation (FMI start values, so they also hold in initialisation mode).
 
-    from harness.peers import available, run_fmu_fmpy, run_fmu_libcosim, run_fmu_ecos
+    from benchmarks.peers import available, run_fmu_fmpy, run_fmu_libcosim, run_fmu_ecos
     ref = run_fmu_fmpy("Inertia.fmu", 0.05, 1e-3, {"J": 0.5}, {"flange.tau": 2.0}, ["flange.w"])
 
 Tools, and what was found about them (libcosimpy 0.0.6 / libcosim 0.11, ecospy 0.7.2, CoFmuPy 1.0.0):
@@ -24,7 +24,7 @@ Tools, and what was found about them (libcosimpy 0.0.6 / libcosim 0.11, ecospy 0
   the shared ``fmus`` package once per process, from the first resources folder it is given: if that was a
   tool's deleted folder, a later FMU needing a not yet imported submodule fails to instantiate (and the
   tool then crashes).  So every peer run first imports the FMU's code from OUR persistent extraction
-  (:func:`_preload`, via :func:`harness.fmu.extracted`).  Our fmpy loop never unloads a library
+  (:func:`_preload`, via :func:`harness.fmi.fmu.extracted`).  Our fmpy loop never unloads a library
   (``fmi2FreeInstance`` only; fmpy's ``freeInstance()`` would unload it) and never frees an instance
   after an error: pythonfmu reports any Python exception as fmi2Fatal, after which FMI allows no call, and
   ``fmi2FreeInstance`` there corrupts memory (segfault in the next garbage collection).
@@ -92,7 +92,7 @@ def n_steps(stop_time: float, step: float) -> int:
 
 def _variables(fmu_path) -> tuple[object, dict]:
     """(model description, name -> ModelVariable), from the once-per-process extraction cache."""
-    from harness.fmu import extracted
+    from harness.fmi.fmu import extracted
 
     md, _ = extracted(fmu_path)
     return md, {v.name: v for v in md.modelVariables}
@@ -176,7 +176,7 @@ def _preload(fmu_paths) -> None:
     given; if that is a tool's temporary folder, deleted at the end of the run, every later FMU that needs a
     not yet imported submodule (e.g. ``fmus.physics.fourbar``) fails to instantiate and the tool crashes."""
     from fmpy.fmi2 import FMU2Slave
-    from harness.fmu import extracted
+    from harness.fmi.fmu import extracted
 
     for fmu_path in fmu_paths:
         key = str(Path(fmu_path).resolve())
@@ -191,7 +191,7 @@ def _preload(fmu_paths) -> None:
 
 
 def _ssp_fmus(path: Path) -> list[Path]:
-    """The FMU files of an SSP (archive extracted once, persistently, by the cache of harness.fmu)."""
+    """The FMU files of an SSP (archive extracted once, persistently, by the cache of harness.fmi.fmu)."""
     import zipfile
 
     if path.is_file() and zipfile.is_zipfile(path):
@@ -200,7 +200,7 @@ def _ssp_fmus(path: Path) -> list[Path]:
         import shutil
         import tempfile
 
-        from harness.fmu import cache_dir
+        from harness.fmi.fmu import cache_dir
 
         hit = _SSP_EXTRACTED.get(str(path))
         if hit is None:
@@ -274,7 +274,7 @@ def run_fmu_fmpy(fmu_path, stop_time: float, step: float, parameters: dict, inpu
     communication points of ``convention`` (see :func:`communication_points`; pass another tool's
     convention to reproduce its doubles bit for bit)."""
     from fmpy.fmi2 import FMU2Slave
-    from harness.fmu import extracted
+    from harness.fmi.fmu import extracted
 
     n = n_steps(stop_time, step)
     md, variables = _check_request(fmu_path, parameters, inputs, outputs)

@@ -90,7 +90,7 @@ def find_scene(system, name: str | None = None) -> Scene:
 
 def fidelity_levels(system) -> dict[str, tuple[int, ...]]:
     """Instance -> admissible fidelity levels (ascending), for instances whose component has one."""
-    from harness.reference import _model_name, component_classes
+    from harness.studies.reference import _model_name, component_classes
 
     classes = component_classes()
     out = {}
@@ -108,7 +108,7 @@ def _key(system, scene: Scene) -> str:
     """Hash of the system, the scene and the equation sources (a changed model invalidates the cache)."""
     model = (system.name, system.instances, system.connections, system.bonds, system.experiment)
     h = hashlib.sha1(repr((model, asdict(scene))).encode())
-    root = Path(__file__).resolve().parents[1] / "fmus"
+    root = Path(__file__).resolve().parents[2] / "fmus"
     for src in sorted([*root.glob("physics/*.py"), *root.glob("components/pd_*.py"), root / "slave.py"]):
         h.update(src.read_bytes())
     return h.hexdigest()[:16]

@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 class ReferenceError_(ValueError):

@@ -16,8 +16,8 @@ Status mapping (as the pythonfmu 0.7 C wrapper does it): a Python exception in a
 returning False is ``fmi2Discard`` (:class:`~harness.errors.StepDiscarded`).  Messages the slave logs
 (``Fmi2Slave.log``) go to the same ``log``/``errors`` lists as on the FMI path.
 
-Which FMUs run here is decided by :func:`harness.fmu.open_instance`: by default only the toolkit's own FMUs
-(their VendorAnnotations name the slave module and class: :func:`harness.fmu.toolkit_annotation`);
+Which FMUs run here is decided by :func:`harness.fmi.open_instance`: by default only the toolkit's own FMUs
+(their VendorAnnotations name the slave module and class: :func:`harness.fmi.fmu.toolkit_annotation`);
 any other FMU runs through FMI unless the caller asks for the in-process path explicitly.
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ import sys
 from pathlib import Path
 
 from harness.errors import FMUError, StepDiscarded
-from harness.fmu import DISCARD, ERROR, FATAL, WARNING, Instance, RealBlock, toolkit_annotation
+from harness.fmi.fmu import DISCARD, ERROR, FATAL, WARNING, Instance, RealBlock, toolkit_annotation
 
 _SLAVE_BASE = "Fmi2Slave"
 

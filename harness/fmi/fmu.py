@@ -170,7 +170,7 @@ def _keep_installed_pythonfmu() -> None:
     """Import the installed pythonfmu before any FMU's resources folder goes on ``sys.path``.
 
     A pythonfmu FMU carries a copy of the pythonfmu package in its resources, without pythonfmu's binaries,
-    and its C wrapper (like :mod:`harness.inprocess`) puts that folder FIRST on ``sys.path``.  Were the
+    and its C wrapper (like :mod:`harness.fmi.inprocess`) puts that folder FIRST on ``sys.path``.  Were the
     package first imported after that, the process would hold the FMU's copy, and an FMU built later in the
     same process (build_fmus, or :func:`harness.model.resolve_fmu` rebuilding a stale FMU) would come out
     without binaries."""
@@ -183,7 +183,7 @@ def _keep_installed_pythonfmu() -> None:
 
 class Instance:
     """What every FMU instance offers the master, whatever runs it (the C library through FMI, or a
-    pythonfmu slave object called in this process: :mod:`harness.inprocess`).
+    pythonfmu slave object called in this process: :mod:`harness.fmi.inprocess`).
 
     ``path`` is the .fmu file; ``name`` the instance name (used in every error message).  Attributes:
     ``md`` (fmpy model description), ``variables`` (name -> fmpy ModelVariable), ``time`` (the current
@@ -407,25 +407,3 @@ class FMU(Instance):
     def free_state(self, state) -> None:
         self._check(self._f["fmi2FreeFMUstate"](self.c, byref(state)), "fmi2FreeFMUstate")
         self._states = [s for s in self._states if s is not state]
-
-
-IN_PROCESS_CHOICES = (None, True, False)
-
-
-def open_instance(path: str | Path, name: str, logging_on: bool = True, in_process: bool | None = None) -> Instance:
-    """An instance of the FMU at ``path``, called in-process or through FMI.
-
-    ``in_process``: None (default) runs the pythonfmu FMUs of this toolkit (they carry its vendor annotation)
-    in this process (:class:`harness.inprocess.InProcessFMU`, bit-identical to the FMI path and faster) and
-    every other FMU through its shared library; True runs every pythonfmu FMU in-process (any other FMU still
-    through FMI); False runs everything through FMI."""
-    if in_process not in IN_PROCESS_CHOICES:
-        raise FMUError(name, "instantiate", None, None,
-                       detail=f"in_process = {in_process!r} is not admissible: must be None, True or False")
-    if in_process is not False:
-        from harness import inprocess
-
-        _, unzip_dir = extracted(path)
-        if inprocess.is_pythonfmu(unzip_dir) and (in_process or inprocess.is_toolkit_fmu(unzip_dir)):
-            return inprocess.InProcessFMU(path, name, logging_on)
-    return FMU(path, name, logging_on)
