@@ -119,3 +119,21 @@ def test_bad_input_names_the_parameter_and_the_range():
 def test_lambda_m_is_two_mass_eq7():
     p = T.TakeUpParams(alpha_c=0.3, alpha_m=2.0, beta=0.4, theta=0.1)
     assert p.lambda_m() == pytest.approx(float(p.frequencies().lambda_m), rel=1e-12)
+
+
+def test_study_map_and_summary(tmp_path):
+    from harness.studies import takeup as S
+
+    feeder = {"v_median": 0.01, "F_min": 1.0}
+    df = S.run_map(150.0, feeder, alpha_c=(0.0, 0.3, 3.0), alpha_m=(1.0,), restitution=(0.2,), beta_deg=(0.0,),
+                   geometries={"seed r=R3": 0.04})
+    assert set(df["case"]) == {"seed", "feeder", "feeder held"}
+    seed = df[df["case"] == "seed"].set_index("alpha_c")
+    assert bool(seed.loc[0.0, "classical"])                       # free impact
+    assert (df[df["case"] == "feeder held"]["classical"] == False).all()   # noqa: E712  held: never opens
+    summ = S.summarise(df)
+    row = summ[summ["case"] == "seed"].iloc[0]
+    non = seed.index[~seed["classical"].astype(bool)]
+    assert (math.isnan(row["first_nonclassical"]) if len(non) == 0 else row["first_nonclassical"] == non.min())
+    with pytest.raises(FileNotFoundError, match="feeder clearance sweep"):
+        S.feeder_takeups(tmp_path / "missing.csv")
