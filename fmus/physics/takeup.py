@@ -59,7 +59,7 @@ def seed_alpha_c(c1, c2, R3):
 def reduced_masses(I1, I2, r, R3, beta, theta=0.0, chi=0.2):
     """(m1, m2) [kg]: the crank side and the rocker reduced to the joint coordinate q (module docstring)."""
     cc = math.cos(beta) * math.cos(beta + theta)
-    m1 = I1 / (r * r * cc) if cc > 0.0 else math.inf if cc == 0.0 else -I1 / (r * r * -cc)
+    m1 = I1 / (r * r * cc) if cc != 0.0 else math.inf      # negative where cc < 0 (TakeUpParams refuses it)
     return m1, I2 / ((1.0 - chi) * R3 * R3)
 
 

@@ -33,14 +33,15 @@ def run(args) -> int:
     import numpy as np
 
     from fmus.physics import bed_law as B
-    from fmus.physics.laws import get_law
+    from fmus.physics.laws import Law, get_law
 
     try:
         st = B.working_stroke()
         K = B.SEED_RATIO
         alpha_S = K * abs(st.swing) + (1 + K) * B.SEED_CARRIER_SWING
         stroke = args.stroke if args.stroke is not None else 0.05 * alpha_S
-        u = args.runup if args.runup is not None else B.runup_for_zone(args.zone[0] / stroke, args.zone[1] / stroke)
+        u = args.runup if args.runup is not None else B.runup_for_zone(args.zone[0] / stroke,
+                                                                         args.zone[1] / stroke)
         cl = B.carrier_law(u)
         k = np.linspace(0.0, 1.0, 20001)
         _, bg, _ = cl.law(k)
@@ -50,10 +51,12 @@ def run(args) -> int:
         data = {"runup": u, "alpha_swing_deg": math.degrees(cl.alpha_swing),
                 "delta_swing_deg": math.degrees(cl.delta_swing), "bed_stroke_m": stroke,
                 "zone_shares": [args.zone[0] / stroke, args.zone[1] / stroke],
-                "uniform_shares": [float(B.bed_invariants(u, u, math)[0]), float(B.bed_invariants(1 - u, u, math)[0])],
+                "uniform_shares": [float(B.bed_invariants(u, u, math)[0]),
+                                   float(B.bed_invariants(1 - u, u, math)[0])],
                 "bed_b_zone_min": float(bed_b[zone].min()), "bed_b_zone_max": float(bed_b[zone].max()),
-                "carrier_working": B.stroke_invariants(cl.law), "carrier_idle_K0": B.stroke_invariants(get_law("K0")),
-                "bed_working": B.stroke_invariants(type(cl.law)("bed", "", ((1.0, lambda x, m: B.bed_invariants(x, u, m)),)))}
+                "carrier_working": B.stroke_invariants(cl.law),
+                "carrier_idle_K0": B.stroke_invariants(get_law("K0")),
+                "bed_working": B.stroke_invariants(Law("bed", "", ((1.0, lambda x, m: B.bed_invariants(x, u, m)),)))}
         if not args.no_cam:
             d = B.design_cam(u, math.radians(args.pressure), args.arm)
             data["cam"] = {"follower_arm_m": d.follower_arm, "cam_distance_m": d.cam_distance,
