@@ -103,3 +103,16 @@ def test_cosimulated_bed_speed_is_uniform_in_the_printing_zone():
     ratio = v[zone] / w[zone]
     assert ratio.max() / ratio.min() - 1 < 0.01
     assert v[zone].max() / v[zone].min() - 1 < 0.02        # the crank speed itself varies by about 1 % there
+
+
+def test_synth_carrier_cli(capsys):
+    import json
+
+    from harness.__main__ import main
+
+    assert main(["synth", "carrier", "--no-cam", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["bed_b_zone_max"] - out["bed_b_zone_min"] < 1e-9
+    assert out["uniform_shares"][0] <= out["zone_shares"][0] and out["uniform_shares"][1] >= out["zone_shares"][1] - 1e-12
+    assert main(["synth", "carrier", "--no-cam", "--runup", "0.45"]) == 2
+    assert "carrier would turn back" in capsys.readouterr().err
