@@ -116,3 +116,26 @@ def test_synth_carrier_cli(capsys):
     assert out["uniform_shares"][0] <= out["zone_shares"][0] and out["uniform_shares"][1] >= out["zone_shares"][1] - 1e-12
     assert main(["synth", "carrier", "--no-cam", "--runup", "0.45"]) == 2
     assert "carrier would turn back" in capsys.readouterr().err
+
+
+def test_pitch_curvature_equals_finite_differences_of_the_pitch_curve():
+    from fmus.physics.cam_rocker import CamRockerModel, CamRockerParams
+    from fmus.physics.laws import LAW_NAMES
+
+    u, a, l, r0 = 0.246, 0.1463, 0.1, 0.0806
+    p = CamRockerParams(mechanism=1, law=LAW_NAMES.index("bed004"), law_return=0, law_km=u, cam_distance=a,
+                        follower_arm=l, cam_base_radius=r0, swing=B.SEED_CARRIER_SWING)
+    m = CamRockerModel(p)
+    n = 72000
+    phi = np.linspace(0.0, 2 * math.pi, n, endpoint=False)
+    g = np.array([m.kinematics(float(f))[0] for f in phi])
+    psi = m.psi0 + g
+    C = np.stack([a - l * np.cos(psi), l * np.sin(psi)])          # roller centre, fixed frame
+    X = np.stack([np.cos(phi) * C[0] + np.sin(phi) * C[1], -np.sin(phi) * C[0] + np.cos(phi) * C[1]])
+    h = phi[1] - phi[0]
+    d1 = (np.roll(X, -1, 1) - np.roll(X, 1, 1)) / (2 * h)
+    d2 = (np.roll(X, -1, 1) - 2 * X + np.roll(X, 1, 1)) / h ** 2
+    k = -(d1[0] * d2[1] - d1[1] * d2[0]) / np.hypot(*d1) ** 3
+    fd = 1.0 / k[int(np.argmin(np.abs(1.0 / k)))]
+    assert B.pitch_curvature_min(u, a, l, r0) == pytest.approx(fd, rel=2e-3)
+    assert abs(np.hypot(*X).min() - r0) < 1e-6            # the pitch curve touches the base circle

@@ -258,3 +258,42 @@ def design_cam(runup: float, pressure_max: float = SEED_PRESSURE_MAX, arm: float
         else:
             lo = mid
     return CamDesign(arm, a_hi, hi * S, hi, th_hi, best)
+
+
+def pitch_curvature_min(runup: float, cam_distance: float, follower_arm: float, base_radius: float,
+                        law_return: int = 0, points: int = 7200) -> float:
+    """Smallest radius of curvature [m] of the cam's pitch curve (the roller centre seen from the turning
+    cam; CamRocker mechanism 1: roller centre (a - l cos psi, l sin psi), psi = psi0 + G(phi), the cam turning
+    counter-clockwise at phi), from closed-form derivatives of G: the value of smallest magnitude, positive on
+    a convex stretch (the base circle has +r0), negative on a concave one.  The
+    seed's r_min/S compares it with the stroke S = arm * swing (the roller radius is not given, so the
+    working profile's curvature, pitch radius minus roller radius on the convex side, is not computed)."""
+    from .cam_rocker import CamRockerModel, CamRockerParams
+    from .laws import LAW_NAMES
+
+    p = CamRockerParams(mechanism=1, law=LAW_NAMES.index("bed004"), law_return=law_return, law_km=runup,
+                        cam_distance=cam_distance, follower_arm=follower_arm, cam_base_radius=base_radius,
+                        swing=SEED_CARRIER_SWING)
+    p.check()
+    m = CamRockerModel(p)
+    phi = np.linspace(0.0, 2 * PI, points, endpoint=False)
+    G = np.array([m.kinematics(float(f)) for f in phi])
+    a, l, psi0 = cam_distance, follower_arm, m.psi0
+    psi, d1, d2 = psi0 + G[:, 0], G[:, 1], G[:, 2]
+    # fixed frame: C = (a - l cos psi, l sin psi); cam frame: X = R(-phi) C
+    cx, cy = a - l * np.cos(psi), l * np.sin(psi)
+    cx1, cy1 = l * np.sin(psi) * d1, l * np.cos(psi) * d1
+    cx2 = l * (np.cos(psi) * d1 ** 2 + np.sin(psi) * d2)
+    cy2 = l * (-np.sin(psi) * d1 ** 2 + np.cos(psi) * d2)
+    c, s = np.cos(phi), np.sin(phi)
+    # X = (c cx + s cy, -s cx + c cy); derivatives by the product rule
+    x1 = c * cx1 + s * cy1 + (-s * cx + c * cy)
+    y1 = -s * cx1 + c * cy1 + (-c * cx - s * cy)
+    x2 = c * cx2 + s * cy2 + 2 * (-s * cx1 + c * cy1) + (-c * cx - s * cy)
+    y2 = -s * cx2 + c * cy2 + 2 * (-c * cx1 - s * cy1) + (s * cx - c * cy)
+    # the cam turns counter-clockwise, so its pitch curve is traversed clockwise: convex = negative signed
+    # curvature; the sign is flipped so that the base circle has +r0
+    k = -(x1 * y2 - y1 * x2) / np.hypot(x1, y1) ** 3
+    rho = 1.0 / k
+    i = int(np.argmin(np.abs(rho)))
+    return float(rho[i])

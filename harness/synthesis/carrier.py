@@ -59,7 +59,9 @@ def run(args) -> int:
                 "bed_working": B.stroke_invariants(Law("bed", "", ((1.0, lambda x, m: B.bed_invariants(x, u, m)),)))}
         if not args.no_cam:
             d = B.design_cam(u, math.radians(args.pressure), args.arm)
+            rc = B.pitch_curvature_min(u, d.cam_distance, d.follower_arm, d.base_radius)
             data["cam"] = {"follower_arm_m": d.follower_arm, "cam_distance_m": d.cam_distance,
+                           "pitch_curvature_min_m": rc, "r_min_over_S": rc / (d.follower_arm * B.SEED_CARRIER_SWING),
                            "base_radius_m": d.base_radius, "r0_over_S": d.r0_over_S,
                            "pressure_max_deg": math.degrees(d.pressure_max),
                            "best_pressure_at_r0_S_0.95_deg": math.degrees(d.best_at_seed_ratio)}
@@ -90,4 +92,6 @@ def run(args) -> int:
               f"{c['best_pressure_at_r0_S_0.95_deg']:.2f} deg")
         print(f"    arm {c['follower_arm_m']:.4f} m, centre distance {c['cam_distance_m']:.4f} m, base radius "
               f"{c['base_radius_m']:.4f} m (r0/S = {c['r0_over_S']:.4f}): {c['pressure_max_deg']:.2f} deg")
+        print(f"    smallest radius of curvature of its pitch curve {c['pitch_curvature_min_m']:.4f} m "
+              f"(r_min/S = {c['r_min_over_S']:.4f}; > 0: convex)")
     return 0
