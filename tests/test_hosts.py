@@ -230,3 +230,66 @@ def test_exported_ssd_is_schema_valid_and_fmpy_loads_it(archives, name):
         assert len(ann) == 1
     result = simulate_ssp(str(archives[name]), stop_time=0.002, step_size=1e-4)
     assert len(result) >= 2 and np.isfinite(result["time"]).all()
+
+
+# ------------------------------------------------------------------------------------------ OMSimulator API
+def _omsimulator_api() -> str | None:
+    try:
+        import OMSimulator  # noqa: F401
+        return None
+    except Exception as e:
+        return f"OMSimulator's Python API unavailable ({type(e).__name__}: {e}); {NO_OMS}"
+
+
+# Measured: in spine_knife the motor's direct feed-through outputs (pulley.tau, torques, powers) at the last
+# sample differ from the harness's jacobi (by 6.6 % of their range after 20 steps) while every output without
+# feed-through is identical to 2e-16; OMSimulator's refresh of a speed source's reaction is not the harness's.
+FEEDTHROUGH_DIFFERS = {"spine_knife"}
+
+
+@pytest.mark.interop
+@pytest.mark.parametrize("name", [n if n != "bed_drive" else pytest.param(n, marks=pytest.mark.xfail(
+    strict=True, reason="OMSimulator ignores ssc:LinearTransformation (bed_drive's reversing pair)"))
+    for n in SYSTEMS])
+def test_exported_drive_runs_in_omsimulator_api_like_jacobi(fmu_dir, archives, name):
+    reason = _omsimulator_api()
+    if reason:
+        pytest.skip(reason)
+    out = _run_script(f"""
+        import dataclasses, json, os, warnings
+        from pathlib import Path
+        from harness import load, simulate
+        from harness.model import Instance, model_description
+        from OMSimulator import SSP, CRef
+        s = load({name!r})
+        s = dataclasses.replace(s, instances=[Instance(i.name, Path({str(fmu_dir)!r}) / f"{{i.fmu}}.fmu",
+                                                       dict(i.parameters)) for i in s.instances])
+        step = s.experiment.step
+        stop = 20 * step
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ref = simulate(s, stop_time=stop, step=step, master="jacobi", extrapolation=0, on_error="raise")
+        im = SSP({str(archives[name])!r}).instantiate()
+        im.setFixedStepSize(step); im.setStopTime(stop)
+        im.initialize(); im.simulate()
+        feed = set()
+        for inst in s.instances:
+            md = model_description(inst.fmu)
+            feed.update(f"{{inst.name}}.{{o.variable.name}}" for o in md.outputs if o.dependencies)
+        errors = {{}}
+        for c in ref.columns:
+            inst, var = c.split(".", 1)
+            value = im.getValue(CRef(s.name, inst, var))
+            errors[c] = [abs(value - ref[c].iloc[-1]) / max(float(ref[c].abs().max()), 1e-300), c in feed]
+        im.terminate(); im.delete()
+        print(json.dumps(errors), flush=True)
+        os._exit(0)
+    """)
+    errors = __import__("json").loads(out.strip().splitlines()[-1])
+    states = {c: e for c, (e, feed) in errors.items() if not feed}
+    assert len(states) >= 2
+    worst = max(states, key=states.get)
+    assert states[worst] <= 1e-9, f"{name}: {worst} differs by {states[worst]:.3g} of its range"
+    if name not in FEEDTHROUGH_DIFFERS:
+        worst = max(errors, key=lambda c: errors[c][0])
+        assert errors[worst][0] <= 1e-9, f"{name}: {worst} differs by {errors[worst][0]:.3g} of its range"
