@@ -180,7 +180,8 @@ def test_load_free_load_another_and_again_in_peer(archives, tool):
 
 
 def test_two_builds_from_different_sources_in_one_system(tmp_path):
-    """Two Gain FMUs whose code differs (v2 doubles its output) run side by side in one fmpy process."""
+    """Two Gain FMUs whose code differs (v2 doubles its output): one after the other in fmpy and side by
+    side in one system (harness, FMI and in-process paths), each with its own copy of the runtime package."""
     from fmus import build
 
     src = (ROOT / "fmus" / "components" / "pd_gain.py").read_text()
@@ -206,14 +207,25 @@ def test_two_builds_from_different_sources_in_one_system(tmp_path):
     out = _run_script(f"""
         import sys
         from fmpy import simulate_fmu
-        for path in ({str(a)!r}, {str(b)!r}, {str(a)!r}):
+        from harness import simulate
+        from harness.model import Connection, Experiment, Instance, System
+        from harness.run import RunOptions
+        for path in ({str(a)!r}, {str(b)!r}, {str(a)!r}):   # one after the other, each unpacked and deleted
             r = simulate_fmu(path, stop_time=0.002, step_size=1e-3, start_values={{"k": 3.0, "offset": 1.0}},
                              output=["y"])
             print(r["y"][-1])
+        # and side by side in one system: v1.y = 3*0 + 1 = 1 feeds v2.u, v2.y = 2*(3*1 + 1) = 8
+        system = System("versions", instances=[Instance("v1", {str(a)!r}, {{"k": 3.0, "offset": 1.0}}),
+                                               Instance("v2", {str(b)!r}, {{"k": 3.0, "offset": 1.0}})],
+                        connections=[Connection("v1.y", "v2.u")], experiment=Experiment(stop_time=0.003, step=1e-3))
+        for in_process in (False, True):
+            df = simulate(system, master="jacobi", on_error="raise", options=RunOptions(in_process=in_process))
+            print(df["v1.y"].iloc[-1], df["v2.y"].iloc[-1])
         print(len([m for m in sys.modules if m.startswith("fmus_") and "." not in m]))
     """)
-    y1, y2, y3, packages = out.split()
-    assert (float(y1), float(y2), float(y3), int(packages)) == (1.0, 2.0, 1.0, 2)
+    values = out.split()
+    assert [float(v) for v in values[:7]] == [1.0, 2.0, 1.0, 1.0, 8.0, 1.0, 8.0], out
+    assert int(values[7]) == 2
 
 
 # ------------------------------------------------------------------------------------------ SSP schema
