@@ -3,9 +3,12 @@
     python build_fmus.py [--out DIR] [--only NAME ...] [--no-validate]
     from fmus.build import build; build(out_dir, ["pd_fourbar"])
 
-Each FMU is built from its declaration ``fmus/components/pd_<name>.py`` (a unique module name, so several
-FMUs load into one process) plus the runtime part of the ``fmus`` package (the base slave, units and the
-pure equations in ``fmus/physics``).  The modelDescription is written completely by the base slave
+Each FMU is built from its declaration ``fmus/components/pd_<name>.py`` plus the runtime part of the
+``fmus`` package (the base slave, units and the pure equations in ``fmus/physics``), both bundled under
+names unique to the FMU's code (``pd_<name>_<hash>``, ``fmus_<hash>``: :func:`stage_isolated`), so FMUs
+of any toolkit version load, unload and reload side by side in one process.  On Linux the host loader
+(``fmus/loader/pressdrive_loader.c``, compiled here) goes in front of pythonfmu's wrapper, so the FMU also
+loads in hosts that do not run Python (:func:`add_loader`).  The modelDescription is written completely by the base slave
 (units, ModelStructure with dependencies, InitialUnknowns); the build then checks each FMU with
 ``fmpy.validation`` and exits non-zero, naming the FMU, if a build or a check fails.
 """
