@@ -263,7 +263,7 @@ FEEDTHROUGH_DIFFERS = {"spine_knife"}
 @pytest.mark.parametrize("name", [n if n != "bed_drive" else pytest.param(n, marks=pytest.mark.xfail(
     strict=True, reason="OMSimulator ignores ssc:LinearTransformation (bed_drive's reversing pair)"))
     for n in SYSTEMS])
-def test_exported_drive_runs_in_omsimulator_api_like_jacobi(fmu_dir, archives, name):
+def test_exported_drive_runs_in_omsimulator_api_like_jacobi(fmu_dir, archives, name, tmp_path):
     reason = _omsimulator_api()
     if reason:
         pytest.skip(reason)
@@ -282,7 +282,7 @@ def test_exported_drive_runs_in_omsimulator_api_like_jacobi(fmu_dir, archives, n
             warnings.simplefilter("ignore")
             ref = simulate(s, stop_time=stop, step=step, master="jacobi", extrapolation=0, on_error="raise")
         im = SSP({str(archives[name])!r}).instantiate()
-        im.setFixedStepSize(step); im.setStopTime(stop)
+        im.setFixedStepSize(step); im.setStopTime(stop); im.setResultFile({str(tmp_path / 'oms.mat')!r})
         im.initialize(); im.simulate()
         feed = set()
         for inst in s.instances:
