@@ -260,9 +260,7 @@ FEEDTHROUGH_DIFFERS = {"spine_knife"}
 
 
 @pytest.mark.interop
-@pytest.mark.parametrize("name", [n if n != "bed_drive" else pytest.param(n, marks=pytest.mark.xfail(
-    strict=True, reason="OMSimulator ignores ssc:LinearTransformation (bed_drive's reversing pair)"))
-    for n in SYSTEMS])
+@pytest.mark.parametrize("name", SYSTEMS)
 def test_exported_drive_runs_in_omsimulator_api_like_jacobi(fmu_dir, archives, name, tmp_path):
     reason = _omsimulator_api()
     if reason:
