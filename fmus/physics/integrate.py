@@ -163,12 +163,15 @@ def exprb32_pair(acc: Callable[[float, float, float], float], t: float, dt: floa
     The linear part is integrated exactly (no stability limit from a stiff spring in J); the method is exact for
     a linear system with forcing quadratic in time and of order 3 otherwise (tests/test_exponential.py)."""
     a0 = acc(t, q, v)
-    dq = 1e-7 * (1.0 + abs(q))
+    # central differences in q and t with steps large enough that the rounding of acc (a spring force from a
+    # small difference of lengths) stays below 1e-10 of the derivative: results do not depend on the last bits
+    # of the time doubles a host hands over (tests/test_ssp.py compares hosts to 1e-9)
+    dq = 1e-5 * (1.0 + abs(q))
     dv = 1e-3 * (1.0 + abs(v))
-    dtt = 1e-4 * dt
-    a_q = (acc(t, q + dq, v) - a0) / dq
-    a_v = (acc(t, q, v + dv) - a0) / dv
-    g = (acc(t + dtt, q, v) - a0) / dtt
+    tp, tm = t + 1e-2 * dt, t - 1e-2 * dt
+    a_q = (acc(t, q + dq, v) - acc(t, q - dq, v)) / (2.0 * dq)
+    a_v = (acc(t, q, v + dv) - a0) / dv      # exact up to rounding where acc is affine in v
+    g = (acc(tp, q, v) - acc(tm, q, v)) / (tp - tm)
     a, b, c = phi_matrices_2x2(0.0, 1.0, a_q, a_v, dt)
     u0 = a[0] * v + a[1] * a0 + b[1] * g          # U - y0
     u1 = a[2] * v + a[3] * a0 + b[3] * g
