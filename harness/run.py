@@ -26,6 +26,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from harness.divergence import Diverged, DivergenceOptions, for_master as _detector
 from harness.errors import FMUError, HarnessError, SimulationError, SystemError_
 from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import Instance, open_instance
@@ -39,6 +40,15 @@ class RunWarning(UserWarning):
     """A run that stopped early and returned a partial result."""
 
 
+class RunInterrupted(KeyboardInterrupt):
+    """Ctrl-C (SIGINT) during a run: ``partial`` is the result up to the last finished communication point,
+    marked ``attrs["complete"] = False``, ``attrs["interrupted"] = True``."""
+
+    def __init__(self, message: str, partial=None):
+        super().__init__(message)
+        self.partial = partial
+
+
 @dataclass
 class RunOptions:
     """Options of :func:`simulate` beyond its keyword arguments.
@@ -48,13 +58,16 @@ class RunOptions:
     progress bar (None: only when stderr is a terminal, shown after 2 s); ``logging``: FMU debug logging;
     ``in_process``: how pythonfmu FMUs are called (:func:`harness.fmi.open_instance`: None runs the toolkit's
     own FMUs in this process and every other FMU through FMI; True runs every pythonfmu FMU in-process;
-    False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs."""
+    False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs.
+    ``divergence``: thresholds of the divergence detector on the power bonds (:mod:`harness.divergence`);
+    None switches it off."""
     iteration: IterationOptions = field(default_factory=IterationOptions)
     steps: StepOptions = field(default_factory=StepOptions)
     blowup: float = 1e12
     progress: bool | None = None
     logging: bool = True
     in_process: bool | None = None
+    divergence: DivergenceOptions | None = field(default_factory=DivergenceOptions)
 
 
 def load(x) -> System:
@@ -182,27 +195,39 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
     bar = _progress(stop_ns, opts.progress)
     error = ""
     err_obj: Exception | None = None
+    interrupted = False
+    detector = _detector(m, opts.divergence) if opts.divergence is not None and m.bond_labels else None
     try:
         m.initialize(0, stop_ns, tolerance, params)
         rec.record(0.0)
         h_ns = step_ns
         shown = 0
         while t_ns < stop_ns:
+            t_prev = t_ns
             t_ns, h_ns = controller.advance(m, t_ns, h_ns, stop_ns)
             steps += 1
             rec.record(t_ns / NS)
+            if detector is not None:
+                detector.update(t_ns / NS, m.bond_log, (t_ns - t_prev) / NS)
             if bar is not None and (steps & 63) == 0:
                 bar.update((t_ns - shown) / NS)
                 shown = t_ns
     except (FMUError, SimulationError, ConvergenceError) as e:
         error = str(e).splitlines()[0] if str(e) else type(e).__name__
         err_obj = e
+    except KeyboardInterrupt:
+        interrupted = True
+        error = f"interrupted (Ctrl-C) at t = {rec.time[rec.rows - 1] if rec.rows else 0.0:.9g} s"
     finally:
         if bar is not None:
             bar.close()
     info.update(steps=steps, wall_time=_time.perf_counter() - wall, iterations=m.iterations,
                 rejected=controller.rejected, max_error_estimate=controller.max_accepted_error)
     df = rec.frame(complete=not error, error=error, **info)
+    df.attrs["diverged"] = isinstance(err_obj, Diverged)
+    df.attrs["interrupted"] = interrupted
+    if interrupted:
+        raise RunInterrupted(error, partial=df)
     if error:
         if on_error == "raise":
             raise SimulationError(error, partial=df, time=getattr(err_obj, "time", None),
