@@ -164,7 +164,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         n_rows = -(-stop_ns // step_ns) + 1 if not controller.variable else 1024
         rec = Recorder(m, outputs, n_rows)
         info = dict(system=system.name, master=cls.name, extrapolation=extra.order,
-                    step_control=controller.name, step=step, stop_time=stop_time)
+                    step_control=controller.name, step=step, stop_time=stop_time,
+                    units=column_units(fmus, rec.columns))
         return _run(m, controller, rec, params, stop_ns, step_ns, tolerance, on_error, opts, info)
     finally:
         if m is not None:
@@ -173,6 +174,20 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         else:
             for f in fmus.values():
                 f.free()
+
+
+def column_units(fmus: dict, columns: list[str]) -> dict[str, str]:
+    """``{column: unit}`` of result columns ``Instance.variable`` from the FMUs' declared units ('' if none);
+    the index ``time`` is in s."""
+    from harness.model import _unit
+
+    out = {}
+    for c in columns:
+        inst, _, var = c.partition(".")
+        f = fmus.get(inst)
+        v = f.variables.get(var) if f is not None else None
+        out[c] = _unit(v) if v is not None else ""
+    return out
 
 
 def _progress(total_ns: int, enabled: bool | None):
@@ -263,44 +278,75 @@ def parse_sets(items: list[str] | None) -> dict:
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("run", help="run a system (module in systems/, or .ssp/.ssd) and write its result",
-                              description="Run a co-simulation of a system and write the result as CSV.")
-    p.add_argument("system", help="system module name in systems/, or an .ssp/.ssd file")
-    p.add_argument("--stop-time", type=float, default=None, help="stop time [s] (default: the system's)")
-    p.add_argument("--step", type=float, default=None, help="communication step [s] (default: the system's)")
-    p.add_argument("--master", default=None, help="jacobi, gauss-seidel or iterative (default: the system's)")
-    p.add_argument("--extrapolation", type=int, default=None, choices=(0, 1, 2), help="input extrapolation order")
-    p.add_argument("--step-control", default=None, choices=("none", "richardson", "ecco"), help="step control")
-    p.add_argument("--tolerance", type=float, default=None, help="tolerance of step control / iteration")
+    p = subparsers.add_parser(
+        "run", help="run a system (module in systems/, or .ssp/.ssd) and write its result",
+        description="Co-simulate a system and write the result as CSV (time in s, one column per "
+                    "Instance.variable). A run that stops early (divergence, FMU failure, Ctrl-C) writes what it "
+                    "computed to OUT.partial.csv instead of OUT, says so on stderr in one line and exits 1 (130 "
+                    "after Ctrl-C).")
+    p.add_argument("system", help="system module name in systems/ (e.g. bed_drive), or an .ssp/.ssd file")
+    p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
+                   help="stop time [s] (default: the system's default experiment)")
+    p.add_argument("--step", type=float, default=None, metavar="SECONDS",
+                   help="communication step [s] (default: the system's default experiment)")
+    p.add_argument("--master", default=None, metavar="NAME",
+                   help="jacobi, jacobi-sampled, gauss-seidel or iterative (default: the system's, else jacobi)")
+    p.add_argument("--extrapolation", type=int, default=None, choices=(0, 1, 2),
+                   help="input extrapolation order (default: the system's, else 0 = hold)")
+    p.add_argument("--step-control", default=None, choices=("none", "richardson", "ecco"),
+                   help="step control (default: the system's, else none = fixed step)")
+    p.add_argument("--tolerance", type=float, default=None, metavar="TOL",
+                   help="relative tolerance [-] of step control and iteration (default: the system's, else none)")
     p.add_argument("--set", action="append", default=[], metavar="Instance.param=VALUE",
-                   help="set a parameter (repeatable)")
+                   help="set a parameter in its declared unit (repeatable; default: the system's values)")
     p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
                    help="record only these variables (repeatable; default: every output)")
-    p.add_argument("--out", type=Path, default=None, help="write the result as CSV to this file")
+    p.add_argument("--out", type=Path, default=None, metavar="FILE.csv",
+                   help="write the result as CSV to this file (default: not written)")
+    p.add_argument("--units", action="store_true",
+                   help="write a second header row with each column's unit (read it with "
+                        "pandas.read_csv(FILE, header=[0, 1], index_col=0)); default: names only")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
-                   help="write a chart of the run (bond speeds and torques, scene quantities) as DIR/<system>.png/.svg")
+                   help="write a chart of the run (bond speeds and torques, scene quantities) as "
+                        "DIR/<system>.png/.svg (default: no chart)")
     p.set_defaults(func=run_cli)
 
 
+def partial_path(path: Path) -> Path:
+    """Where an incomplete result is written instead of ``path``: ``x.csv`` -> ``x.partial.csv``."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}.partial{path.suffix or '.csv'}")
+
+
 def run_cli(args) -> int:
-    df = simulate(args.system, stop_time=args.stop_time, step=args.step, master=args.master,
-                  extrapolation=args.extrapolation, step_control=args.step_control, tolerance=args.tolerance,
-                  parameters=parse_sets(args.set), outputs=args.output,
-                  options=RunOptions(progress=None), on_error="return")
-    if args.out is not None:
-        to_csv(df, args.out)
+    interrupted = False
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RunWarning)  # the CLI reports a stop itself, in one line
+            df = simulate(args.system, stop_time=args.stop_time, step=args.step, master=args.master,
+                          extrapolation=args.extrapolation, step_control=args.step_control,
+                          tolerance=args.tolerance, parameters=parse_sets(args.set), outputs=args.output,
+                          options=RunOptions(progress=None), on_error="return")
+    except RunInterrupted as e:
+        df, interrupted = e.partial, True
     a = df.attrs
-    where = f"wrote {args.out}" if args.out is not None else "no --out given, result not written"
+    out = args.out
+    if out is not None and not a["complete"]:
+        out = partial_path(out)
+    if out is not None:
+        to_csv(df, out, units=getattr(args, "units", False))
+    where = f"wrote {out}" if out is not None else "no --out given, result not written"
     if args.plot is not None and len(df):
         from harness.charts import plot_result
 
         where += "; chart " + str(plot_result(load(args.system), df, args.plot)[0])
+    if not a["complete"]:
+        print(f"error: {a['error']}; {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s kept, "
+              f"{'INCOMPLETE result ' + where if out is not None else where}", file=sys.stderr)
+        return 130 if interrupted else 1
     print(f"{a['system']}: {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s, master {a['master']}, "
           f"{a['steps']} steps in {a['wall_time']:.3g} s; {where}")
-    if not a["complete"]:
-        print(f"error: {a['error']}", file=sys.stderr)
-        return 1
     return 0
 
 
-__all__ = ["load", "simulate", "RunOptions", "RunWarning", "register", "run_cli", "parse_sets", "HarnessError"]
+__all__ = ["load", "simulate", "RunOptions", "RunWarning", "RunInterrupted", "column_units", "partial_path", "register", "run_cli", "parse_sets", "HarnessError"]
