@@ -8,7 +8,10 @@ import sys
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="python -m harness", description=__doc__.splitlines()[0])
+    import os
+
+    prog = "pressdrive" if os.path.basename(sys.argv[0] or "").startswith("pressdrive") else "python -m harness"
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     ap.add_argument("--debug", action="store_true", help="show the traceback of a failure")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
     from harness import run, ssp, synthesis
@@ -27,9 +30,30 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+def _join_negative_values(argv: list[str]) -> list[str]:
+    """``--step -1e-4`` -> ``--step=-1e-4``: argparse takes a negative number in exponent notation for an
+    option and answers "expected one argument"; joined, the value reaches the command's own check."""
+    import re
+
+    number = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$", re.IGNORECASE)
+    out: list[str] = []
+    for tok in argv:
+        if out and number.match(tok) and out[-1].startswith("--") and "=" not in out[-1]:
+            out[-1] = f"{out[-1]}={tok}"
+        else:
+            out.append(tok)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
+    argv = _join_negative_values(sys.argv[1:] if argv is None else list(argv))
     debug = "--debug" in argv
+    if not debug:
+        import warnings
+
+        # warnings (e.g. an unconnected input of a shipped drive) as one line each, without source lines
+        warnings.showwarning = lambda message, category, *a, **k: print(
+            f"warning: {str(message).splitlines()[0] if str(message) else category.__name__}", file=sys.stderr)
     try:
         ap = build_parser()
         args = ap.parse_args(argv)
@@ -40,8 +64,12 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as e:  # one line, no traceback
         if debug:
             raise
+        from harness.errors import HarnessError
+
         text = str(e).strip().splitlines()[0] if str(e).strip() else ""
-        print(f"error: {type(e).__name__}: {text}" if text else f"error: {type(e).__name__}", file=sys.stderr)
+        # the toolkit's own errors speak for themselves; anything else is named by its type
+        own = isinstance(e, (HarnessError, ValueError, OSError)) and text
+        print(f"error: {text}" if own else f"error: {type(e).__name__}: {text}".rstrip(": "), file=sys.stderr)
         return 1
 
 

@@ -92,9 +92,11 @@ def load(x) -> System:
     return system
 
 
-def _positive(name: str, value) -> float:
+def _positive(name: str, value, unit: str = "s") -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise SystemError_(f"{name} = {value!r} is not admissible: must be a positive finite number [s]")
+        text = repr(float(value)) if isinstance(value, (int, float)) and not isinstance(value, bool) else repr(value)
+        raise SystemError_(f"{name} = {text} is not admissible: must be a positive finite number"
+                           + (f" [{unit}]" if unit else ""))
     return float(value)
 
 
@@ -134,7 +136,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     tolerance = tolerance if tolerance is not None else (exp.tolerance if exp else None)
     stop_time, step = _positive("stop_time", stop_time), _positive("step", step)
     if tolerance is not None:
-        _positive("tolerance", tolerance)
+        _positive("tolerance", tolerance, unit="")
     stop_ns, step_ns = int(round(stop_time * NS)), int(round(step * NS))
     if step_ns < 1:
         raise SystemError_(f"step = {step!r} is not admissible: master time has a resolution of 1 ns")
@@ -228,6 +230,11 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
                 bar.update((t_ns - shown) / NS)
                 shown = t_ns
     except (FMUError, SimulationError, ConvergenceError) as e:
+        if rec.rows == 0 and isinstance(e, FMUError) and "is not admissible" in (e.log or ""):
+            # the FMU refused a parameter value before the run: bad input, not a failed run
+            if bar is not None:
+                bar.close()
+            raise SystemError_(f"system {info['system']}: {e.log.splitlines()[0]}") from None
         error = str(e).splitlines()[0] if str(e) else type(e).__name__
         err_obj = e
     except KeyboardInterrupt:

@@ -184,4 +184,4 @@ def test_cli_failure_is_one_line_without_traceback(fmu_dir, tmp_path):
     assert "Traceback" not in r.stderr and any("parameter J = -1" in ln for ln in lines)
     r = _cli(["run", "two_inertia", "--master", "bogus"], fmu_dir)
     assert r.returncode != 0 and "Traceback" not in r.stderr
-    assert r.stderr.strip().splitlines()[-1].startswith("error: SystemError_: master = 'bogus'")
+    assert r.stderr.strip().splitlines()[-1].startswith("error: master = 'bogus'")
