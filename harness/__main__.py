@@ -11,7 +11,9 @@ def build_parser() -> argparse.ArgumentParser:
     import os
 
     prog = "pressdrive" if os.path.basename(sys.argv[0] or "").startswith("pressdrive") else "python -m harness"
-    ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog=prog, description="Co-simulation of printing-press drives with FMI 2.0: "
+                                 "run, export (SSP), synth, study, scene, sweep. `pressdrive` and "
+                                 "`python -m harness` are the same command.")
     ap.add_argument("--debug", action="store_true", help="show the traceback of a failure")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
     from harness import run, ssp, synthesis
@@ -27,7 +29,30 @@ def build_parser() -> argparse.ArgumentParser:
     precision.register_precision(group)    # study precision SYSTEM
     scenes.register(sub)          # scene X NAME
     sweep.register(sub)           # sweep X --grid spec
+    _show_defaults(ap)
     return ap
+
+
+class _DefaultsFormatter(argparse.HelpFormatter):
+    """Appends "(default: X)" to an option's help unless the help already states its default."""
+
+    def _get_help_string(self, action):
+        h = action.help or ""
+        if (action.option_strings and "default" not in h.lower() and action.default is not argparse.SUPPRESS
+                and not isinstance(action, (argparse._HelpAction, argparse._StoreTrueAction,
+                                            argparse._StoreFalseAction, argparse._VersionAction))):
+            shown = "none" if action.default is None else str(action.default).replace("%", "%%")
+            h += f" (default: {shown})"
+        return h
+
+
+def _show_defaults(parser: argparse.ArgumentParser) -> None:
+    """Every command's --help shows every option's default (walks the sub-commands)."""
+    parser.formatter_class = _DefaultsFormatter
+    for a in parser._actions:
+        if isinstance(a, argparse._SubParsersAction):
+            for sp in a.choices.values():
+                _show_defaults(sp)
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:

@@ -116,7 +116,32 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
              extrapolation=None, step_control: str | None = None, tolerance: float | None = None,
              parameters: dict | None = None, outputs: list[str] | None = None, *, on_error: str = "return",
              options: RunOptions | None = None) -> pd.DataFrame:
-    """Run ``system`` and return the result DataFrame (module docstring)."""
+    """Co-simulate ``system`` and return its result: a DataFrame indexed by time [s], one column per
+    ``Instance.variable`` (in the FMU's declared unit, ``df.attrs["units"]``).
+
+    Arguments (None: the system's default experiment, then the fallback named):
+
+    * ``system``: a module name in ``systems/`` (``"bed_drive"``), an .ssp/.ssd file, or a :class:`System`.
+    * ``stop_time`` [s]: end of the run (positive).  ``step`` [s]: communication step (positive, >= 1 ns, at
+      most ``stop_time``; the first step of a variable-step run).
+    * ``master``: ``"jacobi"`` (fallback), ``"jacobi-sampled"``, ``"gauss-seidel"`` or ``"iterative"``.
+    * ``extrapolation``: order of the held inputs, 0 (hold, fallback), 1 or 2 (polynomial at the step midpoint).
+    * ``step_control``: None/``"none"`` (fixed step, fallback), ``"richardson"`` or ``"ecco"``.
+    * ``tolerance`` [-]: relative tolerance of step control and of the iterative master (positive; fallback
+      none, the iteration then uses 1e-10).
+    * ``parameters``: ``{"Instance.parameter": value}`` in the parameter's declared unit, over the system's
+      values (default: none).  A value the FMU refuses raises SystemError_ naming it and its admissible range.
+    * ``outputs``: ``["Instance.variable", ...]`` to record (default: every Real output).
+    * ``on_error``: ``"return"`` (default): a run that stops early (divergence, FMU failure, non-finite
+      output) returns what it computed with ``attrs["complete"] = False`` and a one-line ``attrs["error"]``
+      (``attrs["diverged"]`` if the divergence detector stopped it) and warns :class:`RunWarning`;
+      ``"raise"``: raises :class:`~harness.errors.SimulationError` whose ``partial`` is that result.
+    * ``options``: :class:`RunOptions` (iteration, step-control limits, blow-up limit, divergence detector,
+      progress bar, FMU logging, in-process calls); default ``RunOptions()``.
+
+    Ctrl-C raises :class:`RunInterrupted` (a KeyboardInterrupt) whose ``partial`` is the result so far,
+    marked ``attrs["complete"] = False``, ``attrs["interrupted"] = True``.  Errors in the description or the
+    arguments raise :class:`~harness.errors.SystemError_` before the run."""
     system = load(system)
     opts = options or RunOptions()
     if on_error not in ("return", "raise"):
