@@ -70,8 +70,8 @@ def preflight(system_name: str, spec, out: Path | None, workers) -> None:
     from harness import load
 
     check_workers(workers)
-    if out is not None:
-        check_out(Path(out))
+    if out is not None and Path(out).suffix.lower() not in (".csv", ".parquet"):
+        check_out(Path(out))  # the name alone is wrong: say so first
     system = load(system_name)
     src = spec.source
     if spec.system is not None and str(spec.system) != system.name:
@@ -110,6 +110,8 @@ def preflight(system_name: str, spec, out: Path | None, workers) -> None:
                 _fail(f"{src}: outputs.{name}: {e}")
         except Exception:  # a value error on made-up data (e.g. no rise) is not a spec error
             pass
+    if out is not None:
+        check_out(Path(out))  # last: it creates the output folder
 
 
 def partial_path(out: Path) -> Path:
