@@ -10,7 +10,7 @@ the run into blocks of ``block`` steps and keeps, per bond and block, the peak p
 [W], the energy that flowed through the bond ``integral |P_out| dt`` [J] and the accumulated energy error
 [J].  At the end of each block a bond is DIVERGING when its power grew AND the coupling fed that growth:
 
-* fast growth (from 4 blocks on): the newest block's peak power exceeds ``fast`` (1e3) times the peak power
+* fast growth (from ``min_blocks`` / 2 = 8 blocks on): the newest block's peak power exceeds ``fast`` (1e3) times the peak power
   of the first half of the run so far (an amplitude 32 times its start), or
 * growth (from ``min_blocks`` = 16 blocks on): the peak power of the newest ``late`` (2) blocks exceeds
   ``growth`` (10) times the peak power over the first half of the blocks so far (the run's own scale,
@@ -30,7 +30,7 @@ Tuned on the two stability maps (``docs/images/stability_two_inertia_inertia.csv
 ``stability_bed_drive_fourbar_rocker_inertia.csv``): no stop at any step the maps judge stable, a stop on
 clearly unstable steps (``tests/test_divergence.py`` states which, and which are not: Gauss-Seidel with
 zero-order hold on the two-inertia map; a few bed-drive steps 10-50 % beyond the boundary; the most violent
-blow-ups, which pass 1e12 within 4 blocks and are stopped by the master's blow-up check instead).  A run that
+blow-ups, which pass 1e12 within the first 8 blocks and are stopped by the master's blow-up check instead).  A run that
 is only just beyond the boundary grows too slowly to be stopped within the maps' run lengths; the studies'
 own criteria judge those.
 
@@ -132,7 +132,7 @@ class DivergenceDetector:
         nb = len(self.peaks)
         # a bond that carries a negligible share of the run's power is not judged on its own scale
         floor = o.floor * max(max(p) for p in self.peaks[: max(1, nb // 2)])
-        if nb >= 4:
+        if nb >= max(4, o.min_blocks // 2):
             half = nb // 2
             for j in range(self.n):
                 first, last = max(max(p[j] for p in self.peaks[:half]), floor), self.peaks[-1][j]
