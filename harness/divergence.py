@@ -20,7 +20,7 @@ the run into blocks of ``block`` steps and keeps, per bond and block, the peak p
 * a growth by more than 1/``rest`` (1e9) is a start from numerical rest (a cut or load beginning on a bond
   that carried no power: ``spine_knife``), not the growth of a running state; an instability that starts
   from round-off is caught once the reference window has left the rest;
-* and the coupling created more than ``creation`` (1 %) of the energy that flowed through the bond over the
+* and the coupling created more than ``creation`` (5 %) of the energy that flowed through the bond over the
   last quarter of the blocks: a drive spinning up or a cut starting raises the power of a stable run but
   the coupling creates no energy then.  (On the Gauss-Seidel, zero-order-hold two-inertia runs the bond's
   energy error stays near zero while the amplitude grows: those are not stopped, see below.)
@@ -29,7 +29,8 @@ the run into blocks of ``block`` steps and keeps, per bond and block, the peak p
 Tuned on the two stability maps (``docs/images/stability_two_inertia_inertia.csv`` and
 ``stability_bed_drive_fourbar_rocker_inertia.csv``): no stop at any step the maps judge stable, a stop on
 clearly unstable steps (``tests/test_divergence.py`` states which, and which are not: Gauss-Seidel with
-zero-order hold on the two-inertia map; a few bed-drive steps 10-50 % beyond the boundary; the most violent
+zero-order hold on the two-inertia map; four bed-drive points at 1.5 times the boundary; (1 % let a
+start-up transient of the bed drive at 5e-5 s trip the test); the most violent
 blow-ups, which pass 1e12 within the first 8 blocks and are stopped by the master's blow-up check instead).  A run that
 is only just beyond the boundary grows too slowly to be stopped within the maps' run lengths; the studies'
 own criteria judge those.
@@ -61,7 +62,7 @@ class DivergenceOptions:
     min_blocks: int = 16
     late: int = 2
     growth: float = 10.0
-    creation: float | None = 0.01
+    creation: float | None = 0.05
     fast: float = 1e3
     floor: float = 1e-3
     persist: int = 1

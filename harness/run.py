@@ -130,7 +130,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     * ``tolerance`` [-]: relative tolerance of step control and of the iterative master (positive; fallback
       none, the iteration then uses 1e-10).
     * ``parameters``: ``{"Instance.parameter": value}`` in the parameter's declared unit, over the system's
-      values (default: none).  A value the FMU refuses raises SystemError_ naming it and its admissible range.
+      values (default: none).  A value the FMU refuses returns an empty result, ``attrs["bad_input"]`` True,
+      with a one-line error naming the instance, parameter, value, unit and admissible range.
     * ``outputs``: ``["Instance.variable", ...]`` to record (default: every Real output).
     * ``on_error``: ``"return"`` (default): a run that stops early (divergence, FMU failure, non-finite
       output) returns what it computed with ``attrs["complete"] = False`` and a one-line ``attrs["error"]``
@@ -238,6 +239,7 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
     error = ""
     err_obj: Exception | None = None
     interrupted = False
+    bad_input = False
     detector = _detector(m, opts.divergence) if opts.divergence is not None and m.bond_labels else None
     try:
         m.initialize(0, stop_ns, tolerance, params)
@@ -255,13 +257,14 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
                 bar.update((t_ns - shown) / NS)
                 shown = t_ns
     except (FMUError, SimulationError, ConvergenceError) as e:
-        if rec.rows == 0 and isinstance(e, FMUError) and "is not admissible" in (e.log or ""):
-            # the FMU refused a parameter value before the run: bad input, not a failed run
-            if bar is not None:
-                bar.close()
-            raise SystemError_(f"system {info['system']}: {e.log.splitlines()[0]}") from None
         error = str(e).splitlines()[0] if str(e) else type(e).__name__
         err_obj = e
+        if rec.rows == 0 and isinstance(e, FMUError) and "is not admissible" in (e.log or ""):
+            # the FMU refused a parameter value before the run: bad input, said in the user's words (no FMI call)
+            log = e.log.strip().splitlines()[0]
+            error = f"system {info['system']}: " + (log if log.startswith(f"{e.instance} ") else
+                                                    f"instance {e.instance}: {log}")
+            bad_input = True
     except KeyboardInterrupt:
         interrupted = True
         error = f"interrupted (Ctrl-C) at t = {rec.time[rec.rows - 1] if rec.rows else 0.0:.9g} s"
@@ -273,6 +276,7 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
     df = rec.frame(complete=not error, error=error, **info)
     df.attrs["diverged"] = isinstance(err_obj, Diverged)
     df.attrs["interrupted"] = interrupted
+    df.attrs["bad_input"] = bad_input
     if interrupted:
         raise RunInterrupted(error, partial=df)
     if error:
@@ -362,6 +366,9 @@ def run_cli(args) -> int:
     except RunInterrupted as e:
         df, interrupted = e.partial, True
     a = df.attrs
+    if a.get("bad_input"):  # a refused parameter: nothing was computed, nothing is written
+        print(f"error: {a['error']}", file=sys.stderr)
+        return 1
     out = args.out
     if out is not None and not a["complete"]:
         out = partial_path(out)
