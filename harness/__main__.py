@@ -17,7 +17,7 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--debug", action="store_true", help="show the traceback of a failure")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
     from harness import run, ssp, synthesis
-    from harness.studies import precision, scenes, stability, sweep
+    from harness.studies import precision, scenes, stability, sweep, takeup
 
     run.register(sub)             # run a system
     ssp.register(sub)             # export a system as SSP
@@ -27,6 +27,7 @@ def build_parser() -> argparse.ArgumentParser:
     group = study.add_subparsers(dest="study", metavar="STUDY", required=True)
     stability.register_stability(group)    # study stability two_inertia
     precision.register_precision(group)    # study precision SYSTEM
+    takeup.register(group)                 # study takeup (seed 000's take-up map)
     scenes.register(sub)          # scene X NAME
     sweep.register(sub)           # sweep X --grid spec
     _show_defaults(ap)
