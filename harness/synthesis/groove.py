@@ -42,7 +42,8 @@ def register(subparsers) -> argparse.ArgumentParser:
     ap.add_argument("--n", type=float, default=2.0, help="exponent of the power law")
     ap.add_argument("--k-m", type=float, default=0.4, help="k_m of the P6 stand-in / composite law")
     ap.add_argument("--dwell", type=float, default=0.0, help="dwell [deg], centred on the extended dead centre")
-    ap.add_argument("--assembly", type=int, default=1, choices=(1, -1))
+    ap.add_argument("--assembly", type=int, default=1, choices=(1, -1),
+                    help="assembly branch of the base four-bar (1 or -1)")
     ap.add_argument("--roller-radius", type=float, default=0.0, help="roller radius [m] for the undercut check")
     ap.add_argument("--max-pressure-angle", type=float, default=math.degrees(groove.DEFAULT_MAX_PRESSURE),
                     help="allowable pressure angle [deg] (default 60 = 90 - mu_min 30 of seed 004)")
