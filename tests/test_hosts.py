@@ -135,7 +135,10 @@ def test_a_missing_environment_is_one_clear_fmi_error(fmu_dir, tmp_path):
 
 # ------------------------------------------------------------------------------------------ isolation
 def _run_script(code: str, timeout: float = 600) -> str:
-    r = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], cwd=ROOT, capture_output=True, text=True,
+    # leave with os._exit once everything is printed: tearing the interpreter down with pythonfmu instances
+    # of a peer tool still referenced has aborted with "corrupted double-linked list" (tests/conftest.py)
+    code = textwrap.dedent(code) + "\nimport os as _os, sys as _sys\n_sys.stdout.flush(); _os._exit(0)\n"
+    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                        timeout=timeout, env={**os.environ, "PRESSDRIVE_NORMAL_EXIT": "1"})
     assert r.returncode == 0, f"exit {r.returncode}: {(r.stdout + r.stderr)[-1500:]}"
     return r.stdout
