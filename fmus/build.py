@@ -15,6 +15,7 @@ import argparse
 import contextlib
 import io
 import os
+import re
 import shutil
 import sys
 import tempfile
@@ -27,8 +28,23 @@ DOCS = ROOT / "fmus" / "docs"
 RUNTIME = ("__init__.py", "slave.py", "units.py", "physics")
 
 
+_DECLARATION = re.compile(r"^class\s+(\w+)\s*\(\s*PressSlave\s*\)", re.M)
+
+
+def catalog() -> dict[str, Path]:
+    """The FMU catalog: model (class) name -> its declaration ``fmus/components/pd_*.py``, for every FMU of the
+    toolkit.  Read from the sources (no import, so it needs no pythonfmu); the one list that the build, the
+    harness's name resolution, the reference and the studies use."""
+    out: dict[str, Path] = {}
+    for script in sorted(COMPONENTS.glob("pd_*.py")):
+        for name in _DECLARATION.findall(script.read_text(encoding="utf-8")):
+            out[name] = script
+    return out
+
+
 def component_scripts() -> list[Path]:
-    return sorted(COMPONENTS.glob("pd_*.py"))
+    """The declaration scripts of the catalog, sorted by file name."""
+    return sorted(set(catalog().values()))
 
 
 def stage_runtime(dest: Path) -> Path:

@@ -85,7 +85,8 @@ def _positive(name: str, value) -> float:
     return float(value)
 
 
-def _split_parameters(system: System, parameters: dict | None) -> dict[str, dict]:
+def split_parameters(system: System, parameters: dict | None) -> dict[str, dict]:
+    """Instance name -> {parameter: value}: the system's values overridden by ``{"Instance.param": value}``."""
     out = {inst.name: dict(inst.parameters) for inst in system.instances}
     for ref, value in (parameters or {}).items():
         inst, dot, var = str(ref).partition(".")
@@ -129,7 +130,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         raise SystemError_(f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
     cls = master_class(master)
     extra = make_extrapolation(extrapolation)
-    params = _split_parameters(system, parameters)
+    params = split_parameters(system, parameters)
 
     paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
     mds = {name: model_description(p) for name, p in paths.items()}

@@ -90,12 +90,13 @@ def find_scene(system, name: str | None = None) -> Scene:
 
 def fidelity_levels(system) -> dict[str, tuple[int, ...]]:
     """Instance -> admissible fidelity levels (ascending), for instances whose component has one."""
-    from harness.studies.reference import _model_name, component_classes
+    from harness.model import model_name
+    from harness.studies.reference import component_classes
 
     classes = component_classes()
     out = {}
     for inst in system.instances:
-        cls = classes.get(_model_name(inst.fmu))
+        cls = classes.get(model_name(inst.fmu))
         if cls is None:
             continue
         f = cls.model.Params.__dataclass_fields__.get("fidelity")
