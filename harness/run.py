@@ -79,6 +79,26 @@ def load(x) -> System:
     return system
 
 
+def system_names() -> list[str]:
+    """The names of the system modules in ``systems/`` (each defines ``SYSTEM``), sorted."""
+    import pkgutil
+
+    import systems
+
+    return sorted(m.name for m in pkgutil.iter_modules(systems.__path__) if not m.ispkg)
+
+
+def declared(spec: str) -> dict:
+    """System name -> its ``spec`` field (``"precision"`` or ``"stability"``), for every system in ``systems/``
+    that declares one."""
+    out = {}
+    for name in system_names():
+        value = getattr(load(name), spec)
+        if value is not None:
+            out[name] = value
+    return out
+
+
 def _positive(name: str, value) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
         raise SystemError_(f"{name} = {value!r} is not admissible: must be a positive finite number [s]")

@@ -32,20 +32,9 @@ from pathlib import Path
 import pandas as pd
 
 from harness import qoi
+from harness.charts import save_figure
 from harness.model import SystemWarning
-
-
-@dataclass
-class Scene:
-    name: str
-    question: str
-    quantity: str                 # harness.qoi expression
-    tolerance: float              # admissible |error| of the quantity (absolute, in its own unit) ...
-    relative: bool = True         # ... or relative to the full model's value when True
-    stop_time: float | None = None
-    window: tuple[float, float] | None = None  # documented time window (use window() in the quantity)
-    unit: str = ""
-    step: float | None = None     # the full model's communication step (default: the system's experiment)
+from harness.specs import Scene  # noqa: F401 (declared with the systems; re-exported)
 
 
 @dataclass
@@ -243,12 +232,7 @@ def chart(result: SceneResult, out: Path) -> list[Path]:
     ax.set_title(f"{result.scene.name}: {result.scene.question}", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    paths = [out.with_suffix(".png"), out.with_suffix(".svg")]
-    for p in paths:
-        fig.savefig(p)
-    plt.close(fig)
-    return paths
+    return save_figure(fig, out)
 
 
 def register(subparsers) -> None:

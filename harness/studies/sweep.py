@@ -49,6 +49,7 @@ import numpy as np
 import pandas as pd
 
 from harness import qoi
+from harness.charts import save_figure
 
 
 class SweepError(ValueError):
@@ -401,10 +402,4 @@ def plot_sweep(df: pd.DataFrame, spec: SweepSpec, out_stem: str | Path, title: s
     note = f"; {pl['reduce']} over {', '.join(rest)}" if rest else ""
     fig.suptitle(f"{title}{note}; {len(df)} points, {n_fail} failed", fontsize=9)
     fig.tight_layout()
-    stem = Path(out_stem)
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    paths = [stem.with_suffix(".png"), stem.with_suffix(".svg")]
-    for p in paths:
-        fig.savefig(p, dpi=110)
-    plt.close(fig)
-    return paths
+    return save_figure(fig, out_stem, dpi=110)
