@@ -32,14 +32,14 @@
 """
 import math
 
-from fmus.physics import fourbar
+from fmus.physics import fourbar, fourbar_synthesis
 from harness.model import Connection, Experiment, Instance, System, bond
 from harness.specs import PrecisionSpec, Scene, StabilitySpec
 
 RPM = 2 * math.pi / 60
 CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m
 C_COUPLER, D_COUPLER = 5e7, 2e3  # N/m, N.s/m: four-bar coupler (assumed); the cam transmission copies them
-_analysis = fourbar.analyse(1.0, COUPLER / CRANK, FRAME / CRANK, ROCKER / CRANK)
+_analysis = fourbar_synthesis.analyse(1.0, COUPLER / CRANK, FRAME / CRANK, ROCKER / CRANK)
 PHI_START = math.radians(_analysis.working_start_deg)  # crank angle where the working stroke begins
 ROCKER_START = float(fourbar.position(PHI_START, CRANK, COUPLER, FRAME, ROCKER, 1)[0])  # rad
 
