@@ -45,6 +45,7 @@ from harness.charts import save_figure
 from harness.run import declared
 from harness.specs import PrecisionSpec
 from harness.studies.metrics import METRICS, error_metrics
+from harness.studies.trial import quiet_simulate
 
 
 PRECISION: dict[str, PrecisionSpec] = declared("precision")
@@ -106,7 +107,7 @@ def precision_study(system, stop_time: float | None = None, steps=None, toleranc
     """Run the grid and measure it (module docstring).  ``progress``: callable taking one line of text."""
     from harness.masters import MASTERS
     from harness.studies.reference import component_classes, reference
-    from harness.run import load, simulate
+    from harness.run import load
     from harness.stepcontrol import STEP_CONTROLS
 
     system = load(system)
@@ -151,13 +152,11 @@ def precision_study(system, stop_time: float | None = None, steps=None, toleranc
         variable = STEP_CONTROLS[control].variable
         for value in (tolerances if variable else steps):
             step, tol = (steps[0], value) if variable else (value, None)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                t1 = time.perf_counter()
-                df = simulate(system, stop_time=stop_time, step=step, master=master, extrapolation=order,
-                              step_control=control, tolerance=tol, parameters=parameters, outputs=columns,
-                              on_error="return")
-                wall = time.perf_counter() - t1
+            t1 = time.perf_counter()
+            df = quiet_simulate(system, stop_time=stop_time, step=step, master=master, extrapolation=order,
+                                step_control=control, tolerance=tol, parameters=parameters, outputs=columns,
+                                on_error="return")
+            wall = time.perf_counter() - t1
             a = df.attrs
             base = dict(system=system.name, master=master, extrapolation=order, step_control=control,
                         step=step if not variable else math.nan, tolerance=tol if variable else math.nan,

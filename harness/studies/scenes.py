@@ -25,7 +25,6 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -35,6 +34,7 @@ from harness import qoi
 from harness.charts import save_figure
 from harness.model import SystemWarning
 from harness.specs import Scene  # noqa: F401 (declared with the systems; re-exported)
+from harness.studies.trial import one_line, trial
 
 
 @dataclass
@@ -106,25 +106,21 @@ def _key(system, scene: Scene) -> str:
 
 def _run(system, scene: Scene, fidelities: dict[str, int], step: float, full_value: float | None,
          master: str | None = None) -> Candidate:
-    from harness import simulate
-
     params = {f"{k}.fidelity": v for k, v in fidelities.items()}
     exp = system.experiment
     master = master or exp.master
     t0 = time.perf_counter()
+    # unconnected-input notes are about the system, not this candidate
+    run = trial(system, ignore=SystemWarning, stop_time=scene.stop_time or exp.stop_time, step=step,
+                master=master, extrapolation=exp.extrapolation, parameters=params,
+                outputs=qoi.columns(scene.quantity) or None)
+    wall = run.wall_time
+    if not run.complete:
+        return Candidate(dict(fidelities), step, None, None, wall, False, run.error, master)
     try:
-        with warnings.catch_warnings():  # unconnected-input notes are about the system, not this candidate
-            warnings.simplefilter("ignore", SystemWarning)
-            df = simulate(system, stop_time=scene.stop_time or exp.stop_time, step=step, master=master,
-                          extrapolation=exp.extrapolation, parameters=params,
-                          outputs=qoi.columns(scene.quantity) or None)
-        wall = time.perf_counter() - t0
-        if df.attrs.get("complete") is False:
-            return Candidate(dict(fidelities), step, None, None, wall, False, df.attrs.get("error", "incomplete"), master)
-        value = qoi.evaluate(scene.quantity, df)
+        value = qoi.evaluate(scene.quantity, run.result)
     except Exception as e:
-        return Candidate(dict(fidelities), step, None, None, time.perf_counter() - t0, False,
-                         f"{type(e).__name__}: {e}".splitlines()[0], master)
+        return Candidate(dict(fidelities), step, None, None, time.perf_counter() - t0, False, one_line(e), master)
     if full_value is None:
         return Candidate(dict(fidelities), step, value, 0.0, wall, True, "", master)
     err = abs(value - full_value)

@@ -22,6 +22,7 @@ from typing import Callable
 import numpy as np
 
 from harness.charts import save_figure
+from harness.studies.trial import quiet_simulate
 from harness.studies.stability.theory import (MASTER_NAMES, ORDERS, TwoInertia, _as_params, _check_h, _master,
                                               _order, stability_boundary)
 
@@ -103,7 +104,7 @@ def two_inertia_run(params, master: str, order: int, periods: float = 60.0, min_
     parameters ``params`` (Inertia starting at speed ``w0``) over ``periods`` periods of the coupled natural
     frequency and at least ``min_steps`` steps.  ``fmu_dir``: folder with Inertia.fmu/SpringInertia.fmu
     (default: the system's own FMU resolution)."""
-    from harness import load, simulate
+    from harness import load
     from harness.model import Instance
 
     p = _as_params(params)
@@ -126,12 +127,8 @@ def two_inertia_run(params, master: str, order: int, periods: float = 60.0, min_
     def run(h):
         n = max(int(min_steps), int(math.ceil(span / h)))
         stop = n * h
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            return simulate(base, stop_time=stop, step=h, master=master, extrapolation=order,
-                            parameters=parameters, outputs=["a.flange.w", "b.drive.tau"], on_error="return")
+        return quiet_simulate(base, stop_time=stop, step=h, master=master, extrapolation=order,
+                              parameters=parameters, outputs=["a.flange.w", "b.drive.tau"], on_error="return")
 
     return run
 

@@ -13,6 +13,7 @@ import numpy as np
 from harness.charts import save_figure
 from harness.run import declared
 from harness.specs import StabilitySpec
+from harness.studies.trial import quiet_simulate
 from harness.studies.stability.measured import GROWTH_SUFFIXES, measured_boundary
 from harness.studies.stability.theory import ORDERS, _check_h, _order
 
@@ -117,16 +118,6 @@ def deviation_ratio(df, ref, columns=None) -> float:
     return worst
 
 
-def _quiet_simulate(*args, **kwargs):
-    import warnings
-
-    from harness import simulate
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return simulate(*args, **kwargs)
-
-
 def _with_fmu_dir(system, fmu_dir):
     from harness import load
     from harness.model import Instance
@@ -164,7 +155,7 @@ class PressRun:
         h = self.h_default
         for _ in range(4):
             n = int(math.ceil(self.duration / h - 1e-9))
-            df = _quiet_simulate(self.system, stop_time=n * h, step=h, master="gauss-seidel", extrapolation=0,
+            df = quiet_simulate(self.system, stop_time=n * h, step=h, master="gauss-seidel", extrapolation=0,
                                  parameters=self.parameters, on_error="return")
             if df.attrs.get("complete", True):
                 return df
@@ -180,7 +171,7 @@ class PressRun:
         h = _check_h(h)
         n = self.n_steps(h)
         self.runs += 1
-        return _quiet_simulate(self.system, stop_time=n * h, step=h, master=self.master,
+        return quiet_simulate(self.system, stop_time=n * h, step=h, master=self.master,
                                extrapolation=self.order, parameters=self.parameters, on_error="return")
 
     def judge(self, df) -> bool:
