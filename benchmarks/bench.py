@@ -23,6 +23,7 @@ from pathlib import Path
 from benchmarks import cofmupy
 from benchmarks.cases import CASES, check_columns, ssp_folder
 from benchmarks.runners import CONVENTIONS, HARNESS_TOOLS, SAME_ALGORITHM, TOOLS
+from harness.charts import save_figure
 
 ROOT = Path(__file__).resolve().parents[1]
 MODES = ("pinned", "unpinned")
@@ -328,14 +329,7 @@ def chart(rows: list[dict], path: Path) -> list[Path]:
     ax.legend(fontsize=7, ncol=3)
     ax.grid(axis="y", which="both", alpha=0.3)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    written = [path]
-    fig.savefig(path, dpi=120)
-    svg = path.with_suffix(".svg")
-    fig.savefig(svg)
-    written.append(svg)
-    plt.close(fig)
-    return written
+    return save_figure(fig, path, dpi=120)
 
 
 def report(rows: list[dict], log=print) -> None:

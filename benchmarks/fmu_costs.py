@@ -32,14 +32,15 @@ def _slave(cls, name: str, parameters: dict):
 def component_costs(system_name: str, steps: int = 400) -> list[dict]:
     """One row per instance: FMU, fidelity, do_step and get_real [us per call] over ``steps`` replayed steps."""
     from harness import load, simulate
-    from harness.studies.reference import _model_name, component_classes
+    from harness.model import model_name
+    from harness.studies.reference import component_classes
 
     system = load(system_name)
     exp = system.experiment
     classes = component_classes()
     inputs = {}
     for inst in system.instances:
-        cls = classes[_model_name(inst.fmu)]
+        cls = classes[model_name(inst.fmu)]
         inputs[inst.name] = (cls, list(cls.model.inputs), list(cls.model.outputs))
     columns = [f"{name}.{u}" for name, (_, ins, _) in inputs.items() for u in ins]
     with warnings.catch_warnings():

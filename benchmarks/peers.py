@@ -24,7 +24,7 @@ Tools, and what was found about them (libcosimpy 0.0.6 / libcosim 0.11, ecospy 0
   the shared ``fmus`` package once per process, from the first resources folder it is given: if that was a
   tool's deleted folder, a later FMU needing a not yet imported submodule fails to instantiate (and the
   tool then crashes).  So every peer run first imports the FMU's code from OUR persistent extraction
-  (:func:`_preload`, via :func:`harness.fmi.fmu.extracted`).  Our fmpy loop never unloads a library
+  (:func:`preload`, via :func:`harness.fmi.fmu.extracted`).  Our fmpy loop never unloads a library
   (``fmi2FreeInstance`` only; fmpy's ``freeInstance()`` would unload it) and never frees an instance
   after an error: pythonfmu reports any Python exception as fmi2Fatal, after which FMI allows no call, and
   ``fmi2FreeInstance`` there corrupts memory (segfault in the next garbage collection).
@@ -170,7 +170,7 @@ def run_isolated(function, *args, timeout: float = 300.0, **kwargs):
 _PRELOADED: set[str] = set()
 
 
-def _preload(fmu_paths) -> None:
+def preload(fmu_paths) -> None:
     """Import each FMU's Python code from OUR persistent extraction first (one fmpy instance, freed at once).
     pythonfmu imports ``pd_<name>`` and the shared ``fmus`` package from the first resources folder it is
     given; if that is a tool's temporary folder, deleted at the end of the run, every later FMU that needs a
@@ -191,42 +191,16 @@ def _preload(fmu_paths) -> None:
 
 
 def _ssp_fmus(path: Path) -> list[Path]:
-    """The FMU files of an SSP (archive extracted once, persistently, by the cache of harness.fmi.fmu)."""
+    """The FMU files of an SSP (archive extracted once, persistently, by :mod:`harness.fmi.cache`)."""
     import zipfile
 
     if path.is_file() and zipfile.is_zipfile(path):
-        import hashlib
-        import os
-        import shutil
-        import tempfile
+        from harness.fmi.cache import unzipped
 
-        from harness.fmi.fmu import cache_dir
-
-        hit = _SSP_EXTRACTED.get(str(path))
-        if hit is None:
-            # the same content-keyed, persistent cache as the FMU extractions (the peers keep the FMUs'
-            # libraries loaded until the process ends, so nothing is removed at exit)
-            st = path.stat()
-            digest = hashlib.sha1(f"{path.resolve()}|{st.st_mtime_ns}|{st.st_size}".encode()).hexdigest()[:16]
-            root = cache_dir() / "_ssp"
-            hit = root / f"{path.stem}_{digest}"
-            if not (hit / ".complete").is_file():
-                root.mkdir(parents=True, exist_ok=True)
-                tmp = Path(tempfile.mkdtemp(prefix=f".{path.stem}_", dir=root))
-                with zipfile.ZipFile(path) as z:
-                    z.extractall(tmp)
-                (tmp / ".complete").write_text("ok")
-                try:
-                    os.replace(tmp, hit)  # atomic; another process may have won the race
-                except OSError:
-                    shutil.rmtree(tmp, ignore_errors=True)
-            _SSP_EXTRACTED[str(path)] = hit
-        return sorted(hit.rglob("*.fmu"))
+        return sorted(unzipped(path, "_ssp").rglob("*.fmu"))
     folder = path.parent if path.is_file() else path
     return sorted(folder.rglob("*.fmu"))
 
-
-_SSP_EXTRACTED: dict[str, Path] = {}
 
 
 # -- fmpy (the reference) --------------------------------------------------------------------------------------
@@ -399,7 +373,7 @@ def run_fmu_libcosim(fmu_path, stop_time: float, step: float, parameters: dict, 
     md, variables = _check_request(fmu_path, parameters, inputs, outputs)
     name = instance or md.modelName
     execution_cls, slave_cls, observer_cls, enums = _libcosim()
-    _preload([fmu_path])
+    preload([fmu_path])
     execution = execution_cls.from_step_size(step_nanoseconds(step))
     slave = slave_cls(fmu_path=str(Path(fmu_path).resolve()), instance_name=name)
     index = execution.add_local_slave(slave)
@@ -428,7 +402,7 @@ def run_ssp_libcosim(ssp_path, stop_time: float, step: float, outputs: list) -> 
     path = Path(ssp_path).resolve()
     if not path.exists():
         raise SystemError_(f"no SSP file or folder {path}")
-    _preload(_ssp_fmus(path))
+    preload(_ssp_fmus(path))
     try:
         execution = execution_cls.from_ssp_file(str(path), step_nanoseconds(step))
     except AssertionError as e:
@@ -489,7 +463,7 @@ def run_fmu_ecos(fmu_path, stop_time: float, step: float, parameters: dict, inpu
     md, variables = _check_request(fmu_path, parameters, inputs, outputs)
     name = instance or md.modelName
     ecospy = _ecos()
-    _preload([fmu_path])
+    preload([fmu_path])
     structure = ecospy.EcosSimulationStructure()
     try:
         structure.add_model(name, str(Path(fmu_path).resolve()))
@@ -512,7 +486,7 @@ def run_ssp_ecos(ssp_path, stop_time: float, step: float, outputs: list,
     if not path.exists():
         raise SystemError_(f"no SSP file or folder {path}")
     ecospy = _ecos()
-    _preload(_ssp_fmus(path))
+    preload(_ssp_fmus(path))
     try:
         sim = ecospy.EcosSimulation(ssp_path=str(path), step_size=step)
     except Exception as e:

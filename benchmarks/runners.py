@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-NS = 1_000_000_000
+from harness.clock import NS
 
 TOOLS = ("jacobi", "jacobi-sampled", "jacobi-sampled-fmi", "gauss-seidel", "iterative", "libcosim", "ecos",
          "cofmupy", "fmpy", "ctypes")
@@ -37,7 +37,7 @@ def _split(column: str, instances) -> tuple[str, str]:
 
 
 def _preload(folder: Path) -> None:
-    from benchmarks.peers import _preload as preload
+    from benchmarks.peers import preload
 
     preload(sorted(Path(folder).rglob("*.fmu")))
 
@@ -118,10 +118,10 @@ def _initialised_master(folder: Path, step: float, n: int):
     from harness.fmi.fmu import FMU
     from harness.masters import JacobiSampled
     from harness.model import model_description, resolve_fmu
-    from harness.run import _split_parameters
+    from harness.run import split_parameters
 
     system = load(_ssd(folder))
-    params = _split_parameters(system, None)
+    params = split_parameters(system, None)
     paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
     mds = {name: model_description(p) for name, p in paths.items()}
     connections = system.all_connections(mds)

@@ -39,8 +39,23 @@ LOADER = ROOT / "fmus" / "loader" / "pressdrive_loader.c"
 PLATFORM = "linux64"     # the one platform the host loader is built for (the others keep pythonfmu's wrapper)
 
 
+_DECLARATION = re.compile(r"^class\s+(\w+)\s*\(\s*PressSlave\s*\)", re.M)
+
+
+def catalog() -> dict[str, Path]:
+    """The FMU catalog: model (class) name -> its declaration ``fmus/components/pd_*.py``, for every FMU of the
+    toolkit.  Read from the sources (no import, so it needs no pythonfmu); the one list that the build, the
+    harness's name resolution, the reference and the studies use."""
+    out: dict[str, Path] = {}
+    for script in sorted(COMPONENTS.glob("pd_*.py")):
+        for name in _DECLARATION.findall(script.read_text(encoding="utf-8")):
+            out[name] = script
+    return out
+
+
 def component_scripts() -> list[Path]:
-    return sorted(COMPONENTS.glob("pd_*.py"))
+    """The declaration scripts of the catalog, sorted by file name."""
+    return sorted(set(catalog().values()))
 
 
 def stage_runtime(dest: Path, package: str = "fmus") -> Path:

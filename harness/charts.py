@@ -7,6 +7,23 @@ from pathlib import Path
 import pandas as pd
 
 
+def save_figure(fig, stem: str | Path, dpi: float | None = None) -> list[Path]:
+    """Write ``fig`` as ``<stem>.png`` and ``<stem>.svg`` (a ``.png``/``.svg`` suffix of ``stem`` is dropped
+    first; the folder is made), close it and return the two paths.  ``dpi``: of the PNG (None: matplotlib's
+    default); the SVG is vector.  The one figure saver of the toolkit (charts, studies, benchmarks)."""
+    import matplotlib.pyplot as plt
+
+    stem = Path(stem)
+    if stem.suffix.lower() in (".png", ".svg"):
+        stem = stem.with_suffix("")
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    paths = [stem.with_name(stem.name + ".png"), stem.with_name(stem.name + ".svg")]
+    for p in paths:
+        fig.savefig(p, dpi=dpi if dpi is not None else "figure")
+    plt.close(fig)
+    return paths
+
+
 def _bond_columns(system, df: pd.DataFrame) -> list[tuple[str, list[str]]]:
     panels = []
     for b in system.bonds:
@@ -65,10 +82,4 @@ def plot_result(system, df: pd.DataFrame, out_dir: str | Path) -> list[Path]:
     fig.suptitle(f"{system.name}: master {df.attrs.get('master', '?')}, step {df.attrs.get('step', 0):g} s{status}",
                  fontsize=9)
     fig.tight_layout()
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    paths = [out_dir / f"{system.name}.png", out_dir / f"{system.name}.svg"]
-    for p in paths:
-        fig.savefig(p, dpi=110)
-    plt.close(fig)
-    return paths
+    return save_figure(fig, Path(out_dir) / system.name, dpi=110)

@@ -29,10 +29,9 @@ from typing import ClassVar
 import numpy as np
 
 from harness import graph
+from harness.clock import NS
 from harness.errors import AlgebraicLoopError, FMUError, HarnessError, SimulationError, SystemError_
 from harness.extrapolation import DEPTH, History, Polynomial
-
-NS = 1_000_000_000
 
 
 class ConvergenceError(HarnessError):

@@ -14,12 +14,13 @@ a.flange.tau`` (``.s``/``.v``/``.f`` for translational ports).  The motion-outpu
 from __future__ import annotations
 
 import os
-import re
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from harness.errors import SystemError_
+from harness.fmi.cache import model_description  # noqa: F401 (the one modelDescription cache, re-exported)
+from harness.specs import PrecisionSpec, Scene, StabilitySpec
 
 ROOT = Path(__file__).resolve().parents[1]
 FMU_DIR_ENV = "PRESSDRIVE_FMU_DIR"
@@ -106,8 +107,10 @@ class System:
     bonds: list[Bond] = field(default_factory=list)
     experiment: Experiment | None = None
     description: str = ""
-    scenes: list = field(default_factory=list)
+    scenes: list[Scene] = field(default_factory=list)
     default_scene: str | None = None   # the scene asked when none is named (harness.studies.scenes.find_scene)
+    precision: PrecisionSpec | None = None    # the work-precision study's quantity and grid (harness.specs)
+    stability: StabilitySpec | None = None    # the stability map's coupling parameter (harness.specs)
 
     def instance(self, name: str) -> Instance:
         for inst in self.instances:
@@ -225,23 +228,6 @@ def _check_parameter(v, ref: str, value) -> None:
 
 
 # -- FMU resolution ---------------------------------------------------------------------------------------------
-_MD_CACHE: dict[tuple[str, float], object] = {}
-
-
-def model_description(path: str | Path):
-    """fmpy model description of an FMU file (cached by path and modification time)."""
-    from fmpy import read_model_description
-
-    p = Path(path).resolve()
-    if not p.is_file():
-        raise SystemError_(f"FMU file {p} does not exist")
-    key = (str(p), p.stat().st_mtime)
-    if key not in _MD_CACHE:
-        try:
-            _MD_CACHE[key] = read_model_description(str(p))
-        except Exception as e:
-            raise SystemError_(f"{p}: not a readable FMU ({type(e).__name__}: {e})".splitlines()[0]) from None
-    return _MD_CACHE[key]
 
 
 def fmu_dir() -> Path:
@@ -251,12 +237,18 @@ def fmu_dir() -> Path:
 
 
 def component_module(model: str) -> Path | None:
-    """The fmus/components/pd_*.py file that declares FMU class ``model`` (found by scanning the sources)."""
-    pattern = re.compile(rf"^class\s+{re.escape(model)}\s*\(", re.M)
-    for script in sorted((ROOT / "fmus" / "components").glob("pd_*.py")):
-        if pattern.search(script.read_text(encoding="utf-8")):
-            return script
-    return None
+    """The fmus/components/pd_*.py file that declares FMU class ``model`` (from :func:`fmus.build.catalog`)."""
+    from fmus.build import catalog
+
+    return catalog().get(model)
+
+
+def model_name(fmu: str | Path) -> str:
+    """The model name of an instance's ``fmu``: a bare name as it is, an ``.fmu`` file's modelName."""
+    p = Path(str(fmu))
+    if p.suffix.lower() != ".fmu":
+        return str(fmu)
+    return model_description(p).modelName
 
 
 def _sources_newer_than(fmu: Path, script: Path) -> bool:

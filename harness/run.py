@@ -92,6 +92,26 @@ def load(x) -> System:
     return system
 
 
+def system_names() -> list[str]:
+    """The names of the system modules in ``systems/`` (each defines ``SYSTEM``), sorted."""
+    import pkgutil
+
+    import systems
+
+    return sorted(m.name for m in pkgutil.iter_modules(systems.__path__) if not m.ispkg)
+
+
+def declared(spec: str) -> dict:
+    """System name -> its ``spec`` field (``"precision"`` or ``"stability"``), for every system in ``systems/``
+    that declares one."""
+    out = {}
+    for name in system_names():
+        value = getattr(load(name), spec)
+        if value is not None:
+            out[name] = value
+    return out
+
+
 def _positive(name: str, value, unit: str = "s") -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
         text = repr(float(value)) if isinstance(value, (int, float)) and not isinstance(value, bool) else repr(value)
@@ -100,7 +120,8 @@ def _positive(name: str, value, unit: str = "s") -> float:
     return float(value)
 
 
-def _split_parameters(system: System, parameters: dict | None) -> dict[str, dict]:
+def split_parameters(system: System, parameters: dict | None) -> dict[str, dict]:
+    """Instance name -> {parameter: value}: the system's values overridden by ``{"Instance.param": value}``."""
     out = {inst.name: dict(inst.parameters) for inst in system.instances}
     for ref, value in (parameters or {}).items():
         inst, dot, var = str(ref).partition(".")
@@ -170,7 +191,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         raise SystemError_(f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
     cls = master_class(master)
     extra = make_extrapolation(extrapolation)
-    params = _split_parameters(system, parameters)
+    params = split_parameters(system, parameters)
 
     paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
     mds = {name: model_description(p) for name, p in paths.items()}

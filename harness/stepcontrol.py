@@ -28,7 +28,7 @@ import numpy as np
 
 from harness.errors import SimulationError, StepDiscarded, SystemError_
 
-NS = 1_000_000_000
+from harness.clock import NS
 
 
 @dataclass

@@ -33,14 +33,14 @@
 """
 import math
 
-from fmus.physics import fourbar
+from fmus.physics import fourbar, fourbar_synthesis
 from harness.model import Experiment, Instance, System, bond
-from harness.studies.scenes import Scene
+from harness.specs import PrecisionSpec, Scene, StabilitySpec
 
 RPM = 2 * math.pi / 60
 CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m
 C_COUPLER, D_COUPLER = 5e7, 2e3  # N/m, N.s/m: four-bar coupler (assumed); the cam transmission copies them
-_analysis = fourbar.analyse(1.0, COUPLER / CRANK, FRAME / CRANK, ROCKER / CRANK)
+_analysis = fourbar_synthesis.analyse(1.0, COUPLER / CRANK, FRAME / CRANK, ROCKER / CRANK)
 PHI_START = math.radians(_analysis.working_start_deg)  # crank angle where the working stroke begins
 ROCKER_START = float(fourbar.position(PHI_START, CRANK, COUPLER, FRAME, ROCKER, 1)[0])  # rad
 
@@ -101,4 +101,18 @@ SYSTEM = System(
               'peak(window(r["flywheel.shaft_torque"], 0.2, 1.0))', tolerance=0.05, unit="N.m", stop_time=1.0),
     ],
     default_scene="print_speed_ripple",  # the seed's aim: a uniform bed speed while printing
+    precision=PrecisionSpec("bed.bed.s", "bed position", "m", stop_time=0.15,
+                            steps=(5e-5, 1e-4, 2e-4), tolerances=(1e-2, 1e-3),
+                            columns=("flywheel.crank.w", "diff.ring.phi", "fourbar.crank.tau")),
+    # Stability, measured with --quick (jacobi, order 0): the step limit hardly moves with the rack mesh (c_mesh
+    # 5e6..1e8: 5.5e-4..6.3e-4 s), the coupler, shaft or belt stiffness (no change), but scales with the ring +
+    # rocker inertia on the four-bar's motion OUTPUT side of the reversing pair (0.1 -> 1.3e-4 s, 0.5 -> 6.0e-4 s,
+    # 2.5 -> 2.1e-3 s): the rigid differential hands the effort of the bed's side straight back, so the
+    # inertia ratio across that FMU boundary sets the limit (the force-displacement coupling's mass ratio).
+    stability=StabilitySpec(
+        "fourbar.rocker_inertia", (0.1, 0.25, 0.5, 1.0, 2.5), (0.1, 0.5, 2.5), 0.1,
+        lambda p: math.sqrt(p("fourbar.coupler_stiffness") * p("fourbar.rocker_length") ** 2
+                            / p("fourbar.rocker_inertia")),
+        "inertia of the ring gear and rocker [kg.m2] on the four-bar's motion-output port (FourBar), coupled "
+        "through the rigid James differential to the bed; omega ~ sqrt(c_coupler l_rocker^2 / J_rocker)"),
 )

@@ -20,7 +20,7 @@ Chain (power bonds, motion -> / <- effort):
 import math
 
 from harness.model import Experiment, Instance, System, bond
-from harness.studies.scenes import Scene
+from harness.specs import PrecisionSpec, Scene, StabilitySpec
 
 RPM = 2 * math.pi / 60
 N_CRANK = 960.0 / 6.4  # rpm, motor rated speed over the belt ratio
@@ -67,4 +67,11 @@ SYSTEM = System(
               'mean(window(r["motor.power_electrical"], 0.2, 0.6))', tolerance=0.02, unit="W", stop_time=0.6),
     ],
     default_scene="impact_force",  # seed 000's question: the impacts in the clearance joint
+    precision=PrecisionSpec("feeder.rocker.phi", "feeder output link angle", "rad", stop_time=0.2,
+                            steps=(1e-4, 2e-4, 4e-4, 8e-4), columns=("flywheel.crank.w", "feeder.crank.tau")),
+    stability=StabilitySpec(
+        "feeder.stiffness", (1000.0, 2000.0, 5000.0, 10000.0, 20000.0), (1000.0, 5000.0, 20000.0),
+        0.1, lambda p: math.sqrt(p("feeder.stiffness") / p("feeder.rocker_inertia")),
+        "transmission (conrod / slotted-rocker) stiffness [N.m/rad] of the CamRocker, whose crank torque "
+        "couples it to the flywheel shaft; omega ~ sqrt(stiffness / rocker_inertia)"),
 )

@@ -13,7 +13,7 @@
 import math
 
 from harness.model import Experiment, Instance, System, bond
-from harness.studies.scenes import Scene
+from harness.specs import PrecisionSpec, Scene, StabilitySpec
 
 RPM = 2 * math.pi / 60
 
@@ -49,4 +49,12 @@ SYSTEM = System(
               'peak(window(r["flywheel.shaft_torque"], 0.5, 2.0))', tolerance=0.05, unit="N.m", stop_time=2.0),
     ],
     default_scene="sync_error",  # seed 002's aim: the cylinder rolls on the bed without slip while printing
+    precision=PrecisionSpec("press.sync_error", "cylinder-bed synchronisation error", "m", stop_time=1.0,
+                            steps=(4e-4, 8e-4, 1.6e-3), tolerances=(1e-2, 1e-3),
+                            columns=("flywheel.crank.w", "press.crank.tau")),
+    stability=StabilitySpec(
+        "press.c_cyl", (5e4, 1e5, 2e5, 5e5, 1e6), (5e4, 2e5, 1e6), 0.2,
+        lambda p: math.sqrt(p("press.c_cyl") / p("press.J_cyl")),
+        "torsional stiffness sectors -> cylinder c_cyl [N.m/rad] of GearSectors, whose crank torque couples "
+        "it to the flywheel shaft; omega ~ sqrt(c_cyl / J_cyl)"),
 )

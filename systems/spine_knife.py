@@ -24,7 +24,7 @@
 import math
 
 from harness.model import Experiment, Instance, System, bond
-from harness.studies.scenes import Scene
+from harness.specs import PrecisionSpec, Scene, StabilitySpec
 
 RPM = 2 * math.pi / 60
 W_CRANK = 600.0 * RPM
@@ -68,4 +68,12 @@ SYSTEM = System(
               'peak(window(r["knife.knife.tau"], 0.1, 0.3))', tolerance=0.02, unit="N.m", stop_time=0.3),
     ],
     default_scene="shaft_twist",  # seed 003's question: torsional deformation and resonance of the knife shaft
+    precision=PrecisionSpec("knife.knife.tau", "knife torque", "N.m", stop_time=0.1,
+                            steps=(5e-5, 1e-4, 2e-4, 4e-4), columns=("shaft.crank.w", "shaft.shaft_twist")),
+    stability=StabilitySpec(
+        "shaft.d", (0.02, 0.025, 0.03, 0.04, 0.05), (0.02, 0.03, 0.05), 0.05,
+        lambda p: math.sqrt(p("shaft.G") * math.pi * p("shaft.d") ** 4 / (32.0 * p("shaft.l"))
+                            * (1.0 / p("shaft.J_flywheel") + 1.0 / p("shaft.J_crank"))),
+        "driving-shaft diameter d [m] (torsional stiffness G pi d^4 / (32 l)) of the FlywheelShaft that drives "
+        "the linkage; omega ~ sqrt(c1 (1/J_flywheel + 1/J_crank))"),
 )

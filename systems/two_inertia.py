@@ -6,7 +6,7 @@ convergence orders and stability limits of the masters.  Undamped and free-free 
 system conserves energy, so any energy change is made by the coupling.
 """
 from harness.model import Experiment, Instance, System, bond
-from harness.studies.scenes import Scene
+from harness.specs import PrecisionSpec, Scene
 
 SYSTEM = System(
     name="two_inertia",
@@ -24,4 +24,6 @@ SYSTEM = System(
               'peak(window(r["b.drive.tau"], 0.0, 0.2))', tolerance=0.01, unit="N.m", stop_time=0.2, step=2.5e-5),
     ],
     default_scene="peak_torque",  # the coupling benchmark's quantity: the spring torque across the FMU boundary
+    precision=PrecisionSpec("b.drive.tau", "coupling torque", "N.m", stop_time=0.5,
+                            steps=(2.5e-4, 5e-4, 1e-3, 2e-3), columns=("a.flange.w",)),
 )

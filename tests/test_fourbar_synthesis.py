@@ -14,7 +14,7 @@ import pytest
 from scipy.optimize import minimize
 
 from fmus.physics.base import ParameterError
-from fmus.physics.fourbar import analyse, synthesise
+from fmus.physics.fourbar_synthesis import analyse, synthesise
 
 ROOT = Path(__file__).resolve().parents[1]
 CLI = ROOT / "harness" / "synthesis" / "fourbar.py"

@@ -1,6 +1,6 @@
 """The press-drive systems run end to end and give physically plausible results (issue 6, part 1).
 
-Every expected value is recomputed here from the kinematics (fmus.physics.fourbar.analyse, closed forms of
+Every expected value is recomputed here from the kinematics (fmus.physics.fourbar_synthesis.analyse, closed forms of
 the seeds) or from a conservation law, never read from the code under test.  Runs are shortened (one crank
 turn or less where the check allows) and shared between the tests of a system (module-scoped fixtures);
 the systems' FMUs come from the session build (``fmu_dir``), not from build/fmus.
@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fmus.physics import fourbar
+from fmus.physics import fourbar_synthesis
 from harness import load, simulate
 from harness.studies.energy import bond_power
 from harness.model import Instance, SystemWarning
@@ -79,7 +79,7 @@ def bed(fmu_dir):
 
 def _bed_geometry():
     fb, diff, b, cam = (params("bed_drive", i) for i in ("fourbar", "diff", "bed", "cam"))
-    a = fourbar.analyse(fb["crank_length"], fb["coupler_length"], fb["frame_length"], fb["rocker_length"])
+    a = fourbar_synthesis.analyse(fb["crank_length"], fb["coupler_length"], fb["frame_length"], fb["rocker_length"])
     k = diff["z_ring"] / diff["z_sun"]                        # z3/z5
     alpha = k * math.radians(a.swing_deg) + (1 + k) * cam["swing"]   # alpha_Sigma [rad] of the sun (pinion z6)
     r6 = b["module"] * b["z_pinion"] / 2
@@ -132,7 +132,7 @@ def test_feeder_rocker_swing_is_the_kinematic_swing(feeder):
     # rocker lambda3; fmus/physics/cam_rocker.py).  NOTE: groove.py's docstring says the CENTRIC base four-bar
     # (swing 2 asin(1/lambda3) = 38.9 deg) but groove.base_design uses lambda2 itself (46.2 deg): the code is
     # what runs, so that is the kinematic swing checked here (reported as a docstring inconsistency).
-    closed = math.radians(fourbar.analyse(1.0, l2, l1, l3).swing_deg)
+    closed = math.radians(fourbar_synthesis.analyse(1.0, l2, l1, l3).swing_deg)
     phi = feeder["flywheel.crank.phi"].to_numpy()
     turn = phi >= phi[-1] - 2 * math.pi                              # the last full crank turn
     swing = np.ptp(feeder["feeder.rocker.phi"].to_numpy()[turn])

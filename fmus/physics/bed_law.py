@@ -48,7 +48,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import fourbar
+from . import fourbar, fourbar_synthesis
 from .laws import Law
 
 SEED_LINKAGE = (1.0, 1.91579, 2.10526, 2.25263)   # seed 004: O2A : AD : O2O5 : DO5
@@ -127,7 +127,7 @@ class FourBarStroke:
 
 @lru_cache(maxsize=16)
 def working_stroke(linkage=SEED_LINKAGE, branch: int = 1) -> FourBarStroke:
-    an = fourbar.analyse(*linkage, branch=branch)
+    an = fourbar_synthesis.analyse(*linkage, branch=branch)
     a, b, f, r = 1.0, an.coupler, an.frame, an.rocker
     start, span = math.radians(an.working_start_deg), math.radians(an.working_stroke_deg)
     psi0 = float(fourbar.position(start, a, b, f, r, branch)[0])

@@ -15,37 +15,23 @@ from __future__ import annotations
 
 import ctypes
 import functools
-import shutil
 import sys
-import tempfile
 from collections import deque
 from ctypes import POINTER, byref, c_char_p, c_double, c_int, c_uint, c_void_p
 from pathlib import Path
 
 import numpy as np
-from fmpy import read_model_description
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2FMUstate)
 from fmpy.fmi1 import calloc, free
 
 from harness.errors import FMUError, StepDiscarded
+from harness.fmi.cache import cache_dir, model_description, unzipped  # noqa: F401 (cache_dir: public here too)
 
 OK, WARNING, DISCARD, ERROR, FATAL, PENDING = range(6)
 _LABELS = ("ok", "warning", "discard", "error", "fatal", "pending")
 
-# -- extraction cache (path + mtime -> (model description, unzip dir)) ---------------------------------------
-# Extracted FMUs are NOT deleted at exit: the shared libraries (and, for pythonfmu FMUs, the Python modules
-# they loaded) stay in use until the interpreter is gone, and removing them in an atexit hook crashes the
-# finalisation.  Instead the folder is a content-keyed cache shared by processes (no accumulation).
-_EXTRACTED: dict[tuple[str, float], tuple[object, Path]] = {}
-
-
-def cache_dir() -> Path:
-    """$PRESSDRIVE_CACHE/fmus, else <temp>/pressdrive_fmu_cache."""
-    import os
-
-    env = os.environ.get("PRESSDRIVE_CACHE")
-    return Path(env) / "fmus" if env else Path(tempfile.gettempdir()) / "pressdrive_fmu_cache"
+# -- extraction (the one archive cache, :mod:`harness.fmi.cache`) -------------------------------------------
 
 
 def extracted(path: str | Path):
@@ -53,34 +39,11 @@ def extracted(path: str | Path):
     p = Path(path).resolve()
     if not p.is_file():
         raise FMUError(str(path), "extract", None, None, detail=f"no such FMU file {p}")
-    key = (str(p), p.stat().st_mtime)
-    hit = _EXTRACTED.get(key)
-    if hit is None:
-        import zipfile
-
-        md = read_model_description(str(p))
-        if md.coSimulation is None:
-            raise FMUError(p.stem, "read_model_description", None, None,
-                           detail=f"{p.name} is not an FMI 2.0 co-simulation FMU")
-        import hashlib
-        import os
-
-        st = p.stat()
-        digest = hashlib.sha1(f"{p}|{st.st_mtime_ns}|{st.st_size}".encode()).hexdigest()[:16]
-        root = cache_dir()
-        d = root / f"{p.stem}_{digest}"
-        if not (d / ".complete").is_file():
-            root.mkdir(parents=True, exist_ok=True)
-            tmp = Path(tempfile.mkdtemp(prefix=f".{p.stem}_", dir=root))
-            with zipfile.ZipFile(p) as z:
-                z.extractall(tmp)
-            (tmp / ".complete").write_text("ok")
-            try:
-                os.replace(tmp, d)  # atomic; another process may have won the race
-            except OSError:
-                shutil.rmtree(tmp, ignore_errors=True)
-        hit = _EXTRACTED[key] = (md, d)
-    return hit
+    md = model_description(p)
+    if md.coSimulation is None:
+        raise FMUError(p.stem, "read_model_description", None, None,
+                       detail=f"{p.name} is not an FMI 2.0 co-simulation FMU")
+    return md, unzipped(p)
 
 
 # -- log capture ------------------------------------------------------------------------------------------------

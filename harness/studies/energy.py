@@ -1,5 +1,10 @@
 """Power-bond energy diagnostics of a co-simulation result (ECCO-style power residual).
 
+Why this is not :func:`harness.results.bond_energy`: that one reads the master's own bond log, which only
+this toolkit's masters write.  This module works on ANY result table with the bond's columns -- a CSV, or a
+run of libcosim, Ecos or CoFmuPy -- by reconstructing the held inputs with the masters' rule, so it is the
+diagnostic for results the master did not make (and the two agree where both apply, see below).
+
 A power bond joins port ``A.port`` (motion OUT: outputs ``phi, w``; input ``tau``) and port ``B.port``
 (motion IN: inputs ``phi, w``; output ``tau``); translational ports use ``s, v, f``.  In the monolithic
 system the power ``tau * w`` leaving B equals the power entering A at every instant.  In a co-simulation each

@@ -26,9 +26,8 @@ Choices (documented here because the issue leaves them open):
 * Variable-step methods start from the finest fixed step; their step lies in [step/1000, 100*step]
   (:class:`harness.stepcontrol.StepOptions` defaults).
 
-The quantity of interest of each system (:data:`PRECISION`) is a small table here because
-:class:`harness.model.System` has no field for it; a system object with a ``precision`` attribute (a
-:class:`PrecisionSpec`) overrides the table.
+The quantity of interest of each system and the study's default grid are declared with the system
+(``System.precision``, a :class:`harness.specs.PrecisionSpec` in ``systems/<name>.py``).
 """
 from __future__ import annotations
 
@@ -42,48 +41,15 @@ from pathlib import Path
 
 import pandas as pd
 
+from harness.charts import save_figure
+from harness.run import declared
+from harness.specs import PrecisionSpec
 from harness.studies.metrics import METRICS, error_metrics
+from harness.studies.trial import quiet_simulate
 
 
-@dataclass(frozen=True)
-class PrecisionSpec:
-    """What the precision study of a system compares and its default grid.
-
-    ``quantity``: the result column of the quantity of interest (``label``, ``unit`` for the chart);
-    ``columns``: further columns compared (reported in the CSV); ``stop_time`` [s]: the study's default run
-    length (short: a study must stay cheap); ``steps`` [s]: default fixed communication steps;
-    ``tolerances``: default tolerances of the variable-step controllers; ``t_start`` [s]: start of the
-    compared window (0: everything)."""
-    quantity: str
-    label: str
-    unit: str
-    stop_time: float
-    steps: tuple[float, ...]
-    columns: tuple[str, ...] = ()
-    tolerances: tuple[float, ...] = (1e-2, 1e-3, 1e-4)
-    t_start: float = 0.0
-
-    @property
-    def compared(self) -> list[str]:
-        return [self.quantity] + [c for c in self.columns if c != self.quantity]
-
-
-PRECISION: dict[str, PrecisionSpec] = {
-    "bed_drive": PrecisionSpec("bed.bed.s", "bed position", "m", stop_time=0.15,
-                               steps=(5e-5, 1e-4, 2e-4), tolerances=(1e-2, 1e-3),
-                               columns=("flywheel.crank.w", "diff.ring.phi", "fourbar.crank.tau")),
-    "feeder_gto52": PrecisionSpec("feeder.rocker.phi", "feeder output link angle", "rad", stop_time=0.2,
-                                  steps=(1e-4, 2e-4, 4e-4, 8e-4),
-                                  columns=("flywheel.crank.w", "feeder.crank.tau")),
-    "spine_knife": PrecisionSpec("knife.knife.tau", "knife torque", "N.m", stop_time=0.1,
-                                 steps=(5e-5, 1e-4, 2e-4, 4e-4),
-                                 columns=("shaft.crank.w", "shaft.shaft_twist")),
-    "proof_press": PrecisionSpec("press.sync_error", "cylinder-bed synchronisation error", "m", stop_time=1.0,
-                                 steps=(4e-4, 8e-4, 1.6e-3), tolerances=(1e-2, 1e-3),
-                                 columns=("flywheel.crank.w", "press.crank.tau")),
-    "two_inertia": PrecisionSpec("b.drive.tau", "coupling torque", "N.m", stop_time=0.5,
-                                 steps=(2.5e-4, 5e-4, 1e-3, 2e-3), columns=("a.flange.w",)),
-}
+PRECISION: dict[str, PrecisionSpec] = declared("precision")
+"""System name -> its :class:`~harness.specs.PrecisionSpec`, as declared in ``systems/<name>.py``."""
 
 DEFAULT_MASTERS = ("jacobi", "gauss-seidel")
 DEFAULT_ORDERS = (0, 1, 2)
@@ -92,13 +58,13 @@ QUICK = dict(masters=("jacobi",), orders=(0, 1), step_controls=("none", "ecco"),
 
 
 def precision_spec(system) -> PrecisionSpec:
-    """The :class:`PrecisionSpec` of a system (its ``precision`` attribute, else :data:`PRECISION`)."""
+    """The :class:`PrecisionSpec` of a system (its ``precision`` field, else :data:`PRECISION` by name)."""
     spec = getattr(system, "precision", None)
     if isinstance(spec, PrecisionSpec):
         return spec
     if system.name not in PRECISION:
-        raise ValueError(f"system {system.name!r} has no precision quantity: add it to "
-                         f"harness.studies.precision.PRECISION (known: {', '.join(sorted(PRECISION))})")
+        raise ValueError(f"system {system.name!r} has no precision quantity: declare precision=PrecisionSpec(...) "
+                         f"in systems/{system.name}.py (known: {', '.join(sorted(PRECISION))})")
     return PRECISION[system.name]
 
 
@@ -141,7 +107,7 @@ def precision_study(system, stop_time: float | None = None, steps=None, toleranc
     """Run the grid and measure it (module docstring).  ``progress``: callable taking one line of text."""
     from harness.masters import MASTERS
     from harness.studies.reference import component_classes, reference
-    from harness.run import load, simulate
+    from harness.run import load
     from harness.stepcontrol import STEP_CONTROLS
 
     system = load(system)
@@ -186,13 +152,11 @@ def precision_study(system, stop_time: float | None = None, steps=None, toleranc
         variable = STEP_CONTROLS[control].variable
         for value in (tolerances if variable else steps):
             step, tol = (steps[0], value) if variable else (value, None)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                t1 = time.perf_counter()
-                df = simulate(system, stop_time=stop_time, step=step, master=master, extrapolation=order,
-                              step_control=control, tolerance=tol, parameters=parameters, outputs=columns,
-                              on_error="return")
-                wall = time.perf_counter() - t1
+            t1 = time.perf_counter()
+            df = quiet_simulate(system, stop_time=stop_time, step=step, master=master, extrapolation=order,
+                                step_control=control, tolerance=tol, parameters=parameters, outputs=columns,
+                                on_error="return")
+            wall = time.perf_counter() - t1
             a = df.attrs
             base = dict(system=system.name, master=master, extrapolation=order, step_control=control,
                         step=step if not variable else math.nan, tolerance=tol if variable else math.nan,
@@ -274,15 +238,7 @@ def plot_work_precision(study: Study, path_stem: Path, metric: str = "max_abs") 
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=6.5, loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
     fig.tight_layout()
-    out = []
-    path_stem = Path(path_stem)
-    path_stem.parent.mkdir(parents=True, exist_ok=True)
-    for ext in ("png", "svg"):
-        f = path_stem.with_name(path_stem.name + f".{ext}")
-        fig.savefig(f, dpi=130)
-        out.append(f)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path_stem, dpi=130)
 
 
 def run_study(system, out_dir: str | Path = "results", metric: str = "max_abs", quick: bool = False,

@@ -43,6 +43,8 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
+from harness.model import model_name
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -52,22 +54,10 @@ class ReferenceError_(ValueError):
 
 def component_classes() -> dict[str, type]:
     """Model name -> FMU class, for every FMU declared in fmus/components."""
-    out = {}
-    for script in sorted((ROOT / "fmus" / "components").glob("pd_*.py")):
-        module = importlib.import_module(f"fmus.components.{script.stem}")
-        for value in vars(module).values():
-            if isinstance(value, type) and value.__module__ == module.__name__ and hasattr(value, "model"):
-                out[value.__name__] = value
-    return out
+    from fmus.build import catalog
 
-
-def _model_name(fmu) -> str:
-    p = Path(str(fmu))
-    if p.suffix.lower() != ".fmu":
-        return str(fmu)
-    from harness.model import model_description
-
-    return model_description(p).modelName
+    return {name: getattr(importlib.import_module(f"fmus.components.{script.stem}"), name)
+            for name, script in catalog().items()}
 
 
 @dataclass
@@ -151,7 +141,7 @@ class Monolithic:
         self.names, self.models, self.slices, self.classes = [], [], [], []
         n = 0
         for inst in system.instances:
-            mname = _model_name(inst.fmu)
+            mname = model_name(inst.fmu)
             if mname not in classes:
                 raise ReferenceError_(f"instance {inst.name}: FMU {mname} is not a toolkit component, "
                                       f"so no monolithic reference can be assembled")

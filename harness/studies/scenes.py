@@ -25,27 +25,16 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import pandas as pd
 
 from harness import qoi
+from harness.charts import save_figure
 from harness.model import SystemWarning
-
-
-@dataclass
-class Scene:
-    name: str
-    question: str
-    quantity: str                 # harness.qoi expression
-    tolerance: float              # admissible |error| of the quantity (absolute, in its own unit) ...
-    relative: bool = True         # ... or relative to the full model's value when True
-    stop_time: float | None = None
-    window: tuple[float, float] | None = None  # documented time window (use window() in the quantity)
-    unit: str = ""
-    step: float | None = None     # the full model's communication step (default: the system's experiment)
+from harness.specs import Scene  # noqa: F401 (declared with the systems; re-exported)
+from harness.studies.trial import one_line, trial
 
 
 @dataclass
@@ -90,12 +79,13 @@ def find_scene(system, name: str | None = None) -> Scene:
 
 def fidelity_levels(system) -> dict[str, tuple[int, ...]]:
     """Instance -> admissible fidelity levels (ascending), for instances whose component has one."""
-    from harness.studies.reference import _model_name, component_classes
+    from harness.model import model_name
+    from harness.studies.reference import component_classes
 
     classes = component_classes()
     out = {}
     for inst in system.instances:
-        cls = classes.get(_model_name(inst.fmu))
+        cls = classes.get(model_name(inst.fmu))
         if cls is None:
             continue
         f = cls.model.Params.__dataclass_fields__.get("fidelity")
@@ -116,25 +106,21 @@ def _key(system, scene: Scene) -> str:
 
 def _run(system, scene: Scene, fidelities: dict[str, int], step: float, full_value: float | None,
          master: str | None = None) -> Candidate:
-    from harness import simulate
-
     params = {f"{k}.fidelity": v for k, v in fidelities.items()}
     exp = system.experiment
     master = master or exp.master
     t0 = time.perf_counter()
+    # unconnected-input notes are about the system, not this candidate
+    run = trial(system, ignore=SystemWarning, stop_time=scene.stop_time or exp.stop_time, step=step,
+                master=master, extrapolation=exp.extrapolation, parameters=params,
+                outputs=qoi.columns(scene.quantity) or None)
+    wall = run.wall_time
+    if not run.complete:
+        return Candidate(dict(fidelities), step, None, None, wall, False, run.error, master)
     try:
-        with warnings.catch_warnings():  # unconnected-input notes are about the system, not this candidate
-            warnings.simplefilter("ignore", SystemWarning)
-            df = simulate(system, stop_time=scene.stop_time or exp.stop_time, step=step, master=master,
-                          extrapolation=exp.extrapolation, parameters=params,
-                          outputs=qoi.columns(scene.quantity) or None)
-        wall = time.perf_counter() - t0
-        if df.attrs.get("complete") is False:
-            return Candidate(dict(fidelities), step, None, None, wall, False, df.attrs.get("error", "incomplete"), master)
-        value = qoi.evaluate(scene.quantity, df)
+        value = qoi.evaluate(scene.quantity, run.result)
     except Exception as e:
-        return Candidate(dict(fidelities), step, None, None, time.perf_counter() - t0, False,
-                         f"{type(e).__name__}: {e}".splitlines()[0], master)
+        return Candidate(dict(fidelities), step, None, None, time.perf_counter() - t0, False, one_line(e), master)
     if full_value is None:
         return Candidate(dict(fidelities), step, value, 0.0, wall, True, "", master)
     err = abs(value - full_value)
@@ -242,12 +228,7 @@ def chart(result: SceneResult, out: Path) -> list[Path]:
     ax.set_title(f"{result.scene.name}: {result.scene.question}", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    paths = [out.with_suffix(".png"), out.with_suffix(".svg")]
-    for p in paths:
-        fig.savefig(p)
-    plt.close(fig)
-    return paths
+    return save_figure(fig, out)
 
 
 def register(subparsers) -> None:

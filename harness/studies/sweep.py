@@ -49,10 +49,9 @@ import numpy as np
 import pandas as pd
 
 from harness import qoi
-
-
-class SweepError(ValueError):
-    pass
+from harness.charts import save_figure
+from harness.studies.sweep_checks import SweepError  # noqa: F401 (defined below this module, re-exported)
+from harness.studies.trial import one_line, trial
 
 
 @dataclass
@@ -248,9 +247,7 @@ def read_spec(path: str | Path) -> SweepSpec:
 
 def run_point(system_name: str, spec: SweepSpec, point: dict[str, float]) -> dict:
     """One co-simulation; never raises: the error is part of the row."""
-    from harness import load, simulate
-
-    import warnings
+    from harness import load
 
     row: dict = dict(point)
     row.update({name: math.nan for name in spec.outputs})  # a failed point keeps every column (NaN)
@@ -259,19 +256,15 @@ def run_point(system_name: str, spec: SweepSpec, point: dict[str, float]) -> dic
         params = spec.parameters(point)
         row.update({f"set:{k}": v for k, v in params.items() if k not in point})
         wanted = sorted({c for e in spec.outputs.values() for c in qoi.columns(e)})
-        with warnings.catch_warnings():  # the failure is recorded in the row, not warned about per point
-            warnings.simplefilter("ignore")
-            df = simulate(load(system_name), parameters=params, outputs=wanted or None, **spec.run)
-        if df.attrs.get("complete") is False:
-            # the run's own message (e.g. the FMU refusing a parameter) is the error; quantities of a partial
-            # run would be misleading, so they stay NaN (evaluating them would also replace the message)
-            row["error"] = (str(df.attrs.get("error") or "incomplete run").splitlines() or ["incomplete run"])[0]
-        else:
+        # the failure is recorded in the row, not warned about per point; the run's own message (e.g. the FMU
+        # refusing a parameter) is the error, and quantities of a partial run would be misleading (NaN)
+        run = trial(load(system_name), parameters=params, outputs=wanted or None, **spec.run)
+        if run.complete:
             for name, expr in spec.outputs.items():
-                row[name] = qoi.evaluate(expr, df)
-            row["error"] = ""
+                row[name] = qoi.evaluate(expr, run.result)
+        row["error"] = run.error
     except Exception as e:  # recorded, never aborts the sweep
-        row["error"] = f"{type(e).__name__}: {e}".splitlines()[0]
+        row["error"] = one_line(e)
     row["wall_time"] = time.perf_counter() - t0
     return row
 
@@ -454,10 +447,4 @@ def plot_sweep(df: pd.DataFrame, spec: SweepSpec, out_stem: str | Path, title: s
     note = f"; {pl['reduce']} over {', '.join(rest)}" if rest else ""
     fig.suptitle(f"{title}{note}; {len(df)} points, {n_fail} failed", fontsize=9)
     fig.tight_layout()
-    stem = Path(out_stem)
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    paths = [stem.with_suffix(".png"), stem.with_suffix(".svg")]
-    for p in paths:
-        fig.savefig(p, dpi=110)
-    plt.close(fig)
-    return paths
+    return save_figure(fig, out_stem, dpi=110)

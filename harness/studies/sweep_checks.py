@@ -24,9 +24,12 @@ import pandas as pd
 from harness import qoi
 
 
-def _fail(message: str):
-    from harness.studies.sweep import SweepError
+class SweepError(ValueError):
+    """A sweep that cannot run as specified (one line naming the file, variable, value and allowed range);
+    defined here, below :mod:`harness.studies.sweep`, which re-exports it, so the two import without a circle."""
 
+
+def _fail(message: str):
     raise SweepError(message)
 
 

@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 
 from fmus.physics.takeup import TakeUpParams, simulate
+from harness.charts import save_figure
 
 ALPHA_C = tuple(float(v) for v in np.round(np.logspace(-2, 1, 19), 4))
 ALPHA_M = (0.5, 1.0, 2.0, 5.0)
@@ -137,11 +138,7 @@ def plot(summary: pd.DataFrame, out: Path) -> list[Path]:
                  "at 0.01: at none)",
                  fontsize=9)
     fig.tight_layout()
-    files = [out / "takeup.png", out / "takeup.svg"]
-    for f in files:
-        fig.savefig(f, dpi=110)
-    plt.close(fig)
-    return files
+    return save_figure(fig, out / "takeup", dpi=110)
 
 
 def register(study_subparsers) -> None:

@@ -3,7 +3,7 @@
     synth fourbar --swing DEG --min-transmission DEG [--json]
     synth fourbar --analyse --coupler L --frame L --rocker L [--branch {1,-1}] [--json]     (crank = 1)
 
-The equations live in fmus.physics.fourbar (``synthesise``, ``analyse``); this module only parses, prints
+The equations live in fmus.physics.fourbar_synthesis (``synthesise``, ``analyse``); this module only parses, prints
 and turns a linkage that cannot be built into a one-line error (exit code 2).
 """
 from __future__ import annotations
@@ -51,7 +51,7 @@ def _fail(message: str) -> int:
 
 def run(args) -> int:
     from fmus.physics.base import ParameterError
-    from fmus.physics.fourbar import analyse, synthesise
+    from fmus.physics.fourbar_synthesis import analyse, synthesise
 
     try:
         if args.analyse:

@@ -4,15 +4,12 @@ Default parameters (fidelity 1, 100 rpm).  Inputs held over each 1 ms step: belt
 mechanism reaction crank.tau = -60 - 40*sin(2*w0*t) N.m (two load pulses per revolution), aux.tau = 0.
 Rows: outputs at t = 0 ... 0.5 s.
 """
+from __future__ import annotations
+
 import math
-import sys
-from pathlib import Path
 
-import numpy as np
-
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parents[2]))
-from fmus.physics.flywheel_shaft import FlywheelShaftModel, FlywheelShaftParams  # noqa: E402
+from fmus.physics.flywheel_shaft import FlywheelShaftModel, FlywheelShaftParams
+from fmus.reference import standard_run, write_reference
 
 
 def torques(p, t):
@@ -21,15 +18,7 @@ def torques(p, t):
 
 def main(h=1e-3, T=0.5):
     model = FlywheelShaftModel(FlywheelShaftParams())
-    x = model.initial_state(torques(model.p, 0.0))
-    rows = []
-    for k in range(int(round(T / h)) + 1):
-        t = k * h
-        u = torques(model.p, t)
-        rows.append((t, *model.output(t, x, u)))
-        x = model.advance(t, h, x, u)
-    np.savetxt(HERE / "reference.csv", np.array(rows), delimiter=",", fmt="%.12g",
-               header=",".join(("time",) + model.outputs), comments="")
+    write_reference(__file__, model, standard_run(model, lambda k, t: torques(model.p, t), h, int(round(T / h))))
 
 
 if __name__ == "__main__":

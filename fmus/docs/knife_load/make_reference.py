@@ -2,13 +2,12 @@
 
 Crank at the nominal speed omega = (pi - phi_s)/T_cut = 62.83 rad/s (10 plunges/s), block arriving at
 t = 0 (entry ramp over T_entry = 0.164 s), 0.4 s sampled every 0.2 ms."""
-import csv
-import math
-import sys
-from pathlib import Path
+from __future__ import annotations
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
-from fmus.physics.knife import KnifeLoadModel, KnifeLoadParams  # noqa: E402
+import math
+
+from fmus.physics.knife import KnifeLoadModel, KnifeLoadParams
+from fmus.reference import standard_run, write_reference
 
 
 def main():
@@ -16,12 +15,7 @@ def main():
     m = KnifeLoadModel(p)
     w = (math.pi - p.phi_s) / p.T_cut
     h, n = 2e-4, 2000
-    rows = [[i * h, *m.output(i * h, (), (w * i * h, w))] for i in range(n + 1)]
-    out = Path(__file__).with_name("reference.csv")
-    with out.open("w", newline="") as f:
-        wr = csv.writer(f)
-        wr.writerow(["time", *m.outputs])
-        wr.writerows([f"{v:.12g}" for v in r] for r in rows)
+    write_reference(__file__, m, standard_run(m, lambda k, t: (w * k * h, w), h, n))
 
 
 if __name__ == "__main__":

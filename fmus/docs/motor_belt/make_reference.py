@@ -5,15 +5,12 @@ w_n = w_rated*d_motor_pulley/d_driven_pulley, held over each 1 ms communication 
 exactly as the model extrapolates it (phi += w*h), starting at 0.  Rows: outputs at each step start after
 the inputs of that step are set, t = 0 ... 0.5 s.
 """
+from __future__ import annotations
+
 import math
-import sys
-from pathlib import Path
 
-import numpy as np
-
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parents[2]))
-from fmus.physics.motor_belt import MotorBeltModel, MotorBeltParams  # noqa: E402
+from fmus.physics.motor_belt import MotorBeltModel, MotorBeltParams
+from fmus.reference import standard_run, write_reference
 
 
 def pulley_speed(p, t):
@@ -22,17 +19,16 @@ def pulley_speed(p, t):
 
 def main(h=1e-3, T=0.5):
     model = MotorBeltModel(MotorBeltParams())
-    phi = 0.0
-    x = model.initial_state((phi, pulley_speed(model.p, 0.0)))
-    rows = []
-    for k in range(int(round(T / h)) + 1):
-        t = k * h
-        u = (phi, pulley_speed(model.p, t))
-        rows.append((t, *model.output(t, x, u)))
-        x = model.advance(t, h, x, u)
-        phi += u[1] * h
-    np.savetxt(HERE / "reference.csv", np.array(rows), delimiter=",", fmt="%.12g",
-               header=",".join(("time",) + model.outputs), comments="")
+    held = [0.0, 0.0]   # angle, speed: the angle advanced exactly as the model extrapolates it
+
+    def inputs(k, t):
+        held[0] += held[1] * h
+        held[1] = pulley_speed(model.p, t)
+        return tuple(held)
+
+    rows = standard_run(model, inputs, h, int(round(T / h)),
+                        x0=model.initial_state((0.0, pulley_speed(model.p, 0.0))))
+    write_reference(__file__, model, rows)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,70 @@
+"""The one cache of FMU archives: model descriptions (per process) and unzipped folders (on disk).
+
+* :func:`model_description`: fmpy's model description of an FMU file, read once per process and modification
+  time; every layer (system validation, the FMI wrapper, the studies, the peer runners) asks here.
+* :func:`unzipped`: a zip archive (an FMU or an SSP) extracted once into a content-keyed folder under
+  :func:`cache_dir`, shared by processes.  Extracted folders are NOT deleted at exit: the FMUs' shared
+  libraries (and, for pythonfmu FMUs, the Python modules they loaded) stay in use until the interpreter is
+  gone, and removing them in an atexit hook crashes the finalisation.  Keys are path + mtime + size, so the
+  cache does not accumulate copies of an unchanged file.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import tempfile
+import zipfile
+from pathlib import Path
+
+from harness.errors import SystemError_
+
+_DESCRIPTIONS: dict[tuple[str, float], object] = {}
+_UNZIPPED: dict[tuple[str, float, str], Path] = {}
+
+
+def model_description(path: str | Path):
+    """fmpy model description of an FMU file (cached by path and modification time)."""
+    from fmpy import read_model_description
+
+    p = Path(path).resolve()
+    if not p.is_file():
+        raise SystemError_(f"FMU file {p} does not exist")
+    key = (str(p), p.stat().st_mtime)
+    if key not in _DESCRIPTIONS:
+        try:
+            _DESCRIPTIONS[key] = read_model_description(str(p))
+        except Exception as e:
+            raise SystemError_(f"{p}: not a readable FMU ({type(e).__name__}: {e})".splitlines()[0]) from None
+    return _DESCRIPTIONS[key]
+
+
+def cache_dir() -> Path:
+    """$PRESSDRIVE_CACHE/fmus, else <temp>/pressdrive_fmu_cache."""
+    env = os.environ.get("PRESSDRIVE_CACHE")
+    return Path(env) / "fmus" if env else Path(tempfile.gettempdir()) / "pressdrive_fmu_cache"
+
+
+def unzipped(path: str | Path, kind: str = "") -> Path:
+    """The folder holding the extracted archive ``path`` (extracted at most once; ``kind`` a sub-folder of
+    the cache, e.g. ``"_ssp"``).  Safe against other processes extracting the same file at the same time."""
+    p = Path(path).resolve()
+    st = p.stat()
+    key = (str(p), st.st_mtime, kind)
+    hit = _UNZIPPED.get(key)
+    if hit is None:
+        digest = hashlib.sha1(f"{p}|{st.st_mtime_ns}|{st.st_size}".encode()).hexdigest()[:16]
+        root = cache_dir() / kind if kind else cache_dir()
+        hit = root / f"{p.stem}_{digest}"
+        if not (hit / ".complete").is_file():
+            root.mkdir(parents=True, exist_ok=True)
+            tmp = Path(tempfile.mkdtemp(prefix=f".{p.stem}_", dir=root))
+            with zipfile.ZipFile(p) as z:
+                z.extractall(tmp)
+            (tmp / ".complete").write_text("ok")
+            try:
+                os.replace(tmp, hit)  # atomic; another process may have won the race
+            except OSError:
+                shutil.rmtree(tmp, ignore_errors=True)
+        _UNZIPPED[key] = hit
+    return hit

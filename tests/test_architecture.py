@@ -1,0 +1,152 @@
+"""The layer rule of ARCHITECTURE.md, checked on the sources: imports (also those inside functions) are parsed
+with ``ast``; a module may import only its own layer or layers below, and the harness's modules import each
+other without a circle.  The checker itself is tested on small made-up trees, so it can fail."""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import networkx as nx
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# (layer rank, module-name prefixes); the longest matching prefix decides.  See ARCHITECTURE.md.
+LAYERS = [
+    (0, ("fmus.physics",)),
+    (1, ("fmus",)),                                               # FMU slaves, catalog, build, references
+    (2, ("harness.errors", "harness.clock", "harness.fmi")),      # FMI layer
+    (3, ("harness.specs", "harness.model", "harness.graph", "harness.extrapolation", "harness.stepcontrol",
+         "harness.masters", "harness.results", "harness.qoi")),    # system model and masters
+    (4, ("harness", "harness.run", "harness.ssp", "harness.charts",   # run / ssp (and the package's lazy API)
+         "systems")),                                             # the drives as data, loaded by run.load
+    (5, ("harness.studies", "harness.synthesis", "harness.__main__")),  # studies, synthesis, CLI
+]
+OUTSIDE = ("benchmarks", "tests")        # may import anything; nothing in the layers may import them
+PACKAGES = ("fmus", "harness", "systems", "benchmarks")
+
+
+def layer(module: str) -> int | None:
+    best = None
+    for rank, prefixes in LAYERS:
+        for p in prefixes:
+            if (module == p or module.startswith(p + ".")) and (best is None or len(p) > len(best[1])):
+                best = (rank, p)
+    return None if best is None else best[0]
+
+
+def module_name(path: Path, root: Path) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def imports(path: Path, root: Path, known: set[str]) -> set[str]:
+    """The project modules ``path`` imports (``from pkg import name`` counts as ``pkg.name`` if that is a
+    module, else as ``pkg``); relative imports are resolved."""
+    me = module_name(path, root)
+    package = me if path.name == "__init__.py" else me.rpartition(".")[0]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(anchor + ([base] if base else []))
+            names = [f"{base}.{a.name}" if f"{base}.{a.name}" in known else base for a in node.names]
+        else:
+            continue
+        for n in names:
+            while n and n not in known:
+                n = n.rpartition(".")[0]
+            if n and n != me:
+                out.add(n)
+    return out
+
+
+def import_graph(root: Path) -> nx.DiGraph:
+    files = [p for pkg in PACKAGES if (root / pkg).is_dir() for p in (root / pkg).rglob("*.py")
+             if "docs" not in p.relative_to(root).parts]
+    known = {module_name(p, root) for p in files}
+    g = nx.DiGraph()
+    for p in files:
+        me = module_name(p, root)
+        g.add_node(me)
+        for other in imports(p, root, known):
+            g.add_edge(me, other)
+    return g
+
+
+def upward_imports(g: nx.DiGraph) -> list[str]:
+    bad = []
+    for a, b in g.edges:
+        if a.split(".")[0] in OUTSIDE:
+            continue
+        la, lb = layer(a), layer(b)
+        if b.split(".")[0] in OUTSIDE:
+            bad.append(f"{a} imports {b} (benchmarks and tests are outside the layers)")
+        elif la is not None and lb is not None and lb > la:
+            bad.append(f"{a} (layer {la}) imports {b} (layer {lb})")
+    return sorted(bad)
+
+
+def harness_circles(g: nx.DiGraph) -> list[list[str]]:
+    h = g.subgraph([n for n in g if n == "harness" or n.startswith("harness.")])
+    # a package importing its own submodules is how packages re-export; it is not a circle of concerns
+    h = nx.DiGraph([(a, b) for a, b in h.edges if not b.startswith(a + ".")])
+    return sorted(sorted(c) for c in nx.simple_cycles(h))
+
+
+@pytest.fixture(scope="module")
+def graph():
+    return import_graph(ROOT)
+
+
+def test_every_project_module_has_a_layer(graph):
+    missing = sorted(n for n in graph if n.split(".")[0] not in OUTSIDE and layer(n) is None)
+    assert missing == []
+
+
+def test_no_upward_import(graph):
+    assert upward_imports(graph) == []
+
+
+def test_no_import_circle_among_harness_modules(graph):
+    assert harness_circles(graph) == []
+
+
+def test_physics_imports_no_fmi(graph):
+    """The equations live once in fmus.physics, numpy/scipy only."""
+    for path in (ROOT / "fmus" / "physics").glob("*.py"):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        mods = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+        mods |= {n.module.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module
+                 and not n.level}
+        assert not mods & {"fmpy", "pythonfmu", "harness"}, path.name
+
+
+# -- the checker on made-up trees: it must see an upward import and a circle ------------------------------------
+def _tree(tmp_path, files: dict[str, str]) -> Path:
+    for rel, text in files.items():
+        p = tmp_path / rel
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(text)
+    return tmp_path
+
+
+def test_checker_finds_an_upward_import(tmp_path):
+    root = _tree(tmp_path, {"harness/__init__.py": "", "harness/model.py": "def f():\n    from harness import run\n",
+                            "harness/run.py": "from harness.model import f\n", "fmus/__init__.py": "",
+                            "fmus/physics/__init__.py": "", "fmus/physics/x.py": "import harness.model\n"})
+    assert upward_imports(import_graph(root)) == ["fmus.physics.x (layer 0) imports harness.model (layer 3)",
+                                                  "harness.model (layer 3) imports harness.run (layer 4)"]
+
+
+def test_checker_finds_a_circle_and_relative_imports(tmp_path):
+    root = _tree(tmp_path, {"harness/__init__.py": "", "harness/fmi/__init__.py": "",
+                            "harness/fmi/fmu.py": "from .inprocess import g\n",
+                            "harness/fmi/inprocess.py": "def g():\n    from harness.fmi.fmu import h\n"})
+    assert harness_circles(import_graph(root)) == [["harness.fmi.fmu", "harness.fmi.inprocess"]]
