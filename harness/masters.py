@@ -16,13 +16,17 @@ At every communication point the outputs are made consistent (:meth:`Master._exc
 evaluated in the direct-feed-through order of :func:`harness.graph.evaluation_order`; an instance with
 feed-through gets the point values of its sources before its outputs are read.  A feed-through cycle (an
 algebraic loop) is detected when the master is built: ``jacobi`` and ``gauss-seidel`` refuse it
-(:class:`AlgebraicLoopError` naming the loop), ``iterative`` solves it.
+(:class:`AlgebraicLoopError` naming the loop), ``iterative`` solves it.  A loop that exists only because
+outputs declare no ``dependencies`` (FMI 2.0's default: "may depend on every input") is not refused: those
+outputs are taken as sampled after the step, as libcosim, Ecos and OMSimulator do, with one
+:class:`AssumptionWarning` naming the FMUs (:meth:`Master._assume_sampled`).
 
 Master time is an integer number of nanoseconds; ``t = t_ns / 1e9`` is computed from it, never accumulated.
 """
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -33,6 +37,11 @@ from harness.errors import AlgebraicLoopError, FMUError, HarnessError, Simulatio
 from harness.extrapolation import DEPTH, History, Polynomial
 
 NS = 1_000_000_000
+
+
+class AssumptionWarning(UserWarning):
+    """The master assumed something the FMUs do not declare (e.g. no feed-through of outputs without
+    ``dependencies``)."""
 
 
 class ConvergenceError(HarnessError):
@@ -188,12 +197,16 @@ class Master:
         self.fmus = fmus
         mds = {n: f.md for n, f in fmus.items()}
         self.connections = list(connections)
-        self.groups = graph.evaluation_order(self.connections, mds)
         loops = graph.algebraic_loops(self.connections, mds)
+        self.assumed: dict[str, list[str]] = {}
+        if loops and not self.solves_loops:
+            mds, loops = self._assume_sampled(mds, loops)
         if loops and not self.solves_loops:
             text = "; ".join(" -> ".join(loop) for loop in loops)
             raise AlgebraicLoopError(f"algebraic loop(s) of direct feed-through: {text}; master {self.name!r} "
                                      f"cannot solve them, use master='iterative'", loops)
+        self.mds = mds
+        self.groups = graph.evaluation_order(self.connections, mds)
         self.loops = loops
         # signal vector y: every Real output of every instance, instance after instance
         self.insts: list[_Inst] = []
@@ -228,7 +241,7 @@ class Master:
             it.inp = it.fmu.reals([c.target.split(".", 1)[1] for c in cs])
             it.input_pos = {c.target.split(".", 1)[1]: k for k, c in enumerate(cs)}
             it.src, it.fac, it.off, it.held = self.src[it.isl], self.fac[it.isl], self.off[it.isl], self.u[it.isl]
-            deps = graph.direct_dependencies(it.fmu.md)
+            deps = graph.direct_dependencies(mds[it.name])
             ft = {d for ds in deps.values() for d in ds}
             it.feedthrough = any(c.target.split(".", 1)[1] in ft for c in cs)
             it.interp = it.fmu.can_interpolate_inputs and self.extrapolation.order > 0
@@ -253,6 +266,29 @@ class Master:
         self._y_list: list | None = None  # y as a list at the end of the last step (None: recompute)
         self.t_ns = 0
         self.iterations = 0  # total iterations (iterative master)
+
+    def _assume_sampled(self, mds: dict, loops: list) -> tuple[dict, list]:
+        """A loop only *assumed* by FMI 2.0's default (outputs without declared ``dependencies`` may depend
+        on every input) is not a proven algebraic loop.  The outputs without declared dependencies of the
+        instances in such loops are taken as sampled after the step (no feed-through), as libcosim, Ecos and
+        OMSimulator take them; this is said once in one :class:`AssumptionWarning`.  Returns the dependency
+        view and the loops left (through declared feed-through only; those are still refused)."""
+        in_loops = {n.split(".", 1)[0] for loop in loops for n in loop}
+        assumed = {n: graph.undeclared_outputs(mds[n]) for n in mds if n in in_loops}
+        assumed = {n: outs for n, outs in assumed.items() if outs}
+        if not assumed:
+            return mds, loops
+        view = {n: graph.DeclaredOnly(md) if n in assumed else md for n, md in mds.items()}
+        left = graph.algebraic_loops(self.connections, view)
+        if left:
+            return mds, loops
+        self.assumed = assumed
+        names = ", ".join(f"{n} ({mds[n].modelName})" for n in assumed)
+        warnings.warn(f"master {self.name!r}: FMUs {names} declare no output dependencies; a loop through "
+                      f"them is only assumed by FMI 2.0's default, so their outputs are taken as sampled after "
+                      f"the step (no direct feed-through), as libcosim, Ecos and OMSimulator do; declared "
+                      f"feed-through would need master='iterative'", AssumptionWarning, stacklevel=3)
+        return view, left
 
     def history_depth(self) -> int:
         """Samples of each output the master keeps for its held inputs (all that any method needs)."""
@@ -530,7 +566,7 @@ class GaussSeidel(Master):
 
     def __init__(self, fmus, connections, *args, **kwargs):
         super().__init__(fmus, connections, *args, **kwargs)
-        order = graph.stepping_order(self.connections, {n: f.md for n, f in fmus.items()})
+        order = graph.stepping_order(self.connections, self.mds)
         self.order = [self.insts[self.index[n]] for n in order]
 
     def _step_impl(self, t, h, t_next):
@@ -563,8 +599,11 @@ class Iterative(Master):
         for it in self.insts:
             it.interp = False  # the iteration converges the held (midpoint) values; no input derivatives
             if not it.fmu.can_get_set_state:
-                raise SystemError_(f"master 'iterative' needs fmi2GetFMUstate/fmi2SetFMUstate, but instance "
-                                   f"{it.name} does not declare canGetAndSetFMUstate")
+                raise SystemError_(f"master 'iterative' repeats each step with fmi2GetFMUstate/fmi2SetFMUstate "
+                                   f"rollback, but instance {it.name} (FMU {it.fmu.md.modelName}) does not "
+                                   f"declare canGetAndSetFMUstate: use master='jacobi-sampled', 'jacobi' or "
+                                   f"'gauss-seidel' (a loop only assumed through outputs without declared "
+                                   f"dependencies is stepped by them)")
         self._batched = [it for it in self.insts if it.inp.n]
         self._interp = []
 
