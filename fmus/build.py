@@ -3,9 +3,12 @@
     python build_fmus.py [--out DIR] [--only NAME ...] [--no-validate]
     from fmus.build import build; build(out_dir, ["pd_fourbar"])
 
-Each FMU is built from its declaration ``fmus/components/pd_<name>.py`` (a unique module name, so several
-FMUs load into one process) plus the runtime part of the ``fmus`` package (the base slave, units and the
-pure equations in ``fmus/physics``).  The modelDescription is written completely by the base slave
+Each FMU is built from its declaration ``fmus/components/pd_<name>.py`` plus the runtime part of the
+``fmus`` package (the base slave, units and the pure equations in ``fmus/physics``), both bundled under
+names unique to the FMU's code (``pd_<name>_<hash>``, ``fmus_<hash>``: :func:`stage_isolated`), so FMUs
+of any toolkit version load, unload and reload side by side in one process.  On Linux the host loader
+(``fmus/loader/pressdrive_loader.c``, compiled here) goes in front of pythonfmu's wrapper, so the FMU also
+loads in hosts that do not run Python (:func:`add_loader`).  The modelDescription is written completely by the base slave
 (units, ModelStructure with dependencies, InitialUnknowns); the build then checks each FMU with
 ``fmpy.validation`` and exits non-zero, naming the FMU, if a build or a check fails.
 """
@@ -13,10 +16,15 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import hashlib
 import io
 import os
+import re
 import shutil
+import site
+import subprocess
 import sys
+import sysconfig
 import tempfile
 import zipfile
 from pathlib import Path
@@ -27,13 +35,17 @@ DOCS = ROOT / "fmus" / "docs"
 RUNTIME = ("__init__.py", "slave.py", "units.py", "physics")
 
 
+LOADER = ROOT / "fmus" / "loader" / "pressdrive_loader.c"
+PLATFORM = "linux64"     # the one platform the host loader is built for (the others keep pythonfmu's wrapper)
+
+
 def component_scripts() -> list[Path]:
     return sorted(COMPONENTS.glob("pd_*.py"))
 
 
-def stage_runtime(dest: Path) -> Path:
-    """Copy the parts of the fmus package an FMU needs at run time into dest/fmus."""
-    pkg = dest / "fmus"
+def stage_runtime(dest: Path, package: str = "fmus") -> Path:
+    """Copy the parts of the fmus package an FMU needs at run time into dest/<package>."""
+    pkg = dest / package
     pkg.mkdir(parents=True)
     for name in RUNTIME:
         src = ROOT / "fmus" / name
@@ -44,22 +56,108 @@ def stage_runtime(dest: Path) -> Path:
     return pkg
 
 
-def build_one(script: Path, out: Path, runtime: Path) -> Path:
+def code_hash(script: Path) -> str:
+    """Digest of everything an FMU's Python code consists of: its declaration and the runtime sources."""
+    h = hashlib.sha1(script.read_bytes())
+    for name in RUNTIME:
+        src = ROOT / "fmus" / name
+        files = sorted(src.rglob("*.py")) if src.is_dir() else [src]
+        for f in files:
+            h.update(str(f.relative_to(ROOT)).encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def stage_isolated(script: Path, dest: Path) -> tuple[Path, Path]:
+    """The FMU's code under names unique to this build: ``fmus_<hash>`` and ``<script>_<hash>``.
+
+    Every FMU bundles the runtime package; under one shared name a host process would keep the first copy
+    it imported (from a folder the host may have deleted since) for every later FMU, and two toolkit versions
+    would silently share it.  The runtime package imports itself relatively; only the declaration names it.
+    The declaration imports everything it uses at module level, so nothing is imported lazily later."""
+    digest = code_hash(script)
+    pkg = stage_runtime(dest, f"fmus_{digest}")
+    text = script.read_text(encoding="utf-8")
+    text = re.sub(r"^(\s*)(from|import)\s+fmus(?=[.\s])", rf"\1\2 fmus_{digest}", text, flags=re.M)
+    staged = dest / f"{script.stem}_{digest}.py"
+    staged.write_text(text, encoding="utf-8")
+    return staged, pkg
+
+
+def python_environment() -> str:
+    """resources/pressdrive_python.txt: the Python this build runs on, for the host loader."""
+    libdir = sysconfig.get_config_var("LIBDIR") or ""
+    name = sysconfig.get_config_var("INSTSONAME") or sysconfig.get_config_var("LDLIBRARY") or ""
+    paths = [p for p in site.getsitepackages() if Path(p).is_dir()]
+    return "\n".join((f"version={sys.version_info.major}.{sys.version_info.minor}",
+                      f"libpython={Path(libdir) / name}", f"home={sys.base_prefix}",
+                      f"path={':'.join(paths)}")) + "\n"
+
+
+def compile_loader(dest: Path) -> Path:
+    """Compile the host loader (fmus/loader/pressdrive_loader.c) with the C compiler of the machine."""
+    cc = os.environ.get("CC", "cc")
+    out = dest / "pressdrive_loader.so"
+    cmd = [cc, "-shared", "-fPIC", "-O2", "-o", str(out), str(LOADER), "-ldl", "-lpthread"]
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True)
+    except FileNotFoundError:
+        raise RuntimeError(f"no C compiler {cc!r} to build the host loader {LOADER.name} (set CC)") from None
+    if r.returncode != 0:
+        raise RuntimeError(f"compiling {LOADER.name} failed: {r.stderr.strip().splitlines()[0] if r.stderr else r.returncode}")
+    return out
+
+
+def add_loader(fmu: Path, loader: Path) -> None:
+    """Put the host loader in front of pythonfmu's wrapper: binaries/linux64/<id>.so is the loader, the
+    wrapper moves to <id>_pythonfmu.so, and resources/pressdrive_python.txt records this Python."""
+    tmp = fmu.with_suffix(".fmu.part")
+    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
+        names = zin.namelist()
+        wrapper = [n for n in names if n.startswith(f"binaries/{PLATFORM}/") and n.endswith(".so")]
+        if len(wrapper) != 1:
+            raise RuntimeError(f"{fmu.name}: expected one binaries/{PLATFORM}/*.so, found {wrapper}")
+        for n in names:
+            data = zin.read(n)
+            if n == wrapper[0]:
+                zout.writestr(n.removesuffix(".so") + "_pythonfmu.so", data)
+                zout.write(loader, n)
+            else:
+                zout.writestr(zin.getinfo(n), data)
+        zout.writestr("resources/pressdrive_python.txt", python_environment())
+    os.replace(tmp, fmu)
+
+
+def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path | None = None) -> Path:
+    """Build one FMU from its declaration into ``out`` (its code under build-unique names, see
+    :func:`stage_isolated`); with ``loader``, the host loader goes in front of pythonfmu's wrapper."""
     import pythonfmu
     from pythonfmu.builder import FmuBuilder
 
     doc_dir = DOCS / script.stem.removeprefix("pd_")
+    stage = Path(tempfile.mkdtemp(prefix=f"pressdrive_src_{script.stem}_"))
+    try:
+        staged, runtime = stage_isolated(script, stage)
+        fmu = _pythonfmu_build(FmuBuilder, staged, out, runtime, doc_dir)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    with zipfile.ZipFile(fmu) as z:
+        if not any(n.startswith("binaries/") and not n.endswith("/") for n in z.namelist()):
+            # the pythonfmu in use is a copy from some FMU's resources (no binaries of its own)
+            raise RuntimeError(f"{fmu.name} has no binaries: the pythonfmu imported from "
+                               f"{Path(pythonfmu.__file__).parent} is not an installed package")
+    if loader is not None:
+        add_loader(fmu, loader)
+    return fmu
+
+
+def _pythonfmu_build(FmuBuilder, script: Path, out: Path, runtime: Path, doc_dir: Path) -> Path:
     with contextlib.redirect_stdout(io.StringIO()):
         fmu = Path(FmuBuilder.build_FMU(
             script, dest=out, project_files=[runtime],
             documentation_folder=doc_dir if doc_dir.is_dir() else None,
             canGetAndSetFMUstate=True, canHandleVariableCommunicationStepSize=True,
             needsExecutionTool=False))
-    with zipfile.ZipFile(fmu) as z:
-        if not any(n.startswith("binaries/") and not n.endswith("/") for n in z.namelist()):
-            # the pythonfmu in use is a copy from some FMU's resources (no binaries of its own)
-            raise RuntimeError(f"{fmu.name} has no binaries: the pythonfmu imported from "
-                               f"{Path(pythonfmu.__file__).parent} is not an installed package")
     return fmu
 
 
@@ -87,14 +185,20 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     failed = []
     with tempfile.TemporaryDirectory(prefix="pressdrive_runtime_") as tmp:
-        runtime = stage_runtime(Path(tmp))
+        loader = None
+        if sys.platform.startswith("linux"):
+            try:
+                loader = compile_loader(Path(tmp))
+            except RuntimeError as e:
+                print(f"build_fmus: FAILED host loader: {e}", file=sys.stderr)
+                return 1
         for script in scripts:
             # built into a private folder and moved into place atomically: another process (a sweep worker, a
             # test run) that builds or loads the same FMU at the same time never sees a half-written archive
             stage = Path(tempfile.mkdtemp(prefix=f".{script.stem}_", dir=args.out))
             try:
                 try:
-                    staged = build_one(script, stage, runtime)
+                    staged = build_one(script, stage, loader=loader)
                 except Exception as e:  # report and continue with the others
                     print(f"build_fmus: FAILED {script.name}: {type(e).__name__}: {e}", file=sys.stderr)
                     failed.append(script.name)

@@ -44,8 +44,8 @@ import numpy as np
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Status
 
-from fmus.physics.base import Model, ParameterError
-from fmus.units import BASE_UNITS, check_unit
+from .physics.base import Model, ParameterError
+from .units import BASE_UNITS, check_unit
 
 _ROT = (("phi", "rad", "angle"), ("w", "rad/s", "angular velocity"), ("tau", "N.m", "torque"))
 _TRA = (("s", "m", "position"), ("v", "m/s", "velocity"), ("f", "N", "force"))

@@ -8,11 +8,16 @@ import sys
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="python -m harness", description=__doc__.splitlines()[0])
+    import os
+
+    prog = "pressdrive" if os.path.basename(sys.argv[0] or "").startswith("pressdrive") else "python -m harness"
+    ap = argparse.ArgumentParser(prog=prog, description="Co-simulation of printing-press drives with FMI 2.0: "
+                                 "run, export (SSP), synth, study, scene, sweep. `pressdrive` and "
+                                 "`python -m harness` are the same command.")
     ap.add_argument("--debug", action="store_true", help="show the traceback of a failure")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
     from harness import run, ssp, synthesis
-    from harness.studies import precision, scenes, stability, sweep
+    from harness.studies import precision, scenes, stability, sweep, takeup
 
     run.register(sub)             # run a system
     ssp.register(sub)             # export a system as SSP
@@ -22,14 +27,59 @@ def build_parser() -> argparse.ArgumentParser:
     group = study.add_subparsers(dest="study", metavar="STUDY", required=True)
     stability.register_stability(group)    # study stability two_inertia
     precision.register_precision(group)    # study precision SYSTEM
+    takeup.register(group)                 # study takeup (seed 000's take-up map)
     scenes.register(sub)          # scene X NAME
     sweep.register(sub)           # sweep X --grid spec
+    _show_defaults(ap)
     return ap
 
 
+class _DefaultsFormatter(argparse.HelpFormatter):
+    """Appends "(default: X)" to an option's help unless the help already states its default."""
+
+    def _get_help_string(self, action):
+        h = action.help or ""
+        if (action.option_strings and "default" not in h.lower() and action.default is not argparse.SUPPRESS
+                and not isinstance(action, (argparse._HelpAction, argparse._StoreTrueAction,
+                                            argparse._StoreFalseAction, argparse._VersionAction))):
+            shown = "none" if action.default is None else str(action.default).replace("%", "%%")
+            h += f" (default: {shown})"
+        return h
+
+
+def _show_defaults(parser: argparse.ArgumentParser) -> None:
+    """Every command's --help shows every option's default (walks the sub-commands)."""
+    parser.formatter_class = _DefaultsFormatter
+    for a in parser._actions:
+        if isinstance(a, argparse._SubParsersAction):
+            for sp in a.choices.values():
+                _show_defaults(sp)
+
+
+def _join_negative_values(argv: list[str]) -> list[str]:
+    """``--step -1e-4`` -> ``--step=-1e-4``: argparse takes a negative number in exponent notation for an
+    option and answers "expected one argument"; joined, the value reaches the command's own check."""
+    import re
+
+    number = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$", re.IGNORECASE)
+    out: list[str] = []
+    for tok in argv:
+        if out and number.match(tok) and out[-1].startswith("--") and "=" not in out[-1]:
+            out[-1] = f"{out[-1]}={tok}"
+        else:
+            out.append(tok)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
+    argv = _join_negative_values(sys.argv[1:] if argv is None else list(argv))
     debug = "--debug" in argv
+    if not debug:
+        import warnings
+
+        # warnings (e.g. an unconnected input of a shipped drive) as one line each, without source lines
+        warnings.showwarning = lambda message, category, *a, **k: print(
+            f"warning: {str(message).splitlines()[0] if str(message) else category.__name__}", file=sys.stderr)
     try:
         ap = build_parser()
         args = ap.parse_args(argv)
@@ -40,8 +90,12 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as e:  # one line, no traceback
         if debug:
             raise
+        from harness.errors import HarnessError
+
         text = str(e).strip().splitlines()[0] if str(e).strip() else ""
-        print(f"error: {type(e).__name__}: {text}" if text else f"error: {type(e).__name__}", file=sys.stderr)
+        # the toolkit's own errors speak for themselves; anything else is named by its type
+        own = isinstance(e, (HarnessError, ValueError, OSError)) and text
+        print(f"error: {text}" if own else f"error: {type(e).__name__}: {text}".rstrip(": "), file=sys.stderr)
         return 1
 
 

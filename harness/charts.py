@@ -46,10 +46,13 @@ def plot_result(system, df: pd.DataFrame, out_dir: str | Path) -> list[Path]:
     nrow = -(-n // ncol)
     fig, axes = plt.subplots(nrow, ncol, figsize=(6.0 * ncol, 2.1 * nrow), sharex=True, squeeze=False)
     t = df.index.to_numpy()
+    units = df.attrs.get("units") or {}
     for ax, (title, cols) in zip(axes.flat, panels):
         for c in cols:
             ax.plot(t, df[c].to_numpy(), lw=0.9, label=c)
         ax.set_title(title, fontsize=8)
+        shown = sorted({units.get(c) or "-" for c in cols})  # the columns' declared units ("-": none)
+        ax.set_ylabel(f"[{', '.join(shown)}]", fontsize=7)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
         if len(cols) > 1:

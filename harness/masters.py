@@ -516,7 +516,7 @@ class Master:
             name = self.signal_names[k]
             inst, var = name.split(".", 1)
             what = "is not finite" if not math.isfinite(y[k]) else f"exceeds the blow-up limit {self.blowup:g}"
-            raise SimulationError(f"t = {t:.9g} s: instance {inst}: output {var} = {y[k]!r} {what}",
+            raise SimulationError(f"t = {t:.9g} s: instance {inst}: output {var} = {float(y[k])!r} {what}",
                                   time=t, instance=inst, variable=var)
 
     def terminate(self) -> None:

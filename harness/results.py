@@ -143,16 +143,36 @@ class Recorder:
         return df
 
 
-def to_csv(result: pd.DataFrame, path: str | Path) -> Path:
-    """Write a result as CSV with a leading ``time`` column."""
+def to_csv(result: pd.DataFrame, path: str | Path, units: bool = False) -> Path:
+    """Write a result as CSV with a leading ``time`` column.  ``units``: a second header row with each
+    column's unit from ``result.attrs["units"]`` (time in s; '' where none is declared), read back by
+    :func:`read_csv` or ``pandas.read_csv(path, header=[0, 1], index_col=0)``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    result.to_csv(path, index=True, index_label="time")
+    if not units:
+        result.to_csv(path, index=True, index_label="time")
+        return path
+    known = result.attrs.get("units") or {}
+    with open(path, "w", newline="") as f:
+        f.write(",".join(["time", *map(str, result.columns)]) + "\n")
+        f.write(",".join(["s", *((known.get(c, "") or "-") for c in result.columns)]) + "\n")
+        result.to_csv(f, index=True, header=False)
     return path
 
 
 def read_csv(path: str | Path) -> pd.DataFrame:
-    """Read a CSV written by :func:`to_csv` back into the result shape."""
+    """Read a CSV written by :func:`to_csv` back into the result shape (a units row goes to
+    ``attrs["units"]``)."""
+    with open(path) as f:
+        f.readline()
+        second = f.readline()
+    if second.startswith("s,"):
+        raw = pd.read_csv(path, header=[0, 1], index_col=0)
+        df = raw.copy()
+        df.columns = [c for c, _ in raw.columns]
+        df.index.name = "time"
+        df.attrs["units"] = {c: ("" if u == "-" else u) for c, u in raw.columns}
+        return df
     return pd.read_csv(path, index_col="time")
 
 

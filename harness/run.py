@@ -26,6 +26,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from harness.divergence import Diverged, DivergenceOptions, for_master as _detector
 from harness.errors import FMUError, HarnessError, SimulationError, SystemError_
 from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import Instance, open_instance
@@ -39,6 +40,15 @@ class RunWarning(UserWarning):
     """A run that stopped early and returned a partial result."""
 
 
+class RunInterrupted(KeyboardInterrupt):
+    """Ctrl-C (SIGINT) during a run: ``partial`` is the result up to the last finished communication point,
+    marked ``attrs["complete"] = False``, ``attrs["interrupted"] = True``."""
+
+    def __init__(self, message: str, partial=None):
+        super().__init__(message)
+        self.partial = partial
+
+
 @dataclass
 class RunOptions:
     """Options of :func:`simulate` beyond its keyword arguments.
@@ -48,13 +58,16 @@ class RunOptions:
     progress bar (None: only when stderr is a terminal, shown after 2 s); ``logging``: FMU debug logging;
     ``in_process``: how pythonfmu FMUs are called (:func:`harness.fmi.open_instance`: None runs the toolkit's
     own FMUs in this process and every other FMU through FMI; True runs every pythonfmu FMU in-process;
-    False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs."""
+    False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs.
+    ``divergence``: thresholds of the divergence detector on the power bonds (:mod:`harness.divergence`);
+    None switches it off."""
     iteration: IterationOptions = field(default_factory=IterationOptions)
     steps: StepOptions = field(default_factory=StepOptions)
     blowup: float = 1e12
     progress: bool | None = None
     logging: bool = True
     in_process: bool | None = None
+    divergence: DivergenceOptions | None = field(default_factory=DivergenceOptions)
 
 
 def load(x) -> System:
@@ -79,9 +92,11 @@ def load(x) -> System:
     return system
 
 
-def _positive(name: str, value) -> float:
+def _positive(name: str, value, unit: str = "s") -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise SystemError_(f"{name} = {value!r} is not admissible: must be a positive finite number [s]")
+        text = repr(float(value)) if isinstance(value, (int, float)) and not isinstance(value, bool) else repr(value)
+        raise SystemError_(f"{name} = {text} is not admissible: must be a positive finite number"
+                           + (f" [{unit}]" if unit else ""))
     return float(value)
 
 
@@ -101,7 +116,33 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
              extrapolation=None, step_control: str | None = None, tolerance: float | None = None,
              parameters: dict | None = None, outputs: list[str] | None = None, *, on_error: str = "return",
              options: RunOptions | None = None) -> pd.DataFrame:
-    """Run ``system`` and return the result DataFrame (module docstring)."""
+    """Co-simulate ``system`` and return its result: a DataFrame indexed by time [s], one column per
+    ``Instance.variable`` (in the FMU's declared unit, ``df.attrs["units"]``).
+
+    Arguments (None: the system's default experiment, then the fallback named):
+
+    * ``system``: a module name in ``systems/`` (``"bed_drive"``), an .ssp/.ssd file, or a :class:`System`.
+    * ``stop_time`` [s]: end of the run (positive).  ``step`` [s]: communication step (positive, >= 1 ns, at
+      most ``stop_time``; the first step of a variable-step run).
+    * ``master``: ``"jacobi"`` (fallback), ``"jacobi-sampled"``, ``"gauss-seidel"`` or ``"iterative"``.
+    * ``extrapolation``: order of the held inputs, 0 (hold, fallback), 1 or 2 (polynomial at the step midpoint).
+    * ``step_control``: None/``"none"`` (fixed step, fallback), ``"richardson"`` or ``"ecco"``.
+    * ``tolerance`` [-]: relative tolerance of step control and of the iterative master (positive; fallback
+      none, the iteration then uses 1e-10).
+    * ``parameters``: ``{"Instance.parameter": value}`` in the parameter's declared unit, over the system's
+      values (default: none).  A value the FMU refuses returns an empty result, ``attrs["bad_input"]`` True,
+      with a one-line error naming the instance, parameter, value, unit and admissible range.
+    * ``outputs``: ``["Instance.variable", ...]`` to record (default: every Real output).
+    * ``on_error``: ``"return"`` (default): a run that stops early (divergence, FMU failure, non-finite
+      output) returns what it computed with ``attrs["complete"] = False`` and a one-line ``attrs["error"]``
+      (``attrs["diverged"]`` if the divergence detector stopped it) and warns :class:`RunWarning`;
+      ``"raise"``: raises :class:`~harness.errors.SimulationError` whose ``partial`` is that result.
+    * ``options``: :class:`RunOptions` (iteration, step-control limits, blow-up limit, divergence detector,
+      progress bar, FMU logging, in-process calls); default ``RunOptions()``.
+
+    Ctrl-C raises :class:`RunInterrupted` (a KeyboardInterrupt) whose ``partial`` is the result so far,
+    marked ``attrs["complete"] = False``, ``attrs["interrupted"] = True``.  Errors in the description or the
+    arguments raise :class:`~harness.errors.SystemError_` before the run."""
     system = load(system)
     opts = options or RunOptions()
     if on_error not in ("return", "raise"):
@@ -121,7 +162,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     tolerance = tolerance if tolerance is not None else (exp.tolerance if exp else None)
     stop_time, step = _positive("stop_time", stop_time), _positive("step", step)
     if tolerance is not None:
-        _positive("tolerance", tolerance)
+        _positive("tolerance", tolerance, unit="")
     stop_ns, step_ns = int(round(stop_time * NS)), int(round(step * NS))
     if step_ns < 1:
         raise SystemError_(f"step = {step!r} is not admissible: master time has a resolution of 1 ns")
@@ -151,7 +192,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         n_rows = -(-stop_ns // step_ns) + 1 if not controller.variable else 1024
         rec = Recorder(m, outputs, n_rows)
         info = dict(system=system.name, master=cls.name, extrapolation=extra.order,
-                    step_control=controller.name, step=step, stop_time=stop_time)
+                    step_control=controller.name, step=step, stop_time=stop_time,
+                    units=column_units(fmus, rec.columns))
         return _run(m, controller, rec, params, stop_ns, step_ns, tolerance, on_error, opts, info)
     finally:
         if m is not None:
@@ -160,6 +202,20 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         else:
             for f in fmus.values():
                 f.free()
+
+
+def column_units(fmus: dict, columns: list[str]) -> dict[str, str]:
+    """``{column: unit}`` of result columns ``Instance.variable`` from the FMUs' declared units ('' if none);
+    the index ``time`` is in s."""
+    from harness.model import _unit
+
+    out = {}
+    for c in columns:
+        inst, _, var = c.partition(".")
+        f = fmus.get(inst)
+        v = f.variables.get(var) if f is not None else None
+        out[c] = _unit(v) if v is not None else ""
+    return out
 
 
 def _progress(total_ns: int, enabled: bool | None):
@@ -182,27 +238,47 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
     bar = _progress(stop_ns, opts.progress)
     error = ""
     err_obj: Exception | None = None
+    interrupted = False
+    bad_input = False
+    detector = _detector(m, opts.divergence) if opts.divergence is not None and m.bond_labels else None
     try:
         m.initialize(0, stop_ns, tolerance, params)
         rec.record(0.0)
         h_ns = step_ns
         shown = 0
         while t_ns < stop_ns:
+            t_prev = t_ns
             t_ns, h_ns = controller.advance(m, t_ns, h_ns, stop_ns)
             steps += 1
             rec.record(t_ns / NS)
+            if detector is not None:
+                detector.update(t_ns / NS, m.bond_log, (t_ns - t_prev) / NS)
             if bar is not None and (steps & 63) == 0:
                 bar.update((t_ns - shown) / NS)
                 shown = t_ns
     except (FMUError, SimulationError, ConvergenceError) as e:
         error = str(e).splitlines()[0] if str(e) else type(e).__name__
         err_obj = e
+        if rec.rows == 0 and isinstance(e, FMUError) and "is not admissible" in (e.log or ""):
+            # the FMU refused a parameter value before the run: bad input, said in the user's words (no FMI call)
+            log = e.log.strip().splitlines()[0]
+            error = f"system {info['system']}: " + (log if log.startswith(f"{e.instance} ") else
+                                                    f"instance {e.instance}: {log}")
+            bad_input = True
+    except KeyboardInterrupt:
+        interrupted = True
+        error = f"interrupted (Ctrl-C) at t = {rec.time[rec.rows - 1] if rec.rows else 0.0:.9g} s"
     finally:
         if bar is not None:
             bar.close()
     info.update(steps=steps, wall_time=_time.perf_counter() - wall, iterations=m.iterations,
                 rejected=controller.rejected, max_error_estimate=controller.max_accepted_error)
     df = rec.frame(complete=not error, error=error, **info)
+    df.attrs["diverged"] = isinstance(err_obj, Diverged)
+    df.attrs["interrupted"] = interrupted
+    df.attrs["bad_input"] = bad_input
+    if interrupted:
+        raise RunInterrupted(error, partial=df)
     if error:
         if on_error == "raise":
             raise SimulationError(error, partial=df, time=getattr(err_obj, "time", None),
@@ -238,44 +314,78 @@ def parse_sets(items: list[str] | None) -> dict:
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("run", help="run a system (module in systems/, or .ssp/.ssd) and write its result",
-                              description="Run a co-simulation of a system and write the result as CSV.")
-    p.add_argument("system", help="system module name in systems/, or an .ssp/.ssd file")
-    p.add_argument("--stop-time", type=float, default=None, help="stop time [s] (default: the system's)")
-    p.add_argument("--step", type=float, default=None, help="communication step [s] (default: the system's)")
-    p.add_argument("--master", default=None, help="jacobi, gauss-seidel or iterative (default: the system's)")
-    p.add_argument("--extrapolation", type=int, default=None, choices=(0, 1, 2), help="input extrapolation order")
-    p.add_argument("--step-control", default=None, choices=("none", "richardson", "ecco"), help="step control")
-    p.add_argument("--tolerance", type=float, default=None, help="tolerance of step control / iteration")
+    p = subparsers.add_parser(
+        "run", help="run a system (module in systems/, or .ssp/.ssd) and write its result",
+        description="Co-simulate a system and write the result as CSV (time in s, one column per "
+                    "Instance.variable). A run that stops early (divergence, FMU failure, Ctrl-C) writes what it "
+                    "computed to OUT.partial.csv instead of OUT, says so on stderr in one line and exits 1 (130 "
+                    "after Ctrl-C).")
+    p.add_argument("system", help="system module name in systems/ (e.g. bed_drive), or an .ssp/.ssd file")
+    p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
+                   help="stop time [s] (default: the system's default experiment)")
+    p.add_argument("--step", type=float, default=None, metavar="SECONDS",
+                   help="communication step [s] (default: the system's default experiment)")
+    p.add_argument("--master", default=None, metavar="NAME",
+                   help="jacobi, jacobi-sampled, gauss-seidel or iterative (default: the system's, else jacobi)")
+    p.add_argument("--extrapolation", type=int, default=None, choices=(0, 1, 2),
+                   help="input extrapolation order (default: the system's, else 0 = hold)")
+    p.add_argument("--step-control", default=None, choices=("none", "richardson", "ecco"),
+                   help="step control (default: the system's, else none = fixed step)")
+    p.add_argument("--tolerance", type=float, default=None, metavar="TOL",
+                   help="relative tolerance [-] of step control and iteration (default: the system's, else none)")
     p.add_argument("--set", action="append", default=[], metavar="Instance.param=VALUE",
-                   help="set a parameter (repeatable)")
+                   help="set a parameter in its declared unit (repeatable; default: the system's values)")
     p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
                    help="record only these variables (repeatable; default: every output)")
-    p.add_argument("--out", type=Path, default=None, help="write the result as CSV to this file")
+    p.add_argument("--out", type=Path, default=None, metavar="FILE.csv",
+                   help="write the result as CSV to this file (default: not written)")
+    p.add_argument("--units", action="store_true",
+                   help="write a second header row with each column's unit (read it with "
+                        "pandas.read_csv(FILE, header=[0, 1], index_col=0)); default: names only")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
-                   help="write a chart of the run (bond speeds and torques, scene quantities) as DIR/<system>.png/.svg")
+                   help="write a chart of the run (bond speeds and torques, scene quantities) as "
+                        "DIR/<system>.png/.svg (default: no chart)")
     p.set_defaults(func=run_cli)
 
 
+def partial_path(path: Path) -> Path:
+    """Where an incomplete result is written instead of ``path``: ``x.csv`` -> ``x.partial.csv``."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}.partial{path.suffix or '.csv'}")
+
+
 def run_cli(args) -> int:
-    df = simulate(args.system, stop_time=args.stop_time, step=args.step, master=args.master,
-                  extrapolation=args.extrapolation, step_control=args.step_control, tolerance=args.tolerance,
-                  parameters=parse_sets(args.set), outputs=args.output,
-                  options=RunOptions(progress=None), on_error="return")
-    if args.out is not None:
-        to_csv(df, args.out)
+    interrupted = False
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RunWarning)  # the CLI reports a stop itself, in one line
+            df = simulate(args.system, stop_time=args.stop_time, step=args.step, master=args.master,
+                          extrapolation=args.extrapolation, step_control=args.step_control,
+                          tolerance=args.tolerance, parameters=parse_sets(args.set), outputs=args.output,
+                          options=RunOptions(progress=None), on_error="return")
+    except RunInterrupted as e:
+        df, interrupted = e.partial, True
     a = df.attrs
-    where = f"wrote {args.out}" if args.out is not None else "no --out given, result not written"
+    if a.get("bad_input"):  # a refused parameter: nothing was computed, nothing is written
+        print(f"error: {a['error']}", file=sys.stderr)
+        return 1
+    out = args.out
+    if out is not None and not a["complete"]:
+        out = partial_path(out)
+    if out is not None:
+        to_csv(df, out, units=getattr(args, "units", False))
+    where = f"wrote {out}" if out is not None else "no --out given, result not written"
     if args.plot is not None and len(df):
         from harness.charts import plot_result
 
         where += "; chart " + str(plot_result(load(args.system), df, args.plot)[0])
+    if not a["complete"]:
+        print(f"error: {a['error']}; {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s kept, "
+              f"{'INCOMPLETE result ' + where if out is not None else where}", file=sys.stderr)
+        return 130 if interrupted else 1
     print(f"{a['system']}: {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s, master {a['master']}, "
           f"{a['steps']} steps in {a['wall_time']:.3g} s; {where}")
-    if not a["complete"]:
-        print(f"error: {a['error']}", file=sys.stderr)
-        return 1
     return 0
 
 
-__all__ = ["load", "simulate", "RunOptions", "RunWarning", "register", "run_cli", "parse_sets", "HarnessError"]
+__all__ = ["load", "simulate", "RunOptions", "RunWarning", "RunInterrupted", "column_units", "partial_path", "register", "run_cli", "parse_sets", "HarnessError"]

@@ -128,7 +128,8 @@ def build_ssd(system: System, sources: dict[str, str]) -> ET.Element:
         if c.factor != 1.0 or c.offset != 0.0:
             ET.SubElement(e, _q("ssc:LinearTransformation"), {"factor": _num(float(c.factor)),
                                                               "offset": _num(float(c.offset))})
-    own = _annotation(sys_el, OWN_ANNOTATION)
+    # SSP 1.0 allows exactly one child element per ssc:Annotation: everything of ours goes into pd:Drive
+    own = ET.SubElement(_annotation(sys_el, OWN_ANNOTATION), _q("pd:Drive"))
     bonds_el = ET.SubElement(own, _q("pd:Bonds"))
     for b in system.bonds:
         kind = "true" if system._bond_is_translational(b, None) else "false"
@@ -364,11 +365,14 @@ class _Reader:
         for ann in sys_el.findall(f"{_q('ssd:Annotations')}/{_q('ssc:Annotation')}"):
             if ann.get("type") != OWN_ANNOTATION:
                 continue
-            for b in ann.findall(f"{_q('pd:Bonds')}/{_q('pd:Bond')}"):
+            # pd:Drive wraps the three (one child per ssc:Annotation); older archives hold them directly
+            own = ann.find(_q("pd:Drive"))
+            own = ann if own is None else own
+            for b in own.findall(f"{_q('pd:Bonds')}/{_q('pd:Bond')}"):
                 bonds.append(Bond(b.get("motionOut"), b.get("motionIn"), b.get("translational") == "true"))
-            for cv in ann.findall(f"{_q('pd:UnitConversions')}/{_q('pd:Conversion')}"):
+            for cv in own.findall(f"{_q('pd:UnitConversions')}/{_q('pd:Conversion')}"):
                 conversions.add((cv.get("source"), cv.get("target")))
-            e = ann.find(_q("pd:Experiment"))
+            e = own.find(_q("pd:Experiment"))
             if e is not None:
                 extra = dict(e.attrib)
         return bonds, conversions, extra

@@ -21,9 +21,10 @@
   running play of 10 um at the roller (the carrier is driven both ways, so the cam must be form-closed).
 * Differential z_ring/z_sun = 3 with 3 planets (seed: i_53^b = -3, i_5b^3 = 4).  The inputs add only when ring
   and carrier turn in opposite senses (seed: -w3 and +w_b); the four-bar rocker turns counter-clockwise on its
-  working stroke, like the cam follower, so it drives the ring through a reversing pair: the connection
-  rocker -> ring carries factor -1 on the motion and ring -> rocker factor -1 on the torque (power is kept),
-  with an offset that puts the ring at 0 in the starting extreme position.
+  working stroke, like the cam follower, so it drives the ring through a reversing pair, a parameter of the
+  differential (``ring_sense = -1``: motion and torque reversed, power kept; ``ring_offset`` puts the ring at 0
+  in the starting extreme position).  The bond rocker -> ring is a plain one, so every FMI importer computes
+  the same machine (OMSimulator and CoFmuPy drop an SSP LinearTransformation on a connection).
 * Bed: pinion z6 = 25 teeth, module 4 mm (R6 = 0.05 m, assumed), m_T = 250 kg (assumed: the seed gives no
   mass); stroke = R6 * alpha_Sigma with alpha_Sigma = 3*60 + 4*40 = 340 deg, about 0.297 m; a printing load of
   500 N acts on the forward stroke between 0.08 and 0.24 m.
@@ -33,7 +34,7 @@
 import math
 
 from fmus.physics import fourbar
-from harness.model import Connection, Experiment, Instance, System, bond
+from harness.model import Experiment, Instance, System, bond
 from harness.studies.scenes import Scene
 
 RPM = 2 * math.pi / 60
@@ -73,7 +74,8 @@ SYSTEM = System(
             "contact_stiffness": 1e8, "clearance": 10e-6,                            # N/m, m (roller)
         }),
         Instance("diff", "JamesDifferential", {"z_ring": 72, "z_planet": 24, "z_sun": 24, "n_planets": 3,
-                                               "fidelity": 0}),
+                                               "fidelity": 0,
+                                               "ring_sense": -1, "ring_offset": ROCKER_START}),  # 1, rad
         Instance("bed", "RackBed", {
             "fidelity": 1, "m_T": 250.0, "module": 0.004, "z_pinion": 25,     # kg, m, teeth
             "c_mesh": 2.0e7,                  # N/m: rack mesh in series with the drive-train compliance
@@ -85,13 +87,9 @@ SYSTEM = System(
         bond("flywheel.pulley", "motor.pulley"),
         bond("flywheel.crank", "fourbar.crank"),
         bond("flywheel.aux", "cam.crank"),
+        bond("fourbar.rocker", "diff.ring"),      # through the differential's reversing pair
         bond("cam.rocker", "diff.carrier"),
         bond("diff.sun", "bed.pinion"),
-    ],
-    connections=[  # the reversing pair between the four-bar rocker and the ring gear
-        Connection("fourbar.rocker.phi", "diff.ring.phi", factor=-1.0, offset=ROCKER_START),
-        Connection("fourbar.rocker.w", "diff.ring.w", factor=-1.0),
-        Connection("diff.ring.tau", "fourbar.rocker.tau", factor=-1.0),
     ],
     experiment=Experiment(stop_time=2.0, step=2e-4, master="jacobi"),
     scenes=[

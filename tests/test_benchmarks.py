@@ -113,7 +113,21 @@ def test_cofmupy_config_gives_every_input_its_consistent_initial_value(fmu_dir, 
 
 def test_cofmupy_config_refuses_what_cofmupy_cannot_express(fmu_dir, monkeypatch, tmp_path):
     monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
-    made = cofmupy.write_config(ssp_folder(CASES["bed_drive"].system(), tmp_path), 1e-4)
+    # bed_drive with its reversing pair written as connections (factor -1, offset), not the differential's
+    # ring_sense parameter: what a user's SSP with a LinearTransformation looks like
+    import dataclasses
+    bed = CASES["bed_drive"].system()
+    diff = bed.instance("diff")
+    reversed_by_connections = dataclasses.replace(
+        bed, bonds=[b for b in bed.bonds if "diff.ring" not in b.label],
+        instances=[i if i is not diff else dataclasses.replace(i, parameters={**i.parameters, "ring_sense": 1,
+                                                                                "ring_offset": 0.0})
+                   for i in bed.instances],
+        connections=[*bed.connections,
+                     Connection("fourbar.rocker.phi", "diff.ring.phi", factor=-1.0, offset=0.5),
+                     Connection("fourbar.rocker.w", "diff.ring.w", factor=-1.0),
+                     Connection("diff.ring.tau", "fourbar.rocker.tau", factor=-1.0)])
+    made = cofmupy.write_config(ssp_folder(reversed_by_connections, tmp_path), 1e-4)
     assert set(made) == {"skipped"}
     assert re.fullmatch(r"connection fourbar.rocker.phi -> diff.ring.phi has factor -1, offset [0-9.]+: CoFmuPy 1.0 "
                         r"copies values along a connection \(no linear transformation\)", made["skipped"])

@@ -203,3 +203,31 @@ def test_fmu_compliant_mesh_follows_the_kinematics(fmu_dir):
     assert abs(m) < 1.0
     s.terminate()
     s.freeInstance()
+
+
+@pytest.mark.parametrize("fidelity", [0, 1])
+def test_reversing_pair_is_the_reversed_connection(fidelity):
+    """ring_sense = -1 with ring_offset o is the plain differential driven at (o - phi, -w) with its ring
+    torque reversed: the same machine as a connection with factor -1 and offset o (power kept)."""
+    o = 0.7
+    rev = Model(P(fidelity=fidelity, ring_sense=-1, ring_offset=o))
+    plain = Model(P(fidelity=fidelity))
+    u = (0.3, 2.0, -0.1, 1.5, -40.0)
+    u_plain = (o - u[0], -u[1], *u[2:])
+    x_rev, x_plain = rev.initial_state(u), plain.initial_state(u_plain)
+    np.testing.assert_allclose(x_rev, x_plain, rtol=1e-15, atol=1e-15)
+    for _ in range(5):
+        x_rev, x_plain = rev.advance(0.0, 1e-3, x_rev, u), plain.advance(0.0, 1e-3, x_plain, u_plain)
+    np.testing.assert_allclose(x_rev, x_plain, rtol=1e-12, atol=1e-15)
+    y_rev, y_plain = rev.output(0.0, x_rev, u), plain.output(0.0, x_plain, u_plain)
+    names = Model.outputs
+    assert y_rev[names.index("ring.tau")] == pytest.approx(-y_plain[names.index("ring.tau")], rel=1e-12)
+    for name in ("carrier.tau", "sun.phi", "sun.w", "power_ring", "power_carrier", "planet_speed"):
+        assert y_rev[names.index(name)] == pytest.approx(y_plain[names.index(name)], rel=1e-12, abs=1e-12)
+    # the power through the port is the gear set's: ring.tau * ring.w (port values) = plain's
+    assert y_rev[0] * u[1] == pytest.approx(y_plain[0] * u_plain[1], rel=1e-12)
+
+
+def test_ring_sense_admits_only_plus_or_minus_one():
+    with pytest.raises(ParameterError, match="ring_sense"):
+        Model(P(ring_sense=0))

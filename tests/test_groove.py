@@ -90,3 +90,24 @@ def test_cli_errors(capsys):
     assert capsys.readouterr().err.count("\n") == 1
     a = _args("--law", "nope", "--scan", "lambda2")
     assert a.func(a) == 2
+
+
+def test_scan_names_the_criterion_at_each_end(capsys):
+    a = _args("--crank-radius", "0.040", "--lambda1", "3.5", "--lambda3", "3", "--law", "K0", "--scan", "lambda2", "--json")
+    assert a.func(a) == 0
+    out = json.loads(capsys.readouterr().out)
+    lo, hi = out["lambda2_min"], out["lambda2_max"]
+    by = out["bounds_by_criterion"]
+    # every criterion alone admits an interval that contains the all-criteria one
+    for c, v in by.items():
+        assert v["interval"][0] <= lo + 1e-9 and v["interval"][1] >= hi - 1e-9, c
+    # the end that a criterion alone reproduces (to the bisection's 1e-6) is the one that criterion bounds
+    ends = {c: (abs(v["interval"][0] - lo) < 1e-5, abs(v["interval"][1] - hi) < 1e-5) for c, v in by.items()}
+    assert any(e[0] for e in ends.values()) and any(e[1] for e in ends.values())
+    assert ends["pressure"][1] and not ends["connection"][1]          # the upper end: the pressure-angle limit
+    assert ends["connection"][0]                                      # the lower end: the connection break
+    # the seed's own criteria (no pressure limit) admit a wider interval; it ends where the base four-bar does
+    s_lo, s_hi = out["seed_interval"]
+    assert s_lo == pytest.approx(lo, abs=1e-5) and s_hi - s_lo > 10 * (hi - lo)
+    assert out["seed_upper_limit"] == "base four-bar"
+    assert s_hi == pytest.approx(LAM1 + LAM3 - 1.0, abs=1e-5)       # Grashof: 1 + lambda2 <= lambda1 + lambda3

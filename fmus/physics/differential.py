@@ -30,6 +30,12 @@ mesh_torque M = c_alpha*(phi_k - phi_sun) + d_mesh*(w_k - w_sun), J_sun*dw_sun/d
 gear set sees T_sun = -M.  Both levels share the state (phi_sun, w_sun); at fidelity 0 it is overwritten
 with the kinematic values at each step (so outputs never depend on it).
 
+Reversing pair at the ring (``ring_sense = -1``, ``ring_offset``): the ring gear turns as
+``ring_offset - ring.phi`` at ``-ring.w``, and the port torque is reversed, so the power ring.tau*ring.w is kept.
+A drive whose ring is driven against the input's sense (seed 004: the four-bar rocker and the cam follower
+turn the same way, the differential adds them only in opposite senses) so needs only plain connections, which
+every FMI importer applies the same way (OMSimulator and CoFmuPy drop an SSP LinearTransformation).
+
 Angles of all three shafts are measured from a common zero (paper B: both inputs start together from
 their extreme positions).  Ring and carrier positions are extrapolated inside a communication step with
 their (held) speeds.
@@ -58,6 +64,9 @@ class JamesDifferentialParams(Params):
     z_sun: int = param(24, "", "teeth of the sun gear z5", low=6, high=2000)
     n_planets: int = param(3, "", "number of planets a_p (seed: 3)", low=1, high=64)
     fidelity: int = param(0, "", "0: rigid kinematic; 1: compliant mesh with sun inertia", choices=(0, 1))
+    ring_sense: int = param(1, "", "1: the ring turns as its input; -1: through a reversing pair "
+                            "(ring angle = ring_offset - ring.phi, ring.tau reversed, power kept)", choices=(1, -1))
+    ring_offset: float = param(0.0, "rad", "ring angle when the ring input is at 0 (a reversing pair's zero)")
 
     def check(self) -> None:
         if self.z_ring != self.z_sun + 2 * self.z_planet:
@@ -107,9 +116,15 @@ class JamesDifferentialModel(Model):
         rate = max(math.sqrt(p.c_alpha / p.sun_inertia), p.d_mesh / p.sun_inertia)
         return 0.25 / rate
 
+    def ring(self, u) -> tuple[float, float]:
+        """Angle and speed of the ring gear itself from the ring port's inputs (reversing pair applied)."""
+        s = self.p.ring_sense
+        return s * u[0] + self.p.ring_offset, s * u[1]
+
     def kinematic(self, u, dt: float = 0.0):
         k = self.k
-        phi_r, w_r, phi_c, w_c = u[0] + u[1] * dt, u[1], u[2] + u[3] * dt, u[3]
+        phi_r, w_r = self.ring(u)
+        phi_r, phi_c, w_c = phi_r + w_r * dt, u[2] + u[3] * dt, u[3]
         return -k * phi_r + (1.0 + k) * phi_c, -k * w_r + (1.0 + k) * w_c
 
     def initial_state(self, u):
@@ -129,7 +144,7 @@ class JamesDifferentialModel(Model):
 
     def output(self, t, x, u):
         k, p = self.k, self.p
-        w_r, w_c = u[1], u[3]
+        w_r, w_c = self.ring(u)[1], u[3]
         if p.fidelity == 0:
             phi_s, w_s = self.kinematic(u)
             m = -u[4]
@@ -138,5 +153,5 @@ class JamesDifferentialModel(Model):
             m = self.mesh(x, u)
         t_ring, t_c = static_torques(-m, w_r, w_c, k, p.efficiency)
         ring_tau, carrier_tau = -t_ring, -t_c
-        return (ring_tau, carrier_tau, phi_s, w_s, -ring_tau * w_r, -carrier_tau * w_c, -u[4] * w_s,
+        return (p.ring_sense * ring_tau, carrier_tau, phi_s, w_s, -ring_tau * w_r, -carrier_tau * w_c, -u[4] * w_s,
                 self.kp * w_r + (1.0 - self.kp) * w_c, m)

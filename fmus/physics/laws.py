@@ -26,6 +26,9 @@ Registry (``get_law(name, **params)``):
                c = -(pi/(1-k_m))*sin(pi (k-k_m)/(1-k_m)); c = 0 at both ends (no soft impact at the
                start, S1-8).  Parameter k_m in (0, 1) (default 0.4); k_m = 1/2 gives C0.
   composite    cycloidal run-up + harmonic run-out with parameter k_m (spec §2.1.5, [T]).
+  bed004       seed 004's carrier law synthesised so that the bed moves uniformly through the printing zone
+               with the published four-bar and z3/z5 = 3, swing 40 deg (fmus.physics.bed_law); parameter
+               k_m = the bed's run-up share of the working stroke (default 0.2).
 """
 from __future__ import annotations
 
@@ -187,7 +190,19 @@ _FAMILIES: dict[str, tuple[Callable[..., Law], dict[str, float]]] = {
     "P6": (_p6, {"k_m": 0.4}),
     "composite": (_composite, {"k_m": 0.4}),
 }
-LAW_NAMES: tuple[str, ...] = ("K0", "C0", "0000", "power", "polydynamic", "4567", "P6", "composite")
+
+
+def _bed004(k_m: float) -> Law:
+    """Seed 004's carrier law for a uniform bed (fmus.physics.bed_law), k_m = the bed's run-up share."""
+    from .bed_law import carrier_law
+    try:
+        return carrier_law(k_m).law
+    except ValueError as e:
+        raise ValueError(f"law bed004, k_m (law_km) = {k_m!r}: {e}") from None
+
+
+_FAMILIES["bed004"] = (_bed004, {"k_m": 0.2})
+LAW_NAMES: tuple[str, ...] = ("K0", "C0", "0000", "power", "polydynamic", "4567", "P6", "composite", "bed004")
 """Known law names; the index in this tuple is the Integer ``law`` parameter of the components."""
 
 

@@ -277,28 +277,48 @@ def run_point(system_name: str, spec: SweepSpec, point: dict[str, float]) -> dic
 
 
 def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, workers: int = 2,
-              progress: bool = True) -> pd.DataFrame:
-    """Run every point; ``workers=0`` runs serially in this process (same results, bit for bit)."""
+              progress: bool = True, log=None) -> pd.DataFrame:
+    """Run every point; ``workers=0`` runs serially in this process (same results, bit for bit).  ``log``: a
+    :class:`harness.studies.sweep_checks.PointLog` that receives each point as it finishes and whose points
+    already done are skipped (``--resume``); the result then holds them all, in the spec's order."""
     from harness import load
     from harness.model import resolve_fmu
+    from harness.studies.sweep_checks import check_workers, point_key
 
+    check_workers(workers)
     for inst in load(system_name).instances:  # build missing FMUs once, before workers race for them
         resolve_fmu(inst.fmu)
+    todo = [p for p in spec.points if log is None or point_key(spec, p) not in log.done]
+    rows = []
+
+    def finished(row):
+        rows.append(row)
+        if log is not None:
+            log.add(row)
+
     if workers == 0 and scheduler is None:
-        rows = [run_point(system_name, spec, p) for p in _progress(spec.points, progress)]
-    else:
+        for p in _progress(todo, progress):
+            finished(run_point(system_name, spec, p))
+    elif todo:
         from dask.distributed import Client, LocalCluster, as_completed
 
         cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                                       dashboard_address=":0")
-        with Client(scheduler or cluster) as client:
-            futures = [client.submit(run_point, system_name, spec, p, pure=False) for p in spec.points]
-            index = {f.key: i for i, f in enumerate(futures)}
-            rows = [None] * len(futures)
-            for fut in _progress(as_completed(futures), progress, total=len(futures)):
-                rows[index[fut.key]] = fut.result()
-        if cluster is not None:
-            cluster.close()
+        try:
+            with Client(scheduler or cluster) as client:
+                futures = [client.submit(run_point, system_name, spec, p, pure=False) for p in todo]
+                try:
+                    for fut in _progress(as_completed(futures), progress, total=len(futures)):
+                        finished(fut.result())
+                finally:
+                    client.cancel(futures)
+        finally:
+            if cluster is not None:
+                cluster.close()
+    if log is not None:
+        return log.frame()
+    order = {tuple(float(p[v]) for v in spec.variables): i for i, p in enumerate(spec.points)}
+    rows.sort(key=lambda r: order[point_key(spec, r)])
     return pd.DataFrame(rows)
 
 
@@ -326,28 +346,61 @@ def save(df: pd.DataFrame, out: str | Path) -> Path:
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("sweep", help="parameter sweep on dask.distributed")
+    p = subparsers.add_parser(
+        "sweep", help="parameter sweep on dask.distributed",
+        description="Run one co-simulation per point of a sweep spec and write one row per point (sweep "
+                    "variables, parameters set, quantities of interest, error, wall_time [s]). The spec, the "
+                    "parameters, the quantities, the output format and --workers are checked before the first "
+                    "point. Each finished point is appended to OUT.partial.csv at once; a complete sweep "
+                    "writes OUT and removes it, an interrupted one (Ctrl-C: exit 130) keeps it, and --resume "
+                    "skips the points it holds.")
     p.add_argument("system", help="system module name in systems/ or an .ssp/.ssd file")
-    p.add_argument("--grid", required=True, type=Path, help="sweep description (.yaml/.yml/.json)")
-    p.add_argument("--scheduler", default=None, help="address of an existing dask scheduler")
-    p.add_argument("--workers", type=int, default=2, help="local worker processes (0: run serially)")
-    p.add_argument("--out", type=Path, default=None, help="result file (.parquet or .csv)")
+    p.add_argument("--grid", required=True, type=Path, metavar="SPEC",
+                   help="sweep description (.yaml/.yml/.json; format: module harness.studies.sweep)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="address of an existing dask scheduler (default: a local cluster of --workers)")
+    p.add_argument("--workers", type=int, default=2, metavar="N",
+                   help="local worker processes, an integer >= 0 (0: run serially here; default 2)")
+    p.add_argument("--out", type=Path, default=None, metavar="FILE",
+                   help="result file, .csv or .parquet (default: results/sweep_<system>.csv)")
+    p.add_argument("--resume", action="store_true",
+                   help="skip the points already in OUT.partial.csv (default: start afresh)")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
-                   help="also write the charts of the spec's plot section to DIR/<spec stem>.png and .svg")
+                   help="also write the charts of the spec's plot section to DIR/<spec stem>.png and .svg "
+                        "(default: no charts)")
     p.set_defaults(func=_run_cli)
 
 
 def _run_cli(args) -> int:
+    import sys
+
+    from harness.studies.sweep_checks import PointLog, partial_path, preflight
+
     spec = read_spec(args.grid)
     if args.plot is not None and spec.plot is None:
         raise SweepError(f"{args.grid}: --plot needs a 'plot:' section in the spec")
-    df = run_sweep(args.system, spec, scheduler=args.scheduler, workers=args.workers)
-    out = save(df, args.out or Path("results") / f"sweep_{Path(args.system).stem}.csv")
+    out = Path(args.out or Path("results") / f"sweep_{Path(args.system).stem}.csv")
+    preflight(args.system, spec, out, args.workers)
+    log = PointLog(partial_path(out), spec, resume=getattr(args, "resume", False))
+    skipped = len(log.done)
+    try:
+        df = run_sweep(args.system, spec, scheduler=args.scheduler, workers=args.workers, log=log)
+    except KeyboardInterrupt:
+        print(f"error: interrupted (Ctrl-C): {len(log.rows)} of {len(spec.points)} points finished and kept in "
+              f"{log.path}; rerun with --resume to skip them", file=sys.stderr)
+        return 130
+    out = save(df, out)
+    log.path.unlink(missing_ok=True)
     failed = int((df["error"] != "").sum())
-    print(f"{len(df)} points, {failed} failed; wrote {out}")
+    resumed = f" ({skipped} taken from {log.path.name})" if skipped else ""
+    print(f"{len(df)} points{resumed}, {failed} failed; wrote {out}")
     if args.plot is not None:
         paths = plot_sweep(df, spec, args.plot / Path(args.grid).stem, title=f"{Path(args.system).stem}: {Path(args.grid).name}")
         print("charts: " + ", ".join(str(p) for p in paths))
+    if len(df) and failed == len(df):
+        first = df["error"].iloc[0]
+        print(f"error: every point failed; the first: {first}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import importlib
 
-TOOLS = ("fourbar", "groove", "sectors", "knife")
+TOOLS = ("fourbar", "groove", "sectors", "knife", "carrier")
 
 
 def register(subparsers) -> None:

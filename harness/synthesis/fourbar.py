@@ -74,6 +74,9 @@ def run(args) -> int:
     print(title + " (crank = 1, crank turning CCW, branch %+d)" % data["branch"])
     for key, label, unit in _ROWS:
         print(f"  {label:<34s} {data[key]:>12.6f} {unit}")
+    print("  invariants of each stroke, normalised by its own duration T and swing psi_S (seed 004, Tir):")
+    print("    tau = t/T, b = (dpsi/dtau)/psi_S, c = (d2psi/dtau2)/psi_S; B = max b (peak over mean speed),")
+    print("    C1 = max |c| before the velocity peak (run-up), C3 = max |c| after it (run-out)")
     return 0
 
 

@@ -21,6 +21,13 @@ from fmus.physics import groove
 from fmus.physics.laws import LAW_NAMES, get_law
 
 COMPARE = ("K0", "C0", "power", "polydynamic", "P6")
+# The criteria seed 001 itself states (feeder.md): the kinematic connection (K6) whose break bounds lambda2
+# from below and shows as a cusp of the centroid curve (S1-2), the stone on the working side rho > 0 (K8,
+# section 1.3), no cusp / no undercut (S1-6, S1-7; undercut needs a roller radius, which the seed does not
+# give).  The pressure-angle limit is the toolkit's (60 deg = 90 - mu_min of seed 004): seed 001 names
+# pressure angles but gives no allowable value (feeder.md 2.4 (d)).
+SEED_CRITERIA = ("connection", "radius", "cusp", "undercut")
+SEED_SOURCES = "feeder.md 2.3 (K6), (K8); 2.4 (a)-(c); S1-2, S1-6, S1-7"
 
 
 def register(subparsers) -> argparse.ArgumentParser:
@@ -35,7 +42,8 @@ def register(subparsers) -> argparse.ArgumentParser:
     ap.add_argument("--n", type=float, default=2.0, help="exponent of the power law")
     ap.add_argument("--k-m", type=float, default=0.4, help="k_m of the P6 stand-in / composite law")
     ap.add_argument("--dwell", type=float, default=0.0, help="dwell [deg], centred on the extended dead centre")
-    ap.add_argument("--assembly", type=int, default=1, choices=(1, -1))
+    ap.add_argument("--assembly", type=int, default=1, choices=(1, -1),
+                    help="assembly branch of the base four-bar (1 or -1)")
     ap.add_argument("--roller-radius", type=float, default=0.0, help="roller radius [m] for the undercut check")
     ap.add_argument("--max-pressure-angle", type=float, default=math.degrees(groove.DEFAULT_MAX_PRESSURE),
                     help="allowable pressure angle [deg] (default 60 = 90 - mu_min 30 of seed 004)")
@@ -66,13 +74,22 @@ def _scan(a, law: str) -> dict:
     lr = lf if a.law_return is None else get_law(a.law_return, n=a.n, k_m=a.k_m)
     mp = math.radians(a.max_pressure_angle)
 
-    def ok(l2: float):
+    def failed(l2: float) -> list:
+        """Every criterion the groove of l2 violates (groove.CRITERIA names; 'base four-bar' if none exists)."""
         try:
             kl = groove.kulisa_law(a.lambda1, l2, a.lambda3, lf, lr, math.radians(a.dwell), a.assembly)
         except ValueError:
-            return "base four-bar"
+            return ["base four-bar"]
         p = groove.synthesize_law(kl, a.lambda1, l2, a.points, groove.base_branch(a.lambda1, l2, a.lambda3, a.assembly))
-        return groove.assess(p, a.crank_radius, a.roller_radius, mp)["failed"]
+        return groove.assess(p, a.crank_radius, a.roller_radius, mp)["all_failed"]
+
+    def ok(l2: float, only=None):
+        """The first violated criterion (of ``only`` if given), None if feasible."""
+        f = failed(l2)
+        if f == ["base four-bar"]:
+            return f[0]
+        f = [c for c in f if only is None or c in only]
+        return f[0] if f else None
 
     step = 0.01
     grid = np.arange(0.5, a.lambda1 + a.lambda3 + 1.0, step)
@@ -93,24 +110,46 @@ def _scan(a, law: str) -> dict:
             i += 1
     i0, i1 = max(runs, key=lambda r: r[1] - r[0])
 
-    def bisect(good, bad):
+    def bisect(good, bad, only=None):
         for _ in range(40):
             mid = 0.5 * (good + bad)
-            if ok(mid) is None:
+            if ok(mid, only) is None:
                 good = mid
             else:
                 bad = mid
-        return good, ok(bad)
+        return good, ok(bad, only)
+
+    def extent(only):
+        """The interval around the feasible run i0..i1 in which the criteria ``only`` alone hold, and what
+        ends it on each side (grid walk outward, then bisection)."""
+        lo_i, hi_i = i0, i1
+        while lo_i > 0 and ok(grid[lo_i - 1], only) is None:
+            lo_i -= 1
+        while hi_i < len(grid) - 1 and ok(grid[hi_i + 1], only) is None:
+            hi_i += 1
+        lo_ = bisect(grid[lo_i], grid[lo_i - 1], only) if lo_i > 0 else (grid[0], "scan bound")
+        hi_ = bisect(grid[hi_i], grid[hi_i + 1], only) if hi_i < len(grid) - 1 else (grid[-1], "scan bound")
+        return [round(float(lo_[0]), 6), round(float(hi_[0]), 6)], lo_[1], hi_[1]
 
     lo, lo_crit = bisect(grid[i0], grid[i0 - 1]) if i0 > 0 else (grid[0], "scan bound")
     hi, hi_crit = bisect(grid[i1], grid[i1 + 1]) if i1 < len(grid) - 1 else (grid[-1], "scan bound")
+    by_criterion = {}
+    for c in groove.CRITERIA:
+        if c == "undercut" and not a.roller_radius > 0.0:
+            continue                              # not checked without a roller radius
+        iv, lc, hc = extent((c,))
+        by_criterion[c] = dict(interval=iv, lower_limit=lc, upper_limit=hc)
+    seed_iv, seed_lo, seed_hi = extent(SEED_CRITERIA)
     return dict(law=law, law_return=a.law_return or law, lambda2_min=round(float(lo), 6), lambda2_max=round(float(hi), 6),
                 lower_limit=lo_crit, upper_limit=hi_crit, feasible_intervals=len(runs),
                 max_pressure_angle_deg=a.max_pressure_angle, roller_radius=a.roller_radius,
                 crank_radius=a.crank_radius, lambda1=a.lambda1, lambda3=a.lambda3, dwell_deg=a.dwell,
                 scan_step=step,
                 criteria="connection |N|<=lambda2 (K6); rho>0 (K8); no cusp inside a stroke; "
-                         "curvature radius > roller radius; pressure angle (conrod vs groove, force-based) <= limit")
+                         "curvature radius > roller radius; pressure angle (conrod vs groove, force-based) <= limit",
+                bounds_by_criterion=by_criterion,
+                seed_criteria=", ".join(SEED_CRITERIA) + " (" + SEED_SOURCES + ")",
+                seed_interval=seed_iv, seed_lower_limit=seed_lo, seed_upper_limit=seed_hi)
 
 
 def _compare(a) -> list[dict]:

@@ -1,0 +1,281 @@
+/* pressdrive host loader: the binary an FMI host loads for a toolkit FMU (linux64).
+ *
+ * pythonfmu's stock wrapper needs the symbols of libpython but does not link it, so it loads only into a
+ * process that already runs Python.  This small library stands in front of it (built by fmus/build.py):
+ *
+ *   - on the first fmi2Instantiate it makes sure Python is there: if the host has no Python symbols, it
+ *     dlopen()s the libpython recorded at build time (resources/pressdrive_python.txt, overridable by
+ *     PRESSDRIVE_LIBPYTHON) with RTLD_GLOBAL; if Python is not initialised, it sets the recorded home
+ *     (PRESSDRIVE_PYTHONHOME), initialises it without signal handlers, adds the recorded site folders
+ *     (PRESSDRIVE_PYTHONPATH, ':'-separated) with site.addsitedir, imports pythonfmu from there and
+ *     releases the GIL (the wrapper takes it with PyGILState_Ensure on every call, from any thread);
+ *   - it then loads pythonfmu's wrapper, shipped next to it as <modelIdentifier>_pythonfmu.so, with
+ *     RTLD_LOCAL and forwards every fmi2* call to it;
+ *   - if that environment is gone it logs one fmi2Error line through the host's FMI logger, naming what is
+ *     missing and the variable to set, and fmi2Instantiate returns NULL.
+ *
+ * A host that already runs Python (FMPy, libcosimpy, ecospy, the harness) is left alone: Python is found
+ * initialised and nothing but the forwarding happens.  Python is never finalised (numpy cannot be
+ * re-initialised in one process).
+ */
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <libgen.h>
+#include <limits.h>
+#include <pthread.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <wchar.h>
+
+typedef void *fmi2Component;
+typedef void *fmi2ComponentEnvironment;
+typedef void *fmi2FMUstate;
+typedef unsigned int fmi2ValueReference;
+typedef double fmi2Real;
+typedef int fmi2Integer;
+typedef int fmi2Boolean;
+typedef char fmi2Char;
+typedef const fmi2Char *fmi2String;
+typedef char fmi2Byte;
+typedef int fmi2Status;   /* fmi2OK 0, fmi2Warning 1, fmi2Discard 2, fmi2Error 3, fmi2Fatal 4, fmi2Pending 5 */
+typedef int fmi2Type;
+typedef int fmi2StatusKind;
+
+typedef void (*fmi2CallbackLogger)(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
+typedef struct {
+    fmi2CallbackLogger logger;
+    void *(*allocateMemory)(size_t, size_t);
+    void (*freeMemory)(void *);
+    void (*stepFinished)(fmi2ComponentEnvironment, fmi2Status);
+    fmi2ComponentEnvironment componentEnvironment;
+} fmi2CallbackFunctions;
+
+#define EXPORT __attribute__((visibility("default")))
+
+/* ---------------------------------------------------------------------------------------- configuration */
+static char cfg_version[32], cfg_libpython[PATH_MAX], cfg_home[PATH_MAX], cfg_path[8 * PATH_MAX];
+
+static void strip(char *s) {
+    size_t n = strlen(s);
+    while (n && (s[n - 1] == '\n' || s[n - 1] == '\r' || s[n - 1] == ' ')) s[--n] = 0;
+}
+
+static void read_config(const char *file) {
+    FILE *f = fopen(file, "r");
+    char line[8 * PATH_MAX + 32];
+    if (!f) return;
+    while (fgets(line, sizeof line, f)) {
+        char *eq = strchr(line, '=');
+        if (!eq) continue;
+        *eq = 0;
+        strip(eq + 1);
+        if (!strcmp(line, "version")) snprintf(cfg_version, sizeof cfg_version, "%s", eq + 1);
+        else if (!strcmp(line, "libpython")) snprintf(cfg_libpython, sizeof cfg_libpython, "%s", eq + 1);
+        else if (!strcmp(line, "home")) snprintf(cfg_home, sizeof cfg_home, "%s", eq + 1);
+        else if (!strcmp(line, "path")) snprintf(cfg_path, sizeof cfg_path, "%s", eq + 1);
+    }
+    fclose(f);
+}
+
+static const char *setting(const char *env, const char *recorded) {
+    const char *v = getenv(env);
+    return (v && *v) ? v : recorded;
+}
+
+/* ------------------------------------------------------------------------------------------ the wrapper */
+#define FMI_FUNCTIONS(X) \
+    X(fmi2SetDebugLogging) X(fmi2Instantiate) X(fmi2FreeInstance) X(fmi2SetupExperiment) \
+    X(fmi2EnterInitializationMode) X(fmi2ExitInitializationMode) X(fmi2Terminate) X(fmi2Reset) \
+    X(fmi2GetReal) X(fmi2GetInteger) X(fmi2GetBoolean) X(fmi2GetString) X(fmi2SetReal) X(fmi2SetInteger) \
+    X(fmi2SetBoolean) X(fmi2SetString) X(fmi2GetFMUstate) X(fmi2SetFMUstate) X(fmi2FreeFMUstate) \
+    X(fmi2SerializedFMUstateSize) X(fmi2SerializeFMUstate) X(fmi2DeSerializeFMUstate) \
+    X(fmi2GetDirectionalDerivative) X(fmi2SetRealInputDerivatives) X(fmi2GetRealOutputDerivatives) \
+    X(fmi2DoStep) X(fmi2CancelStep) X(fmi2GetStatus) X(fmi2GetRealStatus) X(fmi2GetIntegerStatus) \
+    X(fmi2GetBooleanStatus) X(fmi2GetStringStatus)
+
+#define DECLARE(name) static void *p_##name;
+FMI_FUNCTIONS(DECLARE)
+
+static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
+static int ready = 0;
+
+static void log_error(const fmi2CallbackFunctions *cb, fmi2String instance, const char *msg) {
+    if (cb && cb->logger) cb->logger(cb->componentEnvironment, instance, 3, "logStatusError", "%s", msg);
+    else fprintf(stderr, "%s: %s\n", instance ? instance : "pressdrive FMU", msg);
+}
+
+static int file_exists(const char *p) {
+    struct stat st;
+    return p && *p && stat(p, &st) == 0;
+}
+
+/* append s to a Python single-quoted literal in out */
+static void py_literal(char *out, size_t n, const char *s) {
+    size_t k = strlen(out);
+    if (k + 2 >= n) return;
+    out[k++] = '\'';
+    for (; *s && k + 4 < n; s++) {
+        if (*s == '\'' || *s == '\\') out[k++] = '\\';
+        out[k++] = *s;
+    }
+    out[k++] = '\'';
+    out[k] = 0;
+}
+
+/* Python present and initialised, then the wrapper loaded; 0 on success, else err holds one line. */
+static int prepare(char *err, size_t n) {
+    Dl_info info;
+    char self[PATH_MAX], root[PATH_MAX], wrapper[PATH_MAX], config[PATH_MAX + 64];
+    if (!dladdr((void *)&prepare, &info) || !info.dli_fname || !realpath(info.dli_fname, self)) {
+        snprintf(err, n, "pressdrive loader: cannot find its own file");
+        return -1;
+    }
+    snprintf(root, sizeof root, "%s", self);
+    for (int i = 0; i < 3; i++) { /* <root>/binaries/linux64/X.so */
+        char *d = dirname(root);
+        memmove(root, d, strlen(d) + 1);
+    }
+    snprintf(config, sizeof config, "%s/resources/pressdrive_python.txt", root);
+    read_config(config);
+    const char *libpython = setting("PRESSDRIVE_LIBPYTHON", cfg_libpython);
+    const char *home = setting("PRESSDRIVE_PYTHONHOME", cfg_home);
+    const char *path = setting("PRESSDRIVE_PYTHONPATH", cfg_path);
+
+    void *py = RTLD_DEFAULT;
+    if (!dlsym(RTLD_DEFAULT, "Py_IsInitialized")) {
+        if (!file_exists(libpython)) {
+            snprintf(err, n, "the Python environment this FMU was built for is gone: no libpython at '%s' "
+                     "(set PRESSDRIVE_LIBPYTHON to a libpython%s, PRESSDRIVE_PYTHONHOME and PRESSDRIVE_PYTHONPATH "
+                     "to an environment with numpy, scipy and pythonfmu)", libpython, cfg_version);
+            return -1;
+        }
+        py = dlopen(libpython, RTLD_NOW | RTLD_GLOBAL);
+        if (!py) {
+            snprintf(err, n, "cannot load libpython '%s' (%s); set PRESSDRIVE_LIBPYTHON", libpython, dlerror());
+            return -1;
+        }
+    }
+    const char *(*get_version)(void) = (const char *(*)(void))dlsym(py, "Py_GetVersion");
+    int (*is_initialized)(void) = (int (*)(void))dlsym(py, "Py_IsInitialized");
+    if (!get_version || !is_initialized) {
+        snprintf(err, n, "'%s' is not a libpython (no Py_GetVersion); set PRESSDRIVE_LIBPYTHON", libpython);
+        return -1;
+    }
+    const char *version = get_version();
+    size_t lv = strlen(cfg_version);
+    if (lv && (strncmp(version, cfg_version, lv) != 0 || version[lv] != '.')) {
+        snprintf(err, n, "this FMU was built for Python %s, the process runs Python %.20s", cfg_version, version);
+        return -1;
+    }
+    if (!is_initialized()) {
+        if (!file_exists(home)) {
+            snprintf(err, n, "the Python environment this FMU was built for is gone: no Python home '%s' "
+                     "(set PRESSDRIVE_PYTHONHOME)", home);
+            return -1;
+        }
+        wchar_t *(*decode)(const char *, size_t *) = (wchar_t *(*)(const char *, size_t *))dlsym(py, "Py_DecodeLocale");
+        void (*set_home)(const wchar_t *) = (void (*)(const wchar_t *))dlsym(py, "Py_SetPythonHome");
+        void (*init)(int) = (void (*)(int))dlsym(py, "Py_InitializeEx");
+        int (*run)(const char *) = (int (*)(const char *))dlsym(py, "PyRun_SimpleString");
+        void *(*save_thread)(void) = (void *(*)(void))dlsym(py, "PyEval_SaveThread");
+        if (!decode || !set_home || !init || !run || !save_thread) {
+            snprintf(err, n, "libpython '%s' lacks the embedding API", libpython);
+            return -1;
+        }
+        static wchar_t *whome; /* must outlive the interpreter */
+        whome = decode(home, NULL);
+        set_home(whome);
+        init(0);
+        static char script[16 * PATH_MAX];
+        snprintf(script, sizeof script, "import site, sys\nfor _p in ");
+        py_literal(script, sizeof script, path);
+        strncat(script, ".split(':'):\n    if _p: site.addsitedir(_p)\nimport pythonfmu\n",
+                sizeof script - strlen(script) - 1);
+        int rc = run(script);
+        save_thread();
+        if (rc != 0) {
+            snprintf(err, n, "the Python environment this FMU was built for is gone or incomplete: importing "
+                     "pythonfmu from '%s' failed (traceback on stderr; set PRESSDRIVE_PYTHONPATH)", path);
+            return -1;
+        }
+    }
+    snprintf(wrapper, sizeof wrapper, "%s", self);
+    size_t k = strlen(wrapper);
+    if (k > 3 && !strcmp(wrapper + k - 3, ".so")) wrapper[k - 3] = 0;
+    strncat(wrapper, "_pythonfmu.so", sizeof wrapper - strlen(wrapper) - 1);
+    void *w = dlopen(wrapper, RTLD_NOW | RTLD_LOCAL);
+    if (!w) {
+        snprintf(err, n, "cannot load pythonfmu's wrapper '%s' (%s)", wrapper, dlerror());
+        return -1;
+    }
+#define RESOLVE(name) \
+    if (!(p_##name = dlsym(w, #name))) { snprintf(err, n, "%s lacks %s", wrapper, #name); return -1; }
+    FMI_FUNCTIONS(RESOLVE)
+    return 0;
+}
+
+/* ------------------------------------------------------------------------------------------ FMI 2.0 API */
+EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
+EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
+
+EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String guid,
+                                     fmi2String resourceLocation, const fmi2CallbackFunctions *functions,
+                                     fmi2Boolean visible, fmi2Boolean loggingOn) {
+    char err[2 * PATH_MAX + 512];
+    pthread_mutex_lock(&lock);
+    if (!ready) {
+        err[0] = 0;
+        if (prepare(err, sizeof err) != 0) {
+            pthread_mutex_unlock(&lock);
+            log_error(functions, instanceName, err);
+            return NULL;
+        }
+        ready = 1;
+    }
+    pthread_mutex_unlock(&lock);
+    return ((fmi2Component (*)(fmi2String, fmi2Type, fmi2String, fmi2String, const fmi2CallbackFunctions *,
+                               fmi2Boolean, fmi2Boolean))p_fmi2Instantiate)(
+        instanceName, fmuType, guid, resourceLocation, functions, visible, loggingOn);
+}
+
+#define FWD(name, params, args) \
+    EXPORT fmi2Status name params { return ((fmi2Status (*) params)p_##name) args; }
+
+FWD(fmi2SetDebugLogging, (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cats[]), (c, on, n, cats))
+EXPORT void fmi2FreeInstance(fmi2Component c) { if (c && p_fmi2FreeInstance) ((void (*)(fmi2Component))p_fmi2FreeInstance)(c); }
+FWD(fmi2SetupExperiment, (fmi2Component c, fmi2Boolean tolDef, fmi2Real tol, fmi2Real t0, fmi2Boolean stopDef, fmi2Real t1),
+    (c, tolDef, tol, t0, stopDef, t1))
+FWD(fmi2EnterInitializationMode, (fmi2Component c), (c))
+FWD(fmi2ExitInitializationMode, (fmi2Component c), (c))
+FWD(fmi2Terminate, (fmi2Component c), (c))
+FWD(fmi2Reset, (fmi2Component c), (c))
+FWD(fmi2GetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]), (c, vr, n, v))
+FWD(fmi2GetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]), (c, vr, n, v))
+FWD(fmi2GetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]), (c, vr, n, v))
+FWD(fmi2GetString, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]), (c, vr, n, v))
+FWD(fmi2SetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]), (c, vr, n, v))
+FWD(fmi2SetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]), (c, vr, n, v))
+FWD(fmi2SetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]), (c, vr, n, v))
+FWD(fmi2SetString, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]), (c, vr, n, v))
+FWD(fmi2GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
+FWD(fmi2SetFMUstate, (fmi2Component c, fmi2FMUstate s), (c, s))
+FWD(fmi2FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
+FWD(fmi2SerializedFMUstateSize, (fmi2Component c, fmi2FMUstate s, size_t *size), (c, s, size))
+FWD(fmi2SerializeFMUstate, (fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t size), (c, s, b, size))
+FWD(fmi2DeSerializeFMUstate, (fmi2Component c, const fmi2Byte b[], size_t size, fmi2FMUstate *s), (c, b, size, s))
+FWD(fmi2GetDirectionalDerivative, (fmi2Component c, const fmi2ValueReference u[], size_t nu, const fmi2ValueReference z[],
+                                   size_t nz, const fmi2Real dv[], fmi2Real dz[]), (c, u, nu, z, nz, dv, dz))
+FWD(fmi2SetRealInputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[],
+                                  const fmi2Real v[]), (c, vr, n, o, v))
+FWD(fmi2GetRealOutputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[],
+                                   fmi2Real v[]), (c, vr, n, o, v))
+FWD(fmi2DoStep, (fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noPrior), (c, t, h, noPrior))
+FWD(fmi2CancelStep, (fmi2Component c), (c))
+FWD(fmi2GetStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Status *v), (c, k, v))
+FWD(fmi2GetRealStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Real *v), (c, k, v))
+FWD(fmi2GetIntegerStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Integer *v), (c, k, v))
+FWD(fmi2GetBooleanStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v), (c, k, v))
+FWD(fmi2GetStringStatus, (fmi2Component c, const fmi2StatusKind k, fmi2String *v), (c, k, v))

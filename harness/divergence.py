@@ -1,0 +1,227 @@
+"""Divergence of a coupled run, judged on the power bonds against the run's own scale.
+
+A co-simulation that loses coupling stability makes the power that flows through its power bonds grow
+geometrically, fed by energy the coupling itself creates (``P_out - P_in`` integrated over time,
+:class:`harness.results.BondLog`'s ``energy_error``).  The detector judges that growth against the run's own
+scale, not a fixed number.
+
+:class:`DivergenceDetector` is fed every accepted communication point (``update(t, bond_log, h)``).  It cuts
+the run into blocks of ``block`` steps and keeps, per bond and block, the peak power ``max(|P_out|, |P_in|)``
+[W], the energy that flowed through the bond ``integral |P_out| dt`` [J] and the accumulated energy error
+[J].  At the end of each block a bond is DIVERGING when its power grew AND the coupling fed that growth:
+
+* fast growth (from ``min_blocks`` / 2 = 8 blocks on): the newest block's peak power exceeds ``fast`` (1e3) times the peak power
+  of the first half of the run so far (an amplitude 32 times its start), or
+* growth (from ``min_blocks`` = 16 blocks on): the peak power of the newest ``late`` (2) blocks exceeds
+  ``growth`` (10) times the peak power over the first half of the blocks so far (the run's own scale,
+  including its first period; power = amplitude squared);
+* a bond's reference peak power is at least ``floor`` (1e-3) times the largest peak power of any bond in
+  the first half of the run, so a bond that carries almost nothing is not judged on its own tiny scale;
+* a growth by more than 1/``rest`` (1e9) is a start from numerical rest (a cut or load beginning on a bond
+  that carried no power: ``spine_knife``), not the growth of a running state; an instability that starts
+  from round-off is caught once the reference window has left the rest;
+* and the coupling created more than ``creation`` (5 %) of the energy that flowed through the bond over the
+  last quarter of the blocks: a drive spinning up or a cut starting raises the power of a stable run but
+  the coupling creates no energy then.  (On the Gauss-Seidel, zero-order-hold two-inertia runs the bond's
+  energy error stays near zero while the amplitude grows: those are not stopped, see below.)
+* the verdict must hold at ``persist`` (1) consecutive block ends.
+
+Tuned on the two stability maps (``docs/images/stability_two_inertia_inertia.csv`` and
+``stability_bed_drive_fourbar_rocker_inertia.csv``): no stop at any step the maps judge stable, a stop on
+clearly unstable steps (``tests/test_divergence.py`` states which, and which are not: Gauss-Seidel with
+zero-order hold on the two-inertia map; four bed-drive points at 1.5 times the boundary; (1 % let a
+start-up transient of the bed drive at 5e-5 s trip the test); the most violent
+blow-ups, which pass 1e12 within the first 8 blocks and are stopped by the master's blow-up check instead).  A run that
+is only just beyond the boundary grows too slowly to be stopped within the maps' run lengths; the studies'
+own criteria judge those.
+
+The detector raises :class:`Diverged` (a :class:`~harness.errors.SimulationError`) with one line naming the
+time, the bond, the instance and effort variable on its motion-input side, and the evidence.
+:func:`harness.run.simulate` runs it on every run with power bonds (``RunOptions.divergence``; None switches
+it off), so the stability studies, which judge incomplete runs unstable, use the same detector.
+A system without power bonds is guarded only by the non-finite / blow-up check of the master.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from harness.errors import SimulationError
+
+
+class Diverged(SimulationError):
+    """The run diverged (coupling instability); ``evidence`` is the one-line reason without the time."""
+
+
+@dataclass(frozen=True)
+class DivergenceOptions:
+    """Thresholds of :class:`DivergenceDetector` (module docstring).  ``block``: steps per block;
+    ``min_blocks``: blocks before the first verdict; ``late``: newest blocks compared with the second quarter;
+    ``growth``: ratio of peak powers [-]; ``creation``: energy created / energy transmitted [-]."""
+    block: int = 4
+    min_blocks: int = 16
+    late: int = 2
+    growth: float = 10.0
+    creation: float | None = 0.05
+    fast: float = 1e3
+    floor: float = 1e-3
+    persist: int = 1
+    rest: float = 1e-9
+
+    def __post_init__(self):
+        for name in ("block", "min_blocks", "late", "persist"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"DivergenceOptions.{name} = {v!r} is not admissible: must be an integer >= 1")
+        for name in ("growth", "creation", "fast", "floor", "rest"):
+            v = getattr(self, name)
+            if v is None and name == "creation":
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"DivergenceOptions.{name} = {v!r} is not admissible: must be a positive number")
+
+
+class DivergenceDetector:
+    """Online divergence test on the power bonds of one run (module docstring).
+
+    ``labels``: bond labels ``"a.port->b.port"``; ``efforts``: per bond the ``(instance, variable)`` of the
+    effort output on its motion-input side, named in the message."""
+
+    def __init__(self, labels: list[str], efforts: list[tuple[str, str]], options: DivergenceOptions | None = None):
+        self.labels = list(labels)
+        self.efforts = list(efforts)
+        self.opts = options or DivergenceOptions()
+        n = len(self.labels)
+        self.n = n
+        self._k = 0                      # steps in the current block
+        self._t_block = 0.0              # start time of the current block
+        self._peak = [0.0] * n
+        self._flow = [0.0] * n
+        self.peaks: list[list[float]] = []   # per block, per bond
+        self.flows: list[list[float]] = []
+        self.energies: list[list[float]] = [[0.0] * n]  # energy error at block boundaries (first: t = 0)
+        self.times: list[float] = [0.0]                 # block boundaries [s]
+        self._flagged = [False] * n      # diverging at this block end
+        self._streak = [0] * n           # consecutive block ends a bond has been diverging
+        self._why: list = [None] * n
+
+    def update(self, t: float, bond_log, h: float) -> None:
+        """One accepted communication point at ``t`` [s] after a step of ``h`` [s]; ``bond_log`` the master's
+        rows P_out, P_in, energy error.  Raises :class:`Diverged`."""
+        if not self.n:
+            return
+        p_out, p_in, energy = bond_log.tolist()
+        peak, flow = self._peak, self._flow
+        for j in range(self.n):
+            a, b = abs(p_out[j]), abs(p_in[j])
+            m = a if a > b else b
+            if m > peak[j] or m != m:
+                peak[j] = m
+            flow[j] += a * h
+        self._k += 1
+        if self._k < self.opts.block:
+            return
+        self.peaks.append(peak)
+        self.flows.append(flow)
+        self.energies.append(list(energy))
+        self.times.append(t)
+        self._peak, self._flow, self._k = [0.0] * self.n, [0.0] * self.n, 0
+        self._judge(t)
+
+    def _judge(self, t: float) -> None:
+        o = self.opts
+        nb = len(self.peaks)
+        # a bond that carries a negligible share of the run's power is not judged on its own scale
+        floor = o.floor * max(max(p) for p in self.peaks[: max(1, nb // 2)])
+        if nb >= max(4, o.min_blocks // 2):
+            half = nb // 2
+            for j in range(self.n):
+                first, last = max(max(p[j] for p in self.peaks[:half]), floor), self.peaks[-1][j]
+                if o.fast * first < last < first / o.rest and self._creates(j, nb):
+                    self._flag(t, j, first, last, self.times[0], self.times[half], o.fast, nb)
+        q1, q2 = nb // 4, nb // 2
+        for j in range(self.n if nb >= max(o.min_blocks, 4 * o.late) else 0):
+            late = max(p[j] for p in self.peaks[nb - o.late:])
+            early = max(max(p[j] for p in self.peaks[:q2]), floor)
+            if not o.growth * early < late < early / o.rest:  # false for NaN (the master's finite check names those)
+                continue
+            if not self._creates(j, nb):
+                continue
+            self._flag(t, j, early, late, self.times[0], self.times[q2], o.growth, nb)
+        self._streak = [s + 1 if f else 0 for s, f in zip(self._streak, self._flagged)]
+        self._flagged = [False] * self.n
+        for j in range(self.n):
+            if self._streak[j] >= o.persist:
+                self._raise(t, j, *self._why[j], nb)
+
+    def _flag(self, t, j, early, late, t0, t1, limit, nb):
+        if not self._flagged[j]:
+            self._flagged[j] = True
+            self._why[j] = (early, late, t0, t1, limit)
+
+    def _creates(self, j: int, nb: int) -> bool:
+        """Whether the coupling created more than ``creation`` of the energy that flowed through bond j over
+        the last quarter of the blocks (at least the newest block)."""
+        c = self.opts.creation
+        if c is None:
+            return True
+        q3 = min((3 * nb) // 4, nb - 1)
+        created = self.energies[nb][j] - self.energies[q3][j]
+        flowed = sum(f[j] for f in self.flows[q3:])
+        return created > c * flowed
+
+    def _raise(self, t, j, early, late, t0, t1, limit, nb):
+        inst, var = self.efforts[j]
+        q3 = min((3 * nb) // 4, nb - 1)
+        created = self.energies[nb][j] - self.energies[q3][j]
+        flowed = sum(f[j] for f in self.flows[q3:])
+        evidence = (f"the run diverged on power bond {self.labels[j]}: its peak power grew from {early:.3g} W "
+                    f"({t0:.4g}-{t1:.4g} s) to {late:.3g} W (x{late / early if early > 0 else math.inf:.3g}, "
+                    f"limit x{limit:g}); the coupling created {created:.3g} J since {self.times[q3]:.4g} s "
+                    f"({created / flowed if flowed > 0 else math.inf:.0%} of the {flowed:.3g} J that flowed "
+                    f"through it)")
+        err = Diverged(f"t = {t:.9g} s: instance {inst}: output {var}: {evidence}", time=t, instance=inst,
+                       variable=var)
+        err.evidence = evidence
+        raise err
+
+
+def for_master(master, options: DivergenceOptions | None = None) -> DivergenceDetector:
+    """A detector for the bonds of a :class:`harness.masters.Master`."""
+    efforts = []
+    for (_, _, _, tau_out) in master._bonds:
+        inst, var = master.signal_names[tau_out].split(".", 1)
+        efforts.append((inst, var))
+    return DivergenceDetector(master.bond_labels, efforts, options)
+
+
+def replay(bond_log, options: DivergenceOptions | None = None, efforts=None) -> str:
+    """Run the detector over a finished result's :class:`harness.results.BondLog`; the one-line reason if it
+    diverged, else ''.  (Runs of :func:`harness.run.simulate` are already judged online; this serves results
+    computed with the detector off.)"""
+    import numpy as np
+
+    labels = list(bond_log.labels)
+    efforts = efforts or [tuple(lbl.split("->")[1].split(".", 1)) for lbl in labels]
+    det = DivergenceDetector(labels, efforts, options)
+    t = bond_log.time
+    rows = np.stack([bond_log.p_out, bond_log.p_in, bond_log.energy], axis=1)
+    try:
+        for k in range(1, len(t)):
+            det.update(float(t[k]), rows[k], float(t[k] - t[k - 1]))
+    except Diverged as e:
+        return str(e)
+    return ""
+
+
+def diverged(df) -> bool:
+    """True if a result was stopped by the divergence detector (or, run without it, would have been)."""
+    if not df.attrs.get("complete", True) and df.attrs.get("diverged"):
+        return True
+    log = df.attrs.get("bonds")
+    if log is None or not getattr(log, "labels", None) or df.attrs.get("divergence_checked"):
+        return False
+    return bool(replay(log))
+
+
+__all__ = ["Diverged", "DivergenceOptions", "DivergenceDetector", "for_master", "replay", "diverged"]

@@ -1,0 +1,162 @@
+"""What a sweep checks before its first point, and the file its finished points are appended to.
+
+:func:`preflight` fails with one line (:class:`~harness.studies.sweep.SweepError`) naming the spec file, the
+key and the culprit when: the worker count is not an integer >= 0; the spec's ``system:`` key names another
+system; a parameter that a point sets is not a parameter of the system's FMUs (checked at every point, so an
+expression that fails at one point fails before any run); a quantity of interest names a variable no FMU has,
+or does not evaluate on a result of the right columns (a typo in a function name); the output file cannot be
+written (unknown suffix, Parquet without pyarrow, a folder that cannot be created).
+
+:class:`PointLog` appends each finished point to ``<out stem>.partial.csv`` as it finishes (header first).
+A sweep that completes writes ``--out`` and removes the partial file; one that is interrupted (Ctrl-C) or
+fails leaves it, with every finished point.  ``--resume`` reads it and skips the points it holds (points are
+matched on the values of the sweep variables).
+"""
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from harness import qoi
+
+
+def _fail(message: str):
+    from harness.studies.sweep import SweepError
+
+    raise SweepError(message)
+
+
+def check_workers(workers) -> int:
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
+        _fail(f"--workers {workers!r} is not admissible: give an integer >= 0 (0 runs the points in this process)")
+    return workers
+
+
+def check_out(out: Path) -> None:
+    suffix = out.suffix.lower()
+    if suffix not in (".csv", ".parquet"):
+        _fail(f"--out {out}: unknown result format {out.suffix or '(no suffix)'!r}: use .csv or .parquet")
+    if suffix == ".parquet":
+        try:
+            import pyarrow  # noqa: F401
+        except ImportError:
+            _fail(f"--out {out}: Parquet needs pyarrow (pip install pyarrow); use a .csv name")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        _fail(f"--out {out}: cannot create folder {out.parent}: {e.strerror}")
+    probe = out.parent / f".{out.name}.probe"
+    try:
+        probe.write_text("")
+        probe.unlink()
+    except OSError as e:
+        _fail(f"--out {out}: folder {out.parent} is not writable: {e.strerror}")
+
+
+def _variables(system) -> dict[str, dict]:
+    """``{instance: {variable name: ScalarVariable}}`` of the system's FMUs."""
+    from harness.model import model_description, resolve_fmu
+
+    return {inst.name: {v.name: v for v in model_description(resolve_fmu(inst.fmu)).modelVariables}
+            for inst in system.instances}
+
+
+def preflight(system_name: str, spec, out: Path | None, workers) -> None:
+    """Every check of the module docstring, before the first point runs."""
+    from harness import load
+
+    check_workers(workers)
+    if out is not None and Path(out).suffix.lower() not in (".csv", ".parquet"):
+        check_out(Path(out))  # the name alone is wrong: say so first
+    system = load(system_name)
+    src = spec.source
+    if spec.system is not None and str(spec.system) != system.name:
+        _fail(f"{src}: system: the spec was written for {spec.system!r}, not {system.name!r}: run "
+              f"'sweep {spec.system} --grid {src}' or change the spec's system key")
+    variables = _variables(system)
+    for k, point in enumerate(spec.points):
+        params = spec.parameters(point)
+        for name in params:
+            inst, _, var = name.partition(".")
+            what = f"{src}: " + (f"grid.{name}" if name in point else f"set.{name}")
+            if inst not in variables:
+                _fail(f"{what}: system {system.name} has no instance {inst!r} (instances: "
+                      f"{', '.join(variables)})")
+            v = variables[inst].get(var)
+            if v is None or v.causality != "parameter":
+                own = sorted(n for n, x in variables[inst].items() if x.causality == "parameter")
+                _fail(f"{what}: instance {inst} ({system.instance(inst).fmu}) has no parameter {var!r} "
+                      f"(parameters: {', '.join(own)})")
+            value = params[name]
+            if isinstance(value, float) and not math.isfinite(value):
+                _fail(f"{what}: {value!r} at point {k + 1} ({point}) is not a finite number")
+    for name, expr in spec.outputs.items():
+        cols = qoi.columns(expr)
+        for c in cols:
+            inst, _, var = c.partition(".")
+            if inst not in variables or var not in variables[inst]:
+                _fail(f"{src}: outputs.{name}: {expr!r} names {c!r}, which is no variable of system "
+                      f"{system.name}")
+        probe = pd.DataFrame({c: np.linspace(0.0, 1.0, 11) for c in cols},
+                             index=pd.Index(np.linspace(0.0, 1.0, 11), name="time"))
+        try:
+            qoi.evaluate(expr, probe)
+        except qoi.QoIError as e:
+            if "unknown name" in str(e) or "not allowed" in str(e) or "not an expression" in str(e):
+                _fail(f"{src}: outputs.{name}: {e}")
+        except Exception:  # a value error on made-up data (e.g. no rise) is not a spec error
+            pass
+    if out is not None:
+        check_out(Path(out))  # last: it creates the output folder
+
+
+def partial_path(out: Path) -> Path:
+    out = Path(out)
+    return out.with_name(f"{out.stem}.partial.csv")
+
+
+def point_key(spec, row) -> tuple:
+    return tuple(float(row[v]) for v in spec.variables)
+
+
+class PointLog:
+    """Appends finished points to ``path`` (CSV, header first); ``done`` holds the keys already there."""
+
+    def __init__(self, path: Path, spec, resume: bool):
+        self.path = Path(path)
+        self.spec = spec
+        self.columns = [*spec.variables, *(f"set:{k}" for k in spec.set if k not in spec.variables),
+                        *spec.outputs, "error", "wall_time"]
+        self.rows: list[dict] = []
+        if resume and self.path.exists():
+            old = pd.read_csv(self.path, keep_default_na=False, na_values=[""])
+            missing = [c for c in self.columns if c not in old.columns]
+            if missing:
+                _fail(f"--resume: {self.path} was written by another sweep (no column {missing[0]!r})")
+            old["error"] = old["error"].fillna("").astype(str)
+            self.rows = old[self.columns].to_dict("records")
+        elif self.path.exists():
+            self.path.unlink()
+        self.done = {point_key(spec, r) for r in self.rows}
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        if not self.path.exists():
+            with open(self.path, "w", newline="") as f:
+                csv.writer(f).writerow(self.columns)
+
+    def add(self, row: dict) -> None:
+        self.rows.append(row)
+        with open(self.path, "a", newline="") as f:
+            csv.writer(f).writerow([repr(row.get(c)) if isinstance(row.get(c), float) else row.get(c, "")
+                                    for c in self.columns])
+
+    def frame(self) -> pd.DataFrame:
+        order = {tuple(float(p[v]) for v in self.spec.variables): i for i, p in enumerate(self.spec.points)}
+        rows = sorted(self.rows, key=lambda r: order.get(point_key(self.spec, r), len(order)))
+        return pd.DataFrame(rows, columns=self.columns)
+
+
+__all__ = ["preflight", "check_workers", "check_out", "PointLog", "partial_path", "point_key"]

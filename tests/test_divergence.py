@@ -1,0 +1,168 @@
+"""The divergence detector (harness/divergence.py) on the two stability maps and the issue's cases.
+
+Stable points: every (value, master, order) of both maps at the largest step the map judged stable and a little
+below it must run to the end.  Unstable points: clearly beyond the boundary (x1.25 on the two-inertia map, x1.5
+on the bed-drive map) the run must be stopped by the detector, with one line naming the bond and the evidence,
+before any power passes the master's 1e12 blow-up check.  The exceptions are stated and measured below.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from harness import simulate
+from harness.divergence import DivergenceDetector, DivergenceOptions, Diverged, replay
+from harness.studies import stability as st
+
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "images"
+TI = pd.read_csv(DOCS / "stability_two_inertia_inertia.csv")
+BD = pd.read_csv(DOCS / "stability_bed_drive_fourbar_rocker_inertia.csv")
+
+
+def _ti_run(r):
+    p = TwoInertia = st.TwoInertia(J1=r.p_J1, J2=r.p_J2, c=r.p_c, d=r.p_d, c1=r.p_c1, d1=r.p_d1, c2=r.p_c2,
+                                   d2=r.p_d2)
+    return st.two_inertia_run(TwoInertia, r.master, int(r.order)), r.h_measured
+
+
+_REFS: dict = {}
+
+
+def _bd_run(r):
+    if r.value not in _REFS:
+        _REFS[r.value] = st.PressRun("bed_drive", "gauss-seidel", 0, {r.sweep: r.value}, duration=r.duration).ref
+    return st.PressRun("bed_drive", r.master, int(r.order), {r.sweep: r.value}, duration=r.duration,
+                       reference=_REFS[r.value])
+
+
+def _one_line_divergence(df):
+    err = df.attrs["error"]
+    assert "\n" not in err and "the run diverged on power bond" in err and "instance" in err, err
+    return err
+
+
+def test_two_inertia_map_stable_points_run_to_the_end():
+    for _, r in TI.iterrows():
+        run, hb = _ti_run(r)
+        for f in (0.99, 0.995):   # the bisection bracket is 0.5 % wide: 0.995 h is judged stable by the study
+            df = run(hb * f)
+            assert not st.is_unstable(df), (r.ratio, r.master, r.order, f)
+            assert df.attrs["complete"], (r.ratio, r.master, r.order, f, df.attrs["error"])
+
+
+def test_two_inertia_map_unstable_points_are_stopped():
+    stopped = 0
+    for _, r in TI.iterrows():
+        run, hb = _ti_run(r)
+        df = run(hb * 1.25)
+        assert st.is_unstable(df)
+        if r.master == "gauss-seidel" and r.order == 0:
+            # known miss: the bond's energy error stays near zero while the amplitude grows (module docstring)
+            continue
+        assert not df.attrs["complete"], (r.ratio, r.master, r.order)
+        if df.attrs["diverged"]:
+            _one_line_divergence(df)
+            stopped += 1
+        else:  # only the most violent blow-ups reach the master's check before the detector's first blocks
+            assert "blow-up limit" in df.attrs["error"] and len(df) < 64, (r.ratio, r.master, r.order)
+    assert stopped >= 18  # measured: 20 of these 25 by the detector, the other 5 by the blow-up check
+
+
+def test_bed_drive_map_stable_points_run_to_the_end():
+    for _, r in BD.iterrows():
+        prun = _bd_run(r)
+        for h in (r.h_stable, 0.9 * r.h_stable):
+            df = prun(h)
+            assert df.attrs["complete"], (r.value, r.master, r.order, h, df.attrs["error"])
+            assert not prun.judge(df)
+
+
+BD_MISSES = {(0.25, "gauss-seidel", 0), (1.0, "jacobi", 0), (2.5, "gauss-seidel", 0), (2.5, "gauss-seidel", 1)}
+
+
+def test_bed_drive_map_unstable_points_are_stopped():
+    by_detector = by_blowup = 0
+    for _, r in BD.iterrows():
+        prun = _bd_run(r)
+        df = prun(1.5 * r.h_unstable)
+        assert prun.judge(df)
+        if (r.value, r.master, r.order) in BD_MISSES:
+            # known misses (measured): judged unstable by their deviation from the reference, but their power
+            # grows less than 10x, or the coupling creates less than 5 % of it, within the map's 0.1 s window
+            # (one of them, 0.25 gauss-seidel 0, is stopped since the ring link became a power bond)
+            continue
+        assert not df.attrs["complete"], (r.value, r.master, r.order)
+        if df.attrs["diverged"]:
+            _one_line_divergence(df)
+            by_detector += 1
+        else:
+            # the violent blow-ups (power x30 per step) pass 1e12 within the detector's first 8 blocks (32 steps)
+            assert "blow-up limit" in df.attrs["error"] and len(df) <= 33, (r.value, r.master, r.order, len(df))
+            by_blowup += 1
+    assert by_detector >= 10  # measured: 12 by the detector, 14 by the blow-up check
+
+
+def test_bed_drive_jacobi_sampled_at_default_step_is_reported_incomplete_early():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        df = simulate("bed_drive", master="jacobi-sampled", step=2e-4)
+    assert not df.attrs["complete"] and df.attrs["diverged"]
+    assert df.index[-1] < 0.2
+    err = _one_line_divergence(df)
+    assert err.startswith(f"t = {df.index[-1]:.9g} s: instance ")
+    assert np.max(np.abs(df["bed.bed.v"])) < 5.0  # the bed was still within its physical speed range
+
+
+def test_two_inertia_default_setup_is_stopped():
+    """Undamped free-free Jacobi with zero-order hold is unstable at every step (stability theory); at the
+    default step it grows 17x in 1 s without the detector."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        df = simulate("two_inertia")
+    assert not df.attrs["complete"] and df.attrs["diverged"]
+    _one_line_divergence(df)
+
+
+def test_stable_drives_with_load_onsets_are_not_stopped():
+    """spine_knife: the cut starts on bonds that carried no power (growth from numerical rest)."""
+    for system in ("spine_knife", "feeder_gto52"):
+        df = simulate(system, stop_time=0.5)
+        assert df.attrs["complete"], (system, df.attrs["error"])
+
+
+def test_detector_can_be_switched_off_and_replayed():
+    from harness import RunOptions
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        df = simulate("two_inertia", options=RunOptions(divergence=None))
+    assert df.attrs["complete"]
+    reason = replay(df.attrs["bonds"])
+    assert "the run diverged on power bond a.flange->b.drive" in reason
+
+
+def test_detector_on_synthetic_growth_and_steady_signals():
+    def feed(powers, created):
+        det = DivergenceDetector(["a.p->b.p"], [("b", "p.tau")])
+        e = 0.0
+        for k, p in enumerate(powers):
+            e += created * abs(p) * 1e-3
+            det.update((k + 1) * 1e-3, np.array([[p], [p], [e]]), 1e-3)
+
+    steady = [10.0 * math.sin(0.3 * k) for k in range(2000)]
+    feed(steady, 0.5)                            # no growth: never stopped, whatever the energy error
+    growing = [math.exp(0.01 * k) * math.sin(0.3 * k) for k in range(2000)]
+    feed(growing, 0.0)                           # growth without energy created by the coupling: not stopped
+    with pytest.raises(Diverged, match="instance b: output p.tau: the run diverged on power bond a.p->b.p"):
+        feed(growing, 0.05)
+
+
+@pytest.mark.parametrize("bad", [dict(block=0), dict(growth=-1.0), dict(creation=float("nan"))])
+def test_options_are_checked(bad):
+    with pytest.raises(ValueError, match="DivergenceOptions"):
+        DivergenceOptions(**bad)
