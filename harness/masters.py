@@ -224,9 +224,16 @@ class Master:
         self.signal_index = {n: k for k, n in enumerate(names)}
         self.y = np.zeros(len(names))
         self.history = History(len(names), self.history_depth())
-        # held-input vector u: every connected input, instance after instance (u = fac * y[src] + off)
+        # held-input vector u: every connected Real input, instance after instance (u = fac * y[src] + off);
+        # Integer/Boolean/String/Enumeration connections are passed on as sampled values (_pass_discrete)
         by_target: dict[str, list] = {n: [] for n in fmus}
+        self._discrete: list[tuple] = []
         for c in self.connections:
+            si, sv = c.source.split(".", 1)
+            if fmus[si].var(sv).type != "Real":
+                ti, tv = c.target.split(".", 1)
+                self._discrete.append((fmus[si], sv, fmus[ti], tv))
+                continue
             by_target[c.target.split(".", 1)[0]].append(c)
         ordered = [c for it in self.insts for c in by_target[it.name]]
         self.src = np.array([self.signal_index[c.source] for c in ordered], dtype=np.intp)
@@ -330,6 +337,13 @@ class Master:
         self.bond_log[:] = (p_out, p_in, energy)
 
     # -- coupling primitives -----------------------------------------------------------------------------------
+    def _pass_discrete(self) -> None:
+        """Integer, Boolean, String and Enumeration connections: each target input takes its source's value
+        at the current communication point and holds it over the step (no transformation, no
+        extrapolation), as libcosim and Ecos pass such values."""
+        for src, sv, dst, dv in self._discrete:
+            dst.set_value(dv, src.get_value(sv))
+
     def _read(self, it: _Inst) -> None:
         self.y[it.sl] = it.fmu.get(it.out)
 
@@ -478,6 +492,8 @@ class Master:
         self._exchange(t)  # outputs in initialization mode, then every input from them
         for it in self.insts:
             self._set_point_inputs(it)
+        if self._discrete:
+            self._pass_discrete()
         self._exchange(t)
         for it in self.insts:
             it.fmu.exit_initialization()
@@ -491,6 +507,8 @@ class Master:
         """One communication step from t_ns (must be the current time) of h_ns nanoseconds."""
         t, h, t_next = t_ns / NS, h_ns / NS, (t_ns + h_ns) / NS
         y0 = self._y_list if self._y_list is not None else self.y.tolist()
+        if self._discrete:
+            self._pass_discrete()
         self._step_impl(t, h, t_next)
         y = self._y_list = self.y.tolist()
         self._check(t_next, y)
