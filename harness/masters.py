@@ -32,7 +32,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from harness import graph
+from harness import coupling, graph
+from harness.coupling import Inst as _Inst
 from harness.errors import AlgebraicLoopError, FMUError, HarnessError, SimulationError, SystemError_
 from harness.extrapolation import DEPTH, History, Polynomial
 
@@ -113,18 +114,6 @@ def solve_fixed_point(g, u0: np.ndarray, options: IterationOptions, tol: float, 
         gu = g(u)
     raise ConvergenceError(f"{what}: no convergence in {options.max_iterations} iterations of {method} "
                            f"(residual {err:.3g} > tolerance {tol:.3g})")
-
-
-class _Inst:
-    """Prepared coupling data of one instance (built once).  ``isl`` is its slice of the held-input vector
-    ``Master.u`` (``held``, ``src``, ``fac``, ``off`` are views of the master's arrays over it); ``sl`` its
-    slice of the signal vector ``Master.y``; ``pos_idx`` the positions (in its inputs) of bond positions it
-    advances itself; ``feedthrough`` whether any connected input reaches an output directly."""
-    __slots__ = ("name", "fmu", "sl", "isl", "out", "inp", "src", "fac", "off", "held", "feedthrough", "interp",
-                 "input_pos", "pos_idx")
-
-    def __init__(self, name, fmu):
-        self.name, self.fmu = name, fmu
 
 
 def exchange_plan(groups: list[list[int]], insts: list[_Inst], connections, mds: dict,
@@ -208,51 +197,14 @@ class Master:
         self.mds = mds
         self.groups = graph.evaluation_order(self.connections, mds)
         self.loops = loops
-        # signal vector y: every Real output of every instance, instance after instance
-        self.insts: list[_Inst] = []
-        self.index: dict[str, int] = {}
-        names: list[str] = []
-        for name, fmu in fmus.items():
-            it = _Inst(name, fmu)
-            outs = [v.name for v in fmu.md.modelVariables if v.causality == "output" and v.type == "Real"]
-            it.sl = slice(len(names), len(names) + len(outs))
-            it.out = fmu.reals(outs)
-            names.extend(f"{name}.{o}" for o in outs)
-            self.index[name] = len(self.insts)
-            self.insts.append(it)
-        self.signal_names = names
-        self.signal_index = {n: k for k, n in enumerate(names)}
-        self.y = np.zeros(len(names))
-        self.history = History(len(names), self.history_depth())
-        # held-input vector u: every connected Real input, instance after instance (u = fac * y[src] + off);
-        # Integer/Boolean/String/Enumeration connections are passed on as sampled values (_pass_discrete)
-        by_target: dict[str, list] = {n: [] for n in fmus}
-        self._discrete: list[tuple] = []
-        for c in self.connections:
-            si, sv = c.source.split(".", 1)
-            if fmus[si].var(sv).type != "Real":
-                ti, tv = c.target.split(".", 1)
-                self._discrete.append((fmus[si], sv, fmus[ti], tv))
-                continue
-            by_target[c.target.split(".", 1)[0]].append(c)
-        ordered = [c for it in self.insts for c in by_target[it.name]]
-        self.src = np.array([self.signal_index[c.source] for c in ordered], dtype=np.intp)
-        self.fac = np.array([float(c.factor) for c in ordered])
-        self.off = np.array([float(c.offset) for c in ordered])
-        self.u = np.zeros(len(ordered))
-        start = 0
-        for it in self.insts:
-            cs = by_target[it.name]
-            it.isl = slice(start, start + len(cs))
-            start += len(cs)
-            it.inp = it.fmu.reals([c.target.split(".", 1)[1] for c in cs])
-            it.input_pos = {c.target.split(".", 1)[1]: k for k, c in enumerate(cs)}
-            it.src, it.fac, it.off, it.held = self.src[it.isl], self.fac[it.isl], self.off[it.isl], self.u[it.isl]
-            deps = graph.direct_dependencies(mds[it.name])
-            ft = {d for ds in deps.values() for d in ds}
-            it.feedthrough = any(c.target.split(".", 1)[1] in ft for c in cs)
-            it.interp = it.fmu.can_interpolate_inputs and self.extrapolation.order > 0
-            it.pos_idx = np.zeros(0, dtype=np.intp)
+        # the signal vector y, the held-input vector u and the non-Real connections (harness.coupling)
+        lay = coupling.layout(fmus, self.connections, mds, self.extrapolation.order > 0)
+        self.insts, self.index = lay.insts, lay.index
+        self.signal_names, self.signal_index = lay.signal_names, lay.signal_index
+        self.y = np.zeros(len(lay.signal_names))
+        self.history = History(len(lay.signal_names), self.history_depth())
+        self.src, self.fac, self.off, self.u = lay.src, lay.fac, lay.off, lay.u
+        self._discrete = lay.discrete
         self._group_idx = [[self.index[n] for n in g] for g in self.groups]
         in_loops = {n.split(".", 1)[0] for loop in loops for n in loop}
         self._loop_groups = {k for k, g in enumerate(self.groups) if any(n in in_loops for n in g)}
