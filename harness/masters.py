@@ -293,8 +293,9 @@ class Master:
         """Integer, Boolean, String and Enumeration connections: each target input takes its source's value
         at the current communication point and holds it over the step (no transformation, no
         extrapolation), as libcosim and Ecos pass such values."""
-        for src, sv, dst, dv in self._discrete:
-            dst.set_value(dv, src.get_value(sv))
+        values = [src.get_value(sv) for src, sv, _, _ in self._discrete]  # every source first: a target
+        for (_, _, dst, dv), value in zip(self._discrete, values):      # may feed one through
+            dst.set_value(dv, value)
 
     def _read(self, it: _Inst) -> None:
         self.y[it.sl] = it.fmu.get(it.out)
