@@ -30,6 +30,8 @@ RTOL = 1e-9          # result check: |value - reference| <= RTOL * (|reference| 
 REFERENCE = "jacobi-sampled"
 PLAIN_FMI = "jacobi-sampled-fmi"      # the same master through the FMUs' C libraries (no in-process path)
 REALTIME_SYSTEM = "bed_drive"         # whose default scene must run >= 5x faster than real time
+DECLARED_GOALS = {"bed_drive": 10.0, "feeder_gto52": 5.0}   # issue 21: real-time factor of the declared model
+SWEEP_SYSTEM, SWEEP_GOAL = "feeder_gto52", 0.050   # issue 21: per-point overhead of a warm sweep worker [s]
 FIELDS = ("case", "tool", "mode", "fmus", "steps", "step", "seconds", "us_per_fmu_step", "ratio_harness_to_tool",
           "same_result", "max_rel_deviation", "realtime_factor", "note")
 
@@ -111,11 +113,15 @@ def run_all(cases: list[str], tools: list[str], modes: list[str], quick: bool, w
         _check(rows, name, results, columns, convention_references(tools, base, timeout))
     if realtime:
         rows.extend(run_realtime(REALTIME_SYSTEM, modes, quick, work, timeout, log))
+        for name in DECLARED_GOALS:
+            if name != REALTIME_SYSTEM:
+                rows.extend(run_realtime(name, modes, quick, work, timeout, log, kinds=("experiment",)))
+        rows.extend(run_sweep_overhead(SWEEP_SYSTEM, modes, quick, timeout, log))
     _ratios(rows)
     return rows
 
 
-def realtime_runs(system_name: str, cache: Path, log=print) -> list[tuple[str, str, dict]]:
+def realtime_runs(system_name: str, cache: Path, log=print, kinds=("scene", "experiment")) -> list[tuple[str, str, dict]]:
     """(kind, label, run) of the system's default scene and of its default experiment.
 
     The default scene is answered by :func:`harness.studies.scenes.choose` (the coarsest model within the scene's
@@ -126,21 +132,25 @@ def realtime_runs(system_name: str, cache: Path, log=print) -> list[tuple[str, s
 
     system = load(system_name)
     exp = system.experiment
+    declared = ("experiment", f"default experiment (declared model): step {exp.step:g} s, {exp.master}",
+                dict(stop_time=exp.stop_time, step=exp.step, master=exp.master, parameters={}))
+    if "scene" not in kinds:
+        return [declared]
     scene = find_scene(system)
     log(f"{system_name}: choosing the model of the default scene {scene.name!r} ({scene.question})")
     chosen = choose(system, scene, cache_dir=cache).chosen
     fid = ", ".join(f"{k} {v}" for k, v in chosen.fidelities.items())
     return [("scene", f"default scene {scene.name}: fidelity {fid}; step {chosen.step:g} s, {chosen.master}",
              dict(stop_time=scene.stop_time or exp.stop_time, step=chosen.step, master=chosen.master,
-                  parameters={f"{k}.fidelity": v for k, v in chosen.fidelities.items()})),
-            ("experiment", f"default experiment (declared model): step {exp.step:g} s, {exp.master}",
-             dict(stop_time=exp.stop_time, step=exp.step, master=exp.master, parameters={}))]
+                  parameters={f"{k}.fidelity": v for k, v in chosen.fidelities.items()}))] + (
+        [declared] if "experiment" in kinds else [])
 
 
-def run_realtime(system_name: str, modes: list[str], quick: bool, work: Path, timeout: float, log=print) -> list[dict]:
-    """Real-time factor of the default scene and of the default experiment, in each mode."""
+def run_realtime(system_name: str, modes: list[str], quick: bool, work: Path, timeout: float, log=print,
+                 kinds=("scene", "experiment")) -> list[dict]:
+    """Real-time factor of the default scene and of the default experiment (``kinds``), in each mode."""
     rows = []
-    for kind, label, run in realtime_runs(system_name, work / "cache", log):
+    for kind, label, run in realtime_runs(system_name, work / "cache", log, kinds):
         for mode in modes:
             out = run_config({"case": system_name, "tool": "realtime", "run": run, "quick": quick}, mode, timeout)
             row = {"case": f"{system_name} ({kind})", "tool": run["master"], "mode": mode, "step": None,
@@ -154,6 +164,26 @@ def run_realtime(system_name: str, modes: list[str], quick: bool, work: Path, ti
                 row["note"] += f"; real-time factor {row['realtime_factor']:.3g}"
             log(f"{system_name} {kind:10s} {mode:9s} {row['note']}")
             rows.append(row)
+    return rows
+
+
+def run_sweep_overhead(system_name: str, modes: list[str], quick: bool, timeout: float, log=print) -> list[dict]:
+    """Per-point overhead of a sweep worker (everything but stepping): the wall time of
+    :func:`harness.studies.sweep.run_point` for a ONE-step run, on a warm worker process (after a first point),
+    in each mode (:func:`benchmarks.runners.run_sweep_overhead`)."""
+    rows = []
+    for mode in modes:
+        out = run_config({"case": system_name, "tool": "sweep-overhead", "quick": quick}, mode, timeout)
+        row = {"case": f"{system_name} (sweep point)", "tool": "run_point", "mode": mode, "step": None,
+               "kind": "sweep", "note": "per-point overhead of a warm worker, one-step runs"}
+        if "error" in out:
+            row["note"] += "; failed: " + out["error"]
+        else:
+            row.update(seconds=out["seconds"], overhead_s=out["overhead_s"], first_point_s=out["first_point_s"])
+            row["note"] += (f": {1e3 * out['overhead_s']:.1f} ms per point (median of {out['points']}; "
+                            f"first point of the worker {1e3 * out['first_point_s']:.0f} ms)")
+        log(f"{system_name} sweep      {mode:9s} {row['note']}")
+        rows.append(row)
     return rows
 
 
@@ -242,6 +272,20 @@ def targets(rows: list[dict]) -> list[tuple[str, bool | None, str]]:
         if r.get("kind") == "scene" and "realtime_factor" in r:
             out.append((f"{REALTIME_SYSTEM} default scene >= 5x faster than real time ({r['mode']})",
                         r["realtime_factor"] >= 5.0, r["note"]))
+    for name, goal in DECLARED_GOALS.items():
+        for mode in MODES:
+            r = next((r for r in rows if r.get("kind") == "experiment" and r["mode"] == mode
+                      and r["case"] == f"{name} (experiment)"), None)
+            if r is None:
+                continue
+            what = f"{name} declared model >= {goal:g}x real time ({mode})"
+            out.append((what, None, r.get("note", "")) if "realtime_factor" not in r
+                       else (what, r["realtime_factor"] >= goal, r.get("note", "")))
+    for r in rows:
+        if r.get("kind") == "sweep":
+            what = f"sweep point overhead of a warm worker < {1e3 * SWEEP_GOAL:g} ms ({r['mode']})"
+            out.append((what, None, r.get("note", "")) if "overhead_s" not in r
+                       else (what, r["overhead_s"] < SWEEP_GOAL, r.get("note", "")))
     return out
 
 
@@ -319,7 +363,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="bar chart path (.png; an .svg is written beside it)")
     ap.add_argument("--no-chart", action="store_true")
     ap.add_argument("--no-realtime", action="store_true",
-                    help=f"skip the real-time runs of {REALTIME_SYSTEM} (default scene and default experiment)")
+                    help=f"skip the real-time runs ({REALTIME_SYSTEM}'s default scene, the declared models of "
+                         f"{', '.join(DECLARED_GOALS)}) and the sweep's per-point overhead")
     ap.add_argument("--timeout", type=float, default=1800.0, help="per configuration [s]")
     args = ap.parse_args(argv)
     cases = _csv_list(args.cases, CASES, "cases")

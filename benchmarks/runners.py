@@ -206,6 +206,27 @@ def run_realtime(system_name: str, run: dict, quick: bool) -> dict:
             "final": {"stop_time": stop}}
 
 
+def run_sweep_overhead(system_name: str, quick: bool, points: int = 7) -> dict:
+    """Wall time of :func:`harness.studies.sweep.run_point` for one-step runs of ``system_name`` (so nearly all
+    of it is what a point costs besides stepping): the first point of this process (cold: imports, FMU
+    extraction) and the median of ``points`` further points, each with another parameter value."""
+    import statistics
+
+    from harness import load
+    from harness.studies.sweep import parse_spec, run_point
+
+    step = load(system_name).experiment.step
+    spec = parse_spec({"grid": {"feeder.clearance": [1e-5]}, "stop_time": step}, f"<{system_name} overhead>")
+    n = 2 if quick else points
+    rows = [run_point(system_name, spec, {"feeder.clearance": 1e-5 + 1e-6 * k}) for k in range(n + 1)]
+    bad = [r["error"] for r in rows if r["error"]]
+    if bad:
+        raise RuntimeError(f"{system_name} sweep point: {bad[0]}")
+    warm = [r["wall_time"] for r in rows[1:]]
+    return {"seconds": sum(warm), "overhead_s": statistics.median(warm), "first_point_s": rows[0]["wall_time"],
+            "points": n}
+
+
 def check_columns_of(system):
     from benchmarks.cases import check_columns
 

@@ -13,7 +13,9 @@ def main(argv: list[str] | None = None) -> int:
     from benchmarks import runners
 
     try:
-        if spec["tool"] == "realtime":
+        if spec["tool"] == "sweep-overhead":
+            out = runners.run_sweep_overhead(spec["case"], spec["quick"])
+        elif spec["tool"] == "realtime":
             out = runners.run_realtime(spec["case"], spec["run"], spec["quick"])
         else:
             out = runners.run(spec["tool"], spec["folder"], spec["step"], spec["n"], spec["columns"],

@@ -88,3 +88,94 @@ def implicit_midpoint(f: Derivatives, t0: float, h: float, x: np.ndarray, u: Seq
                 break
         x = z
     return x
+
+
+
+def phi_matrices_2x2(j00: float, j01: float, j10: float, j11: float, h: float):
+    """(A, B, C) = (h phi1(hJ), h^2 phi2(hJ), h^3 phi3(hJ)) of a 2x2 matrix J, each as a row-major 4-tuple.
+
+    phi1(z) = (e^z - 1)/z, phi2(z) = (e^z - 1 - z)/z^2, phi3(z) = (e^z - 1 - z - z^2/2)/z^3: the exact increments
+    over [0, h] of dy/dt = J y + f + g t + k t^2/2 from y(0) = 0 are A f + B g + C k.  Computed without a matrix
+    inverse (J may be singular, h J tiny): the Taylor series at tau = h / 2^s, reduced to first degree in tau J
+    by Cayley-Hamilton (M^j = c_j M + d_j I from the trace p and determinant q of M = tau J, all real), with s
+    chosen so that tau times the spectral radius of J is at most 1/2, then s doublings of the flow (E = e^{tau J};
+    the forcing of the second half is shifted by tau):  E' = E E,  A' = E A + A,  B' = E B + tau A + B,
+    C' = E C + tau^2/2 A + tau B + C.
+    """
+    p = (j00 + j11) * h
+    q = (j00 * j11 - j01 * j10) * h * h
+    disc = 0.25 * p * p - q
+    rho = abs(0.5 * p) + math.sqrt(disc) if disc >= 0.0 else math.sqrt(q)
+    s = int(math.ceil(math.log2(rho / 0.5))) if rho > 0.5 else 0
+    scale = 2.0 ** -s
+    tau = h * scale
+    p *= scale
+    q *= scale * scale
+    c, d = 0.0, 1.0     # M^j = c M + d I:  c_{j+1} = p c_j + d_j,  d_{j+1} = -q c_j
+    w_e = 1.0           # 1/j!
+    e_c = e_d = a_c = a_d = b_c = b_d = k_c = k_d = 0.0
+    for j in range(40):
+        w_a = w_e / (j + 1)
+        w_b = w_a / (j + 2)
+        w_k = w_b / (j + 3)
+        e_c += w_e * c
+        e_d += w_e * d
+        a_c += w_a * c
+        a_d += w_a * d
+        b_c += w_b * c
+        b_d += w_b * d
+        k_c += w_k * c
+        k_d += w_k * d
+        if j >= 3 and abs(w_e * c) + abs(w_e * d) < 1e-17 * (abs(e_c) + abs(e_d)):
+            break
+        c, d = p * c + d, -q * c
+        w_e /= j + 1
+    m00, m01, m10, m11 = tau * j00, tau * j01, tau * j10, tau * j11
+    e = (e_c * m00 + e_d, e_c * m01, e_c * m10, e_c * m11 + e_d)
+    a = (tau * (a_c * m00 + a_d), tau * a_c * m01, tau * a_c * m10, tau * (a_c * m11 + a_d))
+    t2 = tau * tau
+    b = (t2 * (b_c * m00 + b_d), t2 * b_c * m01, t2 * b_c * m10, t2 * (b_c * m11 + b_d))
+    t3 = t2 * tau
+    k = (t3 * (k_c * m00 + k_d), t3 * k_c * m01, t3 * k_c * m10, t3 * (k_c * m11 + k_d))
+    for _ in range(s):
+        half_t2 = 0.5 * tau * tau
+        k = tuple(x + y for x, y in zip(_mul(e, k), (half_t2 * a[i] + tau * b[i] + k[i] for i in range(4))))
+        b = tuple(x + y for x, y in zip(_mul(e, b), (tau * a[i] + b[i] for i in range(4))))
+        a = tuple(x + y for x, y in zip(_mul(e, a), a))
+        e = _mul(e, e)
+        tau *= 2.0
+    return a, b, k
+
+
+def _mul(x, y):
+    return (x[0] * y[0] + x[1] * y[2], x[0] * y[1] + x[1] * y[3], x[2] * y[0] + x[3] * y[2], x[2] * y[1] + x[3] * y[3])
+
+
+def exprb32_pair(acc: Callable[[float, float, float], float], t: float, dt: float, q: float, v: float):
+    """ONE exponential Rosenbrock step of order 3 (exprb32, Hochbruck and Ostermann, Acta Numerica 2010,
+    sec. 2.4) of q' = v, v' = acc(t, q, v) from t over dt, in plain floats: (q, v) at t + dt.
+
+    With F0 the rates at the step start, J = [[0, 1], [a_q, a_v]] and g = (0, a_t) their derivatives (by
+    differences; exact for the columns in which acc is affine), A, B, C = phi_matrices_2x2(J, dt):
+
+        U = y0 + A F0 + B g,     D = F(t + dt, U) - F0 - J (U - y0) - g dt,     y1 = U + (2 / dt^2) C D.
+
+    The linear part is integrated exactly (no stability limit from a stiff spring in J); the method is exact for
+    a linear system with forcing quadratic in time and of order 3 otherwise (tests/test_exponential.py)."""
+    a0 = acc(t, q, v)
+    # central differences in q and t with steps large enough that the rounding of acc (a spring force from a
+    # small difference of lengths) stays below 1e-10 of the derivative: results do not depend on the last bits
+    # of the time doubles a host hands over (tests/test_ssp.py compares hosts to 1e-9)
+    dq = 1e-5 * (1.0 + abs(q))
+    dv = 1e-3 * (1.0 + abs(v))
+    tp, tm = t + 1e-2 * dt, t - 1e-2 * dt
+    a_q = (acc(t, q + dq, v) - acc(t, q - dq, v)) / (2.0 * dq)
+    a_v = (acc(t, q, v + dv) - a0) / dv      # exact up to rounding where acc is affine in v
+    g = (acc(tp, q, v) - acc(tm, q, v)) / (tp - tm)
+    a, b, c = phi_matrices_2x2(0.0, 1.0, a_q, a_v, dt)
+    u0 = a[0] * v + a[1] * a0 + b[1] * g          # U - y0
+    u1 = a[2] * v + a[3] * a0 + b[3] * g
+    # D: its first component (v + u1) - v - u1 vanishes (q' = v is linear)
+    d1 = acc(t + dt, q + u0, v + u1) - a0 - (a_q * u0 + a_v * u1) - g * dt
+    k = 2.0 / (dt * dt)
+    return q + u0 + k * c[1] * d1, v + u1 + k * c[3] * d1
