@@ -30,6 +30,47 @@ def ring(n: int = RING_SIZE) -> System:
     )
 
 
+PLAIN_SCRIPT = Path(__file__).resolve().parents[1] / "tests" / "foreign" / "plain_lag.py"
+
+
+def plain_lag_fmu(out: Path | None = None) -> Path:
+    """PlainLag.fmu built from tests/foreign/plain_lag.py with ``pythonfmu build``, as a new user builds it
+    (no ModelStructure dependencies, no FMU state); rebuilt when the script is newer."""
+    import subprocess
+    import sys
+
+    out = Path(out) if out is not None else Path(__file__).resolve().parents[1] / "build" / "plain"
+    fmu = out / "PlainLag.fmu"
+    if fmu.is_file() and fmu.stat().st_mtime >= PLAIN_SCRIPT.stat().st_mtime:
+        return fmu
+    out.mkdir(parents=True, exist_ok=True)
+    exe = Path(sys.executable).with_name("pythonfmu")
+    r = subprocess.run([str(exe), "build", "-f", str(PLAIN_SCRIPT), "-d", str(out)], capture_output=True, text=True)
+    if r.returncode != 0 or not fmu.is_file():
+        raise RuntimeError(f"pythonfmu build of {PLAIN_SCRIPT} failed: {r.stderr.strip()[-300:]}")
+    return fmu
+
+
+def plain_ring(n: int = RING_SIZE) -> System:
+    """``n`` plain pythonfmu lags (``y' = (k u - y)/tau``, explicit Euler in the step) in a ring ``lag[i].y ->
+    lag[i+1].u``.  Their outputs declare no dependencies: the masters take them as sampled after the step
+    (AssumptionWarning), as libcosim and Ecos do."""
+    fmu = str(plain_lag_fmu())
+    return System(
+        name="plain_ring",
+        description=f"ring of {n} plain pythonfmu FMUs (no dependencies, no FMU state)",
+        instances=[Instance(f"lag{i}", fmu, {"y0": float(i + 1), "k": -0.5 + 0.1 * i, "tau": 0.5 + 0.2 * i})
+                   for i in range(n)],
+        connections=[Connection(f"lag{i}.y", f"lag{(i + 1) % n}.u") for i in range(n)],
+        experiment=Experiment(stop_time=10.0, step=1e-3, master="jacobi-sampled"),
+    )
+
+
+# cases whose outputs declare no dependencies but are states by construction (known from their source): every
+# Real output is checked
+ALL_OUTPUTS_CHECKED = {"plain_ring"}
+
+
 @dataclass(frozen=True)
 class Case:
     name: str
@@ -40,6 +81,8 @@ class Case:
     def system(self) -> System:
         if self.name == "ring":
             return ring()
+        if self.name == "plain_ring":
+            return plain_ring()
         from harness import load
 
         return load(self.name)
@@ -52,6 +95,7 @@ class Case:
 # harness's jacobi-sampled) is unstable (blow-up at t = 0.035 s); the harness's jacobi is stable there.
 CASES = {
     "ring": Case("ring", 1e-3, 10_000, 200),
+    "plain_ring": Case("plain_ring", 1e-3, 10_000, 200),
     # two_inertia (undamped, free-free) is unstable under Jacobi with zero-order hold at every step (README,
     # Coupling stability): 2 000 steps keep the growth far below the blow-up limit, so every tool finishes
     "two_inertia": Case("two_inertia", 1e-3, 2_000, 200),
@@ -72,7 +116,8 @@ def check_columns(system: System) -> list[str]:
         md = model_description(resolve_fmu(inst.fmu))
         deps = graph.direct_dependencies(md)
         for v in md.modelVariables:
-            if v.causality == "output" and v.type == "Real" and not deps.get(v.name):
+            if v.causality == "output" and v.type == "Real" and (
+                    not deps.get(v.name) or system.name in ALL_OUTPUTS_CHECKED):
                 cols.append(f"{inst.name}.{v.name}")
     return cols
 

@@ -23,6 +23,35 @@ def direct_dependencies(md) -> dict[str, list[str]]:
     return out
 
 
+def undeclared_outputs(md) -> list[str]:
+    """Outputs whose ModelStructure entry declares no ``dependencies`` (FMI 2.0: they may depend on every
+    input).  pythonfmu and many exporters write none."""
+    declared = {u.variable.name for u in md.outputs if u.dependencies is not None}
+    return [v.name for v in md.modelVariables if v.causality == "output" and v.name not in declared]
+
+
+class DeclaredOnly:
+    """A view of a model description in which an output without declared ``dependencies`` depends on no
+    input (what libcosim, Ecos and OMSimulator assume when they sample outputs after the step).  Only the
+    attributes the graph functions read are provided."""
+
+    def __init__(self, md):
+        self.md = md
+        self.modelName = md.modelName
+        self.modelVariables = md.modelVariables
+        declared = [u for u in md.outputs if u.dependencies is not None]
+        names = {u.variable.name for u in declared}
+        self.outputs = declared + [_Unknown(v) for v in md.modelVariables
+                                   if v.causality == "output" and v.name not in names]
+
+
+class _Unknown:
+    __slots__ = ("variable", "dependencies")
+
+    def __init__(self, variable):
+        self.variable, self.dependencies = variable, []
+
+
 def variable_graph(connections, model_descriptions: dict) -> nx.DiGraph:
     g = nx.DiGraph()
     for inst, md in model_descriptions.items():

@@ -16,22 +16,32 @@ At every communication point the outputs are made consistent (:meth:`Master._exc
 evaluated in the direct-feed-through order of :func:`harness.graph.evaluation_order`; an instance with
 feed-through gets the point values of its sources before its outputs are read.  A feed-through cycle (an
 algebraic loop) is detected when the master is built: ``jacobi`` and ``gauss-seidel`` refuse it
-(:class:`AlgebraicLoopError` naming the loop), ``iterative`` solves it.
+(:class:`AlgebraicLoopError` naming the loop), ``iterative`` solves it.  A loop that exists only because
+outputs declare no ``dependencies`` (FMI 2.0's default: "may depend on every input") is not refused: those
+outputs are taken as sampled after the step, as libcosim, Ecos and OMSimulator do, with one
+:class:`AssumptionWarning` naming the FMUs (:meth:`Master._assume_sampled`).
 
 Master time is an integer number of nanoseconds; ``t = t_ns / 1e9`` is computed from it, never accumulated.
 """
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 
-from harness import graph
+from harness import coupling, graph
 from harness.clock import NS
+from harness.coupling import Inst as _Inst
 from harness.errors import AlgebraicLoopError, FMUError, HarnessError, SimulationError, SystemError_
 from harness.extrapolation import DEPTH, History, Polynomial
+
+
+class AssumptionWarning(UserWarning):
+    """The master assumed something the FMUs do not declare (e.g. no feed-through of outputs without
+    ``dependencies``)."""
 
 
 class ConvergenceError(HarnessError):
@@ -105,18 +115,6 @@ def solve_fixed_point(g, u0: np.ndarray, options: IterationOptions, tol: float, 
                            f"(residual {err:.3g} > tolerance {tol:.3g})")
 
 
-class _Inst:
-    """Prepared coupling data of one instance (built once).  ``isl`` is its slice of the held-input vector
-    ``Master.u`` (``held``, ``src``, ``fac``, ``off`` are views of the master's arrays over it); ``sl`` its
-    slice of the signal vector ``Master.y``; ``pos_idx`` the positions (in its inputs) of bond positions it
-    advances itself; ``feedthrough`` whether any connected input reaches an output directly."""
-    __slots__ = ("name", "fmu", "sl", "isl", "out", "inp", "src", "fac", "off", "held", "feedthrough", "interp",
-                 "input_pos", "pos_idx")
-
-    def __init__(self, name, fmu):
-        self.name, self.fmu = name, fmu
-
-
 def exchange_plan(groups: list[list[int]], insts: list[_Inst], connections, mds: dict,
                   loop_groups: set[int]) -> list[tuple]:
     """The operations that make every output consistent at a communication point, computed once.
@@ -187,51 +185,25 @@ class Master:
         self.fmus = fmus
         mds = {n: f.md for n, f in fmus.items()}
         self.connections = list(connections)
-        self.groups = graph.evaluation_order(self.connections, mds)
         loops = graph.algebraic_loops(self.connections, mds)
+        self.assumed: dict[str, list[str]] = {}
+        if loops and not self.solves_loops:
+            mds, loops = self._assume_sampled(mds, loops)
         if loops and not self.solves_loops:
             text = "; ".join(" -> ".join(loop) for loop in loops)
             raise AlgebraicLoopError(f"algebraic loop(s) of direct feed-through: {text}; master {self.name!r} "
                                      f"cannot solve them, use master='iterative'", loops)
+        self.mds = mds
+        self.groups = graph.evaluation_order(self.connections, mds)
         self.loops = loops
-        # signal vector y: every Real output of every instance, instance after instance
-        self.insts: list[_Inst] = []
-        self.index: dict[str, int] = {}
-        names: list[str] = []
-        for name, fmu in fmus.items():
-            it = _Inst(name, fmu)
-            outs = [v.name for v in fmu.md.modelVariables if v.causality == "output" and v.type == "Real"]
-            it.sl = slice(len(names), len(names) + len(outs))
-            it.out = fmu.reals(outs)
-            names.extend(f"{name}.{o}" for o in outs)
-            self.index[name] = len(self.insts)
-            self.insts.append(it)
-        self.signal_names = names
-        self.signal_index = {n: k for k, n in enumerate(names)}
-        self.y = np.zeros(len(names))
-        self.history = History(len(names), self.history_depth())
-        # held-input vector u: every connected input, instance after instance (u = fac * y[src] + off)
-        by_target: dict[str, list] = {n: [] for n in fmus}
-        for c in self.connections:
-            by_target[c.target.split(".", 1)[0]].append(c)
-        ordered = [c for it in self.insts for c in by_target[it.name]]
-        self.src = np.array([self.signal_index[c.source] for c in ordered], dtype=np.intp)
-        self.fac = np.array([float(c.factor) for c in ordered])
-        self.off = np.array([float(c.offset) for c in ordered])
-        self.u = np.zeros(len(ordered))
-        start = 0
-        for it in self.insts:
-            cs = by_target[it.name]
-            it.isl = slice(start, start + len(cs))
-            start += len(cs)
-            it.inp = it.fmu.reals([c.target.split(".", 1)[1] for c in cs])
-            it.input_pos = {c.target.split(".", 1)[1]: k for k, c in enumerate(cs)}
-            it.src, it.fac, it.off, it.held = self.src[it.isl], self.fac[it.isl], self.off[it.isl], self.u[it.isl]
-            deps = graph.direct_dependencies(it.fmu.md)
-            ft = {d for ds in deps.values() for d in ds}
-            it.feedthrough = any(c.target.split(".", 1)[1] in ft for c in cs)
-            it.interp = it.fmu.can_interpolate_inputs and self.extrapolation.order > 0
-            it.pos_idx = np.zeros(0, dtype=np.intp)
+        # the signal vector y, the held-input vector u and the non-Real connections (harness.coupling)
+        lay = coupling.layout(fmus, self.connections, mds, self.extrapolation.order > 0)
+        self.insts, self.index = lay.insts, lay.index
+        self.signal_names, self.signal_index = lay.signal_names, lay.signal_index
+        self.y = np.zeros(len(lay.signal_names))
+        self.history = History(len(lay.signal_names), self.history_depth())
+        self.src, self.fac, self.off, self.u = lay.src, lay.fac, lay.off, lay.u
+        self._discrete = lay.discrete
         self._group_idx = [[self.index[n] for n in g] for g in self.groups]
         in_loops = {n.split(".", 1)[0] for loop in loops for n in loop}
         self._loop_groups = {k for k, g in enumerate(self.groups) if any(n in in_loops for n in g)}
@@ -252,6 +224,29 @@ class Master:
         self._y_list: list | None = None  # y as a list at the end of the last step (None: recompute)
         self.t_ns = 0
         self.iterations = 0  # total iterations (iterative master)
+
+    def _assume_sampled(self, mds: dict, loops: list) -> tuple[dict, list]:
+        """A loop only *assumed* by FMI 2.0's default (outputs without declared ``dependencies`` may depend
+        on every input) is not a proven algebraic loop.  The outputs without declared dependencies of the
+        instances in such loops are taken as sampled after the step (no feed-through), as libcosim, Ecos and
+        OMSimulator take them; this is said once in one :class:`AssumptionWarning`.  Returns the dependency
+        view and the loops left (through declared feed-through only; those are still refused)."""
+        in_loops = {n.split(".", 1)[0] for loop in loops for n in loop}
+        assumed = {n: graph.undeclared_outputs(mds[n]) for n in mds if n in in_loops}
+        assumed = {n: outs for n, outs in assumed.items() if outs}
+        if not assumed:
+            return mds, loops
+        view = {n: graph.DeclaredOnly(md) if n in assumed else md for n, md in mds.items()}
+        left = graph.algebraic_loops(self.connections, view)
+        if left:
+            return mds, loops
+        self.assumed = assumed
+        names = ", ".join(f"{n} ({mds[n].modelName})" for n in assumed)
+        warnings.warn(f"master {self.name!r}: FMUs {names} declare no output dependencies; a loop through "
+                      f"them is only assumed by FMI 2.0's default, so their outputs are taken as sampled after "
+                      f"the step (no direct feed-through), as libcosim, Ecos and OMSimulator do; declared "
+                      f"feed-through would need master='iterative'", AssumptionWarning, stacklevel=3)
+        return view, left
 
     def history_depth(self) -> int:
         """Samples of each output the master keeps for its held inputs (all that any method needs)."""
@@ -293,6 +288,14 @@ class Master:
         self.bond_log[:] = (p_out, p_in, energy)
 
     # -- coupling primitives -----------------------------------------------------------------------------------
+    def _pass_discrete(self) -> None:
+        """Integer, Boolean, String and Enumeration connections: each target input takes its source's value
+        at the current communication point and holds it over the step (no transformation, no
+        extrapolation), as libcosim and Ecos pass such values."""
+        values = [src.get_value(sv) for src, sv, _, _ in self._discrete]  # every source first: a target
+        for (_, _, dst, dv), value in zip(self._discrete, values):      # may feed one through
+            dst.set_value(dv, value)
+
     def _read(self, it: _Inst) -> None:
         self.y[it.sl] = it.fmu.get(it.out)
 
@@ -441,6 +444,8 @@ class Master:
         self._exchange(t)  # outputs in initialization mode, then every input from them
         for it in self.insts:
             self._set_point_inputs(it)
+        if self._discrete:
+            self._pass_discrete()
         self._exchange(t)
         for it in self.insts:
             it.fmu.exit_initialization()
@@ -454,6 +459,8 @@ class Master:
         """One communication step from t_ns (must be the current time) of h_ns nanoseconds."""
         t, h, t_next = t_ns / NS, h_ns / NS, (t_ns + h_ns) / NS
         y0 = self._y_list if self._y_list is not None else self.y.tolist()
+        if self._discrete:
+            self._pass_discrete()
         self._step_impl(t, h, t_next)
         y = self._y_list = self.y.tolist()
         self._check(t_next, y)
@@ -529,7 +536,7 @@ class GaussSeidel(Master):
 
     def __init__(self, fmus, connections, *args, **kwargs):
         super().__init__(fmus, connections, *args, **kwargs)
-        order = graph.stepping_order(self.connections, {n: f.md for n, f in fmus.items()})
+        order = graph.stepping_order(self.connections, self.mds)
         self.order = [self.insts[self.index[n]] for n in order]
 
     def _step_impl(self, t, h, t_next):
@@ -562,8 +569,11 @@ class Iterative(Master):
         for it in self.insts:
             it.interp = False  # the iteration converges the held (midpoint) values; no input derivatives
             if not it.fmu.can_get_set_state:
-                raise SystemError_(f"master 'iterative' needs fmi2GetFMUstate/fmi2SetFMUstate, but instance "
-                                   f"{it.name} does not declare canGetAndSetFMUstate")
+                raise SystemError_(f"master 'iterative' repeats each step with fmi2GetFMUstate/fmi2SetFMUstate "
+                                   f"rollback, but instance {it.name} (FMU {it.fmu.md.modelName}) does not "
+                                   f"declare canGetAndSetFMUstate: use master='jacobi-sampled', 'jacobi' or "
+                                   f"'gauss-seidel' (a loop only assumed through outputs without declared "
+                                   f"dependencies is stepped by them)")
         self._batched = [it for it in self.insts if it.inp.n]
         self._interp = []
 

@@ -180,8 +180,13 @@ class System:
             if dst.causality != "input":
                 raise SystemError_(f"{where}: causality mismatch: target {c.target} is {dst.causality}, "
                                    f"not an input")
-            if src.type != "Real" or dst.type != "Real":
-                raise SystemError_(f"{where}: only Real variables can be connected ({src.type} -> {dst.type})")
+            if src.type != dst.type:
+                raise SystemError_(f"{where}: type mismatch: {c.source} is {src.type} but {c.target} is "
+                                   f"{dst.type} (connected variables must have the same type)")
+            if src.type != "Real" and (c.factor != 1 or c.offset != 0):
+                raise SystemError_(f"{where}: factor = {c.factor!r}, offset = {c.offset!r}: a linear "
+                                   f"transformation applies to Real variables only, not to {src.type} "
+                                   f"(allowed: factor 1, offset 0)")
             if c.target in targets:
                 raise SystemError_(f"input {c.target} is connected twice: from {targets[c.target]} and "
                                    f"from {c.source}")
@@ -225,6 +230,12 @@ def _check_parameter(v, ref: str, value) -> None:
     elif v.type in ("Integer", "Enumeration"):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or int(value) != value:
             raise SystemError_(f"parameter {ref} = {value!r} must be an integer")
+    elif v.type == "Boolean":
+        if not isinstance(value, (bool, int)) or value not in (0, 1):
+            raise SystemError_(f"parameter {ref} = {value!r} must be a Boolean (allowed: true/false, 1/0)")
+    elif v.type == "String":
+        if not isinstance(value, str):
+            raise SystemError_(f"parameter {ref} = {value!r} must be a string")
 
 
 # -- FMU resolution ---------------------------------------------------------------------------------------------

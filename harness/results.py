@@ -65,18 +65,22 @@ def bond_energy(result: pd.DataFrame, label: str | None = None) -> pd.DataFrame:
 class Recorder:
     """Records the requested variables at every accepted communication point.
 
-    ``columns``: ``Instance.variable`` names (outputs come from the master's signal vector; other Real
-    variables, e.g. inputs or local states, are read from the FMU); None records every output.  Buffers are
+    ``columns``: ``Instance.variable`` names (Real outputs come from the master's signal vector; other
+    variables, e.g. inputs or local states, are read from the FMU; Integer/Enumeration columns come out as
+    int64, Boolean as bool, String as object); None records every output.  Buffers are
     preallocated for ``expected_rows`` and doubled when a variable-step run needs more."""
 
     def __init__(self, master, columns: list[str] | None = None, expected_rows: int = 1024):
         self.master = master
-        if columns is None:
-            columns = list(master.signal_names)
+        if columns is None:  # every output: the Real ones (signal vector), then the others
+            columns = list(master.signal_names) + [
+                f"{it.name}.{v.name}" for it in master.insts for v in it.fmu.md.modelVariables
+                if v.causality == "output" and v.type != "Real"]
         seen = set()
         self.columns = [c for c in columns if not (c in seen or seen.add(c))]
         self._from_y = []      # (column position, y index)
         self._extra = []       # (instance, RealBlock, column positions)
+        self._typed = []       # (instance, variable, column position, type, values) of non-Real variables
         by_inst: dict[str, list[tuple[int, str]]] = {}
         for k, c in enumerate(self.columns):
             if c in master.signal_index:
@@ -90,7 +94,8 @@ class Recorder:
             if v is None:
                 raise SystemError_(f"output {c!r}: FMU {fmu.md.modelName} of instance {inst} has no variable {var!r}")
             if v.type != "Real":
-                raise SystemError_(f"output {c!r}: only Real variables are recorded ({var} is {v.type})")
+                self._typed.append((fmu, var, k, v.type, []))
+                continue
             by_inst.setdefault(inst, []).append((k, var))
         for inst, items in by_inst.items():
             fmu = master.insts[master.index[inst]].fmu
@@ -116,6 +121,8 @@ class Recorder:
             row[self._cols_y] = self.master.y[self._idx_y]
         for fmu, block, cols in self._extra:
             row[cols] = fmu.get(block)
+        for fmu, var, _, _, values in self._typed:
+            values.append(fmu.get_value(var))
         if self.bonds.shape[2]:
             self.bonds[k] = self.master.bond_log
         self.rows = k + 1
@@ -134,6 +141,9 @@ class Recorder:
         data = self.data if n == len(self.data) else self.data[:n].copy()
         time = self.time if n == len(self.time) else self.time[:n].copy()
         df = pd.DataFrame(data, columns=self.columns, index=pd.Index(time, name="time", copy=False), copy=False)
+        for _, var, k, kind, values in self._typed:  # the FMI type's dtype: int64, bool or object (String)
+            dtype = {"Integer": np.int64, "Enumeration": np.int64, "Boolean": bool}.get(kind, object)
+            df[self.columns[k]] = np.array(values[:n], dtype=dtype)
         df.attrs.update(attrs)
         df.attrs["complete"] = bool(complete)
         df.attrs["error"] = error

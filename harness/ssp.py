@@ -115,7 +115,12 @@ def build_ssd(system: System, sources: dict[str, str]) -> ET.Element:
                     raise SystemError_(f"instance {inst.name}: FMU {md.modelName} has no parameter {name}")
                 v = variables[name]
                 p = ET.SubElement(params, _q("ssv:Parameter"), {"name": name})
-                attrs = {"value": _num(float(value) if v.type == "Real" else int(value))}
+                if v.type == "Boolean":
+                    attrs = {"value": "true" if value else "false"}
+                elif v.type == "String":
+                    attrs = {"value": str(value)}
+                else:
+                    attrs = {"value": _num(float(value) if v.type == "Real" else int(value))}
                 if v.type == "Real" and v.unit:
                     attrs["unit"] = v.unit
                 ET.SubElement(p, _q(f"ssv:{v.type}"), attrs)
@@ -342,6 +347,8 @@ class _Reader:
                 return int(raw)
             if kind == "Boolean":
                 return 1 if raw in ("true", "1") else 0
+            if kind == "String":
+                return raw if raw is not None else ""
             raise self.fail(f"{owner}: parameter '{p.get('name')}' of type ssv:{kind} is not supported")
         raise self.fail(f"{owner}: parameter '{p.get('name')}' has no value")
 

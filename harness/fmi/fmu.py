@@ -347,6 +347,23 @@ class FMU(Instance):
         else:
             self._check(self._f["fmi2SetString"](self.c, vr, 1, (c_char_p * 1)(value.encode())), "fmi2SetString")
 
+    def get_value(self, name: str):
+        """Read one variable of any type: float (Real), int (Integer, Enumeration), bool, str."""
+        v = self.var(name)
+        vr = (c_uint * 1)(v.valueReference)
+        if v.type == "Real":
+            buf = (c_double * 1)()
+            self._check(self._f["fmi2GetReal"](self.c, vr, 1, buf), "fmi2GetReal")
+            return float(buf[0])
+        if v.type in ("Integer", "Enumeration", "Boolean"):
+            function = "fmi2GetBoolean" if v.type == "Boolean" else "fmi2GetInteger"
+            buf = (c_int * 1)()
+            self._check(self._f[function](self.c, vr, 1, buf), function)
+            return bool(buf[0]) if v.type == "Boolean" else int(buf[0])
+        buf = (c_char_p * 1)()
+        self._check(self._f["fmi2GetString"](self.c, vr, 1, buf), "fmi2GetString")
+        return (buf[0] or b"").decode("utf-8")
+
     # -- stepping ----------------------------------------------------------------------------------------------
     def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
         self.time = t

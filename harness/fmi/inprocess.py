@@ -206,6 +206,16 @@ class InProcessFMU(Instance):
         method, function = self._SETTERS[v.type]
         self._call(function, getattr(self._slave, method), [v.valueReference], [value])
 
+    _GETTERS = {"Real": ("get_real", "fmi2GetReal", float), "Integer": ("get_integer", "fmi2GetInteger", int),
+                "Enumeration": ("get_integer", "fmi2GetInteger", int),
+                "Boolean": ("get_boolean", "fmi2GetBoolean", bool), "String": ("get_string", "fmi2GetString", str)}
+
+    def get_value(self, name: str):
+        """Read one variable of any type: float (Real), int (Integer, Enumeration), bool, str."""
+        v = self.var(name)
+        method, function, kind = self._GETTERS[v.type]
+        return kind(self._call(function, getattr(self._slave, method), [v.valueReference])[0])
+
     # -- stepping ----------------------------------------------------------------------------------------------
     def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
         self.time = t

@@ -1,0 +1,90 @@
+"""The coupling layout of a system, computed once when a master is built (issue 20, part).
+
+Two vectors carry every Real value the master passes on:
+
+``y``  the signal vector: every Real output of every instance, instance after instance (``Inst.sl`` is an
+       instance's slice, ``signal_index`` maps ``Instance.variable`` to its position);
+``u``  the held-input vector: every connected Real input, instance after instance, ``u = fac * y[src] + off``
+       (``Inst.isl`` is an instance's slice; ``Inst.src``/``fac``/``off``/``held`` are views over it).
+
+Connections of Integer, Boolean, String and Enumeration variables have no place in either vector: they are
+listed in ``discrete`` as (source instance, variable, target instance, variable) and passed on as values.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from harness import graph
+
+
+class Inst:
+    """Prepared coupling data of one instance (built once).  ``isl`` is its slice of the held-input vector
+    ``u`` (``held``, ``src``, ``fac``, ``off`` are views of the layout's arrays over it); ``sl`` its slice of
+    the signal vector ``y``; ``pos_idx`` the positions (in its inputs) of bond positions it advances itself;
+    ``feedthrough`` whether any connected input reaches an output directly."""
+    __slots__ = ("name", "fmu", "sl", "isl", "out", "inp", "src", "fac", "off", "held", "feedthrough", "interp",
+                 "input_pos", "pos_idx")
+
+    def __init__(self, name, fmu):
+        self.name, self.fmu = name, fmu
+
+
+@dataclass
+class Layout:
+    insts: list[Inst]
+    index: dict[str, int]            # instance name -> position in insts
+    signal_names: list[str]          # 'Instance.output' of every entry of y
+    signal_index: dict[str, int]
+    src: np.ndarray                  # per entry of u: index into y
+    fac: np.ndarray
+    off: np.ndarray
+    u: np.ndarray
+    discrete: list[tuple]            # (source FMU, variable, target FMU, variable) of non-Real connections
+
+
+def layout(fmus: dict, connections, mds: dict, interpolate: bool) -> Layout:
+    """The layout of ``fmus`` (name -> instance) coupled by ``connections``; ``mds`` the dependency view of each
+    instance's model description (:func:`harness.graph.direct_dependencies`); ``interpolate``: whether the
+    master hands input derivatives to the FMUs that can take them."""
+    insts: list[Inst] = []
+    index: dict[str, int] = {}
+    names: list[str] = []
+    for name, fmu in fmus.items():
+        it = Inst(name, fmu)
+        outs = [v.name for v in fmu.md.modelVariables if v.causality == "output" and v.type == "Real"]
+        it.sl = slice(len(names), len(names) + len(outs))
+        it.out = fmu.reals(outs)
+        names.extend(f"{name}.{o}" for o in outs)
+        index[name] = len(insts)
+        insts.append(it)
+    signal_index = {n: k for k, n in enumerate(names)}
+    by_target: dict[str, list] = {n: [] for n in fmus}
+    discrete: list[tuple] = []
+    for c in connections:
+        si, sv = c.source.split(".", 1)
+        if fmus[si].var(sv).type != "Real":
+            ti, tv = c.target.split(".", 1)
+            discrete.append((fmus[si], sv, fmus[ti], tv))
+            continue
+        by_target[c.target.split(".", 1)[0]].append(c)
+    ordered = [c for it in insts for c in by_target[it.name]]
+    src = np.array([signal_index[c.source] for c in ordered], dtype=np.intp)
+    fac = np.array([float(c.factor) for c in ordered])
+    off = np.array([float(c.offset) for c in ordered])
+    u = np.zeros(len(ordered))
+    start = 0
+    for it in insts:
+        cs = by_target[it.name]
+        it.isl = slice(start, start + len(cs))
+        start += len(cs)
+        it.inp = it.fmu.reals([c.target.split(".", 1)[1] for c in cs])
+        it.input_pos = {c.target.split(".", 1)[1]: k for k, c in enumerate(cs)}
+        it.src, it.fac, it.off, it.held = src[it.isl], fac[it.isl], off[it.isl], u[it.isl]
+        deps = graph.direct_dependencies(mds[it.name])
+        ft = {d for ds in deps.values() for d in ds}
+        it.feedthrough = any(c.target.split(".", 1)[1] in ft for c in cs)
+        it.interp = it.fmu.can_interpolate_inputs and interpolate
+        it.pos_idx = np.zeros(0, dtype=np.intp)
+    return Layout(insts, index, names, signal_index, src, fac, off, u, discrete)

@@ -1,0 +1,211 @@
+"""Content this project did not shape: a ring of plain pythonfmu FMUs (issue 16).
+
+The FMUs are built from tests/foreign/plain_lag.py with ``pythonfmu build`` exactly as a new user would: no
+ModelStructure post-processing (their outputs declare no ``dependencies``, so FMI 2.0's default makes the
+ring look like an algebraic loop) and no FMU-state support.  The Jacobi and Gauss-Seidel masters must step it
+(outputs taken as sampled after the step, one warning naming the FMUs), ``jacobi-sampled`` must agree with
+libcosim and Ecos (the same algorithm) to 1e-9, and ``iterative`` must refuse with a one-line error naming
+the FMU and the masters that work.
+"""
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from harness import simulate
+from harness.errors import SystemError_
+from harness.masters import AssumptionWarning
+from harness.model import Connection, Experiment, Instance, System
+from harness.ssp import export_ssp
+from benchmarks import peers
+
+HERE = Path(__file__).parent
+N_RING = 6
+STOP, STEP = 2.0, 0.01
+
+
+@pytest.fixture(scope="session")
+def plain_lag_fmu(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("plain_fmu")
+    exe = Path(sys.executable).with_name("pythonfmu")
+    if not exe.is_file():
+        pytest.skip("pythonfmu command not installed")
+    r = subprocess.run([str(exe), "build", "-f", str(HERE / "foreign" / "plain_lag.py"), "-d", str(out)],
+                       capture_output=True, text=True)
+    fmu = out / "PlainLag.fmu"
+    if r.returncode != 0 or not fmu.is_file():
+        pytest.skip(f"pythonfmu build failed: {r.stderr.strip()[-300:]}")
+    return fmu
+
+
+def ring(fmu: Path, n: int = N_RING) -> System:
+    """n lags in a ring, each driven by the previous one's output; different initial values and gains."""
+    insts = [Instance(f"lag{i}", str(fmu), {"y0": float(i + 1), "k": -0.5 + 0.1 * i, "tau": 0.5 + 0.2 * i})
+             for i in range(n)]
+    conns = [Connection(f"lag{(i - 1) % n}.y", f"lag{i}.u") for i in range(n)]
+    return System("plain_ring", insts, conns, experiment=Experiment(stop_time=STOP, step=STEP))
+
+
+def expected_sampled(system: System, n_steps: int) -> np.ndarray:
+    """The ring stepped by hand with the sampled Jacobi algorithm (inputs at t_k = outputs sampled at t_k)."""
+    p = [inst.parameters for inst in system.instances]
+    y = np.array([q["y0"] for q in p])
+    k, tau = np.array([q["k"] for q in p]), np.array([q["tau"] for q in p])
+    rows = [y.copy()]
+    for _ in range(n_steps):
+        u = np.roll(y, 1)
+        y = y + STEP * (k * u - y) / tau
+        rows.append(y.copy())
+    return np.array(rows)
+
+
+def run(system, master, **kw):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        df = simulate(system, master=master, **kw)
+    return df, [w for w in caught if issubclass(w.category, AssumptionWarning)]
+
+
+@pytest.mark.parametrize("master", ["jacobi-sampled", "jacobi", "gauss-seidel"])
+def test_ring_of_plain_pythonfmu_fmus_runs(plain_lag_fmu, master):
+    system = ring(plain_lag_fmu)
+    df, notes = run(system, master)
+    assert len(df) == round(STOP / STEP) + 1
+    assert len(notes) == 1, [str(w.message) for w in notes]
+    text = str(notes[0].message)
+    assert "\n" not in text and "declare no output dependencies" in text
+    for i in range(N_RING):
+        assert f"lag{i} (PlainLag)" in text
+    cols = [f"lag{i}.y" for i in range(N_RING)]
+    assert np.isfinite(df[cols].to_numpy()).all()
+    np.testing.assert_array_equal(df[cols].iloc[0].to_numpy(), np.arange(1.0, N_RING + 1))
+    if master in ("jacobi-sampled", "jacobi"):
+        # no declared feed-through: the refresh of jacobi changes nothing; both are the sampled algorithm
+        np.testing.assert_allclose(df[cols].to_numpy(), expected_sampled(system, len(df) - 1),
+                                   rtol=1e-12, atol=1e-14)
+    else:
+        # Gauss-Seidel: lag0 uses lag5's sample at t, every later lag its predecessor's sample at t+h
+        ref = expected_sampled(system, len(df) - 1)
+        assert np.abs(df[cols].to_numpy() - ref).max() > 1e-6
+
+
+def test_iterative_names_fmu_and_offers_working_masters(plain_lag_fmu):
+    with pytest.raises(SystemError_) as e:
+        run(ring(plain_lag_fmu), "iterative")
+    msg = str(e.value)
+    assert "\n" not in msg
+    assert "lag0 (FMU PlainLag)" in msg and "canGetAndSetFMUstate" in msg and "jacobi-sampled" in msg
+
+
+@pytest.fixture(scope="module")
+def ring_ssp(plain_lag_fmu, tmp_path_factory) -> Path:
+    return export_ssp(ring(plain_lag_fmu), tmp_path_factory.mktemp("ring_ssp") / "plain_ring.ssp")
+
+
+@pytest.mark.parametrize("tool", ["libcosim", "ecos"])
+def test_ring_agrees_with_peer_tools(ring_ssp, tool):
+    avail = peers.available()
+    if avail.get(tool) is not None:
+        pytest.skip(f"{tool} not available: {avail[tool]}")
+    cols = [f"lag{i}.y" for i in range(N_RING)]
+    ref, _ = run(ring_ssp, "jacobi-sampled")
+    if tool == "libcosim":
+        df = peers.run_ssp_libcosim(ring_ssp, STOP, STEP, cols)
+    else:
+        df = peers.run_ssp_ecos(ring_ssp, STOP, STEP, cols, parameter_set="default")
+    assert len(df) == len(ref)
+    np.testing.assert_allclose(df.index.to_numpy(), ref.index.to_numpy(), rtol=1e-12, atol=1e-15)
+    diff = np.abs(df[cols].to_numpy() - ref[cols].to_numpy())
+    err = diff.max() / np.abs(ref[cols].to_numpy()).max()
+    assert err <= 1e-9, f"{tool}: ring differs from jacobi-sampled by {err:.3g}"
+
+
+# ----------------------------------------------------------------------------- Integer, Boolean, String variables
+def build_plain(script: str, model: str, out: Path) -> Path:
+    exe = Path(sys.executable).with_name("pythonfmu")
+    if not exe.is_file():
+        pytest.skip("pythonfmu command not installed")
+    r = subprocess.run([str(exe), "build", "-f", str(HERE / "foreign" / script), "-d", str(out)],
+                       capture_output=True, text=True)
+    fmu = out / f"{model}.fmu"
+    if r.returncode != 0 or not fmu.is_file():
+        pytest.skip(f"pythonfmu build of {script} failed: {r.stderr.strip()[-300:]}")
+    return fmu
+
+
+@pytest.fixture(scope="module")
+def typed_system(tmp_path_factory) -> System:
+    out = tmp_path_factory.mktemp("typed_fmus")
+    stairs, tally = build_plain("plain_stairs.py", "Stairs", out), build_plain("plain_tally.py", "Tally", out)
+    return System("typed", [Instance("st", str(stairs), {"every": 2}),
+                            Instance("ta", str(tally), {"bonus": 0.5, "label": "counted"})],
+                  [Connection("st.n", "ta.n"), Connection("st.odd", "ta.odd")],
+                  experiment=Experiment(stop_time=1.0, step=0.1))
+
+
+def expected_tally(n_steps: int, every: int = 2, bonus: float = 0.5):
+    """Stairs' outputs after k steps are n_k = k // every, odd_k; Tally steps on the values sampled at t_k."""
+    n = [k // every for k in range(n_steps + 1)]
+    y = [0.0]
+    for k in range(n_steps):
+        y.append(y[-1] + n[k] + (bonus if n[k] % 2 else 0.0))
+    return np.array(n), np.array(y)
+
+
+@pytest.mark.parametrize("master", ["jacobi-sampled", "jacobi", "gauss-seidel"])
+def test_integer_and_boolean_connections(typed_system, master):
+    df, _ = run(typed_system, master)
+    assert df["st.n"].dtype == np.int64 and df["ta.n_seen"].dtype == np.int64
+    assert df["st.odd"].dtype == bool and df["ta.y"].dtype == np.float64
+    n, y = expected_tally(len(df) - 1)
+    np.testing.assert_array_equal(df["st.n"].to_numpy(), n)
+    np.testing.assert_array_equal(df["st.odd"].to_numpy(), n % 2 == 1)
+    np.testing.assert_array_equal(df["ta.n_seen"].to_numpy()[1:], n[:-1])  # the value held over each step
+    np.testing.assert_allclose(df["ta.y"].to_numpy(), y, rtol=0, atol=1e-12)
+
+
+def test_typed_parameters_set_and_checked(typed_system):
+    df, _ = run(typed_system, "jacobi-sampled", parameters={"st.every": 3, "ta.bonus": 2.0, "ta.label": "x"})
+    n, y = expected_tally(len(df) - 1, every=3, bonus=2.0)
+    np.testing.assert_array_equal(df["st.n"].to_numpy(), n)
+    np.testing.assert_allclose(df["ta.y"].to_numpy(), y, rtol=0, atol=1e-12)
+    for bad, word in (({"st.every": 1.5}, "integer"), ({"ta.label": 3}, "string")):
+        with pytest.raises(SystemError_, match=word):
+            run(typed_system, "jacobi-sampled", parameters=bad)
+
+
+def test_typed_connection_rules(typed_system):
+    import dataclasses
+    wrong = dataclasses.replace(typed_system, connections=[Connection("st.n", "ta.odd")])
+    with pytest.raises(SystemError_, match="type mismatch: st.n is Integer but ta.odd is Boolean"):
+        run(wrong, "jacobi")
+    scaled = dataclasses.replace(typed_system, connections=[Connection("st.n", "ta.n", factor=2.0)])
+    with pytest.raises(SystemError_, match="linear transformation applies to Real variables only"):
+        run(scaled, "jacobi")
+
+
+@pytest.mark.parametrize("tool", ["harness", "libcosim", "ecos"])
+def test_typed_system_through_ssp(typed_system, tmp_path, tool):
+    """The exported SSP (typed connectors, Integer/Real/String ParameterBindings) reloads to the same result and
+    runs in libcosim and Ecos with the same Real output (the Integer/Boolean values pass the same way)."""
+    ssp = export_ssp(typed_system, tmp_path / "typed.ssp")
+    ref, _ = run(typed_system, "jacobi-sampled")
+    if tool == "harness":
+        again, _ = run(ssp, "jacobi-sampled")
+        assert again.equals(ref)
+        return
+    avail = peers.available()
+    if avail.get(tool) is not None:
+        pytest.skip(f"{tool} not available: {avail[tool]}")
+    if tool == "libcosim":
+        df = peers.run_ssp_libcosim(ssp, 1.0, 0.1, ["ta.y"])
+    else:
+        df = peers.run_ssp_ecos(ssp, 1.0, 0.1, ["ta.y"], parameter_set="default")
+    assert len(df) == len(ref)
+    np.testing.assert_allclose(df["ta.y"].to_numpy(), ref["ta.y"].to_numpy(), rtol=1e-12, atol=1e-12)
