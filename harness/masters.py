@@ -1,5 +1,8 @@
 """Co-simulation masters: one stepping loop, one ``_step_impl`` per method (scipy.integrate._ivp style).
 
+(About 600 lines on purpose: the loop, its hooks and the four methods read together in one file; the
+coupling layout lives in :mod:`harness.coupling`, the loop's parts in extrapolation, stepcontrol, graph.)
+
 The base class :class:`Master` owns the coupling data (prepared once: value-reference blocks, a signal
 vector ``y`` of every Real output, the connection index arrays, the extrapolation :class:`History`), the
 communication-point exchange, rollback snapshots, failure checks, the power-bond bookkeeping and the run

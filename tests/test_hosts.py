@@ -256,10 +256,11 @@ def _omsimulator_api() -> str | None:
         return f"OMSimulator's Python API unavailable ({type(e).__name__}: {e}); {NO_OMS}"
 
 
-# Measured: in spine_knife the motor's direct feed-through outputs (pulley.tau, torques, powers) at the last
-# sample differ from the harness's jacobi (by 6.6 % of their range after 20 steps) while every output without
-# feed-through is identical to 2e-16; OMSimulator's refresh of a speed source's reaction is not the harness's.
-FEEDTHROUGH_DIFFERS = {"spine_knife"}
+# Each output is compared relative to its own range over the run, but never to a range below SCALE_FLOOR (in
+# SI units: 0.01 N.m, W, rad, m/s ... is nothing in these drives): spine_knife's belt torque is zero to
+# round-off over the first 20 steps (the speed source and the shaft start at the same speed), |tau| ~ 3e-13 N.m
+# and the motor's power ~ 5e-11 W, and 2.9e-13 against 2.7e-13 N.m is round-off, not a difference.
+SCALE_FLOOR = 1e-2
 
 
 @pytest.mark.interop
@@ -293,7 +294,7 @@ def test_exported_drive_runs_in_omsimulator_api_like_jacobi(fmu_dir, archives, n
         for c in ref.columns:
             inst, var = c.split(".", 1)
             value = im.getValue(CRef(s.name, inst, var))
-            errors[c] = [abs(value - ref[c].iloc[-1]) / max(float(ref[c].abs().max()), 1e-300), c in feed]
+            errors[c] = [abs(value - ref[c].iloc[-1]) / max(float(ref[c].abs().max()), {SCALE_FLOOR!r}), c in feed]
         im.terminate(); im.delete()
         print(json.dumps(errors), flush=True)
         os._exit(0)
@@ -303,6 +304,5 @@ def test_exported_drive_runs_in_omsimulator_api_like_jacobi(fmu_dir, archives, n
     assert len(states) >= 2
     worst = max(states, key=states.get)
     assert states[worst] <= 1e-9, f"{name}: {worst} differs by {states[worst]:.3g} of its range"
-    if name not in FEEDTHROUGH_DIFFERS:
-        worst = max(errors, key=lambda c: errors[c][0])
-        assert errors[worst][0] <= 1e-9, f"{name}: {worst} differs by {errors[worst][0]:.3g} of its range"
+    worst = max(errors, key=lambda c: errors[c][0])
+    assert errors[worst][0] <= 1e-9, f"{name}: {worst} differs by {errors[worst][0]:.3g} of its range"
