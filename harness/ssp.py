@@ -24,15 +24,13 @@ non-linear transformations) is refused with one line naming the element and the 
 """
 from __future__ import annotations
 
-import hashlib
-import shutil
-import tempfile
 import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from fmus.units import BASE_UNITS
 from harness.errors import SystemError_
+from harness.fmi.cache import unzipped
 from harness.model import Bond, Connection, Experiment, Instance, System, model_description, resolve_fmu
 
 NS = {
@@ -171,23 +169,12 @@ def _annotation(parent: ET.Element, kind: str) -> ET.Element:
 # --------------------------------------------------------------------------------------------------------
 # import
 # --------------------------------------------------------------------------------------------------------
-_EXTRACTED: dict[tuple[str, float], Path] = {}
-
-
 def _unpack(path: Path) -> Path:
-    """Extract an .ssp once per process (cached by path and mtime); return the folder."""
-    key = (str(path.resolve()), path.stat().st_mtime)
-    if key not in _EXTRACTED:
-        digest = hashlib.sha1(key[0].encode()).hexdigest()[:10]
-        folder = Path(tempfile.mkdtemp(prefix=f"ssp_{path.stem}_{digest}_"))
-        try:
-            with zipfile.ZipFile(path) as z:
-                z.extractall(folder)
-        except zipfile.BadZipFile as e:
-            shutil.rmtree(folder, ignore_errors=True)
-            raise SystemError_(f"{path}: not an SSP archive ({e})") from None
-        _EXTRACTED[key] = folder
-    return _EXTRACTED[key]
+    """Extract an .ssp once (the one archive cache, :func:`harness.fmi.cache.unzipped`); return the folder."""
+    try:
+        return unzipped(path, "_ssp")
+    except zipfile.BadZipFile as e:
+        raise SystemError_(f"{path}: not an SSP archive ({e})") from None
 
 
 def load_ssp(path: str | Path) -> System:

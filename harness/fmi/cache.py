@@ -59,8 +59,12 @@ def unzipped(path: str | Path, kind: str = "") -> Path:
         if not (hit / ".complete").is_file():
             root.mkdir(parents=True, exist_ok=True)
             tmp = Path(tempfile.mkdtemp(prefix=f".{p.stem}_", dir=root))
-            with zipfile.ZipFile(p) as z:
-                z.extractall(tmp)
+            try:
+                with zipfile.ZipFile(p) as z:
+                    z.extractall(tmp)
+            except BaseException:
+                shutil.rmtree(tmp, ignore_errors=True)
+                raise
             (tmp / ".complete").write_text("ok")
             try:
                 os.replace(tmp, hit)  # atomic; another process may have won the race
