@@ -571,21 +571,29 @@ class Iterative(Master):
         super().__init__(fmus, connections, *args, **kwargs)
         for it in self.insts:
             it.interp = False  # the iteration converges the held (midpoint) values; no input derivatives
-            if not it.fmu.can_get_set_state:
-                raise SystemError_(f"master 'iterative' repeats each step with fmi2GetFMUstate/fmi2SetFMUstate "
-                                   f"rollback, but instance {it.name} (FMU {it.fmu.md.modelName}) does not "
-                                   f"declare canGetAndSetFMUstate: use master='jacobi-sampled', 'jacobi' or "
-                                   f"'gauss-seidel' (a loop only assumed through outputs without declared "
-                                   f"dependencies is stepped by them)")
         self._batched = [it for it in self.insts if it.inp.n]
         self._interp = []
+        # without fmi2GetFMUstate/fmi2SetFMUstate a step cannot be repeated: each step is then taken once on
+        # the held inputs (the explicit coupling of jacobi), while algebraic loops at communication points,
+        # which need no rollback, are still solved -- said once, naming the FMUs
+        fixed = [f"{it.name} ({it.fmu.md.modelName})" for it in self.insts if not it.fmu.can_get_set_state]
+        self.rolls_back = not fixed
+        if fixed:
+            warnings.warn(f"master 'iterative': {', '.join(fixed)} cannot roll back (no canGetAndSetFMUstate): "
+                          f"each step is taken once on the held inputs; algebraic loops at communication points "
+                          f"are still solved", AssumptionWarning, stacklevel=3)
 
     def needs_rollback(self) -> bool:
-        return True
+        return self.rolls_back
 
     def _step_impl(self, t, h, t_next):
         coupled = self._batched
         self._hold_all(t, h)
+        if not self.rolls_back:
+            for it in self.insts:
+                it.fmu.do_step(t, h, True)
+            self._exchange(t_next)
+            return
         u0 = self.u.copy()
         self.snapshot("iterate")
         first = [True]
