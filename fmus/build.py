@@ -89,11 +89,17 @@ def stage_isolated(script: Path, dest: Path) -> tuple[Path, Path]:
     Every FMU bundles the runtime package; under one shared name a host process would keep the first copy
     it imported (from a folder the host may have deleted since) for every later FMU, and two toolkit versions
     would silently share it.  The runtime package imports itself relatively; only the declaration names it.
-    The declaration imports everything it uses at module level, so nothing is imported lazily later."""
+    The staged declaration ends by importing every module of the package, so nothing is imported lazily later
+    (a function's own ``from .x import y`` then finds ``x`` in ``sys.modules`` even after the host deleted
+    the folder it came from)."""
     digest = code_hash(script)
     pkg = stage_runtime(dest, f"fmus_{digest}")
     text = script.read_text(encoding="utf-8")
     text = re.sub(r"^(\s*)(from|import)\s+fmus(?=[.\s])", rf"\1\2 fmus_{digest}", text, flags=re.M)
+    modules = sorted(".".join(f.relative_to(dest).with_suffix("").parts).removesuffix(".__init__")
+                     for f in pkg.rglob("*.py"))
+    text += ("\n\n# every module of the bundled package, imported now (fmus/build.py: stage_isolated)\n"
+             + "".join(f"import {m}  # noqa: E402,F401\n" for m in modules))
     staged = dest / f"{script.stem}_{digest}.py"
     staged.write_text(text, encoding="utf-8")
     return staged, pkg

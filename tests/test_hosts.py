@@ -306,3 +306,19 @@ def test_exported_drive_runs_in_omsimulator_api_like_jacobi(fmu_dir, archives, n
     assert states[worst] <= 1e-9, f"{name}: {worst} differs by {states[worst]:.3g} of its range"
     worst = max(errors, key=lambda c: errors[c][0])
     assert errors[worst][0] <= 1e-9, f"{name}: {worst} differs by {errors[worst][0]:.3g} of its range"
+
+
+def test_nothing_is_imported_lazily_from_a_folder_the_host_deleted(fmu_dir):
+    """fmpy.simulate_fmu deletes the folder it unpacked the FMU into; a later instance of the same FMU finds the
+    bundled package in sys.modules with its path in that deleted folder.  A module only a function imports
+    (CamRocker's law 8 imports the seed-004 carrier law when it is chosen) must already be imported."""
+    fmu = str(fmu_dir / "CamRocker.fmu")
+    law8 = {"mechanism": 1, "swing": 0.6981317007977318, "law": 8, "law_return": 0, "law_km": 0.246176}
+    out = _run_script(f"""
+        from fmpy import simulate_fmu
+        first = simulate_fmu({fmu!r}, stop_time=0.002, step_size=1e-4)
+        again = simulate_fmu({fmu!r}, stop_time=0.002, step_size=1e-4, start_values={law8!r})
+        print(len(first), len(again))
+    """)
+    n_first, n_again = out.split()
+    assert n_first == n_again and int(n_first) > 2
