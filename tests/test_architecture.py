@@ -150,3 +150,21 @@ def test_checker_finds_a_circle_and_relative_imports(tmp_path):
                             "harness/fmi/fmu.py": "from .inprocess import g\n",
                             "harness/fmi/inprocess.py": "def g():\n    from harness.fmi.fmu import h\n"})
     assert harness_circles(import_graph(root)) == [["harness.fmi.fmu", "harness.fmi.inprocess"]]
+
+
+def test_the_runtime_package_bundled_into_fmus_imports_itself_only_relatively():
+    """Every FMU bundles fmus/{__init__,slave,units}.py and fmus/physics under a name of its own (fmus_<hash>,
+    fmus/build.py): an absolute ``fmus.`` import there would load the developer's package (or nothing, in a
+    host without it) instead of the FMU's own copy."""
+    from fmus.build import RUNTIME
+
+    bad = []
+    for name in RUNTIME:
+        src = ROOT / "fmus" / name
+        for f in (sorted(src.rglob("*.py")) if src.is_dir() else [src]):
+            for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
+                names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                         else [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
+                bad += [f"{f.relative_to(ROOT)}:{node.lineno} imports {n}" for n in names
+                        if n == "fmus" or n.startswith("fmus.")]
+    assert not bad, bad

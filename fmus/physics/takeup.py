@@ -44,7 +44,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from fmus.physics.two_mass import two_mass_frequencies
+from .two_mass import two_mass_frequencies
 
 
 # --------------------------------------------------------------------------------------------------------------
