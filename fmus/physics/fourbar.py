@@ -86,7 +86,7 @@ import numpy as np
 
 from . import contact
 from .base import Model, ParameterError, Params, Signal, param
-from .integrate import exprb32_pair, rk4_pair, substeps
+from .integrate import exprb32_pair, march_pair, rk4_pair, substeps
 
 # --------------------------------------------------------------------------------------------------------
 # linkage checks and closed-form kinematics (numpy: scalars or arrays)
@@ -342,13 +342,8 @@ class FourBarModel(Model):
         def acc(t, psi, w):
             return self._acceleration(t, psi, w, v_imp, u, t0, True)
 
-        psi, w = float(x[PSI]), float(x[W])
-        dt = h / n
-        for i in range(n):
-            t = t0 + i * dt
-            psi, w = rk4_pair(acc, t, (t0 + (i + 1) * dt if i < n - 1 else t0 + h) - t, psi, w)
         y = np.array(x, dtype=float)
-        y[PSI], y[W] = psi, w
+        y[PSI], y[W] = march_pair(rk4_pair, acc, t0, h, n, float(x[PSI]), float(x[W]))
         return y
 
     def _acc_at(self, phi, wc, tau, psi, w):
@@ -365,18 +360,13 @@ class FourBarModel(Model):
         sub-steps, :meth:`_elastic_steps`, are kept as the comparison of tests/test_exponential.py.)"""
         phi0, wc, tau = float(u[0]), float(u[1]), float(u[2])
         n = max(1, math.ceil(abs(wc) * h / KINEMATIC_ANGLE * (1.0 - 1e-12)))
-        dt = h / n
         acc_at = self._acc_at
 
         def acc(t, psi, w):
             return acc_at(phi0 + wc * (t - t0), wc, tau, psi, w)
 
-        psi, w = float(x[PSI]), float(x[W])
-        for i in range(n):
-            t = t0 + i * dt
-            psi, w = exprb32_pair(acc, t, (t0 + (i + 1) * dt if i < n - 1 else t0 + h) - t, psi, w)
         y = np.array(x, dtype=float)
-        y[PSI], y[W] = psi, w
+        y[PSI], y[W] = march_pair(exprb32_pair, acc, t0, h, n, float(x[PSI]), float(x[W]))
         return y
 
     def output(self, t, x, u):

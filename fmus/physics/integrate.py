@@ -54,6 +54,17 @@ def rk4_pair(acc: Callable[[float, float, float], float], t: float, dt: float, q
             v + (dt / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4))
 
 
+def march_pair(step: Callable, acc: Callable[[float, float, float], float], t0: float, h: float, n: int,
+               q: float, v: float) -> tuple[float, float]:
+    """``n`` equal sub-steps of a one-step method for (q, v) over [t0, t0 + h] (``step`` is :func:`rk4_pair` or
+    :func:`exprb32_pair`); the last sub-step ends exactly at t0 + h."""
+    dt = h / n
+    for i in range(n):
+        t = t0 + i * dt
+        q, v = step(acc, t, (t0 + (i + 1) * dt if i < n - 1 else t0 + h) - t, q, v)
+    return q, v
+
+
 def implicit_midpoint(f: Derivatives, t0: float, h: float, x: np.ndarray, u: Sequence[float],
                       max_substep: float, jacobian: Callable | None = None, tol: float = 1e-12,
                       max_iter: int = 20) -> np.ndarray:
