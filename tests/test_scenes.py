@@ -2,13 +2,13 @@
 
 The fast tests use the two-inertia scene ``mean_speed`` shortened to 0.06 s: its full model (step 2.5e-5 s)
 and the chosen one run in a few seconds.  The tolerance check re-runs the chosen configuration and evaluates
-the quantity itself (not the value choose() reports); the speed-up is a wall-time ratio measured in the same
-process with a wide margin (expected about 5-8x, asserted > 2x).
+the quantity itself (not the value choose() reports).  "Cheaper" is asserted on a count (communication steps),
+not on wall time: timed assertions fail on a loaded machine, and the measured speed-up is reported by the CLI
+and by benchmarks/.
 """
 from __future__ import annotations
 
 import dataclasses
-import time
 import warnings
 
 import pytest
@@ -39,9 +39,7 @@ def out_dir(tmp_path_factory):
 def test_chosen_model_meets_tolerance_is_cheaper_and_a_repeat_uses_the_cache(out_dir, monkeypatch):
     tmp_path = out_dir / "cache"
     system, scene = _cheap()
-    t0 = time.perf_counter()
     res = scenes.choose(system, scene, cache_dir=tmp_path)
-    first = time.perf_counter() - t0
     assert not res.cached_full
     # independent check of the tolerance: run the chosen configuration again and evaluate the quantity
     df = simulate(system, stop_time=scene.stop_time, step=res.chosen.step, master=res.chosen.master,
@@ -51,9 +49,11 @@ def test_chosen_model_meets_tolerance_is_cheaper_and_a_repeat_uses_the_cache(out
                        outputs=qoi.columns(scene.quantity))
     full_value = qoi.evaluate(scene.quantity, full_df)
     assert abs(value - full_value) <= scene.tolerance * abs(full_value)
-    assert res.chosen.step > scene.step  # a coarser model was found ...
-    assert res.speedup > 2.0, res.speedup  # ... and it is measurably cheaper (measured side by side)
-    assert res.full.wall_time > 2.0 * res.chosen.wall_time
+    # a coarser model was found: at least half the communication steps saved (every FMU is stepped once per
+    # communication step by the non-iterative masters the scene search may choose)
+    assert res.chosen.step >= 2.0 * scene.step, (res.chosen.step, scene.step)
+    assert res.chosen.master != "iterative"
+    assert res.speedup > 0.0 and res.full.wall_time > 0.0  # measured and reported, not asserted on
 
     # the repeat: no full-model run at all (the full model is the one with the scene's own step)
     calls = []
@@ -64,13 +64,10 @@ def test_chosen_model_meets_tolerance_is_cheaper_and_a_repeat_uses_the_cache(out
         return real_run(system_, scene_, fidelities, step, full_value_, master)
 
     monkeypatch.setattr(scenes, "_run", spy)
-    t0 = time.perf_counter()
     again = scenes.choose(system, scene, cache_dir=tmp_path)
-    second = time.perf_counter() - t0
     assert again.cached_full and again.full.value == res.full.value
     assert all(step != scene.step or master != system.experiment.master for step, master in calls), calls
     assert again.chosen.step == res.chosen.step and again.chosen.master == res.chosen.master
-    assert second < first
 
 
 def test_cli_runs_and_writes_table_and_chart(out_dir, monkeypatch, capsys):
