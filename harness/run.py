@@ -56,9 +56,9 @@ class RunOptions:
     ``iteration``: the ``iterative`` master's solver; ``steps``: limits of the variable-step controllers;
     ``blowup``: an output whose magnitude exceeds it stops the run (amplitude blow-up); ``progress``: tqdm
     progress bar (None: only when stderr is a terminal, shown after 2 s); ``logging``: FMU debug logging;
-    ``in_process``: how pythonfmu FMUs are called (:func:`harness.fmi.open_instance`: None runs the toolkit's
-    own FMUs in this process and every other FMU through FMI; True runs every pythonfmu FMU in-process;
-    False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs.
+    ``in_process``: how pythonfmu FMUs are called (:func:`harness.fmi.open_instance`: None runs every
+    pythonfmu FMU whose script imports here in this process, the others through FMI with one warning; True
+    requires it; False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs.
     ``divergence``: thresholds of the divergence detector on the power bonds (:mod:`harness.divergence`);
     None switches it off."""
     iteration: IterationOptions = field(default_factory=IterationOptions)
@@ -366,6 +366,9 @@ def register(subparsers) -> None:
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
                    help="write a chart of the run (bond speeds and torques, scene quantities) as "
                         "DIR/<system>.png/.svg (default: no chart)")
+    p.add_argument("--fmi-only", action="store_true",
+                   help="call every FMU through its FMI library (default: pythonfmu FMUs, the toolkit's and "
+                        "others', are called in this process: the same results bit for bit, faster)")
     p.set_defaults(func=run_cli)
 
 
@@ -383,7 +386,8 @@ def run_cli(args) -> int:
             df = simulate(args.system, stop_time=args.stop_time, step=args.step, master=args.master,
                           extrapolation=args.extrapolation, step_control=args.step_control,
                           tolerance=args.tolerance, parameters=parse_sets(args.set), outputs=args.output,
-                          options=RunOptions(progress=None), on_error="return")
+                          options=RunOptions(progress=None, in_process=False if args.fmi_only else None),
+                          on_error="return")
     except RunInterrupted as e:
         df, interrupted = e.partial, True
     a = df.attrs

@@ -224,3 +224,99 @@ def test_typed_system_through_ssp(typed_system, tmp_path, tool):
         df = peers.run_ssp_ecos(ssp, 1.0, 0.1, ["ta.y"], parameter_set="default")
     assert len(df) == len(ref)
     np.testing.assert_allclose(df["ta.y"].to_numpy(), ref["ta.y"].to_numpy(), rtol=1e-12, atol=1e-12)
+
+
+# ----------------------------------------------------------------------------- the in-process path for plain FMUs
+@pytest.mark.parametrize("master", ["jacobi-sampled", "jacobi", "gauss-seidel", "iterative"])
+def test_plain_fmus_run_in_process_by_default_bit_identical_to_their_c_wrapper(plain_lag_fmu, typed_system, master):
+    """By default a plain pythonfmu FMU's slave object is called in this process (no C round trip); the
+    result is the same bit for bit as through its C wrapper (``in_process=False``, the CLI's --fmi-only)."""
+    from harness import RunOptions
+    from harness.fmi import open_instance
+    from harness.fmi.inprocess import InProcessFMU
+
+    inst = open_instance(plain_lag_fmu, "probe")
+    assert isinstance(inst, InProcessFMU)
+    inst.free()
+    for system in (ring(plain_lag_fmu), typed_system):
+        fast, _ = run(system, master)
+        slow, _ = run(system, master, options=RunOptions(in_process=False))
+        assert fast.attrs["complete"] and slow.attrs["complete"]
+        assert list(fast.columns) == list(slow.columns)
+        assert (fast.dtypes == slow.dtypes).all()
+        assert fast.equals(slow), f"{system.name} {master}: in-process and FMI paths differ"
+
+
+RAMP = '''
+from pythonfmu import Fmi2Causality, Fmi2Slave, Real
+
+
+class {cls}(Fmi2Slave):
+    """y grows at a fixed rate; two such scripts share one file name."""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.y = 0.0
+        self.register_variable(Real("y", causality=Fmi2Causality.output))
+
+    def do_step(self, current_time, step_size):
+        self.y += {rate} * step_size
+        return True
+'''
+
+
+def test_two_plain_fmus_built_from_scripts_of_one_file_name_run_in_one_system(tmp_path):
+    """pythonfmu's C wrapper imports a script under its own file name, so in one process the first such
+    module wins; the in-process path imports each FMU's script under a name of its own."""
+    exe = Path(sys.executable).with_name("pythonfmu")
+    if not exe.is_file():
+        pytest.skip("pythonfmu command not installed")
+    fmus = {}
+    for cls, rate in (("RampUp", 2.0), ("RampDown", -1.0)):
+        folder = tmp_path / cls
+        folder.mkdir()
+        (folder / "plain_ramp.py").write_text(RAMP.format(cls=cls, rate=rate))
+        r = subprocess.run([str(exe), "build", "-f", str(folder / "plain_ramp.py"), "-d", str(folder)],
+                           capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr[-500:]
+        fmus[cls] = folder / f"{cls}.fmu"
+    system = System("ramps", [Instance("up", str(fmus["RampUp"])), Instance("down", str(fmus["RampDown"]))], [],
+                    experiment=Experiment(stop_time=1.0, step=0.25))
+    df, _ = run(system, "jacobi")
+    np.testing.assert_allclose(df["up.y"].to_numpy(), 2.0 * df.index.to_numpy(), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(df["down.y"].to_numpy(), -1.0 * df.index.to_numpy(), rtol=0, atol=1e-15)
+
+
+def test_a_script_that_does_not_import_here_falls_back_to_fmi_in_one_line(plain_lag_fmu, monkeypatch):
+    """If the script cannot be imported in this process the FMU runs through its C wrapper, with one warning
+    naming the FMU and the reason; in_process=True makes it an error."""
+    from harness.errors import FMUError
+    from harness.fmi import FMU, InProcessFallback, inprocess, open_instance
+
+    def broken(unzip_dir):
+        raise ModuleNotFoundError("No module named 'hydraulics'")
+
+    monkeypatch.setattr(inprocess, "slave_class", broken)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        inst = open_instance(plain_lag_fmu, "lag")
+    notes = [str(w.message) for w in caught if issubclass(w.category, InProcessFallback)]
+    assert len(notes) == 1 and "\n" not in notes[0], notes
+    assert "PlainLag.fmu (lag)" in notes[0] and "hydraulics" in notes[0] and "FMI library" in notes[0]
+    assert isinstance(inst, FMU)
+    inst.setup(0.0)
+    inst.enter_initialization()
+    inst.exit_initialization()
+    inst.do_step(0.0, 0.01)
+    inst.free()
+    with pytest.raises(FMUError, match="hydraulics"):
+        open_instance(plain_lag_fmu, "lag", in_process=True)
+
+
+def test_cli_fmi_only_gives_the_same_csv(ring_ssp, tmp_path):
+    from harness.__main__ import main
+
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    assert main(["run", str(ring_ssp), "--master", "jacobi-sampled", "--out", str(a)]) == 0
+    assert main(["run", str(ring_ssp), "--master", "jacobi-sampled", "--fmi-only", "--out", str(b)]) == 0
+    assert a.read_text() == b.read_text()

@@ -1,30 +1,47 @@
 """The FMI layer: one checked wrapper per FMI call (:mod:`harness.fmi.fmu`) and the in-process path for
-pythonfmu FMUs (:mod:`harness.fmi.inprocess`).  :func:`open_instance` chooses between them."""
+pythonfmu FMUs, the toolkit's and anybody's (:mod:`harness.fmi.inprocess`).  :func:`open_instance` chooses between them."""
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 from harness.errors import FMUError
 from harness.fmi import inprocess
 from harness.fmi.fmu import FMU, Instance, extracted
 
-__all__ = ["FMU", "Instance", "open_instance", "extracted", "IN_PROCESS_CHOICES"]
+__all__ = ["FMU", "Instance", "open_instance", "extracted", "IN_PROCESS_CHOICES", "InProcessFallback"]
 
 IN_PROCESS_CHOICES = (None, True, False)
+
+
+class InProcessFallback(UserWarning):
+    """A pythonfmu FMU runs through its FMI library because its script does not import in this process."""
 
 
 def open_instance(path: str | Path, name: str, logging_on: bool = True, in_process: bool | None = None) -> Instance:
     """An instance of the FMU at ``path``, called in-process or through FMI.
 
-    ``in_process``: None (default) runs the pythonfmu FMUs of this toolkit (they carry its vendor annotation)
-    in this process (:class:`harness.fmi.inprocess.InProcessFMU`, bit-identical to the FMI path and faster) and
-    every other FMU through its shared library; True runs every pythonfmu FMU in-process (any other FMU still
-    through FMI); False runs everything through FMI."""
+    ``in_process``: None (default) runs every pythonfmu FMU in this process
+    (:class:`harness.fmi.inprocess.InProcessFMU`: the same slave object its C wrapper would create, called
+    without the C round trip; bit-identical and faster) when its script imports here, else through its
+    shared library with one :class:`InProcessFallback` warning saying why; every other FMU runs through its
+    shared library.  True: every pythonfmu FMU in-process, an import failure is an error.  False: every FMU
+    through FMI (the CLI's ``--fmi-only``)."""
     if in_process not in IN_PROCESS_CHOICES:
         raise FMUError(name, "instantiate", None, None,
                        detail=f"in_process = {in_process!r} is not admissible: must be None, True or False")
     if in_process is not False:
         _, unzip_dir = extracted(path)
-        if inprocess.is_pythonfmu(unzip_dir) and (in_process or inprocess.is_toolkit_fmu(unzip_dir)):
-            return inprocess.InProcessFMU(path, name, logging_on)
+        if inprocess.is_pythonfmu(unzip_dir):
+            if in_process or inprocess.is_toolkit_fmu(unzip_dir):
+                return inprocess.InProcessFMU(path, name, logging_on)
+            try:
+                inprocess.slave_class(unzip_dir)
+            except Exception as e:  # the script needs what this process lacks: the C wrapper may still run it
+                warnings.warn(InProcessFallback(
+                    f"{Path(path).name} ({name}): its pythonfmu script does not import in this process "
+                    f"({type(e).__name__}: {' '.join(str(e).split())}); called through its FMI library"),
+                    stacklevel=2)
+            else:
+                return inprocess.InProcessFMU(path, name, logging_on)
     return FMU(path, name, logging_on)

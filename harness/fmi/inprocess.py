@@ -16,16 +16,20 @@ Status mapping (as the pythonfmu 0.7 C wrapper does it): a Python exception in a
 returning False is ``fmi2Discard`` (:class:`~harness.errors.StepDiscarded`).  Messages the slave logs
 (``Fmi2Slave.log``) go to the same ``log``/``errors`` lists as on the FMI path.
 
-Which FMUs run here is decided by :func:`harness.fmi.open_instance`: by default only the toolkit's own FMUs
-(their VendorAnnotations name the slave module and class: :func:`harness.fmi.fmu.toolkit_annotation`);
-any other FMU runs through FMI unless the caller asks for the in-process path explicitly.
+Which FMUs run here is decided by :func:`harness.fmi.open_instance`: by default every pythonfmu FMU whose
+script imports in this process (the toolkit's own FMUs, whose VendorAnnotations name the slave module and
+class, and any other pythonfmu FMU: its script under a unique module name, :func:`_module_name`); an FMU
+whose script cannot be imported here runs through FMI, with one warning line saying why.
 """
 from __future__ import annotations
 
+import hashlib
 import importlib
+import importlib.util
 import inspect
 import sys
 from pathlib import Path
+from types import ModuleType
 
 from harness.errors import FMUError, StepDiscarded
 from harness.fmi.fmu import DISCARD, ERROR, FATAL, WARNING, Instance, RealBlock, toolkit_annotation
@@ -51,16 +55,53 @@ def _depth(cls: type) -> int:
     return -1
 
 
+def _module_name(unzip_dir: Path, script: str) -> str:
+    """The name the in-process path imports an FMU's slave script under: the script's own name for the
+    toolkit's FMUs (already unique: ``pd_<name>_<hash>``), else the script's name plus a digest of the FMU's
+    extraction folder, so two FMUs built from scripts of the same file name (and two versions of one FMU) are
+    two modules in one process.  (pythonfmu's C wrapper imports the script under its own name, so there the
+    first one imported in a process wins.)"""
+    digest = hashlib.sha1(str(Path(unzip_dir).resolve()).encode()).hexdigest()[:12]
+    return f"{script}__fmu_{digest}"
+
+
+def _import_script(unzip_dir: Path) -> ModuleType:
+    """Import the slave module named in ``resources/slavemodule.txt`` as pythonfmu's wrapper does (the
+    resources folder on ``sys.path``, so the script finds the modules packed beside it), under the unique
+    name of :func:`_module_name` where the script is a plain file in the resources folder (any FMU but the
+    toolkit's, whose module and package names are unique already)."""
+    resources = Path(unzip_dir) / "resources"
+    script = (resources / "slavemodule.txt").read_text().strip().splitlines()[0].strip()
+    file = resources / f"{script}.py"
+    if toolkit_annotation(unzip_dir) is not None or not file.is_file():
+        if str(resources) not in sys.path:
+            sys.path.insert(0, str(resources))
+        return importlib.import_module(script)
+    # A plain pythonfmu FMU packs a copy of pythonfmu (without its binaries) beside its script: its folder goes
+    # LAST on sys.path, so this process keeps importing the installed pythonfmu (a later FMU build in the same
+    # process still finds the binaries) while the script still finds its own modules.
+    if str(resources) not in sys.path:
+        sys.path.append(str(resources))
+    name = _module_name(unzip_dir, script)
+    module = sys.modules.get(name)
+    if module is None:
+        spec = importlib.util.spec_from_file_location(name, file)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        try:
+            spec.loader.exec_module(module)
+        except BaseException:
+            del sys.modules[name]
+            raise
+    return module
+
+
 def slave_class(unzip_dir: Path) -> type:
     """Import the FMU's slave module from its resources folder and return the slave class.
 
     The class is the one the FMU's annotation names, else (any pythonfmu FMU) the class pythonfmu's C
     wrapper takes: among the module's classes, the first whose MRO has ``Fmi2Slave`` deepest."""
-    resources = Path(unzip_dir) / "resources"
-    module_name = (resources / "slavemodule.txt").read_text().strip().splitlines()[0].strip()
-    if str(resources) not in sys.path:
-        sys.path.insert(0, str(resources))
-    module = importlib.import_module(module_name)
+    module = _import_script(unzip_dir)
     ann = toolkit_annotation(unzip_dir)
     if ann is not None and ann.get("class"):
         return getattr(module, ann.get("class"))
@@ -70,7 +111,7 @@ def slave_class(unzip_dir: Path) -> type:
         if d > depth:
             best, depth = value, d
     if best is None:
-        raise ImportError(f"module {module_name} of {unzip_dir} defines no Fmi2Slave subclass")
+        raise ImportError(f"module {module.__name__} of {unzip_dir} defines no Fmi2Slave subclass")
     return best
 
 
