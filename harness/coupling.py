@@ -88,3 +88,41 @@ def layout(fmus: dict, connections, mds: dict, interpolate: bool) -> Layout:
         it.interp = it.fmu.can_interpolate_inputs and interpolate
         it.pos_idx = np.zeros(0, dtype=np.intp)
     return Layout(insts, index, names, signal_index, src, fac, off, u, discrete)
+
+
+def discrete_refresh(discrete: list[tuple]) -> tuple[list[tuple], list[tuple]]:
+    """Split the non-Real connections of ``discrete`` for a master that refreshes feed-through at a
+    communication point (``jacobi``, ``iterative``): ``(sampled, chained)``.
+
+    A connection whose source output DECLARES a direct dependency on a non-Real input that another connection
+    sets is ``chained``: it is passed after that connection, so a value travels through a chain of
+    feed-through FMUs (e.g. Stair -> Feedthrough -> Feedthrough) within one communication point, as Real
+    feed-through does.  The others (and any cycle among the chained, which no refresh can order) are
+    ``sampled``: every source is read before any target is set, as libcosim and Ecos pass such values.
+    Outputs without declared dependencies are taken as sampled (FMI 2.0's "may depend on every input" is
+    an assumption, :meth:`harness.masters.Master._assume_sampled`)."""
+    import networkx as nx
+
+    def declared(fmu, output: str) -> set[str]:
+        for u in fmu.md.outputs:
+            if u.variable.name == output and u.dependencies is not None:
+                return {d.name for d in u.dependencies}
+        return set()
+
+    set_by = {(id(dst), dv): k for k, (_, _, dst, dv) in enumerate(discrete)}
+    g = nx.DiGraph()
+    for k, (src, sv, _, _) in enumerate(discrete):
+        for d in declared(src, sv):
+            j = set_by.get((id(src), d))
+            if j is not None:
+                g.add_edge(j, k)
+    chained = [k for k in g.nodes if g.in_degree(k)]
+    if not chained:
+        return list(discrete), []
+    if not nx.is_directed_acyclic_graph(g):
+        cyclic = {k for comp in nx.strongly_connected_components(g) if len(comp) > 1 for k in comp}
+        g.remove_nodes_from(cyclic)
+        chained = [k for k in g.nodes if g.in_degree(k)]
+    order = [k for k in nx.lexicographical_topological_sort(g) if k in set(chained)]
+    chain_set = set(order)
+    return [c for k, c in enumerate(discrete) if k not in chain_set], [discrete[k] for k in order]

@@ -177,6 +177,7 @@ class Master:
 
     name: ClassVar[str] = "base"
     solves_loops: ClassVar[bool] = False
+    refreshes_discrete: ClassVar[bool] = False  # pass non-Real feed-through chains within a point (Jacobi)
 
     def __init__(self, fmus: dict, connections, bonds=(), extrapolation: Polynomial | None = None,
                  iteration: IterationOptions | None = None, tolerance: float | None = None,
@@ -207,6 +208,9 @@ class Master:
         self.history = History(len(lay.signal_names), self.history_depth())
         self.src, self.fac, self.off, self.u = lay.src, lay.fac, lay.off, lay.u
         self._discrete = lay.discrete
+        self._discrete_chain: list[tuple] = []  # passed after the others, in order (coupling.discrete_refresh)
+        if self.refreshes_discrete and lay.discrete:
+            self._discrete, self._discrete_chain = coupling.discrete_refresh(lay.discrete)
         self._group_idx = [[self.index[n] for n in g] for g in self.groups]
         in_loops = {n.split(".", 1)[0] for loop in loops for n in loop}
         self._loop_groups = {k for k, g in enumerate(self.groups) if any(n in in_loops for n in g)}
@@ -294,10 +298,16 @@ class Master:
     def _pass_discrete(self) -> None:
         """Integer, Boolean, String and Enumeration connections: each target input takes its source's value
         at the current communication point and holds it over the step (no transformation, no
-        extrapolation), as libcosim and Ecos pass such values."""
+        extrapolation), as libcosim and Ecos pass such values.  A master that refreshes feed-through
+        (``refreshes_discrete``: ``jacobi``, ``iterative``) passes them at the END of each step, so a
+        feed-through output is recorded with its input of the same point, and then passes the connections
+        whose source declares a direct dependency on a value just set, in chain order
+        (:func:`harness.coupling.discrete_refresh`); the others pass them at the start of the step."""
         values = [src.get_value(sv) for src, sv, _, _ in self._discrete]  # every source first: a target
         for (_, _, dst, dv), value in zip(self._discrete, values):      # may feed one through
             dst.set_value(dv, value)
+        for src, sv, dst, dv in self._discrete_chain:
+            dst.set_value(dv, src.get_value(sv))
 
     def _read(self, it: _Inst) -> None:
         self.y[it.sl] = it.fmu.get(it.out)
@@ -462,9 +472,11 @@ class Master:
         """One communication step from t_ns (must be the current time) of h_ns nanoseconds."""
         t, h, t_next = t_ns / NS, h_ns / NS, (t_ns + h_ns) / NS
         y0 = self._y_list if self._y_list is not None else self.y.tolist()
-        if self._discrete:
-            self._pass_discrete()
+        if self._discrete and not self.refreshes_discrete:
+            self._pass_discrete()  # values sampled at t, held over the step
         self._step_impl(t, h, t_next)
+        if self._discrete and self.refreshes_discrete:
+            self._pass_discrete()  # refreshed at t_next, as Real feed-through is, before the point is recorded
         y = self._y_list = self.y.tolist()
         self._check(t_next, y)
         if self._bonds:
@@ -506,8 +518,10 @@ class Master:
 
 
 class Jacobi(Master):
-    """Every FMU steps on inputs extrapolated from the outputs at t."""
+    """Every FMU steps on inputs extrapolated from the outputs at t; outputs with declared feed-through are
+    refreshed with the new inputs at each communication point (Real and non-Real)."""
     name = "jacobi"
+    refreshes_discrete = True
 
     def history_depth(self) -> int:
         return self.extrapolation.order + 1  # every source's newest sample is at t: the polynomial's nodes
@@ -525,6 +539,7 @@ class JacobiSampled(Jacobi):
     the new inputs at the communication point (``jacobi`` does refresh it, which is more accurate).  Use it
     to compare with those tools step for step."""
     name = "jacobi-sampled"
+    refreshes_discrete = False
 
     def _step_impl(self, t, h, t_next):
         self._hold_all(t, h)
@@ -566,6 +581,7 @@ class Iterative(Master):
     points are solved with the same iteration."""
     name = "iterative"
     solves_loops = True
+    refreshes_discrete = True
 
     def __init__(self, fmus, connections, *args, **kwargs):
         super().__init__(fmus, connections, *args, **kwargs)
