@@ -178,11 +178,16 @@ def preload(fmu_paths) -> None:
     from fmpy.fmi2 import FMU2Slave
     from harness.fmi.fmu import extracted
 
-    for fmu_path in fmu_paths:
+    from harness.fmi.inprocess import is_pythonfmu
+
+    for fmu_path in fmu_paths or ():
         key = str(Path(fmu_path).resolve())
         if key in _PRELOADED:
             continue
         md, unzip_dir = extracted(fmu_path)
+        if not is_pythonfmu(unzip_dir):  # only pythonfmu FMUs import code into the process
+            _PRELOADED.add(key)
+            continue
         slave = FMU2Slave(guid=md.guid, unzipDirectory=str(unzip_dir),
                           modelIdentifier=md.coSimulation.modelIdentifier, instanceName="preload")
         slave.instantiate(loggingOn=False)

@@ -8,8 +8,9 @@ from pathlib import Path
 from harness.errors import FMUError
 from harness.fmi import inprocess
 from harness.fmi.fmu import FMU, Instance, extracted
+from harness.fmi.fmu1 import FMU1
 
-__all__ = ["FMU", "Instance", "open_instance", "extracted", "IN_PROCESS_CHOICES", "InProcessFallback"]
+__all__ = ["FMU", "FMU1", "Instance", "open_instance", "extracted", "IN_PROCESS_CHOICES", "InProcessFallback"]
 
 IN_PROCESS_CHOICES = (None, True, False)
 
@@ -26,12 +27,15 @@ def open_instance(path: str | Path, name: str, logging_on: bool = True, in_proce
     without the C round trip; bit-identical and faster) when its script imports here, else through its
     shared library with one :class:`InProcessFallback` warning saying why; every other FMU runs through its
     shared library.  True: every pythonfmu FMU in-process, an import failure is an error.  False: every FMU
-    through FMI (the CLI's ``--fmi-only``)."""
+    through FMI (the CLI's ``--fmi-only``).  FMI 1.0 co-simulation FMUs run through
+    :class:`harness.fmi.fmu1.FMU1`."""
     if in_process not in IN_PROCESS_CHOICES:
         raise FMUError(name, "instantiate", None, None,
                        detail=f"in_process = {in_process!r} is not admissible: must be None, True or False")
+    md, unzip_dir = extracted(path)
+    if md.fmiVersion == "1.0":
+        return FMU1(path, name, logging_on)
     if in_process is not False:
-        _, unzip_dir = extracted(path)
         if inprocess.is_pythonfmu(unzip_dir):
             if in_process or inprocess.is_toolkit_fmu(unzip_dir):
                 return inprocess.InProcessFMU(path, name, logging_on)

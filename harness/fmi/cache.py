@@ -17,6 +17,8 @@ import tempfile
 import zipfile
 from pathlib import Path
 
+import warnings
+
 from harness.errors import SystemError_
 
 _DESCRIPTIONS: dict[tuple[str, float], object] = {}
@@ -35,8 +37,22 @@ def model_description(path: str | Path):
         try:
             _DESCRIPTIONS[key] = read_model_description(str(p))
         except Exception as e:
-            raise SystemError_(f"{p}: not a readable FMU ({type(e).__name__}: {e})".splitlines()[0]) from None
+            problems = getattr(e, "problems", None)
+            if not problems:
+                raise SystemError_(f"{p}: not a readable FMU ({type(e).__name__}: {e})".splitlines()[0]) from None
+            # readable but not valid (e.g. a variable name declared twice): libcosim and Ecos load such FMUs,
+            # so does the master, saying so in one line; a variable whose name is not unique cannot be used
+            # (harness.fmi.fmu.Instance.var names it)
+            md = read_model_description(str(p), validate=False)
+            warnings.warn(InvalidModelDescription(
+                f"{p.name}: modelDescription.xml is not valid ({'; '.join(' '.join(x.split()) for x in problems)}); "
+                f"loaded anyway"), stacklevel=2)
+            _DESCRIPTIONS[key] = md
     return _DESCRIPTIONS[key]
+
+
+class InvalidModelDescription(UserWarning):
+    """An FMU's modelDescription.xml fails fmpy's validation but can be read (the master loads it anyway)."""
 
 
 def cache_dir() -> Path:

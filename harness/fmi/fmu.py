@@ -42,7 +42,7 @@ def extracted(path: str | Path):
     md = model_description(p)
     if md.coSimulation is None:
         raise FMUError(p.stem, "read_model_description", None, None,
-                       detail=f"{p.name} is not an FMI 2.0 co-simulation FMU")
+                       detail=f"{p.name} is not a co-simulation FMU (FMI {md.fmiVersion}, model exchange only)")
     return md, unzipped(p)
 
 
@@ -162,6 +162,9 @@ class Instance:
         self.md, self.unzip_dir = extracted(self.path)
         cs = self.md.coSimulation
         self.variables = {v.name: v for v in self.md.modelVariables}
+        names = [v.name for v in self.md.modelVariables]
+        self._ambiguous = {n for n in self.variables if names.count(n) > 1} if len(names) > len(self.variables) \
+            else set()  # declared twice (an invalid modelDescription loaded anyway): unusable by name
         self.can_get_set_state = bool(cs.canGetAndSetFMUstate)
         self.can_vary_step = bool(cs.canHandleVariableCommunicationStepSize)
         self.can_interpolate_inputs = bool(cs.canInterpolateInputs)
@@ -193,6 +196,9 @@ class Instance:
 
     def var(self, name: str):
         v = self.variables.get(name)
+        if name in self._ambiguous:
+            raise FMUError(self.name, "lookup", None, None,
+                           detail=f"FMU {self.md.modelName} declares variable {name!r} more than once")
         if v is None:
             raise FMUError(self.name, "lookup", None, None,
                            detail=f"FMU {self.md.modelName} has no variable {name!r}")

@@ -1,0 +1,128 @@
+"""FMI 1.0 co-simulation FMUs behind the same :class:`~harness.fmi.fmu.Instance` interface as FMI 2.0.
+
+Other tools' systems still ship FMI 1.0 FMUs (OSP's ``dp-ship`` demo case: five of them, run by libcosim), so
+the master takes them as they are, through fmpy's :class:`fmpy.fmi1.FMU1Slave`.  FMI 1.0 co-simulation has
+no initialization mode: ``fmiInitializeSlave(tStart, stopTimeDefined, tStop)`` both starts the experiment
+and ends the initialization, and no output may be read before it.  So :meth:`FMU1.enter_initialization`
+calls it (parameters and start values are set before, as in FMI 2.0), the master's consistent exchange at
+the start then reads initialized outputs and sets the inputs for the first step, and
+:meth:`FMU1.exit_initialization` has nothing left to do.  FMI 1.0 has no FMU state: such an FMU cannot roll
+back (``iterative`` takes each step once with it, step doubling refuses it, naming it).
+
+fmpy's model description already maps FMI 1.0 onto FMI 2.0's words (causality ``parameter``, ``local``), so
+everything above this module treats both versions alike.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from harness.errors import FMUError, StepDiscarded
+from harness.fmi.fmu import DISCARD, ERROR, Instance, RealBlock
+
+_FUNCTIONS = {"Real": ("getReal", "setReal", float), "Integer": ("getInteger", "setInteger", int),
+              "Enumeration": ("getInteger", "setInteger", int), "Boolean": ("getBoolean", "setBoolean", bool),
+              "String": ("getString", "setString", str)}
+
+
+class FMU1(Instance):
+    """One instance of an FMI 1.0 co-simulation FMU (module docstring)."""
+
+    path_kind = "fmi1"
+
+    def __init__(self, path: str | Path, name: str, logging_on: bool = True):
+        from fmpy.fmi1 import FMU1Slave
+
+        super().__init__(path, name)
+        self.can_get_set_state = False
+        self.can_interpolate_inputs = False  # the master hands no input derivatives to FMI 1.0 FMUs
+        self.max_input_derivative_order = 0
+        self._start, self._stop = 0.0, None
+        self._slave = FMU1Slave(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
+                                modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        self._call("fmiInstantiateSlave", self._slave.instantiate, loggingOn=False)
+
+    def _call(self, function: str, method, *args, **kwargs):
+        from fmpy.fmi1 import FMICallException
+
+        if self.failed:
+            raise FMUError(self.name, function, self.time, ERROR, detail="the instance failed before")
+        try:
+            return method(*args, **kwargs)
+        except FMICallException as e:
+            status = int(getattr(e, "status", ERROR))
+            if status == DISCARD:
+                raise StepDiscarded(self.name, function, self.time, status, "") from None
+            self.failed = True
+            raise FMUError(self.name, function, self.time, status, "") from None
+        except Exception as e:  # the library could not be called at all
+            self.failed = True
+            raise FMUError(self.name, function, self.time, ERROR, detail=f"{type(e).__name__}: {e}") from None
+
+    # -- life cycle --------------------------------------------------------------------------------------------
+    def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
+        self.time = start_time
+        self._start, self._stop = float(start_time), stop_time
+
+    def enter_initialization(self) -> None:
+        self._call("fmiInitializeSlave", self._slave.initialize, tStart=self._start, stopTime=self._stop)
+
+    def exit_initialization(self) -> None:
+        """Nothing: fmiInitializeSlave ended the initialization (module docstring)."""
+
+    def terminate(self) -> None:
+        if not self.failed and self._slave is not None:
+            self._call("fmiTerminateSlave", self._slave.terminate)
+
+    def free(self) -> None:
+        """Free the instance (the shared library stays loaded, as for FMI 2.0 FMUs)."""
+        if self._slave is not None and not self.failed:
+            self._slave.fmi1FreeSlaveInstance(self._slave.component)
+        self._slave = None
+
+    # -- values ------------------------------------------------------------------------------------------------
+    def get(self, block: RealBlock):
+        if block.n:
+            block.values[:] = self._call("fmiGetReal", self._slave.getReal, block.refs)
+        return block.values
+
+    def set(self, block: RealBlock, values=None) -> None:
+        if values is not None:
+            block.values[:] = values
+        if block.n:
+            self._call("fmiSetReal", self._slave.setReal, block.refs, block.values.tolist())
+
+    def get_list(self, block: RealBlock) -> list:
+        return list(self._call("fmiGetReal", self._slave.getReal, block.refs)) if block.n else []
+
+    def set_list(self, block: RealBlock, values: list) -> None:
+        if block.n:
+            self._call("fmiSetReal", self._slave.setReal, block.refs, list(values))
+
+    def set_input_derivatives(self, block: RealBlock, order: int, values) -> None:
+        raise FMUError(self.name, "fmiSetRealInputDerivatives", self.time, ERROR,
+                       detail="the master hands no input derivatives to FMI 1.0 FMUs")
+
+    def set_value(self, name: str, value) -> None:
+        v, value = self._typed(name, value)
+        _, setter, _ = _FUNCTIONS[v.type]
+        self._call(f"fmi{setter[0].upper()}{setter[1:]}", getattr(self._slave, setter), [v.valueReference], [value])
+
+    def get_value(self, name: str):
+        v = self.var(name)
+        getter, _, kind = _FUNCTIONS[v.type]
+        return kind(self._call(f"fmi{getter[0].upper()}{getter[1:]}", getattr(self._slave, getter),
+                               [v.valueReference])[0])
+
+    # -- stepping ----------------------------------------------------------------------------------------------
+    def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
+        self.time = t
+        self._call(f"fmiDoStep(h = {h:.6g} s)", self._slave.doStep, t, h, True)
+        self.time = t + h
+
+    def get_state(self, state=None):
+        raise FMUError(self.name, "getFMUstate", self.time, ERROR, detail="FMI 1.0 FMUs have no FMU state")
+
+    set_state = free_state = get_state
+
+
+__all__ = ["FMU1"]
