@@ -23,13 +23,27 @@ the run into blocks of ``block`` steps and keeps, per bond and block, the peak p
 * and the coupling created more than ``creation`` (5 %) of the energy that flowed through the bond over the
   last quarter of the blocks: a drive spinning up or a cut starting raises the power of a stable run but
   the coupling creates no energy then.  (On the Gauss-Seidel, zero-order-hold two-inertia runs the bond's
-  energy error stays near zero while the amplitude grows: those are not stopped, see below.)
+  energy error stays near zero while the amplitude grows: the geometric test below stops those.)
 * the verdict must hold at ``persist`` (1) consecutive block ends.
+
+A second test needs no energy bookkeeping: GEOMETRIC growth.  Split the blocks so far into quarters; when the
+peak power grows by more than ``geometric`` (2) from the second quarter to the third AND from the third to the
+fourth, at a steady rate (the second ratio between 0.7 times and the square of the first), the bond is
+watched; it is stopped if the same holds again once the run is 1.5 times as long as when first seen, the
+power not having fallen in between.  An unstable mode grows so; a spin-up or a cut saturates, a resonance
+under periodic forcing grows polynomially (a linearly growing amplitude gives at most x2.25, then x1.78), and
+a machine's periodic load that rises within its first cycle (bed_drive's return stroke) falls again before
+the confirmation.  Bonds near rest are not judged: below ``floor`` times the largest peak power of the run,
+or below ``quiet`` (1e-6) times the bond's nominal power (the declared ``nominal`` of its effort times that of
+its flow, FMI's default 1 where none is declared).  This is what stops Gauss-Seidel with zero-order hold,
+whose bond energy error stays near zero while the amplitude grows.  A truly unstable physical system (negative
+damping) would be stopped too: ``DivergenceOptions(geometric=None)`` switches the test off.
 
 Tuned on the two stability maps (``docs/images/stability_two_inertia_inertia.csv`` and
 ``stability_bed_drive_fourbar_rocker_inertia.csv``): no stop at any step the maps judge stable, a stop on
-clearly unstable steps (``tests/test_divergence.py`` states which, and which are not: Gauss-Seidel with
-zero-order hold on the two-inertia map; four bed-drive points at 1.5 times the boundary; (1 % let a
+clearly unstable steps (``tests/test_divergence.py`` states which, and which are not: three of the five
+Gauss-Seidel zero-order-hold points of the two-inertia map at 1.25 times the boundary, which grow too slowly
+to be confirmed within the map's 60 periods; four bed-drive points at 1.5 times the boundary; (1 % let a
 start-up transient of the bed drive at 5e-5 s trip the test); the most violent
 blow-ups, which pass 1e12 within the first 8 blocks and are stopped by the master's blow-up check instead).  A run that
 is only just beyond the boundary grows too slowly to be stopped within the maps' run lengths; the studies'
@@ -67,15 +81,17 @@ class DivergenceOptions:
     floor: float = 1e-3
     persist: int = 1
     rest: float = 1e-9
+    geometric: float | None = 2.0
+    quiet: float = 1e-6
 
     def __post_init__(self):
         for name in ("block", "min_blocks", "late", "persist"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"DivergenceOptions.{name} = {v!r} is not admissible: must be an integer >= 1")
-        for name in ("growth", "creation", "fast", "floor", "rest"):
+        for name in ("growth", "creation", "fast", "floor", "rest", "geometric", "quiet"):
             v = getattr(self, name)
-            if v is None and name == "creation":
+            if v is None and name in ("creation", "geometric"):
                 continue
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"DivergenceOptions.{name} = {v!r} is not admissible: must be a positive number")
@@ -87,11 +103,14 @@ class DivergenceDetector:
     ``labels``: bond labels ``"a.port->b.port"``; ``efforts``: per bond the ``(instance, variable)`` of the
     effort output on its motion-input side, named in the message."""
 
-    def __init__(self, labels: list[str], efforts: list[tuple[str, str]], options: DivergenceOptions | None = None):
+    def __init__(self, labels: list[str], efforts: list[tuple[str, str]], options: DivergenceOptions | None = None,
+                 nominal: list[float] | None = None):
         self.labels = list(labels)
         self.efforts = list(efforts)
         self.opts = options or DivergenceOptions()
         n = len(self.labels)
+        # per bond: nominal power [W] = declared nominal of its effort x nominal of its flow (FMI's default 1)
+        self.nominal = list(nominal) if nominal is not None else [1.0] * n
         self.n = n
         self._k = 0                      # steps in the current block
         self._t_block = 0.0              # start time of the current block
@@ -104,6 +123,7 @@ class DivergenceDetector:
         self._flagged = [False] * n      # diverging at this block end
         self._streak = [0] * n           # consecutive block ends a bond has been diverging
         self._why: list = [None] * n
+        self._geo_since: list = [None] * n  # when steady geometric growth was first seen (see _judge)
 
     def update(self, t: float, bond_log, h: float) -> None:
         """One accepted communication point at ``t`` [s] after a step of ``h`` [s]; ``bond_log`` the master's
@@ -148,6 +168,35 @@ class DivergenceDetector:
             if not self._creates(j, nb):
                 continue
             self._flag(t, j, early, late, self.times[0], self.times[q2], o.growth, nb)
+        if nb >= o.min_blocks and o.geometric is not None:
+            # geometric growth over three consecutive quarters (Q2 -> Q3 -> Q4), the rate not dying out: the
+            # signature of an unstable mode, whatever the coupling's energy bookkeeping says (Gauss-Seidel with
+            # zero-order hold moves energy through the bond with almost no error on it and still grows);
+            # spin-ups and cuts saturate, a resonance under periodic forcing grows polynomially (power x2.25
+            # at most from Q2 to Q3 for a linearly growing amplitude)
+            q = [max(p[j] for p in self.peaks[a:b]) if b > a else 0.0 for a, b in
+                 ((nb // 4, nb // 2), (nb // 2, (3 * nb) // 4), ((3 * nb) // 4, nb)) for j in range(self.n)]
+            scale = o.floor * max(max(p) for p in self.peaks)  # a bond near rest is not judged (cut onsets)
+            for j in range(self.n):
+                p2, p3, p4 = q[j], q[self.n + j], q[2 * self.n + j]
+                if p2 < scale or p2 < o.quiet * self.nominal[j] or p3 <= 0.0:
+                    continue  # near rest: on the run's scale, or on the bond's declared nominal power
+                r3, r4 = p3 / p2, p4 / p3
+                # the same rate in both quarters (within x2 down, squared up): steady exponential growth
+                if not (r3 > o.geometric and r4 > o.geometric and 0.7 * r3 < r4 < r3 * r3):
+                    if r3 < 1.0 or r4 < 1.0:
+                        self._geo_since[j] = None  # the growth stopped
+                    continue
+                # confirmed only if it holds again once the run is 1.5 times as long as when it first held, the
+                # power not having fallen in between: a machine's periodic load (a return stroke within the
+                # first cycle) grows within one period and then repeats, an unstable mode keeps growing
+                since = self._geo_since[j]
+                if since is None:
+                    self._geo_since[j] = t
+                elif t - self.times[0] >= 1.5 * (since - self.times[0]) and not self._flagged[j]:
+                    self._flagged[j] = True
+                    self._why[j] = ("geometric", p2, p3, p4, self.times[nb // 4], self.times[nb // 2],
+                                    self.times[(3 * nb) // 4])
         self._streak = [s + 1 if f else 0 for s, f in zip(self._streak, self._flagged)]
         self._flagged = [False] * self.n
         for j in range(self.n):
@@ -170,8 +219,23 @@ class DivergenceDetector:
         flowed = sum(f[j] for f in self.flows[q3:])
         return created > c * flowed
 
-    def _raise(self, t, j, early, late, t0, t1, limit, nb):
+    def _raise(self, t, j, *why):
+        if isinstance(why[0], str):  # ("geometric", ...)
+            _, p2, p3, p4, t2, t3, t4 = why[:7]
+            return self._stop(t, j, f"the run diverged on power bond {self.labels[j]}: its peak power grew "
+                                    f"geometrically, {p2:.3g} W ({t2:.4g}-{t3:.4g} s) -> {p3:.3g} W (to {t4:.4g} s) "
+                                    f"-> {p4:.3g} W (x{p3 / p2:.3g}, x{p4 / p3:.3g}; limit x{self.opts.geometric:g} "
+                                    f"each)")
+        self._raise_growth(t, j, *why)
+
+    def _stop(self, t, j, evidence):
         inst, var = self.efforts[j]
+        err = Diverged(f"t = {t:.9g} s: instance {inst}: output {var}: {evidence}", time=t, instance=inst,
+                       variable=var)
+        err.evidence = evidence
+        raise err
+
+    def _raise_growth(self, t, j, early, late, t0, t1, limit, nb):
         q3 = min((3 * nb) // 4, nb - 1)
         created = self.energies[nb][j] - self.energies[q3][j]
         flowed = sum(f[j] for f in self.flows[q3:])
@@ -180,19 +244,22 @@ class DivergenceDetector:
                     f"limit x{limit:g}); the coupling created {created:.3g} J since {self.times[q3]:.4g} s "
                     f"({created / flowed if flowed > 0 else math.inf:.0%} of the {flowed:.3g} J that flowed "
                     f"through it)")
-        err = Diverged(f"t = {t:.9g} s: instance {inst}: output {var}: {evidence}", time=t, instance=inst,
-                       variable=var)
-        err.evidence = evidence
-        raise err
+        self._stop(t, j, evidence)
 
 
 def for_master(master, options: DivergenceOptions | None = None) -> DivergenceDetector:
     """A detector for the bonds of a :class:`harness.masters.Master`."""
-    efforts = []
-    for (_, _, _, tau_out) in master._bonds:
+    efforts, nominal = [], []
+    for (_, w_out, _, tau_out) in master._bonds:
         inst, var = master.signal_names[tau_out].split(".", 1)
         efforts.append((inst, var))
-    return DivergenceDetector(master.bond_labels, efforts, options)
+        scale = 1.0
+        for name in (master.signal_names[tau_out], master.signal_names[w_out]):
+            i, v = name.split(".", 1)
+            declared = getattr(master.fmus[i].variables.get(v), "nominal", None)
+            scale *= abs(float(declared)) if declared not in (None, "") and float(declared) != 0.0 else 1.0
+        nominal.append(scale)
+    return DivergenceDetector(master.bond_labels, efforts, options, nominal)
 
 
 def replay(bond_log, options: DivergenceOptions | None = None, efforts=None) -> str:

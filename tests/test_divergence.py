@@ -56,13 +56,17 @@ def test_two_inertia_map_stable_points_run_to_the_end():
 
 
 def test_two_inertia_map_unstable_points_are_stopped():
-    stopped = 0
+    stopped = gs_missed = 0
     for _, r in TI.iterrows():
         run, hb = _ti_run(r)
         df = run(hb * 1.25)
         assert st.is_unstable(df)
-        if r.master == "gauss-seidel" and r.order == 0:
-            # known miss: the bond's energy error stays near zero while the amplitude grows (module docstring)
+        if r.master == "gauss-seidel" and r.order == 0 and df.attrs["complete"]:
+            # Gauss-Seidel with zero-order hold: the bond's energy error stays near zero while the amplitude
+            # grows, so only the geometric-growth test can stop it, and at 1.25 times the boundary it grows
+            # by x2-3 in power per quarter of the run: measured, 2 of these 5 runs are stopped within the
+            # map's 60 periods (ratios 0.5 and 5), 3 are not (0.2, 1.0, 2.0)
+            gs_missed += 1
             continue
         assert not df.attrs["complete"], (r.ratio, r.master, r.order)
         if df.attrs["diverged"]:
@@ -70,6 +74,7 @@ def test_two_inertia_map_unstable_points_are_stopped():
             stopped += 1
         else:  # only the most violent blow-ups reach the master's check before the detector's first blocks
             assert "blow-up limit" in df.attrs["error"] and len(df) < 64, (r.ratio, r.master, r.order)
+    assert gs_missed <= 3
     assert stopped >= 18  # measured: 20 of these 25 by the detector, the other 5 by the blow-up check
 
 
@@ -147,8 +152,8 @@ def test_detector_can_be_switched_off_and_replayed():
 
 
 def test_detector_on_synthetic_growth_and_steady_signals():
-    def feed(powers, created):
-        det = DivergenceDetector(["a.p->b.p"], [("b", "p.tau")])
+    def feed(powers, created, options=None):
+        det = DivergenceDetector(["a.p->b.p"], [("b", "p.tau")], options)
         e = 0.0
         for k, p in enumerate(powers):
             e += created * abs(p) * 1e-3
@@ -157,12 +162,33 @@ def test_detector_on_synthetic_growth_and_steady_signals():
     steady = [10.0 * math.sin(0.3 * k) for k in range(2000)]
     feed(steady, 0.5)                            # no growth: never stopped, whatever the energy error
     growing = [math.exp(0.01 * k) * math.sin(0.3 * k) for k in range(2000)]
-    feed(growing, 0.0)                           # growth without energy created by the coupling: not stopped
+    no_geometric = DivergenceOptions(geometric=None)
+    feed(growing, 0.0, no_geometric)             # growth without energy created by the coupling: not stopped
     with pytest.raises(Diverged, match="instance b: output p.tau: the run diverged on power bond a.p->b.p"):
-        feed(growing, 0.05)
+        feed(growing, 0.05, no_geometric)
+    # ... unless it is geometric: the same rate over three quarters of the run (Gauss-Seidel's zero-order hold)
+    with pytest.raises(Diverged, match="grew geometrically"):
+        feed(growing, 0.0)
+    linear = [(1.0 + 0.01 * k) * math.sin(0.3 * k) for k in range(2000)]  # a resonance building up
+    feed(linear, 0.0)
+    saturating = [(1.0 - math.exp(-0.005 * k)) * 100.0 * math.sin(0.3 * k) for k in range(2000)]  # a spin-up
+    feed(saturating, 0.0)
 
 
 @pytest.mark.parametrize("bad", [dict(block=0), dict(growth=-1.0), dict(creation=float("nan"))])
 def test_options_are_checked(bad):
     with pytest.raises(ValueError, match="DivergenceOptions"):
         DivergenceOptions(**bad)
+
+
+def test_gauss_seidel_zero_order_hold_growth_is_stopped():
+    """The issue's miss: two_inertia (undamped, free-free: any energy is made by the coupling) with
+    gauss-seidel and zero-order hold at its default 1 ms step grew its spring torque from 4.2 to 3.2e3 N.m in
+    5 s and ended complete; the geometric-growth test stops it, in one line, before the torque has doubled."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        df = simulate("two_inertia", stop_time=5.0, step=1e-3, master="gauss-seidel", extrapolation=0)
+    assert not df.attrs["complete"] and df.attrs["diverged"]
+    err = _one_line_divergence(df)
+    assert "grew geometrically" in err and "instance b: output drive.tau" in err
+    assert df.index[-1] < 2.0 and df["b.drive.tau"].abs().max() < 2 * 4.2
