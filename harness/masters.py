@@ -216,6 +216,7 @@ class Master:
         self._loop_groups = {k for k, g in enumerate(self.groups) if any(n in in_loops for n in g)}
         self._plan = exchange_plan(self._group_idx, self.insts, self.connections, mds, self._loop_groups)
         self._prepare_bonds(bonds)
+        self._range = self._declared_range()  # outputs with a declared min/max (checked by _check)
         for b in bonds:  # positions of power bonds: see _held_values
             inst, port = b.motion_in.split(".", 1)
             it = self.insts[self.index[inst]]
@@ -488,9 +489,36 @@ class Master:
         ``self.y`` (and the history)."""
         raise NotImplementedError
 
+    def _declared_range(self) -> tuple | None:
+        """(indices into y, min, max) of the Real outputs that declare ``min`` or ``max`` (None: none does)."""
+        idx, lo, hi = [], [], []
+        for k, name in enumerate(self.signal_names):
+            inst, var = name.split(".", 1)
+            v = self.fmus[inst].variables.get(var)
+            a, b = getattr(v, "min", None), getattr(v, "max", None)
+            if a not in (None, "") or b not in (None, ""):
+                idx.append(k)
+                lo.append(float(a) if a not in (None, "") else -math.inf)
+                hi.append(float(b) if b not in (None, "") else math.inf)
+        return (np.array(idx, dtype=np.intp), np.array(lo), np.array(hi)) if idx else None
+
     def _check(self, t: float, values: list | None = None) -> None:
-        """Stop on a non-finite output or one beyond the blow-up limit (``values``: ``y`` as a list)."""
+        """Stop on a non-finite output, one beyond the blow-up limit (``values``: ``y`` as a list) or one
+        outside the range its FMU declares (``min``/``max``)."""
         values = self.y.tolist() if values is None else values
+        rng = self._range
+        if rng is not None:
+            idx, lo, hi = rng
+            v = self.y[idx]
+            out = (v < lo) | (v > hi)
+            if out.any():
+                k = int(idx[int(np.argmax(out))])
+                inst, var = self.signal_names[k].split(".", 1)
+                j = int(np.argmax(out))
+                raise SimulationError(f"t = {t:.9g} s: instance {inst}: output {var} = {float(self.y[k])!r} is "
+                                      f"outside the range [{lo[j]:g}, {hi[j]:g}] its FMU "
+                                      f"{self.fmus[inst].md.modelName} declares", time=t, instance=inst,
+                                      variable=var)
         # every value is finite when the sum is (else: find the culprit below); then the largest magnitude
         if not values or (math.isfinite(sum(values)) and max(map(abs, values)) <= self.blowup):
             return

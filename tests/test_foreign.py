@@ -320,3 +320,22 @@ def test_cli_fmi_only_gives_the_same_csv(ring_ssp, tmp_path):
     assert main(["run", str(ring_ssp), "--master", "jacobi-sampled", "--out", str(a)]) == 0
     assert main(["run", str(ring_ssp), "--master", "jacobi-sampled", "--fmi-only", "--out", str(b)]) == 0
     assert a.read_text() == b.read_text()
+
+
+def test_an_output_outside_its_declared_range_stops_the_run_in_one_line(plain_lag_fmu):
+    """A foreign FMU's output beyond the ``max`` its model description declares is a wrong result: the run
+    stops, naming the instance, variable, value and declared range (pythonfmu cannot declare one, so the
+    cached model description is given one here)."""
+    from harness.fmi.cache import model_description
+
+    var = next(v for v in model_description(plain_lag_fmu).modelVariables if v.name == "y")
+    old = var.max
+    var.max = "3.5"
+    try:
+        df, _ = run(ring(plain_lag_fmu), "jacobi", on_error="return")
+    finally:
+        var.max = old
+    assert not df.attrs["complete"]
+    err = df.attrs["error"]
+    assert "\n" not in err and "instance lag3: output y = 4.0 is outside the range [-inf, 3.5]" in err
+    assert "PlainLag" in err
