@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -55,19 +56,29 @@ outputs:
 """
 
 
-def test_sigint_during_a_sweep_keeps_every_finished_point_and_resume_skips_them(tmp_path):
+@pytest.mark.parametrize("workers", ["0", "2"])
+def test_sigint_during_a_sweep_keeps_every_finished_point_and_resume_skips_them(tmp_path, workers):
+    """Serial (--workers 0) and on a local dask cluster of two worker processes: after Ctrl-C every finished
+    point is on disk, no worker process is left running and no semaphore is reported leaked."""
+    import psutil
+
     spec = tmp_path / "s.yaml"
     spec.write_text(SPEC)
     out = tmp_path / "s.csv"
     partial = tmp_path / "s.partial.csv"
-    p = _start(["sweep", "two_inertia", "--grid", str(spec), "--workers", "0", "--out", str(out)], ROOT)
-    deadline = time.time() + 120
+    p = _start(["sweep", "two_inertia", "--grid", str(spec), "--workers", workers, "--out", str(out)], ROOT)
+    deadline = time.time() + 180
     while _lines(partial) < 3 and time.time() < deadline and p.poll() is None:  # header + 2 points
         time.sleep(0.2)
     assert p.poll() is None, p.communicate()
+    children = psutil.Process(p.pid).children(recursive=True)
+    assert workers == "0" or len(children) >= 2, children  # the dask worker processes
     p.send_signal(signal.SIGINT)
-    stdout, stderr = p.communicate(timeout=60)
+    stdout, stderr = p.communicate(timeout=90)
     assert p.returncode == 130, (stdout, stderr)
+    gone, alive = psutil.wait_procs(children, timeout=30)
+    assert not alive, [c.cmdline() for c in alive]
+    assert "leaked" not in stderr, stderr
     assert not out.exists()
     kept = pd.read_csv(partial)
     assert 2 <= len(kept) < 14 and (kept["error"].isna() | (kept["error"] == "")).all()

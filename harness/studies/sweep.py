@@ -295,8 +295,12 @@ def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, w
     elif todo:
         from dask.distributed import Client, LocalCluster, as_completed
 
+        import logging
+
+        # silence_logs: the workers' WARNING lines (e.g. tasks cancelled after Ctrl-C) would follow the
+        # sweep's own one-line report; errors still show
         cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                      dashboard_address=":0")
+                                                      dashboard_address=":0", silence_logs=logging.ERROR)
         try:
             with Client(scheduler or cluster) as client:
                 futures = [client.submit(run_point, system_name, spec, p, pure=False) for p in todo]
