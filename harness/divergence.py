@@ -188,12 +188,17 @@ class DivergenceDetector:
                         self._geo_since[j] = None  # the growth stopped
                     continue
                 # confirmed only if it holds again once the run is 1.5 times as long as when it first held, the
-                # power not having fallen in between: a machine's periodic load (a return stroke within the
-                # first cycle) grows within one period and then repeats, an unstable mode keeps growing
+                # power not having fallen in between, AND the ratio per quarter has grown with the quarters
+                # (x^1.5 for exponential growth, asked: x^1.25): a machine's periodic load (a return stroke in
+                # the first cycle) grows within one period and then repeats; a start from rest grows as a
+                # power of t, by the same ratio per quarter however long the run; an unstable mode keeps
+                # growing exponentially
                 since = self._geo_since[j]
+                rate = min(r3, r4)
                 if since is None:
-                    self._geo_since[j] = t
-                elif t - self.times[0] >= 1.5 * (since - self.times[0]) and not self._flagged[j]:
+                    self._geo_since[j] = (t, rate)
+                elif (t - self.times[0] >= 1.5 * (since[0] - self.times[0]) and rate >= since[1] ** 1.25
+                      and not self._flagged[j]):
                     self._flagged[j] = True
                     self._why[j] = ("geometric", p2, p3, p4, self.times[nb // 4], self.times[nb // 2],
                                     self.times[(3 * nb) // 4])

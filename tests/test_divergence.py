@@ -173,6 +173,8 @@ def test_detector_on_synthetic_growth_and_steady_signals():
     feed(linear, 0.0)
     saturating = [(1.0 - math.exp(-0.005 * k)) * 100.0 * math.sin(0.3 * k) for k in range(2000)]  # a spin-up
     feed(saturating, 0.0)
+    from_rest = [(k * 1e-3) ** 3 * math.sin(0.3 * k) for k in range(2000)]  # a start from rest: power ~ t^3
+    feed(from_rest, 0.0)
 
 
 @pytest.mark.parametrize("bad", [dict(block=0), dict(growth=-1.0), dict(creation=float("nan"))])
