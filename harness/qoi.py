@@ -25,7 +25,7 @@ Example: the number of impacts in 0.4-1 s at intermediate rocker positions (10-9
     sum(between(at_rises(window(r["feeder.impact_count"], 0.4, 1.0),
                          normalize(window(r["feeder.rocker.phi"], 0.4, 1.0))), 0.1, 0.9))
 
-Example: ``peak(window(r["fourbar.impact_force"], 0.5, 1.0))``.  Anything else (attributes, imports,
+Example: ``peak(window(r["fourbar.contact_force"], 0.5, 1.0))``.  Anything else (attributes, imports,
 builtins) is refused, with the expression in the message.
 """
 from __future__ import annotations

@@ -98,7 +98,7 @@ W_FEEDER = 960.0 / 6.4 * 2 * math.pi / 60
 
 
 def run_feeder(contact_law, h, t_end=0.45):
-    """(impact_force at every communication point, approach speeds at the onsets) of the feeder rocker."""
+    """(pin_force at every communication point, approach speeds at the onsets) of the feeder rocker."""
     m = CamRockerModel(CamRockerParams(contact_law=contact_law, **FEEDER))
 
     def head(w):                                  # TorqueLoad T_coulomb 0.05 N.m, w_reg 0.05, d 0.002

@@ -155,7 +155,7 @@ def test_study_quantities_on_a_synthetic_result():
     # contact flag: 1.5 ms from the extreme impact (a rebound), 50 ms from the mid-swing one (closed joint)
     contact = (((t >= 0.5) & (t < 0.5015 - 1e-9)) | ((t >= 0.6) & (t < 0.65))).astype(float)
     df = pd.DataFrame({"feeder.impact_count": count, "feeder.rocker.phi": phi, "feeder.v_impact": v,
-                       "feeder.impact_force": 2.0 * np.sin(t), "flywheel.shaft_twist": 1e-4 * np.cos(t),
+                       "feeder.pin_force": 2.0 * np.sin(t), "flywheel.shaft_twist": 1e-4 * np.cos(t),
                        "flywheel.crank.w": np.full_like(t, 2 * np.pi * 150 / 60), "feeder.in_contact": contact,
                        "feeder.stone_radius": np.full_like(t, 0.12)}, index=t)
     q = {k: sweep.qoi.evaluate(e, df) for k, e in spec.outputs.items()}

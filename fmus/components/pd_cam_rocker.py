@@ -12,10 +12,10 @@ class CamRocker(PressSlave):
              Rotational("rocker", motion="out", doc="output rocker (kulisa / cam follower)"))
     signals = (Output("pressure_angle", "rad", "pressure angle at the stone (LCSM, conrod vs groove) or at the cam"),
                Output("stone_radius", "m", "stone radius |O2B| (LCSM) or roller-centre distance from the cam centre"),
-               Output("impact_force", "N", "magnitude of the contact force at the pin/roller (fidelity 2)"),
+               Output("pin_force", "N", "stone-pin contact force magnitude at the communication point (fidelity 2; 0 separated)"),
                Output("in_contact", "1", "1 while the clearance is closed (fidelity 2)"),
                Output("impact_count", "1", "number of impacts so far (fidelity 2)"))
     feedthrough = {"rocker.phi": ("crank.phi", "crank.w"), "rocker.w": ("crank.phi", "crank.w"),
                    "crank.tau": ("crank.phi", "crank.w", "rocker.tau"),
                    "pressure_angle": ("crank.phi",), "stone_radius": ("crank.phi",),
-                   "impact_force": ("crank.phi", "crank.w")}
+                   "pin_force": ("crank.phi", "crank.w")}

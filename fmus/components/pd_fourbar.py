@@ -13,7 +13,7 @@ class FourBar(PressSlave):
              Rotational("rocker", motion="out", doc="rocker O5D, absolute angle from the frame line, CCW"))
     signals = (Output("transmission_angle", "rad", "angle at the rocker pin D between D->A and D->O5 (0..pi)"),
                Output("joint_force", "N", "coupler axial force, tension positive"),
-               Output("impact_force", "N", "contact force in the clearance joint (0 while separated)"),
+               Output("contact_force", "N", "contact force in the clearance joint at the communication point (0 while separated)"),
                Output("in_contact", "1", "1 while the clearance joint is closed (always 1 at fidelity 0, 1)"),
                Output("impact_count", "1", "number of contact onsets in the clearance joint so far"),
                Output("last_impact_speed", "m/s", "approach speed at the last contact onset"),
@@ -24,6 +24,6 @@ class FourBar(PressSlave):
         "rocker.w": ("crank.phi", "crank.w"),
         "transmission_angle": ("crank.phi",),
         "joint_force": ("crank.phi", "crank.w", "rocker.tau"),
-        "impact_force": ("crank.phi", "crank.w"),
+        "contact_force": ("crank.phi", "crank.w"),
         "in_contact": ("crank.phi",),
     }

@@ -118,7 +118,7 @@ class CamRockerParams(Params):
 class CamRockerModel(Model):
     Params = CamRockerParams
     inputs = ("crank.phi", "crank.w", "rocker.tau")
-    outputs = ("crank.tau", "rocker.phi", "rocker.w", "pressure_angle", "stone_radius", "impact_force",
+    outputs = ("crank.tau", "rocker.phi", "rocker.w", "pressure_angle", "stone_radius", "pin_force",
                "in_contact", "impact_count")
     states = (Signal("gamma", "rad", "rocker angle (fidelity 1, 2)"),
               Signal("omega", "rad/s", "rocker angular velocity (fidelity 1, 2)"),

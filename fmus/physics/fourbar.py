@@ -222,7 +222,7 @@ class FourBarModel(Model):
     """Crank-rocker four-bar, crank motion in, rocker motion out (see the module docstring)."""
     Params = FourBarParams
     inputs = ("crank.phi", "crank.w", "rocker.tau")
-    outputs = ("crank.tau", "rocker.phi", "rocker.w", "transmission_angle", "joint_force", "impact_force",
+    outputs = ("crank.tau", "rocker.phi", "rocker.w", "transmission_angle", "joint_force", "contact_force",
                "in_contact", "impact_count", "last_impact_speed", "rebound_speed")
     states = (Signal("psi", "rad", "rocker angle (fidelity >= 1; kinematic value at fidelity 0)"),
               Signal("w_rocker", "rad/s", "rocker angular velocity"),

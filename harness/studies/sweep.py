@@ -16,10 +16,10 @@ A sweep is described by a YAML or JSON file::
     set:                                # parameters of the run, as expressions of the sweep variables
       feeder.w0: "rpm * 2 * pi / 60"    # a sweep variable named like "Instance.param" is set directly
     outputs:                            # quantities of interest (harness.qoi expressions)
-      impact_force: 'peak(r["fourbar.impact_force"])'
+      peak_contact_force: 'peak(r["fourbar.contact_force"])'
     plot:                               # optional: charts written by ``sweep ... --plot DIR``
       x: alpha_c                        # a column of the result (sweep variable, output or set:...)
-      y: [impact_force]                 # one row of panels per entry
+      y: [peak_contact_force]                 # one row of panels per entry
       hue: [rpm, clearance]             # one line per combination (optional)
       facet: law                        # one column of panels per value (optional)
       reduce: max                       # max | mean | min over the sweep variables not named above

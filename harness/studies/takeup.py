@@ -17,7 +17,7 @@ Take-up cases:
 * ``feeder`` -- the running feeder's take-ups as the co-simulation measured them: the median approach
   speed (``impact_velocity``) with the rocker moving nearly with the pin, no load;
 * ``feeder held`` -- the same approach with the smallest pin load measured in those take-ups
-  (``impact_force``) pressing the rocker back onto the pin: the take-up at a load reversal.
+  (``peak_pin_force``) pressing the rocker back onto the pin: the take-up at a load reversal.
 The feeder's numbers are read from the clearance sweep's CSV (``--feeder-csv``, default
 ``docs/images/feeder_clearance.csv``: ``python -m harness sweep feeder_gto52 --grid
 systems/studies/feeder_clearance.yaml``), which also gives the share of classical take-ups in the running
@@ -56,13 +56,13 @@ def feeder_takeups(csv: Path) -> dict:
                                 f"harness sweep feeder_gto52 --grid systems/studies/feeder_clearance.yaml "
                                 f"--out {csv}), or pass --feeder-csv")
     d = pd.read_csv(csv)
-    for col in ("impact_velocity", "impact_force", "impacts", "impacts_classical"):
+    for col in ("impact_velocity", "peak_pin_force", "impacts", "impacts_classical"):
         if col not in d.columns:
             raise ValueError(f"{csv}: column {col!r} missing (allowed: the feeder_clearance sweep's outputs)")
     d = d[d["impacts"] > 0]
     return {"v_median": float(d["impact_velocity"].median()), "v_min": float(d["impact_velocity"].min()),
-            "v_max": float(d["impact_velocity"].max()), "F_min": float(d["impact_force"].min()),
-            "F_max": float(d["impact_force"].max()), "impacts": int(d["impacts"].sum()),
+            "v_max": float(d["impact_velocity"].max()), "F_min": float(d["peak_pin_force"].min()),
+            "F_max": float(d["peak_pin_force"].max()), "impacts": int(d["impacts"].sum()),
             "classical": int(d["impacts_classical"].sum()), "points": len(d)}
 
 
