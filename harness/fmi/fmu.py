@@ -13,11 +13,10 @@
 """
 from __future__ import annotations
 
-import ctypes
 import functools
 import sys
 from collections import deque
-from ctypes import POINTER, byref, c_char_p, c_double, c_int, c_uint, c_void_p
+from ctypes import byref, c_char_p, c_double, c_int, c_uint
 from pathlib import Path
 
 import numpy as np
