@@ -9,6 +9,15 @@
 * The disc cam on the same main shaft swings the carrier by 40 deg with the published rise / return phases
   216 deg 53' 10" / 143 deg 06' 50"; its rise starts with the four-bar's working stroke (both inputs leave their
   extreme positions together, as the seed requires), so the run starts there too (flywheel phi0).
+* The carrier's rise law is the seed's: synthesised so that, summed with the four-bar through the
+  differential, the bed moves uniformly through the printing zone (law 8, ``bed004``,
+  fmus/physics/bed_law.py); its run-up share ``law_km`` is computed here from the zone and the stroke
+  (``CARRIER_RUNUP``: the largest one whose uniform segment covers the zone); the return is harmonic (K0:
+  the seed publishes no idle-stroke law).  The harmonic K0 rise is ``--set cam.law=0``.
+* The cam geometry meets the seed's largest pressure angle of 28 deg for this law: follower arm 0.1 m,
+  centre distance 0.14633 m, base radius 0.080628 m (r0/S = 1.155; the seed's r0/S = 0.95 gives at best
+  29.7 deg in this geometry).  The numbers are bed_law.design_cam(CARRIER_RUNUP) (9 s to compute, so
+  recorded here; tests/test_bed_law.py checks that the synthesis gives them).
 * The cam is declared rigid (fidelity 0); its elastic levels (1, 2: the scenes' full model) get values for
   this drive, not the component defaults, which are the seed-000 feeder's (5000 N.m/rad and 5e5 N/m for a
   0.00043 kg.m2 rocker): against the bed's inertia reflected to the carrier, (1 + z3/z5)^2 * m_T * R6^2 =
@@ -33,7 +42,7 @@
 """
 import math
 
-from fmus.physics import fourbar, fourbar_synthesis
+from fmus.physics import bed_law, fourbar, fourbar_synthesis
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import PrecisionSpec, Scene, StabilitySpec
 
@@ -43,6 +52,12 @@ C_COUPLER, D_COUPLER = 5e7, 2e3  # N/m, N.s/m: four-bar coupler (assumed); the c
 _analysis = fourbar_synthesis.analyse(1.0, COUPLER / CRANK, FRAME / CRANK, ROCKER / CRANK)
 PHI_START = math.radians(_analysis.working_start_deg)  # crank angle where the working stroke begins
 ROCKER_START = float(fourbar.position(PHI_START, CRANK, COUPLER, FRAME, ROCKER, 1)[0])  # rad
+PINION_RADIUS = 0.004 * 25 / 2                                  # m: module 4 mm, z6 = 25
+PRINT_ZONE = (0.08, 0.24)                                       # m of bed travel on the working stroke
+BED_STROKE = PINION_RADIUS * (bed_law.SEED_RATIO * abs(bed_law.working_stroke().swing)
+                              + (1 + bed_law.SEED_RATIO) * bed_law.SEED_CARRIER_SWING)   # m, about 0.297
+CARRIER_RUNUP = bed_law.runup_for_zone(PRINT_ZONE[0] / BED_STROKE, PRINT_ZONE[1] / BED_STROKE)  # about 0.246
+CAM_ARM, CAM_DISTANCE, CAM_BASE_RADIUS = 0.1, 0.1463304172, 0.0806281607  # m: bed_law.design_cam(CARRIER_RUNUP)
 
 SYSTEM = System(
     name="bed_drive",
@@ -66,7 +81,9 @@ SYSTEM = System(
             "rocker_inertia": 0.5, "clearance": 0.0,                            # kg.m2 (ring gear z3 + rocker)
         }),
         Instance("cam", "CamRocker", {
-            "mechanism": 1, "fidelity": 0, "law": 0,                 # disc cam, rigid, harmonic law
+            "mechanism": 1, "fidelity": 0,                           # disc cam, rigid
+            "law": 8, "law_return": 0, "law_km": CARRIER_RUNUP,      # seed 004's carrier law, K0 return
+            "follower_arm": CAM_ARM, "cam_distance": CAM_DISTANCE, "cam_base_radius": CAM_BASE_RADIUS,  # m
             "swing": math.radians(40.0), "phi_start": PHI_START,     # rad
             "rocker_inertia": 0.05,                                  # kg.m2 (carrier + follower)
             # fidelity 1, 2 (module docstring): transmission as the four-bar's, reduced to its output
@@ -80,7 +97,7 @@ SYSTEM = System(
             "fidelity": 1, "m_T": 250.0, "module": 0.004, "z_pinion": 25,     # kg, m, teeth
             "c_mesh": 2.0e7,                  # N/m: rack mesh in series with the drive-train compliance
             "d_mesh": 0.2 * math.sqrt(2.0e7 * 250.0),  # N.s/m: 10 % of critical for the bed on that mesh
-            "F_print": 500.0, "s_print_start": 0.08, "s_print_end": 0.24,     # N, m, m
+            "F_print": 500.0, "s_print_start": PRINT_ZONE[0], "s_print_end": PRINT_ZONE[1],  # N, m, m
         }),
     ],
     bonds=[

@@ -92,11 +92,15 @@ def test_cosimulated_bed_speed_is_uniform_in_the_printing_zone():
     the carrier varies it by 37 %)."""
     from harness import load, simulate
 
+    system = load("bed_drive")   # the seed's carrier law is bed_drive's default
     S = stroke_m()
     u = B.runup_for_zone(ZONE[0] / S, ZONE[1] / S)
-    df = simulate(load("bed_drive"), stop_time=1.6, step=2e-4,
-                  parameters={"cam.law": 8, "cam.law_return": 0, "cam.law_km": u})
+    cam = system.instance("cam").parameters
+    assert (cam["law"], cam["law_return"]) == (8, 0) and cam["law_km"] == pytest.approx(u, rel=1e-12)
+    df = simulate(system, stop_time=1.6, step=2e-4)
     assert df.attrs.get("complete", True)
+    # the cam meets the seed's 28 deg pressure angle (to the recorded geometry's 10 digits)
+    assert np.degrees(np.abs(df["cam.pressure_angle"]).max()) < 28.0 + 1e-3
     s, v, w, t = df["bed.bed.s"].values, df["bed.bed.v"].values, df["flywheel.crank.w"].values, df.index.values
     zone = (s >= ZONE[0]) & (s <= ZONE[1]) & (v > 0) & (t > 0.4)
     assert zone.sum() > 100
@@ -139,3 +143,14 @@ def test_pitch_curvature_equals_finite_differences_of_the_pitch_curve():
     fd = 1.0 / k[int(np.argmin(np.abs(1.0 / k)))]
     assert B.pitch_curvature_min(u, a, l, r0) == pytest.approx(fd, rel=2e-3)
     assert abs(np.hypot(*X).min() - r0) < 1e-6            # the pitch curve touches the base circle
+
+
+def test_bed_drive_cam_geometry_is_the_synthesised_one():
+    """systems/bed_drive.py records bed_law.design_cam(CARRIER_RUNUP) (9 s to compute): the synthesis gives it."""
+    from systems import bed_drive as sys_bd
+
+    d = B.design_cam(sys_bd.CARRIER_RUNUP)
+    assert d.follower_arm == sys_bd.CAM_ARM
+    assert d.cam_distance == pytest.approx(sys_bd.CAM_DISTANCE, abs=1e-9)
+    assert d.base_radius == pytest.approx(sys_bd.CAM_BASE_RADIUS, abs=1e-9)
+    assert np.degrees(d.pressure_max) <= 28.0 + 1e-9
