@@ -1,4 +1,4 @@
-"""The co-simulation master: wire FMI 2.0 co-simulation FMUs into a system and run it.
+"""The co-simulation master: wire FMI 2.0 (and FMI 1.0) co-simulation FMUs into a system and run it.
 
     from harness import load, simulate
     df = simulate(load("two_inertia"), stop_time=1.0, step=1e-3, master="gauss-seidel", extrapolation=1)
