@@ -58,6 +58,7 @@ A system without power bonds is guarded only by the non-finite / blow-up check o
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 from harness.errors import SimulationError
@@ -97,6 +98,28 @@ class DivergenceOptions:
                 raise ValueError(f"DivergenceOptions.{name} = {v!r} is not admissible: must be a positive number")
 
 
+class _WindowMax:
+    """The largest of ``peaks[a:b][j]`` for a window [a, b) whose bounds never move back (a monotone deque of
+    block indices, amortised O(1) per block); 0.0 for an empty window, as the test takes it."""
+    __slots__ = ("end", "dq")
+
+    def __init__(self):
+        self.end = 0
+        self.dq: deque = deque()
+
+    def max(self, peaks: list, j: int, a: int, b: int) -> float:
+        dq = self.dq
+        for i in range(self.end, b):
+            v = peaks[i][j]
+            while dq and not peaks[dq[-1]][j] > v:  # drop what v ties or beats: max() keeps the first largest
+                dq.pop()
+            dq.append(i)
+        self.end = max(self.end, b)
+        while dq and dq[0] < a:
+            dq.popleft()
+        return peaks[dq[0]][j] if dq and b > a else 0.0
+
+
 class DivergenceDetector:
     """Online divergence test on the power bonds of one run (module docstring).
 
@@ -124,6 +147,13 @@ class DivergenceDetector:
         self._streak = [0] * n           # consecutive block ends a bond has been diverging
         self._why: list = [None] * n
         self._geo_since: list = [None] * n  # when steady geometric growth was first seen (see _judge)
+        # running maxima, so a verdict costs O(1) per block, not O(blocks): per block k, the largest peak
+        # of each bond over blocks 0..k and of all bonds over blocks 0..k (same fold as max() over a slice)
+        self._cummax: list[list[float]] = []
+        self._cummax_all: list[float] = []
+        # the geometric test's quarters [nb/4, nb/2), [nb/2, 3nb/4), [3nb/4, nb): their bounds only move
+        # forward, so each keeps a sliding-window maximum per bond
+        self._quarters = [[_WindowMax() for _ in range(n)] for _ in range(3)]
 
     def update(self, t: float, bond_log, h: float) -> None:
         """One accepted communication point at ``t`` [s] after a step of ``h`` [s]; ``bond_log`` the master's
@@ -142,6 +172,13 @@ class DivergenceDetector:
         if self._k < self.opts.block:
             return
         self.peaks.append(peak)
+        if self._cummax:
+            prev, prev_all = self._cummax[-1], self._cummax_all[-1]
+            self._cummax.append([max(a, b) for a, b in zip(prev, peak)])
+            self._cummax_all.append(max(prev_all, max(peak)))
+        else:
+            self._cummax.append(list(peak))
+            self._cummax_all.append(max(peak))
         self.flows.append(flow)
         self.energies.append(list(energy))
         self.times.append(t)
@@ -152,17 +189,17 @@ class DivergenceDetector:
         o = self.opts
         nb = len(self.peaks)
         # a bond that carries a negligible share of the run's power is not judged on its own scale
-        floor = o.floor * max(max(p) for p in self.peaks[: max(1, nb // 2)])
+        floor = o.floor * self._cummax_all[max(1, nb // 2) - 1]
         if nb >= max(4, o.min_blocks // 2):
             half = nb // 2
             for j in range(self.n):
-                first, last = max(max(p[j] for p in self.peaks[:half]), floor), self.peaks[-1][j]
+                first, last = max(self._cummax[half - 1][j], floor), self.peaks[-1][j]
                 if o.fast * first < last < first / o.rest and self._creates(j, nb):
                     self._flag(t, j, first, last, self.times[0], self.times[half], o.fast, nb)
         q2 = nb // 2
         for j in range(self.n if nb >= max(o.min_blocks, 4 * o.late) else 0):
             late = max(p[j] for p in self.peaks[nb - o.late:])
-            early = max(max(p[j] for p in self.peaks[:q2]), floor)
+            early = max(self._cummax[q2 - 1][j], floor)
             if not o.growth * early < late < early / o.rest:  # false for NaN (the master's finite check names those)
                 continue
             if not self._creates(j, nb):
@@ -174,15 +211,15 @@ class DivergenceDetector:
             # zero-order hold moves energy through the bond with almost no error on it and still grows);
             # spin-ups and cuts saturate, a resonance under periodic forcing grows polynomially (power x2.25
             # at most from Q2 to Q3 for a linearly growing amplitude)
-            q = [max(p[j] for p in self.peaks[a:b]) if b > a else 0.0 for a, b in
-                 ((nb // 4, nb // 2), (nb // 2, (3 * nb) // 4), ((3 * nb) // 4, nb)) for j in range(self.n)]
-            scale = o.floor * max(max(p) for p in self.peaks)  # a bond near rest is not judged (cut onsets)
+            bounds = ((nb // 4, nb // 2), (nb // 2, (3 * nb) // 4), ((3 * nb) // 4, nb))
+            scale = o.floor * self._cummax_all[-1]  # a bond near rest is not judged (cut onsets)
             for j in range(self.n):
-                p2, p3, p4 = q[j], q[self.n + j], q[2 * self.n + j]
+                p2, p3, p4 = (w[j].max(self.peaks, j, a, b) for w, (a, b) in zip(self._quarters, bounds))
                 if p2 < scale or p2 < o.quiet * self.nominal[j] or p3 <= 0.0:
                     continue  # near rest: on the run's scale, or on the bond's declared nominal power
                 r3, r4 = p3 / p2, p4 / p3
-                # the same rate in both quarters (within x2 down, squared up): steady exponential growth
+                # the same rate in both quarters (at least 0.7 times the first ratio, at most its square):
+                # steady exponential growth
                 if not (r3 > o.geometric and r4 > o.geometric and 0.7 * r3 < r4 < r3 * r3):
                     if r3 < 1.0 or r4 < 1.0:
                         self._geo_since[j] = None  # the growth stopped
