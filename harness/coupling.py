@@ -116,13 +116,7 @@ def discrete_refresh(discrete: list[tuple]) -> tuple[list[tuple], list[tuple]]:
             j = set_by.get((id(src), d))
             if j is not None:
                 g.add_edge(j, k)
-    chained = [k for k in g.nodes if g.in_degree(k)]
-    if not chained:
-        return list(discrete), []
-    if not nx.is_directed_acyclic_graph(g):
-        cyclic = {k for comp in nx.strongly_connected_components(g) if len(comp) > 1 for k in comp}
-        g.remove_nodes_from(cyclic)
-        chained = [k for k in g.nodes if g.in_degree(k)]
-    order = [k for k in nx.lexicographical_topological_sort(g) if k in set(chained)]
-    chain_set = set(order)
-    return [c for k, c in enumerate(discrete) if k not in chain_set], [discrete[k] for k in order]
+    g.remove_nodes_from([k for comp in nx.strongly_connected_components(g) if len(comp) > 1 for k in comp])
+    chained = {k for k in g.nodes if g.in_degree(k)}
+    order = [k for k in nx.lexicographical_topological_sort(g) if k in chained]
+    return [c for k, c in enumerate(discrete) if k not in chained], [discrete[k] for k in order]

@@ -237,18 +237,19 @@ class DivergenceDetector:
                 elif (t - self.times[0] >= 1.5 * (since[0] - self.times[0]) and rate >= since[1] ** 1.25
                       and not self._flagged[j]):
                     self._flagged[j] = True
-                    self._why[j] = ("geometric", p2, p3, p4, self.times[nb // 4], self.times[nb // 2],
-                                    self.times[(3 * nb) // 4])
+                    self._why[j] = (self._geometric_evidence, (p2, p3, p4, self.times[nb // 4],
+                                                              self.times[nb // 2], self.times[(3 * nb) // 4]))
         self._streak = [s + 1 if f else 0 for s, f in zip(self._streak, self._flagged)]
         self._flagged = [False] * self.n
         for j in range(self.n):
             if self._streak[j] >= o.persist:
-                self._raise(t, j, *self._why[j], nb)
+                evidence, args = self._why[j]
+                self._stop(t, j, evidence(j, nb, *args))
 
     def _flag(self, t, j, early, late, t0, t1, limit, nb):
         if not self._flagged[j]:
             self._flagged[j] = True
-            self._why[j] = (early, late, t0, t1, limit)
+            self._why[j] = (self._growth_evidence, (early, late, t0, t1, limit))
 
     def _creates(self, j: int, nb: int) -> bool:
         """Whether the coupling created more than ``creation`` of the energy that flowed through bond j over
@@ -261,14 +262,10 @@ class DivergenceDetector:
         flowed = sum(f[j] for f in self.flows[q3:])
         return created > c * flowed
 
-    def _raise(self, t, j, *why):
-        if isinstance(why[0], str):  # ("geometric", ...)
-            _, p2, p3, p4, t2, t3, t4 = why[:7]
-            return self._stop(t, j, f"the run diverged on power bond {self.labels[j]}: its peak power grew "
-                                    f"geometrically, {p2:.3g} W ({t2:.4g}-{t3:.4g} s) -> {p3:.3g} W (to {t4:.4g} s) "
-                                    f"-> {p4:.3g} W (x{p3 / p2:.3g}, x{p4 / p3:.3g}; limit x{self.opts.geometric:g} "
-                                    f"each)")
-        self._raise_growth(t, j, *why)
+    def _geometric_evidence(self, j, nb, p2, p3, p4, t2, t3, t4) -> str:
+        return (f"the run diverged on power bond {self.labels[j]}: its peak power grew geometrically, "
+                f"{p2:.3g} W ({t2:.4g}-{t3:.4g} s) -> {p3:.3g} W (to {t4:.4g} s) -> {p4:.3g} W "
+                f"(x{p3 / p2:.3g}, x{p4 / p3:.3g}; limit x{self.opts.geometric:g} each)")
 
     def _stop(self, t, j, evidence):
         inst, var = self.efforts[j]
@@ -277,7 +274,7 @@ class DivergenceDetector:
         err.evidence = evidence
         raise err
 
-    def _raise_growth(self, t, j, early, late, t0, t1, limit, nb):
+    def _growth_evidence(self, j, nb, early, late, t0, t1, limit) -> str:
         q3 = min((3 * nb) // 4, nb - 1)
         created = self.energies[nb][j] - self.energies[q3][j]
         flowed = sum(f[j] for f in self.flows[q3:])
@@ -286,7 +283,7 @@ class DivergenceDetector:
                     f"limit x{limit:g}); the coupling created {created:.3g} J since {self.times[q3]:.4g} s "
                     f"({created / flowed if flowed > 0 else math.inf:.0%} of the {flowed:.3g} J that flowed "
                     f"through it)")
-        self._stop(t, j, evidence)
+        return evidence
 
 
 def for_master(master, options: DivergenceOptions | None = None) -> DivergenceDetector:

@@ -512,9 +512,9 @@ class Master:
             v = self.y[idx]
             out = (v < lo) | (v > hi)
             if out.any():
-                k = int(idx[int(np.argmax(out))])
-                inst, var = self.signal_names[k].split(".", 1)
                 j = int(np.argmax(out))
+                k = int(idx[j])
+                inst, var = self.signal_names[k].split(".", 1)
                 raise SimulationError(f"t = {t:.9g} s: instance {inst}: output {var} = {float(self.y[k])!r} is "
                                       f"outside the range [{lo[j]:g}, {hi[j]:g}] its FMU "
                                       f"{self.fmus[inst].md.modelName} declares", time=t, instance=inst,

@@ -40,12 +40,12 @@ def open_instance(path: str | Path, name: str, logging_on: bool = True, in_proce
             if in_process or inprocess.is_toolkit_fmu(unzip_dir):
                 return inprocess.InProcessFMU(path, name, logging_on)
             try:
-                inprocess.slave_class(unzip_dir)
+                cls = inprocess.slave_class(unzip_dir)
             except Exception as e:  # the script needs what this process lacks: the C wrapper may still run it
                 warnings.warn(InProcessFallback(
                     f"{Path(path).name} ({name}): its pythonfmu script does not import in this process "
                     f"({type(e).__name__}: {' '.join(str(e).split())}); called through its FMI library"),
                     stacklevel=2)
             else:
-                return inprocess.InProcessFMU(path, name, logging_on)
+                return inprocess.InProcessFMU(path, name, logging_on, cls)
     return FMU(path, name, logging_on)

@@ -14,10 +14,9 @@ import hashlib
 import os
 import shutil
 import tempfile
+import warnings
 import zipfile
 from pathlib import Path
-
-import warnings
 
 from harness.errors import SystemError_
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import functools
 import sys
-from collections import deque
+from collections import Counter, deque
 from ctypes import byref, c_char_p, c_double, c_int, c_uint
 from pathlib import Path
 
@@ -161,9 +161,9 @@ class Instance:
         self.md, self.unzip_dir = extracted(self.path)
         cs = self.md.coSimulation
         self.variables = {v.name: v for v in self.md.modelVariables}
-        names = [v.name for v in self.md.modelVariables]
-        self._ambiguous = {n for n in self.variables if names.count(n) > 1} if len(names) > len(self.variables) \
-            else set()  # declared twice (an invalid modelDescription loaded anyway): unusable by name
+        # names declared more than once (an invalid modelDescription loaded anyway): unusable by name
+        counts = Counter(v.name for v in self.md.modelVariables)
+        self._ambiguous = {n for n, c in counts.items() if c > 1}
         self.can_get_set_state = bool(cs.canGetAndSetFMUstate)
         self.can_vary_step = bool(cs.canHandleVariableCommunicationStepSize)
         self.can_interpolate_inputs = bool(cs.canInterpolateInputs)

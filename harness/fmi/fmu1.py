@@ -19,9 +19,8 @@ from pathlib import Path
 from harness.errors import FMUError, StepDiscarded
 from harness.fmi.fmu import DISCARD, ERROR, Instance, RealBlock
 
-_FUNCTIONS = {"Real": ("getReal", "setReal", float), "Integer": ("getInteger", "setInteger", int),
-              "Enumeration": ("getInteger", "setInteger", int), "Boolean": ("getBoolean", "setBoolean", bool),
-              "String": ("getString", "setString", str)}
+_TYPES = {"Real": ("Real", float), "Integer": ("Integer", int), "Enumeration": ("Integer", int),
+          "Boolean": ("Boolean", bool), "String": ("String", str)}  # model type -> (FMI 1.0 call suffix, Python type)
 
 
 class FMU1(Instance):
@@ -104,14 +103,13 @@ class FMU1(Instance):
 
     def set_value(self, name: str, value) -> None:
         v, value = self._typed(name, value)
-        _, setter, _ = _FUNCTIONS[v.type]
-        self._call(f"fmi{setter[0].upper()}{setter[1:]}", getattr(self._slave, setter), [v.valueReference], [value])
+        suffix, _ = _TYPES[v.type]
+        self._call(f"fmiSet{suffix}", getattr(self._slave, f"set{suffix}"), [v.valueReference], [value])
 
     def get_value(self, name: str):
         v = self.var(name)
-        getter, _, kind = _FUNCTIONS[v.type]
-        return kind(self._call(f"fmi{getter[0].upper()}{getter[1:]}", getattr(self._slave, getter),
-                               [v.valueReference])[0])
+        suffix, kind = _TYPES[v.type]
+        return kind(self._call(f"fmiGet{suffix}", getattr(self._slave, f"get{suffix}"), [v.valueReference])[0])
 
     # -- stepping ----------------------------------------------------------------------------------------------
     def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
@@ -119,10 +117,10 @@ class FMU1(Instance):
         self._call(f"fmiDoStep(h = {h:.6g} s)", self._slave.doStep, t, h, True)
         self.time = t + h
 
-    def get_state(self, state=None):
-        raise FMUError(self.name, "getFMUstate", self.time, ERROR, detail="FMI 1.0 FMUs have no FMU state")
+    def _no_state(self, state=None):
+        raise FMUError(self.name, "FMU state", self.time, ERROR, detail="FMI 1.0 FMUs have no FMU state")
 
-    set_state = free_state = get_state
+    get_state = set_state = free_state = _no_state
 
 
 __all__ = ["FMU1"]

@@ -128,11 +128,12 @@ class InProcessFMU(Instance):
 
     path_kind = "in-process"
 
-    def __init__(self, path: str | Path, name: str, logging_on: bool = True):
+    def __init__(self, path: str | Path, name: str, logging_on: bool = True, cls: type | None = None):
+        """``cls``: the slave class if the caller already imported it (else :func:`slave_class`)."""
         super().__init__(path, name)
         self.logging_on = logging_on  # False: keep only warnings and errors (FMI debug logging off)
         try:
-            cls = slave_class(self.unzip_dir)
+            cls = cls or slave_class(self.unzip_dir)
             self._slave = cls(instance_name=name, resources=str(self.unzip_dir / "resources"), logger=0,
                               visible=0)
         except Exception as e:
