@@ -32,10 +32,31 @@
      a slow take-up of the play followed by a loaded contact stays stable.  The contact flag and v_impact
      are memory updated at the sub-step boundaries; a contact that begins inside a sub-step (flag still 0)
      uses its present penetration rate as its approach speed.
+  3  LCSM only: seed 000's two clearances.  The stone is a body of its own (``stone_mass``) that slides along
+     the slot: states gamma, omega of the kulisa and the stone radius rho_s, its rate.  Two joints act on the
+     stone pin B = rho_s u(gamma) (u along the slot, n = u turned +90 deg):
+       * the conrod eye: elongation d_p = |B - A(phi)| - L (A the crank pin, L the conrod length), total play
+         ``clearance``, series stiffness 1/(1/contact_stiffness + R^2/stiffness) ALONG the conrod (level 2's
+         1-D play acts along the rocker's tangent instead);
+       * the roller in the groove: normal offset d_g = (B - B_g(phi)).n_g of the roller centre from the
+         centroid profile (B_g the profile point of the present crank angle, n_g its unit normal; linear in
+         the offset, which stays at the scale of the plays), total play ``groove_clearance``, stiffness
+         ``groove_stiffness`` (seed c'4).
+     Each joint has its own contact law state (approach speed, flag, impact count) and reduced mass
+     1/((e.u)^2/m_s + (rho_s e.n)^2/J) along its direction e.  Equations of motion (frictionless slot, the
+     stone a point mass on the slot line):
+       (J + m_s rho_s^2) domega/dt + 2 m_s rho_s drho_s/dt omega = rocker.tau + rho_s F.n
+       m_s (d2rho_s/dt2 - rho_s omega^2)                           = F.u,       F = F_p e_c + F_g n_g
+     so ``rocker_inertia`` is the kulisa's (with the head) and the stone adds m_s rho_s^2: the inertia reduced
+     to the rocker changes as the stone moves (seed 000 freezes it per position).  The energy balance is
+     exact: kinetic energy + contact potentials change only by the load's and the crank's power (tested
+     with conservative contacts).  crank.tau = -F_p r (cos(phi) e_c,y - sin(phi) e_c,x).  RK4 sub-steps as
+     level 2, sized on the larger joint frequency sqrt(k (1/m_s + r_max^2/J)).
 
 Inside a communication step the crank angle is extrapolated with the held crank speed,
 phi(t) = crank.phi + crank.w*(t - t0).  State: gamma, omega, v_impact, impacts, contact_flag (the last
-three are discrete memory updated in ``advance``).
+three are discrete memory updated in ``advance``); level 3 adds rho_s, rho_rate and the groove joint's
+v_impact, impacts and contact flag.
 """
 from __future__ import annotations
 
@@ -54,7 +75,7 @@ DEG = math.pi / 180.0
 @dataclass(frozen=True)
 class CamRockerParams(Params):
     mechanism: int = param(0, "", "0 = slotted rocker with groove (LCSM, seeds 000/001), 1 = disc cam with oscillating roller follower (seed 004)", choices=(0, 1))
-    fidelity: int = param(0, "", "0 = rigid kinematics, 1 = elastic transmission, 2 = elastic + clearance with impacts", choices=(0, 1, 2))
+    fidelity: int = param(0, "", "0 = rigid kinematics, 1 = elastic transmission, 2 = elastic + clearance with impacts, 3 = LCSM with seed 000's two clearances (stone pin and roller in the groove, the stone sliding along the slot)", choices=(0, 1, 2, 3))
     law: int = param(0, "", "law of periodic motion, index into " + ", ".join(f"{i}={n}" for i, n in enumerate(LAW_NAMES)), choices=tuple(range(len(LAW_NAMES))))
     law_return: int = param(-1, "", "law of the return phase (same indices), -1 = same as law", choices=tuple(range(-1, len(LAW_NAMES))))
     law_n: float = param(2.0, "1", "exponent n of the power law", low=0.0, low_open=True)
@@ -78,6 +99,9 @@ class CamRockerParams(Params):
     clearance: float = param(10e-6, "m", "total linear play at the stone pin / roller (seed 000: 5-20 um), fidelity 2", low=0.0)
     contact_stiffness: float = param(5e5, "N/m", "joint stiffness at the pin c2 (seed 000: 1e5-1e6 N/m)", low=0.0, low_open=True)
     restitution: float = param(0.2, "1", "restitution coefficient (seed 000: 0.2)", low=0.0, low_open=True, high=1.0)
+    groove_clearance: float = param(10e-6, "m", "total play of the roller in the groove, along the profile normal (seed 000: 5-20 um), fidelity 3", low=0.0)
+    groove_stiffness: float = param(5e5, "N/m", "roller-groove contact stiffness c'4 (seed 000 gives no value: c2's), fidelity 3", low=0.0, low_open=True)
+    stone_mass: float = param(0.01, "kg", "mass of the stone with its roller, sliding along the slot (not in the seed: assumed), fidelity 3", low=0.0, low_open=True)
     contact_law: int = param(0, "", "contact law: 0 Kelvin-Voigt, 1 Hunt-Crossley, 2 Lankarani-Nikravesh, 3 Flores", choices=(0, 1, 2, 3))
     contact_exponent: float = param(1.0, "1", "force exponent of the Hunt-Crossley family", low=1.0)
 
@@ -87,6 +111,8 @@ class CamRockerParams(Params):
         return f, r
 
     def check(self) -> None:
+        if self.fidelity == 3 and self.mechanism != 0:
+            raise ParameterError("fidelity", self.fidelity, "level 3 (stone pin and roller-groove clearances) exists for the slotted rocker, mechanism 0, only")
         if not self.law_km < 1.0:
             raise ParameterError("law_km", self.law_km, "must be < 1")
         if self.mechanism == 0:
@@ -119,12 +145,17 @@ class CamRockerModel(Model):
     Params = CamRockerParams
     inputs = ("crank.phi", "crank.w", "rocker.tau")
     outputs = ("crank.tau", "rocker.phi", "rocker.w", "pressure_angle", "stone_radius", "pin_force",
-               "in_contact", "impact_count")
+               "in_contact", "impact_count", "groove_force", "groove_contact", "groove_impact_count")
     states = (Signal("gamma", "rad", "rocker angle (fidelity 1, 2)"),
               Signal("omega", "rad/s", "rocker angular velocity (fidelity 1, 2)"),
               Signal("v_impact", "m/s", "approach speed at the start of the current contact (fidelity 2)"),
               Signal("impacts", "1", "number of impacts so far (fidelity 2), state behind output impact_count"),
-              Signal("contact_flag", "1", "1 while the clearance is closed (fidelity 2), state behind output in_contact"))
+              Signal("contact_flag", "1", "1 while the clearance is closed (fidelity 2), state behind output in_contact"),
+              Signal("rho_s", "m", "stone radius along the slot (fidelity 3)"),
+              Signal("rho_rate", "m/s", "stone speed along the slot (fidelity 3)"),
+              Signal("groove_v_impact", "m/s", "roller-groove approach speed at the start of the current contact (fidelity 3)"),
+              Signal("groove_impacts", "1", "number of roller-groove impacts so far (fidelity 3)"),
+              Signal("groove_flag", "1", "1 while the roller touches a groove wall (fidelity 3)"))
 
     def __init__(self, p: CamRockerParams):
         super().__init__(p)
@@ -179,10 +210,14 @@ class CamRockerModel(Model):
         if p.fidelity == 0:
             return math.inf
         w = math.sqrt(p.stiffness / p.rocker_inertia)
-        if p.fidelity == 2:
+        if p.fidelity >= 2:
             r_max = getattr(self, "r_max", None)
             if r_max is None:
                 return math.inf  # set again after the kinematic tables exist
+            if p.fidelity == 3:   # both joints: frequency bound sqrt(k (1/m_s + r_max^2/J)) of each
+                mobility = 1.0 / p.stone_mass + r_max * r_max / p.rocker_inertia
+                w_c = math.sqrt(max(p.contact_stiffness, p.groove_stiffness) * mobility)
+                return contact.max_substep(w_c, p.contact_law, p.restitution, p.contact_exponent)
             # contact: 0.1/omega_c and the contact law's damping rate (bounded by contact.damping_per_frequency
             # times omega_c, whatever the approach speed) times the sub-step <= 1: RK4 stays stable
             w_c = math.sqrt(p.contact_stiffness * r_max * r_max / p.rocker_inertia)
@@ -191,7 +226,12 @@ class CamRockerModel(Model):
 
     def initial_state(self, u):
         g, g1, _ = self.kinematics(u[0])
-        return np.array([g, g1 * u[1], 0.0, 0.0, 0.0])
+        x = np.zeros(len(self.states))
+        x[0], x[1] = g, g1 * u[1]
+        if self.p.fidelity == 3:
+            rho, rho1, _ = groove.stone_scalar(u[0], g, g1, self.p.lambda1, self.p.lambda2, self.branch)
+            x[5], x[6] = self.p.crank_radius * rho, self.p.crank_radius * rho1 * u[1]
+        return x
 
     def _pin(self, phi, g, g1, w, x):
         """(q, q_dot, R, k_pin, m_eff) of the clearance joint."""
@@ -220,7 +260,13 @@ class CamRockerModel(Model):
         return (T + u[2]) / self.p.rocker_inertia
 
     def derivatives(self, t, x, u, t0):
-        return np.array([x[1], self._acceleration(t, x[0], x[1], x, u, t0), 0.0, 0.0, 0.0])
+        dx = np.zeros(len(self.states))
+        if self.p.fidelity == 3:
+            dx[0], dx[5] = x[1], x[6]
+            dx[1], dx[6] = self._accelerations(u[0] + u[1] * (t - t0), u[1], u[2], x[0], x[1], x[5], x[6], x)
+        elif self.p.fidelity > 0:
+            dx[0], dx[1] = x[1], self._acceleration(t, x[0], x[1], x, u, t0)
+        return dx
 
     def _update_contact(self, phi: float, w: float, x: np.ndarray) -> None:
         g, g1, _ = self.kinematics(phi)
@@ -233,6 +279,80 @@ class CamRockerModel(Model):
             x[3] += 1.0
             x[2] = abs(pen_dot)
 
+    # -- level 3: the stone on the slot with two clearances ---------------------------------------------
+    def _joints(self, phi: float, w: float, gamma: float, omega: float, rho: float, rho_rate: float, x):
+        """The two joints of level 3 at crank angle phi: (F_p, F_g, (Fx, Fy), e_c, (d_p, d_p rate), (d_g, d_g rate)).
+
+        F_p, F_g are the contact laws' signed forces along the conrod direction e_c (from crank pin A to B)
+        and the profile normal n_g; (Fx, Fy) their sum on the stone."""
+        p = self.p
+        r = p.crank_radius
+        c, s = math.cos(gamma), math.sin(gamma)
+        bx, by = rho * c, rho * s
+        vbx, vby = rho_rate * c - rho * omega * s, rho_rate * s + rho * omega * c
+        cp, sp = math.cos(phi), math.sin(phi)
+        dx, dy = bx - r * (cp - p.lambda1), by - r * sp
+        dist = math.hypot(dx, dy)
+        ex, ey = dx / dist, dy / dist
+        d_p = dist - p.lambda2 * r
+        d_p_rate = ex * (vbx + r * w * sp) + ey * (vby - r * w * cp)
+        g, g1, _ = self.kinematics(phi)
+        rk, rk1, _ = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
+        cg, sg = math.cos(g), math.sin(g)
+        tx, ty = rk1 * cg - rk * g1 * sg, rk1 * sg + rk * g1 * cg       # profile tangent dB_g/dphi / r
+        tn = math.hypot(tx, ty)
+        nx, ny = (-ty / tn, tx / tn) if tn > 0.0 else (-sg, cg)
+        d_g = (bx - r * rk * cg) * nx + (by - r * rk * sg) * ny
+        d_g_rate = vbx * nx + vby * ny                                   # B_g moves along the profile
+        j_t = p.rocker_inertia + p.stone_mass * rho * rho
+
+        def reduced_mass(ux, uy):
+            eu, en = ux * c + uy * s, -ux * s + uy * c
+            return 1.0 / (eu * eu / p.stone_mass + en * en * rho * rho / j_t)
+
+        k_p = 1.0 / (1.0 / p.contact_stiffness + rho * rho / p.stiffness)
+        f_p = contact.contact_force(d_p, d_p_rate, p.clearance, k_p, p.contact_law, p.restitution,
+                                    x[2] if x[4] != 0.0 else abs(d_p_rate), reduced_mass(ex, ey), p.contact_exponent)
+        f_g = contact.contact_force(d_g, d_g_rate, p.groove_clearance, p.groove_stiffness, p.contact_law,
+                                    p.restitution, x[7] if x[9] != 0.0 else abs(d_g_rate), reduced_mass(nx, ny),
+                                    p.contact_exponent)
+        return f_p, f_g, (f_p * ex + f_g * nx, f_p * ey + f_g * ny), (ex, ey), (d_p, d_p_rate), (d_g, d_g_rate)
+
+    def _accelerations(self, phi, w, tau_load, gamma, omega, rho, rho_rate, x) -> tuple[float, float]:
+        """(d omega/dt, d2 rho_s/dt2) of level 3."""
+        p = self.p
+        _, _, (fx, fy), _, _, _ = self._joints(phi, w, gamma, omega, rho, rho_rate, x)
+        c, s = math.cos(gamma), math.sin(gamma)
+        f_n, f_u = -fx * s + fy * c, fx * c + fy * s
+        m = p.stone_mass
+        return ((tau_load + rho * f_n - 2.0 * m * rho * rho_rate * omega) / (p.rocker_inertia + m * rho * rho),
+                f_u / m + rho * omega * omega)
+
+    def _update_joints(self, phi: float, w: float, x: np.ndarray) -> None:
+        _, _, _, _, (d_p, d_p_rate), (d_g, d_g_rate) = self._joints(phi, w, x[0], x[1], x[5], x[6], x)
+        for (d, rate, play), (v, n, flag) in (((d_p, d_p_rate, self.p.clearance), (2, 3, 4)),
+                                              ((d_g, d_g_rate, self.p.groove_clearance), (7, 8, 9))):
+            pen, pen_rate, side = contact.penetration(d, rate, play)
+            if side == 0.0:
+                x[flag] = 0.0
+            elif x[flag] == 0.0:
+                x[flag], x[n], x[v] = 1.0, x[n] + 1.0, abs(pen_rate)
+
+    def _advance_two_clearances(self, t0, h, x, u):
+        n = integrate.substeps(h, self.max_substep)
+        dt = h / n
+        phi0, w, tau = u[0], u[1], u[2]
+
+        def acc(t, gamma, omega, rho, rho_rate):
+            return self._accelerations(phi0 + w * (t - t0), w, tau, gamma, omega, rho, rho_rate, x)
+
+        for i in range(n):
+            t = t0 + i * dt
+            self._update_joints(phi0 + w * (t - t0), w, x)
+            x[0], x[1], x[5], x[6] = integrate.rk4_two(acc, t, dt, x[0], x[1], x[5], x[6])
+        self._update_joints(phi0 + w * h, w, x)
+        return x
+
     def advance(self, t0, h, x, u):
         """RK4 on equal sub-steps of (gamma, omega) in plain floats (integrate.rk4_pair: the numbers of
         integrate.rk4 without an array per stage); at fidelity 2 the contact memory is updated at every
@@ -241,6 +361,8 @@ class CamRockerModel(Model):
         x = np.array(x, dtype=float)
         if p.fidelity == 0:
             return x
+        if p.fidelity == 3:
+            return self._advance_two_clearances(t0, h, x, u)
         n = integrate.substeps(h, self.max_substep)
         dt = h / n
 
@@ -266,6 +388,10 @@ class CamRockerModel(Model):
         theta, radius = self.geometry(phi)
         if p.fidelity == 0:
             T = p.rocker_inertia * g2 * w * w - tau_load   # torque the transmission exerts on the rocker
-            return (-g1 * T, g, g1 * w, theta, radius, 0.0, 0.0, 0.0)
+            return (-g1 * T, g, g1 * w, theta, radius, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        if p.fidelity == 3:
+            f_p, f_g, _, (ex, ey), _, _ = self._joints(phi, w, x[0], x[1], x[5], x[6], x)
+            tau = -f_p * p.crank_radius * (math.cos(phi) * ey - math.sin(phi) * ex)
+            return (tau, x[0], x[1], theta, x[5], abs(f_p), x[4], x[3], abs(f_g), x[9], x[8])
         T, F = self.transmitted(phi, w, x)
-        return (-g1 * T, x[0], x[1], theta, radius, abs(F), x[4], x[3])
+        return (-g1 * T, x[0], x[1], theta, radius, abs(F), x[4], x[3], 0.0, 0.0, 0.0)

@@ -54,6 +54,23 @@ def rk4_pair(acc: Callable[[float, float, float], float], t: float, dt: float, q
             v + (dt / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4))
 
 
+def rk4_two(acc: Callable[[float, float, float, float, float], tuple[float, float]], t: float, dt: float,
+            q1: float, v1: float, q2: float, v2: float):
+    """ONE classical RK4 step of two coupled coordinates, q_i' = v_i, v_i' = acc(t, q1, v1, q2, v2)[i], in plain
+    floats: (q1, v1, q2, v2) at t + dt (the numbers of :func:`rk4` on [q1, v1, q2, v2])."""
+    hd = 0.5 * dt
+    a1, b1 = acc(t, q1, v1, q2, v2)
+    p2, v2_2, r2, w2 = q1 + hd * v1, v1 + hd * a1, q2 + hd * v2, v2 + hd * b1
+    a2, b2 = acc(t + hd, p2, v2_2, r2, w2)
+    p3, v3, r3, w3 = q1 + hd * v2_2, v1 + hd * a2, q2 + hd * w2, v2 + hd * b2
+    a3, b3 = acc(t + hd, p3, v3, r3, w3)
+    p4, v4, r4, w4 = q1 + dt * v3, v1 + dt * a3, q2 + dt * w3, v2 + dt * b3
+    a4, b4 = acc(t + dt, p4, v4, r4, w4)
+    s = dt / 6.0
+    return (q1 + s * (v1 + 2.0 * v2_2 + 2.0 * v3 + v4), v1 + s * (a1 + 2.0 * a2 + 2.0 * a3 + a4),
+            q2 + s * (v2 + 2.0 * w2 + 2.0 * w3 + w4), v2 + s * (b1 + 2.0 * b2 + 2.0 * b3 + b4))
+
+
 def march_pair(step: Callable, acc: Callable[[float, float, float], float], t0: float, h: float, n: int,
                q: float, v: float) -> tuple[float, float]:
     """``n`` equal sub-steps of a one-step method for (q, v) over [t0, t0 + h] (``step`` is :func:`rk4_pair` or
