@@ -277,6 +277,8 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
             if bar is not None and (steps & 63) == 0:
                 bar.update((t_ns - shown) / NS)
                 shown = t_ns
+        if detector is not None:
+            detector.finish(t_ns / NS)
     except (FMUError, SimulationError, ConvergenceError) as e:
         error = str(e).splitlines()[0] if str(e) else type(e).__name__
         err_obj = e

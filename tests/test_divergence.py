@@ -56,26 +56,23 @@ def test_two_inertia_map_stable_points_run_to_the_end():
 
 
 def test_two_inertia_map_unstable_points_are_stopped():
-    stopped = gs_missed = 0
+    stopped = 0
     for _, r in TI.iterrows():
         run, hb = _ti_run(r)
         df = run(hb * 1.25)
         assert st.is_unstable(df)
-        if r.master == "gauss-seidel" and r.order == 0 and df.attrs["complete"]:
-            # Gauss-Seidel with zero-order hold: the bond's energy error stays near zero while the amplitude
-            # grows, so only the geometric-growth test can stop it, and at 1.25 times the boundary it grows
-            # by x2-3 in power per quarter of the run: measured, 2 of these 5 runs are stopped within the
-            # map's 60 periods (ratios 0.5 and 5), 3 are not (0.2, 1.0, 2.0)
-            gs_missed += 1
-            continue
+        # Gauss-Seidel with zero-order hold: the bond's energy error stays near zero while the amplitude grows,
+        # so only the geometric-growth test can stop it; at 1.25 times the boundary it grows by x2-3 in power
+        # per quarter of the run, and 3 of these 5 runs (ratios 0.2, 1.0, 2.0) reach the end of the map's 60
+        # periods unconfirmed: the end-of-run verdict stops them (their rate did not slow: x2.16 -> x2.16,
+        # x2.55 -> x2.98, x2.56 -> x2.56)
         assert not df.attrs["complete"], (r.ratio, r.master, r.order)
         if df.attrs["diverged"]:
             _one_line_divergence(df)
             stopped += 1
         else:  # only the most violent blow-ups reach the master's check before the detector's first blocks
             assert "blow-up limit" in df.attrs["error"] and len(df) < 64, (r.ratio, r.master, r.order)
-    assert gs_missed <= 3
-    assert stopped >= 18  # measured: 20 of these 25 by the detector, the other 5 by the blow-up check
+    assert stopped >= 20  # measured: 20 of these 25 by the detector, the other 5 by the blow-up check
 
 
 def test_bed_drive_map_stable_points_run_to_the_end():
@@ -87,7 +84,7 @@ def test_bed_drive_map_stable_points_run_to_the_end():
             assert not prun.judge(df)
 
 
-BD_MISSES = {(0.25, "gauss-seidel", 0), (1.0, "jacobi", 0), (2.5, "gauss-seidel", 0), (2.5, "gauss-seidel", 1)}
+BD_MISSES = {(2.5, "gauss-seidel", 0), (2.5, "gauss-seidel", 1)}
 
 
 def test_bed_drive_map_unstable_points_are_stopped():
@@ -98,8 +95,9 @@ def test_bed_drive_map_unstable_points_are_stopped():
         assert prun.judge(df)
         if (r.value, r.master, r.order) in BD_MISSES:
             # known misses (measured): judged unstable by their deviation from the reference, but their power
-            # grows less than 10x, or the coupling creates less than 5 % of it, within the map's 0.1 s window
-            # (one of them, 0.25 gauss-seidel 0, is stopped since the ring link became a power bond)
+            # jumps only in the last quarter of the map's 0.1 s window (x1.3-2.1, then x6.7-14 per quarter: not
+            # a steady geometric growth) and grows less than 10x over the first half, or the coupling creates
+            # less than 5 % of it (0.25 gauss-seidel 0 and 1.0 jacobi 0, misses before, are stopped now)
             continue
         assert not df.attrs["complete"], (r.value, r.master, r.order)
         if df.attrs["diverged"]:
@@ -158,6 +156,7 @@ def test_detector_on_synthetic_growth_and_steady_signals():
         for k, p in enumerate(powers):
             e += created * abs(p) * 1e-3
             det.update((k + 1) * 1e-3, np.array([[p], [p], [e]]), 1e-3)
+        det.finish(len(powers) * 1e-3)
 
     steady = [10.0 * math.sin(0.3 * k) for k in range(2000)]
     feed(steady, 0.5)                            # no growth: never stopped, whatever the energy error
@@ -175,6 +174,13 @@ def test_detector_on_synthetic_growth_and_steady_signals():
     feed(saturating, 0.0)
     from_rest = [(k * 1e-3) ** 3 * math.sin(0.3 * k) for k in range(2000)]  # a start from rest: power ~ t^3
     feed(from_rest, 0.0)
+    # a run that ends before the geometric growth could be confirmed (x2.7 per quarter from 280 steps on,
+    # confirmation due at 420): judged at the end, as its rate did not slow; a start from rest ending as short
+    # passes both ratios too (x3.4, x2.4) but slows, as any power of t does, and is not
+    with pytest.raises(Diverged, match="grew geometrically.*judged at the end"):
+        feed(growing[:400], 0.0)
+    feed(from_rest[:400], 0.0)
+    feed(growing[:400], 0.0, DivergenceOptions(end_rate=None))   # the end verdict switched off
 
 
 @pytest.mark.parametrize("bad", [dict(block=0), dict(growth=-1.0), dict(creation=float("nan"))])

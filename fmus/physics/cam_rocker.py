@@ -233,20 +233,26 @@ class CamRockerModel(Model):
             x[5], x[6] = self.p.crank_radius * rho, self.p.crank_radius * rho1 * u[1]
         return x
 
-    def _pin(self, phi, g, g1, w, x):
-        """(q, q_dot, R, k_pin, m_eff) of the clearance joint."""
-        p = self.p
-        R = self.lever(phi, g)
-        k = 1.0 / (1.0 / p.contact_stiffness + R * R / p.stiffness)
-        return R * (g - x[0]), R * (g1 * w - x[1]), R, k, p.rocker_inertia / (R * R)
-
-    def transmitted(self, phi: float, w: float, x) -> tuple[float, float]:
-        """(torque on the rocker from the transmission [N.m], pin force [N]) at fidelity 1/2."""
-        p = self.p
+    def _kin(self, phi: float) -> tuple[float, float, float]:
+        """(G, G', R) at crank angle phi: the rigid kulisa angle, its ratio, and (level 2) the lever R of the
+        clearance; a pure function of phi, so ``advance`` evaluates it once per distinct sub-step time."""
         g, g1, _ = self.kinematics(phi)
+        return g, g1, self.lever(phi, g) if self.p.fidelity == 2 else 0.0
+
+    def _pin(self, g, g1, R, w, x):
+        """(q, q_dot, k_pin, m_eff) of the clearance joint."""
+        p = self.p
+        k = 1.0 / (1.0 / p.contact_stiffness + R * R / p.stiffness)
+        return R * (g - x[0]), R * (g1 * w - x[1]), k, p.rocker_inertia / (R * R)
+
+    def transmitted(self, phi: float, w: float, x, kin=None) -> tuple[float, float]:
+        """(torque on the rocker from the transmission [N.m], pin force [N]) at fidelity 1/2; ``kin`` is
+        ``_kin(phi)`` when the caller has it."""
+        p = self.p
+        g, g1, R = kin or self._kin(phi)
         if p.fidelity == 1:
             return p.stiffness * (g - x[0]) + p.damping * (g1 * w - x[1]), 0.0
-        q, qd, R, k, m = self._pin(phi, g, g1, w, x)
+        q, qd, k, m = self._pin(g, g1, R, w, x)
         # v_impact and the contact flag are memory set at the sub-step boundaries (advance): a contact that
         # began inside the present sub-step (flag still 0) approaches at its present penetration rate, not
         # at the stored speed of the previous contact (0 before the first one)
@@ -254,9 +260,11 @@ class CamRockerModel(Model):
         F = contact.contact_force(q, qd, p.clearance, k, p.contact_law, p.restitution, v0, m, p.contact_exponent)
         return -F * R, F
 
-    def _acceleration(self, t, gamma, omega, x, u, t0) -> float:
-        """Rocker angular acceleration [rad/s2] at time t (x: the contact memory, entries 2..4)."""
-        T, _ = self.transmitted(u[0] + u[1] * (t - t0), u[1], (gamma, omega, x[2], x[3], x[4]))
+    def _acceleration(self, t, gamma, omega, x, u, t0, kin=None) -> float:
+        """Rocker angular acceleration [rad/s2] at time t (x: the contact memory, entries 2..4); ``kin`` a
+        function of phi returning ``_kin(phi)`` (a memo inside ``advance``)."""
+        phi = u[0] + u[1] * (t - t0)
+        T, _ = self.transmitted(phi, u[1], (gamma, omega, x[2], x[3], x[4]), kin(phi) if kin else None)
         return (T + u[2]) / self.p.rocker_inertia
 
     def derivatives(self, t, x, u, t0):
@@ -268,9 +276,8 @@ class CamRockerModel(Model):
             dx[0], dx[1] = x[1], self._acceleration(t, x[0], x[1], x, u, t0)
         return dx
 
-    def _update_contact(self, phi: float, w: float, x: np.ndarray) -> None:
-        g, g1, _ = self.kinematics(phi)
-        q, qd, _, _, _ = self._pin(phi, g, g1, w, x)
+    def _update_contact(self, phi: float, w: float, x: np.ndarray, kin) -> None:
+        q, qd, _, _ = self._pin(*kin, w, x)
         pen, pen_dot, side = contact.penetration(q, qd, self.p.clearance)
         if side == 0.0:
             x[4] = 0.0
@@ -365,20 +372,29 @@ class CamRockerModel(Model):
             return self._advance_two_clearances(t0, h, x, u)
         n = integrate.substeps(h, self.max_substep)
         dt = h / n
+        memo: dict = {}       # _kin per crank angle: RK4's two mid stages share one, a sub-step's end is the next start
+
+        def kin(phi):
+            k = memo.get(phi)
+            if k is None:
+                k = memo[phi] = self._kin(phi)
+            return k
 
         def acc(t, gamma, omega):
-            return self._acceleration(t, gamma, omega, x, u, t0)
+            return self._acceleration(t, gamma, omega, x, u, t0, kin)
 
         gamma, omega = float(x[0]), float(x[1])
         for i in range(n):
             t = t0 + i * dt
             if p.fidelity == 2:
                 x[0], x[1] = gamma, omega
-                self._update_contact(u[0] + u[1] * (t - t0), u[1], x)
+                phi = u[0] + u[1] * (t - t0)
+                self._update_contact(phi, u[1], x, kin(phi))
             gamma, omega = integrate.rk4_pair(acc, t, dt, gamma, omega)
         x[0], x[1] = gamma, omega
         if p.fidelity == 2:
-            self._update_contact(u[0] + u[1] * h, u[1], x)
+            phi = u[0] + u[1] * h
+            self._update_contact(phi, u[1], x, kin(phi))
         return x
 
     def output(self, t, x, u):

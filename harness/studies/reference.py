@@ -105,8 +105,7 @@ class _FourBarContact(_Contact):
 class _CamRockerContact(_Contact):
     def gap(self, t, x, u):
         m = self.model
-        g, g1, _ = m.kinematics(u[0])
-        q, qd, *_ = m._pin(u[0], g, g1, u[1], x)
+        q, qd, *_ = m._pin(*m._kin(u[0]), u[1], x)
         return q, qd
 
     def switch(self, t, x, u):
