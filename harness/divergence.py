@@ -46,14 +46,18 @@ does not; ``end_rate=None`` switches the end verdict off.
 
 Tuned on the two stability maps (``docs/images/stability_two_inertia_inertia.csv`` and
 ``stability_bed_drive_fourbar_rocker_inertia.csv``): no stop at any step the maps judge stable, a stop on
-clearly unstable steps (``tests/test_divergence.py`` states which, and which are not: two bed-drive points
-at 1.5 times the boundary, whose power jumps only in the last quarter of the map's window; the three
+clearly unstable steps (``tests/test_divergence.py`` states which; the three
 Gauss-Seidel zero-order-hold points of the two-inertia map that grow too slowly to be confirmed within the
 map's 60 periods are stopped by the end verdict; (1 % let a
 start-up transient of the bed drive at 5e-5 s trip the test); the most violent
 blow-ups, which pass 1e12 within the first 8 blocks and are stopped by the master's blow-up check instead).  A run that
 is only just beyond the boundary grows too slowly to be stopped within the maps' run lengths; the studies'
 own criteria judge those.
+
+A stability study's run with fewer steps than 2 x ``min_blocks`` blocks of ``block`` steps gets blocks of fewer
+steps (:func:`harness.studies.trial.study_options`; at least one step per block): such runs of 27-37 large
+steps reached torques of 1e4 N.m unjudged with blocks of 4.  Plain runs keep ``block``: a drive's first few
+dozen steps from rest grow x10 and more, which a block of one step would judge.
 
 The detector raises :class:`Diverged` (a :class:`~harness.errors.SimulationError`) with one line naming the
 time, the bond, the instance and effort variable on its motion-input side, and the evidence.

@@ -84,21 +84,14 @@ def test_bed_drive_map_stable_points_run_to_the_end():
             assert not prun.judge(df)
 
 
-BD_MISSES = {(2.5, "gauss-seidel", 0), (2.5, "gauss-seidel", 1)}
-
-
 def test_bed_drive_map_unstable_points_are_stopped():
     by_detector = by_blowup = 0
     for _, r in BD.iterrows():
         prun = _bd_run(r)
         df = prun(1.5 * r.h_unstable)
         assert prun.judge(df)
-        if (r.value, r.master, r.order) in BD_MISSES:
-            # known misses (measured): judged unstable by their deviation from the reference, but their power
-            # jumps only in the last quarter of the map's 0.1 s window (x1.3-2.1, then x6.7-14 per quarter: not
-            # a steady geometric growth) and grows less than 10x over the first half, or the coupling creates
-            # less than 5 % of it (0.25 gauss-seidel 0 and 1.0 jacobi 0, misses before, are stopped now)
-            continue
+        # (the two points at 2.5 with gauss-seidel ran their 27-37 steps, fewer than the 64 the detector's blocks
+        # of 4 needed, to the end with torques of 1e4 N.m: a study's short run now gets blocks of fewer steps)
         assert not df.attrs["complete"], (r.value, r.master, r.order)
         if df.attrs["diverged"]:
             _one_line_divergence(df)
@@ -107,7 +100,7 @@ def test_bed_drive_map_unstable_points_are_stopped():
             # the violent blow-ups (power x30 per step) pass 1e12 within the detector's first blocks (at most 34 steps)
             assert "blow-up limit" in df.attrs["error"] and len(df) <= 40, (r.value, r.master, r.order, len(df))
             by_blowup += 1
-    assert by_detector >= 10  # measured: 12 by the detector, 14 by the blow-up check
+    assert by_detector >= 28  # measured: 29 by the detector, 1 by the blow-up check (12 and 14 with blocks of 4)
 
 
 def test_bed_drive_jacobi_sampled_at_default_step_is_reported_incomplete_early():

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import pandas as pd
 
@@ -32,6 +32,20 @@ def quiet_simulate(*args, ignore: type[Warning] = Warning, **kwargs) -> pd.DataF
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ignore)
         return simulate(*args, **kwargs)
+
+
+def study_options(n_steps: int):
+    """:class:`harness.RunOptions` for a study's run of ``n_steps`` steps: a stability study's run spans many
+    periods in few large steps, so its divergence detector gets blocks of fewer steps (at least one) to still
+    have 2 x ``min_blocks`` of them.  (Not the default of :func:`harness.simulate`: a short run of a drive
+    starting from rest, a few dozen steps of its own default step, grows by x10 in its first milliseconds.)"""
+    from harness import RunOptions
+    from harness.divergence import DivergenceOptions
+
+    d = DivergenceOptions()
+    if n_steps >= 2 * d.min_blocks * d.block:
+        return RunOptions()
+    return RunOptions(divergence=replace(d, block=max(1, n_steps // (2 * d.min_blocks))))
 
 
 def trial(system, ignore: type[Warning] = Warning, **options) -> Trial:

@@ -22,7 +22,7 @@ from typing import Callable
 import numpy as np
 
 from harness.charts import save_figure
-from harness.studies.trial import quiet_simulate
+from harness.studies.trial import quiet_simulate, study_options
 from harness.studies.stability.theory import (MASTER_NAMES, ORDERS, TwoInertia, _as_params, _check_h, _master,
                                               _order, stability_boundary)
 
@@ -128,7 +128,8 @@ def two_inertia_run(params, master: str, order: int, periods: float = 60.0, min_
         n = max(int(min_steps), int(math.ceil(span / h)))
         stop = n * h
         return quiet_simulate(base, stop_time=stop, step=h, master=master, extrapolation=order,
-                              parameters=parameters, outputs=["a.flange.w", "b.drive.tau"], on_error="return")
+                              parameters=parameters, outputs=["a.flange.w", "b.drive.tau"], on_error="return",
+                              options=study_options(n))
 
     return run
 

@@ -13,7 +13,7 @@ import numpy as np
 from harness.charts import save_figure
 from harness.run import declared
 from harness.specs import StabilitySpec
-from harness.studies.trial import quiet_simulate
+from harness.studies.trial import quiet_simulate, study_options
 from harness.studies.stability.measured import GROWTH_SUFFIXES, measured_boundary
 from harness.studies.stability.theory import ORDERS, _check_h, _order
 
@@ -172,7 +172,8 @@ class PressRun:
         n = self.n_steps(h)
         self.runs += 1
         return quiet_simulate(self.system, stop_time=n * h, step=h, master=self.master,
-                               extrapolation=self.order, parameters=self.parameters, on_error="return")
+                               extrapolation=self.order, parameters=self.parameters, on_error="return",
+                               options=study_options(n))
 
     def judge(self, df) -> bool:
         """True if the run is unstable (deviation criterion of the press-drive section)."""
