@@ -156,7 +156,9 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     * ``outputs``: ``["Instance.variable", ...]`` to record (default: every Real output).
     * ``on_error``: ``"return"`` (default): a run that stops early (divergence, FMU failure, non-finite
       output) returns what it computed with ``attrs["complete"] = False`` and a one-line ``attrs["error"]``
-      (``attrs["diverged"]`` if the divergence detector stopped it) and warns :class:`RunWarning`;
+      (``attrs["diverged"]`` if the divergence detector stopped it) and warns :class:`RunWarning`; a run
+      that ends while the power on a bond is still growing geometrically stays complete and carries the
+      detector's one line in ``attrs["suspect"]`` (also warned; '' otherwise);
       ``"raise"``: raises :class:`~harness.errors.SimulationError` whose ``partial`` is that result.
     * ``options``: :class:`RunOptions` (iteration, step-control limits, blow-up limit, divergence detector,
       progress bar, FMU logging, in-process calls); default ``RunOptions()``.
@@ -261,6 +263,7 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
     err_obj: Exception | None = None
     interrupted = False
     bad_input = False
+    suspect = ""
     detector = _detector(m, opts.divergence) if opts.divergence is not None and m.bond_labels else None
     try:
         m.initialize(0, stop_ns, tolerance, params)
@@ -278,7 +281,7 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
                 bar.update((t_ns - shown) / NS)
                 shown = t_ns
         if detector is not None:
-            detector.finish(t_ns / NS)
+            suspect = detector.finish(t_ns / NS)
     except (FMUError, SimulationError, ConvergenceError) as e:
         error = str(e).splitlines()[0] if str(e) else type(e).__name__
         err_obj = e
@@ -300,6 +303,7 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
     df.attrs["diverged"] = isinstance(err_obj, Diverged)
     df.attrs["interrupted"] = interrupted
     df.attrs["bad_input"] = bad_input
+    df.attrs["suspect"] = suspect
     if interrupted:
         raise RunInterrupted(error, partial=df)
     if error:
@@ -308,6 +312,8 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
                                   instance=getattr(err_obj, "instance", None),
                                   variable=getattr(err_obj, "variable", None)) from err_obj
         warnings.warn(f"run stopped early: {error}", RunWarning, stacklevel=3)
+    elif suspect:
+        warnings.warn(suspect, RunWarning, stacklevel=3)
     return df
 
 
@@ -410,6 +416,8 @@ def run_cli(args) -> int:
         print(f"error: {a['error']}; {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s kept, "
               f"{'INCOMPLETE result ' + where if out is not None else where}", file=sys.stderr)
         return 130 if interrupted else 1
+    if a.get("suspect"):
+        print(f"warning: {a['suspect']}", file=sys.stderr)
     print(f"{a['system']}: {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s, master {a['master']}, "
           f"{a['steps']} steps in {a['wall_time']:.3g} s; {where}")
     return 0

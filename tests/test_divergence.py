@@ -52,27 +52,32 @@ def test_two_inertia_map_stable_points_run_to_the_end():
         for f in (0.99, 0.995):   # the bisection bracket is 0.5 % wide: 0.995 h is judged stable by the study
             df = run(hb * f)
             assert not st.is_unstable(df), (r.ratio, r.master, r.order, f)
-            assert df.attrs["complete"], (r.ratio, r.master, r.order, f, df.attrs["error"])
+            assert df.attrs["complete"] and not df.attrs["suspect"], (r.ratio, r.master, r.order, f, df.attrs["error"])
 
 
 def test_two_inertia_map_unstable_points_are_stopped():
-    stopped = 0
+    stopped = gs_marked = 0
     for _, r in TI.iterrows():
         run, hb = _ti_run(r)
         df = run(hb * 1.25)
         assert st.is_unstable(df)
-        # Gauss-Seidel with zero-order hold: the bond's energy error stays near zero while the amplitude grows,
-        # so only the geometric-growth test can stop it; at 1.25 times the boundary it grows by x2-3 in power
-        # per quarter of the run, and 3 of these 5 runs (ratios 0.2, 1.0, 2.0) reach the end of the map's 60
-        # periods unconfirmed: the end-of-run verdict stops them (their rate did not slow: x2.16 -> x2.16,
-        # x2.55 -> x2.98, x2.56 -> x2.56)
+        if r.master == "gauss-seidel" and r.order == 0 and df.attrs["complete"]:
+            # Gauss-Seidel with zero-order hold: the bond's energy error stays near zero while the amplitude
+            # grows, so only the geometric-growth test can stop it; at 1.25 times the boundary it grows by x2-3
+            # in power per quarter, and 3 of these 5 runs (ratios 0.2, 1.0, 2.0) reach the end of the map's 60
+            # periods unconfirmed.  They end complete but marked: the end report names the growing bond (their
+            # rate did not slow: x2.16 -> x2.16, x2.55 -> x2.98, x2.56 -> x2.56)
+            assert "still growing geometrically at the end of the run" in df.attrs["suspect"], (r.ratio, r.order)
+            gs_marked += 1
+            continue
         assert not df.attrs["complete"], (r.ratio, r.master, r.order)
         if df.attrs["diverged"]:
             _one_line_divergence(df)
             stopped += 1
         else:  # only the most violent blow-ups reach the master's check before the detector's first blocks
             assert "blow-up limit" in df.attrs["error"] and len(df) < 64, (r.ratio, r.master, r.order)
-    assert stopped >= 20  # measured: 20 of these 25 by the detector, the other 5 by the blow-up check
+    assert gs_marked <= 3
+    assert stopped >= 17  # measured: 17 of these 25 by the detector, 5 by the blow-up check, 3 marked
 
 
 def test_bed_drive_map_stable_points_run_to_the_end():
@@ -80,7 +85,7 @@ def test_bed_drive_map_stable_points_run_to_the_end():
         prun = _bd_run(r)
         for h in (r.h_stable, 0.9 * r.h_stable):
             df = prun(h)
-            assert df.attrs["complete"], (r.value, r.master, r.order, h, df.attrs["error"])
+            assert df.attrs["complete"] and not df.attrs["suspect"], (r.value, r.master, r.order, h, df.attrs["error"])
             assert not prun.judge(df)
 
 
@@ -149,7 +154,7 @@ def test_detector_on_synthetic_growth_and_steady_signals():
         for k, p in enumerate(powers):
             e += created * abs(p) * 1e-3
             det.update((k + 1) * 1e-3, np.array([[p], [p], [e]]), 1e-3)
-        det.finish(len(powers) * 1e-3)
+        return det.finish(len(powers) * 1e-3)
 
     steady = [10.0 * math.sin(0.3 * k) for k in range(2000)]
     feed(steady, 0.5)                            # no growth: never stopped, whatever the energy error
@@ -168,12 +173,11 @@ def test_detector_on_synthetic_growth_and_steady_signals():
     from_rest = [(k * 1e-3) ** 3 * math.sin(0.3 * k) for k in range(2000)]  # a start from rest: power ~ t^3
     feed(from_rest, 0.0)
     # a run that ends before the geometric growth could be confirmed (x2.7 per quarter from 280 steps on,
-    # confirmation due at 420): judged at the end, as its rate did not slow; a start from rest ending as short
-    # passes both ratios too (x3.4, x2.4) but slows, as any power of t does, and is not
-    with pytest.raises(Diverged, match="grew geometrically.*judged at the end"):
-        feed(growing[:400], 0.0)
-    feed(from_rest[:400], 0.0)
-    feed(growing[:400], 0.0, DivergenceOptions(end_rate=None))   # the end verdict switched off
+    # confirmation due at 420): reported at the end, as its rate did not slow; a start from rest ending as
+    # short passes both ratios too (x3.4, x2.4) but slows, as any power of t does, and is not
+    assert "still growing geometrically at the end of the run" in feed(growing[:400], 0.0)
+    assert feed(from_rest[:400], 0.0) == ""
+    assert feed(growing[:400], 0.0, DivergenceOptions(end_rate=None)) == ""   # the end report switched off
 
 
 @pytest.mark.parametrize("bad", [dict(block=0), dict(growth=-1.0), dict(creation=float("nan"))])
@@ -193,3 +197,19 @@ def test_gauss_seidel_zero_order_hold_growth_is_stopped():
     err = _one_line_divergence(df)
     assert "grew geometrically" in err and "instance b: output drive.tau" in err
     assert df.index[-1] < 2.0 and df["b.drive.tau"].abs().max() < 2 * 4.2
+
+
+def test_a_run_ending_in_a_start_up_is_kept_complete_and_marked():
+    """bed_drive stopped at 1 s, in its start-up: the crank power still grows x3.09 then x2.91 per quarter,
+    as an instability could; the run is not stopped (it is the drive's normal run-up, complete at 2 s) but
+    its result carries the one line, and the CLI says it on stderr and exits 0."""
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "harness", "run", "bed_drive", "--stop-time", "1"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    lines = r.stderr.strip().splitlines()
+    warning = [x for x in lines if x.startswith("warning: ") and "growing geometrically" in x]
+    assert len(warning) == 1 and "a start-up still under way or an instability" in warning[0], r.stderr
+    assert "flywheel.crank->fourbar.crank" in warning[0]

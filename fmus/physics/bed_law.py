@@ -113,7 +113,7 @@ class FourBarStroke:
         """(a_delta, b_delta, c_delta) at phase share k."""
         phi = self.start + k * self.span
         if m is math:
-            psi, v, acc, _ = (float(x) for x in fourbar.kinematics(phi, self.a, self.b, self.f, self.r, self.branch))
+            psi, v, acc, _ = fourbar.kinematics_scalar(phi, self.a, self.b, self.f, self.r, self.branch)
         else:
             psi, v, acc, _ = fourbar.kinematics(np.asarray(phi, dtype=float), self.a, self.b, self.f, self.r,
                                                 self.branch)

@@ -188,10 +188,11 @@ class CamRockerModel(Model):
             return self.p.crank_radius * groove.stone_radius_scalar(phi, g, self.p.lambda1, self.p.lambda2, self.branch)
         return self.p.follower_arm
 
-    def geometry(self, phi: float) -> tuple[float, float]:
-        """(pressure angle [rad], stone/contact radius [m]) at crank angle phi (rigid kinematics)."""
+    def geometry(self, phi: float, kin=None) -> tuple[float, float]:
+        """(pressure angle [rad], stone/contact radius [m]) at crank angle phi (rigid kinematics); ``kin`` is
+        ``kinematics(phi)`` when the caller has it."""
         p = self.p
-        g, g1, _ = self.kinematics(phi)
+        g, g1, _ = kin or self.kinematics(phi)
         if p.mechanism == 0:
             rho, _, theta = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
             return theta, rho * p.crank_radius
@@ -400,8 +401,9 @@ class CamRockerModel(Model):
     def output(self, t, x, u):
         p = self.p
         phi, w, tau_load = u[0], u[1], u[2]
-        g, g1, g2 = self.kinematics(phi)
-        theta, radius = self.geometry(phi)
+        kin = self.kinematics(phi)
+        g, g1, g2 = kin
+        theta, radius = self.geometry(phi, kin)
         if p.fidelity == 0:
             T = p.rocker_inertia * g2 * w * w - tau_load   # torque the transmission exerts on the rocker
             return (-g1 * T, g, g1 * w, theta, radius, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)

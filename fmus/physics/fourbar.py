@@ -154,6 +154,24 @@ def kinematics(phi, a, b, f, r, branch=1):
     return psi, v, acc, mu
 
 
+def kinematics_scalar(phi: float, a: float, b: float, f: float, r: float, branch: int = 1):
+    """:func:`kinematics` at one crank angle in plain floats (math instead of numpy scalars, 20 times faster;
+    equal to it to a few ulps: numpy's arccos, arctan2 and hypot round differently in the last bit)."""
+    vx = a * math.cos(phi) - f
+    vy = a * math.sin(phi)
+    d = math.hypot(vx, vy)
+    theta_a = math.pi + math.atan2(-vy, -vx)
+    gamma = math.acos(min(1.0, max(-1.0, (r * r + d * d - b * b) / (2.0 * r * d))))
+    psi = theta_a - branch * gamma
+    th = math.atan2(r * math.sin(psi) - vy, f + r * math.cos(psi) - a * math.cos(phi))
+    s_cr = math.sin(th - psi)
+    v = a * math.sin(th - phi) / (r * s_cr)
+    vc = a * math.sin(psi - phi) / (b * s_cr)
+    acc = (-a * math.cos(th - phi) - b * vc * vc + r * v * v * math.cos(th - psi)) / (r * s_cr)
+    mu = math.acos(min(1.0, max(-1.0, math.cos(th - psi))))
+    return psi, v, acc, mu
+
+
 def extreme_transmission(a, b, f, r):
     """Transmission angles mu [rad] at d = |A O5| = f - a and f + a (crank along the frame line)."""
     mu_near = math.acos(max(-1.0, min(1.0, (b * b + r * r - (f - a) ** 2) / (2 * b * r))))
@@ -273,8 +291,7 @@ class FourBarModel(Model):
         if self.kind == "parallelogram":
             mu = abs(math.atan2(math.sin(phi), math.cos(phi)))
             return float(phi), 1.0, mu
-        psi, v, _, mu = kinematics(phi, self._a, self._b, self._f, self._r, self.p.branch)
-        psi, v, mu = float(psi), float(v), float(mu)
+        psi, v, _, mu = kinematics_scalar(phi, self._a, self._b, self._f, self._r, self.p.branch)
         if self.kind == "double-crank":
             d = psi - phi - self._offset0
             psi = phi + self._offset0 + math.atan2(math.sin(d), math.cos(d))

@@ -71,6 +71,17 @@ def rk4_two(acc: Callable[[float, float, float, float, float], tuple[float, floa
             q2 + s * (v2 + 2.0 * w2 + 2.0 * w3 + w4), v2 + s * (b1 + 2.0 * b2 + 2.0 * b3 + b4))
 
 
+def rk4_pairs(acc: Callable[[float, float, float], float], t0: float, h: float, max_substep: float,
+              q: float, v: float) -> tuple[float, float]:
+    """:func:`rk4` over [t0, t0 + h] for a state whose only evolving entries are (q, v), in plain floats: the
+    same sub-steps (t0 + i h/n, length h/n) and the same numbers, bit for bit, without arrays."""
+    n = substeps(h, max_substep)
+    dt = h / n
+    for i in range(n):
+        q, v = rk4_pair(acc, t0 + i * dt, dt, q, v)
+    return q, v
+
+
 def march_pair(step: Callable, acc: Callable[[float, float, float], float], t0: float, h: float, n: int,
                q: float, v: float) -> tuple[float, float]:
     """``n`` equal sub-steps of a one-step method for (q, v) over [t0, t0 + h] (``step`` is :func:`rk4_pair` or

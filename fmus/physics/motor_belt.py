@@ -52,6 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import integrate
 from .base import Model, ParameterError, Params, Signal, param
 
 RPM = 2.0 * math.pi / 60.0
@@ -144,6 +145,21 @@ class MotorBeltModel(Model):
         if p.fidelity == 0:
             return np.array([p.w_rated, 0.0, 0.0])
         return np.array([x[1], (self.kloss_torque(x[1]) - force * self.r_m) / p.J_motor, creep_rate])
+
+    def advance(self, t0, h, x, u):
+        if self.p.fidelity != 1:
+            return super().advance(t0, h, x, u)
+        # level 1 has no creep (its rate is 0): RK4 on (phi_motor, w_motor) in plain floats, the base class's
+        # numbers without an array per stage
+        x = np.array(x, dtype=float)
+        J, r_m, theta = self.p.J_motor, self.r_m, x[2]
+
+        def acc(t, phi, w):
+            force, _ = self._belt((phi, w, theta), u[0] + u[1] * (t - t0), u[1])
+            return (self.kloss_torque(w) - force * r_m) / J
+
+        x[0], x[1] = integrate.rk4_pairs(acc, t0, h, self.max_substep, float(x[0]), float(x[1]))
+        return x
 
     def output(self, t, x, u):
         p = self.p

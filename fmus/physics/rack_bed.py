@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import integrate
 from .base import Model, ParameterError, Params, Signal, param
 
 GRAVITY = 9.80665
@@ -116,18 +117,23 @@ class RackBedModel(Model):
     def initial_state(self, u):
         return np.array([self.R * u[0], self.R * u[1], u[1], 0.0, 0.0])
 
-    def derivatives(self, t, x, u, t0):
+    def _acceleration(self, t, s, v, u, t0) -> float:
         p = self.p
-        if p.fidelity == 0:
-            return np.zeros(5)
-        s, v = x[0], x[1]
         f_mesh = p.c_mesh * (self.R * (u[0] + u[1] * (t - t0)) - s) + p.d_mesh * (self.R * u[1] - v)
-        a = (f_mesh - self.friction(v) - self.printing_load(s, v)) / p.m_T
-        return np.array([v, a, 0.0, 0.0, 0.0])
+        return (f_mesh - self.friction(v) - self.printing_load(s, v)) / p.m_T
+
+    def derivatives(self, t, x, u, t0):
+        if self.p.fidelity == 0:
+            return np.zeros(5)
+        return np.array([x[1], self._acceleration(t, x[0], x[1], u, t0), 0.0, 0.0, 0.0])
 
     def advance(self, t0, h, x, u):
         if self.p.fidelity == 1:
-            return super().advance(t0, h, x, u)
+            # RK4 on (s, v) in plain floats: the base class's rk4 numbers without an array per stage
+            x = np.array(x, dtype=float)
+            x[0], x[1] = integrate.rk4_pairs(lambda t, s, v: self._acceleration(t, s, v, u, t0), t0, h,
+                                             self.max_substep, float(x[0]), float(x[1]))
+            return x
         a_est = self.R * (u[1] - x[2]) / x[3] if x[3] > 0.0 else 0.0
         return np.array([self.R * (u[0] + u[1] * h), self.R * u[1], u[1], h, a_est])
 
