@@ -108,6 +108,7 @@ class FourBarStroke:
     start: float
     span: float
     swing: float
+    psi0: float            # rocker angle at the stroke's start
 
     def invariants(self, k, m=np):
         """(a_delta, b_delta, c_delta) at phase share k."""
@@ -117,12 +118,7 @@ class FourBarStroke:
         else:
             psi, v, acc, _ = fourbar.kinematics(np.asarray(phi, dtype=float), self.a, self.b, self.f, self.r,
                                                 self.branch)
-        psi0 = self._psi0
-        return ((psi - psi0) / self.swing, v * self.span / self.swing, acc * self.span ** 2 / self.swing)
-
-    @property
-    def _psi0(self) -> float:
-        return float(fourbar.position(self.start, self.a, self.b, self.f, self.r, self.branch)[0])
+        return ((psi - self.psi0) / self.swing, v * self.span / self.swing, acc * self.span ** 2 / self.swing)
 
 
 @lru_cache(maxsize=16)
@@ -132,7 +128,7 @@ def working_stroke(linkage=SEED_LINKAGE, branch: int = 1) -> FourBarStroke:
     start, span = math.radians(an.working_start_deg), math.radians(an.working_stroke_deg)
     psi0 = float(fourbar.position(start, a, b, f, r, branch)[0])
     swing = float(fourbar.position(start + span, a, b, f, r, branch)[0]) - psi0
-    return FourBarStroke(a, b, f, r, branch, start, span, swing)
+    return FourBarStroke(a, b, f, r, branch, start, span, swing, psi0)
 
 
 @dataclass(frozen=True)

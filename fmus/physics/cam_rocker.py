@@ -25,7 +25,10 @@
      q = R*(G - gamma) [m] and the contact law of fmus.physics.contact gives the pin force F [N] with the
      series stiffness k = 1/(1/contact_stiffness + R^2/stiffness) and m_eff = J/R^2; the rocker gets
      T = -F*R.  Impacts are counted at every separated -> contact transition.
-     Integration: RK4 on sub-steps of at most 0.1/omega (omega = the larger of the transmission's and the
+     Integration, Kelvin-Voigt law: exponential Rosenbrock steps (order 3) of at most EXP_STEP_PHASE/omega_c
+     in the contact mode of each step's start, contact events located by bisection inside the step
+     (``_advance_kelvin_voigt``).  Other laws (``exact_contact = False`` for all):
+     RK4 on sub-steps of at most 0.1/omega (omega = the larger of the transmission's and the
      contact's frequency sqrt(contact_stiffness*r_max^2/J)) and of at most 1/(the contact law's largest
      damping rate), contact.max_substep; the Hunt-Crossley family's damping is bounded in a persistent
      contact (its v0 is calibrated on the elastic energy the contact holds, see fmus.physics.contact), so
@@ -70,6 +73,9 @@ from .base import Model, ParameterError, Params, Signal, param
 from .laws import LAW_NAMES, TWO_PI, DwellCycle, get_law
 
 DEG = math.pi / 180.0
+EXP_STEP_PHASE = 0.5         # level 2, Kelvin-Voigt: exponential step x contact frequency (rad)
+EVENT_TOLERANCE = 1e-10      # [s] width to which a contact event is located inside a step
+MAX_EVENTS_PER_STEP = 64     # beyond it (a chattering contact) the steps go on without locating
 
 
 @dataclass(frozen=True)
@@ -143,6 +149,9 @@ class CamRockerParams(Params):
 
 class CamRockerModel(Model):
     Params = CamRockerParams
+    # level 2 with the Kelvin-Voigt law: exponential steps between located contact events (False: the RK4
+    # sub-steps of the other laws, kept as the comparison of tests/test_cam_rocker.py)
+    exact_contact = True
     inputs = ("crank.phi", "crank.w", "rocker.tau")
     outputs = ("crank.tau", "rocker.phi", "rocker.w", "pressure_angle", "stone_radius", "pin_force",
                "in_contact", "impact_count", "groove_force", "groove_contact", "groove_impact_count")
@@ -172,6 +181,9 @@ class CamRockerModel(Model):
             radii = np.array([l])
         self.r_min, self.r_max = float(np.min(radii)), float(np.max(radii))
         self.max_substep = self.substep_limit()
+        # level 2, Kelvin-Voigt: the exponential step, sized on the contact's frequency
+        w_c = math.sqrt(p.contact_stiffness * self.r_max * self.r_max / p.rocker_inertia)
+        self._exp_step = EXP_STEP_PHASE / w_c
 
     # -- kinematics (closed form per call) ------------------------------------------------------------------
     def kinematics(self, phi: float) -> tuple[float, float, float]:
@@ -361,6 +373,92 @@ class CamRockerModel(Model):
         self._update_joints(phi0 + w * h, w, x)
         return x
 
+    # -- level 2, Kelvin-Voigt contact: exponential steps between located contact events ---------------------
+    def _kv_mode(self, gamma, omega, w, kin) -> tuple[float, float]:
+        """(side, mode) of the Kelvin-Voigt play at one instant: side = the wall touched (geometric, +1/-1, 0),
+        mode = the wall that pushes (side, unless the no-pull force is clipped to 0 there: then 0)."""
+        q, qd, k, m = self._pin(*kin, w, (gamma, omega))
+        pen, pen_dot, side = contact.penetration(q, qd, self.p.clearance)
+        if side == 0.0:
+            return 0.0, 0.0
+        c = contact.kelvin_voigt_damping(k, m, self.p.restitution)
+        return side, (side if k * pen + c * pen_dot > 0.0 else 0.0)
+
+    def _kv_acceleration(self, gamma, omega, w, tau, kin, mode) -> float:
+        """Rocker acceleration [rad/s2] with the Kelvin-Voigt play held in ``mode`` (0 free, +1/-1 pushing on
+        that wall; the force law extended linearly beyond the mode's bounds, so that the step's Jacobian and
+        time derivative are smooth)."""
+        if mode == 0.0:
+            return tau / self.p.rocker_inertia
+        g, g1, R = kin
+        q, qd, k, m = self._pin(g, g1, R, w, (gamma, omega))
+        c = contact.kelvin_voigt_damping(k, m, self.p.restitution)
+        force = -mode * (k * (mode * q - 0.5 * self.p.clearance) + c * mode * qd)
+        return (-force * R + tau) / self.p.rocker_inertia
+
+    def _advance_kelvin_voigt(self, t0, h, x, u):
+        """Level 2 with the Kelvin-Voigt law: exponential Rosenbrock steps (integrate.exprb32_pair) of
+        (gamma, omega) in the contact mode of the step's start, at most EXP_STEP_PHASE / omega_c long (the
+        contact mode exact on its linearisation); when the mode (free, clipped or pushing on a wall) or the
+        wall touched differs at the step's end, the change is located by bisection of the step to
+        EVENT_TOLERANCE, the step is taken up to it in the old mode and the contact memory is updated there
+        (onset: impacts + 1, v_impact = the penetration rate; separation: flag 0).  A change that comes and
+        goes within one step is not seen (as at RK4's sub-step boundaries)."""
+        p = self.p
+        phi0, w, tau = u[0], u[1], u[2]
+        memo: dict = {}
+
+        def kin(t):
+            phi = phi0 + w * (t - t0)
+            k = memo.get(phi)
+            if k is None:
+                k = memo[phi] = self._kin(phi)
+            return k
+
+        def step(t, dt, gamma, omega, mode):
+            def acc(tt, g, om):
+                return self._kv_acceleration(g, om, w, tau, kin(tt), mode)
+            return integrate.exprb32_pair(acc, t, dt, gamma, omega)
+
+        x = np.array(x, dtype=float)
+        gamma, omega = float(x[0]), float(x[1])
+        n = integrate.substeps(h, self._exp_step)
+        events = 0
+        t, i = t0, 0
+        while i < n:
+            t_end = t0 + (i + 1) * h / n if i < n - 1 else t0 + h
+            side, mode = self._kv_mode(gamma, omega, w, kin(t))
+            g1, o1 = step(t, t_end - t, gamma, omega, mode)
+            side1, mode1 = self._kv_mode(g1, o1, w, kin(t_end))
+            if (side1, mode1) == (side, mode) or events >= MAX_EVENTS_PER_STEP:
+                gamma, omega, t, i = g1, o1, t_end, i + 1
+                if side1 == 0.0:
+                    x[4] = 0.0
+                elif x[4] == 0.0:       # (only after MAX_EVENTS_PER_STEP): an onset seen at the boundary
+                    x[4], x[3], x[2] = 1.0, x[3] + 1.0, abs(self._pin(*kin(t), w, (gamma, omega))[1])
+                continue
+            lo, hi = 0.0, t_end - t        # the change lies in (lo, hi]: bisection on the step length
+            while hi - lo > EVENT_TOLERANCE:
+                mid = 0.5 * (lo + hi)
+                gm, om = step(t, mid, gamma, omega, mode)
+                if self._kv_mode(gm, om, w, kin(t + mid)) == (side, mode):
+                    lo = mid
+                else:
+                    hi = mid
+            gamma, omega = step(t, hi, gamma, omega, mode)
+            t += hi
+            events += 1
+            side1, _ = self._kv_mode(gamma, omega, w, kin(t))
+            if side1 == 0.0:
+                x[4] = 0.0
+            elif side == 0.0:              # onset on a wall
+                q, qd, _, _ = self._pin(*kin(t), w, (gamma, omega))
+                x[4], x[3], x[2] = 1.0, x[3] + 1.0, abs(qd)
+            elif side1 != side:            # straight through the play within the located instant
+                x[3] += 1.0
+        x[0], x[1] = gamma, omega
+        return x
+
     def advance(self, t0, h, x, u):
         """RK4 on equal sub-steps of (gamma, omega) in plain floats (integrate.rk4_pair: the numbers of
         integrate.rk4 without an array per stage); at fidelity 2 the contact memory is updated at every
@@ -371,6 +469,8 @@ class CamRockerModel(Model):
             return x
         if p.fidelity == 3:
             return self._advance_two_clearances(t0, h, x, u)
+        if p.fidelity == 2 and p.contact_law == contact.KELVIN_VOIGT and self.exact_contact:
+            return self._advance_kelvin_voigt(t0, h, x, u)
         n = integrate.substeps(h, self.max_substep)
         dt = h / n
         memo: dict = {}       # _kin per crank angle: RK4's two mid stages share one, a sub-step's end is the next start
