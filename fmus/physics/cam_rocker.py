@@ -184,6 +184,7 @@ class CamRockerModel(Model):
         # level 2, Kelvin-Voigt: the exponential step, sized on the contact's frequency
         w_c = math.sqrt(p.contact_stiffness * self.r_max * self.r_max / p.rocker_inertia)
         self._exp_step = EXP_STEP_PHASE / w_c
+        self._kv_zeta = contact.kelvin_voigt_zeta(p.restitution)
 
     # -- kinematics (closed form per call) ------------------------------------------------------------------
     def kinematics(self, phi: float) -> tuple[float, float, float]:
@@ -374,27 +375,37 @@ class CamRockerModel(Model):
         return x
 
     # -- level 2, Kelvin-Voigt contact: exponential steps between located contact events ---------------------
-    def _kv_mode(self, gamma, omega, w, kin) -> tuple[float, float]:
-        """(side, mode) of the Kelvin-Voigt play at one instant: side = the wall touched (geometric, +1/-1, 0),
-        mode = the wall that pushes (side, unless the no-pull force is clipped to 0 there: then 0)."""
-        q, qd, k, m = self._pin(*kin, w, (gamma, omega))
-        pen, pen_dot, side = contact.penetration(q, qd, self.p.clearance)
-        if side == 0.0:
-            return 0.0, 0.0
-        c = contact.kelvin_voigt_damping(k, m, self.p.restitution)
-        return side, (side if k * pen + c * pen_dot > 0.0 else 0.0)
+    def _kv_coefficients(self, phi: float, w: float) -> tuple[float, float, float, float, float]:
+        """(G, G' w, k R^2, c R^2, k R clearance/2) of the Kelvin-Voigt play at crank angle phi: the contact
+        torque on a wall ``mode`` is k R^2 (G - gamma) + c R^2 (G' w - omega) - mode k R clearance/2."""
+        g, g1, R = self._kin(phi)
+        k = 1.0 / (1.0 / self.p.contact_stiffness + R * R / self.p.stiffness)
+        c = 2.0 * self._kv_zeta * math.sqrt(k * self.p.rocker_inertia / (R * R))
+        return g, g1 * w, k * R * R, c * R * R, 0.5 * k * R * self.p.clearance
 
-    def _kv_acceleration(self, gamma, omega, w, tau, kin, mode) -> float:
+    def _kv_mode(self, gamma, omega, co) -> tuple[float, float]:
+        """(side, mode) of the Kelvin-Voigt play at one instant (``co``: _kv_coefficients): side = the wall
+        touched (geometric, +1/-1, 0), mode = the wall that pushes (side, unless the no-pull force is clipped
+        to 0 there: then 0)."""
+        g, gw, kr2, cr2, krh = co
+        qr = kr2 * (g - gamma)                      # k R q, with q = R (G - gamma)
+        if qr > krh:
+            side = 1.0
+        elif qr < -krh:
+            side = -1.0
+        else:
+            return 0.0, 0.0
+        torque = qr - side * krh + cr2 * (gw - omega)   # R times the wall's force k pen + c pen_dot, signed
+        return side, (side if side * torque > 0.0 else 0.0)
+
+    def _kv_acceleration(self, gamma, omega, tau, co, mode) -> float:
         """Rocker acceleration [rad/s2] with the Kelvin-Voigt play held in ``mode`` (0 free, +1/-1 pushing on
         that wall; the force law extended linearly beyond the mode's bounds, so that the step's Jacobian and
         time derivative are smooth)."""
         if mode == 0.0:
             return tau / self.p.rocker_inertia
-        g, g1, R = kin
-        q, qd, k, m = self._pin(g, g1, R, w, (gamma, omega))
-        c = contact.kelvin_voigt_damping(k, m, self.p.restitution)
-        force = -mode * (k * (mode * q - 0.5 * self.p.clearance) + c * mode * qd)
-        return (-force * R + tau) / self.p.rocker_inertia
+        g, gw, kr2, cr2, krh = co
+        return (kr2 * (g - gamma) + cr2 * (gw - omega) - mode * krh + tau) / self.p.rocker_inertia
 
     def _advance_kelvin_voigt(self, t0, h, x, u):
         """Level 2 with the Kelvin-Voigt law: exponential Rosenbrock steps (integrate.exprb32_pair) of
@@ -404,21 +415,24 @@ class CamRockerModel(Model):
         EVENT_TOLERANCE, the step is taken up to it in the old mode and the contact memory is updated there
         (onset: impacts + 1, v_impact = the penetration rate; separation: flag 0).  A change that comes and
         goes within one step is not seen (as at RK4's sub-step boundaries)."""
-        p = self.p
         phi0, w, tau = u[0], u[1], u[2]
         memo: dict = {}
 
-        def kin(t):
+        def coefficients(t):
             phi = phi0 + w * (t - t0)
-            k = memo.get(phi)
-            if k is None:
-                k = memo[phi] = self._kin(phi)
-            return k
+            co = memo.get(phi)
+            if co is None:
+                co = memo[phi] = self._kv_coefficients(phi, w)
+            return co
 
         def step(t, dt, gamma, omega, mode):
             def acc(tt, g, om):
-                return self._kv_acceleration(g, om, w, tau, kin(tt), mode)
+                return self._kv_acceleration(g, om, tau, coefficients(tt), mode)
             return integrate.exprb32_pair(acc, t, dt, gamma, omega)
+
+        def onset_speed(t, gamma, omega):
+            g, gw, _, _, _ = coefficients(t)
+            return abs(self.lever(phi0 + w * (t - t0), g) * (gw - omega))
 
         x = np.array(x, dtype=float)
         gamma, omega = float(x[0]), float(x[1])
@@ -427,33 +441,32 @@ class CamRockerModel(Model):
         t, i = t0, 0
         while i < n:
             t_end = t0 + (i + 1) * h / n if i < n - 1 else t0 + h
-            side, mode = self._kv_mode(gamma, omega, w, kin(t))
+            side, mode = self._kv_mode(gamma, omega, coefficients(t))
             g1, o1 = step(t, t_end - t, gamma, omega, mode)
-            side1, mode1 = self._kv_mode(g1, o1, w, kin(t_end))
+            side1, mode1 = self._kv_mode(g1, o1, coefficients(t_end))
             if (side1, mode1) == (side, mode) or events >= MAX_EVENTS_PER_STEP:
                 gamma, omega, t, i = g1, o1, t_end, i + 1
                 if side1 == 0.0:
                     x[4] = 0.0
                 elif x[4] == 0.0:       # (only after MAX_EVENTS_PER_STEP): an onset seen at the boundary
-                    x[4], x[3], x[2] = 1.0, x[3] + 1.0, abs(self._pin(*kin(t), w, (gamma, omega))[1])
+                    x[4], x[3], x[2] = 1.0, x[3] + 1.0, onset_speed(t, gamma, omega)
                 continue
             lo, hi = 0.0, t_end - t        # the change lies in (lo, hi]: bisection on the step length
             while hi - lo > EVENT_TOLERANCE:
                 mid = 0.5 * (lo + hi)
                 gm, om = step(t, mid, gamma, omega, mode)
-                if self._kv_mode(gm, om, w, kin(t + mid)) == (side, mode):
+                if self._kv_mode(gm, om, coefficients(t + mid)) == (side, mode):
                     lo = mid
                 else:
                     hi = mid
             gamma, omega = step(t, hi, gamma, omega, mode)
             t += hi
             events += 1
-            side1, _ = self._kv_mode(gamma, omega, w, kin(t))
+            side1, _ = self._kv_mode(gamma, omega, coefficients(t))
             if side1 == 0.0:
                 x[4] = 0.0
             elif side == 0.0:              # onset on a wall
-                q, qd, _, _ = self._pin(*kin(t), w, (gamma, omega))
-                x[4], x[3], x[2] = 1.0, x[3] + 1.0, abs(qd)
+                x[4], x[3], x[2] = 1.0, x[3] + 1.0, onset_speed(t, gamma, omega)
             elif side1 != side:            # straight through the play within the located instant
                 x[3] += 1.0
         x[0], x[1] = gamma, omega
