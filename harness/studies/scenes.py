@@ -78,7 +78,9 @@ def find_scene(system, name: str | None = None) -> Scene:
 
 
 def fidelity_levels(system) -> dict[str, tuple[int, ...]]:
-    """Instance -> admissible fidelity levels (ascending), for instances whose component has one."""
+    """Instance -> admissible fidelity levels (ascending), for instances whose component has one: the levels
+    its parameters admit (CamRocker's level 3 exists for the slotted rocker only, not for seed 004's disc cam)."""
+    from fmus.physics.base import ParameterError
     from harness.model import model_name
     from harness.studies.reference import component_classes
 
@@ -89,8 +91,16 @@ def fidelity_levels(system) -> dict[str, tuple[int, ...]]:
         if cls is None:
             continue
         f = cls.model.Params.__dataclass_fields__.get("fidelity")
-        if f is not None and f.metadata.get("choices"):
-            out[inst.name] = tuple(sorted(f.metadata["choices"]))
+        if f is None or not f.metadata.get("choices"):
+            continue
+        admitted = []
+        for level in sorted(f.metadata["choices"]):
+            try:
+                cls.model.Params(**{**inst.parameters, "fidelity": level}).validate()
+            except ParameterError:
+                continue
+            admitted.append(level)
+        out[inst.name] = tuple(admitted)
     return out
 
 
