@@ -12,8 +12,8 @@ class CamRocker(PressSlave):
              Rotational("rocker", motion="out", doc="output rocker (kulisa / cam follower)"))
     signals = (Output("pressure_angle", "rad", "pressure angle at the stone (LCSM, conrod vs groove) or at the cam"),
                Output("stone_radius", "m", "stone radius |O2B| (LCSM) or roller-centre distance from the cam centre"),
-               Output("pin_force", "N", "stone-pin contact force magnitude at the communication point (fidelity 2; 0 separated)"),
-               Output("in_contact", "1", "1 while the clearance is closed (fidelity 2)"),
+               Output("pin_force", "N", "stone-pin contact force magnitude at the communication point (fidelity 2, 3; 0 separated)"),
+               Output("in_contact", "1", "1 while the stone-pin clearance is closed (fidelity 2, 3)"),
                Output("impact_count", "1", "number of stone-pin impacts so far (fidelity 2, 3)"),
                Output("groove_force", "N", "roller-groove contact force magnitude at the communication point (fidelity 3; 0 separated)"),
                Output("groove_contact", "1", "1 while the roller touches a groove wall (fidelity 3)"),

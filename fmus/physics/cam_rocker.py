@@ -155,11 +155,11 @@ class CamRockerModel(Model):
     inputs = ("crank.phi", "crank.w", "rocker.tau")
     outputs = ("crank.tau", "rocker.phi", "rocker.w", "pressure_angle", "stone_radius", "pin_force",
                "in_contact", "impact_count", "groove_force", "groove_contact", "groove_impact_count")
-    states = (Signal("gamma", "rad", "rocker angle (fidelity 1, 2)"),
-              Signal("omega", "rad/s", "rocker angular velocity (fidelity 1, 2)"),
-              Signal("v_impact", "m/s", "approach speed at the start of the current contact (fidelity 2)"),
-              Signal("impacts", "1", "number of impacts so far (fidelity 2), state behind output impact_count"),
-              Signal("contact_flag", "1", "1 while the clearance is closed (fidelity 2), state behind output in_contact"),
+    states = (Signal("gamma", "rad", "rocker angle (fidelity 1-3)"),
+              Signal("omega", "rad/s", "rocker angular velocity (fidelity 1-3)"),
+              Signal("v_impact", "m/s", "stone-pin approach speed at the start of the current contact (fidelity 2, 3)"),
+              Signal("impacts", "1", "number of stone-pin impacts so far (fidelity 2, 3), state behind output impact_count"),
+              Signal("contact_flag", "1", "1 while the stone-pin clearance is closed (fidelity 2, 3), state behind output in_contact"),
               Signal("rho_s", "m", "stone radius along the slot (fidelity 3)"),
               Signal("rho_rate", "m/s", "stone speed along the slot (fidelity 3)"),
               Signal("groove_v_impact", "m/s", "roller-groove approach speed at the start of the current contact (fidelity 3)"),
