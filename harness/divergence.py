@@ -48,9 +48,9 @@ wherever both its ratios pass 2 ((4/3)^k against (3/2)^k), but a drive's start-u
 
 Tuned on the two stability maps (``docs/images/stability_two_inertia_inertia.csv`` and
 ``stability_bed_drive_fourbar_rocker_inertia.csv``): no stop at any step the maps judge stable, a stop on
-clearly unstable steps (``tests/test_divergence.py`` states which; the three
-Gauss-Seidel zero-order-hold points of the two-inertia map that grow too slowly to be confirmed within the
-map's 60 periods end complete, reported by the end check; (1 % let a
+clearly unstable steps (``tests/test_divergence.py`` states which: all of both maps, the two-inertia study
+running 90 periods, since at 60 its three slowest Gauss-Seidel zero-order-hold points grew too slowly to be
+confirmed; (1 % let a
 start-up transient of the bed drive at 5e-5 s trip the test); the most violent
 blow-ups, which pass 1e12 within the first 8 blocks and are stopped by the master's blow-up check instead).  A run that
 is only just beyond the boundary grows too slowly to be stopped within the maps' run lengths; the studies'

@@ -56,28 +56,22 @@ def test_two_inertia_map_stable_points_run_to_the_end():
 
 
 def test_two_inertia_map_unstable_points_are_stopped():
-    stopped = gs_marked = 0
+    stopped = 0
     for _, r in TI.iterrows():
         run, hb = _ti_run(r)
         df = run(hb * 1.25)
         assert st.is_unstable(df)
-        if r.master == "gauss-seidel" and r.order == 0 and df.attrs["complete"]:
-            # Gauss-Seidel with zero-order hold: the bond's energy error stays near zero while the amplitude
-            # grows, so only the geometric-growth test can stop it; at 1.25 times the boundary it grows by x2-3
-            # in power per quarter, and 3 of these 5 runs (ratios 0.2, 1.0, 2.0) reach the end of the map's 60
-            # periods unconfirmed.  They end complete but marked: the end report names the growing bond (their
-            # rate did not slow: x2.16 -> x2.16, x2.55 -> x2.98, x2.56 -> x2.56)
-            assert "still growing geometrically at the end of the run" in df.attrs["suspect"], (r.ratio, r.order)
-            gs_marked += 1
-            continue
+        # Gauss-Seidel with zero-order hold: the bond's energy error stays near zero while the amplitude grows,
+        # so only the geometric-growth test can stop it; at 1.25 times the boundary it grows by x2-3 in power
+        # per quarter, and 3 of these 5 runs (ratios 0.2, 1.0, 2.0) ended unconfirmed when the study ran 60
+        # periods: it runs 90 now (the map unchanged, every boundary the same bisection point)
         assert not df.attrs["complete"], (r.ratio, r.master, r.order)
         if df.attrs["diverged"]:
             _one_line_divergence(df)
             stopped += 1
         else:  # only the most violent blow-ups reach the master's check before the detector's first blocks
             assert "blow-up limit" in df.attrs["error"] and len(df) < 64, (r.ratio, r.master, r.order)
-    assert gs_marked <= 3
-    assert stopped >= 17  # measured: 17 of these 25 by the detector, 5 by the blow-up check, 3 marked
+    assert stopped >= 20  # measured: 20 of these 25 by the detector, the other 5 by the blow-up check
 
 
 def test_bed_drive_map_stable_points_run_to_the_end():

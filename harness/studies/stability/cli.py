@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from harness.studies.stability.measured import SWEEPS, plot_stability_map, stability_table
+from harness.studies.stability.measured import PERIODS, SWEEPS, plot_stability_map, stability_table
 from harness.studies.stability.press import PRESS_MASTERS, PRESS_STUDIES, plot_press_map, press_stability_table
 from harness.studies.stability.theory import ORDERS
 
@@ -51,7 +51,7 @@ def register_stability(study_subparsers) -> None:
     p.add_argument("--rtol", type=float, default=None, help="relative width of the final bracket")
     p.add_argument("--no-measure", action="store_true", help="two_inertia: theory only (no co-simulation runs)")
     p.add_argument("--periods", type=float, default=None,
-                   help="run length in periods of the (estimated) stiffest coupled mode (two_inertia 60, press 10)")
+                   help="run length in periods of the (estimated) stiffest coupled mode (two_inertia 90, press 10)")
     p.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results/)")
     p.set_defaults(func=stability_cli)
 
@@ -76,7 +76,7 @@ def stability_cli(args) -> int:
             raise ValueError(f"--sweep {sweep!r} is not admissible for two_inertia: must be one of "
                              f"{', '.join(SWEEPS)}")
         table = stability_table(sweep=sweep, values=args.values, measure=not (args.no_measure or args.quick),
-                                periods=args.periods or 60.0, rtol=args.rtol or 0.005, progress=progress)
+                                periods=args.periods or PERIODS, rtol=args.rtol or 0.005, progress=progress)
         stem = out / f"stability_two_inertia_{sweep}"
         out.mkdir(parents=True, exist_ok=True)
         table.to_csv(stem.with_suffix(".csv"), index=False)
