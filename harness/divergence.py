@@ -42,9 +42,9 @@ while a bond is still watched, its confirmation not yet due, is reported, not st
 result is kept complete and carries the line in ``attrs["suspect"]``): when both ratios still pass
 ``geometric`` and the growth did not slow from the third quarter to the fourth (the fourth ratio at least
 ``end_rate`` (0.9) times the third).  A start from rest growing as a power of time slows by at least 0.75
-wherever both its ratios pass 2 ((4/3)^k against (3/2)^k), but a drive's start-up cut short need not be one
-(bed_drive stopped at 1 s: x3.09 then x2.91), so only a longer run tells it from an instability;
-``end_rate=None`` switches the report off.
+wherever both its ratios pass 2 ((4/3)^k against (3/2)^k), but a drive cut short in its first machine cycle
+need not (bed_drive stopped at 1 s, its return stroke: x3.09 then x2.91), so only a longer run tells it from
+an instability; ``end_rate=None`` switches the report off.
 
 Tuned on the two stability maps (``docs/images/stability_two_inertia_inertia.csv`` and
 ``stability_bed_drive_fourbar_rocker_inertia.csv``): no stop at any step the maps judge stable, a stop on
@@ -263,8 +263,9 @@ class DivergenceDetector:
         """The run reached its stop time at ``t``.  A bond still growing geometrically then (the quarters'
         test holds at the end, see :meth:`_judge`), its confirmation not yet due, and not slowing down from
         the third quarter to the fourth (``end_rate``) is reported: one line, '' if none.  Not a stop: a
-        drive cut short in its start-up grows so too (bed_drive at 1 s: x3.09, x2.91), an instability
-        confirmed by nothing but a longer run (the two-inertia map's slowest Gauss-Seidel points: x2.16, x2.16)."""
+        drive cut short in its first machine cycle grows so too (bed_drive at 1 s, its return stroke: x3.09,
+        x2.91), as does an instability only a longer run confirms (at 60 periods, the two-inertia map's
+        slowest Gauss-Seidel points: x2.16, x2.16)."""
         o = self.opts
         nb = len(self.peaks)
         if o.geometric is None or o.end_rate is None or nb < o.min_blocks:
@@ -278,7 +279,7 @@ class DivergenceDetector:
                 inst, var = self.efforts[j]
                 return (f"t = {t:.9g} s: instance {inst}: output {var}: the power on bond {self.labels[j]} was still "
                         f"growing geometrically at the end of the run, {p2:.3g} W -> {p3:.3g} W -> {p4:.3g} W per "
-                        f"quarter (x{p3 / p2:.3g}, x{p4 / p3:.3g}): a start-up still under way or an instability; "
+                        f"quarter (x{p3 / p2:.3g}, x{p4 / p3:.3g}): a start-up or first machine cycle still under way, or an instability; "
                         f"a longer run tells")
         return ""
 
