@@ -524,5 +524,7 @@ class CamRockerModel(Model):
             f_p, f_g, _, (ex, ey), _, _ = self._joints(phi, w, x[0], x[1], x[5], x[6], x)
             tau = -f_p * p.crank_radius * (math.cos(phi) * ey - math.sin(phi) * ex)
             return (tau, x[0], x[1], theta, x[5], abs(f_p), x[4], x[3], abs(f_g), x[9], x[8])
-        T, F = self.transmitted(phi, w, x)
+        # the lever of level 2 is the stone radius geometry() just computed (the same numbers), or the arm
+        lever = (radius if p.mechanism == 0 else p.follower_arm) if p.fidelity == 2 else 0.0
+        T, F = self.transmitted(phi, w, x, (g, g1, lever))
         return (-g1 * T, x[0], x[1], theta, radius, abs(F), x[4], x[3], 0.0, 0.0, 0.0)
