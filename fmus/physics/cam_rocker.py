@@ -301,29 +301,39 @@ class CamRockerModel(Model):
             x[2] = abs(pen_dot)
 
     # -- level 3: the stone on the slot with two clearances ---------------------------------------------
-    def _joints(self, phi: float, w: float, gamma: float, omega: float, rho: float, rho_rate: float, x):
-        """The two joints of level 3 at crank angle phi: (F_p, F_g, (Fx, Fy), e_c, (d_p, d_p rate), (d_g, d_g rate)).
-
-        F_p, F_g are the contact laws' signed forces along the conrod direction e_c (from crank pin A to B)
-        and the profile normal n_g; (Fx, Fy) their sum on the stone."""
+    def _frame(self, phi: float, w: float) -> tuple:
+        """What level 3's joints take from the crank angle alone (a pure function of phi and w, so
+        ``_advance_two_clearances`` evaluates it once per distinct sub-step time): the crank pin A and its
+        velocity terms, the profile point B_g and its unit normal n_g."""
         p = self.p
         r = p.crank_radius
-        c, s = math.cos(gamma), math.sin(gamma)
-        bx, by = rho * c, rho * s
-        vbx, vby = rho_rate * c - rho * omega * s, rho_rate * s + rho * omega * c
         cp, sp = math.cos(phi), math.sin(phi)
-        dx, dy = bx - r * (cp - p.lambda1), by - r * sp
-        dist = math.hypot(dx, dy)
-        ex, ey = dx / dist, dy / dist
-        d_p = dist - p.lambda2 * r
-        d_p_rate = ex * (vbx + r * w * sp) + ey * (vby - r * w * cp)
         g, g1, _ = self.kinematics(phi)
         rk, rk1, _ = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
         cg, sg = math.cos(g), math.sin(g)
         tx, ty = rk1 * cg - rk * g1 * sg, rk1 * sg + rk * g1 * cg       # profile tangent dB_g/dphi / r
         tn = math.hypot(tx, ty)
         nx, ny = (-ty / tn, tx / tn) if tn > 0.0 else (-sg, cg)
-        d_g = (bx - r * rk * cg) * nx + (by - r * rk * sg) * ny
+        return (r * (cp - p.lambda1), r * sp, r * w * sp, r * w * cp, cp, sp, r * rk * cg, r * rk * sg, nx, ny)
+
+    def _joints(self, phi: float, w: float, gamma: float, omega: float, rho: float, rho_rate: float, x,
+                frame=None):
+        """The two joints of level 3 at crank angle phi: (F_p, F_g, (Fx, Fy), e_c, (d_p, d_p rate), (d_g, d_g rate)).
+
+        F_p, F_g are the contact laws' signed forces along the conrod direction e_c (from crank pin A to B)
+        and the profile normal n_g; (Fx, Fy) their sum on the stone.  ``frame`` is ``_frame(phi, w)`` when
+        the caller has it."""
+        p = self.p
+        ax, ay, rws, rwc, _, _, gx, gy, nx, ny = frame or self._frame(phi, w)
+        c, s = math.cos(gamma), math.sin(gamma)
+        bx, by = rho * c, rho * s
+        vbx, vby = rho_rate * c - rho * omega * s, rho_rate * s + rho * omega * c
+        dx, dy = bx - ax, by - ay
+        dist = math.hypot(dx, dy)
+        ex, ey = dx / dist, dy / dist
+        d_p = dist - p.lambda2 * p.crank_radius
+        d_p_rate = ex * (vbx + rws) + ey * (vby - rwc)
+        d_g = (bx - gx) * nx + (by - gy) * ny
         d_g_rate = vbx * nx + vby * ny                                   # B_g moves along the profile
         j_t = p.rocker_inertia + p.stone_mass * rho * rho
 
@@ -339,18 +349,18 @@ class CamRockerModel(Model):
                                     p.contact_exponent)
         return f_p, f_g, (f_p * ex + f_g * nx, f_p * ey + f_g * ny), (ex, ey), (d_p, d_p_rate), (d_g, d_g_rate)
 
-    def _accelerations(self, phi, w, tau_load, gamma, omega, rho, rho_rate, x) -> tuple[float, float]:
+    def _accelerations(self, phi, w, tau_load, gamma, omega, rho, rho_rate, x, frame=None) -> tuple[float, float]:
         """(d omega/dt, d2 rho_s/dt2) of level 3."""
         p = self.p
-        _, _, (fx, fy), _, _, _ = self._joints(phi, w, gamma, omega, rho, rho_rate, x)
+        _, _, (fx, fy), _, _, _ = self._joints(phi, w, gamma, omega, rho, rho_rate, x, frame)
         c, s = math.cos(gamma), math.sin(gamma)
         f_n, f_u = -fx * s + fy * c, fx * c + fy * s
         m = p.stone_mass
         return ((tau_load + rho * f_n - 2.0 * m * rho * rho_rate * omega) / (p.rocker_inertia + m * rho * rho),
                 f_u / m + rho * omega * omega)
 
-    def _update_joints(self, phi: float, w: float, x: np.ndarray) -> None:
-        _, _, _, _, (d_p, d_p_rate), (d_g, d_g_rate) = self._joints(phi, w, x[0], x[1], x[5], x[6], x)
+    def _update_joints(self, phi: float, w: float, x: np.ndarray, frame=None) -> None:
+        _, _, _, _, (d_p, d_p_rate), (d_g, d_g_rate) = self._joints(phi, w, x[0], x[1], x[5], x[6], x, frame)
         for (d, rate, play), (v, n, flag) in (((d_p, d_p_rate, self.p.clearance), (2, 3, 4)),
                                               ((d_g, d_g_rate, self.p.groove_clearance), (7, 8, 9))):
             pen, pen_rate, side = contact.penetration(d, rate, play)
@@ -363,15 +373,25 @@ class CamRockerModel(Model):
         n = integrate.substeps(h, self.max_substep)
         dt = h / n
         phi0, w, tau = u[0], u[1], u[2]
+        memo: dict = {}       # _frame per crank angle: RK4's mid stages share one, a sub-step's end is the next start
+
+        def frame(phi):
+            f = memo.get(phi)
+            if f is None:
+                f = memo[phi] = self._frame(phi, w)
+            return f
 
         def acc(t, gamma, omega, rho, rho_rate):
-            return self._accelerations(phi0 + w * (t - t0), w, tau, gamma, omega, rho, rho_rate, x)
+            phi = phi0 + w * (t - t0)
+            return self._accelerations(phi, w, tau, gamma, omega, rho, rho_rate, x, frame(phi))
 
         for i in range(n):
             t = t0 + i * dt
-            self._update_joints(phi0 + w * (t - t0), w, x)
+            phi = phi0 + w * (t - t0)
+            self._update_joints(phi, w, x, frame(phi))
             x[0], x[1], x[5], x[6] = integrate.rk4_two(acc, t, dt, x[0], x[1], x[5], x[6])
-        self._update_joints(phi0 + w * h, w, x)
+        phi = phi0 + w * h
+        self._update_joints(phi, w, x, frame(phi))
         return x
 
     # -- level 2, Kelvin-Voigt contact: exponential steps between located contact events ---------------------
