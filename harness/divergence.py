@@ -111,6 +111,11 @@ class DivergenceOptions:
                 raise ValueError(f"DivergenceOptions.{name} = {v!r} is not admissible: must be a positive number")
 
 
+def _quarters(nb: int) -> tuple[tuple[int, int], ...]:
+    """Block ranges of the second, third and fourth quarters of ``nb`` blocks (the geometric test's)."""
+    return (nb // 4, nb // 2), (nb // 2, (3 * nb) // 4), ((3 * nb) // 4, nb)
+
+
 class _WindowMax:
     """The largest of ``peaks[a:b][j]`` for a window [a, b) whose bounds never move back (a monotone deque of
     block indices, amortised O(1) per block); 0.0 for an empty window, as the test takes it."""
@@ -224,7 +229,7 @@ class DivergenceDetector:
             # zero-order hold moves energy through the bond with almost no error on it and still grows);
             # spin-ups and cuts saturate, a resonance under periodic forcing grows polynomially (power x2.25
             # at most from Q2 to Q3 for a linearly growing amplitude)
-            bounds = ((nb // 4, nb // 2), (nb // 2, (3 * nb) // 4), ((3 * nb) // 4, nb))
+            bounds = _quarters(nb)
             scale = o.floor * self._cummax_all[-1]  # a bond near rest is not judged (cut onsets)
             for j in range(self.n):
                 p2, p3, p4 = (w[j].max(self.peaks, j, a, b) for w, (a, b) in zip(self._quarters, bounds))
@@ -270,7 +275,7 @@ class DivergenceDetector:
         nb = len(self.peaks)
         if o.geometric is None or o.end_rate is None or nb < o.min_blocks:
             return ""
-        bounds = ((nb // 4, nb // 2), (nb // 2, (3 * nb) // 4), ((3 * nb) // 4, nb))
+        bounds = _quarters(nb)
         for j in range(self.n):
             if self._geo_since[j] is None:
                 continue
@@ -279,8 +284,8 @@ class DivergenceDetector:
                 inst, var = self.efforts[j]
                 return (f"t = {t:.9g} s: instance {inst}: output {var}: the power on bond {self.labels[j]} was still "
                         f"growing geometrically at the end of the run, {p2:.3g} W -> {p3:.3g} W -> {p4:.3g} W per "
-                        f"quarter (x{p3 / p2:.3g}, x{p4 / p3:.3g}): a start-up or first machine cycle still under way, or an instability; "
-                        f"a longer run tells")
+                        f"quarter (x{p3 / p2:.3g}, x{p4 / p3:.3g}): a start-up or first machine cycle still under "
+                        f"way, or an instability; a longer run tells")
         return ""
 
     def _flag(self, t, j, early, late, t0, t1, limit, nb):

@@ -97,9 +97,12 @@ FEEDER = dict(mechanism=0, fidelity=2, law=1, crank_radius=0.040, lambda1=3.5, l
 W_FEEDER = 960.0 / 6.4 * 2 * math.pi / 60
 
 
-def run_feeder(contact_law, h, t_end=0.45):
-    """(pin_force at every communication point, approach speeds at the onsets) of the feeder rocker."""
+def run_feeder(contact_law, h, t_end=0.45, exact=True, shrink=1.0):
+    """(pin_force at every communication point, approach speeds at the onsets) of the feeder rocker;
+    ``exact``: CamRockerModel.exact_contact, ``shrink``: factor on its RK4 sub-step."""
     m = CamRockerModel(CamRockerParams(contact_law=contact_law, **FEEDER))
+    m.exact_contact = exact
+    m.max_substep *= shrink
 
     def head(w):                                  # TorqueLoad T_coulomb 0.05 N.m, w_reg 0.05, d 0.002
         return -(0.05 * math.tanh(w / 0.05) + 0.002 * w)
@@ -223,24 +226,9 @@ def test_kelvin_voigt_exponential_steps_are_closer_to_a_fine_reference_than_rk4(
     between located events (the default) against the former RK4 sub-steps (exact_contact = False), both against
     RK4 at 20 times finer sub-steps.  Measured: pin force within 6e-4 of its peak (RK4: 1.2e-2), onset speeds
     within 1e-3 (RK4: 2e-2), the same onsets."""
-    def run_model(exact, shrink=1.0):
-        m = CamRockerModel(CamRockerParams(**FEEDER))
-        m.exact_contact = exact
-        m.max_substep *= shrink
-        x = m.initial_state([0.0, W_FEEDER, 0.0])
-        force, onsets = [], []
-        for k in range(4500):
-            count = x[3]
-            load = -(0.05 * math.tanh(x[1] / 0.05) + 0.002 * x[1])
-            x = m.advance(k * 1e-4, 1e-4, x, [W_FEEDER * k * 1e-4, W_FEEDER, load])
-            if x[3] > count:
-                onsets.append(x[2])
-            force.append(m.output(0.0, x, [W_FEEDER * (k + 1) * 1e-4, W_FEEDER, load])[5])
-        return np.array(force), np.array(onsets)
-
-    f_exp, v_exp = run_model(True)
-    f_rk4, v_rk4 = run_model(False)
-    f_ref, v_ref = run_model(False, shrink=0.05)
+    f_exp, v_exp = run_feeder(0, 1e-4)
+    f_rk4, v_rk4 = run_feeder(0, 1e-4, exact=False)
+    f_ref, v_ref = run_feeder(0, 1e-4, exact=False, shrink=0.05)
     scale = np.max(f_ref)
     assert len(v_exp) == len(v_ref) == len(v_rk4) >= 4
     assert np.max(np.abs(f_exp - f_ref)) < 2e-3 * scale

@@ -63,6 +63,7 @@ v_impact, impacts and contact flag.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -184,7 +185,6 @@ class CamRockerModel(Model):
         # level 2, Kelvin-Voigt: the exponential step, sized on the contact's frequency
         w_c = math.sqrt(p.contact_stiffness * self.r_max * self.r_max / p.rocker_inertia)
         self._exp_step = EXP_STEP_PHASE / w_c
-        self._kv_zeta = contact.kelvin_voigt_zeta(p.restitution)
 
     # -- kinematics (closed form per call) ------------------------------------------------------------------
     def kinematics(self, phi: float) -> tuple[float, float, float]:
@@ -253,11 +253,14 @@ class CamRockerModel(Model):
         g, g1, _ = self.kinematics(phi)
         return g, g1, self.lever(phi, g) if self.p.fidelity == 2 else 0.0
 
+    def _pin_stiffness(self, R: float) -> tuple[float, float]:
+        """(k_pin, m_eff) of the level-2 clearance joint at lever R."""
+        p = self.p
+        return 1.0 / (1.0 / p.contact_stiffness + R * R / p.stiffness), p.rocker_inertia / (R * R)
+
     def _pin(self, g, g1, R, w, x):
         """(q, q_dot, k_pin, m_eff) of the clearance joint."""
-        p = self.p
-        k = 1.0 / (1.0 / p.contact_stiffness + R * R / p.stiffness)
-        return R * (g - x[0]), R * (g1 * w - x[1]), k, p.rocker_inertia / (R * R)
+        return (R * (g - x[0]), R * (g1 * w - x[1])) + self._pin_stiffness(R)
 
     def transmitted(self, phi: float, w: float, x, kin=None) -> tuple[float, float]:
         """(torque on the rocker from the transmission [N.m], pin force [N]) at fidelity 1/2; ``kin`` is
@@ -290,7 +293,7 @@ class CamRockerModel(Model):
             dx[0], dx[1] = x[1], self._acceleration(t, x[0], x[1], x, u, t0)
         return dx
 
-    def _update_contact(self, phi: float, w: float, x: np.ndarray, kin) -> None:
+    def _update_contact(self, w: float, x: np.ndarray, kin) -> None:
         q, qd, _, _ = self._pin(*kin, w, x)
         pen, pen_dot, side = contact.penetration(q, qd, self.p.clearance)
         if side == 0.0:
@@ -314,7 +317,7 @@ class CamRockerModel(Model):
         tx, ty = rk1 * cg - rk * g1 * sg, rk1 * sg + rk * g1 * cg       # profile tangent dB_g/dphi / r
         tn = math.hypot(tx, ty)
         nx, ny = (-ty / tn, tx / tn) if tn > 0.0 else (-sg, cg)
-        return (r * (cp - p.lambda1), r * sp, r * w * sp, r * w * cp, cp, sp, r * rk * cg, r * rk * sg, nx, ny)
+        return r * (cp - p.lambda1), r * sp, r * w * sp, r * w * cp, r * rk * cg, r * rk * sg, nx, ny
 
     def _joints(self, phi: float, w: float, gamma: float, omega: float, rho: float, rho_rate: float, x,
                 frame=None):
@@ -324,7 +327,7 @@ class CamRockerModel(Model):
         and the profile normal n_g; (Fx, Fy) their sum on the stone.  ``frame`` is ``_frame(phi, w)`` when
         the caller has it."""
         p = self.p
-        ax, ay, rws, rwc, _, _, gx, gy, nx, ny = frame or self._frame(phi, w)
+        ax, ay, rws, rwc, gx, gy, nx, ny = frame or self._frame(phi, w)
         c, s = math.cos(gamma), math.sin(gamma)
         bx, by = rho * c, rho * s
         vbx, vby = rho_rate * c - rho * omega * s, rho_rate * s + rho * omega * c
@@ -373,13 +376,8 @@ class CamRockerModel(Model):
         n = integrate.substeps(h, self.max_substep)
         dt = h / n
         phi0, w, tau = u[0], u[1], u[2]
-        memo: dict = {}       # _frame per crank angle: RK4's mid stages share one, a sub-step's end is the next start
-
-        def frame(phi):
-            f = memo.get(phi)
-            if f is None:
-                f = memo[phi] = self._frame(phi, w)
-            return f
+        # _frame per crank angle, once: RK4's mid stages share one, a sub-step's end is the next start
+        frame = functools.cache(lambda phi: self._frame(phi, w))
 
         def acc(t, gamma, omega, rho, rho_rate):
             phi = phi0 + w * (t - t0)
@@ -399,8 +397,8 @@ class CamRockerModel(Model):
         """(G, G' w, k R^2, c R^2, k R clearance/2) of the Kelvin-Voigt play at crank angle phi: the contact
         torque on a wall ``mode`` is k R^2 (G - gamma) + c R^2 (G' w - omega) - mode k R clearance/2."""
         g, g1, R = self._kin(phi)
-        k = 1.0 / (1.0 / self.p.contact_stiffness + R * R / self.p.stiffness)
-        c = 2.0 * self._kv_zeta * math.sqrt(k * self.p.rocker_inertia / (R * R))
+        k, m = self._pin_stiffness(R)
+        c = contact.kelvin_voigt_damping(k, m, self.p.restitution)
         return g, g1 * w, k * R * R, c * R * R, 0.5 * k * R * self.p.clearance
 
     def _kv_mode(self, gamma, omega, co) -> tuple[float, float]:
@@ -436,14 +434,10 @@ class CamRockerModel(Model):
         (onset: impacts + 1, v_impact = the penetration rate; separation: flag 0).  A change that comes and
         goes within one step is not seen (as at RK4's sub-step boundaries)."""
         phi0, w, tau = u[0], u[1], u[2]
-        memo: dict = {}
+        at_angle = functools.cache(lambda phi: self._kv_coefficients(phi, w))   # once per crank angle
 
         def coefficients(t):
-            phi = phi0 + w * (t - t0)
-            co = memo.get(phi)
-            if co is None:
-                co = memo[phi] = self._kv_coefficients(phi, w)
-            return co
+            return at_angle(phi0 + w * (t - t0))
 
         def step(t, dt, gamma, omega, mode):
             def acc(tt, g, om):
@@ -506,13 +500,8 @@ class CamRockerModel(Model):
             return self._advance_kelvin_voigt(t0, h, x, u)
         n = integrate.substeps(h, self.max_substep)
         dt = h / n
-        memo: dict = {}       # _kin per crank angle: RK4's two mid stages share one, a sub-step's end is the next start
-
-        def kin(phi):
-            k = memo.get(phi)
-            if k is None:
-                k = memo[phi] = self._kin(phi)
-            return k
+        # _kin per crank angle, once: RK4's two mid stages share one, a sub-step's end is the next start
+        kin = functools.cache(self._kin)
 
         def acc(t, gamma, omega):
             return self._acceleration(t, gamma, omega, x, u, t0, kin)
@@ -522,13 +511,11 @@ class CamRockerModel(Model):
             t = t0 + i * dt
             if p.fidelity == 2:
                 x[0], x[1] = gamma, omega
-                phi = u[0] + u[1] * (t - t0)
-                self._update_contact(phi, u[1], x, kin(phi))
+                self._update_contact(u[1], x, kin(u[0] + u[1] * (t - t0)))
             gamma, omega = integrate.rk4_pair(acc, t, dt, gamma, omega)
         x[0], x[1] = gamma, omega
         if p.fidelity == 2:
-            phi = u[0] + u[1] * h
-            self._update_contact(phi, u[1], x, kin(phi))
+            self._update_contact(u[1], x, kin(u[0] + u[1] * h))
         return x
 
     def output(self, t, x, u):

@@ -139,12 +139,16 @@ class MotorBeltModel(Model):
         w0 = p.w_rated if (p.fidelity == 0 or p.w_start < 0.0) else p.w_start
         return np.array([self.ratio * u[0], w0, 0.0])
 
+    def _rates(self, t, x, u, t0) -> tuple[float, float]:
+        """(rotor acceleration [rad/s2], creep rate [rad/s]) at levels 1, 2 for the rotor state x."""
+        force, creep_rate = self._belt(x, u[0] + u[1] * (t - t0), u[1])
+        return (self.kloss_torque(x[1]) - force * self.r_m) / self.p.J_motor, creep_rate
+
     def derivatives(self, t, x, u, t0):
         p = self.p
-        force, creep_rate = self._belt(x, u[0] + u[1] * (t - t0), u[1])
         if p.fidelity == 0:
             return np.array([p.w_rated, 0.0, 0.0])
-        return np.array([x[1], (self.kloss_torque(x[1]) - force * self.r_m) / p.J_motor, creep_rate])
+        return np.array([x[1], *self._rates(t, x, u, t0)])
 
     def advance(self, t0, h, x, u):
         if self.p.fidelity != 1:
@@ -152,11 +156,10 @@ class MotorBeltModel(Model):
         # level 1 has no creep (its rate is 0): RK4 on (phi_motor, w_motor) in plain floats, the base class's
         # numbers without an array per stage
         x = np.array(x, dtype=float)
-        J, r_m, theta = self.p.J_motor, self.r_m, x[2]
+        theta = x[2]
 
         def acc(t, phi, w):
-            force, _ = self._belt((phi, w, theta), u[0] + u[1] * (t - t0), u[1])
-            return (self.kloss_torque(w) - force * r_m) / J
+            return self._rates(t, (phi, w, theta), u, t0)[0]
 
         x[0], x[1] = integrate.rk4_pairs(acc, t0, h, self.max_substep, float(x[0]), float(x[1]))
         return x
