@@ -22,10 +22,12 @@ from harness import graph
 class Inst:
     """Prepared coupling data of one instance (built once).  ``isl`` is its slice of the held-input vector
     ``u`` (``held``, ``src``, ``fac``, ``off`` are views of the layout's arrays over it); ``sl`` its slice of
-    the signal vector ``y``; ``pos_idx`` the positions (in its inputs) of bond positions it advances itself;
-    ``feedthrough`` whether any connected input reaches an output directly."""
-    __slots__ = ("name", "fmu", "sl", "isl", "out", "inp", "src", "fac", "off", "held", "feedthrough", "interp",
-                 "input_pos", "pos_idx")
+    the signal vector ``y``; ``links`` the same ``(src, fac, off)`` per input as plain numbers (for the
+    exchange at a communication point, where a drive's few inputs are cheaper in floats than in numpy);
+    ``pos_idx`` the positions (in its inputs) of bond positions it advances itself; ``feedthrough`` whether
+    any connected input reaches an output directly."""
+    __slots__ = ("name", "fmu", "sl", "isl", "out", "inp", "src", "fac", "off", "held", "links", "feedthrough",
+                 "interp", "input_pos", "pos_idx")
 
     def __init__(self, name, fmu):
         self.name, self.fmu = name, fmu
@@ -82,6 +84,7 @@ def layout(fmus: dict, connections, mds: dict, interpolate: bool) -> Layout:
         it.inp = it.fmu.reals([c.target.split(".", 1)[1] for c in cs])
         it.input_pos = {c.target.split(".", 1)[1]: k for k, c in enumerate(cs)}
         it.src, it.fac, it.off, it.held = src[it.isl], fac[it.isl], off[it.isl], u[it.isl]
+        it.links = list(zip(it.src.tolist(), it.fac.tolist(), it.off.tolist()))
         deps = graph.direct_dependencies(mds[it.name])
         ft = {d for ds in deps.values() for d in ds}
         it.feedthrough = any(c.target.split(".", 1)[1] in ft for c in cs)

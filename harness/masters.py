@@ -379,17 +379,19 @@ class Master:
         """Consistent outputs at communication point t (the plan of :func:`exchange_plan`); pushes them to the
         history."""
         y = self.y
+        values = y.tolist()  # in plain floats: the same products and sums as on arrays, without an array per op
+        insts = self.insts
         for op, arg in self._plan:
-            if op == "read":
-                it = self.insts[arg]
-                y[it.sl] = it.fmu.get(it.out)
-            elif op == "visit":
-                it = self.insts[arg]
-                if it.inp.n:
-                    it.fmu.set(it.inp, it.fac * y[it.src] + it.off)
-                y[it.sl] = it.fmu.get(it.out)
-            else:
+            if op == "loop":
+                y[:] = values
                 self._solve_loop(arg, t)
+                values = y.tolist()
+                continue
+            it = insts[arg]
+            if op == "visit" and it.links:
+                it.fmu.set_list(it.inp, [fac * values[src] + off for src, fac, off in it.links])
+            values[it.sl] = it.fmu.get_list(it.out)
+        y[:] = values
         self.history.push_all(t, y)
 
     def _solve_loop(self, group: list[int], t: float) -> None:
