@@ -70,7 +70,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import contact, groove, integrate
-from .base import Model, ParameterError, Params, Signal, param
+from .base import Model, ParameterError, Params, Signal, last_call, param
 from .laws import LAW_NAMES, TWO_PI, DwellCycle, get_law
 
 DEG = math.pi / 180.0
@@ -185,6 +185,8 @@ class CamRockerModel(Model):
         # level 2, Kelvin-Voigt: the exponential step, sized on the contact's frequency
         w_c = math.sqrt(p.contact_stiffness * self.r_max * self.r_max / p.rocker_inertia)
         self._exp_step = EXP_STEP_PHASE / w_c
+        # output(): the rigid kinematics and geometry of one crank angle, asked twice per communication point
+        self._rigid_at = last_call(self._rigid_kinematics)
 
     # -- kinematics (closed form per call) ------------------------------------------------------------------
     def kinematics(self, phi: float) -> tuple[float, float, float]:
@@ -518,12 +520,16 @@ class CamRockerModel(Model):
             self._update_contact(u[1], x, kin(u[0] + u[1] * h))
         return x
 
+    def _rigid_kinematics(self, phi: float):
+        """(kinematics(phi), geometry(phi)) of the rigid law at one crank angle."""
+        kin = self.kinematics(phi)
+        return kin, self.geometry(phi, kin)
+
     def output(self, t, x, u):
         p = self.p
         phi, w, tau_load = u[0], u[1], u[2]
-        kin = self.kinematics(phi)
+        kin, (theta, radius) = self._rigid_at(phi)
         g, g1, g2 = kin
-        theta, radius = self.geometry(phi, kin)
         if p.fidelity == 0:
             T = p.rocker_inertia * g2 * w * w - tau_load   # torque the transmission exerts on the rocker
             return (-g1 * T, g, g1 * w, theta, radius, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)

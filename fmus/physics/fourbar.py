@@ -85,7 +85,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import contact
-from .base import Model, ParameterError, Params, Signal, param
+from .base import Model, ParameterError, Params, Signal, last_call, param
 from .integrate import exprb32_pair, march_pair, rk4_pair, substeps
 
 # --------------------------------------------------------------------------------------------------------
@@ -261,6 +261,9 @@ class FourBarModel(Model):
         # a double crank's output turns fully: keep rocker.phi continuous as phi + (psi - phi), with the
         # difference unwrapped around its value at phi = 0 (it stays within +-pi of it for a Grashof linkage)
         self._offset0 = float(kinematics(0.0, self._a, self._b, self._f, self._r, p.branch)[0])
+        # output() at fidelity 1, 2: the coupler geometry of one (crank, rocker) motion, asked twice per
+        # communication point (before and after the load torque on the rocker is set)
+        self._coupler_at = last_call(self._coupler)
 
     # -- helpers -----------------------------------------------------------------------------------------
     def substep_limit(self) -> float:
@@ -313,6 +316,11 @@ class FourBarModel(Model):
         ex, ey = dx / length, dy / length
         qd = ex * (-r * sp * w + a * s * wc) + ey * (r * cp * w - a * c * wc)
         return length - self._b, qd, ex, ey, r * (cp * ey - sp * ex), a * (c * ey - s * ex)
+
+    def _coupler(self, phi, wc, psi, w):
+        """(q, qdot, arm_rocker, arm_crank, transmission angle) of the elastic coupler (output)."""
+        q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w)
+        return q, qd, arm, arm_crank, math.acos(max(-1.0, min(1.0, ex * math.cos(psi) + ey * math.sin(psi))))
 
     def _tension(self, q, qd, arm, v_impact):
         """Coupler tension [N] (positive pulls the pins together)."""
@@ -395,9 +403,8 @@ class FourBarModel(Model):
             # rigid linkage is indeterminate; seed 003's belt between the crank shafts carries the torque
             force = u[2] / arm if abs(arm) > 1e-12 * self._r else 0.0
             return (u[2] * v, psi, v * u[1], mu, force, 0.0, 1.0, x[3], x[4], x[5])
-        q, qd, ex, ey, arm, arm_crank = self._geometry(u[0], u[1], x[0], x[1])
+        q, qd, arm, arm_crank, mu = self._coupler_at(u[0], u[1], x[0], x[1])
         force = self._tension(q, qd, arm, x[2])
-        mu = math.acos(max(-1.0, min(1.0, ex * math.cos(x[0]) + ey * math.sin(x[0]))))
         crank_tau = force * arm_crank - self._belt(u[0], u[1], x[0], x[1])
         if p.fidelity == 1:
             return (crank_tau, x[0], x[1], mu, force, 0.0, 1.0, x[3], x[4], x[5])
