@@ -46,6 +46,18 @@ def run_all() -> dict:
     return out
 
 
+def _deviation(old, new) -> str:
+    """How far a differing run moved: the largest change of a value as a share of its column's range."""
+    (t0, v0, c0, ok0), (t1, v1, c1, ok1) = old, new
+    if c0 != c1 or ok0 != ok1 or v0.shape != v1.shape or not np.array_equal(t0, t1):
+        return "(other columns, times or completion)"
+    v0, v1 = v0.astype(float), v1.astype(float)
+    span = np.nanmax(v0, axis=0) - np.nanmin(v0, axis=0)
+    share = np.nanmax(np.abs(v1 - v0), axis=0) / np.where(span > 0, span, 1.0)
+    k = int(np.nanargmax(share))
+    return f"largest change {share[k]:.2g} of the range of {c0[k]}"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("action", choices=("record", "check"))
@@ -66,7 +78,7 @@ def main(argv=None) -> int:
                 np.array_equal(t0, t1) and np.array_equal(v0, v1, equal_nan=True)):
             bad.append(key)
     for key in bad:
-        print("DIFFERS:", key)
+        print("DIFFERS:", key, _deviation(ref[key], runs[key]))
     print(f"{len(ref) - len(bad)} of {len(ref)} runs identical bit for bit")
     return 1 if bad else 0
 

@@ -116,3 +116,36 @@ def test_fourbar_fidelity1_matches_the_former_rk4_substeps(params, h, tol):
         worst_old = max(worst_old, abs(x_old[0] - x_fine[0]))
     assert worst_new < tol
     assert worst_old < tol
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_closed_form_phi_matrices_agree_with_the_series_on_every_branch(seed):
+    """The closed form (complex pair, real pair; phi_k from the Taylor series below SERIES_RADIUS and from e^z
+    above) against the scaled-and-squared series it falls back to, on matrices built around each switch:
+    eigenvalue moduli across SERIES_RADIUS, gaps just above EIGEN_GAP, stiff and overdamped modes."""
+    from fmus.physics import integrate
+    from fmus.physics.integrate import phi_matrices_2x2_series
+
+    rng = np.random.default_rng(seed)
+    branches = {"complex-series": 0, "complex-exp": 0, "real-series": 0, "real-exp": 0}
+    for _ in range(400):
+        radius = integrate.SERIES_RADIUS * 10 ** rng.uniform(-1.5, 1.3)
+        if rng.random() < 0.5:    # complex pair alpha +- i beta, beta at least half the gap bound
+            beta = radius * rng.uniform(integrate.EIGEN_GAP, 1.0)
+            alpha = rng.choice([-1.0, 1.0]) * math.sqrt(max(radius ** 2 - beta ** 2, 0.0))
+            mu = (complex(alpha, beta), complex(alpha, -beta))
+        else:
+            mu1 = radius * rng.choice([-1.0, 1.0])
+            mu = (mu1, mu1 - rng.choice([-1.0, 1.0]) * max(1.0, radius) * rng.uniform(1.01, 3.0) * integrate.EIGEN_GAP)
+        if max(abs(m) for m in mu) > 30:
+            continue
+        h = 10 ** rng.uniform(-6, -2)
+        tr, det = (mu[0] + mu[1]).real / h, (mu[0] * mu[1]).real / h ** 2
+        J = (0.0, 1.0, -det, tr)   # companion form, as exprb32_pair builds it
+        kind = ("complex" if isinstance(mu[0], complex) else "real") + (
+            "-series" if max(abs(m) for m in mu) < integrate.SERIES_RADIUS else "-exp")
+        branches[kind] += 1
+        closed, series = phi_matrices_2x2(*J, h), phi_matrices_2x2_series(*J, h)
+        for a, b in zip(closed, series):
+            assert np.max(np.abs(np.subtract(a, b))) <= 1e-12 * np.max(np.abs(b)), (J, h, kind)
+    assert min(branches.values()) > 10, branches

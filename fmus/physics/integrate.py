@@ -6,6 +6,7 @@ times are ``t0 + i * h / n`` (computed from the counter, never accumulated), so 
 """
 from __future__ import annotations
 
+import cmath
 import math
 from typing import Callable, Sequence
 
@@ -130,16 +131,67 @@ def implicit_midpoint(f: Derivatives, t0: float, h: float, x: np.ndarray, u: Seq
 
 
 
+# phi_matrices_2x2 takes the closed form when the eigenvalues of hJ are apart by at least this share of
+# max(1, their modulus): the divided differences then lose at most about 1e-14 (below it: the series)
+EIGEN_GAP = 0.05
+SERIES_RADIUS = 1.0     # phi_k(z) for |z| below it from phi3's Taylor series (the forward recursion would cancel)
+_PHI3_TAYLOR = tuple(1.0 / math.factorial(j + 3) for j in reversed(range(18)))  # Horner order; 1/21! < 1e-19
+
+
+def _phis(z):
+    """(phi1, phi2, phi3)(z) of a real or complex z.  Below SERIES_RADIUS phi3 from its Taylor series
+    sum z^j / (j + 3)! (Horner), then phi2 = 1/2 + z phi3 and phi1 = 1 + z phi2 (no cancellation); above it
+    from e^z and phi_{k+1} = (phi_k - 1/k!) / z."""
+    if abs(z) < SERIES_RADIUS:
+        p3 = 0.0
+        for c in _PHI3_TAYLOR:
+            p3 = p3 * z + c
+        p2 = 0.5 + z * p3
+        return 1.0 + z * p2, p2, p3
+    e = cmath.exp(z) if isinstance(z, complex) else math.exp(z)
+    p1 = (e - 1.0) / z
+    p2 = (p1 - 1.0) / z
+    return p1, p2, (p2 - 0.5) / z
+
+
 def phi_matrices_2x2(j00: float, j01: float, j10: float, j11: float, h: float):
     """(A, B, C) = (h phi1(hJ), h^2 phi2(hJ), h^3 phi3(hJ)) of a 2x2 matrix J, each as a row-major 4-tuple.
 
     phi1(z) = (e^z - 1)/z, phi2(z) = (e^z - 1 - z)/z^2, phi3(z) = (e^z - 1 - z - z^2/2)/z^3: the exact increments
-    over [0, h] of dy/dt = J y + f + g t + k t^2/2 from y(0) = 0 are A f + B g + C k.  Computed without a matrix
-    inverse (J may be singular, h J tiny): the Taylor series at tau = h / 2^s, reduced to first degree in tau J
-    by Cayley-Hamilton (M^j = c_j M + d_j I from the trace p and determinant q of M = tau J, all real), with s
-    chosen so that tau times the spectral radius of J is at most 1/2, then s doublings of the flow (E = e^{tau J};
-    the forcing of the second half is shifted by tau):  E' = E E,  A' = E A + A,  B' = E B + tau A + B,
-    C' = E C + tau^2/2 A + tau B + C.
+    over [0, h] of dy/dt = J y + f + g t + k t^2/2 from y(0) = 0 are A f + B g + C k.
+
+    Closed form where the eigenvalues mu1, mu2 of M = hJ are apart (EIGEN_GAP): f(M) = c M + d I with, for a
+    complex pair alpha +- i beta, c = Im f(mu) / beta, d = Re f(mu) - alpha c, and for real ones the divided
+    differences c = (f(mu1) - f(mu2)) / (mu1 - mu2), d = (mu1 f(mu2) - mu2 f(mu1)) / (mu1 - mu2).  Near a double
+    eigenvalue (or J = 0) those would cancel: :func:`phi_matrices_2x2_series` then."""
+    p = (j00 + j11) * h
+    q = (j00 * j11 - j01 * j10) * h * h
+    disc = 0.25 * p * p - q
+    root = math.sqrt(abs(disc))
+    alpha = 0.5 * p
+    if 2.0 * root < EIGEN_GAP * max(1.0, abs(alpha) + root) or abs(alpha) + root > 700.0:
+        return phi_matrices_2x2_series(j00, j01, j10, j11, h)
+    if disc < 0.0:
+        coef = [(f.imag / root, f.real - alpha * f.imag / root) for f in _phis(complex(alpha, root))]
+    else:
+        mu1, mu2 = alpha + root, alpha - root
+        gap = mu1 - mu2
+        coef = [((f1 - f2) / gap, (mu1 * f2 - mu2 * f1) / gap) for f1, f2 in zip(_phis(mu1), _phis(mu2))]
+    m00, m01, m10, m11 = h * j00, h * j01, h * j10, h * j11
+    out = []
+    scale = h
+    for c, d in coef:
+        out.append((scale * (c * m00 + d), scale * c * m01, scale * c * m10, scale * (c * m11 + d)))
+        scale *= h
+    return tuple(out)
+
+
+def phi_matrices_2x2_series(j00: float, j01: float, j10: float, j11: float, h: float):
+    """:func:`phi_matrices_2x2` for any J (singular, tiny, a double eigenvalue), without a matrix inverse: the
+    Taylor series at tau = h / 2^s, reduced to first degree in tau J by Cayley-Hamilton (M^j = c_j M + d_j I
+    from the trace p and determinant q of M = tau J, all real), with s chosen so that tau times the spectral
+    radius of J is at most 1/2, then s doublings of the flow (E = e^{tau J}; the forcing of the second half is
+    shifted by tau):  E' = E E,  A' = E A + A,  B' = E B + tau A + B,  C' = E C + tau^2/2 A + tau B + C.
     """
     p = (j00 + j11) * h
     q = (j00 * j11 - j01 * j10) * h * h
