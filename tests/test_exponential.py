@@ -149,3 +149,19 @@ def test_closed_form_phi_matrices_agree_with_the_series_on_every_branch(seed):
         for a, b in zip(closed, series):
             assert np.max(np.abs(np.subtract(a, b))) <= 1e-12 * np.max(np.abs(b)), (J, h, kind)
     assert min(branches.values()) > 10, branches
+
+
+def test_last_call_memo_returns_the_previous_result_only_for_the_same_arguments():
+    """physics.base.last_call (the outputs' memo): the same arguments twice call the function once; other
+    arguments, and then the first ones again, call it anew (one entry, no stale result)."""
+    from fmus.physics.base import last_call
+
+    calls = []
+
+    def f(a, b):
+        calls.append((a, b))
+        return a * b + len(calls)
+
+    g = last_call(f)
+    assert g(2.0, 3.0) == g(2.0, 3.0) == 7.0 and len(calls) == 1
+    assert g(2.0, 4.0) == 10.0 and g(2.0, 3.0) == 9.0 and len(calls) == 3
