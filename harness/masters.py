@@ -321,9 +321,12 @@ class Master:
         self.y[:] = values
         self.history.push_all(t, self.y)
 
-    def _set_point_inputs(self, it: _Inst) -> None:
-        if it.inp.n:
-            it.fmu.set(it.inp, it.fac * self.y[it.src] + it.off)
+    @staticmethod
+    def _set_point_inputs(it: _Inst, values: list) -> None:
+        """Inputs of ``it`` at a communication point, fac * y + off from ``values`` (``y`` as a list), in plain
+        floats: the same products and sums as on arrays, without an array for a drive's few inputs."""
+        if it.links:
+            it.fmu.set_list(it.inp, [fac * values[src] + off for src, fac, off in it.links])
 
     def _set_held_inputs(self, it: _Inst, t: float, h: float) -> None:
         """Inputs of ``it`` for the step [t, t+h] from the source histories (see harness.extrapolation)."""
@@ -379,7 +382,7 @@ class Master:
         """Consistent outputs at communication point t (the plan of :func:`exchange_plan`); pushes them to the
         history."""
         y = self.y
-        values = y.tolist()  # in plain floats: the same products and sums as on arrays, without an array per op
+        values = y.tolist()
         insts = self.insts
         for op, arg in self._plan:
             if op == "loop":
@@ -388,8 +391,8 @@ class Master:
                 values = y.tolist()
                 continue
             it = insts[arg]
-            if op == "visit" and it.links:
-                it.fmu.set_list(it.inp, [fac * values[src] + off for src, fac, off in it.links])
+            if op == "visit":
+                self._set_point_inputs(it, values)
             values[it.sl] = it.fmu.get_list(it.out)
         y[:] = values
         self.history.push_all(t, y)
@@ -458,8 +461,9 @@ class Master:
         for it in self.insts:
             it.fmu.enter_initialization()
         self._exchange(t)  # outputs in initialization mode, then every input from them
+        values = self.y.tolist()
         for it in self.insts:
-            self._set_point_inputs(it)
+            self._set_point_inputs(it, values)
         if self._discrete:
             self._pass_discrete()
         self._exchange(t)

@@ -169,6 +169,7 @@ def phi_matrices_2x2(j00: float, j01: float, j10: float, j11: float, h: float):
     disc = 0.25 * p * p - q
     root = math.sqrt(abs(disc))
     alpha = 0.5 * p
+    # (beyond |mu| = 700, e^mu nears the largest double: the series' doublings then)
     if 2.0 * root < EIGEN_GAP * max(1.0, abs(alpha) + root) or abs(alpha) + root > 700.0:
         return phi_matrices_2x2_series(j00, j01, j10, j11, h)
     if disc < 0.0:
