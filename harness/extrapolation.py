@@ -43,6 +43,11 @@ class History:
         self._full = False                  # every signal holds ``depth`` samples
 
     @property
+    def full(self) -> bool:
+        """Every signal holds ``depth`` samples (kept up to date by :meth:`push_all`; False after :meth:`push`)."""
+        return self._full and self._newest is not None
+
+    @property
     def newest(self) -> float | None:
         """Time of the newest sample when every signal's newest sample has that time, else None."""
         return self._newest
