@@ -79,7 +79,8 @@ def plot_result(system, df: pd.DataFrame, out_dir: str | Path) -> list[Path]:
     for ax in axes[-1]:
         ax.set_xlabel("time [s]", fontsize=8)
     status = "" if df.attrs.get("complete", True) else "  (INCOMPLETE: " + str(df.attrs.get("error", ""))[:60] + ")"
-    fig.suptitle(f"{system.name}: master {df.attrs.get('master', '?')}, step {df.attrs.get('step', 0):g} s{status}",
+    fig.suptitle(f"{system.name}: master {df.attrs.get('master', '?')}, extrapolation order "
+                 f"{df.attrs.get('extrapolation', '?')}, step {df.attrs.get('step', 0):g} s{status}",
                  fontsize=9)
     fig.tight_layout()
     return save_figure(fig, Path(out_dir) / system.name, dpi=110)

@@ -108,7 +108,10 @@ SYSTEM = System(
         bond("cam.rocker", "diff.carrier"),
         bond("diff.sun", "bed.pinion"),
     ],
-    experiment=Experiment(stop_time=2.0, step=2e-4, master="jacobi"),
+    # Linear extrapolation at 0.5 ms (issue 21): against the monolithic reference (precision study, 0.15 s and
+    # 1 s) every compared column is closer than with the zero-order hold at 0.2 ms declared before, the run
+    # takes 2.5 times fewer steps, and the step is half the coupling's stability limit at order 1 (1 ms)
+    experiment=Experiment(stop_time=2.0, step=5e-4, master="jacobi", extrapolation=1),
     scenes=[
         Scene("bed_stroke", "What is the bed stroke?", 'ptp(window(r["bed.bed.s"], 0.0, 1.0))',
               tolerance=0.005, unit="m", stop_time=1.0),

@@ -102,10 +102,10 @@ def test_bed_drive_map_unstable_points_are_stopped():
     assert by_detector >= 28  # measured: 29 by the detector, 1 by the blow-up check (12 and 14 with blocks of 4)
 
 
-def test_bed_drive_jacobi_sampled_at_default_step_is_reported_incomplete_early():
+def test_bed_drive_jacobi_sampled_with_hold_at_0p2_ms_is_reported_incomplete_early():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        df = simulate("bed_drive", master="jacobi-sampled", step=2e-4)
+        df = simulate("bed_drive", master="jacobi-sampled", step=2e-4, extrapolation=0)
     assert not df.attrs["complete"] and df.attrs["diverged"]
     assert df.index[-1] < 0.2
     err = _one_line_divergence(df)

@@ -187,6 +187,35 @@ def test_tiny_study_errors_converge_with_the_coupling_order(tiny_study):
             assert e1 < e0 / 2
 
 
+# The zero-order hold each drive declared before issue 21 moved its default experiment to linear extrapolation at a
+# larger step (systems/<name>.py): the step it declared then [s].
+FORMER_HOLD_STEP = {"bed_drive": 2e-4, "feeder_gto52": 1e-4}
+
+
+@pytest.mark.parametrize("name", sorted(FORMER_HOLD_STEP))
+def test_declared_experiment_is_closer_to_the_reference_than_the_former_hold(name, fmu_dir, monkeypatch):
+    """Issue 21 made the declared models faster by a larger step with linear extrapolation, on condition that no
+    compared column moves further from the monolithic reference: over the drive's precision window, each
+    column's largest error of the declared experiment is below that of the former zero-order hold."""
+    from harness import load
+
+    monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
+    exp, former = load(name).experiment, FORMER_HOLD_STEP[name]
+    assert exp.step > former and exp.extrapolation >= 1     # the change this guards
+    study = pr.precision_study(name, steps=[former, exp.step], masters=(exp.master,),
+                               orders=(0, exp.extrapolation), step_controls=("none",))
+    t = study.table
+    assert study.reference_step == former and t["complete"].all()
+
+    def errors(order, step):
+        sel = t[(t["extrapolation"] == order) & (t["step"] == step)]
+        return sel.set_index("variable")["max_abs"]
+
+    declared, hold = errors(exp.extrapolation, exp.step), errors(0, former)
+    assert list(declared.index) == list(pr.PRECISION[name].compared)
+    assert (declared > 0).all() and (declared < hold).all(), pd.DataFrame({"declared": declared, "hold": hold})
+
+
 def test_cli_study_precision_quick(fmu_dir, tmp_path, monkeypatch, capsys):
     from harness.__main__ import main
 
