@@ -44,8 +44,9 @@ class History:
 
     @property
     def full(self) -> bool:
-        """Every signal holds ``depth`` samples (kept up to date by :meth:`push_all`; False after :meth:`push`)."""
-        return self._full and self._newest is not None
+        """Every signal holds ``depth`` samples (kept by :meth:`push_all` and :meth:`copy_from`; :meth:`push`
+        leaves it as it was, so it may read False for a while after every signal has filled up, never True early)."""
+        return self._full
 
     @property
     def newest(self) -> float | None:

@@ -226,7 +226,7 @@ class Master:
         # the same positions in u, for the held inputs of all instances at once (_hold_all)
         self._pos = np.concatenate([it.pos_idx + it.isl.start for it in self.insts]).astype(np.intp)
         self._pos_src = self.src[self._pos]
-        self._src_list, self._fac_list, self._off_list = self.src.tolist(), self.fac.tolist(), self.off.tolist()
+        self._links = [link for it in self.insts for link in it.links]  # (src, fac, off) of every entry of u
         self._pos_list = self._pos.tolist()
         self._batched = [it for it in self.insts if it.inp.n and not it.interp]
         self._interp = [it for it in self.insts if it.inp.n and it.interp]
@@ -377,16 +377,17 @@ class Master:
         bit; an advanced position (:meth:`_held_values`) takes the start sample ``y0``."""
         hist = self.history
         y0 = hist.y[0].tolist()
+        links = self._links
         if self.extrapolation.order == 0:
-            held = [y0[s] for s in self._src_list]
+            held = [y0[s] for s, _, _ in links]
         else:
             te = t + 0.5 * h
             y1, t1 = hist.y[1].tolist(), hist.t[1].tolist()
             a = te - t  # te - t0, t0 = t for every source (newest == t)
-            held = [y0[s] + a / (t - t1[s]) * (y0[s] - y1[s]) for s in self._src_list]
+            held = [y0[s] + a / (t - t1[s]) * (y0[s] - y1[s]) for s, _, _ in links]
             for k in self._pos_list:
-                held[k] = y0[self._src_list[k]]
-        values = [f * v + o for f, v, o in zip(self._fac_list, held, self._off_list)]
+                held[k] = y0[links[k][0]]
+        values = [f * v + o for (_, f, o), v in zip(links, held)]
         self.u[:] = values
         for it in self._batched:
             it.fmu.set_list(it.inp, values[it.isl])
