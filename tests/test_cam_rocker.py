@@ -236,6 +236,52 @@ def test_kelvin_voigt_exponential_steps_are_closer_to_a_fine_reference_than_rk4(
     assert np.max(np.abs(v_exp - v_ref)) < 3e-3 * np.max(v_ref)
 
 
+@pytest.mark.parametrize("mechanism", [0, 1])
+def test_kelvin_voigt_jet_is_the_derivative_of_the_acceleration(mechanism):
+    """The closed-form rates of the Kelvin-Voigt step (_kv_jet: d/dgamma, d/domega, d/dt of the rocker's
+    acceleration on a wall, with G'' and the stone radius' rate) against central differences of the
+    acceleration itself, over a crank turn on both walls: within 1e-5 except at the law's joins (where G''
+    jumps and a central difference straddles two phases)."""
+    kw = dict(FEEDER, contact_law=0) if mechanism == 0 else dict(mechanism=1, fidelity=2, contact_law=0)
+    m = CamRockerModel(CamRockerParams(**kw))
+    w, tau = W_FEEDER, 0.03
+    checked = 0
+    for phi in np.linspace(0.01, 2 * math.pi - 0.01, 401):
+        co = m._kv_coefficients(phi, w)
+        for mode in (1.0, -1.0):
+            gamma, omega = co[0] - 1e-4 * mode, 0.9 * co[1]
+            a0, a_q, a_v, a_t = m._kv_jet(gamma, omega, tau, co, mode)
+
+            def acc(dt, dq=0.0, dv=0.0):
+                return m._kv_acceleration(gamma + dq, omega + dv, tau, m._kv_coefficients(phi + w * dt, w), mode)
+            assert a0 == acc(0.0)
+            numeric = ((acc(1e-7) - acc(-1e-7)) / 2e-7, (acc(0.0, 1e-7) - acc(0.0, -1e-7)) / 2e-7,
+                       (acc(0.0, 0.0, 1e-4) - acc(0.0, 0.0, -1e-4)) / 2e-4)
+            scale = abs(a_q) * 1e-3
+            if abs(a_t - numeric[0]) > 1e-5 * max(abs(numeric[0]), scale):
+                # a join of the law: the one-sided differences agree with the jet on one side
+                right = (acc(2e-7) - acc(0.0)) / 2e-7
+                left = (acc(0.0) - acc(-2e-7)) / 2e-7
+                assert min(abs(a_t - right), abs(a_t - left)) < 1e-3 * max(abs(a_t), scale), phi
+                continue
+            assert a_q == pytest.approx(numeric[1], rel=1e-5)
+            assert a_v == pytest.approx(numeric[2], rel=1e-5)
+            checked += 1
+    assert checked > 700
+
+
+def test_kelvin_voigt_steps_with_the_jet_match_those_by_differences(monkeypatch):
+    """The exponential steps with the closed-form rates (the default) against the former differences
+    (_kv_jet returning None) on the feeder's take-ups: the same onsets, pin force within 1e-6 of its peak and
+    onset speeds within 1e-6 relative (the differences' own truncation and rounding)."""
+    f_jet, v_jet = run_feeder(0, 2e-4)
+    monkeypatch.setattr(CamRockerModel, "_kv_jet", lambda *args: None)
+    f_dif, v_dif = run_feeder(0, 2e-4)
+    assert len(v_jet) == len(v_dif) >= 4
+    assert np.max(np.abs(f_jet - f_dif)) < 1e-6 * np.max(f_dif)
+    assert np.max(np.abs(v_jet - v_dif)) < 1e-6 * np.max(v_dif)
+
+
 def test_bad_parameters_name_the_parameter():
     with pytest.raises(ParameterError, match="lambda2"):
         CamRockerModel(CamRockerParams(lambda2=3.0))

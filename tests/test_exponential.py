@@ -31,10 +31,11 @@ def test_phi_matrices_match_the_augmented_matrix_exponential(seed):
             assert np.max(np.abs(got - exact)) <= 1e-11 * np.max(np.abs(exact)) + 1e-300, (J, h)
 
 
-def _integrate(acc, t_end, n, q, v):
+def _integrate(acc, t_end, n, q, v, jet=None):
+    """n exprb32 steps; ``jet(t, q, v)`` the rates' derivatives in closed form (None: differences)."""
     dt = t_end / n
     for i in range(n):
-        q, v = exprb32_pair(acc, i * dt, dt, q, v)
+        q, v = exprb32_pair(acc, i * dt, dt, q, v, jet and jet(i * dt, q, v))
     return q, v
 
 
@@ -55,31 +56,40 @@ def test_exprb32_is_exact_on_a_stiff_linear_oscillator_with_quadratic_forcing():
     assert v == pytest.approx(exact[1], rel=1e-6, abs=1e-9)
 
 
-def test_exprb32_reaches_order_3_on_a_nonlinear_closed_form():
-    """q'' = 2 q^3, q(0) = 1, q'(0) = 1 has q = 1/(1 - t): halving the step divides the error by 2^3."""
+@pytest.mark.parametrize("closed", [False, True], ids=["differences", "jet"])
+def test_exprb32_reaches_order_3_on_a_nonlinear_closed_form(closed):
+    """q'' = 2 q^3, q(0) = 1, q'(0) = 1 has q = 1/(1 - t): halving the step divides the error by 2^3, with the
+    rates' derivatives by differences and in closed form (``jet``)."""
     def acc(t, q, v):
         return 2.0 * q ** 3
+
+    def jet(t, q, v):
+        return 2.0 * q ** 3, 6.0 * q * q, 0.0, 0.0
     errors = []
     for n in (20, 40, 80, 160):
-        q, v = _integrate(acc, 0.5, n, 1.0, 1.0)
+        q, v = _integrate(acc, 0.5, n, 1.0, 1.0, jet if closed else None)
         errors.append(abs(q - 2.0) + abs(v - 4.0))
     orders = [math.log2(errors[i] / errors[i + 1]) for i in range(3)]
     assert all(2.8 < p < 3.3 for p in orders), orders
 
 
-def test_exprb32_reaches_order_3_on_a_forced_oscillator_with_a_closed_form():
+@pytest.mark.parametrize("closed", [False, True], ids=["differences", "jet"])
+def test_exprb32_reaches_order_3_on_a_forced_oscillator_with_a_closed_form(closed):
     """q'' = -w0^2 q + sin(W t) from rest: q = (sin(W t) - (W / w0) sin(w0 t)) / (w0^2 - W^2)."""
     w0, W = 30.0, 7.0
 
     def acc(t, q, v):
         return -w0 * w0 * q + math.sin(W * t)
 
+    def jet(t, q, v):
+        return acc(t, q, v), -w0 * w0, 0.0, W * math.cos(W * t)
+
     def exact(t):
         return ((math.sin(W * t) - W / w0 * math.sin(w0 * t)) / (w0 * w0 - W * W),
                 (W * math.cos(W * t) - W * math.cos(w0 * t)) / (w0 * w0 - W * W))
     errors = []
     for n in (25, 50, 100, 200):
-        q, v = _integrate(acc, 1.0, n, 0.0, 0.0)
+        q, v = _integrate(acc, 1.0, n, 0.0, 0.0, jet if closed else None)
         qe, ve = exact(1.0)
         errors.append(abs(q - qe) + abs(v - ve) / w0)
     orders = [math.log2(errors[i] / errors[i + 1]) for i in range(3)]

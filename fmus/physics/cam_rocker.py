@@ -395,19 +395,32 @@ class CamRockerModel(Model):
         return x
 
     # -- level 2, Kelvin-Voigt contact: exponential steps between located contact events ---------------------
-    def _kv_coefficients(self, phi: float, w: float) -> tuple[float, float, float, float, float]:
-        """(G, G' w, k R^2, c R^2, k R clearance/2) of the Kelvin-Voigt play at crank angle phi: the contact
-        torque on a wall ``mode`` is k R^2 (G - gamma) + c R^2 (G' w - omega) - mode k R clearance/2."""
-        g, g1, R = self._kin(phi)
+    def _kv_coefficients(self, phi: float, w: float) -> tuple:
+        """(G, G' w, k R^2, c R^2, k R clearance/2) of the Kelvin-Voigt play at crank angle phi, then their rates
+        in time at crank speed w: the contact torque on a wall ``mode`` is k R^2 (G - gamma) + c R^2 (G' w -
+        omega) - mode k R clearance/2.  The values are those of :meth:`_kin` and :meth:`_pin_stiffness` (the
+        same operations); the rates come from G'' and the lever's rate R' in closed form, with
+        dk/dR = -2 k^2 R / k_shaft and c R^2 = 2 zeta sqrt(k J) |R|."""
+        p = self.p
+        g, g1, g2 = self.kinematics(phi)
+        if p.mechanism == 0:
+            rho, rho1 = groove.stone_radius_rate_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
+            R, r_t = p.crank_radius * rho, p.crank_radius * rho1 * w
+        else:
+            R, r_t = p.follower_arm, 0.0
         k, m = self._pin_stiffness(R)
-        c = contact.kelvin_voigt_damping(k, m, self.p.restitution)
-        return g, g1 * w, k * R * R, c * R * R, 0.5 * k * R * self.p.clearance
+        c = contact.kelvin_voigt_damping(k, m, p.restitution)
+        kr2, cr2 = k * R * R, c * R * R
+        k_r = -2.0 * k * k * R / p.stiffness
+        cr2_r = 0.5 * cr2 * k_r / k + (cr2 / R if R != 0.0 else 0.0)
+        return (g, g1 * w, kr2, cr2, 0.5 * k * R * p.clearance,
+                g1 * w, g2 * w * w, (k_r * R * R + 2.0 * k * R) * r_t, cr2_r * r_t, 0.5 * p.clearance * (k_r * R + k) * r_t)
 
     def _kv_mode(self, gamma, omega, co) -> tuple[float, float]:
         """(side, mode) of the Kelvin-Voigt play at one instant (``co``: _kv_coefficients): side = the wall
         touched (geometric, +1/-1, 0), mode = the wall that pushes (side, unless the no-pull force is clipped
         to 0 there: then 0)."""
-        g, gw, kr2, cr2, krh = co
+        g, gw, kr2, cr2, krh, _, _, _, _, _ = co
         qr = kr2 * (g - gamma)                      # k R q, with q = R (G - gamma)
         if qr > krh:
             side = 1.0
@@ -424,8 +437,20 @@ class CamRockerModel(Model):
         time derivative are smooth)."""
         if mode == 0.0:
             return tau / self.p.rocker_inertia
-        g, gw, kr2, cr2, krh = co
+        g, gw, kr2, cr2, krh, _, _, _, _, _ = co
         return (kr2 * (g - gamma) + cr2 * (gw - omega) - mode * krh + tau) / self.p.rocker_inertia
+
+    def _kv_jet(self, gamma, omega, tau, co, mode):
+        """(acceleration, its derivatives in gamma, omega and time) of :meth:`_kv_acceleration` at one instant,
+        in closed form (exprb32_pair's ``jet``); None where the lever's rate is not finite (the stone at the end
+        of its groove's reach): the step then takes differences."""
+        a0 = self._kv_acceleration(gamma, omega, tau, co, mode)
+        if mode == 0.0:
+            return a0, 0.0, 0.0, 0.0
+        J = self.p.rocker_inertia
+        g, gw, kr2, cr2, _, g_t, gw_t, kr2_t, cr2_t, krh_t = co
+        a_t = (kr2_t * (g - gamma) + kr2 * g_t + cr2_t * (gw - omega) + cr2 * gw_t - mode * krh_t) / J
+        return (a0, -kr2 / J, -cr2 / J, a_t) if math.isfinite(a_t) else None
 
     def _advance_kelvin_voigt(self, t0, h, x, u):
         """Level 2 with the Kelvin-Voigt law: exponential Rosenbrock steps (integrate.exprb32_pair) of
@@ -444,10 +469,11 @@ class CamRockerModel(Model):
         def step(t, dt, gamma, omega, mode):
             def acc(tt, g, om):
                 return self._kv_acceleration(g, om, tau, coefficients(tt), mode)
-            return integrate.exprb32_pair(acc, t, dt, gamma, omega)
+            jet = self._kv_jet(gamma, omega, tau, coefficients(t), mode)
+            return integrate.exprb32_pair(acc, t, dt, gamma, omega, jet)
 
         def onset_speed(t, gamma, omega):
-            g, gw, _, _, _ = coefficients(t)
+            g, gw = coefficients(t)[:2]
             return abs(self.lever(phi0 + w * (t - t0), g) * (gw - omega))
 
         x = np.array(x, dtype=float)

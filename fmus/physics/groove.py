@@ -207,6 +207,22 @@ def stone_radius_scalar(phi: float, g: float, lam1: float, lam2: float, branch: 
     return math.cos(phi - g) - lam1 * math.cos(g) + branch * math.sqrt(q2)
 
 
+def stone_radius_rate_scalar(phi: float, g: float, g1: float, lam1: float, lam2: float,
+                             branch: int = 1) -> tuple[float, float]:
+    """(rho_i, drho_i/dphi) at one point (g1 = dG/dphi): rho_i as :func:`stone_radius_scalar` computes it (the
+    same operations), its rate as :func:`stone_scalar`'s; (NaN, NaN) when the connection is broken."""
+    sg, sd = math.sin(g), math.sin(phi - g)
+    N = lam1 * sg + sd
+    q2 = lam2 * lam2 - N * N
+    if q2 < 0.0:
+        return math.nan, math.nan
+    cd, cg = math.cos(phi - g), math.cos(g)
+    Q = branch * math.sqrt(q2)
+    N1 = lam1 * cg * g1 + cd * (1.0 - g1)
+    Q1 = -N * N1 / Q if Q != 0.0 else math.copysign(math.inf, -N * N1)
+    return cd - lam1 * cg + Q, -sd * (1.0 - g1) + lam1 * sg * g1 + Q1
+
+
 def stone_scalar(phi: float, g: float, g1: float, lam1: float, lam2: float, branch: int = 1) -> tuple[float, float, float]:
     """(rho_i, drho_i/dphi, pressure angle theta) at one point, with math (per-step outputs)."""
     sg, cg = math.sin(g), math.cos(g)

@@ -243,7 +243,8 @@ def _mul(x, y):
     return (x[0] * y[0] + x[1] * y[2], x[0] * y[1] + x[1] * y[3], x[2] * y[0] + x[3] * y[2], x[2] * y[1] + x[3] * y[3])
 
 
-def exprb32_pair(acc: Callable[[float, float, float], float], t: float, dt: float, q: float, v: float):
+def exprb32_pair(acc: Callable[[float, float, float], float], t: float, dt: float, q: float, v: float,
+                 jet: tuple[float, float, float, float] | None = None):
     """ONE exponential Rosenbrock step of order 3 (exprb32, Hochbruck and Ostermann, Acta Numerica 2010,
     sec. 2.4) of q' = v, v' = acc(t, q, v) from t over dt, in plain floats: (q, v) at t + dt.
 
@@ -253,7 +254,12 @@ def exprb32_pair(acc: Callable[[float, float, float], float], t: float, dt: floa
         U = y0 + A F0 + B g,     D = F(t + dt, U) - F0 - J (U - y0) - g dt,     y1 = U + (2 / dt^2) C D.
 
     The linear part is integrated exactly (no stability limit from a stiff spring in J); the method is exact for
-    a linear system with forcing quadratic in time and of order 3 otherwise (tests/test_exponential.py)."""
+    a linear system with forcing quadratic in time and of order 3 otherwise (tests/test_exponential.py).
+
+    ``jet``: (acc, d acc/dq, d acc/dv, d acc/dt) at (t, q, v) when the caller has them in closed form; the step
+    then calls ``acc`` once (for D) instead of seven times."""
+    if jet is not None:
+        return _exprb32_from(acc, t, dt, q, v, *jet)
     a0 = acc(t, q, v)
     # central differences in q and t with steps large enough that the rounding of acc (a spring force from a
     # small difference of lengths) stays below 1e-10 of the derivative: results do not depend on the last bits
@@ -264,6 +270,11 @@ def exprb32_pair(acc: Callable[[float, float, float], float], t: float, dt: floa
     a_q = (acc(t, q + dq, v) - acc(t, q - dq, v)) / (2.0 * dq)
     a_v = (acc(t, q, v + dv) - a0) / dv      # exact up to rounding where acc is affine in v
     g = (acc(tp, q, v) - acc(tm, q, v)) / (tp - tm)
+    return _exprb32_from(acc, t, dt, q, v, a0, a_q, a_v, g)
+
+
+def _exprb32_from(acc, t, dt, q, v, a0, a_q, a_v, g):
+    """exprb32_pair's step from the rates a0 and their derivatives a_q, a_v, g = d acc/dt at (t, q, v)."""
     a, b, c = phi_matrices_2x2(0.0, 1.0, a_q, a_v, dt)
     u0 = a[0] * v + a[1] * a0 + b[1] * g          # U - y0
     u1 = a[2] * v + a[3] * a0 + b[3] * g
