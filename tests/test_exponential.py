@@ -128,6 +128,31 @@ def test_fourbar_fidelity1_matches_the_former_rk4_substeps(params, h, tol):
     assert worst_old < tol
 
 
+PARALLELOGRAM_BELT = dict(crank_length=0.1, coupler_length=0.3, frame_length=0.3, rocker_length=0.1, fidelity=1,
+                          coupler_stiffness=5e6, coupler_damping=50.0, belt_stiffness=3e3, belt_damping=4.0)
+
+
+@pytest.mark.parametrize("params", [BED_FOURBAR, dict(BED_FOURBAR, friction_ratio=0.1), PARALLELOGRAM_BELT,
+                                    dict(fidelity=1, coupler_stiffness=1e6, coupler_damping=5.0)])
+def test_fourbar_jet_is_the_derivative_of_the_acceleration(params):
+    """FourBar 1's closed-form rates (_acc_jet_at: d/dpsi, d/dw, d/dt of the rocker's acceleration through the
+    coupler's stretch and arms) against central differences of _acc_at over a crank turn, off the rigid
+    motion: within 1e-6 (the differences' own error), the acceleration itself bit for bit."""
+    m = FourBarModel(FourBarParams(**params))
+    wc, tau = 6.0, -20.0
+    for phi in np.linspace(0.0, 2 * math.pi, 181):
+        psi, w = m.rigid(phi, wc)
+        psi, w = psi + 1e-5, 1.1 * w
+
+        def acc(dphi=0.0, dpsi=0.0, dw=0.0):
+            return m._acc_at(phi + dphi, wc, tau, psi + dpsi, w + dw)
+        a0, a_psi, a_w, a_t = m._acc_jet_at(phi, wc, tau, psi, w)
+        assert a0 == acc()
+        assert a_psi == pytest.approx((acc(dpsi=1e-6) - acc(dpsi=-1e-6)) / 2e-6, rel=1e-6)
+        assert a_w == pytest.approx((acc(dw=1e-3) - acc(dw=-1e-3)) / 2e-3, rel=1e-6)
+        assert a_t == pytest.approx(wc * (acc(dphi=1e-6) - acc(dphi=-1e-6)) / 2e-6, rel=1e-6, abs=1e-6 * abs(a_psi))
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_closed_form_phi_matrices_agree_with_the_series_on_every_branch(seed):
     """The closed form (complex pair, real pair; phi_k from the Taylor series below SERIES_RADIUS and from e^z

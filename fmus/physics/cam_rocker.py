@@ -414,7 +414,8 @@ class CamRockerModel(Model):
         k_r = -2.0 * k * k * R / p.stiffness
         cr2_r = 0.5 * cr2 * k_r / k + (cr2 / R if R != 0.0 else 0.0)
         return (g, g1 * w, kr2, cr2, 0.5 * k * R * p.clearance,
-                g1 * w, g2 * w * w, (k_r * R * R + 2.0 * k * R) * r_t, cr2_r * r_t, 0.5 * p.clearance * (k_r * R + k) * r_t)
+                g1 * w, g2 * w * w, (k_r * R * R + 2.0 * k * R) * r_t, cr2_r * r_t,
+                0.5 * p.clearance * (k_r * R + k) * r_t)
 
     def _kv_mode(self, gamma, omega, co) -> tuple[float, float]:
         """(side, mode) of the Kelvin-Voigt play at one instant (``co``: _kv_coefficients): side = the wall

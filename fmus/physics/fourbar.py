@@ -41,7 +41,8 @@ Fidelity levels of :class:`FourBarModel` (port crank: motion in; port rocker: mo
        I dw/dt = -(1 - chi) F arm + rocker.tau,      crank.tau = F * cross(A - O2, e_AD).
    Within a communication step the crank pin moves with the held speed: phi(t) = crank.phi + crank.w (t - t0).
    Integrated by exponential Rosenbrock steps of order 3 (integrate.exprb32_pair): the coupler mode exactly on
-   its linearisation, one step per 0.01 rad of crank rotation, no sub-step sized for the coupler (issue 21).
+   its linearisation, one step per 0.01 rad of crank rotation, no sub-step sized for the coupler (issue 21);
+   the rates' Jacobian and time derivative in closed form (``_acc_jet_at``).
 2. as 1, with a total clearance ``clearance`` (dead band |q| <= clearance/2, seed 000 "total play") at the
    coupler-rocker joint.  The coupler and the joint are one spring: the contact force is
    fmus.physics.contact.contact_force(q, dq/dt, clearance, k=coupler_stiffness, contact_law, restitution,
@@ -377,21 +378,53 @@ class FourBarModel(Model):
         force = self.p.coupler_stiffness * q + self.p.coupler_damping * qd
         return (tau - self._keep * force * arm + self._belt(phi, wc, psi, w)) / self._inertia
 
+    def _acc_jet_at(self, phi, wc, tau, psi, w):
+        """(_acc_at, its derivatives in psi, w and time) at crank angle phi turning at wc (fidelity 1), in closed
+        form: with d = B - A the coupler vector, e = d/|d|, t_r = dd/dpsi and t_c = dd/dphi, the stretch q has
+        dq/dpsi = e.t_r = arm and dq/dphi = e.t_c = -arm_crank, and the unit vector turns by
+        de = (t - e (e.t)) / |d|, which gives the arms' rates."""
+        a, r = self._a, self._r
+        c, s = math.cos(phi), math.sin(phi)
+        cp, sp = math.cos(psi), math.sin(psi)
+        q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w)
+        p = self.p
+        k, cd = p.coupler_stiffness, p.coupler_damping
+        force = k * q + cd * qd
+        acc = (tau - self._keep * force * arm + self._belt(phi, wc, psi, w)) / self._inertia
+        length = q + self._b
+        rr_c = -r * a * (cp * c + sp * s)                                    # t_r . t_c
+        arm_psi = -r * (ex * cp + ey * sp) + (r * r - arm * arm) / length
+        arm_phi = (rr_c + arm * arm_crank) / length
+        crank_psi = -arm_phi
+        crank_phi = -(a * (ex * c + ey * s) + (a * a - arm_crank * arm_crank) / length)
+        qd_psi = w * arm_psi - wc * crank_psi
+        qd_phi = w * arm_phi - wc * crank_phi
+        keep, inertia = self._keep, self._inertia
+        a_psi = (-keep * ((k * arm + cd * qd_psi) * arm + force * arm_psi) - p.belt_stiffness) / inertia
+        a_w = (-keep * cd * arm * arm - p.belt_damping) / inertia
+        a_phi = (-keep * ((-k * arm_crank + cd * qd_phi) * arm + force * arm_phi) + p.belt_stiffness) / inertia
+        return acc, a_psi, a_w, wc * a_phi
+
     def _elastic_exact(self, t0, h, x, u):
         """Fidelity 1 over [t0, t0 + h]: exponential Rosenbrock steps of order 3 (integrate.exprb32_pair) of
         (psi, w), one per KINEMATIC_ANGLE of crank rotation.  The coupler mode is integrated exactly on its
         linearisation at each step start, so the coupler stiffness sets no sub-step; the crank's motion
-        phi(t) = crank.phi + crank.w (t - t0) enters through the rates' time derivative.  (The former RK4
+        phi(t) = crank.phi + crank.w (t - t0) enters through the rates' time derivative.  The rates' Jacobian and
+        time derivative are in closed form (:meth:`_acc_jet_at`): one coupler geometry per step for them and one
+        for the step's end.  (The former RK4
         sub-steps, :meth:`_elastic_steps`, are kept as the comparison of tests/test_exponential.py.)"""
         phi0, wc, tau = float(u[0]), float(u[1]), float(u[2])
         n = max(1, math.ceil(abs(wc) * h / KINEMATIC_ANGLE * (1.0 - 1e-12)))
-        acc_at = self._acc_at
+        acc_at, jet_at = self._acc_at, self._acc_jet_at
 
         def acc(t, psi, w):
             return acc_at(phi0 + wc * (t - t0), wc, tau, psi, w)
 
+        def jet(t, psi, w):
+            return jet_at(phi0 + wc * (t - t0), wc, tau, psi, w)
+
         y = np.array(x, dtype=float)
-        y[PSI], y[W] = march_pair(exprb32_pair, acc, t0, h, n, float(x[PSI]), float(x[W]))
+        y[PSI], y[W] = march_pair(exprb32_pair, acc, t0, h, n, float(x[PSI]), float(x[W]), jet)
         return y
 
     def output(self, t, x, u):

@@ -84,13 +84,15 @@ def rk4_pairs(acc: Callable[[float, float, float], float], t0: float, h: float, 
 
 
 def march_pair(step: Callable, acc: Callable[[float, float, float], float], t0: float, h: float, n: int,
-               q: float, v: float) -> tuple[float, float]:
+               q: float, v: float, jet: Callable | None = None) -> tuple[float, float]:
     """``n`` equal sub-steps of a one-step method for (q, v) over [t0, t0 + h] (``step`` is :func:`rk4_pair` or
-    :func:`exprb32_pair`); the last sub-step ends exactly at t0 + h."""
+    :func:`exprb32_pair`); the last sub-step ends exactly at t0 + h.  ``jet(t, q, v)``: exprb32_pair's rates and
+    their derivatives in closed form at each sub-step's start."""
     dt = h / n
     for i in range(n):
         t = t0 + i * dt
-        q, v = step(acc, t, (t0 + (i + 1) * dt if i < n - 1 else t0 + h) - t, q, v)
+        dt_i = (t0 + (i + 1) * dt if i < n - 1 else t0 + h) - t
+        q, v = step(acc, t, dt_i, q, v) if jet is None else step(acc, t, dt_i, q, v, jet(t, q, v))
     return q, v
 
 
