@@ -162,7 +162,7 @@ def run_realtime(system_name: str, modes: list[str], quick: bool, work: Path, ti
                 row.update(seconds=out["seconds"], steps=out["steps"], fmus=out["fmus"],
                            us_per_fmu_step=1e6 * out["seconds"] / (out["steps"] * out["fmus"]),
                            realtime_factor=out["final"]["stop_time"] / out["seconds"])
-                row["note"] += f"; real-time factor {row['realtime_factor']:.3g}"
+                row["note"] += f"; real-time factor {row['realtime_factor']:.3g} (best of {out['repeats']})"
             log(f"{system_name} {kind:10s} {mode:9s} {row['note']}")
             rows.append(row)
     return rows
