@@ -82,5 +82,5 @@ def plot_result(system, df: pd.DataFrame, out_dir: str | Path) -> list[Path]:
     fig.suptitle(f"{system.name}: master {df.attrs.get('master', '?')}, extrapolation order "
                  f"{df.attrs.get('extrapolation', '?')}, step {df.attrs.get('step', 0):g} s{status}",
                  fontsize=9)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.35 / fig.get_figheight()))  # room for the title (inches)
     return save_figure(fig, Path(out_dir) / system.name, dpi=110)
