@@ -123,6 +123,30 @@ def test_stiff_mesh_tends_to_the_rigid_model():
         assert o["mesh_torque"] == pytest.approx(40.0, rel=tol)
 
 
+@pytest.mark.parametrize("c, d, h", [(1e5, 10.0, 2e-4), (1e7, 0.0, 1e-3), (2e4, 5.0, 1.28e-2)])
+def test_compliant_mesh_step_is_the_exact_flow(c, d, h):
+    """Fidelity 1 takes ONE exponential step per communication step: with the inputs held the sun on its
+    mesh is a linear oscillator forced linearly in time, so the step lands on the closed form (scipy's expm of
+    the augmented matrix) to 1e-9 of the motion, however stiff the mesh against the step (omega h up to 22)."""
+    import scipy.linalg
+
+    m = Model(P(fidelity=1, c_alpha=c, d_mesh=d, ring_sense=-1, ring_offset=0.3))
+    u = (0.2, 3.0, -0.1, 1.5, -40.0)
+    x0 = np.array(m.initial_state(u)) + (1e-3, -0.2)
+    j = m.p.sun_inertia
+    (phi_k, w_k), t0 = m.kinematic(u), 0.7
+    # y = (q, v, 1, tau): q' = v, v' = (c (phi_k + w_k tau - q) + d (w_k - v) + T) / J, tau' = 1
+    aug = np.zeros((4, 4))
+    aug[0, 1] = 1.0
+    aug[1] = (-c / j, -d / j, (c * phi_k + d * w_k + u[4]) / j, c * w_k / j)
+    aug[3, 2] = 1.0
+    exact = scipy.linalg.expm(h * aug) @ np.array([x0[0], x0[1], 1.0, 0.0])
+    x1 = m.advance(t0, h, x0, u)
+    scale = abs(exact[0] - x0[0]) + 1e-12
+    assert abs(x1[0] - exact[0]) < 1e-9 * max(scale, 1e-3)
+    assert abs(x1[1] - exact[1]) < 1e-9 * max(abs(exact[1] - x0[1]), abs(exact[1]))
+
+
 def test_compliant_mesh_energy_balance():
     """Work in through ring, carrier and sun load = change of kinetic + spring energy + damping loss.
 
