@@ -400,7 +400,8 @@ class CamRockerModel(Model):
         in time at crank speed w: the contact torque on a wall ``mode`` is k R^2 (G - gamma) + c R^2 (G' w -
         omega) - mode k R clearance/2.  The values are those of :meth:`_kin` and :meth:`_pin_stiffness` (the
         same operations); the rates come from G'' and the lever's rate R' in closed form, with
-        dk/dR = -2 k^2 R / k_shaft and c R^2 = 2 zeta sqrt(k J) |R|."""
+        dk/dR = -2 k^2 R / stiffness (the transmission in series with the contact) and
+        c R^2 = 2 zeta sqrt(k J) |R|."""
         p = self.p
         g, g1, g2 = self.kinematics(phi)
         if p.mechanism == 0:
