@@ -396,8 +396,8 @@ class CamRockerModel(Model):
 
     # -- level 2, Kelvin-Voigt contact: exponential steps between located contact events ---------------------
     def _kv_coefficients(self, phi: float, w: float) -> tuple:
-        """(G, G' w, k R^2, c R^2, k R clearance/2) of the Kelvin-Voigt play at crank angle phi, then their rates
-        in time at crank speed w: the contact torque on a wall ``mode`` is k R^2 (G - gamma) + c R^2 (G' w -
+        """(G, G' w, k R^2, c R^2, k R clearance/2) of the Kelvin-Voigt play at crank angle phi, then the rates
+        in time at crank speed w of all but the first (G's is G' w itself): the contact torque on a wall ``mode`` is k R^2 (G - gamma) + c R^2 (G' w -
         omega) - mode k R clearance/2.  The values are those of :meth:`_kin` and :meth:`_pin_stiffness` (the
         same operations); the rates come from G'' and the lever's rate R' in closed form, with
         dk/dR = -2 k^2 R / stiffness (the transmission in series with the contact) and
@@ -415,14 +415,13 @@ class CamRockerModel(Model):
         k_r = -2.0 * k * k * R / p.stiffness
         cr2_r = 0.5 * cr2 * k_r / k + (cr2 / R if R != 0.0 else 0.0)
         return (g, g1 * w, kr2, cr2, 0.5 * k * R * p.clearance,
-                g1 * w, g2 * w * w, (k_r * R * R + 2.0 * k * R) * r_t, cr2_r * r_t,
-                0.5 * p.clearance * (k_r * R + k) * r_t)
+                g2 * w * w, (k_r * R * R + 2.0 * k * R) * r_t, cr2_r * r_t, 0.5 * p.clearance * (k_r * R + k) * r_t)
 
     def _kv_mode(self, gamma, omega, co) -> tuple[float, float]:
         """(side, mode) of the Kelvin-Voigt play at one instant (``co``: _kv_coefficients): side = the wall
         touched (geometric, +1/-1, 0), mode = the wall that pushes (side, unless the no-pull force is clipped
         to 0 there: then 0)."""
-        g, gw, kr2, cr2, krh, _, _, _, _, _ = co
+        g, gw, kr2, cr2, krh, _, _, _, _ = co
         qr = kr2 * (g - gamma)                      # k R q, with q = R (G - gamma)
         if qr > krh:
             side = 1.0
@@ -439,7 +438,7 @@ class CamRockerModel(Model):
         time derivative are smooth)."""
         if mode == 0.0:
             return tau / self.p.rocker_inertia
-        g, gw, kr2, cr2, krh, _, _, _, _, _ = co
+        g, gw, kr2, cr2, krh, _, _, _, _ = co
         return (kr2 * (g - gamma) + cr2 * (gw - omega) - mode * krh + tau) / self.p.rocker_inertia
 
     def _kv_jet(self, gamma, omega, tau, co, mode):
@@ -450,8 +449,8 @@ class CamRockerModel(Model):
         if mode == 0.0:
             return a0, 0.0, 0.0, 0.0
         J = self.p.rocker_inertia
-        g, gw, kr2, cr2, _, g_t, gw_t, kr2_t, cr2_t, krh_t = co
-        a_t = (kr2_t * (g - gamma) + kr2 * g_t + cr2_t * (gw - omega) + cr2 * gw_t - mode * krh_t) / J
+        g, gw, kr2, cr2, _, gw_t, kr2_t, cr2_t, krh_t = co
+        a_t = (kr2_t * (g - gamma) + kr2 * gw + cr2_t * (gw - omega) + cr2 * gw_t - mode * krh_t) / J
         return (a0, -kr2 / J, -cr2 / J, a_t) if math.isfinite(a_t) else None
 
     def _advance_kelvin_voigt(self, t0, h, x, u):

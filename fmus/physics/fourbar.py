@@ -375,22 +375,24 @@ class FourBarModel(Model):
     def _acc_at(self, phi, wc, tau, psi, w):
         """Rocker angular acceleration [rad/s2] at crank angle phi (fidelity 1)."""
         q, qd, _, _, arm, _ = self._geometry(phi, wc, psi, w)
+        return self._elastic_acc(phi, wc, tau, psi, w, q, qd, arm)[1]
+
+    def _elastic_acc(self, phi, wc, tau, psi, w, q, qd, arm):
+        """(coupler force [N], rocker acceleration [rad/s2]) of fidelity 1 from the coupler's geometry."""
         force = self.p.coupler_stiffness * q + self.p.coupler_damping * qd
-        return (tau - self._keep * force * arm + self._belt(phi, wc, psi, w)) / self._inertia
+        return force, (tau - self._keep * force * arm + self._belt(phi, wc, psi, w)) / self._inertia
 
     def _acc_jet_at(self, phi, wc, tau, psi, w):
         """(_acc_at, its derivatives in psi, w and time) at crank angle phi turning at wc (fidelity 1), in closed
         form: with d = B - A the coupler vector, e = d/|d|, t_r = dd/dpsi and t_c = dd/dphi, the stretch q has
         dq/dpsi = e.t_r = arm and dq/dphi = e.t_c = -arm_crank, and the unit vector turns by
         de = (t - e (e.t)) / |d|, which gives the arms' rates."""
-        a, r = self._a, self._r
+        a, r, p = self._a, self._r, self.p
         c, s = math.cos(phi), math.sin(phi)
         cp, sp = math.cos(psi), math.sin(psi)
         q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w)
-        p = self.p
+        force, acc = self._elastic_acc(phi, wc, tau, psi, w, q, qd, arm)
         k, cd = p.coupler_stiffness, p.coupler_damping
-        force = k * q + cd * qd
-        acc = (tau - self._keep * force * arm + self._belt(phi, wc, psi, w)) / self._inertia
         length = q + self._b
         rr_c = -r * a * (cp * c + sp * s)                                    # t_r . t_c
         arm_psi = -r * (ex * cp + ey * sp) + (r * r - arm * arm) / length
