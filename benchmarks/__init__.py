@@ -17,7 +17,11 @@
   (``python -m benchmarks.worker``);
 * the real-time factor of bed_drive: its default scene (the coarsest model that answers the scene's question
   within tolerance, :func:`harness.studies.scenes.choose`) and, for comparison, its default experiment (the
-  declared model).
+  declared model);
+* the real-time factors of the declared models of bed_drive and feeder_gto52 against issue 21's goals, each
+  beside its two floors (:mod:`benchmarks.floors`: the same run with the FMUs' physics, or all their calls,
+  made free after initialisation: the most a faster model, or a faster FMU layer as well, could give with
+  this master), and a warm sweep worker's per-point overhead.
 
 It prints the cost per FMU-step [us] and the ratios harness/peer, writes ``benchmark.csv`` and the bar chart
 ``docs/images/benchmark.png`` (+ .svg), checks that every tool computed the same thing (final values of the

@@ -181,22 +181,29 @@ def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str, 
     return {"seconds": seconds, "steps": n, "fmus": len(insts), "final": final}
 
 
-def run_realtime(system_name: str, run: dict, quick: bool, repeats: int = 3) -> dict:
+def run_realtime(system_name: str, run: dict, quick: bool, repeats: int = 3, stand_in: str | None = None) -> dict:
     """A system in the harness as ``run`` says (``stop_time``, ``step``, ``master``, ``parameters``: a scene's
     chosen model, or the default experiment), ``repeats`` times in this process (once, over a 100th of it, with
     ``quick``): ``seconds`` is the least wall time of initialisation and stepping (as timeit takes the least:
     the others measure the machine's noise too), ``final`` holds ``stop_time`` (the real-time factor is
-    stop_time / seconds)."""
+    stop_time / seconds).  ``stand_in``: a floor run instead (:mod:`benchmarks.floors`): the same run with the
+    FMUs' physics, or all their calls, made free after initialisation."""
     from harness import load, simulate
+
+    from benchmarks.floors import stand_ins
 
     system = load(system_name)
     stop = run["stop_time"] / 100 if quick else run["stop_time"]
     seconds = []
     for _ in range(1 if quick else repeats):
-        df = simulate(system, stop_time=stop, step=run["step"], master=run["master"], parameters=run["parameters"],
-                      outputs=check_columns_of(system)[:1])
+        with stand_ins(stand_in) as patched:
+            df = simulate(system, stop_time=stop, step=run["step"], master=run["master"],
+                          parameters=run["parameters"], outputs=check_columns_of(system)[:1])
         if not df.attrs["complete"]:
             raise RuntimeError(f"{system_name}: {df.attrs['error']}")
+        if stand_in and len(patched) != len(system.instances):
+            missing = sorted({i.name for i in system.instances} - set(patched))
+            raise RuntimeError(f"{system_name}: no stand-in for {', '.join(missing)} (not on the in-process path)")
         seconds.append(df.attrs["wall_time"])
     return {"seconds": min(seconds), "repeats": len(seconds), "steps": int(df.attrs["steps"]),
             "fmus": len(system.instances), "final": {"stop_time": stop}}

@@ -16,7 +16,7 @@ def main(argv: list[str] | None = None) -> int:
         if spec["tool"] == "sweep-overhead":
             out = runners.run_sweep_overhead(spec["case"], spec["quick"])
         elif spec["tool"] == "realtime":
-            out = runners.run_realtime(spec["case"], spec["run"], spec["quick"])
+            out = runners.run_realtime(spec["case"], spec["run"], spec["quick"], stand_in=spec.get("stand_in"))
         else:
             out = runners.run(spec["tool"], spec["folder"], spec["step"], spec["n"], spec["columns"],
                               spec.get("parameter_set"))

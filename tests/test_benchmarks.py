@@ -201,3 +201,53 @@ def test_sweep_overhead_times_warm_one_step_points(fmu_dir):
     assert out["points"] == 2
     assert 0.0 < out["overhead_s"] <= out["seconds"]
     assert out["first_point_s"] > 0.0
+
+
+# -- floors (benchmarks/floors.py): what a declared run would cost with free physics or free FMU calls ----------
+@pytest.mark.parametrize("kind", ["physics", "fmu-calls"])
+def test_floor_stand_ins_freeze_every_instance_and_are_removed_after(kind, fmu_dir, monkeypatch):
+    """A floor run has constant outputs from the end of initialisation on (the stand-ins are in effect, on
+    every instance); outside the block the same run moves again."""
+    from harness import load, simulate
+    from harness.fmi.inprocess import InProcessFMU
+
+    from benchmarks.floors import stand_ins
+
+    monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
+    system = load("two_inertia")
+    original = InProcessFMU.exit_initialization
+    with stand_ins(kind) as patched:
+        frozen = simulate(system, stop_time=0.05)
+    assert InProcessFMU.exit_initialization is original
+    assert sorted(patched) == sorted(i.name for i in system.instances)
+    real = simulate(system, stop_time=0.05)
+    assert frozen.attrs["complete"] and real.attrs["complete"]
+    assert (frozen.iloc[1:] == frozen.iloc[1]).all().all()          # nothing moves after the first step
+    assert (real.max() - real.min()).max() > 0                        # the real run does
+
+
+def test_floor_refuses_an_unknown_kind_and_an_fmu_without_stand_in(fmu_dir, monkeypatch):
+    from benchmarks import runners
+    from benchmarks.floors import stand_ins
+
+    monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
+    with pytest.raises(ValueError, match="stand-in kind 'fast' is not admissible: must be one of physics, fmu-calls"):
+        with stand_ins("fast"):
+            pass
+    import harness.fmi.inprocess as ip
+    monkeypatch.setattr(ip, "is_pythonfmu", lambda *a, **k: False)   # every FMU through its C library
+    run = dict(stop_time=1.0, step=1e-3, master="jacobi", parameters={})
+    with pytest.raises(RuntimeError, match="no stand-in for a, b"):
+        runners.run_realtime("two_inertia", run, quick=True, stand_in="physics")
+
+
+def test_targets_show_the_floors_beside_the_declared_goal():
+    rows = [{"case": "feeder_gto52 (experiment)", "kind": "experiment", "mode": "pinned", "realtime_factor": 1.9,
+             "note": "declared"},
+            {"case": "feeder_gto52 (physics floor)", "kind": "floor-physics", "system": "feeder_gto52",
+             "mode": "pinned", "realtime_factor": 5.4},
+            {"case": "feeder_gto52 (fmu-calls floor)", "kind": "floor-fmu-calls", "system": "feeder_gto52",
+             "mode": "pinned", "realtime_factor": 8.0}]
+    (what, met, note), = [t for t in bench.targets(rows) if "declared" in t[0]]
+    assert met is False
+    assert note == "declared; at most 5.4x with free physics, 8x with free fmu-calls"
