@@ -89,21 +89,22 @@ def run_all(cases: list[str], tools: list[str], modes: list[str], quick: bool, w
         n = case.n_steps(quick)
         pset = "default" if any(i.parameters for i in system.instances) else None
         base = {"case": name, "folder": str(folder), "step": case.step, "n": n, "columns": columns,
-                "parameter_set": pset}
+                "parameter_set": pset, "detector": case.detector}
         results = {}
         for mode in modes:
             for tool in tools:
                 row = {"case": name, "tool": tool, "mode": mode, "fmus": len(system.instances), "steps": n,
-                       "step": case.step, "note": ""}
+                       "step": case.step, "note": "" if case.detector or tool not in HARNESS_TOOLS else
+                       "divergence detector off: the case's coupling is unstable (benchmarks/cases.py)"}
                 spec = dict(base, tool=tool)
                 if tool == "cofmupy":  # its own venv (benchmarks.cofmupy); may be skipped with a reason
                     out = cofmupy.run_config(spec, mode, timeout)
                 else:
                     out = run_config(spec, mode, timeout)
                 if "skipped" in out:
-                    row["note"] = "skipped: " + out["skipped"]
+                    row["note"] = (row["note"] + " skipped: " + out["skipped"]).lstrip()
                 elif "error" in out:
-                    row["note"] = "failed: " + out["error"]
+                    row["note"] = (row["note"] + " failed: " + out["error"]).lstrip()
                 else:
                     row["seconds"] = out["seconds"]
                     row["us_per_fmu_step"] = 1e6 * out["seconds"] / (out["steps"] * out["fmus"])

@@ -77,6 +77,9 @@ class Case:
     step: float       # s, the same for every tool
     steps: int        # full run
     quick_steps: int  # --quick
+    # False: the harness runs the case with its divergence detector off, and its rows say so (a case whose
+    # common algorithm is unstable: timed for the comparison, its result not a physical one)
+    detector: bool = True
 
     def system(self) -> System:
         if self.name == "ring":
@@ -97,8 +100,9 @@ CASES = {
     "ring": Case("ring", 1e-3, 10_000, 200),
     "plain_ring": Case("plain_ring", 1e-3, 10_000, 200),
     # two_inertia (undamped, free-free) is unstable under Jacobi with zero-order hold at every step (README,
-    # Coupling stability): 2 000 steps keep the growth far below the blow-up limit, so every tool finishes
-    "two_inertia": Case("two_inertia", 1e-3, 2_000, 200),
+    # Coupling stability; damping does not help): 2 000 steps keep the growth far below the blow-up limit, so
+    # every peer finishes, and the harness, whose divergence detector stops it at 0.36 s, runs it without
+    "two_inertia": Case("two_inertia", 1e-3, 2_000, 200, detector=False),
     "feeder_gto52": Case("feeder_gto52", 1e-4, 2_000, 20),
     "bed_drive": Case("bed_drive", 1e-4, 2_000, 20),
     "spine_knife": Case("spine_knife", 5e-5, 2_000, 20),

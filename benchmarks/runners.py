@@ -8,6 +8,7 @@ harness: its recorder, every step, so the harness pays for recording and the pee
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from pathlib import Path
 
@@ -36,13 +37,17 @@ def _split(column: str, instances) -> tuple[str, str]:
     raise ValueError(f"column {column!r} names no instance of {sorted(instances)}")
 
 
-def run_harness(folder: Path, tool: str, step: float, n: int, columns: list[str]) -> dict:
+def run_harness(folder: Path, tool: str, step: float, n: int, columns: list[str], detector: bool = True) -> dict:
+    """``detector``: False runs without the divergence detector (a case whose coupling is unstable)."""
     from harness import RunOptions, load, simulate
 
     system = load(_ssd(folder))
     master = tool.removesuffix("-fmi")
+    options = RunOptions(in_process=False if tool.endswith("-fmi") else None)
+    if not detector:
+        options = dataclasses.replace(options, divergence=None)
     df = simulate(system, stop_time=n * step, step=step, master=master, extrapolation=0, outputs=columns,
-                  options=RunOptions(in_process=False if tool.endswith("-fmi") else None))
+                  options=options)
     if not df.attrs["complete"]:
         raise RuntimeError(f"harness {tool}: {df.attrs['error']}")
     return {"seconds": df.attrs["wall_time"], "steps": int(df.attrs["steps"]), "fmus": len(system.instances),
@@ -236,9 +241,10 @@ def check_columns_of(system):
     return check_columns(system)
 
 
-def run(tool: str, folder: Path, step: float, n: int, columns: list[str], parameter_set: str | None) -> dict:
+def run(tool: str, folder: Path, step: float, n: int, columns: list[str], parameter_set: str | None,
+        detector: bool = True) -> dict:
     if tool in HARNESS_TOOLS:
-        return run_harness(folder, tool, step, n, columns)
+        return run_harness(folder, tool, step, n, columns, detector)
     if tool == "libcosim":
         return run_libcosim(folder, step, n, columns)
     if tool == "ecos":

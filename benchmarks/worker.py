@@ -19,7 +19,7 @@ def main(argv: list[str] | None = None) -> int:
             out = runners.run_realtime(spec["case"], spec["run"], spec["quick"], stand_in=spec.get("stand_in"))
         else:
             out = runners.run(spec["tool"], spec["folder"], spec["step"], spec["n"], spec["columns"],
-                              spec.get("parameter_set"))
+                              spec.get("parameter_set"), spec.get("detector", True))
     except Exception as e:  # reported in the table, the benchmark goes on
         out = {"error": f"{type(e).__name__}: {' '.join(str(e).split())}"[:300]}
     sys.stdout.flush()

@@ -251,3 +251,19 @@ def test_targets_show_the_floors_beside_the_declared_goal():
     (what, met, note), = [t for t in bench.targets(rows) if "declared" in t[0]]
     assert met is False
     assert note == "declared; at most 5.4x with free physics, 8x with free fmu-calls"
+
+
+def test_unstable_case_is_timed_without_the_detector_and_says_so(fmu_dir, monkeypatch, tmp_path):
+    """two_inertia's coupling is unstable under the peers' algorithm: the harness's detector stops it (0.36 s),
+    so the case runs the harness without the detector, and only there."""
+    from benchmarks import runners
+
+    monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
+    case = CASES["two_inertia"]
+    assert not case.detector and all(c.detector for n, c in CASES.items() if n != "two_inertia")
+    folder = ssp_folder(case.system(), tmp_path)
+    cols = check_columns(case.system())
+    with pytest.raises(RuntimeError, match="the run diverged on power bond a.flange->b.drive"):
+        runners.run("jacobi-sampled", folder, case.step, 500, cols, "default")
+    out = runners.run("jacobi-sampled", folder, case.step, 500, cols, "default", detector=False)
+    assert out["steps"] == 500
