@@ -26,8 +26,9 @@ the run into blocks of ``block`` steps and keeps, per bond and block, the peak p
   the coupling creates no energy then, except once, when the effort jumps within a step and a coupling that
   samples it a step late books about half that jump times the step (``spine_knife`` under ``jacobi-sampled``,
   its cut starting: 6 % of the little energy that had flowed since, which stopped it at every step from 1e-5
-  to 5e-5 s); a diverging coupling creates energy step after step.  (On the Gauss-Seidel, zero-order-hold two-inertia runs the bond's
-  energy error stays near zero while the amplitude grows: the geometric test below stops those.)
+  to 5e-5 s); a diverging coupling creates energy step after step.  (On the Gauss-Seidel, zero-order-hold
+  two-inertia runs the bond's energy error stays near zero while the amplitude grows: the geometric test
+  below stops those.)
 * the verdict must hold at ``persist`` (1) consecutive block ends.
 
 A second test needs no energy bookkeeping: GEOMETRIC growth.  Split the blocks so far into quarters; when the
