@@ -148,6 +148,19 @@ def realtime_runs(system_name: str, cache: Path, log=print, kinds=("scene", "exp
         [declared] if "experiment" in kinds else [])
 
 
+def _realtime_row(out: dict, row: dict, factor: str) -> dict:
+    """``row`` completed from a real-time worker's ``out``: its cost and real-time factor, the factor also in the
+    note (``factor``: the note's format of it), or the failure."""
+    if "error" in out:
+        row["note"] += "; failed: " + out["error"]
+        return row
+    row.update(seconds=out["seconds"], steps=out["steps"], fmus=out["fmus"],
+               us_per_fmu_step=1e6 * out["seconds"] / (out["steps"] * out["fmus"]),
+               realtime_factor=out["final"]["stop_time"] / out["seconds"])
+    row["note"] += factor.format(row["realtime_factor"]) + f" (best of {out['repeats']})"
+    return row
+
+
 def run_realtime(system_name: str, modes: list[str], quick: bool, work: Path, timeout: float, log=print,
                  kinds=("scene", "experiment")) -> list[dict]:
     """Real-time factor of the default scene and of the default experiment (``kinds``), in each mode."""
@@ -155,15 +168,8 @@ def run_realtime(system_name: str, modes: list[str], quick: bool, work: Path, ti
     for kind, label, run in realtime_runs(system_name, work / "cache", log, kinds):
         for mode in modes:
             out = run_config({"case": system_name, "tool": "realtime", "run": run, "quick": quick}, mode, timeout)
-            row = {"case": f"{system_name} ({kind})", "tool": run["master"], "mode": mode, "step": None,
-                   "kind": kind, "note": label}
-            if "error" in out:
-                row["note"] += "; failed: " + out["error"]
-            else:
-                row.update(seconds=out["seconds"], steps=out["steps"], fmus=out["fmus"],
-                           us_per_fmu_step=1e6 * out["seconds"] / (out["steps"] * out["fmus"]),
-                           realtime_factor=out["final"]["stop_time"] / out["seconds"])
-                row["note"] += f"; real-time factor {row['realtime_factor']:.3g} (best of {out['repeats']})"
+            row = _realtime_row(out, {"case": f"{system_name} ({kind})", "tool": run["master"], "mode": mode,
+                                      "step": None, "kind": kind, "note": label}, "; real-time factor {:.3g}")
             log(f"{system_name} {kind:10s} {mode:9s} {row['note']}")
             rows.append(row)
             if kind == "experiment":
@@ -183,15 +189,9 @@ def run_floors(system_name: str, run: dict, mode: str, quick: bool, timeout: flo
     for stand_in, label in FLOORS.items():
         out = run_config({"case": system_name, "tool": "realtime", "run": run, "quick": quick,
                           "stand_in": stand_in}, mode, timeout)
-        row = {"case": f"{system_name} ({stand_in} floor)", "tool": run["master"], "mode": mode, "step": None,
-               "kind": f"floor-{stand_in}", "system": system_name, "note": label}
-        if "error" in out:
-            row["note"] += "; failed: " + out["error"]
-        else:
-            row.update(seconds=out["seconds"], steps=out["steps"], fmus=out["fmus"],
-                       us_per_fmu_step=1e6 * out["seconds"] / (out["steps"] * out["fmus"]),
-                       realtime_factor=out["final"]["stop_time"] / out["seconds"])
-            row["note"] += f": at most {row['realtime_factor']:.3g}x real time (best of {out['repeats']})"
+        row = _realtime_row(out, {"case": f"{system_name} ({stand_in} floor)", "tool": run["master"], "mode": mode,
+                                  "step": None, "kind": f"floor-{stand_in}", "system": system_name, "note": label},
+                            ": at most {:.3g}x real time")
         log(f"{system_name} {stand_in + ' floor':10s} {mode:9s} {row['note']}")
         rows.append(row)
     return rows
