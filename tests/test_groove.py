@@ -111,3 +111,19 @@ def test_scan_names_the_criterion_at_each_end(capsys):
     assert s_lo == pytest.approx(lo, abs=1e-5) and s_hi - s_lo > 10 * (hi - lo)
     assert out["seed_upper_limit"] == "base four-bar"
     assert s_hi == pytest.approx(LAM1 + LAM3 - 1.0, abs=1e-5)       # Grashof: 1 + lambda2 <= lambda1 + lambda3
+
+
+@pytest.mark.parametrize("branch", [1, -1])
+def test_stone_rate_on_both_branches(branch):
+    """stone_scalar's drho/dphi is the derivative of stone_radius_scalar along the rocker law on either root of
+    (K8), and the same number as stone_radius_rate_scalar's.  (It was +-inf on the root -1, whose Q < 0: the
+    pressure angle output read 0 and level 3 started from a non-finite state.)"""
+    lam1, lam2, g1, e = 3.5, 4.2, 0.4, 1e-6
+    for phi in np.linspace(0.2, 6.0, 13):
+        g = 0.3 + 0.2 * math.sin(phi)
+        rho, rate, theta = G.stone_scalar(phi, g, g1, lam1, lam2, branch)
+        numeric = (G.stone_radius_scalar(phi + e, g + g1 * e, lam1, lam2, branch)
+                   - G.stone_radius_scalar(phi - e, g - g1 * e, lam1, lam2, branch)) / (2 * e)
+        assert rate == pytest.approx(numeric, rel=1e-6, abs=1e-8)
+        assert (rho, rate) == G.stone_radius_rate_scalar(phi, g, g1, lam1, lam2, branch)
+        assert 0.0 <= theta <= math.pi / 2

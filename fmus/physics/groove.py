@@ -231,7 +231,7 @@ def stone_scalar(phi: float, g: float, g1: float, lam1: float, lam2: float, bran
     Q = branch * math.sqrt(max(lam2 * lam2 - N * N, 0.0))
     one = 1.0 - g1
     N1 = lam1 * cg * g1 + cd * one
-    Q1 = -N * N1 / Q if Q > 0.0 else math.copysign(math.inf, -N * N1)
+    Q1 = -N * N1 / Q if Q != 0.0 else math.copysign(math.inf, -N * N1)
     rho = cd - lam1 * cg + Q
     r1 = -sd * one + lam1 * sg * g1 + Q1
     nt = rho * g1
