@@ -397,9 +397,10 @@ class CamRockerModel(Model):
     # -- level 2, Kelvin-Voigt contact: exponential steps between located contact events ---------------------
     def _kv_coefficients(self, phi: float, w: float) -> tuple:
         """(G, G' w, k R^2, c R^2, k R clearance/2) of the Kelvin-Voigt play at crank angle phi, then the rates
-        in time at crank speed w of all but the first (G's is G' w itself): the contact torque on a wall ``mode`` is k R^2 (G - gamma) + c R^2 (G' w -
-        omega) - mode k R clearance/2.  The values are those of :meth:`_kin` and :meth:`_pin_stiffness` (the
-        same operations); the rates come from G'' and the lever's rate R' in closed form, with
+        in time at crank speed w of all but the first (G's is G' w itself): the contact torque on a wall
+        ``mode`` is k R^2 (G - gamma) + c R^2 (G' w - omega) - mode k R clearance/2.  The values are those of
+        :meth:`_kin` and :meth:`_pin_stiffness` (the same operations); the rates come from G'' and the lever's
+        rate R' in closed form, with
         dk/dR = -2 k^2 R / stiffness (the transmission in series with the contact) and
         c R^2 = 2 zeta sqrt(k J) |R|."""
         p = self.p
