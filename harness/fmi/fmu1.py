@@ -19,8 +19,16 @@ from pathlib import Path
 from harness.errors import FMUError, StepDiscarded
 from harness.fmi.fmu import DISCARD, ERROR, Instance, RealBlock
 
+def _text(value) -> str:
+    """An fmiString as fmpy returns it (bytes, or None for a null pointer) as text: FMI 1.0 strings are
+    UTF-8 like FMI 2.0's (str() of the bytes would give "b'hello'", and one connection later "b\"b'hello'\"")."""
+    if value is None:
+        return ""
+    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
+
+
 _TYPES = {"Real": ("Real", float), "Integer": ("Integer", int), "Enumeration": ("Integer", int),
-          "Boolean": ("Boolean", bool), "String": ("String", str)}  # model type -> (FMI 1.0 call suffix, Python type)
+          "Boolean": ("Boolean", bool), "String": ("String", _text)}  # model type -> (FMI 1.0 call suffix, Python type)
 
 
 class FMU1(Instance):
