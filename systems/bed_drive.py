@@ -16,7 +16,7 @@
   the seed publishes no idle-stroke law).  The harmonic K0 rise is ``--set cam.law=0``.
 * The cam geometry meets the seed's largest pressure angle of 28 deg for this law: follower arm 0.1 m,
   centre distance 0.14633 m, base radius 0.080628 m (r0/S = 1.155; the seed's r0/S = 0.95 gives at best
-  29.7 deg in this geometry).  The numbers are bed_law.design_cam(CARRIER_RUNUP) (9 s to compute, so
+  29.7 deg in this geometry).  The numbers are bed_cam.design_cam(CARRIER_RUNUP) (9 s to compute, so
   recorded here; tests/test_bed_law.py checks that the synthesis gives them).
 * The cam is declared rigid (fidelity 0); its elastic levels (1, 2: the scenes' full model) get values for
   this drive, not the component defaults, which are the seed-000 feeder's (5000 N.m/rad and 5e5 N/m for a
@@ -58,7 +58,7 @@ BED_STROKE = PINION_RADIUS * (bed_law.SEED_RATIO * abs(bed_law.working_stroke().
                               + (1 + bed_law.SEED_RATIO) * bed_law.SEED_CARRIER_SWING)   # m, about 0.297
 CARRIER_RUNUP = bed_law.runup_for_zone(PRINT_ZONE[0] / BED_STROKE, PRINT_ZONE[1] / BED_STROKE)  # about 0.246
 FULL_MODEL_STEP = 2e-4                                           # s: the scenes' full model (below)
-CAM_ARM, CAM_DISTANCE, CAM_BASE_RADIUS = 0.1, 0.1463304172, 0.0806281607  # m: bed_law.design_cam(CARRIER_RUNUP)
+CAM_ARM, CAM_DISTANCE, CAM_BASE_RADIUS = 0.1, 0.1463304172, 0.0806281607  # m: bed_cam.design_cam(CARRIER_RUNUP)
 
 SYSTEM = System(
     name="bed_drive",

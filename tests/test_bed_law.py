@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from fmus.physics import bed_law as B
+from fmus.physics import bed_cam, bed_law as B
 from fmus.physics.laws import get_law
 
 ZONE = (0.08, 0.24)     # bed_drive's printing zone [m]
@@ -77,10 +77,10 @@ def test_cam_geometry_meets_the_seeds_pressure_angle():
     # the geometry `synth carrier` prints for 28 deg (arm 0.1 m); the pressure angle is CamRocker's own
     S = stroke_m()
     u = B.runup_for_zone(ZONE[0] / S, ZONE[1] / S)
-    th = B.max_pressure_angle(u, 0.1463, 0.1, 0.0806, points=1441)
+    th = bed_cam.max_pressure_angle(u, 0.1463, 0.1, 0.0806, points=1441)
     assert math.degrees(th) <= 28.05
     # and the current bed_drive geometry (centre distance 0.15 m, r0 = 0.0663 m) does not
-    assert math.degrees(B.max_pressure_angle(u, 0.15, 0.1, 0.0663)) > 40.0
+    assert math.degrees(bed_cam.max_pressure_angle(u, 0.15, 0.1, 0.0663)) > 40.0
 
 
 def test_cosimulated_bed_speed_is_uniform_in_the_printing_zone():
@@ -141,15 +141,15 @@ def test_pitch_curvature_equals_finite_differences_of_the_pitch_curve():
     d2 = (np.roll(X, -1, 1) - 2 * X + np.roll(X, 1, 1)) / h ** 2
     k = -(d1[0] * d2[1] - d1[1] * d2[0]) / np.hypot(*d1) ** 3
     fd = 1.0 / k[int(np.argmin(np.abs(1.0 / k)))]
-    assert B.pitch_curvature_min(u, a, l, r0) == pytest.approx(fd, rel=2e-3)
+    assert bed_cam.pitch_curvature_min(u, a, l, r0) == pytest.approx(fd, rel=2e-3)
     assert abs(np.hypot(*X).min() - r0) < 1e-6            # the pitch curve touches the base circle
 
 
 def test_bed_drive_cam_geometry_is_the_synthesised_one():
-    """systems/bed_drive.py records bed_law.design_cam(CARRIER_RUNUP) (9 s to compute): the synthesis gives it."""
+    """systems/bed_drive.py records bed_cam.design_cam(CARRIER_RUNUP) (9 s to compute): the synthesis gives it."""
     from systems import bed_drive as sys_bd
 
-    d = B.design_cam(sys_bd.CARRIER_RUNUP)
+    d = bed_cam.design_cam(sys_bd.CARRIER_RUNUP)
     assert d.follower_arm == sys_bd.CAM_ARM
     assert d.cam_distance == pytest.approx(sys_bd.CAM_DISTANCE, abs=1e-9)
     assert d.base_radius == pytest.approx(sys_bd.CAM_BASE_RADIUS, abs=1e-9)

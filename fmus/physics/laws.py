@@ -33,54 +33,13 @@ Registry (``get_law(name, **params)``):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Callable, Sequence
 
 import numpy as np
 
+from .motion_law import Law  # noqa: F401  (Law belongs to this module's interface: callers import it from here)
+
 PI = math.pi
-PieceFn = Callable[[object, object], tuple]
-
-
-@dataclass(frozen=True)
-class Law:
-    """A law of periodic motion: pieces ``(k_end, f)`` with ``f(k, m) -> (a, b, c)`` on [k_start, k_end]."""
-    name: str
-    doc: str
-    pieces: tuple[tuple[float, PieceFn], ...]
-    params: tuple[tuple[str, float], ...] = ()
-
-    def __call__(self, k) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(a, b, c) for an array of k (values outside [0, 1] are clipped)."""
-        k = np.clip(np.asarray(k, dtype=float), 0.0, 1.0)
-        if len(self.pieces) == 1:
-            a, b, c = self.pieces[0][1](k, np)
-            return np.broadcast_to(a, k.shape) * 1.0, np.broadcast_to(b, k.shape) * 1.0, np.broadcast_to(c, k.shape) * 1.0
-        a = np.empty_like(k)
-        b = np.empty_like(k)
-        c = np.empty_like(k)
-        start = 0.0
-        for i, (end, f) in enumerate(self.pieces):
-            last = i == len(self.pieces) - 1
-            mask = (k >= start) & ((k <= end) if last else (k < end))
-            if np.any(mask):
-                pa, pb, pc = f(k[mask], np)
-                a[mask], b[mask], c[mask] = pa, pb, pc
-            start = end
-        return a, b, c
-
-    def scalar(self, k: float) -> tuple[float, float, float]:
-        """(a, b, c) at one k, with ``math`` (the per-step fast path)."""
-        k = 0.0 if k < 0.0 else (1.0 if k > 1.0 else k)
-        for end, f in self.pieces:
-            if k < end:
-                return f(k, math)
-        return self.pieces[-1][1](k, math)
-
-    def coefficients(self, n: int = 20001) -> tuple[float, float]:
-        """(C_v, C_a) = (max|b|, max|c|) on a grid of n points."""
-        _, b, c = self(np.linspace(0.0, 1.0, n))
-        return float(np.max(np.abs(b))), float(np.max(np.abs(c)))
 
 
 # -- the laws ------------------------------------------------------------------------------------------------

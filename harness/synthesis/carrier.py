@@ -32,7 +32,7 @@ def register(subparsers):
 def run(args) -> int:
     import numpy as np
 
-    from fmus.physics import bed_law as B
+    from fmus.physics import bed_cam, bed_law as B
     from fmus.physics.laws import Law, get_law
 
     try:
@@ -58,8 +58,8 @@ def run(args) -> int:
                 "carrier_idle_K0": B.stroke_invariants(get_law("K0")),
                 "bed_working": B.stroke_invariants(Law("bed", "", ((1.0, lambda x, m: B.bed_invariants(x, u, m)),)))}
         if not args.no_cam:
-            d = B.design_cam(u, math.radians(args.pressure), args.arm)
-            rc = B.pitch_curvature_min(u, d.cam_distance, d.follower_arm, d.base_radius)
+            d = bed_cam.design_cam(u, math.radians(args.pressure), args.arm)
+            rc = bed_cam.pitch_curvature_min(u, d.cam_distance, d.follower_arm, d.base_radius)
             data["cam"] = {"follower_arm_m": d.follower_arm, "cam_distance_m": d.cam_distance,
                            "pitch_curvature_min_m": rc, "r_min_over_S": rc / (d.follower_arm * B.SEED_CARRIER_SWING),
                            "base_radius_m": d.base_radius, "r0_over_S": d.r0_over_S,
