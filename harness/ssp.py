@@ -18,7 +18,11 @@ archive (or the .ssd's folder), inline and referenced (``.ssv``) parameter value
 system (``Component.parameter`` names; a binding's ``prefix`` is prepended to the names of its source, as
 the SSP 1.0 schema says; ``sourceBase="component"`` reads the .ssv from inside the component's FMU, as
 SSP 1.0 resolves it against the component's source), connections with linear transformations, the
-default experiment and the OSP fixed-step annotation.  Anything else that changes the meaning of the system
+default experiment and the OSP fixed-step annotation.  A Real parameter value given with a ``unit`` other than
+its FMU variable's is converted through the unit definitions (SSP's and FMI's unit model: exponents of the
+SI base units, ``factor`` and ``offset``; :class:`_Unit`), looked up in the .ssv's ``ssv:Units``, then the
+.ssd's ``ssd:Units``, then the FMU's ``UnitDefinitions``; a value that cannot be converted that way is refused
+in one line naming the file, component, parameter, value and both units.  Anything else that changes the meaning of the system
 (nested systems, signal dictionaries, parameter mappings, non-FMU components, system-level connectors,
 non-linear transformations) is refused with one line naming the element and the file.
 """
@@ -198,9 +202,64 @@ def load_ssp(path: str | Path) -> System:
     return _Reader(ssd_path, root_dir).system(tree.getroot())
 
 
+_BASE = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
+
+
+class _Unit:
+    """A unit as SSP 1.0 (ssc:BaseUnit) and FMI 2.0/3.0 (BaseUnit) define it: the exponents of the SI base
+    units and the affine map to them, value_SI = factor * value + offset."""
+
+    __slots__ = ("exponents", "factor", "offset")
+
+    def __init__(self, exponents: tuple, factor: float = 1.0, offset: float = 0.0):
+        self.exponents, self.factor, self.offset = tuple(exponents), float(factor), float(offset)
+
+    @classmethod
+    def from_xml(cls, base: ET.Element | None) -> "_Unit":
+        if base is None:  # a unit without a BaseUnit: dimensionless, as in FMI
+            return cls((0,) * len(_BASE))
+        return cls([int(base.get(k, "0")) for k in _BASE], float(base.get("factor", "1")),
+                   float(base.get("offset", "0")))
+
+    @classmethod
+    def from_fmpy(cls, unit) -> "_Unit":
+        b = unit.baseUnit
+        if b is None:
+            return cls((0,) * len(_BASE))
+        return cls([int(getattr(b, k) or 0) for k in _BASE], b.factor, b.offset)
+
+    @property
+    def scaled(self) -> bool:
+        return self.factor != 1.0 or self.offset != 0.0
+
+    def dimension(self) -> str:
+        return ".".join(f"{k}{e if e != 1 else ''}" for k, e in zip(_BASE, self.exponents) if e) or "1"
+
+
+def _units(parent: ET.Element | None, tag: str) -> dict[str, _Unit]:
+    """name -> unit of the ssc:Unit elements under ``parent``'s ``tag`` (ssd:Units or ssv:Units)."""
+    out = {}
+    if parent is not None:
+        for u in parent.findall(f"{_q(tag)}/{_q('ssc:Unit')}"):
+            out[u.get("name")] = _Unit.from_xml(u.find(_q("ssc:BaseUnit")))
+    return out
+
+
+class _Quantity:
+    """A Real parameter value given with a unit, converted once its component's FMU is known
+    (:meth:`_Reader.convert`).  ``units``: the definitions that were in scope where it was written (the .ssv's
+    own over the .ssd's); ``where``: the file it came from, for messages."""
+
+    __slots__ = ("value", "unit", "units", "where")
+
+    def __init__(self, value: float, unit: str, units: dict, where: str):
+        self.value, self.unit, self.units, self.where = value, unit, units, where
+
+
 class _Reader:
     def __init__(self, ssd_path: Path, root_dir: Path):
         self.ssd_path, self.root_dir = ssd_path, root_dir
+        self.units: dict[str, _Unit] = {}   # the .ssd's ssd:Units
 
     def fail(self, what: str) -> SystemError_:
         return SystemError_(f"{self.ssd_path}: {what}")
@@ -211,6 +270,7 @@ class _Reader:
         sys_el = root.find(_q("ssd:System"))
         if sys_el is None:
             raise self.fail("no ssd:System element")
+        self.units = _units(root, "ssd:Units")
         name = sys_el.get("name") or root.get("name") or self.ssd_path.stem
         if sys_el.find(_q("ssd:SignalDictionaries")) is not None:
             raise self.fail(f"ssd:SignalDictionaries in system '{name}' are not supported")
@@ -231,7 +291,7 @@ class _Reader:
             comp, _, var = pname.partition(".")
             if comp not in by_name or not var:
                 raise self.fail(f"system parameter '{pname}' names no component (expected Component.parameter)")
-            by_name[comp].parameters[var] = value
+            by_name[comp].parameters[var] = self.convert(value, by_name[comp], var)
         connections = []
         for c in sys_el.findall(f"{_q('ssd:Connections')}/{_q('ssd:Connection')}"):
             connections.append(self.connection(c, system_connectors))
@@ -266,7 +326,38 @@ class _Reader:
             raise self.fail(f"component '{name}': source {source} not found")
         if el.find(f"{_q('ssd:ParameterBindings')}/{_q('ssd:ParameterBinding')}/{_q('ssd:ParameterMapping')}") is not None:
             raise self.fail(f"component '{name}': ssd:ParameterMapping is not supported")
-        return Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'", fmu))
+        inst = Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'", fmu))
+        inst.parameters = {k: self.convert(v, inst, k) for k, v in inst.parameters.items()}
+        return inst
+
+    def convert(self, value, inst: Instance, pname: str):
+        """A parameter value in the unit of the FMU's variable (module docstring); any other value as is."""
+        if not isinstance(value, _Quantity):
+            return value
+        md = model_description(inst.fmu)
+        var = next((v for v in md.modelVariables if v.name == pname), None)
+        if var is None:  # no such variable: the system's validation names it
+            return value.value
+        target = var.unit or (var.declaredType.unit if var.declaredType is not None else None)
+        if value.unit == target:
+            return value.value
+        fmu_units = {u.name: _Unit.from_fmpy(u) for u in md.unitDefinitions}
+        src = value.units.get(value.unit) or fmu_units.get(value.unit)
+        what = (f"{value.where}: component '{inst.name}', parameter '{pname}' = {value.value!r} {value.unit}")
+        if target is None:
+            if src is not None and src.scaled:
+                raise SystemError_(f"{what}: the FMU's variable declares no unit, and {value.unit} is a scaled "
+                                   f"unit (factor {src.factor!r}, offset {src.offset!r}): cannot apply it")
+            return value.value
+        dst = fmu_units.get(target) or self.units.get(target)
+        if src is None or dst is None:
+            missing = value.unit if src is None else target
+            raise SystemError_(f"{what}: the FMU's variable is in {target}, and {missing} has no unit definition "
+                               f"(ssc:Unit / UnitDefinitions) to convert with")
+        if src.exponents != dst.exponents:
+            raise SystemError_(f"{what}: the FMU's variable is in {target}; {value.unit} ({src.dimension()}) "
+                               f"and {target} ({dst.dimension()}) are not the same quantity")
+        return (src.factor * value.value + src.offset - dst.offset) / dst.factor
 
     def _source_text(self, src: str, base: str, owner: str, component_source: Path | None) -> tuple[str, bytes]:
         """(label, bytes) of a ParameterBinding's ``source``.  ``sourceBase="SSD"`` (default): relative to the
@@ -301,8 +392,10 @@ class _Reader:
                 raise self.fail(f"{owner}: ssd:ParameterBinding of type '{btype}' is not supported "
                                 f"(only {PARAMETER_SET_TYPE})")
             inline = b.find(_q("ssd:ParameterValues"))
+            where = str(self.ssd_path)
             if b.get("source"):
                 p, text = self._source_text(b.get("source"), b.get("sourceBase", "SSD"), owner, component_source)
+                where = p
                 try:
                     pset = ET.fromstring(text)
                 except ET.ParseError as e:
@@ -316,20 +409,21 @@ class _Reader:
                     raise self.fail(f"{owner}: ssd:ParameterValues holds no ssv:ParameterSet")
             else:
                 continue
+            units = {**self.units, **_units(pset, "ssv:Units")}
             for p in pset.findall(f"{_q('ssv:Parameters')}/{_q('ssv:Parameter')}"):
                 # SSP 1.0 (SystemStructureDescription.xsd, ParameterBinding/@prefix): the prefix is PREPENDED
                 # to every name of the parameter source, so a set of bare names can be bound at system level
                 # to one element with prefix="Element.".  (Until issue 6 the prefix was stripped instead.)
                 pname = prefix + p.get("name", "")
-                values[pname] = self.parameter_value(p, owner)
+                values[pname] = self.parameter_value(p, owner, units, where)
         return values
 
-    def parameter_value(self, p: ET.Element, owner: str):
+    def parameter_value(self, p: ET.Element, owner: str, units: dict, where: str):
         for child in p:
             kind = child.tag.rsplit("}", 1)[-1]
             raw = child.get("value")
             if kind == "Real":
-                return float(raw)
+                return _Quantity(float(raw), child.get("unit"), units, where) if child.get("unit") else float(raw)
             if kind in ("Integer", "Enumeration"):
                 return int(raw)
             if kind == "Boolean":

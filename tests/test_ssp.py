@@ -265,3 +265,56 @@ def test_bad_parameter_file_and_archive_are_named(folder):
     (folder / "junk.ssp").write_bytes(b"not a zip")
     with pytest.raises(SystemError_, match=r"junk.ssp: not an SSP archive"):
         load_ssp(folder / "junk.ssp")
+
+
+# ------------------------------------------------------------------------------------------------ units (issue 33)
+RPM = '<ssc:Unit name="rpm"><ssc:BaseUnit rad="1" s="-1" factor="0.10471975511965977"/></ssc:Unit>'
+
+
+def ssv_with_units(params: dict, units: str = "") -> str:
+    """An .ssv whose Real values carry units: params name -> (value, unit); ``units``: its ssv:Units body."""
+    body = "".join(f'<ssv:Parameter name="{k}"><ssv:Real value="{v!r}" unit="{u}"/></ssv:Parameter>'
+                   for k, (v, u) in params.items())
+    return ('<?xml version="1.0" encoding="UTF-8"?>\n<ssv:ParameterSet version="1.0" name="p"'
+            ' xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"'
+            ' xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon">'
+            f'<ssv:Parameters>{body}</ssv:Parameters>'
+            + (f'<ssv:Units>{units}</ssv:Units>' if units else "") + '</ssv:ParameterSet>')
+
+
+def bound(name: str) -> str:
+    return comp("a", "resources/Inertia.fmu",
+                f'<ssd:ParameterBindings><ssd:ParameterBinding source="{name}"/></ssd:ParameterBindings>')
+
+
+def test_ssv_value_in_another_unit_is_converted(folder):
+    # w0 of Inertia is in rad/s (the FMU's UnitDefinitions); 60 rpm is 2 pi rad/s; J in its own unit stays
+    (folder / "a.ssv").write_text(ssv_with_units({"w0": (60.0, "rpm"), "J": (0.25, "kg.m2")}, RPM))
+    (folder / "a.ssd").write_text(ssd(bound("a.ssv")))
+    p = load_ssp(folder / "a.ssd").instance("a").parameters
+    assert p["J"] == 0.25
+    assert p["w0"] == pytest.approx(2 * np.pi, rel=1e-15)
+    # the same with the unit defined in the .ssd (ssd:Units) and the value inline, on the system
+    (folder / "b.ssd").write_text(
+        ssd(A, system_extra='<ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues>'
+            '<ssv:ParameterSet version="1.0" name="x"><ssv:Parameters><ssv:Parameter name="a.w0">'
+            '<ssv:Real value="-30" unit="rpm"/></ssv:Parameter></ssv:Parameters></ssv:ParameterSet>'
+            '</ssd:ParameterValues></ssd:ParameterBinding></ssd:ParameterBindings>')
+        .replace("</ssd:SystemStructureDescription>", f"<ssd:Units>{RPM}</ssd:Units></ssd:SystemStructureDescription>"))
+    assert load_ssp(folder / "b.ssd").instance("a").parameters["w0"] == pytest.approx(-np.pi, rel=1e-15)
+
+
+@pytest.mark.parametrize("value,units,message", [
+    ((1.0, "m"), '<ssc:Unit name="m"><ssc:BaseUnit m="1"/></ssc:Unit>',
+     "parameter 'w0' = 1.0 m: the FMU's variable is in rad/s; m (m) and rad/s (s-1.rad) are not the same quantity"),
+    ((3.0, "furlong/fortnight"), "",
+     "parameter 'w0' = 3.0 furlong/fortnight: the FMU's variable is in rad/s, and furlong/fortnight has no unit "
+     "definition"),
+])
+def test_ssv_value_in_an_unconvertible_unit_is_refused(folder, value, units, message):
+    (folder / "a.ssv").write_text(ssv_with_units({"w0": value}, units))
+    (folder / "a.ssd").write_text(ssd(bound("a.ssv")))
+    with pytest.raises(SystemError_) as info:
+        load_ssp(folder / "a.ssd")
+    text = str(info.value)
+    assert message in text and "component 'a'" in text and "a.ssv" in text and "\n" not in text
