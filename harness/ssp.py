@@ -314,6 +314,10 @@ class _Reader:
         ctype = el.get("type", FMU_TYPE)
         if ctype != FMU_TYPE:
             raise self.fail(f"component '{name}' has type '{ctype}'; only FMUs ({FMU_TYPE}) are supported")
+        implementation = el.get("implementation", "any")
+        if implementation not in ("any", "CoSimulation"):
+            raise self.fail(f"component '{name}': implementation='{implementation}' is not supported "
+                            f"(only CoSimulation)")
         source = el.get("source")
         if not source:
             raise self.fail(f"component '{name}' has no source")

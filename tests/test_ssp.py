@@ -244,6 +244,10 @@ B = comp("b", "resources/SpringInertia.fmu")
          system_extra='<ssd:Connectors><ssd:Connector name="in" kind="input"><ssc:Real/></ssd:Connector></ssd:Connectors>'),
      "connection to system connector 'in' is not supported"),
     (ssd(comp("a", "resources/Missing.fmu")), "component 'a': source resources/Missing.fmu not found"),
+    (ssd(A.replace('<ssd:Component ', '<ssd:Component implementation="ModelExchange" ')),
+     "component 'a': implementation='ModelExchange' is not supported"),
+    (ssd(A.replace('<ssd:Component ', '<ssd:Component implementation="ScheduledExecution" ')),
+     "component 'a': implementation='ScheduledExecution' is not supported"),
     (SSD_HEAD + '<ssd:System name="x"><ssd:Elements>', "not well-formed XML"),
 ])
 def test_unsupported_features_fail_with_one_line(folder, text, message):
