@@ -38,6 +38,7 @@ variables, the parameters set, the quantities of interest, ``error`` and ``wall_
 from __future__ import annotations
 
 import ast
+import difflib
 import itertools
 import json
 import math
@@ -64,6 +65,19 @@ class SweepSpec:
     system: str | None = None  # the system the spec was written for (``system:`` key; informative)
     plot: dict | None = None   # the checked ``plot:`` section
     source: str = "<spec>"
+    kind: str = "grid"         # where the variables were declared: "grid" or "sample" (for the messages)
+
+    def variable_key(self, name: str) -> str:
+        """The spec key that declares sweep variable ``name`` (``grid.rpm``, ``sample.ranges.rpm``)."""
+        return f"grid.{name}" if self.kind == "grid" else f"sample.ranges.{name}"
+
+    def names_read_by_set(self) -> set[str]:
+        """The names the ``set:`` expressions read (sweep variables; ``pi`` and ``sqrt`` left out)."""
+        names = set()
+        for expr in self.set.values():
+            if not isinstance(expr, (int, float)):
+                names |= {n.id for n in ast.walk(ast.parse(str(expr), mode="eval")) if isinstance(n, ast.Name)}
+        return names - {"pi", "sqrt"}
 
     def parameters(self, point: dict[str, float]) -> dict[str, float]:
         """The run's parameters for one point: dotted sweep variables plus the ``set`` expressions."""
@@ -93,7 +107,10 @@ def _arith(expr, ns: dict, what: str, check_only: bool = False) -> float:
         if not isinstance(node, _ARITH_NODES):
             raise SweepError(f"{what}: {expr!r} is not an arithmetic expression")
         if isinstance(node, ast.Name) and node.id not in ns:
-            raise SweepError(f"{what}: {expr!r} uses unknown name {node.id!r}")
+            known = sorted(n for n in ns if n.isidentifier())
+            close = difflib.get_close_matches(node.id, known, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise SweepError(f"{what}: {expr!r} uses unknown name {node.id!r}{hint}; known names: {', '.join(known)}")
         if isinstance(node, ast.Call) and not (isinstance(node.func, ast.Name) and node.func.id == "sqrt"):
             raise SweepError(f"{what}: {expr!r}: only sqrt(...) may be called")
     if check_only:
@@ -223,7 +240,7 @@ def parse_spec(data: dict, source: str = "<spec>") -> SweepSpec:
     plot = _check_plot(data["plot"], names, sets, outputs, source) if "plot" in data else None
     run = {k: data[k] for k in ("stop_time", "step", "master", "extrapolation") if k in data}
     return SweepSpec(variables=names, points=points, set=sets, outputs=outputs, run=run,
-                     system=data.get("system"), plot=plot, source=source)
+                     system=data.get("system"), plot=plot, source=source, kind="grid" if "grid" in data else "sample")
 
 
 def read_spec(path: str | Path) -> SweepSpec:
@@ -269,16 +286,18 @@ def run_point(system_name: str, spec: SweepSpec, point: dict[str, float]) -> dic
     return row
 
 
-def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, workers: int = 2,
+def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, workers: int | None = None,
               progress: bool = True, log=None) -> pd.DataFrame:
-    """Run every point; ``workers=0`` runs serially in this process (same results, bit for bit).  ``log``: a
-    :class:`harness.studies.sweep_checks.PointLog` that receives each point as it finishes and whose points
-    already done are skipped (``--resume``); the result then holds them all, in the spec's order."""
+    """Run every point; ``workers=0`` runs serially in this process (same results, bit for bit), ``None``
+    starts two local workers, or one on a single CPU.  ``log``: a :class:`harness.studies.sweep_checks.PointLog`
+    that receives each point as it finishes and whose points already done are skipped (``--resume``); the
+    result then holds them all, in the spec's order."""
     from harness import load
     from harness.model import resolve_fmu
-    from harness.studies.sweep_checks import check_workers, point_key
+    from harness.studies.sweep_checks import check_workers, default_workers, point_key
 
-    check_workers(workers)
+    workers = default_workers() if workers is None else workers
+    check_workers(workers, local=scheduler is None)
     for inst in load(system_name).instances:  # build missing FMUs once, before workers race for them
         resolve_fmu(inst.fmu)
     todo = [p for p in spec.points if log is None or point_key(spec, p) not in log.done]
@@ -356,8 +375,9 @@ def register(subparsers) -> None:
                    help="sweep description (.yaml/.yml/.json; format: module harness.studies.sweep)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="address of an existing dask scheduler (default: a local cluster of --workers)")
-    p.add_argument("--workers", type=int, default=2, metavar="N",
-                   help="local worker processes, an integer >= 0 (0: run serially here; default 2)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes, an integer from 0 to the number of CPUs (0: run serially here; "
+                        "default 2, or 1 on a single CPU)")
     p.add_argument("--out", type=Path, default=None, metavar="FILE",
                    help="result file, .csv or .parquet (default: results/sweep_<system>.csv)")
     p.add_argument("--resume", action="store_true",
@@ -371,17 +391,18 @@ def register(subparsers) -> None:
 def _run_cli(args) -> int:
     import sys
 
-    from harness.studies.sweep_checks import PointLog, partial_path, preflight
+    from harness.studies.sweep_checks import PointLog, default_workers, partial_path, preflight
 
+    workers = default_workers() if args.workers is None else args.workers
     spec = read_spec(args.grid)
     if args.plot is not None and spec.plot is None:
         raise SweepError(f"{args.grid}: --plot needs a 'plot:' section in the spec")
     out = Path(args.out or Path("results") / f"sweep_{Path(args.system).stem}.csv")
-    preflight(args.system, spec, out, args.workers)
+    preflight(args.system, spec, out, workers, local=args.scheduler is None)
     log = PointLog(partial_path(out), spec, resume=getattr(args, "resume", False))
     skipped = len(log.done)
     try:
-        df = run_sweep(args.system, spec, scheduler=args.scheduler, workers=args.workers, log=log)
+        df = run_sweep(args.system, spec, scheduler=args.scheduler, workers=workers, log=log)
     except KeyboardInterrupt:
         print(f"error: interrupted (Ctrl-C): {len(log.rows)} of {len(spec.points)} points finished and kept in "
               f"{log.path}; rerun with --resume to skip them", file=sys.stderr)

@@ -1,8 +1,9 @@
 """What a sweep checks before its first point, and the file its finished points are appended to.
 
 :func:`preflight` fails with one line (:class:`~harness.studies.sweep.SweepError`) naming the spec file, the
-key and the culprit when: the worker count is not an integer >= 0; the spec's ``system:`` key names another
-system; a parameter that a point sets is not a parameter of the system's FMUs (checked at every point, so an
+key and the culprit when: the worker count is not an integer from 0 to the CPUs this process may use; the
+spec's ``system:`` key names another system; a sweep variable changes nothing (neither ``instance.parameter``
+nor read by a ``set:`` expression: a misspelt key), with the close names; a parameter that a point sets is not a parameter of the system's FMUs (checked at every point, so an
 expression that fails at one point fails before any run); a quantity of interest names a variable no FMU has,
 or does not evaluate on a result of the right columns (a typo in a function name); the output file cannot be
 written (unknown suffix, Parquet without pyarrow, a folder that cannot be created).
@@ -15,7 +16,9 @@ matched on the values of the sweep variables).
 from __future__ import annotations
 
 import csv
+import difflib
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -33,9 +36,30 @@ def _fail(message: str):
     raise SweepError(message)
 
 
-def check_workers(workers) -> int:
+def available_cpus() -> int:
+    """The CPUs this process may run on (its affinity mask where the system has one, else the machine's)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def default_workers() -> int:
+    """Two local workers, or one where this process has a single CPU."""
+    return min(2, available_cpus())
+
+
+def check_workers(workers, local: bool = True) -> int:
+    """``workers`` local processes, each a full co-simulation that keeps one CPU busy: more than the CPUs
+    only queue behind each other while every process holds its FMUs in memory (1000 on 2 CPUs ran the load to
+    227 and gave no result in 300 s).  ``local=False``: the points go to an existing scheduler, whose workers
+    are its own, so only the type is checked."""
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
         _fail(f"--workers {workers!r} is not admissible: give an integer >= 0 (0 runs the points in this process)")
+    cpus = available_cpus()
+    if local and workers > cpus:
+        _fail(f"--workers {workers} is more than the {cpus} CPU(s) available to this process: give at most "
+              f"{cpus} (0 runs the points in this process)")
     return workers
 
 
@@ -68,11 +92,11 @@ def _variables(system) -> dict[str, dict]:
             for inst in system.instances}
 
 
-def preflight(system_name: str, spec, out: Path | None, workers) -> None:
-    """Every check of the module docstring, before the first point runs."""
+def preflight(system_name: str, spec, out: Path | None, workers, local: bool = True) -> None:
+    """Every check of the module docstring, before the first point runs (``local``: see :func:`check_workers`)."""
     from harness import load
 
-    check_workers(workers)
+    check_workers(workers, local)
     if out is not None and Path(out).suffix.lower() not in (".csv", ".parquet"):
         check_out(Path(out))  # the name alone is wrong: say so first
     system = load(system_name)
@@ -81,6 +105,7 @@ def preflight(system_name: str, spec, out: Path | None, workers) -> None:
         _fail(f"{src}: system: the spec was written for {spec.system!r}, not {system.name!r}: run "
               f"'sweep {spec.system} --grid {src}' or change the spec's system key")
     variables = _variables(system)
+    _check_variables_act(spec, system, variables)
     for k, point in enumerate(spec.points):
         params = spec.parameters(point)
         for name in params:
@@ -92,8 +117,8 @@ def preflight(system_name: str, spec, out: Path | None, workers) -> None:
             v = variables[inst].get(var)
             if v is None or v.causality != "parameter":
                 own = sorted(n for n, x in variables[inst].items() if x.causality == "parameter")
-                _fail(f"{what}: instance {inst} ({system.instance(inst).fmu}) has no parameter {var!r} "
-                      f"(parameters: {', '.join(own)})")
+                _fail(f"{what}: instance {inst} ({system.instance(inst).fmu}) has no parameter {var!r}"
+                      f"{_did_you_mean(var, own)} (parameters: {', '.join(own)})")
             value = params[name]
             if isinstance(value, float) and not math.isfinite(value):
                 _fail(f"{what}: {value!r} at point {k + 1} ({point}) is not a finite number")
@@ -115,6 +140,32 @@ def preflight(system_name: str, spec, out: Path | None, workers) -> None:
             pass
     if out is not None:
         check_out(Path(out))  # last: it creates the output folder
+
+
+def _did_you_mean(name: str, candidates) -> str:
+    close = difflib.get_close_matches(name, list(candidates), n=3, cutoff=0.6)
+    return f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+
+
+def _check_variables_act(spec, system, variables: dict[str, dict]) -> None:
+    """Every sweep variable must change the run: a parameter named ``instance.parameter`` is set directly, any
+    other name must be read by a ``set:`` expression.  A misspelt key (``speeed``) would otherwise run every
+    point with the same parameters and give identical rows that look like a result."""
+    read = spec.names_read_by_set()
+    params = sorted(f"{i}.{n}" for i, vs in variables.items() for n, x in vs.items() if x.causality == "parameter")
+    for name in spec.variables:
+        if "." in name or name in read:
+            continue
+        short: dict[str, list[str]] = {}   # parameter name -> instance.parameter, for a name without instance
+        for p in params:
+            short.setdefault(p.partition(".")[2], []).append(p)
+        guesses = difflib.get_close_matches(name, sorted(read) + params + list(short), n=3, cutoff=0.6)
+        guesses = list(dict.fromkeys(g2 for g in guesses for g2 in short.get(g, [g])))
+        hint = f" (did you mean {' or '.join(repr(g) for g in guesses)}?)" if guesses else ""
+        reads = f" (they read {', '.join(sorted(read))})" if read else ""
+        _fail(f"{spec.source}: {spec.variable_key(name)}: {name!r} changes nothing in {system.name}: it is no "
+              f"instance.parameter and no set: expression reads it{reads}{hint}; a sweep variable is a parameter "
+              f"as instance.parameter (instances: {', '.join(variables)}) or a name a set: expression reads")
 
 
 def partial_path(out: Path) -> Path:
