@@ -5,8 +5,9 @@
 
 Each configuration (case x tool x mode) runs in its own subprocess; ``pinned`` prefixes ``taskset -c 0``.
 Results: ``<out>/benchmark.csv`` (one row per configuration), the chart (``--chart``, default
-docs/images/benchmark.png and .svg), and a printed table with the cost per FMU-step, the ratios harness/peer,
-the result check and the targets.
+docs/images/benchmark.png and .svg; a ``--quick`` run, whose timings mean nothing, writes both into
+results/benchmark-quick/ unless told otherwise), and a printed table with the cost per FMU-step, the ratios
+harness/peer, the result check and the targets.
 """
 from __future__ import annotations
 
@@ -379,21 +380,33 @@ def report(rows: list[dict], log=print) -> None:
         log(f"[{flag}] {what}: {evidence}")
 
 
+def output_paths(quick: bool, out: Path | None, chart_path: Path | None) -> tuple[Path, Path]:
+    """(folder of the CSV, chart path).  A full run's chart is the README's (docs/images/benchmark.png, tracked);
+    a quick run's timings are meaningless, so by default it writes beside its own CSV and never over it."""
+    out = out if out is not None else ROOT / "results" / ("benchmark-quick" if quick else "benchmark")
+    if chart_path is None:
+        chart_path = out / "benchmark.png" if quick else ROOT / "docs" / "images" / "benchmark.png"
+    return out, chart_path
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks", description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="tiny sizes (smoke test; timings meaningless)")
     ap.add_argument("--cases", default=",".join(CASES), help=f"comma list of {', '.join(CASES)}")
     ap.add_argument("--tools", default=",".join(TOOLS), help=f"comma list of {', '.join(TOOLS)}")
     ap.add_argument("--modes", default=",".join(MODES), help="pinned, unpinned or both")
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "benchmark", help="folder of the CSV and SSPs")
-    ap.add_argument("--chart", type=Path, default=ROOT / "docs" / "images" / "benchmark.png",
-                    help="bar chart path (.png; an .svg is written beside it)")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="folder of the CSV and SSPs (default: results/benchmark, with --quick results/benchmark-quick)")
+    ap.add_argument("--chart", type=Path, default=None,
+                    help="bar chart path (.png; an .svg is written beside it; default: docs/images/benchmark.png, "
+                         "with --quick OUT/benchmark.png)")
     ap.add_argument("--no-chart", action="store_true")
     ap.add_argument("--no-realtime", action="store_true",
                     help=f"skip the real-time runs ({REALTIME_SYSTEM}'s default scene, the declared models of "
                          f"{', '.join(DECLARED_GOALS)}) and the sweep's per-point overhead")
     ap.add_argument("--timeout", type=float, default=1800.0, help="per configuration [s]")
     args = ap.parse_args(argv)
+    args.out, args.chart = output_paths(args.quick, args.out, args.chart)
     cases = _csv_list(args.cases, CASES, "cases")
     tools = _csv_list(args.tools, TOOLS, "tools")
     modes = _csv_list(args.modes, MODES, "modes")
@@ -403,5 +416,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nwrote {path}")
     if not args.no_chart:
         print("chart " + ", ".join(str(p) for p in chart(rows, args.chart)))
+    if args.quick:
+        print("--quick: tiny sizes, the timings mean nothing; docs/images/benchmark.png is left as it was")
     bad = [r for r in rows if r.get("same_result") is False]
     return 1 if bad else 0

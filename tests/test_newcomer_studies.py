@@ -77,3 +77,24 @@ def test_a_misspelt_parameter_suggests_the_close_one(tmp_path):
     spec = sweep.read_spec(_spec(tmp_path, data))
     with pytest.raises(sweep.SweepError, match=r"grid\.b\.cc: .* no parameter 'cc'; did you mean 'c'"):
         sweep_checks.preflight("two_inertia", spec, None, 0)
+
+
+# -- item 4: a quick benchmark run leaves the README's chart alone ----------------------------------------------
+def test_quick_benchmark_writes_its_chart_beside_its_csv_not_over_the_tracked_one(monkeypatch, capsys):
+    from benchmarks import bench
+
+    seen = {}
+    monkeypatch.setattr(bench, "run_all", lambda cases, tools, modes, quick, work, *a: seen.update(work=work) or [])
+    monkeypatch.setattr(bench, "write_csv", lambda rows, path: path)
+    monkeypatch.setattr(bench, "report", lambda rows: None)
+    monkeypatch.setattr(bench, "chart", lambda rows, path: seen.update(chart=path) or [path])
+    assert bench.main(["--quick", "--cases", "ring", "--tools", "jacobi-sampled", "--modes", "unpinned",
+                       "--no-realtime"]) == 0
+    tracked = bench.ROOT / "docs" / "images" / "benchmark.png"
+    assert seen["chart"] != tracked and seen["chart"].parent == seen["work"]
+    assert seen["work"] != bench.ROOT / "results" / "benchmark"        # nor over a full run's CSV
+    out = capsys.readouterr().out
+    assert str(seen["chart"]) in out and "timings mean nothing" in out
+    # a full run still writes the README's chart
+    bench.main(["--cases", "ring", "--tools", "jacobi-sampled", "--modes", "unpinned", "--no-realtime"])
+    assert seen["chart"] == tracked
