@@ -1,10 +1,31 @@
-"""Charts of a result: one panel per power bond (its speed and its torque or force), then the columns the
-system's scenes ask about.  Matplotlib, written as PNG and SVG."""
+"""Charts of a result, drawn for a press engineer: Matplotlib, written as PNG and SVG.
+
+``run ... --plot DIR`` writes two figures (:func:`plot_result`):
+
+* ``<system>.png``: the signals over time, one panel each, titled by the signal and its meaning with its
+  unit ("Bed position s [m]"), with time ticks on every panel.  The parts of the machine cycle the system
+  declares (``System.chart.zones``: the printing zone, a dwell) are shaded where the result says they are,
+  and each scene's time window is a named bar along the top of the panels of the columns it reads.
+* ``<system>_cycle.png``: the same signals over the last complete revolution of the main shaft against the
+  crank angle in degrees, as the seeds draw them, with the same zones.  Only for a system that declares its
+  crank angle column (``System.chart.crank_angle``) and a run that completed a revolution.
+
+What to draw is the system's (``harness.specs.ChartSpec``); a system that declares nothing gets the speed and
+effort of every power bond, titled by the FMUs' own variable descriptions.  Angles are drawn in degrees.
+"""
 from __future__ import annotations
 
+import ast
+import math
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
+
+from harness import qoi
+from harness.specs import Panel
+
+_ZONE_COLOURS = ("#2ca02c", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b")
 
 
 def save_figure(fig, stem: str | Path, dpi: float | None = None) -> list[Path]:
@@ -24,63 +45,250 @@ def save_figure(fig, stem: str | Path, dpi: float | None = None) -> list[Path]:
     return paths
 
 
-def _bond_columns(system, df: pd.DataFrame) -> list[tuple[str, list[str]]]:
+# -- what to draw ---------------------------------------------------------------------------------------------
+def _descriptions(system) -> dict[str, str]:
+    """``Instance.variable`` -> the FMU's description of it (empty where an FMU cannot be read)."""
+    from harness.model import model_description, resolve_fmu
+
+    out = {}
+    for inst in system.instances:
+        try:
+            md = model_description(resolve_fmu(inst.fmu))
+        except Exception:  # noqa: BLE001 (a chart without descriptions is still a chart)
+            continue
+        out.update({f"{inst.name}.{v.name}": (v.description or "") for v in md.modelVariables})
+    return out
+
+
+def _meaning(column: str, descriptions: dict[str, str]) -> str:
+    """A title for a column the system did not describe: the FMU's description ("crank-side end of the main
+    shaft: angular velocity (motion out)" -> "Crank-side end of the main shaft: angular velocity") and the
+    column, so the reader sees both what it is and where it comes from."""
+    text = descriptions.get(column, "").replace("(motion out)", "").strip()
+    if not text:
+        return column
+    return f"{text[0].upper()}{text[1:]} ({column})"
+
+
+def _bond_panels(system, df: pd.DataFrame, descriptions: dict[str, str]) -> list[Panel]:
     panels = []
     for b in system.bonds:
-        for speed, effort, unit_s, unit_e in (("w", "tau", "rad/s", "N.m"), ("v", "f", "m/s", "N")):
+        for speed, effort in (("w", "tau"), ("v", "f")):
             s_col, e_col = f"{b.motion_out}.{speed}", f"{b.motion_in}.{effort}"
             if s_col in df.columns and e_col in df.columns:
-                panels.append((f"bond {b.label}: speed [{unit_s}]", [s_col]))
-                panels.append((f"bond {b.label}: {'torque' if effort == 'tau' else 'force'} [{unit_e}]", [e_col]))
+                panels.append(Panel(_meaning(s_col, descriptions), (s_col,)))
+                panels.append(Panel(_meaning(e_col, descriptions), (e_col,)))
                 break
     return panels
 
 
-def _scene_columns(system, df: pd.DataFrame) -> list[tuple[str, list[str]]]:
-    from harness import qoi
+def _scene_windows(scene) -> list[tuple[float, float]]:
+    """The time windows a scene reads: its declared ``window``, else every ``window(x, t0, t1)`` with
+    constant bounds in its quantity."""
+    if scene.window is not None:
+        return [tuple(scene.window)]
+    out = []
+    for node in ast.walk(qoi.check(scene.quantity)):
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "window"
+                and len(node.args) == 3
+                and all(isinstance(a, ast.Constant) and isinstance(a.value, (int, float)) for a in node.args[1:])):
+            out.append((float(node.args[1].value), float(node.args[2].value)))
+    return out
 
-    panels, seen = [], set()
+
+def _panels(system, df: pd.DataFrame) -> list[Panel]:
+    """The declared panels (those whose columns the result has), else the bonds'; then a panel for each
+    column a scene reads that is not drawn yet; else the first six columns."""
+    descriptions = _descriptions(system)
+    spec = getattr(system, "chart", None)
+    panels = []
+    for p in (spec.panels if spec is not None else ()):
+        keep = [i for i, c in enumerate(p.columns) if c in df.columns]
+        if keep:
+            labels = tuple(p.labels[i] for i in keep) if p.labels else ()
+            panels.append(Panel(p.title, tuple(p.columns[i] for i in keep), labels, p.cycle))
+    if not panels:
+        panels = _bond_panels(system, df, descriptions)
+    drawn = {c for p in panels for c in p.columns}
     for scene in getattr(system, "scenes", []):
-        cols = [c for c in qoi.columns(scene.quantity) if c in df.columns and c not in seen]
-        seen.update(cols)
-        if cols:
-            panels.append((f"scene {scene.name} [{scene.unit}]".replace(" []", ""), cols))
+        for c in qoi.columns(scene.quantity):
+            if c in df.columns and c not in drawn:
+                drawn.add(c)
+                panels.append(Panel(_meaning(c, descriptions), (c,)))
+    if not panels:
+        panels = [Panel(_meaning(c, descriptions), (c,)) for c in list(df.columns)[:6]]
     return panels
 
 
-def plot_result(system, df: pd.DataFrame, out_dir: str | Path) -> list[Path]:
-    """Write <out_dir>/<system>.png and .svg; returns the paths."""
+def _spans(x: np.ndarray, on: np.ndarray) -> list[tuple[float, float]]:
+    """The stretches of ``x`` (sorted) where ``on`` holds, as (first, last) values."""
+    on = np.asarray(on, dtype=bool)
+    if not on.any():
+        return []
+    edges = np.diff(np.concatenate(([0], on.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    return [(float(x[a]), float(x[b])) for a, b in zip(starts, ends)]
+
+
+def _zones(system, df: pd.DataFrame) -> list[tuple[str, np.ndarray]]:
+    """Each declared zone's label and its truth value per sample (a zone whose columns the result lacks is
+    left out: a run recording only some outputs still gets a chart)."""
+    spec = getattr(system, "chart", None)
+    out = []
+    for z in (spec.zones if spec is not None else ()):
+        if all(c in df.columns for c in qoi.columns(z.where)):
+            out.append((z.label, qoi.mask(z.where, df)))
+    return out
+
+
+# -- drawing --------------------------------------------------------------------------------------------------
+def _values(df: pd.DataFrame, column: str, units: dict) -> tuple[np.ndarray, str]:
+    """The column and its unit as drawn: angles in degrees."""
+    y, unit = df[column].to_numpy(dtype=float), units.get(column) or "-"
+    if unit == "rad":
+        return np.degrees(y), "deg"
+    return y, unit
+
+
+def _draw_panel(ax, x, df, panel: Panel, units: dict, rows=slice(None)) -> None:
+    shown = []
+    for i, c in enumerate(panel.columns):
+        y, unit = _values(df, c, units)
+        shown.append(unit)
+        label = panel.labels[i] if panel.labels else c
+        ax.plot(x, y[rows], lw=0.9, label=label)
+    unit = ", ".join(sorted(set(shown)))
+    ax.set_title(f"{panel.title} [{unit}]", fontsize=8.5, loc="left")
+    ax.set_ylabel(f"[{unit}]", fontsize=7)
+    ax.tick_params(labelsize=7, labelbottom=True)
+    ax.ticklabel_format(axis="y", useOffset=False)  # values as they are, not "+1.636e1" above the axis
+    ax.grid(alpha=0.3)
+    if len(panel.columns) > 1:
+        ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+
+
+def _shade(ax, spans_by_zone) -> None:
+    for k, (label, spans) in enumerate(spans_by_zone):
+        for a, b in spans:
+            ax.axvspan(a, b, color=_ZONE_COLOURS[k % len(_ZONE_COLOURS)], alpha=0.15, lw=0)
+
+
+def _figure(n: int):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = _bond_columns(system, df) + _scene_columns(system, df)
-    if not panels:
-        panels = [(c, [c]) for c in list(df.columns)[:6]]
-    n = len(panels)
     ncol = 2 if n > 3 else 1
     nrow = -(-n // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(6.0 * ncol, 2.1 * nrow), sharex=True, squeeze=False)
-    t = df.index.to_numpy()
-    units = df.attrs.get("units") or {}
-    for ax, (title, cols) in zip(axes.flat, panels):
-        for c in cols:
-            ax.plot(t, df[c].to_numpy(), lw=0.9, label=c)
-        ax.set_title(title, fontsize=8)
-        shown = sorted({units.get(c) or "-" for c in cols})  # the columns' declared units ("-": none)
-        ax.set_ylabel(f"[{', '.join(shown)}]", fontsize=7)
-        ax.tick_params(labelsize=7)
-        ax.grid(alpha=0.3)
-        if len(cols) > 1:
-            ax.legend(fontsize=6)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(7.0 * ncol, 2.3 * nrow + 0.9), squeeze=False)
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
-    for ax in axes[-1]:
-        ax.set_xlabel("time [s]", fontsize=8)
-    status = "" if df.attrs.get("complete", True) else "  (INCOMPLETE: " + str(df.attrs.get("error", ""))[:60] + ")"
-    fig.suptitle(f"{system.name}: master {df.attrs.get('master', '?')}, extrapolation order "
-                 f"{df.attrs.get('extrapolation', '?')}, step {df.attrs.get('step', 0):g} s{status}",
-                 fontsize=9)
-    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.35 / fig.get_figheight()))  # room for the title (inches)
-    return save_figure(fig, Path(out_dir) / system.name, dpi=110)
+    return fig, axes
+
+
+def _key(fig, entries) -> None:
+    """A legend of the shaded zones and hatched windows below the panels, off the data."""
+    from matplotlib.patches import Patch
+
+    if entries:
+        fig.legend(handles=[Patch(**style, label=label) for label, style in entries], loc="lower center",
+                   ncol=min(len(entries), 3), fontsize=7, frameon=False)
+
+
+def _status(df: pd.DataFrame) -> str:
+    a = df.attrs
+    status = "" if a.get("complete", True) else "  (INCOMPLETE: " + str(a.get("error", ""))[:60] + ")"
+    return (f"master {a.get('master', '?')}, extrapolation order {a.get('extrapolation', '?')}, "
+            f"step {a.get('step', 0):g} s{status}")
+
+
+def _finish(fig, key_rows: int) -> None:
+    bottom = (0.3 + 0.18 * key_rows) / fig.get_figheight() if key_rows else 0.0
+    fig.tight_layout(rect=(0.0, bottom, 1.0, 1.0 - 0.4 / fig.get_figheight()), h_pad=1.2)
+
+
+def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[Path]:
+    fig, axes = _figure(len(panels))
+    t = df.index.to_numpy(dtype=float)
+    units = df.attrs.get("units") or {}
+    zone_spans = [(label, _spans(t, on)) for label, on in zones]
+    windows = [(s.name, w, set(qoi.columns(s.quantity))) for s in getattr(system, "scenes", [])
+               for w in _scene_windows(s)]
+    barred = False
+    for ax, panel in zip(axes.flat, panels):
+        _draw_panel(ax, t, df, panel, units)
+        _shade(ax, zone_spans)
+        mine = [(name, w) for name, w, cols in windows if cols & set(panel.columns) and w[0] < t[-1]]
+        for i, (name, (a, b)) in enumerate(mine):   # a bar along the top per scene window, named
+            y = 0.97 - 0.11 * i
+            ax.plot([a, min(b, t[-1])], [y, y], transform=ax.get_xaxis_transform(), color="0.3", lw=2.2,
+                    solid_capstyle="butt")
+            ax.text(a, y - 0.025, f" scene {name}", transform=ax.get_xaxis_transform(), fontsize=6,
+                    va="top", color="0.2", bbox=dict(facecolor="white", edgecolor="none", alpha=0.7, pad=0.5))
+            barred = True
+        ax.set_xlabel("time [s]", fontsize=7, labelpad=1)
+        ax.set_xlim(t[0], t[-1])
+    key = [(f"{label}", dict(color=_ZONE_COLOURS[k % len(_ZONE_COLOURS)], alpha=0.3))
+           for k, (label, spans) in enumerate(zone_spans) if spans]
+    if barred:
+        key.append(("time window a scene reads (bar at the top)", dict(color="0.3")))
+    _key(fig, key)
+    fig.suptitle(f"{system.name} over time: {_status(df)}", fontsize=9)
+    _finish(fig, -(-len(key) // 3))
+    return save_figure(fig, out_dir / system.name, dpi=110)
+
+
+def last_revolution(angle: np.ndarray, origin: float = 0.0) -> tuple[np.ndarray, int] | None:
+    """The samples of the last complete revolution of a cumulative shaft angle [rad], counted in whole turns
+    from ``origin`` in the sense the shaft turns: (a boolean mask, the revolution's number from 0), or None
+    when the run did not complete one."""
+    angle = np.asarray(angle, dtype=float)
+    if angle.size < 2 or not np.all(np.isfinite(angle)) or angle[-1] == angle[0]:
+        return None
+    theta = (angle - origin) * math.copysign(1.0, angle[-1] - angle[0])
+    k = math.floor(theta[-1] / (2 * math.pi)) - 1          # the turn [k, k + 1] that ends inside the run
+    if k * 2 * math.pi < theta[0]:
+        return None
+    return (theta >= k * 2 * math.pi) & (theta <= (k + 1) * 2 * math.pi), k
+
+
+def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[Path]:
+    spec = system.chart
+    panels = [p for p in panels if p.cycle]
+    if spec is None or spec.crank_angle not in df.columns or not panels:
+        return []
+    angle = df[spec.crank_angle].to_numpy(dtype=float)
+    found = last_revolution(angle, spec.cycle_origin)
+    if found is None:
+        return []
+    rows, k = found
+    sense = math.copysign(1.0, angle[-1] - angle[0])
+    x = np.degrees((angle[rows] - spec.cycle_origin) * sense - k * 2 * math.pi)
+    t = df.index.to_numpy(dtype=float)[rows]
+    units = df.attrs.get("units") or {}
+    zone_spans = [(label, _spans(x, on[rows])) for label, on in zones]
+    fig, axes = _figure(len(panels))
+    for ax, panel in zip(axes.flat, panels):
+        _draw_panel(ax, x, df, panel, units, rows)
+        _shade(ax, zone_spans)
+        ax.set_xlim(0.0, 360.0)
+        ax.set_xticks(np.arange(0.0, 361.0, 45.0))
+        ax.set_xlabel("crank angle [deg]" + (f" from the {spec.origin_name}" if spec.origin_name else ""),
+                      fontsize=7, labelpad=1)
+    key = [(label, dict(color=_ZONE_COLOURS[k_ % len(_ZONE_COLOURS)], alpha=0.3))
+           for k_, (label, spans) in enumerate(zone_spans) if spans]
+    _key(fig, key)
+    fig.suptitle(f"{system.name}, one machine cycle: crank revolution {k + 1} (t = {t[0]:.3g} to {t[-1]:.3g} s), "
+                 f"{_status(df)}", fontsize=9)
+    _finish(fig, -(-len(key) // 3))
+    return save_figure(fig, out_dir / f"{system.name}_cycle", dpi=110)
+
+
+def plot_result(system, df: pd.DataFrame, out_dir: str | Path) -> list[Path]:
+    """Write ``<out_dir>/<system>.png`` and ``.svg`` (over time) and, where the system declares its crank
+    angle and the run completed a revolution, ``<system>_cycle.png`` and ``.svg`` (over one machine cycle);
+    returns the paths, the time chart's first."""
+    out_dir = Path(out_dir)
+    panels, zones = _panels(system, df), _zones(system, df)
+    return _time_chart(system, df, panels, zones, out_dir) + _cycle_chart(system, df, panels, zones, out_dir)

@@ -135,6 +135,19 @@ def check(expr: str) -> ast.Expression:
 
 def evaluate(expr: str, df: pd.DataFrame) -> float:
     """Value of the expression on a result; a QoIError names the expression on any problem."""
+    return float(_value(expr, df))
+
+
+def mask(expr: str, df: pd.DataFrame) -> np.ndarray:
+    """The expression as one truth value per sample of ``df`` (e.g. ``between(r["bed.bed.s"], 0.08, 0.24)``:
+    where a chart shades a zone); a QoIError names the expression when it is not one per sample."""
+    value = np.asarray(_value(expr, df))
+    if value.shape != (len(df),):
+        raise QoIError(f"quantity {expr!r}: gives shape {value.shape}, not one value per sample ({len(df)})")
+    return value.astype(bool)
+
+
+def _value(expr: str, df: pd.DataFrame):
     tree = check(expr)
     ns = _namespace(df, expr)
     for node in ast.walk(tree):
@@ -146,7 +159,7 @@ def evaluate(expr: str, df: pd.DataFrame) -> float:
         raise
     except Exception as e:  # empty window, shape mismatch, ...
         raise QoIError(f"quantity {expr!r}: {type(e).__name__}: {e}") from None
-    return float(value)
+    return value
 
 
 def columns(expr: str) -> list[str]:

@@ -5,10 +5,13 @@
 * :class:`PrecisionSpec`: the quantity and default grid of the work-precision study
   (:mod:`harness.studies.precision`);
 * :class:`StabilitySpec`: the coupling parameter and defaults of a press drive's stability map
-  (:mod:`harness.studies.stability`).
+  (:mod:`harness.studies.stability`);
+* :class:`ChartSpec`: what the run chart shows -- the signals with their meaning, the parts of the machine
+  cycle to shade (:class:`Zone`) and the main shaft's angle for the chart over one cycle
+  (:mod:`harness.charts`).
 
-They are fields of :class:`harness.model.System` (``scenes``, ``precision``, ``stability``), so adding a drive
-touches one file.
+They are fields of :class:`harness.model.System` (``scenes``, ``precision``, ``stability``, ``chart``), so
+adding a drive touches one file.
 """
 from __future__ import annotations
 
@@ -63,3 +66,39 @@ class StabilitySpec:
     duration: float
     omega: Callable
     doc: str
+
+
+@dataclass(frozen=True)
+class Panel:
+    """One panel of the run chart: ``title`` says the signal and its meaning in the press's words (``"Bed
+    position s"``; the chart adds the unit), ``columns`` are the result columns drawn in it (several share a
+    unit, e.g. torques; ``labels`` name them in the legend, default the column names).  ``cycle``: drawn
+    over one machine cycle against the crank angle too."""
+    title: str
+    columns: tuple[str, ...]
+    labels: tuple[str, ...] = ()
+    cycle: bool = True
+
+
+@dataclass(frozen=True)
+class Zone:
+    """A part of the machine cycle shaded on the charts (the printing zone, a dwell): the samples where
+    ``where`` holds, a :mod:`harness.qoi` expression with one truth value per sample, e.g.
+    ``between(r["bed.bed.s"], 0.08, 0.24) & (r["bed.bed.v"] > 0)``.  Declared from the system's own
+    numbers, so the shading moves with them."""
+    label: str
+    where: str
+
+
+@dataclass(frozen=True)
+class ChartSpec:
+    """What the run chart of a system shows (``run ... --plot DIR``).  ``crank_angle``: the result column of
+    the main shaft's angle [rad], cumulative; with it a second chart draws the ``cycle`` panels over the
+    last complete revolution against the crank angle in degrees, counted from ``cycle_origin`` [rad] (what
+    that angle is: ``origin_name``, e.g. "start of the working stroke"), as the seeds draw them.  Without
+    panels the chart falls back to the speed and effort of every power bond."""
+    panels: tuple[Panel, ...] = ()
+    zones: tuple[Zone, ...] = ()
+    crank_angle: str | None = None
+    cycle_origin: float = 0.0
+    origin_name: str = ""

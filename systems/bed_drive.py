@@ -44,7 +44,7 @@ import math
 
 from fmus.physics import bed_law, fourbar, fourbar_synthesis
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import PrecisionSpec, Scene, StabilitySpec
+from harness.specs import ChartSpec, Panel, PrecisionSpec, Scene, StabilitySpec, Zone
 
 RPM = 2 * math.pi / 60
 CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m
@@ -140,4 +140,21 @@ SYSTEM = System(
                             / p("fourbar.rocker_inertia")),
         "inertia of the ring gear and rocker [kg.m2] on the four-bar's motion-output port (FourBar), coupled "
         "through the rigid James differential to the bed; omega ~ sqrt(c_coupler l_rocker^2 / J_rocker)"),
+    # The run chart (harness.charts): the seed's quantities over time and over one turn of the main shaft from
+    # the start of the working stroke, the printing zone shaded where the bed is in it on the working stroke
+    chart=ChartSpec(
+        panels=(
+            Panel("Bed position s", ("bed.bed.s",)),
+            Panel("Bed speed v", ("bed.bed.v",)),
+            Panel("Differential inputs: ring (four-bar rocker) and carrier (cam follower) angles",
+                  ("fourbar.rocker.phi", "cam.rocker.phi"), ("ring: four-bar rocker", "carrier: cam follower")),
+            Panel("Main shaft speed (crank side)", ("flywheel.crank.w",)),
+            Panel("Torques on the main shaft", ("flywheel.shaft_torque", "fourbar.crank.tau", "cam.crank.tau"),
+                  ("transmitted by the shaft", "four-bar crank", "disc cam")),
+            Panel("Rack mesh force on the bed", ("bed.mesh_force",)),
+            Panel("Motor torque", ("motor.motor_torque",), cycle=False),
+        ),
+        zones=(Zone(f"printing zone: bed at {PRINT_ZONE[0]:g} to {PRINT_ZONE[1]:g} m on the working stroke",
+                    f'between(r["bed.bed.s"], {PRINT_ZONE[0]!r}, {PRINT_ZONE[1]!r}) & (r["bed.bed.v"] > 0)'),),
+        crank_angle="flywheel.crank.phi", cycle_origin=PHI_START, origin_name="start of the working stroke"),
 )

@@ -19,8 +19,9 @@ Chain (power bonds, motion -> / <- effort):
 """
 import math
 
+from fmus.physics import groove
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import PrecisionSpec, Scene, StabilitySpec
+from harness.specs import ChartSpec, Panel, PrecisionSpec, Scene, StabilitySpec, Zone
 
 RPM = 2 * math.pi / 60
 N_CRANK = 960.0 / 6.4  # rpm, motor rated speed over the belt ratio
@@ -78,3 +79,24 @@ SYSTEM = System(
         "transmission (conrod / slotted-rocker) stiffness [N.m/rad] of the CamRocker, whose crank torque "
         "couples it to the flywheel shaft; omega ~ sqrt(stiffness / rocker_inertia)"),
 )
+
+
+# The run chart (harness.charts): the head's swing over one turn of the crank from the start of its forward
+# stroke, the dwell shaded where the crank is in it (the groove law centres it on the base four-bar's extended
+# dead centre: groove.kulisa_law), read from the feeder's own parameters
+_feeder = SYSTEM.instance("feeder").parameters
+_base = groove.base_design(_feeder["lambda1"], _feeder["lambda2"], _feeder["lambda3"])
+DWELL_START = _base["phi_start"] + _base["phase_forward"] - 0.5 * _feeder["dwell"]   # rad of crank angle
+SYSTEM.chart = ChartSpec(
+    panels=(
+        Panel("Feeder head swing: rocker angle", ("feeder.rocker.phi",)),
+        Panel("Feeder head (rocker) speed", ("feeder.rocker.w",)),
+        Panel("Stone-pin force in the clearance", ("feeder.pin_force",)),
+        Panel("Main shaft speed (crank side)", ("flywheel.crank.w",)),
+        Panel("Torques on the main shaft", ("flywheel.shaft_torque", "feeder.crank.tau"),
+              ("transmitted by the shaft", "feeder crank")),
+        Panel("Motor electrical power", ("motor.power_electrical",), cycle=False),
+    ),
+    zones=(Zone(f"head dwell at the feed table: {math.degrees(_feeder['dwell']):g} deg of crank angle",
+                f'between((r["flywheel.crank.phi"] - {DWELL_START!r}) % {2 * math.pi!r}, 0.0, {_feeder["dwell"]!r})'),),
+    crank_angle="flywheel.crank.phi", cycle_origin=_base["phi_start"], origin_name="start of the forward stroke")

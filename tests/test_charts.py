@@ -1,0 +1,146 @@
+"""The run chart (``run ... --plot DIR``, harness/charts.py) as a press engineer reads it: panels titled by the
+signal and its meaning with its unit, time ticks on every panel, the zones the system declares shaded where
+the result puts them, and a second chart over one machine cycle against the crank angle.
+
+The zones are checked against the physics, not against numbers copied from the systems: the bed drive's
+printing zone must lie inside the working stroke with the bed in the declared travel, the feeder's dwell where
+the head stands still.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from harness import charts, load, simulate
+from harness.model import Instance, SystemWarning
+
+
+def on_fmus(name: str, fmu_dir: Path):
+    s = load(name)
+    return dataclasses.replace(s, instances=[Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters))
+                                             for i in s.instances])
+
+
+def run(system, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SystemWarning)
+        df = simulate(system, on_error="raise", **kw)
+    assert df.attrs["complete"], df.attrs["error"]
+    return df
+
+
+@pytest.fixture(scope="module")
+def bed(fmu_dir):
+    system = on_fmus("bed_drive", fmu_dir)
+    return system, run(system, stop_time=1.1)   # one complete turn of the main shaft at 60 rpm
+
+
+@pytest.fixture(scope="module")
+def feeder(fmu_dir):
+    system = on_fmus("feeder_gto52", fmu_dir)
+    return system, run(system, stop_time=0.9)
+
+
+@pytest.fixture()
+def figures(monkeypatch):
+    """The figures plot_result makes, by file stem, kept open for inspection instead of written."""
+    made = {}
+
+    def keep(fig, stem, dpi=None):
+        made[Path(stem).name] = fig
+        return [Path(f"{stem}.png"), Path(f"{stem}.svg")]
+
+    monkeypatch.setattr(charts, "save_figure", keep)
+    return made
+
+
+def visible_axes(fig):
+    return [ax for ax in fig.axes if ax.get_visible() and ax.get_title(loc="left")]
+
+
+def test_time_chart_panels_name_the_signal_unit_and_carry_time_ticks(bed, figures, tmp_path):
+    system, df = bed
+    paths = charts.plot_result(system, df, tmp_path)
+    assert [p.name for p in paths] == ["bed_drive.png", "bed_drive.svg", "bed_drive_cycle.png", "bed_drive_cycle.svg"]
+    axes = visible_axes(figures["bed_drive"])
+    titles = [ax.get_title(loc="left") for ax in axes]
+    assert "Bed position s [m]" in titles and "Bed speed v [m/s]" in titles
+    for ax, title in zip(axes, titles):
+        assert not title.lower().startswith(("scene", "bond")), title
+        assert title.endswith("]"), f"no unit in panel title {title!r}"
+        assert ax.get_xlabel() == "time [s]"
+        labels = [t for t in ax.get_xticklabels() if t.get_visible() and t.get_text()]
+        assert len(labels) >= 3, f"panel {title!r} has no time ticks"
+
+
+def test_printing_zone_is_read_from_the_system_and_lies_on_the_working_stroke(bed):
+    from systems.bed_drive import PRINT_ZONE
+
+    system, df = bed
+    (label, on), = charts._zones(system, df)
+    assert "printing zone" in label
+    s, v, t = df["bed.bed.s"].to_numpy(), df["bed.bed.v"].to_numpy(), df.index.to_numpy()
+    assert on.any() and np.all(v[on] > 0)
+    travel = np.max(np.abs(v)) * (t[1] - t[0])                 # the bed's largest travel in one step
+    assert s[on].min() == pytest.approx(PRINT_ZONE[0], abs=travel)
+    assert s[on].max() == pytest.approx(PRINT_ZONE[1], abs=travel)
+    # against the crank angle: within the working stroke, where the four-bar's rocker (the ring) turns one way
+    rows, k = charts.last_revolution(df[system.chart.crank_angle].to_numpy(), system.chart.cycle_origin)
+    ring_w = np.gradient(df["fourbar.rocker.phi"].to_numpy(), t)
+    assert (rows & on).any()
+    assert np.all(np.sign(ring_w[rows & on]) == np.sign(ring_w[rows][len(ring_w[rows]) // 8]))
+
+
+def test_cycle_chart_runs_over_one_turn_against_crank_angle_with_the_zone(bed, figures, tmp_path):
+    system, df = bed
+    charts.plot_result(system, df, tmp_path)
+    fig = figures["bed_drive_cycle"]
+    axes = visible_axes(fig)
+    titles = [ax.get_title(loc="left") for ax in axes]
+    assert "Bed position s [m]" in titles and any("Torques" in t for t in titles)
+    assert "Motor torque [N.m]" not in titles                       # declared cycle=False
+    for ax in axes:
+        assert ax.get_xlim() == (0.0, 360.0) and "crank angle [deg]" in ax.get_xlabel()
+        xs = np.concatenate([line.get_xdata() for line in ax.get_lines() if len(line.get_xdata()) > 2])
+        assert xs.min() >= 0.0 and xs.max() <= 360.0 and xs.max() - xs.min() > 350.0
+        assert ax.patches, "the printing zone is not shaded"
+    # the bed starts and ends the cycle at its starting extreme (working stroke from the origin, return to it)
+    bed_ax = axes[titles.index("Bed position s [m]")]
+    y = bed_ax.get_lines()[0].get_ydata()
+    assert abs(y[0] - y[-1]) < 0.02 * np.ptp(y)
+
+
+def test_last_revolution_needs_a_complete_turn():
+    t = np.linspace(0.0, 1.0, 101)
+    assert charts.last_revolution(2 * math.pi * 0.9 * t) is None            # 0.9 of a turn
+    rows, k = charts.last_revolution(2 * math.pi * 2.5 * t)                 # 2.5 turns: the second one
+    assert k == 1 and t[rows][0] == pytest.approx(0.4) and t[rows][-1] == pytest.approx(0.8)
+    rows, k = charts.last_revolution(-2 * math.pi * 1.5 * t, origin=0.0)     # turning backwards
+    assert k == 0 and t[rows][-1] == pytest.approx(2 / 3, abs=0.01)
+
+
+def test_feeder_dwell_is_shaded_where_the_head_stands_still(feeder, figures, tmp_path):
+    system, df = feeder
+    (label, on), = charts._zones(system, df)
+    assert "dwell" in label and on.any()
+    w = df["feeder.rocker.w"].to_numpy()
+    assert np.max(np.abs(w[on])) < 0.02 * np.max(np.abs(w))
+    just_outside = np.flatnonzero(np.diff(on.astype(int)) != 0)
+    assert just_outside.size >= 2
+    charts.plot_result(system, df, tmp_path)
+    assert "feeder_gto52_cycle" in figures
+
+
+def test_a_system_that_declares_nothing_gets_its_bonds_titled_by_the_fmus(fmu_dir, figures, tmp_path):
+    system = on_fmus("two_inertia", fmu_dir)
+    assert system.chart is None
+    df = run(system, stop_time=0.01, step=1e-3)
+    paths = charts.plot_result(system, df, tmp_path)
+    assert [p.name for p in paths] == ["two_inertia.png", "two_inertia.svg"]   # no crank: no cycle chart
+    titles = [ax.get_title(loc="left") for ax in visible_axes(figures["two_inertia"])]
+    assert titles and all(not t.startswith(("bond", "scene")) and "(" in t and t.endswith("]") for t in titles)
