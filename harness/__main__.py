@@ -1,6 +1,8 @@
-"""``python -m harness <command>``: run, export (SSP), synth, study, scene, sweep.
+"""``python -m harness <command>``: list, show, run, export (SSP), synth, study, scene, sweep.
 
-A failure exits non-zero with a one-line error on stderr and no traceback (``--debug`` shows it)."""
+A failure exits non-zero with a one-line error on stderr and no traceback (``--debug``, anywhere on the line,
+shows it).  SIGTERM (``kill``, ``timeout``) interrupts a command as Ctrl-C does, so what it finished is kept
+and marked; the exit status is then 143 (130 after Ctrl-C)."""
 from __future__ import annotations
 
 import argparse
@@ -12,13 +14,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     prog = "pressdrive" if os.path.basename(sys.argv[0] or "").startswith("pressdrive") else "python -m harness"
     ap = argparse.ArgumentParser(prog=prog, description="Co-simulation of printing-press drives with FMI 2.0: "
-                                 "run, export (SSP), synth, study, scene, sweep. `pressdrive` and "
+                                 "list, show, run, export (SSP), synth, study, scene, sweep. `pressdrive` and "
                                  "`python -m harness` are the same command.")
-    ap.add_argument("--debug", action="store_true", help="show the traceback of a failure")
+    ap.add_argument("--debug", action="store_true",
+                    help="show the traceback of a failure (accepted anywhere on the command line)")
+    ap.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    from harness import run, ssp, synthesis
+    from harness import describe, run, ssp, synthesis
     from harness.studies import precision, scenes, stability, sweep, takeup
 
+    describe.register(sub)        # list, show SYSTEM
     run.register(sub)             # run a system
     ssp.register(sub)             # export a system as SSP
     synthesis.register(sub)       # synth fourbar|groove|sectors|knife
@@ -34,16 +39,30 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+def _version() -> str:
+    """The installed package's version (its metadata), else the source tree's pyproject.toml."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("pressdrive")
+    except metadata.PackageNotFoundError:  # pragma: no cover - run from a tree that was never installed
+        return "(not installed)"
+
+
 class _DefaultsFormatter(argparse.HelpFormatter):
-    """Appends "(default: X)" to an option's help unless the help already states its default."""
+    """Appends "(default: X)" to an option's help unless the help already states its default; a required
+    option says so instead (it has none)."""
 
     def _get_help_string(self, action):
         h = action.help or ""
         if (action.option_strings and "default" not in h.lower() and action.default is not argparse.SUPPRESS
                 and not isinstance(action, (argparse._HelpAction, argparse._StoreTrueAction,
                                             argparse._StoreFalseAction, argparse._VersionAction))):
-            shown = "none" if action.default is None else str(action.default).replace("%", "%%")
-            h += f" (default: {shown})"
+            if action.required:
+                h += " (required, no default)"
+            else:
+                shown = "none" if action.default is None else str(action.default).replace("%", "%%")
+                h += f" (default: {shown})"
         return h
 
 
@@ -71,9 +90,47 @@ def _join_negative_values(argv: list[str]) -> list[str]:
     return out
 
 
+def _sigterm_as_interrupt():
+    """SIGTERM raises :class:`harness.run.Terminated` (a KeyboardInterrupt) in the main thread, so every
+    command keeps its finished work on it as on Ctrl-C; a second SIGTERM while that work is being saved is
+    ignored (SIGKILL still ends the process).  Returns the handler it replaced (None off the main thread)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def on_sigterm(signum, frame):
+        from harness.run import Terminated
+
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        raise Terminated("terminated (SIGTERM)")
+
+    return signal.signal(signal.SIGTERM, on_sigterm)
+
+
+def _debug_anywhere(argv: list[str]) -> tuple[list[str], bool]:
+    """``--debug`` taken from any place before ``--`` (argparse accepts it only before the command)."""
+    end = argv.index("--") if "--" in argv else len(argv)
+    debug = "--debug" in argv[:end]
+    return [a for a in argv[:end] if a != "--debug"] + argv[end:], debug
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = _join_negative_values(sys.argv[1:] if argv is None else list(argv))
-    debug = "--debug" in argv
+    argv, debug = _debug_anywhere(argv)
+    argv = (["--debug"] if debug else []) + argv
+    before = _sigterm_as_interrupt()
+    try:
+        return _main(argv, debug)
+    finally:
+        if before is not None:  # main() called in a process that goes on (a test): its handler back
+            import signal
+
+            signal.signal(signal.SIGTERM, before)
+
+
+def _main(argv: list[str], debug: bool) -> int:
     if not debug:
         import warnings
 
@@ -84,9 +141,11 @@ def main(argv: list[str] | None = None) -> int:
         ap = build_parser()
         args = ap.parse_args(argv)
         return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as e:
+        from harness.run import Terminated
+
+        print("terminated (SIGTERM)" if isinstance(e, Terminated) else "interrupted", file=sys.stderr)
+        return getattr(e, "status", 130)
     except Exception as e:  # one line, no traceback
         if debug:
             raise

@@ -1,4 +1,4 @@
-"""Results: recording as an observer of the stepping loop, one DataFrame type, CSV output.
+"""Results: recording as an observer of the stepping loop, one DataFrame type, CSV (or Parquet) output.
 
 A result is a pandas DataFrame indexed by time (index name ``time``) with columns ``Instance.variable``.
 ``df.attrs`` carries ``complete`` (False if the run stopped early), ``error`` (the one-line reason),
@@ -153,6 +153,80 @@ class Recorder:
         return df
 
 
+def parquet_engine() -> str | None:
+    """The Parquet engine pandas would use here (``"pyarrow"`` or ``"fastparquet"``), None if neither imports:
+    Parquet is offered only where it can be written, no dependency is added for it."""
+    import importlib.util
+
+    for name in ("pyarrow", "fastparquet"):
+        if importlib.util.find_spec(name) is not None:
+            return name
+    return None
+
+
+def result_format(path: str | Path, option: str = "--out") -> str:
+    """``"csv"`` or ``"parquet"`` from ``path``'s suffix; any other suffix, or .parquet without an engine, is a
+    one-line :class:`SystemError_` naming the option, the path and the suffixes this installation writes."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    engine = parquet_engine()
+    allowed = ".csv or .parquet" if engine else ".csv (.parquet needs pyarrow or fastparquet installed)"
+    if suffix == ".csv" or (suffix == ".parquet" and engine):
+        return suffix[1:]
+    if suffix == ".parquet":
+        raise SystemError_(f"{option} {path}: Parquet needs pyarrow or fastparquet, neither is installed; use .csv")
+    raise SystemError_(f"{option} {path}: unknown result format {path.suffix or '(no suffix)'!r}; use {allowed}")
+
+
+def check_writable(path: str | Path, option: str, folder: bool = False) -> Path:
+    """Before a run: ``path`` (a file, or with ``folder`` a folder to write into) can be written.  A missing
+    folder is made (as ``sweep`` does); a folder that cannot be made or written, or a path of the wrong kind,
+    is a one-line :class:`SystemError_` naming the option and the path, so nothing is computed for a result
+    that could not be kept.  Returns the path."""
+    path = Path(path)
+    where = path if folder else path.parent
+    if not folder and path.is_dir():
+        raise SystemError_(f"{option} {path}: is a folder, give a file name")
+    blocking = next((a for a in (where, *where.parents) if a.exists() and not a.is_dir()), None)
+    if blocking is not None:
+        raise SystemError_(f"{option} {path}: {blocking} is a file, not a folder")
+    try:
+        where.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise SystemError_(f"{option} {path}: cannot create folder {where}: {e.strerror or e}") from None
+    probe = where / f".{path.name}.probe"
+    try:
+        probe.write_text("")
+        probe.unlink()
+    except OSError as e:
+        raise SystemError_(f"{option} {path}: folder {where} is not writable: {e.strerror or e}") from None
+    return path
+
+
+def write_result(result: pd.DataFrame, path: str | Path, units: bool = False) -> Path:
+    """Write a result as CSV (:func:`to_csv`) or Parquet, by the suffix (:func:`result_format`).  The file
+    appears whole or not at all (written beside it, then renamed): a run stopped while writing never leaves
+    a cut file under a result's name.  Parquet keeps the index ``time`` and the plain attrs (units, complete,
+    error, master, step ...); ``units`` (a second header row) concerns CSV only."""
+    import os
+
+    path = Path(path)
+    kind = result_format(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.writing")
+    try:
+        if kind == "parquet":
+            plain = result.copy(deep=False)
+            plain.attrs = {k: v for k, v in result.attrs.items() if isinstance(v, (str, int, float, bool, dict))}
+            plain.to_parquet(tmp, engine=parquet_engine())
+        else:
+            to_csv(result, tmp, units=units)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
 def to_csv(result: pd.DataFrame, path: str | Path, units: bool = False) -> Path:
     """Write a result as CSV with a leading ``time`` column.  ``units``: a second header row with each
     column's unit from ``result.attrs["units"]`` (time in s; '' where none is declared), read back by
@@ -186,4 +260,5 @@ def read_csv(path: str | Path) -> pd.DataFrame:
     return pd.read_csv(path, index_col="time")
 
 
-__all__ = ["BondLog", "Recorder", "bond_energy", "to_csv", "read_csv"]
+__all__ = ["BondLog", "Recorder", "bond_energy", "to_csv", "read_csv", "write_result", "result_format",
+           "check_writable", "parquet_engine"]

@@ -1,8 +1,8 @@
 """Running a system: :func:`load`, :func:`simulate` and the CLI command ``python -m harness run``.
 
 ``simulate(system, stop_time=None, step=None, master=None, extrapolation=None, step_control=None,
-tolerance=None, parameters=None, outputs=None, *, on_error="return", options=None)`` returns the result
-DataFrame (see :mod:`harness.results`).  Arguments left at None come from the system's default experiment
+tolerance=None, start_values=None, output=None, *, start_time=0.0, on_error="return", options=None)`` returns
+the result DataFrame (see :mod:`harness.results`).  Arguments left at None come from the system's default experiment
 (then: master ``jacobi``, extrapolation 0, fixed step).  Further options live in :class:`RunOptions`
 (iteration of the ``iterative`` master, step-control limits, blow-up limit, progress bar, FMU logging).
 
@@ -32,7 +32,7 @@ from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import Instance, open_instance
 from harness.masters import NS, ConvergenceError, IterationOptions, master_class
 from harness.model import System, model_description, resolve_fmu
-from harness.results import Recorder, to_csv
+from harness.results import Recorder
 from harness.stepcontrol import StepOptions, step_control as make_step_control
 
 
@@ -41,12 +41,22 @@ class RunWarning(UserWarning):
 
 
 class RunInterrupted(KeyboardInterrupt):
-    """Ctrl-C (SIGINT) during a run: ``partial`` is the result up to the last finished communication point,
-    marked ``attrs["complete"] = False``, ``attrs["interrupted"] = True``."""
+    """Ctrl-C (SIGINT) or, under the command line, SIGTERM during a run: ``partial`` is the result up to the
+    last finished communication point, marked ``attrs["complete"] = False``, ``attrs["interrupted"] = True``;
+    ``status`` is the exit status a shell expects after that signal (130 or 143)."""
 
-    def __init__(self, message: str, partial=None):
+    def __init__(self, message: str, partial=None, status: int = 130):
         super().__init__(message)
         self.partial = partial
+        self.status = status
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (``kill``, ``timeout``) turned into an interrupt by the command line (``python -m harness``
+    installs the handler), so a run or study keeps its finished work on it exactly as on Ctrl-C."""
+
+    status = 143
+    signal = "SIGTERM"
 
 
 @dataclass
@@ -71,7 +81,10 @@ class RunOptions:
 
 
 def load(x) -> System:
-    """A :class:`System` from a module name in ``systems/`` (its ``SYSTEM``), an .ssp/.ssd file, or itself."""
+    """A :class:`System` from a module name in ``systems/`` (its ``SYSTEM``; ``"bed_drive"``, also written
+    ``"bed_drive.py"`` or ``"systems/bed_drive.py"``), the path of any Python file that defines ``SYSTEM``, an
+    .ssp/.ssd file, or itself.  Anything else is a :class:`~harness.errors.SystemError_` in one line naming
+    what was given and the known systems (with the closest name when it looks misspelt)."""
     if isinstance(x, System):
         return x
     s = str(x)
@@ -79,17 +92,59 @@ def load(x) -> System:
         from harness.ssp import load_ssp
 
         return load_ssp(s)
+    if s.lower().endswith(".py"):
+        return _load_file(Path(s))
     name = s[len("systems."):] if s.startswith("systems.") else s
+    if not name.isidentifier():  # a file of another kind, a folder, a path: no module name at all
+        raise SystemError_(f"system {s!r} is neither a system name nor a .py, .ssp or .ssd file; "
+                           f"{_known_systems()}")
     try:
         module = importlib.import_module(f"systems.{name}")
     except ModuleNotFoundError as e:
         if e.name in (f"systems.{name}", "systems"):
-            raise SystemError_(f"unknown system {s!r}: no module systems/{name}.py and not an .ssp/.ssd file") from None
+            raise SystemError_(f"unknown system {s!r}{_close_match(name)}; {_known_systems()}") from None
         raise
+    return _system_of(module, f"systems/{name}.py")
+
+
+def _load_file(path: Path) -> System:
+    """The ``SYSTEM`` of a Python file: a shipped one by its module (``systems/x.py`` or just ``x.py``, so it
+    is the same object as ``load("x")``), any other by its path."""
+    import importlib.util
+
+    shipped = Path(importlib.import_module("systems").__path__[0]).resolve()
+    if path.is_file() and path.resolve().parent != shipped:
+        module_name = f"_pressdrive_system_{path.stem}"
+        spec = importlib.util.spec_from_file_location(module_name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[module_name] = module  # dataclasses defined in the file look their module up here
+        try:
+            spec.loader.exec_module(module)
+        except Exception:
+            sys.modules.pop(module_name, None)
+            raise
+        return _system_of(module, str(path))
+    if path.stem in system_names() and (path.is_file() or len(path.parts) == 1 or path.parent.name == "systems"):
+        return load(path.stem)
+    raise SystemError_(f"system file {str(path)!r} does not exist{_close_match(path.stem)}; {_known_systems()}")
+
+
+def _system_of(module, where: str) -> System:
     system = getattr(module, "SYSTEM", None)
     if not isinstance(system, System):
-        raise SystemError_(f"system module systems/{name}.py defines no SYSTEM = System(...)")
+        raise SystemError_(f"system module {where} defines no SYSTEM = System(...)")
     return system
+
+
+def _known_systems() -> str:
+    return "known systems: " + ", ".join(system_names()) + " (or a .py file defining SYSTEM, or .ssp/.ssd)"
+
+
+def _close_match(name: str) -> str:
+    import difflib
+
+    close = difflib.get_close_matches(name, system_names(), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def system_names() -> list[str]:
@@ -133,27 +188,56 @@ def split_parameters(system: System, parameters: dict | None) -> dict[str, dict]
     return out
 
 
+# FMPy's names (fmpy.simulate_fmu) and the older names of this function, each mapped to its one spelling here
+_DEPRECATED = {"parameters": "start_values", "outputs": "output"}    # still accepted, with a DeprecationWarning
+_OTHER_NAMES = {"step_size": "step", "output_interval": "step", "start": "start_time", "stop": "stop_time"}
+
+
+def _renamed(given: dict) -> dict:
+    """The keyword arguments of :func:`simulate` given under an old name, under their current one (with a
+    DeprecationWarning); a name from another tool is a TypeError naming the spelling used here."""
+    out = {}
+    for name, value in given.items():
+        if name in _DEPRECATED:
+            warnings.warn(f"simulate(): {name}= is now {_DEPRECATED[name]}= (the name fmpy.simulate_fmu uses)",
+                          DeprecationWarning, stacklevel=3)
+            out[_DEPRECATED[name]] = value
+        elif name in _OTHER_NAMES:
+            raise TypeError(f"simulate() has no argument {name!r}: write {_OTHER_NAMES[name]}= "
+                            f"(one name per concept: start_time, stop_time, step, start_values, output)")
+        else:
+            raise TypeError(f"simulate() got an unexpected keyword argument {name!r}")
+    return out
+
+
 def simulate(system, stop_time: float | None = None, step: float | None = None, master: str | None = None,
              extrapolation=None, step_control: str | None = None, tolerance: float | None = None,
-             parameters: dict | None = None, outputs: list[str] | None = None, *, on_error: str = "return",
-             options: RunOptions | None = None) -> pd.DataFrame:
+             start_values: dict | None = None, output: list[str] | None = None, *, start_time: float = 0.0,
+             on_error: str = "return", options: RunOptions | None = None, **renamed) -> pd.DataFrame:
     """Co-simulate ``system`` and return its result: a DataFrame indexed by time [s], one column per
     ``Instance.variable`` (in the FMU's declared unit, ``df.attrs["units"]``).
 
+    The names are FMPy's (``fmpy.simulate_fmu``) where it has one: ``start_time``, ``stop_time``,
+    ``start_values``, ``output``; the communication step is ``step`` (FMPy: ``step_size``), as in the command
+    line's ``--step``.  The older ``parameters=`` and ``outputs=`` still work, with a DeprecationWarning.
+
     Arguments (None: the system's default experiment, then the fallback named):
 
-    * ``system``: a module name in ``systems/`` (``"bed_drive"``), an .ssp/.ssd file, or a :class:`System`.
+    * ``system``: a module name in ``systems/`` (``"bed_drive"``), a .py file defining ``SYSTEM``, an
+      .ssp/.ssd file, or a :class:`System`.
+    * ``start_time`` [s]: start of the run (default 0; finite, before ``stop_time``).
     * ``stop_time`` [s]: end of the run (positive).  ``step`` [s]: communication step (positive, >= 1 ns, at
-      most ``stop_time``; the first step of a variable-step run).
+      most ``stop_time - start_time``; the first step of a variable-step run).
     * ``master``: ``"jacobi"`` (fallback), ``"jacobi-sampled"``, ``"gauss-seidel"`` or ``"iterative"``.
     * ``extrapolation``: order of the held inputs, 0 (hold, fallback), 1 or 2 (polynomial at the step midpoint).
     * ``step_control``: None/``"none"`` (fixed step, fallback), ``"richardson"`` or ``"ecco"``.
     * ``tolerance`` [-]: relative tolerance of step control and of the iterative master (positive; fallback
       none, the iteration then uses 1e-10).
-    * ``parameters``: ``{"Instance.parameter": value}`` in the parameter's declared unit, over the system's
-      values (default: none).  A value the FMU refuses returns an empty result, ``attrs["bad_input"]`` True,
-      with a one-line error naming the instance, parameter, value, unit and admissible range.
-    * ``outputs``: ``["Instance.variable", ...]`` to record (default: every Real output).
+    * ``start_values``: ``{"Instance.parameter": value}`` in the parameter's declared unit, over the system's
+      values (default: none; the command line's ``--set``).  A value the FMU refuses returns an empty result,
+      ``attrs["bad_input"]`` True, with a one-line error naming the instance, parameter, value, unit and
+      admissible range.
+    * ``output``: ``["Instance.variable", ...]`` to record (default: every Real output; ``--output``).
     * ``on_error``: ``"return"`` (default): a run that stops early (divergence, FMU failure, non-finite
       output) returns what it computed with ``attrs["complete"] = False`` and a one-line ``attrs["error"]``
       (``attrs["diverged"]`` if the divergence detector stopped it) and warns :class:`RunWarning`; a run
@@ -166,6 +250,10 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     Ctrl-C raises :class:`RunInterrupted` (a KeyboardInterrupt) whose ``partial`` is the result so far,
     marked ``attrs["complete"] = False``, ``attrs["interrupted"] = True``.  Errors in the description or the
     arguments raise :class:`~harness.errors.SystemError_` before the run."""
+    if renamed:
+        moved = _renamed(renamed)
+        start_values = moved.get("start_values", start_values)
+        output = moved.get("output", output)
     system = load(system)
     opts = options or RunOptions()
     if on_error not in ("return", "raise"):
@@ -186,14 +274,20 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     stop_time, step = _positive("stop_time", stop_time), _positive("step", step)
     if tolerance is not None:
         _positive("tolerance", tolerance, unit="")
-    stop_ns, step_ns = int(round(stop_time * NS)), int(round(step * NS))
+    if (isinstance(start_time, bool) or not isinstance(start_time, (int, float)) or not math.isfinite(start_time)
+            or not 0.0 <= start_time < stop_time):
+        raise SystemError_(f"start_time = {start_time!r} is not admissible: must be a finite number in "
+                           f"[0, stop_time = {stop_time!r}) [s]")
+    start_ns, stop_ns, step_ns = int(round(start_time * NS)), int(round(stop_time * NS)), int(round(step * NS))
     if step_ns < 1:
         raise SystemError_(f"step = {step!r} is not admissible: master time has a resolution of 1 ns")
-    if step_ns > stop_ns:
-        raise SystemError_(f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
+    if step_ns > stop_ns - start_ns:
+        raise SystemError_(f"step = {step!r} s is longer than the run from start_time = {start_time!r} s to "
+                           f"stop_time = {stop_time!r} s" if start_ns else
+                           f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
     cls = master_class(master)
     extra = make_extrapolation(extrapolation)
-    params = split_parameters(system, parameters)
+    params = split_parameters(system, start_values)
 
     paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
     mds = {name: model_description(p) for name, p in paths.items()}
@@ -207,17 +301,18 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
             fmus[inst.name] = open_instance(paths[inst.name], inst.name, opts.logging, opts.in_process)
         m = cls(fmus, connections, system.bonds, extra, opts.iteration, tolerance, opts.blowup)
         controller = make_step_control(step_control, m, step_ns, tolerance, opts.steps)
-        if not controller.variable and stop_ns % step_ns:
+        if not controller.variable and (stop_ns - start_ns) % step_ns:
             for name, f in fmus.items():
                 if not f.can_vary_step:
                     raise SystemError_(f"stop_time = {stop_time!r} s is not a multiple of step = {step!r} s and "
                                        f"instance {name} cannot take a shorter last step")
-        n_rows = -(-stop_ns // step_ns) + 1 if not controller.variable else 1024
-        rec = Recorder(m, outputs, n_rows)
+        n_rows = -(-(stop_ns - start_ns) // step_ns) + 1 if not controller.variable else 1024
+        rec = Recorder(m, output, n_rows)
         info = dict(system=system.name, master=cls.name, extrapolation=extra.order,
-                    step_control=controller.name, step=step, stop_time=stop_time,
+                    step_control=controller.name, step=step, start_time=start_time, stop_time=stop_time,
+                    tolerance=tolerance,
                     units=column_units(fmus, rec.columns))
-        return _run(m, controller, rec, params, stop_ns, step_ns, tolerance, on_error, opts, info)
+        return _run(m, controller, rec, params, (start_ns, stop_ns, step_ns), tolerance, on_error, opts, info)
     finally:
         if m is not None:
             m.terminate()
@@ -254,11 +349,13 @@ def _progress(total_ns: int, enabled: bool | None):
                 bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
 
 
-def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_error, opts, info):
+def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info):
+    """The stepping loop over ``span`` = (start, stop, step) [ns]; the result, marked as it ended."""
     wall = _time.perf_counter()
+    start_ns, stop_ns, step_ns = span
     steps = 0
-    t_ns = 0
-    bar = _progress(stop_ns, opts.progress)
+    t_ns = start_ns
+    bar = _progress(stop_ns - start_ns, opts.progress)
     error = ""
     err_obj: Exception | None = None
     interrupted = False
@@ -266,10 +363,12 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
     suspect = ""
     detector = _detector(m, opts.divergence) if opts.divergence is not None and m.bond_labels else None
     try:
-        m.initialize(0, stop_ns, tolerance, params)
-        rec.record(0.0)
+        m.initialize(start_ns, stop_ns, tolerance, params)
+        rec.record(start_ns / NS)
+        if detector is not None:
+            detector.times[0] = start_ns / NS  # its first block boundary: the start of the run
         h_ns = step_ns
-        shown = 0
+        shown = start_ns
         while t_ns < stop_ns:
             t_prev = t_ns
             t_ns, h_ns = controller.advance(m, t_ns, h_ns, stop_ns)
@@ -291,9 +390,10 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
             error = f"system {info['system']}: " + (log if log.startswith(f"{e.instance} ") else
                                                     f"instance {e.instance}: {log}")
             bad_input = True
-    except KeyboardInterrupt:
-        interrupted = True
-        error = f"interrupted (Ctrl-C) at t = {rec.time[rec.rows - 1] if rec.rows else 0.0:.9g} s"
+    except KeyboardInterrupt as e:
+        interrupted = getattr(e, "status", 130)
+        how = f"terminated ({e.signal})" if isinstance(e, Terminated) else "interrupted (Ctrl-C)"
+        error = f"{how} at t = {rec.time[rec.rows - 1] if rec.rows else 0.0:.9g} s"
     finally:
         if bar is not None:
             bar.close()
@@ -301,11 +401,11 @@ def _run(m, controller, rec: Recorder, params, stop_ns, step_ns, tolerance, on_e
                 rejected=controller.rejected, max_error_estimate=controller.max_accepted_error)
     df = rec.frame(complete=not error, error=error, **info)
     df.attrs["diverged"] = isinstance(err_obj, Diverged)
-    df.attrs["interrupted"] = interrupted
+    df.attrs["interrupted"] = bool(interrupted)
     df.attrs["bad_input"] = bad_input
     df.attrs["suspect"] = suspect
     if interrupted:
-        raise RunInterrupted(error, partial=df)
+        raise RunInterrupted(error, partial=df, status=interrupted)
     if error:
         if on_error == "raise":
             raise SimulationError(error, partial=df, time=getattr(err_obj, "time", None),
@@ -366,14 +466,17 @@ def register(subparsers) -> None:
                    help="set a parameter in its declared unit (repeatable; default: the system's values)")
     p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
                    help="record only these variables (repeatable; default: every output)")
-    p.add_argument("--out", type=Path, default=None, metavar="FILE.csv",
-                   help="write the result as CSV to this file (default: not written)")
+    p.add_argument("--out", type=Path, default=None, metavar="FILE",
+                   help="write the result to this file: .csv, or .parquet when pyarrow or fastparquet is "
+                        "installed; its folder is made if missing, and checked before the run "
+                        "(default: not written)")
     p.add_argument("--units", action="store_true",
                    help="write a second header row with each column's unit (read it with "
                         "pandas.read_csv(FILE, header=[0, 1], index_col=0)); default: names only")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
                    help="write a chart of the run (bond speeds and torques, scene quantities) as "
-                        "DIR/<system>.png/.svg (default: no chart)")
+                        "DIR/<system>.png/.svg, DIR/<system>.partial.png/.svg for a run that stopped early "
+                        "(default: no chart)")
     p.add_argument("--fmi-only", action="store_true",
                    help="call every FMU through its FMI library (default: pythonfmu FMUs, the toolkit's and "
                         "others', are called in this process: the same results bit for bit, faster)")
@@ -386,18 +489,62 @@ def partial_path(path: Path) -> Path:
     return path.with_name(f"{path.stem}.partial{path.suffix or '.csv'}")
 
 
+def _check_targets(args) -> None:
+    """Every file the run will write, checked before it starts (format, folder made, writable): a run is
+    never computed for a result that could not be kept."""
+    from harness.results import check_writable, result_format
+
+    if args.out is not None:
+        result_format(args.out)
+        check_writable(args.out, "--out")
+    if args.plot is not None:
+        check_writable(args.plot, "--plot", folder=True)
+
+
+def _plot(system, df, folder: Path) -> Path:
+    """The run's chart in ``folder``; an incomplete run's under ``<system>.partial.png/.svg``, so it never
+    replaces the chart of a complete run (drawn beside it, then renamed)."""
+    import os
+    import tempfile
+
+    from harness.charts import plot_result
+
+    if df.attrs.get("complete", True):
+        return plot_result(system, df, folder)[0]
+    with tempfile.TemporaryDirectory(dir=folder, prefix=".partial-chart-") as tmp:
+        paths = []
+        for drawn in plot_result(system, df, tmp):
+            paths.append(Path(folder) / f"{drawn.stem}.partial{drawn.suffix}")
+            os.replace(drawn, paths[-1])
+    return paths[0]
+
+
+def _divergence_hint(a: dict) -> str:
+    """What to change after a diverged run, from the run itself: a smaller step (or tolerance, under step
+    control) and, where the masters offer one, the next more strongly coupled master."""
+    if a.get("step_control") not in (None, "none") and a.get("tolerance") is not None:
+        first = f"lower the tolerance (now {a['tolerance']:g})"
+    else:
+        first = f"reduce the step (now {a['step']:g} s)"
+    better = {"jacobi": "gauss-seidel", "jacobi-sampled": "gauss-seidel", "gauss-seidel": "iterative"}
+    nxt = better.get(a.get("master"))
+    return first + (f" or use --master {nxt}" if nxt else "")
+
+
 def run_cli(args) -> int:
-    interrupted = False
+    _check_targets(args)
+    system = load(args.system)
+    status = 0
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RunWarning)  # the CLI reports a stop itself, in one line
-            df = simulate(args.system, stop_time=args.stop_time, step=args.step, master=args.master,
+            df = simulate(system, stop_time=args.stop_time, step=args.step, master=args.master,
                           extrapolation=args.extrapolation, step_control=args.step_control,
-                          tolerance=args.tolerance, parameters=parse_sets(args.set), outputs=args.output,
+                          tolerance=args.tolerance, start_values=parse_sets(args.set), output=args.output,
                           options=RunOptions(progress=None, in_process=False if args.fmi_only else None),
                           on_error="return")
     except RunInterrupted as e:
-        df, interrupted = e.partial, True
+        df, status = e.partial, e.status
     a = df.attrs
     if a.get("bad_input"):  # a refused parameter: nothing was computed, nothing is written
         print(f"error: {a['error']}", file=sys.stderr)
@@ -406,16 +553,17 @@ def run_cli(args) -> int:
     if out is not None and not a["complete"]:
         out = partial_path(out)
     if out is not None:
-        to_csv(df, out, units=getattr(args, "units", False))
+        from harness.results import write_result
+
+        write_result(df, out, units=getattr(args, "units", False))
     where = f"wrote {out}" if out is not None else "no --out given, result not written"
     if args.plot is not None and len(df):
-        from harness.charts import plot_result
-
-        where += "; chart " + str(plot_result(load(args.system), df, args.plot)[0])
+        where += f"; chart {_plot(system, df, args.plot)}"
     if not a["complete"]:
+        hint = f"; {_divergence_hint(a)}" if a.get("diverged") else ""
         print(f"error: {a['error']}; {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s kept, "
-              f"{'INCOMPLETE result ' + where if out is not None else where}", file=sys.stderr)
-        return 130 if interrupted else 1
+              f"{'INCOMPLETE result ' + where if out is not None else where}{hint}", file=sys.stderr)
+        return status or 1
     if a.get("suspect"):
         print(f"warning: {a['suspect']}", file=sys.stderr)
     print(f"{a['system']}: {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s, master {a['master']}, "
@@ -423,4 +571,4 @@ def run_cli(args) -> int:
     return 0
 
 
-__all__ = ["load", "simulate", "RunOptions", "RunWarning", "RunInterrupted", "column_units", "partial_path", "register", "run_cli", "parse_sets", "HarnessError"]
+__all__ = ["load", "simulate", "RunOptions", "RunWarning", "RunInterrupted", "Terminated", "column_units", "partial_path", "register", "run_cli", "parse_sets", "HarnessError"]
