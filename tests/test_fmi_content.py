@@ -3,7 +3,14 @@
 * FMI 1.0 String values (tests/fmi1_string/identity.c, an FMI 1.0 co-simulation FMU written for this test,
   compiled with the system C compiler): a String passes through a chain of two connections unchanged (it
   used to arrive as "b'hello'", then as "b\"b'hello'\"").
-* A component the SSD declares implementation="ModelExchange" is not run as co-simulation.
+* FMI 3.0 co-simulation (harness/fmi/fmu3.py): the Modelica Reference-FMUs 3.0, built from the pinned sources
+  in tests/reference_fmus with cmake (-DFMI_VERSION=3), each alone under every master agrees with
+  fmpy.simulate_fmu (the same FMU, fmpy's own FMI 3.0 calls) exactly, and a system of them with Float64,
+  Float32, Int32 and Boolean connections gives under every master exactly what the same system of their FMI 2.0
+  builds gives (same C models, other FMI version).  Clocks and arrays are refused in one line naming them.
+* pythonfmu3 (tests/pythonfmu3/pythonslave.py, pythonfmu3's own test slave): an Fmi3Slave FMU runs through
+  its FMI 3.0 library under every master and agrees with fmpy; it used to be taken for a pythonfmu (FMI 2.0)
+  FMU by the in-process path.
 """
 from __future__ import annotations
 
@@ -13,12 +20,17 @@ import warnings
 import zipfile
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
 import pytest
 
 from harness import simulate
+from harness.errors import FMUError
 from harness.model import Connection, Experiment, Instance, System
 
 HERE = Path(__file__).resolve().parent
+MASTERS = ("jacobi", "jacobi-sampled", "gauss-seidel", "iterative")
+REFERENCE = ("BouncingBall", "Dahlquist", "Feedthrough", "Resource", "Stair", "VanDerPol")
 
 
 def _cc() -> str:
@@ -62,3 +74,170 @@ def test_fmi1_string_passes_a_chain_of_two_connections_unchanged(identity1, mast
     assert list(df["a.y"]) == ["hello"] * 4
     assert list(df["c.y"])[-1] == "hello"
     assert set(df["b.y"]) <= {"", "hello"} and set(df["c.y"]) <= {"", "hello"}
+
+
+# ------------------------------------------------------------------------------------------------ FMI 3.0
+def _build_reference_fmus(out: Path, version: int) -> dict[str, Path]:
+    """The Reference-FMUs of tests/reference_fmus built for FMI ``version`` into ``out`` (or skip)."""
+    if shutil.which("cmake") is None:
+        pytest.skip("cmake is not installed: cannot build the Reference-FMUs")
+    _cc()
+    # gcc 12+ flags a strncpy in Resource/model.c (FMI 3.0 only) under the sources' own -Werror
+    for cmd in (["cmake", str(HERE / "reference_fmus"), f"-DFMI_VERSION={version}", "-DCMAKE_BUILD_TYPE=Release",
+                 "-DCMAKE_C_FLAGS=-Wno-error=stringop-truncation"], ["cmake", "--build", ".", "-j", "2"]):
+        r = subprocess.run(cmd, cwd=out, capture_output=True, text=True)
+        if r.returncode != 0:
+            pytest.skip(f"building the Reference-FMUs failed ({' '.join(cmd[:2])}): {r.stderr.strip()[-300:]}")
+    return {p.stem: p for p in (out / "fmus").glob("*.fmu")}
+
+
+@pytest.fixture(scope="session")
+def reference3(tmp_path_factory) -> dict[str, Path]:
+    return _build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_3"), 3)
+
+
+@pytest.fixture(scope="session")
+def reference2(tmp_path_factory) -> dict[str, Path]:
+    return _build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_2"), 2)
+
+
+def assert_agrees(df: pd.DataFrame, ref: pd.DataFrame, prefix: str, rtol: float, what: str) -> int:
+    """Every column of fmpy's result ``ref`` equals ours (``prefix`` + name) to ``rtol`` of its magnitude."""
+    assert len(df) == len(ref), what
+    np.testing.assert_allclose(df.index.to_numpy(), ref.index.to_numpy(), rtol=1e-12, atol=1e-12)
+    for col in ref.columns:
+        ours = df[f"{prefix}{col}"]
+        if ours.dtype == object:
+            assert list(ours) == [v.decode() if isinstance(v, bytes) else v for v in ref[col]], f"{what}: {col}"
+            continue
+        a, b = ours.to_numpy(dtype=float), ref[col].to_numpy(dtype=float)
+        err = np.abs(a - b).max() / max(np.abs(b).max(), 1.0)
+        assert err <= rtol, f"{what}: {col} differs by {err:.3g}"
+    return len(ref.columns)
+
+
+@pytest.mark.parametrize("master", MASTERS)
+@pytest.mark.parametrize("model", REFERENCE)
+def test_reference_fmu_3_alone_matches_fmpy(reference3, model, master):
+    from fmpy import simulate_fmu
+
+    fmu = reference3[model]
+    stop, step = 3.0, 0.01
+    df = quiet(System(model, [Instance("m", str(fmu))], experiment=Experiment(stop_time=stop, step=step)),
+               master=master, on_error="raise")
+    assert df.attrs["complete"]
+    ref = pd.DataFrame(simulate_fmu(str(fmu), stop_time=stop, step_size=step, output_interval=step,
+                                    fmi_type="CoSimulation")).set_index("time")
+    assert assert_agrees(df, ref, "m.", 1e-12, f"{model} under {master}") >= 1
+
+
+def reference_system(fmus: dict) -> System:
+    """Stair -> Feedthrough (Int32), VanDerPol -> Feedthrough (Float64, Float32), Feedthrough -> Feedthrough
+    (Int32, Boolean, Float64), BouncingBall -> Feedthrough (Float64)."""
+    return System("reference", [Instance("bb", str(fmus["BouncingBall"])), Instance("dq", str(fmus["Dahlquist"])),
+                                Instance("stair", str(fmus["Stair"])), Instance("ft", str(fmus["Feedthrough"])),
+                                Instance("ft2", str(fmus["Feedthrough"])), Instance("res", str(fmus["Resource"])),
+                                Instance("vdp", str(fmus["VanDerPol"]), {"mu": 1.5})],
+                  [Connection("stair.counter", "ft.Int32_input"),
+                   Connection("vdp.x0", "ft.Float64_continuous_input"),
+                   Connection("ft.Int32_output", "ft2.Int32_input"),
+                   Connection("ft.Boolean_output", "ft2.Boolean_input"),
+                   Connection("ft.Float64_continuous_output", "ft2.Float64_discrete_input"),
+                   Connection("bb.h", "ft2.Float64_continuous_input")],
+                  experiment=Experiment(stop_time=3.0, step=0.01))
+
+
+@pytest.mark.parametrize("master", MASTERS)
+def test_reference_system_3_equals_the_same_system_of_fmi2_builds(reference3, reference2, master):
+    df3 = quiet(reference_system(reference3), master=master, on_error="raise")
+    df2 = quiet(reference_system(reference2), master=master, on_error="raise")
+    assert df3.attrs["complete"] and df2.attrs["complete"] and len(df3) == 301
+    common = [c for c in df2.columns if c in df3.columns]
+    assert len(common) >= 12
+    for c in common:
+        assert (df3[c].to_numpy() == df2[c].to_numpy()).all(), f"{master}: {c}"
+    assert df3["stair.counter"].iloc[-1] > df3["stair.counter"].iloc[0]
+
+
+def test_float32_connection_of_fmi3(reference3):
+    fmus = reference3
+    system = System("f32", [Instance("vdp", str(fmus["VanDerPol"])), Instance("ft", str(fmus["Feedthrough"])),
+                            Instance("ft2", str(fmus["Feedthrough"]))],
+                    [Connection("vdp.x0", "ft.Float32_continuous_input"),
+                     Connection("ft.Float32_continuous_output", "ft2.Float32_continuous_input")],
+                    experiment=Experiment(stop_time=0.5, step=0.01))
+    df = quiet(system, master="gauss-seidel", on_error="raise")
+    x0 = df["vdp.x0"].to_numpy()
+    # Feedthrough copies its Float32 input to its output: x0 rounded to single precision (gauss-seidel: same point)
+    np.testing.assert_array_equal(df["ft2.Float32_continuous_output"].to_numpy(), x0.astype(np.float32).astype(float))
+
+
+@pytest.mark.parametrize("model,message", [
+    ("Clocks", "Clocks.fmu is not a co-simulation FMU (FMI 3.0, scheduled execution only)"),
+    ("StateSpace", "StateSpace.fmu: array inputs/outputs u (3,), y (3,): FMI 3.0 arrays are not supported"),
+])
+def test_fmi3_clocks_and_arrays_are_refused_in_one_line(reference3, model, message):
+    with pytest.raises(FMUError) as info:
+        quiet(System(model, [Instance("m", str(reference3[model]))], experiment=Experiment(stop_time=0.1, step=0.01)),
+              on_error="raise")
+    assert message in str(info.value) and "\n" not in str(info.value)
+
+
+def test_fmi3_clock_variables_in_a_co_simulation_fmu_are_refused(reference3, tmp_path):
+    """A co-simulation FMU that declares a Clock (made from Stair by adding one to its description)."""
+    src = reference3["Stair"]
+    fmu = tmp_path / "StairClock.fmu"
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(fmu, "w") as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                text = data.decode()
+                assert text.count("</ModelVariables>") == 1
+                data = text.replace("</ModelVariables>", '<Clock name="tick" valueReference="99" '
+                                    'causality="input" intervalVariability="triggered"/></ModelVariables>').encode()
+            zout.writestr(item, data)
+    with pytest.raises(FMUError, match="declares Clock variables \\(tick\\): FMI 3.0 clocks are not supported"):
+        quiet(System("c", [Instance("m", str(fmu))], experiment=Experiment(stop_time=0.1, step=0.01)),
+              on_error="raise")
+
+
+# ------------------------------------------------------------------------------------------------ pythonfmu3
+@pytest.fixture(scope="session")
+def pythonslave3(tmp_path_factory) -> Path:
+    pytest.importorskip("pythonfmu3")
+    import sys
+
+    out = tmp_path_factory.mktemp("pythonfmu3")
+    r = subprocess.run([sys.executable, "-m", "pythonfmu3", "build", "-f", str(HERE / "pythonfmu3" / "pythonslave.py"),
+                        "-d", str(out)], capture_output=True, text=True)
+    fmu = out / "PythonSlave.fmu"
+    if r.returncode != 0 or not fmu.is_file():
+        pytest.skip(f"pythonfmu3 build failed: {r.stderr.strip()[-300:]}")
+    return fmu
+
+
+def test_pythonfmu3_fmu_is_opened_as_fmi3_not_as_pythonfmu(pythonslave3):
+    from harness.fmi import FMU3, open_instance
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")   # no "runs through its FMI library" fallback warning either
+        inst = open_instance(pythonslave3, "p")
+    try:
+        assert type(inst) is FMU3
+    finally:
+        inst.free()
+
+
+@pytest.mark.parametrize("master", MASTERS)
+def test_pythonfmu3_fmu_under_every_master_matches_fmpy(pythonslave3, master):
+    from fmpy import simulate_fmu
+
+    stop, step = 1.0, 0.1
+    system = System("p", [Instance("a", str(pythonslave3)), Instance("b", str(pythonslave3), {"intParam": 7})],
+                    [Connection("a.realOut", "b.realIn")], experiment=Experiment(stop_time=stop, step=step))
+    df = quiet(system, master=master, on_error="raise")
+    assert df.attrs["complete"]
+    ref = pd.DataFrame(simulate_fmu(str(pythonslave3), stop_time=stop, step_size=step, output_interval=step)
+                       ).set_index("time")
+    assert assert_agrees(df, ref, "a.", 1e-12, master) == 2
+    assert df["a.realOut"].iloc[-1] == pytest.approx(stop)

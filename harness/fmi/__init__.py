@@ -9,8 +9,9 @@ from harness.errors import FMUError
 from harness.fmi import inprocess
 from harness.fmi.fmu import FMU, Instance, extracted
 from harness.fmi.fmu1 import FMU1
+from harness.fmi.fmu3 import FMU3
 
-__all__ = ["FMU", "FMU1", "Instance", "open_instance", "extracted", "IN_PROCESS_CHOICES", "InProcessFallback"]
+__all__ = ["FMU", "FMU1", "FMU3", "Instance", "open_instance", "extracted", "IN_PROCESS_CHOICES", "InProcessFallback"]
 
 IN_PROCESS_CHOICES = (None, True, False)
 
@@ -28,13 +29,16 @@ def open_instance(path: str | Path, name: str, logging_on: bool = True, in_proce
     shared library with one :class:`InProcessFallback` warning saying why; every other FMU runs through its
     shared library.  True: every pythonfmu FMU in-process, an import failure is an error.  False: every FMU
     through FMI (the CLI's ``--fmi-only``).  FMI 1.0 co-simulation FMUs run through
-    :class:`harness.fmi.fmu1.FMU1`."""
+    :class:`harness.fmi.fmu1.FMU1`, FMI 3.0 ones (pythonfmu3's too: their slave is an Fmi3Slave, which the
+    in-process path does not call) through :class:`harness.fmi.fmu3.FMU3`."""
     if in_process not in IN_PROCESS_CHOICES:
         raise FMUError(name, "instantiate", None, None,
                        detail=f"in_process = {in_process!r} is not admissible: must be None, True or False")
     md, unzip_dir = extracted(path)
     if md.fmiVersion == "1.0":
         return FMU1(path, name, logging_on)
+    if str(md.fmiVersion).startswith("3"):
+        return FMU3(path, name, logging_on)
     if in_process is not False:
         if inprocess.is_pythonfmu(unzip_dir):
             if in_process or inprocess.is_toolkit_fmu(unzip_dir):

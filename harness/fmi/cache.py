@@ -2,6 +2,11 @@
 
 * :func:`model_description`: fmpy's model description of an FMU file, read once per process and modification
   time; every layer (system validation, the FMI wrapper, the studies, the peer runners) asks here.
+* FMI 3.0 descriptions are given in FMI 2.0's words (:func:`_as_fmi2_types`): Float64/Float32 variables are
+  ``Real``, the eight integer types ``Integer``; Boolean, String and Enumeration keep their names (an array of more than one element is typed
+  e.g. ``Float64[3x3]``, which nothing takes for a scalar), so system
+  validation, coupling and results treat both versions alike.  :func:`native_types` keeps each variable's
+  FMI 3.0 type, which the FMI 3.0 wrapper (:mod:`harness.fmi.fmu3`) calls by.
 * :func:`unzipped`: a zip archive (an FMU or an SSP) extracted once into a content-keyed folder under
   :func:`cache_dir`, shared by processes.  Extracted folders are NOT deleted at exit: the FMUs' shared
   libraries (and, for pythonfmu FMUs, the Python modules they loaded) stay in use until the interpreter is
@@ -21,6 +26,9 @@ from pathlib import Path
 from harness.errors import SystemError_
 
 _DESCRIPTIONS: dict[tuple[str, float], object] = {}
+_NATIVE_TYPES: dict[int, dict[str, str]] = {}   # id(model description) -> variable name -> FMI 3.0 type
+_FMI3_AS_FMI2 = {"Float64": "Real", "Float32": "Real", **{t: "Integer" for t in (
+    "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")}}
 _UNZIPPED: dict[tuple[str, float, str], Path] = {}
 
 
@@ -47,7 +55,29 @@ def model_description(path: str | Path):
                 f"{p.name}: modelDescription.xml is not valid ({'; '.join(' '.join(x.split()) for x in problems)}); "
                 f"loaded anyway"), stacklevel=2)
             _DESCRIPTIONS[key] = md
+        _as_fmi2_types(_DESCRIPTIONS[key])
     return _DESCRIPTIONS[key]
+
+
+def _as_fmi2_types(md) -> None:
+    """Rename an FMI 3.0 description's variable types to FMI 2.0's (module docstring); keep the originals."""
+    if not str(md.fmiVersion).startswith("3"):
+        return
+    native = {}
+    for v in md.modelVariables:
+        native[v.name] = v.type
+        shape = tuple(int(n) for n in (getattr(v, "shape", None) or ()))
+        if shape and shape != (1,) * len(shape):  # an array keeps a type of its own: never taken for a scalar
+            v.type = f"{v.type}[{'x'.join(map(str, shape))}]"
+        else:
+            v.type = _FMI3_AS_FMI2.get(v.type, v.type)
+    _NATIVE_TYPES[id(md)] = native
+
+
+def native_types(md) -> dict[str, str]:
+    """Variable name -> FMI 3.0 type (Float64, Int32, UInt8, Boolean, Binary, Clock...) of an FMI 3.0
+    description read by :func:`model_description`; empty for FMI 1.0 and 2.0."""
+    return _NATIVE_TYPES.get(id(md), {})
 
 
 class InvalidModelDescription(UserWarning):

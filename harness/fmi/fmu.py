@@ -40,8 +40,11 @@ def extracted(path: str | Path):
         raise FMUError(str(path), "extract", None, None, detail=f"no such FMU file {p}")
     md = model_description(p)
     if md.coSimulation is None:
+        kinds = [k for k, el in (("model exchange", md.modelExchange),
+                                 ("scheduled execution", getattr(md, "scheduledExecution", None))) if el is not None]
         raise FMUError(p.stem, "read_model_description", None, None,
-                       detail=f"{p.name} is not a co-simulation FMU (FMI {md.fmiVersion}, model exchange only)")
+                       detail=f"{p.name} is not a co-simulation FMU (FMI {md.fmiVersion}, "
+                              f"{' and '.join(kinds) or 'no interface'} only)")
     return md, unzipped(p)
 
 

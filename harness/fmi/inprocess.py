@@ -23,6 +23,7 @@ whose script cannot be imported here runs through FMI, with one warning line say
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import importlib.util
@@ -38,8 +39,26 @@ _SLAVE_BASE = "Fmi2Slave"
 
 
 def is_pythonfmu(unzip_dir: Path) -> bool:
-    """True for an FMU made with pythonfmu (its resources name the slave module)."""
-    return (Path(unzip_dir) / "resources" / "slavemodule.txt").is_file()
+    """True for an FMU made with pythonfmu (its resources name the slave module) for FMI 2.0.  pythonfmu3's
+    FMUs name their module the same way, but their slave is an ``Fmi3Slave`` with FMI 3.0's methods: they
+    run through their FMI 3.0 library (:class:`harness.fmi.fmu3.FMU3`)."""
+    unzip_dir = Path(unzip_dir)
+    if not (unzip_dir / "resources" / "slavemodule.txt").is_file():
+        return False
+    return _fmi_version(str(unzip_dir)) == "2.0"
+
+
+@functools.lru_cache(maxsize=None)
+def _fmi_version(unzip_dir: str) -> str | None:
+    """The fmiVersion attribute of an extracted FMU's modelDescription.xml (None if unreadable)."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        for _, el in ET.iterparse(Path(unzip_dir) / "modelDescription.xml", events=("start",)):
+            return el.get("fmiVersion")
+    except (OSError, ET.ParseError):
+        return None
+    return None
 
 
 def is_toolkit_fmu(unzip_dir: Path) -> bool:
