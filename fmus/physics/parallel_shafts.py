@@ -38,7 +38,7 @@ Fidelity levels
 Integration is exact for inputs held over a step: the system is linear, x' = A x + B u, so
 x(t0 + h) = E x(t0) + F u with [[E, F], [0, I]] = exp([[A, B], [0, 0]] h), computed once per step size by
 scaling and squaring of the Taylor series (numpy only; the rotation of the whole makes A singular, which the
-series does not mind).  Any step is stable, however stiff the shafts.
+series does not mind), on the matrix balanced by measuring the rates in units of the stiffest mode.  Any step is stable, however stiff the shafts.
 """
 from __future__ import annotations
 
@@ -64,17 +64,14 @@ def eq10_frequencies(J_red: float, J1: float, c1: float, c2: float) -> tuple[flo
 
 
 def expm(M: np.ndarray) -> np.ndarray:
-    """Matrix exponential by scaling and squaring of the Taylor series (terms to 1e-17 of the scaled sum)."""
+    """Matrix exponential: scaling to a 1-norm <= 0.5, 20 Taylor terms (Horner; truncation < 1e-25), squaring."""
     norm = float(np.max(np.sum(np.abs(M), axis=0)))
-    s = max(0, int(math.ceil(math.log2(norm))) + 1) if norm > 0.5 else 0
+    s = max(0, int(math.ceil(math.log2(norm / 0.5)))) if norm > 0.5 else 0
     X = M / 2.0 ** s
-    term = np.eye(M.shape[0])
-    total = term.copy()
-    for k in range(1, 30):
-        term = term @ X / k
-        total += term
-        if float(np.max(np.abs(term))) < 1e-17 * float(np.max(np.abs(total))):
-            break
+    eye = np.eye(M.shape[0])
+    total = eye
+    for k in range(20, 0, -1):
+        total = eye + X @ total / k
     for _ in range(s):
         total = total @ total
     return total
@@ -164,10 +161,16 @@ class ParallelShaftsModel(Model):
     def step_matrices(self, h: float) -> tuple[np.ndarray, np.ndarray]:
         """(E, F) of x(t0 + h) = E x(t0) + F u for inputs held over h (cached per h)."""
         if h not in self._steps:
+            # rates in units of the stiffest mode (w/Omega): the matrix is then balanced (entries ~ Omega*h);
+            # unbalanced (c/J ~ 4e7 beside 1), the series loses the rigid rotation's last digits and the
+            # energy balance of a run drifts by 0.3 % of what the shafts dissipate
+            omega = math.sqrt(float(np.max(np.abs(self.A[1::2, 0::2]))))
+            scale = np.ones(8)
+            scale[1:6:2] = 1.0 / omega
             aug = np.zeros((8, 8))
             aug[:6, :6] = self.A * h
             aug[:6, 6:] = self.B * h
-            e = expm(aug)
+            e = expm(scale[:, None] * aug / scale[None, :]) / scale[:, None] * scale[None, :]
             self._steps[h] = (e[:6, :6], e[:6, 6:])
         return self._steps[h]
 
