@@ -213,7 +213,7 @@ def _renamed(given: dict) -> dict:
 def simulate(system, stop_time: float | None = None, step: float | None = None, master: str | None = None,
              extrapolation=None, step_control: str | None = None, tolerance: float | None = None,
              start_values: dict | None = None, output: list[str] | None = None, *, start_time: float = 0.0,
-             on_error: str = "return", options: RunOptions | None = None, **renamed) -> pd.DataFrame:
+             on_error: str = "return", options: RunOptions | None = None, **old_names) -> pd.DataFrame:
     """Co-simulate ``system`` and return its result: a DataFrame indexed by time [s], one column per
     ``Instance.variable`` (in the FMU's declared unit, ``df.attrs["units"]``).
 
@@ -246,12 +246,15 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
       ``"raise"``: raises :class:`~harness.errors.SimulationError` whose ``partial`` is that result.
     * ``options``: :class:`RunOptions` (iteration, step-control limits, blow-up limit, divergence detector,
       progress bar, FMU logging, in-process calls); default ``RunOptions()``.
+    * ``old_names``: ``parameters=`` and ``outputs=``, this function's former names of ``start_values`` and
+      ``output``, still accepted with a DeprecationWarning; FMPy's ``step_size`` or ``output_interval`` is a
+      TypeError naming ``step``.
 
     Ctrl-C raises :class:`RunInterrupted` (a KeyboardInterrupt) whose ``partial`` is the result so far,
     marked ``attrs["complete"] = False``, ``attrs["interrupted"] = True``.  Errors in the description or the
     arguments raise :class:`~harness.errors.SystemError_` before the run."""
-    if renamed:
-        moved = _renamed(renamed)
+    if old_names:
+        moved = _renamed(old_names)
         start_values = moved.get("start_values", start_values)
         output = moved.get("output", output)
     system = load(system)

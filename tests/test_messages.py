@@ -147,7 +147,7 @@ def test_pressdrive_help_names_itself_and_every_option_has_a_default():
             if isinstance(a, argparse._SubParsersAction):
                 for sp in a.choices.values():
                     yield from walk(sp)
-            elif a.option_strings and not isinstance(a, argparse._HelpAction):
+            elif a.option_strings and not isinstance(a, (argparse._HelpAction, argparse._VersionAction)):
                 yield p, a
 
     for p, a in walk(build_parser()):
