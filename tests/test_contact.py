@@ -119,3 +119,43 @@ def test_max_substep_keeps_rk4_stable_for_the_bounded_damping(law, e):
     assert dt <= 0.1 / omega
     if contact.damping_per_frequency(law, e) <= 10.0:
         assert dt == 0.1 / omega
+
+
+@pytest.mark.parametrize("law", sorted(contact.LAWS))
+@pytest.mark.parametrize("e", [0.2, 0.5, 0.9, 1.0])
+def test_a_free_impact_on_a_wall_only_pushes_and_ends_within_half_a_period(law, e):
+    """Issue 31: a mass m striking a wall through each law the FMUs use (linear, n = 1; x = penetration).
+    The force never pulls the mass into the wall; the contact ends where the law's force k x + c x'
+    (Kelvin-Voigt) or k x (1 + chi x') returns to zero, with e < 1 before the half-period pi/omega of the
+    undamped contact, omega = sqrt(k/m), with e = 1 exactly at it (Kelvin-Voigt; the Hunt-Crossley family's
+    force k x (1 + chi x') stays positive down to x = 0 and its contact lasts longer than pi/omega at e = 0.2:
+    1.035 Hunt-Crossley, 1.015 Lankarani-Nikravesh, 1.367 Flores, measured);
+    the Kelvin-Voigt exit speed is e v0 (its no-pull calibration; the Hunt-Crossley family's e is the
+    published approximation, not checked here)."""
+    k, m, v0 = 2e5, 0.03, 0.5
+    omega = math.sqrt(k / m)
+    c = contact.kelvin_voigt_damping(k, m, e)
+    chi = 0.0 if law == contact.KELVIN_VOIGT else contact.hysteresis_factor(law, e, v0)
+
+    def law_force(z):                                # the law before clipping, pushing the mass out
+        return k * z[0] + c * z[1] if law == contact.KELVIN_VOIGT else k * z[0] * (1.0 + chi * z[1])
+
+    def rhs(t, z):
+        return [z[1], contact.contact_force(z[0], z[1], 0.0, k, law, e, v0, m) / m]
+    ends = lambda t, z: law_force(z)                                  # noqa: E731
+    ends.terminal, ends.direction = True, -1
+    sol = solve_ivp(rhs, (0.0, 2 * math.pi / omega), [0.0, v0], events=ends, rtol=1e-11, atol=1e-16,
+                    max_step=0.002 / omega, dense_output=True)
+    t_end = float(sol.t_events[0][0])
+    push = np.array([-contact.contact_force(x, xd, 0.0, k, law, e, v0, m)
+                     for x, xd in sol.sol(np.linspace(0.0, t_end, 2000)).T])
+    assert push[:-1].min() >= 0.0 and abs(push[-1]) <= 1e-12 * push.max()   # the end: rounding only
+    x, xd = sol.sol(t_end)
+    if e < 1.0 and law == contact.KELVIN_VOIGT:
+        # the force, not the penetration, ends the contact: x > 0 there, and just after it the law is clipped
+        assert x > 0.0 and t_end < math.pi / omega
+        assert contact.contact_force(x + xd * 1e-9 / omega, xd, 0.0, k, law, e, v0, m) == 0.0
+    elif e == 1.0:
+        assert t_end == pytest.approx(math.pi / omega, rel=1e-7)
+    if law == contact.KELVIN_VOIGT:
+        assert -xd == pytest.approx(e * v0, rel=1e-6)

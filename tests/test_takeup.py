@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from fmus.physics import contact
 from fmus.physics import takeup as T
 from fmus.physics.two_mass import seed_frequencies, two_mass_frequencies
 
@@ -56,13 +57,12 @@ def test_damped_peak_is_the_kelvin_voigt_closed_form(e):
     # x = v/wd exp(-zeta wn t) sin(wd t): peak at tan(wd t) = sqrt(1 - zeta^2)/zeta
     p = T.TakeUpParams(alpha_c=0.0, e=e)
     res = T.simulate(p)
-    z = T.damping_ratio(e)
+    z = contact.kelvin_voigt_zeta(e)        # the no-pull law's damping ratio (the FMUs' law)
     wn = p.lambda_m()
     wd = wn * math.sqrt(1 - z * z)
     tp = math.atan2(math.sqrt(1 - z * z), z) / wd
     assert res.z_peak == pytest.approx(p.v_in / wd * math.exp(-z * wn * tp) * math.sin(wd * tp), rel=1e-5)
     assert res.z_peak < T.z_max(p.v_pin, 0.0, wn)          # eq (17) is the undamped bound
-    assert T.restitution_of(z) == pytest.approx(e, rel=1e-12)
 
 
 def test_roller_take_up_scales_by_eq23():
@@ -110,10 +110,14 @@ def test_classification_free_impact_is_classical_and_a_held_contact_is_not():
 def test_bad_input_names_the_parameter_and_the_range():
     with pytest.raises(ValueError, match=r"TakeUpParams.e = 1.5 outside"):
         T.simulate(T.TakeUpParams(e=1.5))
-    with pytest.raises(ValueError, match=r"cos\(beta\) cos\(beta \+ theta\)"):
+    with pytest.raises(ValueError, match=r"approach speed .* at beta = 90 deg: the pin does not close"):
         T.simulate(T.TakeUpParams(beta=math.pi / 2))
+    with pytest.raises(ValueError, match=r"TakeUpParams.e = 0.1 below 0.13"):
+        T.simulate(T.TakeUpParams(e=0.1))
+    with pytest.raises(ValueError, match=r"TakeUpParams.c4 = 0.0 outside \(0, inf\]"):
+        T.simulate(T.TakeUpParams(c4=0.0))
     with pytest.raises(ValueError, match=r"approach speed"):
-        T.simulate(T.TakeUpParams(V3=1.0))
+        T.simulate(T.TakeUpParams(V3=T.TakeUpParams().v_pin))        # the rocker side as fast as the pin
 
 
 def test_lambda_m_is_two_mass_eq7():
@@ -137,3 +141,129 @@ def test_study_map_and_summary(tmp_path):
     assert (math.isnan(row["first_nonclassical"]) if len(non) == 0 else row["first_nonclassical"] == non.min())
     with pytest.raises(FileNotFoundError, match="feeder clearance sweep"):
         S.feeder_takeups(tmp_path / "missing.csv")
+
+
+# ---- issue 31: a contact only pushes; the seed's classical impact; the first impact; the whole beta range ----
+
+@pytest.mark.parametrize("e", [0.2, 0.5, 0.9])
+@pytest.mark.parametrize("beta, theta, am", [(0.0, 0.0, 1.0), (0.6, 0.2, 0.5), (2.2, -0.3, 2.0)])
+def test_free_impact_never_pulls_and_is_shorter_than_half_a_take_up_period(e, beta, theta, am):
+    """The seed's e = 0.2 used to pull (-31 N against a 159 N peak) and last 1.12 half-periods: a contact
+    pushes only, so its force never falls below zero and, with e < 1, it opens before pi/lambda_m (the
+    undamped one lasts exactly that: test_undamped_take_up_peaks_at_eq17_and_lasts_half_a_period)."""
+    p = T.TakeUpParams(alpha_c=0.0, alpha_m=am, e=e, beta=beta, theta=theta)
+    res = T.simulate(p, samples=4000)
+    assert res.opened and res.F_min >= 0.0
+    first = res.F[res.t <= res.duration] * np.sign(res.v_in)       # signed as the first contact's wall
+    assert first.min() >= -1e-12 * res.F_peak                      # (the end is an event: rounding only)
+    assert res.duration < math.pi / p.lambda_m()
+    assert res.e_measured == pytest.approx(e, rel=1e-6)
+
+
+def test_beyond_90_degrees_the_pin_closes_the_other_wall():
+    """beta = 120 deg: cos(beta) < 0, the crank pin moves the other way and the joint closes on its back wall;
+    the free impact is the mirror of beta = 60 deg's (cos(beta) cos(beta + theta) is the same)."""
+    back = T.simulate(T.TakeUpParams(alpha_c=0.0, beta=math.radians(120.0)))
+    front = T.simulate(T.TakeUpParams(alpha_c=0.0, beta=math.radians(60.0)))
+    assert back.v_in < 0.0 < front.v_in and back.history[0].wall == -1 and front.history[0].wall == 1
+    assert back.F_peak == pytest.approx(front.F_peak, rel=1e-6)
+    assert back.duration == pytest.approx(front.duration, rel=1e-6)
+    assert back.e_measured == pytest.approx(0.2, rel=1e-6)
+
+
+def test_negative_cos_product_is_simulated():
+    """cos(beta) cos(beta + theta) < 0 (beta = 80, theta = 20 deg): the crank side's reduced mass is negative,
+    lambda_m^2 = k (1/m1 + 1/m2) smaller; the undamped free take-up still lasts pi/lambda_m.  With a light
+    crank side (alpha_m = 0.05, beta = theta = 60 deg) lambda_m^2 < 0: unstable, never classical."""
+    p = T.TakeUpParams(alpha_c=0.0, e=1.0, beta=math.radians(80.0), theta=math.radians(20.0))
+    m1, m2 = p.masses()
+    assert m1 < 0.0 < m2
+    res = T.simulate(p)
+    assert res.stable and res.duration == pytest.approx(math.pi / p.lambda_m(), rel=1e-7)
+    bad = T.simulate(T.TakeUpParams(alpha_m=0.05, R3=0.04, beta=math.radians(60.0), theta=math.radians(60.0)))
+    assert not bad.stable and not bad.classical and math.isnan(T.TakeUpParams(
+        alpha_m=0.05, R3=0.04, beta=math.radians(60.0), theta=math.radians(60.0)).lambda_m())
+
+
+def test_classical_is_the_seeds_alpha_y_of_the_first_contact():
+    """alpha_y = natural period 2 pi/lambda3 over the first contact's duration (the seed's definition).
+    Known answers: without a drive stiffness the natural period is infinite (classical); a contact held
+    closed by a load never opens (not classical); with the drive at alpha_c = 0.3, alpha_m = 1 (r = R3) the
+    e = 0.2 contact is held by the drive until its slow mode turns: it lasts half the natural period,
+    alpha_y = 2 (not classical); at alpha_c = 0.01 it is a collision, shorter than pi/lambda_m."""
+    free = T.classify(alpha_c=0.0)
+    assert free.alpha_y == math.inf and free.classical
+    p = T.TakeUpParams()
+    held = T.classify(V3=p.v_pin - 0.01, load=2.0)
+    assert not held.opened and not held.classical
+    drive = T.classify(alpha_c=0.3, R3=0.04)
+    lam3 = float(drive.params.frequencies().lambda3)
+    assert drive.alpha_y == pytest.approx(2.0 * math.pi / lam3 / drive.duration, rel=1e-12)
+    assert drive.duration == pytest.approx(math.pi / lam3, rel=0.03) and not drive.classical
+    short = T.classify(alpha_c=0.01, R3=0.04)
+    assert short.duration < math.pi / short.params.lambda_m() and short.alpha_y > 4.0 and short.classical
+
+
+def test_only_the_first_impact_counts_is_checked():
+    """S0-6 as a check over the run: with e = 0.2 the later contacts are weaker (the first governs); with
+    e = 1 the drive feeds the bouncing pin and a later contact peaks above the first."""
+    lossy = T.classify(alpha_c=0.01, alpha_m=0.5, R3=0.04)
+    assert len(lossy.history) >= 2 and lossy.first_governs
+    assert max(c.F_peak for c in lossy.history[1:]) < lossy.history[0].F_peak
+    elastic = T.classify(alpha_c=0.01, alpha_m=0.5, R3=0.04, e=1.0)
+    assert not elastic.first_governs
+    assert max(c.F_peak for c in elastic.history[1:]) > elastic.history[0].F_peak
+    assert T.first_governs(elastic.history[:1])
+
+
+@pytest.mark.parametrize("beta, theta, am, V3", [(0.0, 0.0, 1.0, 0.0), (0.5, 0.3, 2.0, 0.1), (2.4, -0.2, 0.5, 0.0)])
+def test_closed_forms_14_to_17_follow_the_undamped_free_take_up(beta, theta, am, V3):
+    """Their range of validity: eq. (5), no drive (c1 = 0), no load, an undamped contact (e = 1), within the
+    first contact.  (14) the crank angle, (15) the pin's displacement R3 gamma, (16) the approach q."""
+    p = T.TakeUpParams(alpha_c=0.0, alpha_m=am, e=1.0, beta=beta, theta=theta, V3=V3)
+    res = T.simulate(p, samples=20000)
+    lam = p.lambda_m()
+    inside = res.t <= res.duration
+    t, y = res.t[inside], res.y[inside]
+    C = T.takeup_constants(p)
+    scale = abs(p.v_in) / lam
+    np.testing.assert_allclose(T.crank_angle(t, C, lam), y[:, 0], rtol=0, atol=1e-7 * scale / p.r)
+    np.testing.assert_allclose(T.pin_displacement(t, C, lam, p), p.R3 * y[:, 2], rtol=0, atol=1e-7 * scale)
+    q = res.q[inside] - (p.clearance if p.v_in > 0 else 0.0)
+    np.testing.assert_allclose(T.approach(t, p.v_in, 0.0, lam), q, rtol=0, atol=1e-7 * scale)
+    assert abs(res.z_peak) == pytest.approx(T.z_max(abs(p.v_in), 0.0, lam), rel=1e-6)
+
+
+@pytest.mark.parametrize("c4", [2e5, 5e5, 3e6])
+def test_eq13_with_a_joint_stiffness_c4_and_eq22_with_the_rollers_c4(c4):
+    """(13)/(18): with the joint's own c4 in series with c2 the simulated peak force is k v / lambda_m(k),
+    k = c2 c4/(c2 + c4), and the joint's own deformation F/c4.  (20)-(22): the roller take-up (approach
+    projected by cos(mu) cos(nu), its own c'4) peaks at (21), (22) with c'4."""
+    pin = T.TakeUpParams(alpha_c=0.0, e=1.0, c4=c4)
+    res = T.simulate(pin)
+    k = pin.c2 * c4 / (pin.c2 + c4)
+    assert pin.k == pytest.approx(k, rel=1e-15)
+    lam = pin.lambda_m()
+    F = T.impact_force(pin.v_pin, 0.0, lam, k)
+    assert res.F_peak == pytest.approx(F, rel=1e-6)
+    assert T.joint_deformation(F, c4) == pytest.approx(res.z_peak * k / c4, rel=1e-6)
+    assert F < T.impact_force(pin.v_pin, 0.0, T.TakeUpParams(alpha_c=0.0).lambda_m(), pin.c2)  # softer joint
+    mu, nu = 0.4, 0.3
+    proj = math.cos(mu) * math.cos(nu)
+    roller = T.TakeUpParams(alpha_c=0.0, e=1.0, c4=c4 / 2, projection=proj)
+    rr = T.simulate(roller)
+    kr = roller.k
+    assert rr.z_peak == pytest.approx(T.z_max(roller.v_pin * proj, 0.0, roller.lambda_m()), rel=1e-6)
+    assert rr.F_peak == pytest.approx(T.impact_force(roller.v_pin * proj, 0.0, roller.lambda_m(), kr), rel=1e-6)
+
+
+def test_eq19_is_eq15_with_the_projected_lever():
+    """(19) replaces r cos(beta) by r cos(beta) cos(mu) cos(nu) in (15): at projection 1 they coincide, and
+    its first term scales with the projection."""
+    p = T.TakeUpParams(alpha_c=0.0, e=1.0, beta=0.3, theta=0.1)
+    C, lam, t = T.takeup_constants(p), p.lambda_m(), np.linspace(0.0, 1e-3, 7)
+    np.testing.assert_array_equal(T.pin_displacement(t, C, lam, p, 1.0), T.pin_displacement(t, C, lam, p))
+    d = T.pin_displacement(t, C, lam, p, 0.5) - T.pin_displacement(t, C, lam, p, 1.0)
+    a = p.r * math.cos(p.beta)
+    np.testing.assert_allclose(d, -0.5 * a * (C[0] + C[1] * t + C[2] * np.sin(lam * t) + C[3] * np.cos(lam * t)),
+                               rtol=1e-12, atol=1e-18)
