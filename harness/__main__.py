@@ -81,9 +81,10 @@ def _join_negative_values(argv: list[str]) -> list[str]:
     import re
 
     number = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$", re.IGNORECASE)
+    plain = re.compile(r"^-\d+$|^-\d*\.\d+$")  # argparse's own: a value as it stands, also of a list (--values -1 2)
     out: list[str] = []
     for tok in argv:
-        if out and number.match(tok) and out[-1].startswith("--") and "=" not in out[-1]:
+        if out and number.match(tok) and not plain.match(tok) and out[-1].startswith("--") and "=" not in out[-1]:
             out[-1] = f"{out[-1]}={tok}"
         else:
             out.append(tok)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pandas as pd
 import pytest
 import yaml
 
@@ -98,3 +99,100 @@ def test_quick_benchmark_writes_its_chart_beside_its_csv_not_over_the_tracked_on
     # a full run still writes the README's chart
     bench.main(["--cases", "ring", "--tools", "jacobi-sampled", "--modes", "unpinned", "--no-realtime"])
     assert seen["chart"] == tracked
+
+
+# -- item 3: a study stopped by Ctrl-C or SIGTERM keeps its finished rows; a bad value loses nothing -----------
+class _Sigterm(KeyboardInterrupt):
+    """What the command line raises on SIGTERM (harness.run.Terminated): an interrupt with status 143."""
+    status = 143
+
+
+def _interrupt_after(n: int, real, exc=KeyboardInterrupt):
+    calls = []
+
+    def wrapped(*a, **k):
+        calls.append(1)
+        if len(calls) > n:
+            raise exc()
+        return real(*a, **k)
+    return wrapped
+
+
+@pytest.mark.parametrize("exc, status, how", [(KeyboardInterrupt, 130, "interrupted (Ctrl-C)"),
+                                              (_Sigterm, 143, "terminated (SIGTERM)")])
+def test_precision_study_interrupted_keeps_its_finished_runs(tmp_path, monkeypatch, capsys, exc, status, how):
+    from harness.studies import precision
+
+    monkeypatch.setattr(precision, "quiet_simulate", _interrupt_after(2, precision.quiet_simulate, exc))
+    assert main(["study", "precision", "two_inertia", "--quick", "--stop-time", "0.05",
+                 "--out", str(tmp_path)]) == status
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith(f"error: {how}") and "after 2 runs" in err[-1]
+    assert not (tmp_path / "precision_two_inertia.csv").exists()   # an incomplete table never looks complete
+    kept = pd.read_csv(tmp_path / "precision_two_inertia.partial.csv")
+    assert set(kept["master"]) == {"reference", "jacobi"}
+    assert int((kept["quantity"] & (kept["master"] == "jacobi")).sum()) == 2
+
+
+def test_stability_study_interrupted_keeps_its_finished_rows(tmp_path, monkeypatch, capsys):
+    from harness.studies.stability import measured
+
+    monkeypatch.setattr(measured, "stability_boundary", _interrupt_after(5, measured.stability_boundary, _Sigterm))
+    assert main(["study", "stability", "two_inertia", "--quick", "--values", "0.5", "2",
+                 "--out", str(tmp_path)]) == 143
+    kept = pd.read_csv(tmp_path / "stability_two_inertia_inertia.partial.csv")
+    assert len(kept) == 2 and (kept["ratio"] == 0.5).all()       # rk4 + exact per row: 5 calls = 2 rows
+    assert "terminated (SIGTERM)" in capsys.readouterr().err
+    assert not (tmp_path / "stability_two_inertia_inertia.csv").exists()
+
+
+def test_a_completed_study_removes_the_partial_table_of_an_interrupted_one(tmp_path):
+    from harness.studies.trial import partial_csv, write_complete
+
+    csv = tmp_path / "x.csv"
+    partial_csv(csv).write_text("a\n1\n")
+    write_complete(pd.DataFrame({"a": [1, 2]}), csv)
+    assert csv.exists() and not partial_csv(csv).exists()
+
+
+@pytest.mark.parametrize("values", [["0.5", "-1"], ["-1", "0.5"]])
+def test_stability_values_negative_anywhere_get_one_line_before_any_run(tmp_path, capsys, values):
+    assert main(["study", "stability", "two_inertia", "--quick", "--values", *values, "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--values: -1.0 is not admissible" in err and "nothing was run" in err
+
+
+def test_press_stability_value_the_drive_refuses_is_a_failed_row_and_the_others_are_kept(tmp_path, monkeypatch,
+                                                                                        capsys):
+    """Every value's reference runs first; one that fails (here: the FMU refusing a negative inertia) is
+    recorded with its one-line reason on every method's row, the other values are measured."""
+    from harness.studies.stability import cli, press
+
+    class Run:
+        def __init__(self, system, master, order, parameters, duration, reference=None):
+            (value,) = parameters.values()
+            if value < 0:
+                raise ValueError(f"rocker_inertia = {value} is below its minimum 0")
+            self.ref = "ref"
+
+    monkeypatch.setattr(press, "PressRun", Run)
+    monkeypatch.setattr(press, "press_boundary", lambda prun, rtol, cap: dict(
+        h_stable=1e-3, h_unstable=2e-3, h_boundary=1.5e-3, status="bracketed", runs=3))
+    monkeypatch.setattr(cli, "plot_press_map", lambda table, stem: [])
+    assert main(["study", "stability", "bed_drive", "--values", "0.5", "-1", "--masters", "jacobi",
+                 "--orders", "0", "1", "--out", str(tmp_path)]) == 1
+    table = pd.read_csv(tmp_path / "stability_bed_drive_fourbar_rocker_inertia.csv", keep_default_na=False)
+    assert list(table["status"]) == ["bracketed", "bracketed", "failed", "failed"]
+    assert table["error"].iloc[2].startswith("ValueError: rocker_inertia = -1.0 is below")
+    err = capsys.readouterr().err
+    assert "2 of 4 rows failed" in err and "nan" not in err
+
+
+def test_stability_progress_says_why_a_boundary_was_not_measured(capsys):
+    from harness.studies.stability.measured import stability_table
+
+    lines = []
+    table = stability_table(values=[0.5], measure=False, progress=lines.append)
+    assert lines and not any("nan" in line for line in lines)
+    assert all("not measured: theory only" in line for line in lines)
+    assert (table["note"] == "not measured: theory only").all()

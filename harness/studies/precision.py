@@ -45,7 +45,7 @@ from harness.charts import save_figure
 from harness.run import declared
 from harness.specs import PrecisionSpec
 from harness.studies.metrics import METRICS, error_metrics
-from harness.studies.trial import quiet_simulate
+from harness.studies.trial import StudyInterrupted, keep_interrupted, quiet_simulate, write_complete
 
 
 PRECISION: dict[str, PrecisionSpec] = declared("precision")
@@ -148,35 +148,39 @@ def precision_study(system, stop_time: float | None = None, steps=None, toleranc
                  step=h_ref, tolerance=math.nan, wall_time=t_ref, stepping_time=math.nan, steps=len(ref) - 1,
                  rejected=0, complete=True, run_error="", variable=c, quantity=c == spec.quantity,
                  **{k: 0.0 for k in METRICS}) for c in columns]
-    for master, order, control in methods(masters, orders, step_controls):
-        variable = STEP_CONTROLS[control].variable
-        for value in (tolerances if variable else steps):
-            step, tol = (steps[0], value) if variable else (value, None)
-            t1 = time.perf_counter()
-            df = quiet_simulate(system, stop_time=stop_time, step=step, master=master, extrapolation=order,
-                                step_control=control, tolerance=tol, parameters=parameters, outputs=columns,
-                                on_error="return")
-            wall = time.perf_counter() - t1
-            a = df.attrs
-            base = dict(system=system.name, master=master, extrapolation=order, step_control=control,
-                        step=step if not variable else math.nan, tolerance=tol if variable else math.nan,
-                        wall_time=wall, stepping_time=a.get("wall_time", math.nan), steps=a.get("steps", 0),
-                        rejected=a.get("rejected", 0), complete=bool(a.get("complete", False)),
-                        run_error=a.get("error", ""))
-            if base["complete"]:
-                m = error_metrics(df, ref, columns, t_start=spec.t_start or None)
-                for c in columns:
-                    rows.append(dict(base, variable=c, quantity=c == spec.quantity,
-                                     **{k: float(m.at[c, k]) for k in METRICS}))
-                q = m.loc[spec.quantity]
-                say(f"  {master:12s} order {order} {control:10s} {'tol' if variable else 'step'} {value:<8g} "
-                    f"{wall:7.3f} s  {spec.label}: max {q.max_abs:.3e} {spec.unit}, rms rel {q.rms_rel:.2e}")
-            else:
-                for c in columns:
-                    rows.append(dict(base, variable=c, quantity=c == spec.quantity,
-                                     **{k: math.nan for k in METRICS}))
-                say(f"  {master:12s} order {order} {control:10s} {'tol' if variable else 'step'} {value:<8g} "
-                    f"{wall:7.3f} s  FAILED: {base['run_error'][:90]}")
+    try:  # Ctrl-C or SIGTERM: the rows finished so far go with the interrupt
+        for master, order, control in methods(masters, orders, step_controls):
+            variable = STEP_CONTROLS[control].variable
+            for value in (tolerances if variable else steps):
+                step, tol = (steps[0], value) if variable else (value, None)
+                t1 = time.perf_counter()
+                df = quiet_simulate(system, stop_time=stop_time, step=step, master=master, extrapolation=order,
+                                    step_control=control, tolerance=tol, parameters=parameters, outputs=columns,
+                                    on_error="return")
+                wall = time.perf_counter() - t1
+                a = df.attrs
+                base = dict(system=system.name, master=master, extrapolation=order, step_control=control,
+                            step=step if not variable else math.nan, tolerance=tol if variable else math.nan,
+                            wall_time=wall, stepping_time=a.get("wall_time", math.nan), steps=a.get("steps", 0),
+                            rejected=a.get("rejected", 0), complete=bool(a.get("complete", False)),
+                            run_error=a.get("error", ""))
+                if base["complete"]:
+                    m = error_metrics(df, ref, columns, t_start=spec.t_start or None)
+                    for c in columns:
+                        rows.append(dict(base, variable=c, quantity=c == spec.quantity,
+                                         **{k: float(m.at[c, k]) for k in METRICS}))
+                    q = m.loc[spec.quantity]
+                    say(f"  {master:12s} order {order} {control:10s} {'tol' if variable else 'step'} "
+                        f"{value:<8g} {wall:7.3f} s  {spec.label}: max {q.max_abs:.3e} {spec.unit}, "
+                        f"rms rel {q.rms_rel:.2e}")
+                else:
+                    for c in columns:
+                        rows.append(dict(base, variable=c, quantity=c == spec.quantity,
+                                         **{k: math.nan for k in METRICS}))
+                    say(f"  {master:12s} order {order} {control:10s} {'tol' if variable else 'step'} "
+                        f"{value:<8g} {wall:7.3f} s  FAILED: {base['run_error'][:90]}")
+    except KeyboardInterrupt as e:
+        raise StudyInterrupted(pd.DataFrame(rows), e) from None
     table = pd.DataFrame(rows)
     return Study(system.name, spec, table, t_ref, h_ref, stop_time)
 
@@ -260,13 +264,14 @@ def run_study(system, out_dir: str | Path = "results", metric: str = "max_abs", 
         if kwargs.get("tolerances") is None:
             kwargs["tolerances"] = sorted(spec.tolerances, reverse=True)[: QUICK["n_tolerances"]]
     kwargs = {k: v for k, v in kwargs.items() if v is not None}
-    study = precision_study(system, **kwargs)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    stem = out / f"precision_{study.system}"
+    stem = Path(out_dir) / f"precision_{system.name}"
     csv = stem.with_name(stem.name + ".csv")
-    study.table.to_csv(csv, index=False)
-    study.files = [csv] + plot_work_precision(study, stem, metric)
+    try:
+        study = precision_study(system, **kwargs)
+    except StudyInterrupted as e:
+        e.csv = csv  # where the command line keeps the finished rows (beside it, as .partial.csv)
+        raise
+    study.files = [write_complete(study.table, csv)] + plot_work_precision(study, stem, metric)
     return study
 
 
@@ -304,8 +309,12 @@ def precision_cli(args) -> int:
     kwargs = dict(stop_time=args.stop_time, steps=args.steps, tolerances=args.tolerances, masters=args.masters,
                   orders=args.orders, step_controls=args.step_controls, reference_step=args.reference_step,
                   parameters=parse_sets(args.set) or None)
-    study = run_study(args.system, args.out, metric=args.metric, quick=args.quick,
-                      progress=lambda s: print(s, file=sys.stderr), **kwargs)
+    try:
+        study = run_study(args.system, args.out, metric=args.metric, quick=args.quick,
+                          progress=lambda s: print(s, file=sys.stderr), **kwargs)
+    except StudyInterrupted as e:
+        runs = int((e.table["quantity"] & (e.table["master"] != "reference")).sum()) if len(e.table) else 0
+        return keep_interrupted(e, e.csv, f"precision study stopped after {runs} runs beside the reference")
     q = study.quantity_rows()
     ok = q[q["complete"]]
     print(f"{study.system}: {len(q)} runs ({len(q) - len(ok)} failed), reference {study.reference_time:.3g} s; "

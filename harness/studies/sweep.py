@@ -403,10 +403,12 @@ def _run_cli(args) -> int:
     skipped = len(log.done)
     try:
         df = run_sweep(args.system, spec, scheduler=args.scheduler, workers=workers, log=log)
-    except KeyboardInterrupt:
-        print(f"error: interrupted (Ctrl-C): {len(log.rows)} of {len(spec.points)} points finished and kept in "
+    except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM as the command line raises it (status 143)
+        status = int(getattr(e, "status", 130))
+        how = "terminated (SIGTERM)" if status == 143 else "interrupted (Ctrl-C)"
+        print(f"error: {how}: {len(log.rows)} of {len(spec.points)} points finished and kept in "
               f"{log.path}; rerun with --resume to skip them", file=sys.stderr)
-        return 130
+        return status
     out = save(df, out)
     log.path.unlink(missing_ok=True)
     failed = int((df["error"] != "").sum())

@@ -1,11 +1,13 @@
 """One co-simulation run of a study, the same way for every study: warnings silenced (a study records what
 went wrong in its table instead of warning per run), wall time measured around the run, and an exception or
-an incomplete run turned into a one-line ``error`` instead of aborting the study."""
+an incomplete run turned into a one-line ``error`` instead of aborting the study.  And the one way a study
+stopped by Ctrl-C or SIGTERM keeps its finished rows (:class:`StudyInterrupted`, :func:`keep_interrupted`)."""
 from __future__ import annotations
 
 import time
 import warnings
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import pandas as pd
 
@@ -60,3 +62,45 @@ def trial(system, ignore: type[Warning] = Warning, **options) -> Trial:
         message = str(df.attrs.get("error") or "incomplete run").splitlines() or ["incomplete run"]
         return Trial(df, wall, False, message[0])
     return Trial(df, wall, True, "")
+
+
+# -- a study stopped by Ctrl-C or SIGTERM ------------------------------------------------------------------------
+class StudyInterrupted(KeyboardInterrupt):
+    """Ctrl-C (SIGINT) or SIGTERM during a study: ``table`` holds the rows the study had finished (a DataFrame,
+    possibly empty), ``status`` the exit status a shell expects (130 after Ctrl-C, 143 after SIGTERM) and ``how``
+    says which.  A KeyboardInterrupt still, so a caller that does not look for it is interrupted as before."""
+
+    def __init__(self, table: pd.DataFrame, cause: BaseException):
+        self.status = int(getattr(cause, "status", 130))
+        self.how = "terminated (SIGTERM)" if self.status == 143 else "interrupted (Ctrl-C)"
+        super().__init__(f"{self.how}: {len(table)} rows finished")
+        self.table = table
+
+
+def partial_csv(path: Path) -> Path:
+    """Where a study that did not finish writes its table instead of ``path``: ``x.csv`` -> ``x.partial.csv``
+    (as ``run`` does), so an incomplete table never takes the name of a complete one."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}.partial.csv")
+
+
+def keep_interrupted(e: StudyInterrupted, csv_path: Path, what: str) -> int:
+    """The command line's answer to :class:`StudyInterrupted`: the finished rows written to
+    :func:`partial_csv` of ``csv_path``, one line on stderr saying so, and the exit status to return."""
+    import sys
+
+    out = partial_csv(csv_path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    e.table.to_csv(out, index=False)
+    print(f"error: {e.how}: {what}; the {len(e.table)} rows finished are kept in {out} (incomplete: no chart)",
+          file=sys.stderr)
+    return e.status
+
+
+def write_complete(table: pd.DataFrame, csv_path: Path) -> Path:
+    """A finished study's table at ``csv_path``; a partial table left there by an interrupted run is removed."""
+    csv_path = Path(csv_path)
+    csv_path.parent.mkdir(parents=True, exist_ok=True)
+    table.to_csv(csv_path, index=False)
+    partial_csv(csv_path).unlink(missing_ok=True)
+    return csv_path

@@ -23,6 +23,7 @@ from pathlib import Path
 from harness.studies.stability.measured import PERIODS, SWEEPS, plot_stability_map, stability_table
 from harness.studies.stability.press import PRESS_MASTERS, PRESS_STUDIES, plot_press_map, press_stability_table
 from harness.studies.stability.theory import ORDERS
+from harness.studies.trial import StudyInterrupted, keep_interrupted, write_complete
 
 
 STUDIES = {"two_inertia": "the two-inertia coupling benchmark (systems/two_inertia.py)",
@@ -75,23 +76,31 @@ def stability_cli(args) -> int:
         if sweep not in SWEEPS:
             raise ValueError(f"--sweep {sweep!r} is not admissible for two_inertia: must be one of "
                              f"{', '.join(SWEEPS)}")
-        table = stability_table(sweep=sweep, values=args.values, measure=not (args.no_measure or args.quick),
-                                periods=args.periods or PERIODS, rtol=args.rtol or 0.005, progress=progress)
         stem = out / f"stability_two_inertia_{sweep}"
-        out.mkdir(parents=True, exist_ok=True)
-        table.to_csv(stem.with_suffix(".csv"), index=False)
-        figs = plot_stability_map(table, stem)
+        make = lambda: stability_table(sweep=sweep, values=args.values,  # noqa: E731
+                                       measure=not (args.no_measure or args.quick), periods=args.periods or PERIODS,
+                                       rtol=args.rtol or 0.005, progress=progress)
+        plot = plot_stability_map
     else:
         quick = bool(args.quick)
-        table = press_stability_table(args.benchmark, sweep=args.sweep, values=args.values,
-                                      masters=args.masters or PRESS_MASTERS, orders=args.orders or ORDERS,
-                                      periods=args.periods or (5.0 if quick else 10.0),
-                                      rtol=args.rtol or (0.06 if quick else 0.03), quick=quick,
-                                      progress=progress)
-        sweep = str(table["sweep"].iloc[0])
+        sweep = args.sweep or PRESS_STUDIES[args.benchmark].sweep
         stem = out / f"stability_{args.benchmark}_{sweep.replace('.', '_')}"
-        out.mkdir(parents=True, exist_ok=True)
-        table.to_csv(stem.with_suffix(".csv"), index=False)
-        figs = plot_press_map(table, stem)
-    print(f"wrote {stem.with_suffix('.csv')}, {', '.join(str(f) for f in figs)}")
+        make = lambda: press_stability_table(args.benchmark, sweep=args.sweep, values=args.values,  # noqa: E731
+                                             masters=args.masters or PRESS_MASTERS, orders=args.orders or ORDERS,
+                                             periods=args.periods or (5.0 if quick else 10.0),
+                                             rtol=args.rtol or (0.06 if quick else 0.03), quick=quick,
+                                             progress=progress)
+        plot = plot_press_map
+    try:
+        table = make()
+    except StudyInterrupted as e:
+        return keep_interrupted(e, stem.with_suffix(".csv"), f"stability study of {args.benchmark} stopped")
+    csv = write_complete(table, stem.with_suffix(".csv"))
+    figs = plot(table, stem)
+    print(f"wrote {csv}, {', '.join(str(f) for f in figs)}")
+    failed = int((table["status"] == "failed").sum()) if "status" in table else 0
+    if failed:
+        print(f"error: {failed} of {len(table)} rows failed (their reason is in the error column of {csv})",
+              file=sys.stderr)
+        return 1
     return 0

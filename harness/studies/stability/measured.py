@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 
 from harness.charts import save_figure
-from harness.studies.trial import quiet_simulate, study_options
+from harness.studies.trial import StudyInterrupted, quiet_simulate, study_options
 from harness.studies.stability.theory import (MASTER_NAMES, ORDERS, TwoInertia, _as_params, _check_h, _master,
                                               _order, stability_boundary)
 
@@ -173,31 +173,48 @@ def stability_table(base: TwoInertia = STUDY_BASE, sweep: str = "inertia", value
     values = list(values) if values is not None else list(DEFAULT_VALUES[sweep])
     for v in values:
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise ValueError(f"sweep value {v!r} is not admissible: must be a positive number ({label})")
+            raise ValueError(f"--values: {v!r} is not admissible for the {sweep} sweep ({label}): must be a "
+                             f"positive number; nothing was run")
     rows = []
-    for v in values:
-        p = make(base, float(v))
-        omega = p.natural_frequency()
-        for master in MASTER_NAMES:
-            for order in ORDERS:
-                h_th = stability_boundary(p, master, order, integrator="rk4")
-                h_ex = stability_boundary(p, master, order, integrator="exact")
-                h_me = math.nan
-                if measure and math.isfinite(h_th) and h_th > 1e-3 / omega * 1.0001:
-                    run = two_inertia_run(p, master, order, periods=periods, fmu_dir=fmu_dir)
-                    try:
-                        h_me = measured_boundary(run, 0.6 * h_th, 1.5 * h_th, rtol=rtol)
-                    except ValueError as e:
-                        if progress:
-                            progress(f"  measured boundary not bracketed: {e}")
-                rows.append(dict(sweep=sweep, ratio_name=label, ratio=float(v), master=master, order=order,
-                                 omega=omega, h_theory=h_th, h_exact=h_ex, h_measured=h_me,
-                                 rel_diff=(h_me - h_th) / h_th if math.isfinite(h_th) else math.nan,
-                                 **{f"p_{k}": val for k, val in asdict(p).items()}))
-                if progress:
-                    progress(f"{label} = {v:g}  {master:12s} order {order}: theory {h_th:.5g} s, "
-                             f"exact-subsystem {h_ex:.5g} s, measured {h_me:.5g} s")
+    try:  # Ctrl-C or SIGTERM: the rows finished so far go with the interrupt
+        for v in values:
+            p = make(base, float(v))
+            omega = p.natural_frequency()
+            for master in MASTER_NAMES:
+                for order in ORDERS:
+                    h_th = stability_boundary(p, master, order, integrator="rk4")
+                    h_ex = stability_boundary(p, master, order, integrator="exact")
+                    h_me = math.nan
+                    bounded = math.isfinite(h_th) and h_th > 1e-3 / omega * 1.0001
+                    note = ("" if measure and bounded else "not measured: theory only" if not measure
+                            else "not measured: the theory has no boundary inside the scanned range to bracket")
+                    if measure and bounded:
+                        run = two_inertia_run(p, master, order, periods=periods, fmu_dir=fmu_dir)
+                        try:
+                            h_me = measured_boundary(run, 0.6 * h_th, 1.5 * h_th, rtol=rtol)
+                        except ValueError as e:
+                            note = f"not bracketed in [0.6, 1.5] x theory: {e}"
+                    rows.append(dict(sweep=sweep, ratio_name=label, ratio=float(v), master=master, order=order,
+                                     omega=omega, h_theory=h_th, h_exact=h_ex, h_measured=h_me,
+                                     rel_diff=(h_me - h_th) / h_th if math.isfinite(h_th) else math.nan,
+                                     note=note, **{f"p_{k}": val for k, val in asdict(p).items()}))
+                    if progress:
+                        progress(f"{label} = {v:g}  {master:12s} order {order}: theory {_boundary_text(h_th, omega)}, "
+                                 f"exact-subsystem {_boundary_text(h_ex, omega)}, "
+                                 + (f"measured {h_me:.5g} s" if math.isfinite(h_me) else note))
+    except KeyboardInterrupt as e:
+        raise StudyInterrupted(pd.DataFrame(rows), e) from None
     return pd.DataFrame(rows)
+
+
+def _boundary_text(h: float, omega: float) -> str:
+    """A theory boundary in words where it is no number: :func:`stability_boundary` scans 1e-3/omega to
+    10/omega and answers inf (stable over all of it) or the scan's lower end (unstable already there)."""
+    if math.isinf(h):
+        return f"stable over the whole range (to {10.0 / omega:.3g} s)"
+    if h <= 1e-3 / omega * 1.0001:
+        return f"unstable at every step (down to {h:.3g} s)"
+    return f"{h:.5g} s"
 
 
 def plot_stability_map(table, path_stem: Path) -> list[Path]:
@@ -214,10 +231,10 @@ def plot_stability_map(table, path_stem: Path) -> list[Path]:
     for (master, order), g in table.groupby(["master", "order"], sort=False):
         g = g.sort_values("ratio")
         y = (g["h_theory"] * g["omega"]).to_numpy()
-        ax.plot(g["ratio"], y, styles[master], color=colors[order], label=f"{master}, order {order} (theory)")
+        ax.plot(g["ratio"], y, styles.get(master, ":"), color=colors[order], label=f"{master}, order {order} (theory)")
         m = g["h_measured"].notna()
         if m.any():
-            ax.plot(g["ratio"][m], (g["h_measured"] * g["omega"])[m], markers[master], color=colors[order],
+            ax.plot(g["ratio"][m], (g["h_measured"] * g["omega"])[m], markers.get(master, "D"), color=colors[order],
                     mfc="none", ms=7)
     ax.plot([], [], "ko", mfc="none", label="measured (co-simulation, bisection)")
     ax.set_xscale("log")

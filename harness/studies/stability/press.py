@@ -13,7 +13,7 @@ import numpy as np
 from harness.charts import save_figure
 from harness.run import declared
 from harness.specs import StabilitySpec
-from harness.studies.trial import quiet_simulate, study_options
+from harness.studies.trial import StudyInterrupted, one_line, quiet_simulate, study_options
 from harness.studies.stability.measured import GROWTH_SUFFIXES, measured_boundary
 from harness.studies.stability.theory import ORDERS, _check_h, _order
 
@@ -244,30 +244,55 @@ def press_stability_table(system: str, sweep: str | None = None, values=None, ma
     check_sweep(base, sweep, values)
     table = _parameter_table(base)
     h_default = float(base.experiment.step)
+    runs = {}       # value -> (omega, T, reference run): every value's reference first, so a value the
+    failed = {}     # drive cannot run is known before any bisection; it becomes rows saying why
     rows = []
-    for v in values:
-        def p(name, _v=v):
-            return _v if name == sweep else float(table[name][0])
+    try:  # Ctrl-C or SIGTERM: the rows finished so far go with the interrupt
+        for v in values:
+            def p(name, _v=v):
+                return _v if name == sweep else float(table[name][0])
 
-        try:
-            omega = float(study.omega(p))
-        except (KeyError, ValueError, ZeroDivisionError, TypeError):
-            omega = math.nan
-        T = duration if duration is not None else study.duration * (0.5 if quick else 1.0)
-        if math.isfinite(omega) and omega > 0:
-            T = max(T, periods * 2.0 * math.pi / omega)
-        ref_run = PressRun(base, "gauss-seidel", 0, {sweep: v}, duration=T)
-        for master in masters:
-            for order in orders:
-                prun = PressRun(base, master, order, {sweep: v}, duration=T, reference=ref_run.ref)
-                r = press_boundary(prun, rtol=rtol, cap=cap)
-                rows.append(dict(system=system, sweep=sweep, value=v, master=master, order=order,
-                                 h_default=h_default, omega_est=omega, duration=T, **r))
+            try:
+                omega = float(study.omega(p))
+            except (KeyError, ValueError, ZeroDivisionError, TypeError):
+                omega = math.nan
+            T = duration if duration is not None else study.duration * (0.5 if quick else 1.0)
+            if math.isfinite(omega) and omega > 0:
+                T = max(T, periods * 2.0 * math.pi / omega)
+            try:
+                runs[v] = (omega, T, PressRun(base, "gauss-seidel", 0, {sweep: v}, duration=T).ref)
+            except Exception as e:  # the reference does not run with this value (e.g. the FMU refuses it)
+                failed[v] = (omega, T, one_line(e))
                 if progress:
-                    progress(f"{sweep} = {v:g}  {master:14s} order {order}: {r['status']:17s} "
-                             f"h_stable {r['h_stable']:.4g} s, h_unstable {r['h_unstable']:.4g} s "
-                             f"({r['runs']} runs)")
+                    progress(f"{sweep} = {v:g}: not measured, the reference run fails: {failed[v][2]}")
+        for v in values:
+            for master in masters:
+                for order in orders:
+                    if v in failed:
+                        omega, T, why = failed[v]
+                        r = dict(h_stable=math.nan, h_unstable=math.nan, h_boundary=math.nan, status="failed",
+                                 runs=0, error=why)
+                    else:
+                        omega, T, ref = runs[v]
+                        prun = PressRun(base, master, order, {sweep: v}, duration=T, reference=ref)
+                        r = dict(press_boundary(prun, rtol=rtol, cap=cap), error="")
+                        if progress:
+                            progress(f"{sweep} = {v:g}  {master:14s} order {order}: {_boundary_text(r)} "
+                                     f"({r['runs']} runs)")
+                    rows.append(dict(system=system, sweep=sweep, value=v, master=master, order=order,
+                                     h_default=h_default, omega_est=omega, duration=T, **r))
+    except KeyboardInterrupt as e:
+        raise StudyInterrupted(pd.DataFrame(rows), e) from None
     return pd.DataFrame(rows)
+
+
+def _boundary_text(r: dict) -> str:
+    """One method's result of :func:`press_boundary` in words (no "nan" where a side was not reached)."""
+    if r["status"] == "stable to cap":
+        return f"stable up to the cap of the search, {r['h_stable']:.4g} s"
+    if r["status"] == "unstable at floor":
+        return f"unstable down to the floor of the search, {r['h_unstable']:.4g} s"
+    return f"largest stable step {r['h_stable']:.4g} s, unstable at {r['h_unstable']:.4g} s"
 
 
 def plot_press_map(table, path_stem: Path) -> list[Path]:
