@@ -396,7 +396,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tools", default=",".join(TOOLS), help=f"comma list of {', '.join(TOOLS)}")
     ap.add_argument("--modes", default=",".join(MODES), help="pinned, unpinned or both")
     ap.add_argument("--out", type=Path, default=None,
-                    help="folder of the CSV and SSPs (default: results/benchmark, with --quick results/benchmark-quick)")
+                    help="folder of the CSV and SSPs (default: results/benchmark; with --quick "
+                         "results/benchmark-quick)")
     ap.add_argument("--chart", type=Path, default=None,
                     help="bar chart path (.png; an .svg is written beside it; default: docs/images/benchmark.png, "
                          "with --quick OUT/benchmark.png)")

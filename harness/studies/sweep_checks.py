@@ -3,10 +3,11 @@
 :func:`preflight` fails with one line (:class:`~harness.studies.sweep.SweepError`) naming the spec file, the
 key and the culprit when: the worker count is not an integer from 0 to the CPUs this process may use; the
 spec's ``system:`` key names another system; a sweep variable changes nothing (neither ``instance.parameter``
-nor read by a ``set:`` expression: a misspelt key), with the close names; a parameter that a point sets is not a parameter of the system's FMUs (checked at every point, so an
-expression that fails at one point fails before any run); a quantity of interest names a variable no FMU has,
-or does not evaluate on a result of the right columns (a typo in a function name); the output file cannot be
-written (unknown suffix, Parquet without pyarrow, a folder that cannot be created).
+nor read by a ``set:`` expression: a misspelt key), with the close names; a parameter that a point sets is
+not a parameter of the system's FMUs (checked at every point, so an expression that fails at one point fails
+before any run); a quantity of interest names a variable no FMU has, or does not evaluate on a result of the
+right columns (a typo in a function name); the output file cannot be written (unknown suffix, Parquet without
+pyarrow, a folder that cannot be created).
 
 :class:`PointLog` appends each finished point to ``<out stem>.partial.csv`` as it finishes (header first).
 A sweep that completes writes ``--out`` and removes the partial file; one that is interrupted (Ctrl-C) or
