@@ -492,7 +492,9 @@ class _Reader:
 # CLI
 # --------------------------------------------------------------------------------------------------------
 def register(subparsers) -> None:
-    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included)")
+    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included)",
+                              description="Write a system as an SSP 1.0 archive (its FMUs, their connections "
+                                          "and parameter values) for other FMI/SSP tools.")
     p.add_argument("system", help="system module name in systems/, or a .ssp/.ssd file")
     p.add_argument("out", type=Path, help="output .ssp file")
     p.set_defaults(func=_run_export)

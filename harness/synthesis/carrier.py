@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import json
 import math
-import sys
+
+from harness.synthesis import fail, summary, typed
 
 
 def register(subparsers):
     p = subparsers.add_parser("carrier", help="seed 004: carrier law for a uniform bed, invariants, cam geometry",
-                              description=__doc__.splitlines()[0])
+                              description=summary(__doc__))
     p.add_argument("--zone", type=float, nargs=2, default=(0.08, 0.24), metavar=("START", "END"),
                    help="printing zone, bed positions from the stroke start [m] (default: bed_drive's 0.08 0.24)")
     p.add_argument("--stroke", type=float, default=None,
@@ -29,17 +30,38 @@ def register(subparsers):
     return p
 
 
+def _bad_input(args, stroke: float) -> str:
+    """What is wrong with the options, in the words and units they were typed in ('' if nothing): the
+    synthesis itself works on shares of the stroke, which the user never typed."""
+    if not (math.isfinite(stroke) and stroke > 0.0):
+        return f"{typed('stroke', stroke, 'm')} must be > 0"
+    start, end = args.zone
+    if not 0.0 < start < end < stroke:
+        return (f"--zone {start:g} {end:g} m: the printing zone must lie inside the stroke, 0 < START < END < "
+                f"{stroke:.4g} m" + ("" if args.stroke is not None else " (bed_drive's stroke; see --stroke)"))
+    if args.runup is not None and not 0.0 < args.runup < 0.5:
+        return f"{typed('runup', args.runup)} must lie in (0, 0.5): a share of the working stroke at each end"
+    if not 0.0 < args.pressure < 90.0:
+        return f"{typed('pressure', args.pressure, 'deg')} must lie in (0, 90)"
+    if not args.arm > 0.0:
+        return f"{typed('arm', args.arm, 'm')} must be > 0"
+    return ""
+
+
 def run(args) -> int:
     import numpy as np
 
     from fmus.physics import bed_cam, bed_law as B
     from fmus.physics.laws import Law, get_law
 
+    st = B.working_stroke()
+    K = B.SEED_RATIO
+    alpha_S = K * abs(st.swing) + (1 + K) * B.SEED_CARRIER_SWING
+    stroke = args.stroke if args.stroke is not None else 0.05 * alpha_S
+    bad = _bad_input(args, stroke)
+    if bad:
+        return fail("carrier", bad)
     try:
-        st = B.working_stroke()
-        K = B.SEED_RATIO
-        alpha_S = K * abs(st.swing) + (1 + K) * B.SEED_CARRIER_SWING
-        stroke = args.stroke if args.stroke is not None else 0.05 * alpha_S
         u = args.runup if args.runup is not None else B.runup_for_zone(args.zone[0] / stroke,
                                                                          args.zone[1] / stroke)
         cl = B.carrier_law(u)
@@ -66,8 +88,7 @@ def run(args) -> int:
                            "pressure_max_deg": math.degrees(d.pressure_max),
                            "best_pressure_at_r0_S_0.95_deg": math.degrees(d.best_at_seed_ratio)}
     except ValueError as e:
-        print(f"synth carrier: {e}", file=sys.stderr)
-        return 2
+        return fail("carrier", str(e))
     if args.json:
         print(json.dumps(data))
         return 0

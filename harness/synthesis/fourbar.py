@@ -12,6 +12,8 @@ import argparse
 import json
 import sys
 
+from harness.synthesis import fail, summary, typed
+
 _ROWS = (("crank", "crank O2A", ""), ("coupler", "coupler AD", ""), ("frame", "frame O2O5", ""),
          ("rocker", "rocker DO5", ""), ("time_ratio", "time ratio K_px (working share)", ""),
          ("swing_deg", "rocker swing", "deg"), ("min_transmission_deg", "min transmission angle", "deg"),
@@ -24,13 +26,17 @@ _ROWS = (("crank", "crank O2A", ""), ("coupler", "coupler AD", ""), ("frame", "f
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--swing", type=float, metavar="DEG", help="rocker swing to synthesise [deg]")
+    p.add_argument("--swing", type=float, metavar="DEG",
+                   help="rocker swing to synthesise [deg] (no default: required unless --analyse)")
     p.add_argument("--min-transmission", type=float, metavar="DEG", dest="min_transmission",
-                   help="smallest admissible transmission angle [deg]")
+                   help="smallest admissible transmission angle [deg] (no default: required unless --analyse)")
     p.add_argument("--analyse", "--analyze", action="store_true", help="analyse given lengths instead (crank = 1)")
-    p.add_argument("--coupler", type=float, metavar="L", help="coupler length / crank length")
-    p.add_argument("--frame", type=float, metavar="L", help="frame length / crank length")
-    p.add_argument("--rocker", type=float, metavar="L", help="rocker length / crank length")
+    p.add_argument("--coupler", type=float, metavar="L",
+                   help="coupler length / crank length (no default: required with --analyse)")
+    p.add_argument("--frame", type=float, metavar="L",
+                   help="frame length / crank length (no default: required with --analyse)")
+    p.add_argument("--rocker", type=float, metavar="L",
+                   help="rocker length / crank length (no default: required with --analyse)")
     p.add_argument("--branch", type=int, choices=(1, -1), default=1, help="assembly branch (default 1)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
@@ -38,15 +44,27 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
 def register(subparsers) -> argparse.ArgumentParser:
     """Add the ``fourbar`` subcommand to an argparse subparsers object."""
     p = subparsers.add_parser("fourbar", help="four-bar synthesis by two extreme positions / analysis (seed 004)",
-                              description=__doc__.splitlines()[0])
+                              description=summary(__doc__))
     _add_arguments(p)
     p.set_defaults(func=run)
     return p
 
 
 def _fail(message: str) -> int:
-    print(f"synth fourbar: {message}", file=sys.stderr)
-    return 2
+    return fail("fourbar", message)
+
+
+def _in_users_words(e, args) -> str:
+    """A ParameterError of the synthesis in the words of the command line: the option and the value typed
+    (``--swing 200: must be in (0, 180) deg``); a check on the unit crank names the lengths given instead."""
+    option = {"swing": "swing", "min_transmission": "min_transmission", "coupler": "coupler", "frame": "frame",
+              "rocker": "rocker"}.get(getattr(e, "name", None))
+    if option is not None and getattr(args, option, None) is not None:
+        return f"{typed(option, getattr(args, option))}: {e.requirement}"
+    if args.analyse and hasattr(e, "requirement"):
+        given = " ".join(typed(n, getattr(args, n)) for n in ("coupler", "frame", "rocker"))
+        return f"{given} (crank = 1): {e.requirement}"
+    return str(e)
 
 
 def run(args) -> int:
@@ -63,7 +81,9 @@ def run(args) -> int:
             if args.swing is None or args.min_transmission is None:
                 return _fail("give --swing and --min-transmission (or --analyse with --coupler/--frame/--rocker)")
             result = synthesise(args.swing, args.min_transmission)
-    except (ParameterError, ValueError) as e:
+    except ParameterError as e:
+        return _fail(_in_users_words(e, args))
+    except ValueError as e:
         return _fail(str(e))
     data = result.as_dict()
     if args.json:

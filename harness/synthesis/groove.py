@@ -19,6 +19,7 @@ import numpy as np
 
 from fmus.physics import groove
 from fmus.physics.laws import LAW_NAMES, get_law
+from harness.synthesis import fail, summary, typed
 
 COMPARE = ("K0", "C0", "power", "polydynamic", "P6")
 # The criteria seed 001 itself states (feeder.md): the kinematic connection (K6) whose break bounds lambda2
@@ -32,11 +33,13 @@ SEED_SOURCES = "feeder.md 2.3 (K6), (K8); 2.4 (a)-(c); S1-2, S1-6, S1-7"
 
 def register(subparsers) -> argparse.ArgumentParser:
     ap = subparsers.add_parser("groove", help="LCSM groove synthesis and feasible lambda2 range",
-                               description=__doc__.splitlines()[0])
+                               description=summary(__doc__))
     ap.add_argument("--crank-radius", type=float, default=0.040, help="crank radius r [m] (seed 001: 0.040)")
     ap.add_argument("--lambda1", type=float, default=3.5, help="frame length / r (seed 001: 3.5)")
     ap.add_argument("--lambda3", type=float, default=3.0, help="base four-bar rocker length / r (seed 001: 3)")
-    ap.add_argument("--lambda2", type=float, default=None, help="conrod length / r for --out / --compare-laws")
+    ap.add_argument("--lambda2", type=float, default=None,
+                    help="conrod length / r of one design (needed for --out; default with --compare-laws: the "
+                         "middle of each law's feasible interval)")
     ap.add_argument("--law", default="K0", help=f"law of the forward phase ({', '.join(LAW_NAMES)})")
     ap.add_argument("--law-return", default=None, help="law of the return phase (default: --law)")
     ap.add_argument("--n", type=float, default=2.0, help="exponent of the power law")
@@ -47,9 +50,11 @@ def register(subparsers) -> argparse.ArgumentParser:
     ap.add_argument("--roller-radius", type=float, default=0.0, help="roller radius [m] for the undercut check")
     ap.add_argument("--max-pressure-angle", type=float, default=math.degrees(groove.DEFAULT_MAX_PRESSURE),
                     help="allowable pressure angle [deg] (default 60 = 90 - mu_min 30 of seed 004)")
-    ap.add_argument("--scan", choices=("lambda2",), default=None, help="find the feasible interval of lambda2")
+    ap.add_argument("--scan", choices=("lambda2",), default=None,
+                    help="find the feasible interval of lambda2 (default: no scan)")
     ap.add_argument("--compare-laws", action="store_true", help="table of K0, C0, power, polydynamic, P6")
-    ap.add_argument("--out", default=None, help="write the profile (x y per line, metres) for --lambda2")
+    ap.add_argument("--out", default=None,
+                    help="write the profile (x y per line, metres) for --lambda2 (default: not written)")
     ap.add_argument("--points", type=int, default=3600, help="crank-angle grid points")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     ap.set_defaults(func=run)
@@ -57,8 +62,7 @@ def register(subparsers) -> argparse.ArgumentParser:
 
 
 def _fail(msg: str) -> int:
-    print(f"synth groove: {msg}", file=sys.stderr)
-    return 2
+    return fail("groove", msg)
 
 
 def _design(a, law: str, lam2: float):
@@ -185,7 +189,7 @@ def run(args) -> int:
         if a.law_return is not None:
             get_law(a.law_return, n=a.n, k_m=a.k_m)
         if not a.crank_radius > 0.0:
-            return _fail(f"--crank-radius = {a.crank_radius!r} m must be > 0")
+            return _fail(f"{typed('crank_radius', a.crank_radius, 'm')} must be > 0")
         if a.compare_laws:
             rows = _compare(a)
             if a.json:

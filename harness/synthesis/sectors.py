@@ -14,6 +14,7 @@ import json
 import sys
 
 from fmus.physics import gear_sectors as gs
+from harness.synthesis import fail, typed
 
 EXAMPLE = dict(eps1=0.3, eps2=0.3, kappa=1.5, beta0=0.8, delta0=-1.2, D_Ci=1.68)
 GIVEN = ("D_Ci", "v1", "v2", "w2", "l_i", "phi12", "phiC12", "c1", "delta0")
@@ -48,11 +49,13 @@ def run(args) -> int:
     values = {n: (getattr(args, n) if getattr(args, n, None) is not None else getattr(base, n)) for n in GIVEN}
     task = gs.SectorTask(**values)
     use = "lsq" if args.residuals.strip() == "lsq" else tuple(s.strip() for s in args.residuals.split(","))
+    for name in ("D_Ci", "l_i"):  # a diameter and a centre distance: positive lengths
+        if not values[name] > 0.0:
+            return fail("sectors", f"{typed(name, values[name])} ({HELP[name]}) must be > 0")
     try:
         sol = gs.solve_sectors(task, use)
     except ValueError as e:
-        print(f"synth sectors: {e}", file=sys.stderr)
-        return 2
+        return fail("sectors", str(e))
     if args.json:
         print(json.dumps({"given": values, **sol.as_dict()}, indent=2))
     else:
@@ -64,8 +67,7 @@ def run(args) -> int:
             print(f"  {n}{'*' if n in sol.used else ' '} = {r: .3e}")
         print(f"converged: {sol.converged}  feasible: {sol.feasible}  ({sol.message})")
     if not (sol.converged and sol.feasible):
-        print(f"synth sectors: no feasible solution: {sol.message}", file=sys.stderr)
-        return 2
+        return fail("sectors", f"no feasible solution: {sol.message}")
     return 0
 
 
