@@ -220,6 +220,9 @@ def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[
         _draw_panel(ax, t, df, panel, units)
         _shade(ax, zone_spans)
         mine = [(name, w) for name, w, cols in windows if cols & set(panel.columns) and w[0] < t[-1]]
+        if mine:                                      # headroom, so the bars stay off the curves
+            lo, hi = ax.get_ylim()
+            ax.set_ylim(lo, hi + 0.13 * len(mine) * (hi - lo))
         for i, (name, (a, b)) in enumerate(mine):   # a bar along the top per scene window, named
             y = 0.97 - 0.11 * i
             ax.plot([a, min(b, t[-1])], [y, y], transform=ax.get_xaxis_transform(), color="0.3", lw=2.2,
