@@ -1,59 +1,74 @@
 """Knife drive of the book-block spine processing device, discrete-tangential method (seed 003).
 
-    motor (MotorBelt, ideal speed source) <-pulley- shaft (FlywheelShaft: flywheel J1, driving shaft S1,
-    knife-side inertia) -crank-> linkage (FourBar, parallelogram double crank) -rocker-> knife (KnifeLoad)
+    motor (MotorBelt, ideal speed source) <-pulley- shaft (ParallelShafts: drive-end flywheel, driving shaft
+    S1 and driven shaft S2 in parallel, flywheel J1 on S2 fed by the V-belt, knife inertia J_red)
+    -crank-> linkage (FourBar, parallelogram double crank) -rocker-> knife (KnifeLoad)
+
+Built from the seed's design (Fig. 3, eqs. (10)-(12) and its recommendations), so that its rules hold:
 
 * The seed's motor is "absolutely rigid": MotorBelt at fidelity 0 (ideal speed source) with the V-belt.
-* Driving shaft S1: steel, d = 30 mm, l = 0.3 m, c1 = G*pi*d^4/(32*l) = 2.15e4 N.m/rad (the seed asks for
-  C_red > 2e4 N.m/rad); dissipation coefficient psi = 0.5 (seed: mu_red = 0.5).
-* Knife-side inertia J_red = 5.4e-4 kg.m2, chosen so that the torsional natural frequency
-  sqrt(c1/J_red)/(2*pi) is about 1000 Hz, inside the seed's recommended 800-1200 Hz (check it with
-  ``python -m harness synth knife``).
-* Parallelogram linkage with equal cranks R = 50 mm (seed: double crank with equal cranks; the belt between
-  the crank shafts keeps it from flipping into an antiparallelogram, modelled by taking the parallelogram
-  branch).  Its elastic levels (1, 2: the scenes' full model) have the belt as an element: the seed gives
-  no c2, b2, so a V-belt like the motor belt here (2e5 N/m, 300 N.s/m along the pitch line) on equal
-  pulleys of 0.1 m pitch diameter is assumed, c2 = 2e5*0.05^2 = 500 N.m/rad, b2 = 300*0.05^2 = 0.75
-  N.m.s/rad.  Without it the cut, which ends at the dead point pi, stops the rocker there and the linkage
-  runs on as an antiparallelogram (rocker backwards).  Coupler: 5e7 N/m (assumed), axial damping 141 N.s/m
-  = 5 % of critical for the rocker inertia reduced to the coupler at the full arm R (2*0.05*sqrt(c*J)/R).
-* Cutting load: feed-force samples 150/260/280/120 N over T_cut = 25 ms, cut over crank angles [pi/2, pi],
-  one plunge per turn: the crank turns at 600 rpm (T_pause/T_cut = 3 > 2.5, the seed's rule).  The
-  samples are assumptions: the seed prints none.
+* The cut: feed-force samples 150/260/280/120 N (assumed: the seed prints none) over crank angles
+  [pi/2, pi], one plunge per turn at 600 rpm, so T_cut = (pi - phi_s)/omega = 25 ms (spec 2.13) and
+  T_pause/T_cut = 3 > 2.5 (the seed's rule 1).
+* J_red, the inertia reduced to the knife, is the seed's eq. (12): J_red*omega^2/2 = the work of M_dist over
+  the cut, with the stable section's K1 = 1 and the polynomial's time counted from the start of the cut
+  (fmus.physics.knife.reduced_inertia_cut; eq. (12b) as printed counts it from crank angle 0 and gives a
+  negative J_red for these samples, see docs/seed_003.md).  About 3.98e-3 kg.m2.
+* Two identical steel shafts in parallel (the seed's C_red = G*pi*d^4/(16*l)): d = 50 mm, l = 0.6 m, so
+  C_red = 1.66e5 N.m/rad > 2e4 (rule 3) and f_n = sqrt(C_red/J_red)/(2*pi) = 1027 Hz, inside 800-1200 Hz
+  (rule 2), 0.35 of a plunge frequency away from the nearest harmonic i*N_B (N_B = 10/s).  Check with
+  ``python -m harness synth knife --system spine_knife``.  Dissipation coefficient psi = 0.5 (mu_red).
+* The seed's two-degree-of-freedom model, eq. (10), is the shaft's fidelity 1: the driven shaft S2 from the
+  flywheel J1, which the V-belt joins to the drive end.  Flywheels 0.2 kg.m2 each and the belt (2e5 N/m,
+  300 N.s/m along the pitch line on 0.1 m pulleys: c2 = 500 N.m/rad, b2 = 0.75 N.m.s/rad) are assumed: the
+  seed gives none.  Fidelity 0 is its eq. (11) (phi2 = phi0).
+* Parallelogram linkage with equal cranks R = 50 mm at fidelity 0 (rigid, the seed's: every mass reduced to
+  the knife; its rocker inertia is not used there).  Its elastic levels (1, 2: the scenes' full model)
+  resolve the coupler, which the seed takes as rigid; they carry the shaft-to-shaft belt between the cranks
+  (the same c2, b2), without which the cut, which ends at the dead point pi, stops the rocker there and the
+  linkage runs on as an antiparallelogram.  Coupler: 5e7 N/m (assumed), axial damping 141 N.s/m = 5 % of
+  critical for the rocker inertia reduced to the coupler at the full arm R (2*0.05*sqrt(c*J)/R).
 """
 import math
 
+from fmus.physics import knife as kn
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import PrecisionSpec, Scene, StabilitySpec
 
 RPM = 2 * math.pi / 60
-W_CRANK = 600.0 * RPM
+W_CRANK = 600.0 * RPM                         # rad/s
+PHI_S = math.pi / 2                            # rad: the cut spans the crank angles [pi/2, pi]
+T_CUT = (math.pi - PHI_S) / W_CRANK            # s: one plunge per turn (knife_drive.md 2.13)
+KNIFE = {"T_cut": T_CUT, "F_T1": 150.0, "F_T2": 260.0, "F_T3": 280.0, "F_T4": 120.0,   # s, N
+         "R": 0.05, "phi_s": PHI_S}                                                    # m, rad
+_load = kn.KnifeLoadParams(**KNIFE)
+J_RED = kn.reduced_inertia_cut(kn.fit_poly((_load.F_T1, _load.F_T2, _load.F_T3, _load.F_T4), _load.T_cut),
+                               W_CRANK, _load.phi_s, _load.R, _load.beta, _load.gamma, _load.alpha3, _load.f)  # eq. (12)
+BELT = (2.0e5 * 0.05 ** 2, 300.0 * 0.05 ** 2)   # N.m/rad, N.m.s/rad: V-belt between the flywheels
 
 SYSTEM = System(
     name="spine_knife",
-    description="Book-block spine knife drive: rigid motor, V-belt, flywheel, compliant shaft, parallelogram "
-                "double crank, cutting load (seed 003)",
+    description="Book-block spine knife drive: rigid motor, V-belt, two shafts in parallel with flywheels, "
+                "parallelogram double crank, cutting load (seed 003)",
     instances=[
         Instance("motor", "MotorBelt", {
             "fidelity": 0, "w_rated": 1425.0 * RPM, "w_sync": 1500.0 * RPM,   # rad/s
             "d_motor_pulley": 0.1, "d_driven_pulley": 0.2375,                 # m: ratio 2.375 -> 600 rpm
             "c_belt": 2.0e5, "d_belt": 300.0,                                 # N/m, N.s/m
         }),
-        Instance("shaft", "FlywheelShaft", {
-            "fidelity": 1, "J_flywheel": 0.2, "J_crank": 5.4e-4,            # kg.m2: J1, J_red
-            "G": 8.1e10, "d": 0.03, "l": 0.3, "psi": 0.5,                    # Pa, m, m, 1
-            "w0": W_CRANK,                                                    # rad/s
+        Instance("shaft", "ParallelShafts", {
+            "fidelity": 1, "J_drive": 0.2, "J_flywheel": 0.2, "J_red": J_RED,   # kg.m2
+            "G": 8.1e10, "d": 0.05, "l": 0.6, "psi": 0.5,                        # Pa, m, m, 1
+            "belt_stiffness": BELT[0], "belt_damping": BELT[1],                  # N.m/rad, N.m.s/rad
+            "w0": W_CRANK,                                                       # rad/s
         }),
         Instance("linkage", "FourBar", {
             "crank_length": 0.05, "coupler_length": 0.2, "rocker_length": 0.05, "frame_length": 0.2,  # m
             "fidelity": 0, "rocker_inertia": 1e-4, "coupler_stiffness": 5e7, "clearance": 0.0,  # kg.m2, N/m, m
             "coupler_damping": 2 * 0.05 * math.sqrt(5e7 * 1e-4) / 0.05,                      # N.s/m
-            "belt_stiffness": 2.0e5 * 0.05 ** 2, "belt_damping": 300.0 * 0.05 ** 2,        # N.m/rad, N.m.s/rad
+            "belt_stiffness": BELT[0], "belt_damping": BELT[1],                             # N.m/rad, N.m.s/rad
         }),
-        Instance("knife", "KnifeLoad", {
-            "T_cut": 0.025, "F_T1": 150.0, "F_T2": 260.0, "F_T3": 280.0, "F_T4": 120.0,   # s, N
-            "R": 0.05, "phi_s": math.pi / 2,                                              # m, rad
-        }),
+        Instance("knife", "KnifeLoad", KNIFE),
     ],
     bonds=[
         bond("shaft.pulley", "motor.pulley"),
@@ -72,8 +87,8 @@ SYSTEM = System(
                             steps=(5e-5, 1e-4, 2e-4, 4e-4), columns=("shaft.crank.w", "shaft.shaft_twist")),
     stability=StabilitySpec(
         "shaft.d", (0.02, 0.025, 0.03, 0.04, 0.05), (0.02, 0.03, 0.05), 0.05,
-        lambda p: math.sqrt(p("shaft.G") * math.pi * p("shaft.d") ** 4 / (32.0 * p("shaft.l"))
-                            * (1.0 / p("shaft.J_flywheel") + 1.0 / p("shaft.J_crank"))),
-        "driving-shaft diameter d [m] (torsional stiffness G pi d^4 / (32 l)) of the FlywheelShaft that drives "
-        "the linkage; omega ~ sqrt(c1 (1/J_flywheel + 1/J_crank))"),
+        lambda p: math.sqrt(p("shaft.G") * math.pi * p("shaft.d") ** 4 / (16.0 * p("shaft.l"))
+                            * (1.0 / p("shaft.J_red") + 1.0 / (p("shaft.J_drive") + p("shaft.J_flywheel")))),
+        "diameter d [m] of the two parallel shafts (together G pi d^4 / (16 l)) of the ParallelShafts that drive "
+        "the linkage; omega ~ sqrt(C_red (1/J_red + 1/(J_drive + J_flywheel))), the seed's eq. (11) mode"),
 )

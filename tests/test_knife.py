@@ -166,7 +166,8 @@ def test_cli_table_json_and_errors(capsys):
     assert "f_n in 800..1200 Hz" in capsys.readouterr().out
     assert cli.main(["knife", "--d", "0.02", "--json"]) == 1
     rep = json.loads(capsys.readouterr().out)
-    assert rep["C_red"] == pytest.approx(8e10 * math.pi * 0.02 ** 4 / (16 * 0.606))
+    d0 = kn.KnifeDesign()
+    assert rep["C_red"] == pytest.approx(d0.G * math.pi * 0.02 ** 4 / (16 * d0.l))
     assert cli.main(["knife", "--T-cut", "-1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "T_cut" in err[0]
@@ -213,3 +214,74 @@ def test_fidelity_zero_drops_the_entry_ramp_only():
     assert full.output(t, (), u)[1] == pytest.approx(0.25 * coarse.output(t, (), u)[1], rel=1e-12)
     t = 2.0 * T_entry
     assert full.output(t, (), u) == coarse.output(t, (), u)
+
+
+# ------------------------------------------------------------------------------------------ the shipped system
+def _spine_knife():
+    """systems/spine_knife.py: its shaft and knife parameters (the knife's with the KnifeLoad defaults) and the
+    crank speed its ideal-speed-source motor imposes through the belt ratio."""
+    from harness import load
+
+    system = load("spine_knife")
+    knife = {**{s.name: s.default for s in kn.KnifeLoadParams.specs()}, **system.instance("knife").parameters}
+    motor = system.instance("motor").parameters
+    omega = motor["w_rated"] * motor["d_motor_pulley"] / motor["d_driven_pulley"]
+    return system, system.instance("shaft"), knife, omega
+
+
+def test_spine_knife_obeys_the_seed_rules():
+    """The shipped drive from its own parameters: the cut over [phi_s, pi] at the running speed, J_red by eq.
+    (12) (the work of M_dist over the cut, time from the cut's start, K1 = 1), C_red of two shafts in
+    parallel (G pi d^4/(16 l)); then the seed's rules: T_pause/T_cut > 2.5, f_n in 800..1200 Hz, C_red > 2e4,
+    f_n away from the plunge harmonics (the toolkit's band 0.1 N_B)."""
+    _, shaft, k, omega = _spine_knife()
+    p = shaft.parameters
+    assert (math.pi - k["phi_s"]) / k["T_cut"] == pytest.approx(omega, rel=1e-12)   # one plunge per turn
+    A = _solve_A((k["F_T1"], k["F_T2"], k["F_T3"], k["F_T4"]), k["T_cut"])
+    kg = math.cos(k["beta"]) + k["f"] * math.sin(k["beta"]) * math.sin(k["gamma"] + k["alpha3"])
+    work = quad(lambda phi: 0.5 * k["R"] * kg * np.polyval(np.r_[A[::-1], 0.0], (phi - k["phi_s"]) / omega),
+                k["phi_s"], math.pi)[0]
+    J_red = 2 * work / omega ** 2
+    assert p["J_red"] == pytest.approx(J_red, rel=1e-9)
+    C_red = p["G"] * math.pi * p["d"] ** 4 / (16 * p["l"])
+    f_n = math.sqrt(C_red / J_red) / (2 * math.pi)
+    N_B = omega / (2 * math.pi)
+    assert (1 / N_B - k["T_cut"]) / k["T_cut"] > 2.5
+    assert 800.0 <= f_n <= 1200.0, f_n
+    assert C_red > 2e4
+    assert abs(f_n / N_B - round(f_n / N_B)) > 0.1
+
+
+def test_spine_knife_shafts_are_the_seeds_two_in_parallel():
+    """The shaft component is the seed's Fig. 3: a knife turned back against a still drive is pulled by both
+    shafts (C_red = G pi d^4/(16 l)), and its eq. (10) level is the one the system runs."""
+    from fmus.physics.parallel_shafts import ParallelShaftsModel, ParallelShaftsParams
+
+    _, shaft, _, _ = _spine_knife()
+    assert shaft.fmu == "ParallelShafts" and shaft.parameters["fidelity"] == 1
+    p = shaft.parameters
+    m = ParallelShaftsModel(ParallelShaftsParams(**p))
+    x = np.zeros(6)
+    x[2] = -1e-4                                             # knife behind the drive end and the flywheel J1
+    torque = m.derivatives(0.0, x, (0.0, 0.0, 0.0), 0.0)[3] * p["J_red"]
+    assert torque == pytest.approx(p["G"] * math.pi * p["d"] ** 4 / (16 * p["l"]) * 1e-4, rel=1e-12)
+
+
+def test_synth_knife_checks_the_system_as_built(capsys):
+    """``synth knife --system spine_knife`` takes the cut, the shafts and J_red from the system: every rule holds,
+    with the f_n of the system's own parameters; a system without the seed's design, or extra options, are
+    refused in one line."""
+    cli = _cli()
+    _, shaft, _, _ = _spine_knife()
+    p = shaft.parameters
+    assert cli.main(["knife", "--system", "spine_knife", "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["J_red"] == p["J_red"] and rep["J_red_cut"] == pytest.approx(p["J_red"], rel=1e-12)
+    assert rep["f_n"] == pytest.approx(math.sqrt(p["G"] * math.pi * p["d"] ** 4 / (16 * p["l"]) / p["J_red"])
+                                       / (2 * math.pi), rel=1e-12)
+    assert all(r["ok"] for r in rep["rules"])
+    for argv in (["knife", "--system", "bed_drive"], ["knife", "--system", "spine_knife", "--d", "0.03"]):
+        assert cli.main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "synth knife" in err[0]
+

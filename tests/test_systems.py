@@ -260,8 +260,7 @@ def _shaft_energy_balance(df, inst: str, bonds: list, p: dict):
     return work, energy[-1] - energy[0], dissipated, gross
 
 
-@pytest.mark.parametrize("name,inst,bonds", [
-    ("spine_knife", "shaft", [("shaft.pulley", "motor.pulley"), ("shaft.crank", "linkage.crank")]),
+@pytest.mark.parametrize("name,inst,bonds", [   # spine_knife's ParallelShafts: tests/test_parallel_shafts.py
     ("bed_drive", "flywheel", [("flywheel.pulley", "motor.pulley"), ("flywheel.crank", "fourbar.crank"),
                                ("flywheel.aux", "cam.crank")]),
 ])

@@ -11,10 +11,19 @@ Equations (source numbering):
   (11)    J_red*dphi'' + b_red*dphi' + C_red*dphi = M_dist(t), dphi(0) = dphi'(0) = 0 (A12);
   §2.8    p = sqrt(C_red/J_red), n = p*mu_red/(4 pi), b_red = 2 n J_red;
   §2.9    C_red = G pi d^4/(16 l): two identical shafts (G pi d^4/(32 l) each) in parallel;
-  (12b)   J_red from the energy of the load over crank angles [phi_s, pi] with t = phi/omega (as printed,
-          polynomial time from crank angle 0, A13; reduced_inertia_12b); reduced_inertia_cut is the same
-          energy definition with polynomial time measured from the start of the cut, t = (phi - phi_s)/omega
-          (consistent with eq. 1; used by the design check by default).
+  (12)    J_red*omega^2/2 = integral of M_dist over the cut, crank angles [phi_s, pi], K1 = t_K/T_entry held
+          (1 on the stable section).  How it is read: eq. (12b) as printed substitutes t = phi/omega, i.e.
+          it counts the polynomial's time from crank angle 0 (reduced_inertia_12b).  Eq. (1) counts it from
+          the start of the cut (F_T(0) = 0: no constant term, the knife meets the block at t = 0) and fits it
+          on [0, T_cut] only; with phi_s > 0 the printed form evaluates the quartic on [phi_s, pi]/omega,
+          outside the fitted interval (for phi_s = pi/2: [T_cut, 2 T_cut]), where it falls steeply, and a
+          kinetic energy comes out negative (J_red = -0.0357 kg.m2 for the KnifeDesign defaults).  So (12)
+          is read with the cut's own time, t = (phi - phi_s)/omega, which turns each (pi^k - phi_s^k) of
+          (12b) into (pi - phi_s)^k (reduced_inertia_cut; 3.98e-3 kg.m2 for the defaults).  Both are the
+          same when the crank angle is counted from the start of the cut (phi_s = 0), so the printed form
+          is this one with the seed's angle origin at the cut's start; the symbol clash of its lower limit
+          phi_1 with the knife's angle phi_1 (spec A13, A16) points the same way.  The design check and
+          systems/spine_knife.py use reduced_inertia_cut; reduced_inertia_12b is kept to show the printed form.
 Time base (A15, §2.13): one plunge per crank revolution, cut over crank angles [phi_s, pi]:
   omega = (pi - phi_s)/T_cut, T_cycle = 2 pi/omega, T_pause = T_cycle - T_cut, N_B = 1/T_cycle.
 Resonance (A14): Hz on both sides, f_n = p/(2 pi) against harmonics i*N_B; near-resonant when
@@ -152,7 +161,8 @@ def response(J_red: float, C_red: float, mu_red: float, moment, t_end: float, ma
 
 @dataclass(frozen=True)
 class KnifeDesign:
-    """Inputs of the design check (defaults: the KnifeLoad defaults plus shaft data; the seed gives none)."""
+    """Inputs of the design check (defaults: the KnifeLoad defaults plus the shafts of systems/spine_knife.py,
+    two steel shafts d = 50 mm, l = 0.6 m in parallel; the seed gives none)."""
     F_T1: float = 150.0
     F_T2: float = 260.0
     F_T3: float = 280.0
@@ -166,9 +176,9 @@ class KnifeDesign:
     R: float = 0.05
     B: float = 0.03
     V_B: float = 0.5
-    G: float = 8.0e10
+    G: float = 8.1e10
     d: float = 0.05
-    l: float = 0.606
+    l: float = 0.6
     mu_red: float = 0.5
     J_red: float | None = None          # None: from the load energy (jred_from)
     jred_from: str = "cut"              # "cut" (t from the start of the cut) or "12b" (as printed)
