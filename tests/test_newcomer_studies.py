@@ -196,3 +196,53 @@ def test_stability_progress_says_why_a_boundary_was_not_measured(capsys):
     assert lines and not any("nan" in line for line in lines)
     assert all("not measured: theory only" in line for line in lines)
     assert (table["note"] == "not measured: theory only").all()
+
+
+# -- item 5 (scenes): a candidate that blows up is a row naming its configuration, not an anonymous warning -----
+def _unstable_scene():
+    import dataclasses
+
+    from harness import load
+
+    system = load("two_inertia")
+    scene = next(s for s in system.scenes if s.name == "mean_speed")
+    return system, dataclasses.replace(scene, stop_time=5.0)     # jacobi at 10 ms diverges at 0.32 s
+
+
+def test_a_scene_candidate_that_stops_early_warns_nothing_and_keeps_its_reason():
+    import warnings
+
+    from harness.studies import scenes
+
+    system, scene = _unstable_scene()
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        c = scenes._run(system, scene, {}, 0.01, 1.0, "jacobi")
+    assert [str(w.message) for w in seen] == []
+    assert not c.ok and c.error is None and "diverged" in c.note
+
+
+def test_each_scene_candidate_is_named_by_what_differs_from_the_full_model():
+    from harness.studies.scenes import Candidate, configuration
+
+    full = Candidate({"motor": 2, "fourbar": 2}, 2e-4, 1.0, 0.0, 2.5, True, "", "jacobi")
+    assert configuration(full, full) == "full model"
+    c = Candidate({"motor": 2, "fourbar": 1}, 4e-4, None, None, 0.1, False, "blew up", "gauss-seidel")
+    assert configuration(c, full) == "fourbar level 1, step 0.4 ms, gauss-seidel"
+
+
+def test_scene_interrupted_keeps_the_candidates_run_so_far(tmp_path, monkeypatch, capsys):
+    import dataclasses
+
+    from harness import load
+    from harness.studies import scenes
+
+    system = load("two_inertia")
+    scene = dataclasses.replace(next(s for s in system.scenes if s.name == "mean_speed"), stop_time=0.06)
+    monkeypatch.setattr(system, "scenes", [scene])
+    monkeypatch.setattr(scenes, "_run", _interrupt_after(2, scenes._run, _Sigterm))
+    assert main(["scene", "two_inertia", "mean_speed", "--out", str(tmp_path)]) == 143
+    kept = pd.read_csv(tmp_path / "scene_two_inertia_mean_speed.partial.csv")
+    assert len(kept) == 2 and kept["ok"].iloc[0]
+    assert not (tmp_path / "scene_two_inertia_mean_speed.csv").exists()
+    assert "terminated (SIGTERM)" in capsys.readouterr().err

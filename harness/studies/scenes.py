@@ -32,9 +32,8 @@ import pandas as pd
 
 from harness import qoi
 from harness.charts import save_figure
-from harness.model import SystemWarning
 from harness.specs import Scene  # noqa: F401 (declared with the systems; re-exported)
-from harness.studies.trial import one_line, trial
+from harness.studies.trial import StudyInterrupted, keep_interrupted, one_line, trial, write_complete
 
 
 @dataclass
@@ -59,8 +58,13 @@ class SceneResult:
     cached_full: bool = False     # the full model's value and wall time came from the cache
 
     def table(self) -> pd.DataFrame:
-        rows = [dict(asdict(c), **{f"fidelity:{k}": v for k, v in c.fidelities.items()}) for c in self.candidates]
-        return pd.DataFrame(rows).drop(columns=["fidelities"])
+        return candidate_table(self.candidates)
+
+
+def candidate_table(candidates: list[Candidate]) -> pd.DataFrame:
+    """One row per candidate run: step, value, error, wall time, ok, note, master and ``fidelity:<instance>``."""
+    rows = [dict(asdict(c), **{f"fidelity:{k}": v for k, v in c.fidelities.items()}) for c in candidates]
+    return pd.DataFrame(rows).drop(columns=["fidelities"], errors="ignore")
 
 
 def find_scene(system, name: str | None = None) -> Scene:
@@ -120,8 +124,9 @@ def _run(system, scene: Scene, fidelities: dict[str, int], step: float, full_val
     exp = system.experiment
     master = master or exp.master
     t0 = time.perf_counter()
-    # unconnected-input notes are about the system, not this candidate
-    run = trial(system, ignore=SystemWarning, stop_time=scene.stop_time or exp.stop_time, step=step,
+    # quiet: a candidate that blows up or stops early is expected in the search and says so in its own row
+    # (``note``); printed per run, five such lines named no configuration
+    run = trial(system, stop_time=scene.stop_time or exp.stop_time, step=step,
                 master=master, extrapolation=exp.extrapolation, parameters=params,
                 outputs=qoi.columns(scene.quantity) or None)
     wall = run.wall_time
@@ -155,6 +160,15 @@ def choose(system, scene: Scene, cache_dir: Path = Path("results/cache"), max_do
     exists to compare with other tools step by step).  The full model's run is cached in ``cache_dir``; a
     repeat does not run it again and takes its wall time from the cache unless ``remeasure`` is True.
     """
+    candidates: list[Candidate] = []
+    try:  # Ctrl-C or SIGTERM: the candidates run so far go with the interrupt
+        return _choose(system, scene, cache_dir, max_doublings, masters, remeasure, candidates)
+    except KeyboardInterrupt as e:
+        raise StudyInterrupted(candidate_table(candidates), e) from None
+
+
+def _choose(system, scene: Scene, cache_dir: Path, max_doublings: int, masters, remeasure: bool,
+            candidates: list[Candidate]) -> SceneResult:
     levels = fidelity_levels(system)
     full_f = {k: v[-1] for k, v in levels.items()}
     exp = system.experiment
@@ -171,7 +185,7 @@ def choose(system, scene: Scene, cache_dir: Path = Path("results/cache"), max_do
             raise RuntimeError(f"scene {scene.name}: the full model failed: {full.note}")
         cache.parent.mkdir(parents=True, exist_ok=True)
         cache.write_text(json.dumps(asdict(full)))
-    candidates = [full]
+    candidates.append(full)
     current = dict(full_f)
     for inst, lv in levels.items():  # greedy, in the system's instance order
         for level in lv[:-1]:
@@ -210,33 +224,78 @@ def choose(system, scene: Scene, cache_dir: Path = Path("results/cache"), max_do
     return SceneResult(scene, full, chosen_again, candidates, speedup, cached_full=cached and not remeasure)
 
 
+def configuration(c: Candidate, full: Candidate) -> str:
+    """What distinguishes candidate ``c`` from the full model, in words: the lowered fidelity levels, the
+    step, the master ("fourbar level 1, cam level 1, step 0.4 ms")."""
+    parts = [f"{k} level {v}" for k, v in c.fidelities.items() if full.fidelities.get(k) != v]
+    if abs(c.step - full.step) > 1e-12 * full.step:
+        parts.append(f"step {c.step * 1e3:g} ms")
+    if c.master != full.master:
+        parts.append(c.master)
+    return ", ".join(parts) or "full model"
+
+
 def chart(result: SceneResult, out: Path) -> list[Path]:
+    """Error of the scene's quantity against each candidate's wall time.  Every candidate is a numbered point
+    whose configuration the key beside the axes names; a candidate that stopped early (no quantity) is drawn
+    on a band above the others; the full model, the reference, is the vertical line at its cost."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    # the full model is the reference (error 0): a vertical line at its cost, not a point at an arbitrary floor
-    others = [c for c in result.candidates if c.error is not None and c.error > 0.0]
-    ok = [c for c in others if c.ok]
-    bad = [c for c in others if not c.ok]
-    tol = result.scene.tolerance * (abs(result.full.value) if result.scene.relative else 1.0)
-    floor = min([c.error for c in others] + [tol]) / 10.0  # where a chosen model with error 0 is drawn
-    ax.axvline(result.full.wall_time, color="tab:blue", ls=":", lw=1.2, label="full model (the reference)")
-    ax.scatter([c.wall_time for c in ok], [c.error for c in ok], label="within tolerance", color="tab:green")
-    ax.scatter([c.wall_time for c in bad], [c.error for c in bad], label="outside tolerance",
-               color="tab:red", marker="x")
-    ch = result.chosen
-    ax.scatter([ch.wall_time], [max(ch.error or 0.0, floor)], s=160, facecolors="none", edgecolors="k",
-               label=f"chosen (speed-up {result.speedup:.1f}x)")
-    ax.axhline(tol, color="grey", ls="--", lw=1, label="tolerance")
+    full, ch = result.full, result.chosen
+    rest = [c for c in result.candidates[1:]]   # the first candidate is the full model itself
+    measured = [c for c in rest if c.error is not None]
+    stopped = [c for c in rest if c.error is None]
+    unit = f" [{result.scene.unit}]" if result.scene.unit else ""
+    tol = result.scene.tolerance * (abs(full.value) if result.scene.relative else 1.0)
+    errors = [c.error for c in measured if c.error > 0.0] + [tol]
+    floor = min(errors) / 10.0                  # where an error of exactly 0 is drawn on the log axis
+    top = max(errors) * 4.0                     # the band of the runs that stopped early
+
+    fig, ax = plt.subplots(figsize=(10.0, 4.8))
+    ax.axvline(full.wall_time, color="tab:blue", ls=":", lw=1.2)
+    ax.axhline(tol, color="grey", ls="--", lw=1)
+    ax.axhspan(top / 1.6, top * 1.6, color="0.93", zorder=0)
+    key = []
+    for n, c in enumerate(rest, start=1):
+        y = top if c.error is None else max(c.error, floor)
+        style = (dict(marker="^", color="tab:red", mfc="none") if c.error is None
+                 else dict(marker="o", color="tab:green") if c.ok else dict(marker="x", color="tab:red"))
+        ax.plot([c.wall_time], [y], ls="none", ms=7, **style)
+        ax.annotate(str(n), (c.wall_time, y), xytext=(5, 4), textcoords="offset points", fontsize=7)
+        why = "" if c.error is not None else " (stopped early)"
+        key.append(f"{n:2d}  {configuration(c, full)}{why}")
+    y_ch = top if ch.error is None else max(ch.error, floor)
+    ax.plot([ch.wall_time], [y_ch], ls="none", marker="o", ms=15, mfc="none", mec="k")
+    handles = [Line2D([], [], color="tab:blue", ls=":", label=f"full model (the reference): {full.wall_time:.2g} s a run"),
+               Line2D([], [], ls="none", marker="o", color="tab:green", label="within tolerance"),
+               Line2D([], [], ls="none", marker="x", color="tab:red", label="outside tolerance"),
+               Line2D([], [], ls="none", marker="^", color="tab:red", mfc="none",
+                      label="stopped early (blow-up): no quantity"),
+               Line2D([], [], ls="none", marker="o", ms=11, mfc="none", mec="k",
+                      label=f"chosen: {configuration(ch, full)} (speed-up {result.speedup:.2f}x)"),
+               Line2D([], [], color="grey", ls="--", label=f"tolerance {tol:.3g} {result.scene.unit}".rstrip())]
+    first = ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)
+    ax.add_artist(first)
+    blank = [Line2D([], [], ls="none")] * len(key)
+    ax.legend(blank, key, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 0.62), frameon=False,
+              handlelength=0, handletextpad=0, title="candidates (what differs from the full model)",
+              title_fontsize=7, alignment="left")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ax.set_ylim(floor / 1.5, top * 2.0)
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        axis.set_major_formatter(FormatStrFormatter("%g"))
+        axis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("wall time per run [s]")
-    ax.set_ylabel(f"|error| of the quantity [{result.scene.unit}]" if result.scene.unit else "|error| of the quantity")
+    ax.set_ylabel(f"|error| of the quantity{unit}")
+    ax.grid(True, which="both", alpha=0.3)
     ax.set_title(f"{result.scene.name}: {result.scene.question}", fontsize=9)
-    ax.legend(fontsize=8)
     fig.tight_layout()
     return save_figure(fig, out)
 
@@ -252,20 +311,30 @@ def register(subparsers) -> None:
 
 
 def _run_cli(args) -> int:
+    import sys
+
     from harness import load
 
     system = load(args.system)
     scene = find_scene(system, args.scene)
-    res = choose(system, scene, cache_dir=args.out / "cache", remeasure=args.remeasure)
     stem = args.out / f"scene_{system.name}_{scene.name}"
-    res.table().to_csv(stem.with_suffix(".csv"), index=False)
+    try:
+        res = choose(system, scene, cache_dir=args.out / "cache", remeasure=args.remeasure)
+    except StudyInterrupted as e:
+        return keep_interrupted(e, stem.with_suffix(".csv"), f"scene {scene.name} stopped during its search")
+    csv = write_complete(res.table(), stem.with_suffix(".csv"))
     paths = chart(res, stem)
     print(f"scene {scene.name}: {res.scene.question}")
-    print(f"  chosen fidelities: {res.chosen.fidelities}, step {res.chosen.step:g} s, master {res.chosen.master}")
+    print(f"  chosen fidelities: {res.chosen.fidelities}, step {res.chosen.step:g} s, master {res.chosen.master} "
+          f"({configuration(res.chosen, res.full)})")
     print(f"  quantity: {res.chosen.value:.6g} {res.scene.unit} (full model {res.full.value:.6g}); "
           f"error {res.chosen.error:.3g}")
     print(f"  wall time: full {res.full.wall_time:.3f} s, chosen {res.chosen.wall_time:.3f} s, "
           f"speed-up {res.speedup:.2f}x " + ("(full model from the cache)" if res.cached_full
                                              else "(measured side by side in this run)"))
+    stopped = [c for c in res.candidates if c.error is None]
+    if stopped:
+        print(f"  {len(stopped)} of {len(res.candidates)} candidates stopped early (their reasons: the note "
+              f"column of {csv})")
     print(f"  chart: {paths[0]}")
     return 0
