@@ -271,7 +271,8 @@ def chart(result: SceneResult, out: Path) -> list[Path]:
         key.append(f"{n:2d}  {configuration(c, full)}{why}")
     y_ch = top if ch.error is None else max(ch.error, floor)
     ax.plot([ch.wall_time], [y_ch], ls="none", marker="o", ms=15, mfc="none", mec="k")
-    handles = [Line2D([], [], color="tab:blue", ls=":", label=f"full model (the reference): {full.wall_time:.2g} s a run"),
+    handles = [Line2D([], [], color="tab:blue", ls=":",
+                      label=f"full model (the reference): {full.wall_time:.2g} s a run"),
                Line2D([], [], ls="none", marker="o", color="tab:green", label="within tolerance"),
                Line2D([], [], ls="none", marker="x", color="tab:red", label="outside tolerance"),
                Line2D([], [], ls="none", marker="^", color="tab:red", mfc="none",
