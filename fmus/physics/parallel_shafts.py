@@ -187,7 +187,9 @@ class ParallelShaftsModel(Model):
         q2, q2d = x[4] - x[2], x[5] - x[3]          # driven shaft S2
         qb, qbd = x[4] - x[0], x[5] - x[1]          # belt (the seed's dphi1)
         torque = self.c1 * (q1 + q2) + self.b1 * (q1d + q2d)
-        if p.fidelity == 0:
+        if p.fidelity == 0:              # phi2 = phi0 exactly (the state rows agree only to round-off)
+            q2, q2d, qb = q1, q1d, 0.0
+            torque = self.C_red * q1 + self.b_red * q1d
             kinetic = 0.5 * ((p.J_drive + p.J_flywheel) * x[1] ** 2 + p.J_red * x[3] ** 2)
             potential = 0.5 * self.C_red * q1 * q1
             dissipation = self.b_red * q1d * q1d
