@@ -79,7 +79,7 @@ def test_roller_take_up_scales_by_eq23():
 def test_closed_joint_has_the_frequencies_of_eqs_8_9(ac, am, beta, theta):
     # the module's equations with the joint closed (mode +1) linearised: eigenvalues -> lambda1, lambda3
     p = T.TakeUpParams(alpha_c=ac, alpha_m=am, beta=beta, theta=theta, e=1.0)
-    rhs, _ = T._rhs_factory(p, 0.0)
+    rhs, _ = T._rhs_factory(p, 0.0, q0=p.clearance + 1.0)    # deep in the contact: the force stays a push
     y0 = np.zeros(4)
     f0 = np.asarray(rhs(0.0, y0, 1))
     J = np.column_stack([(np.asarray(rhs(0.0, y0 + 1e-3 * np.eye(4)[k], 1)) - f0) / 1e-3 for k in range(4)])
@@ -129,18 +129,41 @@ def test_study_map_and_summary(tmp_path):
     from harness.studies import takeup as S
 
     feeder = {"v_median": 0.01, "F_min": 1.0}
-    df = S.run_map(150.0, feeder, alpha_c=(0.0, 0.3, 3.0), alpha_m=(1.0,), restitution=(0.2,), beta_deg=(0.0,),
-                   geometries={"seed r=R3": 0.04})
+    grid = [("", 0.0, dict(S.BASE)), ("", 90.0, dict(S.BASE)), ("e", 0.0, {**S.BASE, "e": 1.0})]
+    df = S.run_map(feeder, alpha_c=(0.0, 0.3, 3.0), alpha_m=(1.0,), grid=grid, geometries={"seed r=R3": 0.04})
     assert set(df["case"]) == {"seed", "feeder", "feeder held"}
-    seed = df[df["case"] == "seed"].set_index("alpha_c")
+    seed = df[(df["case"] == "seed") & (df["varied"] == "") & (df["beta_deg"] == 0.0)].set_index("alpha_c")
     assert bool(seed.loc[0.0, "classical"])                       # free impact
+    assert not df[(df["beta_deg"] == 90.0)]["take_up"].any()      # the pin moves across the joint: no take-up
     assert (df[df["case"] == "feeder held"]["classical"] == False).all()   # noqa: E712  held: never opens
     summ = S.summarise(df)
-    row = summ[summ["case"] == "seed"].iloc[0]
+    row = summ[(summ["case"] == "seed") & (summ["varied"] == "")].iloc[0]
     non = seed.index[~seed["classical"].astype(bool)]
     assert (math.isnan(row["first_nonclassical"]) if len(non) == 0 else row["first_nonclassical"] == non.min())
     with pytest.raises(FileNotFoundError, match="feeder clearance sweep"):
         S.feeder_takeups(tmp_path / "missing.csv")
+
+
+def test_study_default_grid_holds_the_seeds_cases_and_its_help_is_whole(tmp_path, monkeypatch):
+    """Issue 31: the default grid covers the seed's parameters (its alpha_c 0.05-0.3, alpha_m 0.5-5, beta
+    0-180 deg, e = 0.2 and 1, 5-20 um, c2 1e5-1e6, chi 0.2, 100-200 rpm, theta varied), the default input
+    path is the source tree's from any folder, and the help text ends with a full stop."""
+    from harness.__main__ import build_parser
+    from harness.studies import takeup as S
+
+    grid = list(S.settings_grid())
+    values = {k: {s[k] for _, _, s in grid} for k in S.BASE}
+    assert {0.2, 1.0} <= values["e"] and {5.0, 20.0} <= values["clearance_um"] and {1e5, 1e6} <= values["c2"]
+    assert {100.0, 200.0} <= values["rpm"] and 0.2 in values["chi"] and len(values["theta_deg"]) > 1
+    assert {0.0, 180.0} <= {b for _, b, _ in grid} and {0.05, 0.3} <= set(S.ALPHA_C)
+    assert {0.5, 5.0} <= set(S.ALPHA_M)
+    monkeypatch.chdir(tmp_path)
+    args = build_parser().parse_args(["study", "takeup"])
+    assert args.feeder_csv.is_absolute() and args.feeder_csv.is_file()
+    sub = build_parser()._subparsers._group_actions[0].choices["study"]
+    desc = sub._subparsers._group_actions[0].choices["takeup"].description
+    assert desc.rstrip().endswith(".")                        # not cut mid-sentence
+    assert "crank speed" in desc
 
 
 # ---- issue 31: a contact only pushes; the seed's classical impact; the first impact; the whole beta range ----

@@ -268,7 +268,8 @@ class TakeUpResult:
     F_peak: float                # N, largest contact force of the first contact
     contacts: int                # contact onsets within the run
     period: float                # s, 2 pi / |lambda_m| (the free take-up's period; |.|: see ``stable``)
-    F_min: float = math.nan      # N, smallest force in any contact of the run (>= 0: a contact only pushes)
+    F_min: float = math.nan      # N, the law's smallest value inside the contacts of the run: < 0 only where
+    #                              the events missed a graze (the force applied is clipped at zero there)
     stable: bool = True          # lambda_m^2 > 0: the free take-up oscillates (False: cos(beta) cos(beta +
     #                              theta) < 0 with a crank side lighter than the rocker along the joint)
     history: tuple = ()          # every contact of the run (:class:`Contact`)
@@ -283,8 +284,8 @@ class TakeUpResult:
 def _rhs_factory(p: TakeUpParams, d: float, q0: float = 0.0):
     """(rhs(t, y, mode), joint(y)): eq. (1) with the joint force of ``mode`` (+1 front wall, -1 back wall, 0
     free); q = r cos(beta) phi1 - R3 gamma + q0 (q0 places the start on a wall with phi1 = gamma = 0).  The
-    force of a mode is the Kelvin-Voigt law extended beyond the mode's bounds (smooth for the integrator);
-    the events of :func:`simulate` end the mode where the no-pull force returns to zero."""
+    force of a mode is the no-pull Kelvin-Voigt law; the events of :func:`simulate` end the mode where it
+    returns to zero."""
     I1, I2, c1, c2 = p.I1, p.I2, p.c1, p.k
     a, b = p.r * math.cos(p.beta), p.r * math.cos(p.beta + p.theta)
     w0, chi, R3, load, gap = p.omega1, p.chi, p.R3, p.load, p.clearance
@@ -293,10 +294,10 @@ def _rhs_factory(p: TakeUpParams, d: float, q0: float = 0.0):
         phi, w, g, gw = y
         q = a * phi - R3 * g + q0
         qd = a * w - R3 * gw
-        if mode > 0:
-            F = c2 * (q - gap) + d * qd
+        if mode > 0:        # a contact only pushes: a dip of the law below zero that the events' step-end
+            F = max(c2 * (q - gap) + d * qd, 0.0)      # sign test misses (a graze) applies no force
         elif mode < 0:
-            F = c2 * q + d * qd
+            F = min(c2 * q + d * qd, 0.0)
         else:
             F = 0.0
         return [w, (c1 * (w0 * t - phi) - b * F) / I1, gw, ((1.0 - chi) * R3 * F - R3 * load) / I2]
@@ -396,9 +397,10 @@ def simulate(p: TakeUpParams, rtol: float = 1e-10, samples: int = 0) -> TakeUpRe
             tt = np.linspace(t, t_new, max(n, 2001 if not history else 401))
             Y = sol.sol(tt)
             q = np.array([joint(Y[:, k])[0] for k in range(len(tt))])
-            F = np.array([push[mode](Y[:, k]) for k in range(len(tt))]) if mode != 0 else np.zeros(len(tt))
+            law = np.array([push[mode](Y[:, k]) for k in range(len(tt))]) if mode != 0 else np.zeros(len(tt))
+            F = np.maximum(law, 0.0)                                        # as applied
             if mode != 0:
-                F_min = min(F_min, float(F[:-1].min()) if len(F) > 1 else 0.0)
+                F_min = min(F_min, float(law[:-1].min()) if len(law) > 1 else 0.0)
                 z = q - p.clearance if mode > 0 else -q
                 peak = (max(peak[0], float(F.max())), max(peak[1], float(z.max())))
             if samples > 0:
