@@ -112,6 +112,9 @@ class System:
     precision: PrecisionSpec | None = None    # the work-precision study's quantity and grid (harness.specs)
     stability: StabilitySpec | None = None    # the stability map's coupling parameter (harness.specs)
     chart: ChartSpec | None = None    # the run chart's signals, shaded zones and crank angle (harness.charts)
+    # inputs left unconnected on purpose, "Instance.input" -> why its start value is right; any other
+    # unconnected input is warned about (validate), so a forgotten connection is never silent
+    free_inputs: dict[str, str] = field(default_factory=dict)
 
     def instance(self, name: str) -> Instance:
         for inst in self.instances:
@@ -200,15 +203,27 @@ class System:
             if su and du and su != du and not c.unit_conversion:
                 raise SystemError_(f"{where}: unit mismatch: {c.source} is in {su} but {c.target} is in {du} "
                                    f"(declare unit_conversion=True with the converting factor/offset)")
+        for ref, why in self.free_inputs.items():
+            v = lookup(ref, "free input")
+            if v.causality != "input":
+                raise SystemError_(f"system {self.name}: free_inputs names {ref}, which is {v.causality}, not an "
+                                   f"input")
+            if ref in targets:
+                raise SystemError_(f"system {self.name}: free_inputs names {ref}, but it is connected from "
+                                   f"{targets[ref]}: remove it from free_inputs or the connection")
+            if not isinstance(why, str) or not why.strip():
+                raise SystemError_(f"system {self.name}: free_inputs[{ref!r}] = {why!r}: say why its start value "
+                                   f"is right (a non-empty text)")
         warns = []
         for inst in names:
             for v in variables[inst].values():
                 ref = f"{inst}.{v.name}"
-                if v.causality == "input" and ref not in targets:
+                if v.causality == "input" and ref not in targets and ref not in self.free_inputs:
                     start = v.start
                     if v.type == "Real" and start is not None:
                         start = float(start)
-                    warns.append(f"input {ref} is not connected: it keeps its start value {start}")
+                    warns.append(f"input {ref} is not connected: it keeps its start value {start} (connect it, or "
+                                 f"declare it in the system's free_inputs with the reason)")
         for w in warns:
             warnings.warn(w, SystemWarning, stacklevel=3)
         return warns

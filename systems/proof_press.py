@@ -41,6 +41,13 @@ SYSTEM = System(
         bond("press.cylinder", "cylinder.flange"),
     ],
     experiment=Experiment(stop_time=4.0, step=2e-4, master="jacobi"),
+    free_inputs={
+        "flywheel.aux.tau": "the shaft's second take-off (e.g. for cams) drives nothing in this press: no torque "
+                            "on it",
+        "press.bed.f": "no external force on the bed: the seed gives no bed friction or load, the printing "
+                       "contact acts between cylinder and bed inside GearSectors, the cylinder's bearing "
+                       "friction is the TorqueLoad",
+    },
     scenes=[
         Scene("sync_error", "How far does the cylinder surface slip against the bed while printing?",
               'peak(window(r["press.sync_error"], 0.0, 2.0))', tolerance=5e-6, relative=False, unit="m",

@@ -246,3 +246,53 @@ def test_scene_interrupted_keeps_the_candidates_run_so_far(tmp_path, monkeypatch
     assert len(kept) == 2 and kept["ok"].iloc[0]
     assert not (tmp_path / "scene_two_inertia_mean_speed.csv").exists()
     assert "terminated (SIGTERM)" in capsys.readouterr().err
+
+
+# -- item 5 (inputs): a shipped drive declares the inputs it leaves free; a user's forgotten one still warns ------
+def _validate(system):
+    import warnings
+
+    from harness.model import SystemWarning, model_description, resolve_fmu
+
+    mds = {i.name: model_description(resolve_fmu(i.fmu)) for i in system.instances}
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        system.validate(mds)
+    return [str(w.message) for w in seen if issubclass(w.category, SystemWarning)]
+
+
+@pytest.mark.parametrize("name", ["bed_drive", "feeder_gto52", "proof_press", "spine_knife", "two_inertia"])
+def test_a_shipped_system_warns_about_no_input(name):
+    from harness import load
+
+    assert _validate(load(name)) == []
+
+
+def test_an_undeclared_unconnected_input_still_warns_with_the_way_out():
+    import dataclasses
+
+    from harness import load
+
+    mine = dataclasses.replace(load("proof_press"), free_inputs={})     # a user's copy that declares nothing
+    seen = _validate(mine)
+    assert len(seen) == 2 and any("input press.bed.f is not connected" in w for w in seen)
+    assert all("free_inputs" in w for w in seen)
+
+
+@pytest.mark.parametrize("free, message", [
+    ({"press.bed.s": "x"}, "free_inputs names press.bed.s, which is output, not an input"),
+    ({"press.crank.tau": "x"}, "free_inputs names press.crank.tau, which is output"),
+    ({"press.crank.phi": "x"}, "free_inputs names press.crank.phi, but it is connected from flywheel.crank.phi"),
+    ({"press.bed.f": " "}, "say why its start value is right"),
+    ({"press.nothing": "x"}, "has no variable 'nothing'"),
+])
+def test_a_wrong_free_input_declaration_is_one_line(free, message):
+    import dataclasses
+
+    from harness import load
+    from harness.errors import SystemError_
+
+    bad = dataclasses.replace(load("proof_press"), free_inputs=free)
+    with pytest.raises(SystemError_) as info:
+        _validate(bad)
+    assert message in str(info.value) and "\n" not in str(info.value)
