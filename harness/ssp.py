@@ -18,7 +18,9 @@ archive (or the .ssd's folder), inline and referenced (``.ssv``) parameter value
 system (``Component.parameter`` names; a binding's ``prefix`` is prepended to the names of its source, as
 the SSP 1.0 schema says; ``sourceBase="component"`` reads the .ssv from inside the component's FMU, as
 SSP 1.0 resolves it against the component's source), connections with linear transformations, the
-default experiment and the OSP fixed-step annotation.  A Real parameter value given with a ``unit`` other than
+default experiment and the OSP fixed-step annotation.  A component with ``implementation="ModelExchange"``
+runs through its FMU's Model Exchange interface (:func:`harness.fmi.cache.model_exchange_only`,
+:mod:`harness.fmi.me`).  A Real parameter value given with a ``unit`` other than
 its FMU variable's is converted through the unit definitions (SSP's and FMI's unit model: exponents of the
 SI base units, ``factor`` and ``offset``; :class:`_Unit`), looked up in the .ssv's ``ssv:Units``, then the
 .ssd's ``ssd:Units``, then the FMU's ``UnitDefinitions``; a value that cannot be converted that way is refused
@@ -34,7 +36,7 @@ from xml.etree import ElementTree as ET
 
 from fmus.units import BASE_UNITS
 from harness.errors import SystemError_
-from harness.fmi.cache import unzipped
+from harness.fmi.cache import model_exchange_only, unzipped
 from harness.model import Bond, Connection, Experiment, Instance, System, model_description, resolve_fmu
 
 NS = {
@@ -315,9 +317,9 @@ class _Reader:
         if ctype != FMU_TYPE:
             raise self.fail(f"component '{name}' has type '{ctype}'; only FMUs ({FMU_TYPE}) are supported")
         implementation = el.get("implementation", "any")
-        if implementation not in ("any", "CoSimulation"):
+        if implementation not in ("any", "CoSimulation", "ModelExchange"):
             raise self.fail(f"component '{name}': implementation='{implementation}' is not supported "
-                            f"(only CoSimulation)")
+                            f"(only CoSimulation and ModelExchange)")
         source = el.get("source")
         if not source:
             raise self.fail(f"component '{name}' has no source")
@@ -330,6 +332,11 @@ class _Reader:
             raise self.fail(f"component '{name}': source {source} not found")
         if el.find(f"{_q('ssd:ParameterBindings')}/{_q('ssd:ParameterBinding')}/{_q('ssd:ParameterMapping')}") is not None:
             raise self.fail(f"component '{name}': ssd:ParameterMapping is not supported")
+        if implementation == "ModelExchange":  # run through its ME interface (harness.fmi.me), not as CS
+            try:
+                fmu = model_exchange_only(fmu)
+            except SystemError_ as e:
+                raise self.fail(f"component '{name}': implementation='ModelExchange', but {e}") from None
         inst = Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'", fmu))
         inst.parameters = {k: self.convert(v, inst, k) for k, v in inst.parameters.items()}
         return inst

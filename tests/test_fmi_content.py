@@ -8,6 +8,11 @@
   fmpy.simulate_fmu (the same FMU, fmpy's own FMI 3.0 calls) exactly, and a system of them with Float64,
   Float32, Int32 and Boolean connections gives under every master exactly what the same system of their FMI 2.0
   builds gives (same C models, other FMI version).  Clocks and arrays are refused in one line naming them.
+* Model Exchange (harness/fmi/me.py): the Reference-FMUs BouncingBall (state events), VanDerPol, Dahlquist,
+  Stair (time events), Feedthrough and Resource through their FMI 2.0 ME interface, each alone, agree with
+  fmpy.simulate_fmu(fmi_type="ModelExchange") at the same relative tolerance (the same CVODE); in a system with
+  co-simulation FMUs and a discrete input (set in event mode) they run under every master, rollback included;
+  an SSD component with implementation="ModelExchange" runs as ME (it used to run as co-simulation).
 * pythonfmu3 (tests/pythonfmu3/pythonslave.py, pythonfmu3's own test slave): an Fmi3Slave FMU runs through
   its FMI 3.0 library under every master and agrees with fmpy; it used to be taken for a pythonfmu (FMI 2.0)
   FMU by the in-process path.
@@ -241,3 +246,107 @@ def test_pythonfmu3_fmu_under_every_master_matches_fmpy(pythonslave3, master):
                        ).set_index("time")
     assert assert_agrees(df, ref, "a.", 1e-12, master) == 2
     assert df["a.realOut"].iloc[-1] == pytest.approx(stop)
+
+
+# ------------------------------------------------------------------------------------------------ Model Exchange
+ME_MODELS = ("BouncingBall", "VanDerPol", "Dahlquist", "Stair", "Feedthrough", "Resource")
+
+
+@pytest.fixture(scope="session")
+def reference_me(reference2) -> dict[str, Path]:
+    """The FMI 2.0 Reference-FMUs without their co-simulation interface: Model Exchange only."""
+    from harness.fmi.cache import model_exchange_only
+
+    return {m: model_exchange_only(reference2[m]) for m in ME_MODELS}
+
+
+def fmpy_me(fmu: Path, stop: float, step: float, rtol: float) -> pd.DataFrame:
+    from fmpy import simulate_fmu
+
+    return pd.DataFrame(simulate_fmu(str(fmu), stop_time=stop, output_interval=step, fmi_type="ModelExchange",
+                                     relative_tolerance=rtol, record_events=False)).set_index("time")
+
+
+@pytest.mark.parametrize("rtol", [1e-6, 1e-8])
+@pytest.mark.parametrize("model", ME_MODELS)
+def test_model_exchange_fmu_alone_matches_fmpy(reference_me, model, rtol):
+    from harness.fmi import ModelExchange2, open_instance
+
+    fmu = reference_me[model]
+    inst = open_instance(fmu, "probe")
+    assert type(inst) is ModelExchange2
+    inst.free()
+    stop, step = 3.0, 0.01
+    df = quiet(System(model, [Instance("m", str(fmu))], experiment=Experiment(stop_time=stop, step=step)),
+               master="jacobi", tolerance=rtol, on_error="raise")
+    assert df.attrs["complete"]
+    # the same CVODE, settings and event handling: agreement to rounding (measured <= 5e-15), not to rtol
+    assert assert_agrees(df, fmpy_me(fmu, stop, step, rtol), "m.", 1e-12, f"{model} ME") >= 1
+
+
+def test_model_exchange_events_happen(reference_me):
+    """Independent of fmpy: the bouncing ball bounces (state events) and the stair counts (time events)."""
+    df = quiet(System("ev", [Instance("bb", str(reference_me["BouncingBall"])),
+                             Instance("stair", str(reference_me["Stair"]))],
+                      experiment=Experiment(stop_time=3.0, step=0.01)), master="jacobi", on_error="raise")
+    v = df["bb.v"].to_numpy()
+    assert (np.diff(np.sign(v)) > 0).sum() >= 2          # the velocity turns upward at each bounce
+    assert df["bb.h"].min() >= -1e-6                       # never far below the floor
+    counter = df["stair.counter"]
+    assert counter.iloc[0] == 1 and counter.iloc[-1] == 4  # one step a second (Stair/readme.md)
+    assert counter.index[counter.to_numpy() == 2][0] == pytest.approx(1.0)
+
+
+def mixed_system(me: dict, cs: dict) -> System:
+    return System("mixed", [Instance("vdp", str(me["VanDerPol"])), Instance("ft", str(cs["Feedthrough"])),
+                            Instance("ftm", str(me["Feedthrough"])), Instance("stair", str(me["Stair"])),
+                            Instance("bb", str(me["BouncingBall"]))],
+                  [Connection("vdp.x0", "ft.Float64_continuous_input"),
+                   Connection("ft.Float64_continuous_output", "ftm.Float64_continuous_input"),
+                   Connection("stair.counter", "ftm.Int32_input"),
+                   Connection("bb.h", "ft.Float64_discrete_input")],
+                  experiment=Experiment(stop_time=3.0, step=0.01))
+
+
+@pytest.mark.parametrize("master", MASTERS)
+def test_model_exchange_fmus_in_a_co_simulation_under_every_master(reference_me, reference2, master):
+    rtol = 1e-6
+    df = quiet(mixed_system(reference_me, reference2), master=master, tolerance=rtol, on_error="raise")
+    assert df.attrs["complete"] and len(df) == 301
+    ref = fmpy_me(reference_me["VanDerPol"], 3.0, 0.01, rtol)
+    x0 = df["vdp.x0"].to_numpy()
+    err = np.abs(x0 - ref["x0"].to_numpy()).max() / np.abs(ref["x0"].to_numpy()).max()
+    if master == "iterative":
+        # every rollback restarts CVODE at the step's start (its history is gone): each restart adds an error
+        # of order rtol, 300 steps of them (measured 4.4e-4 of the amplitude at rtol = 1e-6)
+        assert err <= 1e3 * rtol
+    else:
+        assert err <= 1e-12, f"{master}: {err:.3g}"
+    counter = df["stair.counter"].to_numpy()
+    assert counter[-1] == 4                       # the time events survive the iterative master's rollbacks
+    # the discrete signals (Stair's counter into the ME Feedthrough's Int32 input, set in event mode) are
+    # exactly what the same system of co-simulation FMUs gives under the same master
+    cs = quiet(mixed_system(reference2, reference2), master=master, on_error="raise")
+    for col in ("stair.counter", "ftm.Int32_output", "ftm.Boolean_output"):
+        assert (df[col].to_numpy() == cs[col].to_numpy()).all(), f"{master}: {col}"
+    assert (df["ftm.Int32_output"].to_numpy() != 1).any()
+
+
+def test_ssd_component_with_implementation_model_exchange_runs_as_me(reference2, tmp_path):
+    from harness.ssp import load_ssp
+
+    fmu = reference2["VanDerPol"]
+    shutil.copy(fmu, tmp_path / "VanDerPol.fmu")
+    for impl in ("ModelExchange", "CoSimulation"):
+        (tmp_path / f"{impl}.ssd").write_text(
+            '<?xml version="1.0" encoding="UTF-8"?>\n<ssd:SystemStructureDescription version="1.0" name="v"'
+            ' xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription"><ssd:System name="v">'
+            f'<ssd:Elements><ssd:Component name="vdp" type="application/x-fmu-sharedlibrary" '
+            f'source="VanDerPol.fmu" implementation="{impl}"/></ssd:Elements></ssd:System>'
+            '<ssd:DefaultExperiment startTime="0" stopTime="3"/></ssd:SystemStructureDescription>')
+    runs = {impl: quiet(load_ssp(tmp_path / f"{impl}.ssd"), step=0.01, tolerance=1e-6, on_error="raise")
+            for impl in ("ModelExchange", "CoSimulation")}
+    me = fmpy_me(tmp_path / "VanDerPol.fmu", 3.0, 0.01, 1e-6)
+    np.testing.assert_allclose(runs["ModelExchange"]["vdp.x0"].to_numpy(), me["x0"].to_numpy(), rtol=0, atol=1e-12)
+    # the co-simulation interface (forward Euler inside the FMU) gives another result: the choice is honoured
+    assert np.abs(runs["CoSimulation"]["vdp.x0"].to_numpy() - me["x0"].to_numpy()).max() > 1e-6

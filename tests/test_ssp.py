@@ -245,7 +245,7 @@ B = comp("b", "resources/SpringInertia.fmu")
      "connection to system connector 'in' is not supported"),
     (ssd(comp("a", "resources/Missing.fmu")), "component 'a': source resources/Missing.fmu not found"),
     (ssd(A.replace('<ssd:Component ', '<ssd:Component implementation="ModelExchange" ')),
-     "component 'a': implementation='ModelExchange' is not supported"),
+     "component 'a': implementation='ModelExchange', but "),   # the toolkit's FMUs are co-simulation only
     (ssd(A.replace('<ssd:Component ', '<ssd:Component implementation="ScheduledExecution" ')),
      "component 'a': implementation='ScheduledExecution' is not supported"),
     (SSD_HEAD + '<ssd:System name="x"><ssd:Elements>', "not well-formed XML"),

@@ -7,6 +7,8 @@
   e.g. ``Float64[3x3]``, which nothing takes for a scalar), so system
   validation, coupling and results treat both versions alike.  :func:`native_types` keeps each variable's
   FMI 3.0 type, which the FMI 3.0 wrapper (:mod:`harness.fmi.fmu3`) calls by.
+* :func:`model_exchange_only`: a copy of an FMU that offers both interfaces, without its co-simulation one
+  (what an SSP component with ``implementation="ModelExchange"`` asks for), so that every layer runs it as ME.
 * :func:`unzipped`: a zip archive (an FMU or an SSP) extracted once into a content-keyed folder under
   :func:`cache_dir`, shared by processes.  Extracted folders are NOT deleted at exit: the FMUs' shared
   libraries (and, for pythonfmu FMUs, the Python modules they loaded) stay in use until the interpreter is
@@ -117,3 +119,32 @@ def unzipped(path: str | Path, kind: str = "") -> Path:
                 shutil.rmtree(tmp, ignore_errors=True)
         _UNZIPPED[key] = hit
     return hit
+
+
+def model_exchange_only(path: str | Path) -> Path:
+    """A copy of the FMU ``path`` whose modelDescription.xml has no ``CoSimulation`` element (everything else
+    byte for byte), made once per content under :func:`cache_dir` ``/_me``, with the FMU's own file name:
+    :func:`harness.fmi.open_instance` then runs it through its Model Exchange interface
+    (:mod:`harness.fmi.me`).  An FMU without a ModelExchange element is refused."""
+    import re
+
+    p = Path(path).resolve()
+    md = model_description(p)
+    if md.modelExchange is None:
+        raise SystemError_(f"{p}: the FMU has no Model Exchange interface (FMI {md.fmiVersion})")
+    st = p.stat()
+    digest = hashlib.sha1(f"{p}|{st.st_mtime_ns}|{st.st_size}".encode()).hexdigest()[:16]
+    out = cache_dir() / "_me" / digest / p.name
+    if not out.is_file():
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out.with_name(f".{p.name}.{os.getpid()}")
+        with zipfile.ZipFile(p) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
+            for item in zin.infolist():
+                data = zin.read(item.filename)
+                if item.filename == "modelDescription.xml":
+                    data, n = re.subn(rb"<CoSimulation\b[^>]*/>", b"", data, count=1)  # self-closing
+                    if not n:
+                        data = re.sub(rb"<CoSimulation\b.*?</CoSimulation>", b"", data, count=1, flags=re.S)
+                zout.writestr(item, data)
+        os.replace(tmp, out)
+    return out

@@ -33,13 +33,18 @@ _LABELS = ("ok", "warning", "discard", "error", "fatal", "pending")
 # -- extraction (the one archive cache, :mod:`harness.fmi.cache`) -------------------------------------------
 
 
-def extracted(path: str | Path):
-    """(model description, unzip directory) of an FMU, extracted once per process and modification time."""
+def extracted(path: str | Path, model_exchange: bool = False):
+    """(model description, unzip directory) of an FMU, extracted once per process and modification time.
+    ``model_exchange``: the FMU is to run through its Model Exchange interface (:mod:`harness.fmi.me`), which
+    it must have; else through its co-simulation interface."""
     p = Path(path).resolve()
     if not p.is_file():
         raise FMUError(str(path), "extract", None, None, detail=f"no such FMU file {p}")
     md = model_description(p)
-    if md.coSimulation is None:
+    if model_exchange and md.modelExchange is None:
+        raise FMUError(p.stem, "read_model_description", None, None,
+                       detail=f"{p.name} has no Model Exchange interface (FMI {md.fmiVersion})")
+    if md.coSimulation is None and not model_exchange:
         kinds = [k for k, el in (("model exchange", md.modelExchange),
                                  ("scheduled execution", getattr(md, "scheduledExecution", None))) if el is not None]
         raise FMUError(p.stem, "read_model_description", None, None,
@@ -157,19 +162,20 @@ class Instance:
 
     path_kind = "fmi"  # how the instance is called: "fmi" (the FMU's shared library) or "in-process"
 
-    def __init__(self, path: str | Path, name: str):
+    def __init__(self, path: str | Path, name: str, model_exchange: bool = False):
         _keep_installed_pythonfmu()
         self.path = Path(path)
         self.name = name
-        self.md, self.unzip_dir = extracted(self.path)
-        cs = self.md.coSimulation
+        self.md, self.unzip_dir = extracted(self.path, model_exchange)
+        cs = self.md.modelExchange if model_exchange else self.md.coSimulation
         self.variables = {v.name: v for v in self.md.modelVariables}
         # names declared more than once (an invalid modelDescription loaded anyway): unusable by name
         counts = Counter(v.name for v in self.md.modelVariables)
         self._ambiguous = {n for n, c in counts.items() if c > 1}
         self.can_get_set_state = bool(cs.canGetAndSetFMUstate)
-        self.can_vary_step = bool(cs.canHandleVariableCommunicationStepSize)
-        self.can_interpolate_inputs = bool(cs.canInterpolateInputs)
+        # a Model Exchange FMU is stepped by its own solver (harness.fmi.me): any step, inputs held
+        self.can_vary_step = model_exchange or bool(cs.canHandleVariableCommunicationStepSize)
+        self.can_interpolate_inputs = not model_exchange and bool(cs.canInterpolateInputs)
         self.advanced_positions = advanced_positions(self.unzip_dir)
         self.max_input_derivative_order = 2 if self.can_interpolate_inputs else 0
         self.log: deque = deque(maxlen=200)
@@ -240,23 +246,30 @@ class Instance:
 class FMU(Instance):
     """One instance of an FMI 2.0 co-simulation FMU, called through its shared library (fmi2* functions)."""
 
-    def __init__(self, path: str | Path, name: str, logging_on: bool = True):
-        super().__init__(path, name)
+    def __init__(self, path: str | Path, name: str, logging_on: bool = True, model_exchange: bool = False):
+        """``model_exchange``: instantiate through the Model Exchange interface (fmpy's FMU2Model, which binds
+        the ME functions too), for :class:`harness.fmi.me.ModelExchange2`."""
+        super().__init__(path, name, model_exchange)
         self._states: list = []
-        cs = self.md.coSimulation
-        self._slave = FMU2Slave(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
-                                modelIdentifier=cs.modelIdentifier, instanceName=name)
+        if model_exchange:
+            from fmpy.fmi2 import FMU2Model
+
+            self._slave = FMU2Model(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
+                                    modelIdentifier=self.md.modelExchange.modelIdentifier, instanceName=name)
+        else:
+            self._slave = FMU2Slave(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
+                                    modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         f = self._slave._functions
         self._f = f
-        self._do_step = f["fmi2DoStep"]
+        self._do_step = f.get("fmi2DoStep")  # None for Model Exchange
         self._get_real = f["fmi2GetReal"]
         self._set_real = f["fmi2SetReal"]
         self._key = name.encode("utf-8")
         _BY_NAME[self._key] = self
         _install_proxy()
         resource = (self.unzip_dir / "resources").as_uri().encode("utf-8")
-        self.c = f["fmi2Instantiate"](self._key, 1, self.md.guid.encode("utf-8"), resource, byref(_CALLBACKS),
-                                      0, 1 if logging_on else 0)
+        self.c = f["fmi2Instantiate"](self._key, 0 if model_exchange else 1, self.md.guid.encode("utf-8"),
+                                      resource, byref(_CALLBACKS), 0, 1 if logging_on else 0)
         if not self.c:
             raise FMUError(name, "fmi2Instantiate", None, None, self.last_error)
 

@@ -1,0 +1,280 @@
+"""Model Exchange FMUs as co-simulation instances: the FMU's equations integrated by an ODE solver of its own.
+
+A Model Exchange FMU (FMI 2.0) gives its state derivatives and event indicators, not a step.  FMPy, OMSimulator
+and PyFMI integrate such FMUs themselves; here :class:`ModelExchange2` does so inside ``do_step`` and offers
+the master the same :class:`~harness.fmi.fmu.Instance` interface as a co-simulation FMU, so it can be one
+component of a co-simulation like any other.  Over a communication step [t, t + h] its inputs are held (the
+master sets them before the step, as for a co-simulation FMU that cannot interpolate inputs), and
+
+* the solver is SUNDIALS CVODE (BDF, dense linear solver) as FMPy ships it (:class:`fmpy.sundials.CVodeSolver`),
+  with its root finding on the event indicators: a **state event** stops the integration where an indicator
+  changes sign;
+* a **time event** (``nextEventTime`` from fmi2NewDiscreteStates) is a point the integration stops at;
+* a **step event** is what fmi2CompletedIntegratorStep asks for after each integration segment;
+* at each event the FMU goes through event mode (fmi2EnterEventMode, fmi2NewDiscreteStates until no new
+  discrete states are needed, fmi2EnterContinuousTimeMode) and the solver restarts from the new state;
+* an input set since the last step (a discontinuity of the right-hand side for the solver) restarts it at the
+  step's start; a discrete input (Integer, Boolean, String, or a Real of discrete variability) is set in event
+  mode, as FMI 2.0 requires, and the event is completed at the step's start.
+
+This is the loop of ``fmpy.simulation.simulateME``, restricted to one communication step; with the same
+relative tolerance and maximum solver step (:class:`SolverSettings`) a standalone ME FMU gives what
+``fmpy.simulate_fmu`` gives on the same output grid (tests/test_fmi_content.py).  An FMU that can get and set
+its state (``canGetAndSetFMUstate``) rolls back: the saved state holds the time, and the solver restarts from
+the restored state.  Errors inside the solver's callbacks (an FMU call failing while CVODE evaluates the
+right-hand side) stop the integration and are raised as the FMU's :class:`~harness.errors.FMUError`, never
+swallowed by the C callback.
+"""
+from __future__ import annotations
+
+import math
+from ctypes import POINTER, byref, c_double, c_int, cast
+from dataclasses import dataclass
+from pathlib import Path
+
+from harness.errors import FMUError
+from harness.fmi.fmu import FMU, WARNING, RealBlock
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """The ME component's own solver settings.  ``rtol``: CVODE's relative tolerance (absolute tolerance =
+    rtol x each state's nominal, as FMPy sets it); None takes the run's ``tolerance`` if one is given, else
+    1e-6 (an order tighter than FMPy's default 1e-5: the component's error adds to the coupling error).
+    ``max_step`` [s]: the largest internal step; None is FMPy's choice, (stop - start) / 50, or no limit
+    without a stop time.  ``max_steps``: internal steps allowed per integration segment (FMPy: 500)."""
+
+    rtol: float | None = None
+    max_step: float | None = None
+    max_steps: int = 500
+
+    def __post_init__(self):
+        for name in ("rtol", "max_step"):
+            v = getattr(self, name)
+            if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"SolverSettings.{name} = {v!r} is not admissible: must be a positive number")
+        if not (isinstance(self.max_steps, int) and self.max_steps > 0):
+            raise ValueError(f"SolverSettings.max_steps = {self.max_steps!r} is not admissible: must be a "
+                             f"positive integer")
+
+
+DEFAULT_RTOL = 1e-6
+
+
+class _NoInput:
+    """fmpy's solver re-applies input signals in its root function; the master has set the inputs already."""
+
+    @staticmethod
+    def apply(*args, **kwargs) -> None:
+        return None
+
+
+def _solver_class():
+    """fmpy's CVodeSolver with callbacks that stop CVODE on an exception (status -1) and keep it, instead of
+    letting ctypes print it and return 0 (which would integrate on with garbage)."""
+    from fmpy.sundials import CVodeSolver
+
+    class Solver(CVodeSolver):
+        failure: BaseException | None = None
+
+        def f(self, t, y, ydot, user_data):
+            try:
+                return super().f(t, y, ydot, user_data)
+            except BaseException as e:  # noqa: BLE001 - handed back to the caller by ModelExchange2._integrate
+                self.failure = e
+                return -1
+
+        def g(self, t, y, gout, user_data):
+            try:
+                return super().g(t, y, gout, user_data)
+            except BaseException as e:  # noqa: BLE001
+                self.failure = e
+                return -1
+
+    return Solver
+
+
+class _MEState:
+    """A saved ME instance: the FMU's fmi2FMUstate, the time it was taken at and the FMU's mode then
+    (continuous time, or event mode when a discrete input had been set) and its next time event."""
+
+    __slots__ = ("fmu_state", "time", "mode", "next_event")
+
+    def __init__(self, fmu_state, time, mode, next_event):
+        self.fmu_state, self.time, self.mode, self.next_event = fmu_state, time, mode, next_event
+
+
+class ModelExchange2(FMU):
+    """One instance of an FMI 2.0 Model Exchange FMU, stepped as a co-simulation instance (module docstring)."""
+
+    path_kind = "me2"
+
+    def __init__(self, path: str | Path, name: str, logging_on: bool = True,
+                 settings: SolverSettings | None = None):
+        super().__init__(path, name, logging_on, model_exchange=True)
+        self.settings = settings or SolverSettings()
+        self.nx = int(self.md.numberOfContinuousStates or 0)
+        self.nz = int(self.md.numberOfEventIndicators or 0)
+        self.needs_completed_step = bool(self.md.modelExchange.needsCompletedIntegratorStep)
+        self._start, self._stop, self._rtol = 0.0, None, DEFAULT_RTOL
+        self._mode = "instantiated"          # -> "initialization" -> "event" / "continuous"
+        self._solver = None
+        self._restart = True                 # the solver restarts at the next step's start
+        self._next_event: float | None = None
+        self._t = 0.0                        # the FMU's time (fmi2SetTime)
+        self._discrete = {v.name for v in self.md.modelVariables if v.causality == "input"
+                          and (v.type != "Real" or v.variability == "discrete")}
+
+    # -- life cycle --------------------------------------------------------------------------------------------
+    def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
+        super().setup(start_time, stop_time, tolerance)
+        self._start, self._stop, self._t = float(start_time), stop_time, float(start_time)
+        self._rtol = self.settings.rtol or tolerance or DEFAULT_RTOL
+
+    def enter_initialization(self) -> None:
+        super().enter_initialization()
+        self._mode = "initialization"
+
+    def exit_initialization(self) -> None:
+        super().exit_initialization()
+        self._mode = "event"
+        self._event_iteration("the initial event iteration")
+
+    def _event_iteration(self, when: str) -> None:
+        """fmi2NewDiscreteStates until the FMU needs no more, then continuous-time mode (from event mode)."""
+        from fmpy.fmi2 import fmi2EventInfo
+
+        info = fmi2EventInfo()
+        info.newDiscreteStatesNeeded = 1
+        while info.newDiscreteStatesNeeded:
+            self._check(self._f["fmi2NewDiscreteStates"](self.c, byref(info)), "fmi2NewDiscreteStates")
+            if info.terminateSimulation:
+                raise FMUError(self.name, "fmi2NewDiscreteStates", self._t, None,
+                               detail=f"the FMU asked to terminate the simulation in {when} at t = {self._t:.6g} s")
+        self._next_event = float(info.nextEventTime) if info.nextEventTimeDefined else None
+        self._check(self._f["fmi2EnterContinuousTimeMode"](self.c), "fmi2EnterContinuousTimeMode")
+        self._mode = "continuous"
+        self._restart = True
+
+    def terminate(self) -> None:
+        self._solver = None
+        super().terminate()
+
+    def free(self) -> None:
+        self._solver = None
+        super().free()
+
+    # -- inputs: a set input restarts the solver; a discrete one is set in event mode ---------------------------
+    def set(self, block: RealBlock, values=None) -> None:
+        super().set(block, values)
+        self._restart = True
+
+    def set_list(self, block: RealBlock, values: list) -> None:
+        super().set_list(block, values)
+        self._restart = True
+
+    def set_value(self, name: str, value) -> None:
+        if self._mode == "continuous" and name in self._discrete:
+            self._check(self._f["fmi2EnterEventMode"](self.c), "fmi2EnterEventMode")
+            self._mode = "event"
+        super().set_value(name, value)
+        self._restart = True
+
+    # -- stepping ----------------------------------------------------------------------------------------------
+    def _set_time(self, t: float) -> None:
+        self._t = t
+        self._check(self._f["fmi2SetTime"](self.c, t), "fmi2SetTime")
+
+    def _vector_call(self, function: str):
+        """A solver callback (pointer, n) -> the FMI call on the FMU, status checked."""
+        fn = self._f[function]
+
+        def call(pointer, n):
+            status = fn(self.c, cast(pointer, POINTER(c_double)), n)
+            if status > WARNING:
+                self._check(status, function)
+        return call
+
+    def _new_solver(self, t: float):
+        """CVODE from the FMU's current state at ``t`` (module docstring)."""
+        max_step = self.settings.max_step
+        if max_step is None:
+            max_step = (self._stop - self._start) / 50.0 if self._stop is not None else float("inf")
+        return _solver_class()(nx=self.nx, nz=self.nz, get_x=self._vector_call("fmi2GetContinuousStates"),
+                               set_x=self._vector_call("fmi2SetContinuousStates"),
+                               get_dx=self._vector_call("fmi2GetDerivatives"),
+                               get_z=self._vector_call("fmi2GetEventIndicators"),
+                               get_nominals=self._vector_call("fmi2GetNominalsOfContinuousStates"),
+                               set_time=self._set_time, input=_NoInput(), startTime=t, maxStep=max_step,
+                               relativeTolerance=self._rtol, maxNumSteps=self.settings.max_steps)
+
+    def _integrate(self, t: float, t_next: float) -> tuple[bool, float]:
+        """One solver segment from ``t`` towards ``t_next``: (state event, time reached)."""
+        solver = self._solver
+        solver.failure = None
+        try:
+            state_event, _, reached = solver.step(t, t_next)
+        except RuntimeError as e:
+            if solver.failure is not None:
+                raise solver.failure from None
+            raise FMUError(self.name, "CVode", t, None, detail=" ".join(str(e).split())) from None
+        if solver.failure is not None:  # pragma: no cover - CVODE reports a failed callback as an error
+            raise solver.failure
+        return state_event, reached
+
+    def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
+        """Integrate from ``t`` to ``t + h`` with the inputs held, handling every event on the way."""
+        self.time = t
+        if self._mode == "event":  # a discrete input was set: complete its event first
+            self._event_iteration(f"the event of a discrete input at t = {t:.6g} s")
+        end = t + h
+        now = self._t = t
+        eps = 1e-12 * max(1.0, abs(end))
+        while end - now > eps:
+            if self._restart or self._solver is None:
+                self._set_time(now)
+                self._solver = self._new_solver(now) if self._solver is None else self._solver
+                self._solver.reset(now)
+                self._restart = False
+            target = end
+            if self._next_event is not None and now - eps < self._next_event < end - eps:
+                target = self._next_event
+            state_event, now = self._integrate(now, target)
+            self._set_time(now)
+            step_event = False
+            if self.needs_completed_step:
+                enter, terminate = c_int(0), c_int(0)
+                self._check(self._f["fmi2CompletedIntegratorStep"](self.c, 1, byref(enter), byref(terminate)),
+                            "fmi2CompletedIntegratorStep")
+                if terminate.value:
+                    raise FMUError(self.name, "fmi2CompletedIntegratorStep", now, None,
+                                   detail=f"the FMU asked to terminate the simulation at t = {now:.6g} s")
+                step_event = bool(enter.value)
+            time_event = self._next_event is not None and abs(now - self._next_event) <= eps
+            if state_event or time_event or step_event:
+                self._check(self._f["fmi2EnterEventMode"](self.c), "fmi2EnterEventMode")
+                self._mode = "event"
+                self._event_iteration(f"the event at t = {now:.6g} s")
+        if now != end:  # within eps: the communication point itself, exactly
+            self._set_time(end)
+        self.time = end
+
+    # -- FMU state (rollback) ----------------------------------------------------------------------------------
+    def get_state(self, state=None):
+        """The FMU's state and its time; the solver restarts from it when it is set."""
+        if state is None:
+            return _MEState(super().get_state(), self._t, self._mode, self._next_event)
+        super().get_state(state.fmu_state)
+        state.time, state.mode, state.next_event = self._t, self._mode, self._next_event
+        return state
+
+    def set_state(self, state) -> None:
+        super().set_state(state.fmu_state)
+        self._t, self._mode, self._next_event = state.time, state.mode, state.next_event
+        self._restart = True
+
+    def free_state(self, state) -> None:
+        super().free_state(state.fmu_state)
+
+
+__all__ = ["ModelExchange2", "SolverSettings"]
