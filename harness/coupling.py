@@ -123,3 +123,57 @@ def discrete_refresh(discrete: list[tuple]) -> tuple[list[tuple], list[tuple]]:
     chained = {k for k in g.nodes if g.in_degree(k)}
     order = [k for k in nx.lexicographical_topological_sort(g) if k in chained]
     return [c for k, c in enumerate(discrete) if k not in chained], [discrete[k] for k in order]
+
+
+def exchange_plan(groups: list[list[int]], insts: list[Inst], connections, mds: dict,
+                  loop_groups: set[int]) -> list[tuple]:
+    """The operations that make every output consistent at a communication point, computed once.
+
+    ``("read", i)`` reads instance i; ``("visit", i)`` sets its point inputs from the current outputs, then
+    reads it; ``("loop", members)`` solves an algebraic loop.  Groups come in evaluation order (every source
+    of a feed-through input before its target).  Inside a group whose instances feed each other without an
+    algebraic loop at the variable level (e.g. a four-bar and the load on its rocker), the outputs are taken
+    in topological order of the variable graph and an instance is visited again only when one of its outputs
+    depends on a value that became final after its last visit; so each output is read last with final
+    inputs, and no instance is visited more often than that needs."""
+    import networkx as nx
+
+    plan: list[tuple] = []
+    for k, group in enumerate(groups):
+        if k in loop_groups:
+            plan.append(("loop", group))
+            continue
+        if len(group) == 1:
+            plan.append(("visit" if insts[group[0]].feedthrough else "read", group[0]))
+            continue
+        names = {insts[i].name: i for i in group}
+        g = nx.DiGraph()
+        deps: dict[str, list[str]] = {}
+        for i in group:
+            it = insts[i]
+            for out, ds in graph.direct_dependencies(mds[it.name]).items():
+                node = f"{it.name}.{out}"
+                g.add_node(node)
+                deps[node] = []
+                for d in ds:
+                    for c in connections:
+                        if c.target == f"{it.name}.{d}" and c.source.split(".", 1)[0] in names:
+                            g.add_edge(c.source, node)
+                            deps[node].append(c.source)
+        final: dict[str, int] = {}       # output -> position of the op after which it is final
+        last: dict[int, int] = {}        # instance -> position of its last op
+        first: dict[int, int] = {}
+        order = {n: j for j, n in enumerate(sorted(g.nodes))}
+        system_order = {insts[i].name: r for r, i in enumerate(group)}
+        for node in nx.lexicographical_topological_sort(
+                g, key=lambda n: (system_order[n.split(".", 1)[0]], order[n])):
+            i = names[node.split(".", 1)[0]]
+            ready = max((final[s] for s in deps.get(node, ())), default=-1)
+            if i in last and last[i] > ready:
+                final[node] = last[i] if deps.get(node) else first[i]
+                continue
+            plan.append(("visit" if insts[i].feedthrough else "read", i))
+            last[i] = len(plan) - 1
+            first.setdefault(i, last[i])
+            final[node] = last[i]
+    return plan

@@ -30,146 +30,23 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 
-from harness import coupling, graph
+from harness import coupling, graph, jacobian
 from harness.clock import NS
 from harness.coupling import Inst as _Inst
-from harness.errors import AlgebraicLoopError, FMUError, HarnessError, SimulationError, SystemError_
+from harness.errors import AlgebraicLoopError, FMUError, SimulationError, SystemError_
 from harness.extrapolation import DEPTH, History, Polynomial
+from harness.iteration import ConvergenceError, IterationOptions, solve_fixed_point
+
+__all__ = ["MASTERS", "Master", "master_class", "ConvergenceError", "IterationOptions", "AssumptionWarning"]
 
 
 class AssumptionWarning(UserWarning):
     """The master assumed something the FMUs do not declare (e.g. no feed-through of outputs without
     ``dependencies``)."""
-
-
-class ConvergenceError(HarnessError):
-    """An iteration (coupled step or algebraic loop) that did not reach its tolerance."""
-
-
-@dataclass
-class IterationOptions:
-    """Options of the ``iterative`` master.  ``method``: ``fixed-point``, ``anderson`` or ``newton``;
-    ``tolerance``: max |G(u) - u| / (1 + |u|) over the held inputs (None: the run's tolerance, else 1e-10);
-    ``memory``: Anderson depth."""
-    method: str = "anderson"
-    tolerance: float | None = None
-    max_iterations: int = 100
-    memory: int = 5
-
-    def __post_init__(self):
-        if self.method not in ("fixed-point", "anderson", "newton"):
-            raise SystemError_(f"iteration method = {self.method!r} is not admissible: must be fixed-point, "
-                               f"anderson or newton")
-        if not (isinstance(self.max_iterations, int) and self.max_iterations >= 1):
-            raise SystemError_(f"max_iterations = {self.max_iterations!r} must be an integer >= 1")
-        if self.tolerance is not None and not self.tolerance > 0:
-            raise SystemError_(f"iteration tolerance = {self.tolerance!r} must be > 0")
-
-
-def solve_fixed_point(g, u0: np.ndarray, options: IterationOptions, tol: float, what: str):
-    """Solve ``u = g(u)``; return (u, g(u) evaluated last, iterations).  The last call of ``g`` is always at
-    the returned ``u`` (callers keep side effects of that call)."""
-    u = np.array(u0, dtype=float)
-    gu = g(u)
-    if u.size == 0:
-        return u, gu, 1
-    method, m = options.method, options.memory
-    dF, dG = [], []
-    f_prev = g_prev = None
-    for it in range(1, options.max_iterations + 1):
-        f = gu - u
-        err = float(np.max(np.abs(f) / (1.0 + np.abs(u))))
-        if not math.isfinite(err):
-            raise ConvergenceError(f"{what}: the iteration diverged (non-finite residual) after {it} evaluations")
-        if err <= tol:
-            return u, gu, it
-        if method == "newton":
-            n = u.size
-            jac = np.empty((n, n))
-            for j in range(n):
-                d = 1e-7 * (1.0 + abs(u[j]))
-                up = u.copy()
-                up[j] += d
-                jac[:, j] = ((g(up) - up) - f) / d
-            try:
-                u = u - np.linalg.solve(jac, f)
-            except np.linalg.LinAlgError:
-                u = gu
-        elif method == "anderson" and f_prev is not None:
-            dF.append(f - f_prev)
-            dG.append(gu - g_prev)
-            if len(dF) > m:
-                dF.pop(0)
-                dG.pop(0)
-            F = np.array(dF).T
-            gamma = np.linalg.lstsq(F, f, rcond=None)[0]
-            f_prev, g_prev = f, gu
-            u = gu - np.array(dG).T @ gamma
-        else:
-            f_prev, g_prev = f, gu
-            u = gu
-        gu = g(u)
-    raise ConvergenceError(f"{what}: no convergence in {options.max_iterations} iterations of {method} "
-                           f"(residual {err:.3g} > tolerance {tol:.3g})")
-
-
-def exchange_plan(groups: list[list[int]], insts: list[_Inst], connections, mds: dict,
-                  loop_groups: set[int]) -> list[tuple]:
-    """The operations that make every output consistent at a communication point, computed once.
-
-    ``("read", i)`` reads instance i; ``("visit", i)`` sets its point inputs from the current outputs, then
-    reads it; ``("loop", members)`` solves an algebraic loop.  Groups come in evaluation order (every source
-    of a feed-through input before its target).  Inside a group whose instances feed each other without an
-    algebraic loop at the variable level (e.g. a four-bar and the load on its rocker), the outputs are taken
-    in topological order of the variable graph and an instance is visited again only when one of its outputs
-    depends on a value that became final after its last visit; so each output is read last with final
-    inputs, and no instance is visited more often than that needs."""
-    import networkx as nx
-
-    plan: list[tuple] = []
-    for k, group in enumerate(groups):
-        if k in loop_groups:
-            plan.append(("loop", group))
-            continue
-        if len(group) == 1:
-            plan.append(("visit" if insts[group[0]].feedthrough else "read", group[0]))
-            continue
-        names = {insts[i].name: i for i in group}
-        g = nx.DiGraph()
-        deps: dict[str, list[str]] = {}
-        for i in group:
-            it = insts[i]
-            for out, ds in graph.direct_dependencies(mds[it.name]).items():
-                node = f"{it.name}.{out}"
-                g.add_node(node)
-                deps[node] = []
-                for d in ds:
-                    for c in connections:
-                        if c.target == f"{it.name}.{d}" and c.source.split(".", 1)[0] in names:
-                            g.add_edge(c.source, node)
-                            deps[node].append(c.source)
-        final: dict[str, int] = {}       # output -> position of the op after which it is final
-        last: dict[int, int] = {}        # instance -> position of its last op
-        first: dict[int, int] = {}
-        order = {n: j for j, n in enumerate(sorted(g.nodes))}
-        system_order = {insts[i].name: r for r, i in enumerate(group)}
-        for node in nx.lexicographical_topological_sort(
-                g, key=lambda n: (system_order[n.split(".", 1)[0]], order[n])):
-            i = names[node.split(".", 1)[0]]
-            ready = max((final[s] for s in deps.get(node, ())), default=-1)
-            if i in last and last[i] > ready:
-                final[node] = last[i] if deps.get(node) else first[i]
-                continue
-            plan.append(("visit" if insts[i].feedthrough else "read", i))
-            last[i] = len(plan) - 1
-            first.setdefault(i, last[i])
-            final[node] = last[i]
-    return plan
 
 
 class Master:
@@ -214,7 +91,8 @@ class Master:
         self._group_idx = [[self.index[n] for n in g] for g in self.groups]
         in_loops = {n.split(".", 1)[0] for loop in loops for n in loop}
         self._loop_groups = {k for k, g in enumerate(self.groups) if any(n in in_loops for n in g)}
-        self._plan = exchange_plan(self._group_idx, self.insts, self.connections, mds, self._loop_groups)
+        self._plan = coupling.exchange_plan(self._group_idx, self.insts, self.connections, mds, self._loop_groups)
+        self.bonds = list(bonds)
         self._prepare_bonds(bonds)
         self._range = self._declared_range()  # outputs with a declared min/max (checked by _check)
         for b in bonds:  # positions of power bonds: see _held_values
@@ -697,8 +575,104 @@ class Iterative(Master):
         self.iterations += n
 
 
+class InterfaceJacobian(Master):
+    """Linearly implicit coupling through interface Jacobians (:mod:`harness.jacobian`): a Jacobi prediction,
+    one Newton correction of the held inputs toward an implicit, dissipative fixed point with Jacobians that
+    are re-estimated only when they have changed, and the step taken again on the corrected inputs.  Stable
+    where a stiff mode spans FMUs; two FMU steps per communication step.  Needs fmi2Get/SetFMUstate; non-Real
+    connections are passed as by ``jacobi`` and take no part in the correction."""
+    name = "jacobian"
+    refreshes_discrete = True
+
+    def __init__(self, fmus, connections, *args, **kwargs):
+        super().__init__(fmus, connections, *args, **kwargs)
+        fixed = [f"{it.name} ({it.fmu.md.modelName})" for it in self.insts if not it.fmu.can_get_set_state]
+        if fixed:
+            raise SystemError_(f"master 'jacobian' takes each step twice and estimates its Jacobians by rollback, "
+                               f"but {', '.join(fixed)} cannot roll back (no canGetAndSetFMUstate): use "
+                               f"master='jacobi' or 'gauss-seidel' for such FMUs")
+        for it in self.insts:
+            it.interp = False  # the correction is on the held (midpoint) values; no input derivatives
+        self._batched = [it for it in self.insts if it.inp.n]
+        self._interp = []
+        # the fixed point's weight of the sample at t+h per held input (harness.jacobian.target_weights)
+        self.theta = jacobian.target_weights(len(self.u), [b[0] for b in self._bonds],
+                                              self._motion_held(self.bonds), self._pos)
+        self.jacobian: np.ndarray | None = None  # S of harness.jacobian.assemble, for the step size self._jac_h
+        self._jac_h = 0.0
+        self._stale = True
+        self.estimates = 0     # Jacobian estimates (each: one extra FMU step per held input)
+        self.retries = 0       # steps taken once more because the correction did not contract
+
+    def needs_rollback(self) -> bool:
+        return True
+
+    def _motion_held(self, bonds) -> list[int]:
+        """Indices in u of the motion (position and speed) held at the motion-input port of every bond."""
+        idx = []
+        for b in bonds:
+            inst, port = b.motion_in.split(".", 1)
+            it = self.insts[self.index[inst]]
+            idx += [it.isl.start + k for v, k in it.input_pos.items() if v.rsplit(".", 1)[0] == port
+                    and v.rsplit(".", 1)[1] in ("phi", "w", "s", "v")]
+        return idx
+
+    def _implicit_inputs(self, t: float, h: float) -> np.ndarray:
+        """G: the held inputs recomputed from the history whose newest sample is at t+h: ``(1 - theta) y(t) +
+        theta y(t+h)`` of each source (harness.jacobian.target_weights)."""
+        y = self.history.y
+        return self.fac * (self.theta * y[0, self.src] + (1.0 - self.theta) * y[1, self.src]) + self.off
+
+    def _take(self, t: float, h: float, t_next: float, u: np.ndarray) -> np.ndarray:
+        """Step every FMU on held inputs ``u``, make the outputs consistent at t+h; return G(u) - u."""
+        self.u[:] = u
+        values = u.tolist()
+        for it in self._batched:
+            it.fmu.set_list(it.inp, values[it.isl])
+        for it in self.insts:
+            it.fmu.do_step(t, h, False)
+        self._exchange(t_next)
+        return self._implicit_inputs(t, h) - u
+
+    def _estimate(self, t: float, h: float, u0: np.ndarray) -> None:
+        """Interface Jacobians around the predictor (FMUs at t+h after the step on ``u0``, outputs in ``y``)."""
+        states = self._slots["ij"][0]
+        point = self.fac * self.y[self.src] + self.off
+        n_y, n_u = len(self.y), len(u0)
+        A, D = np.zeros((n_y, n_u)), np.zeros((n_y, n_u))
+        for it, state in zip(self.insts, states):
+            if not it.inp.n:
+                continue
+            v = point[it.isl] if it.feedthrough else None
+            if v is not None:
+                D[it.sl, it.isl] = jacobian.feedthrough_block(it.fmu, it.inp, it.out, v)
+            A[it.sl, it.isl] = jacobian.step_sensitivity(it.fmu, it.inp, it.out, state, u0[it.isl], v,
+                                                         self.y[it.sl], t, h)
+        self.jacobian, self._jac_h, self._stale = jacobian.assemble(A, D, self.src, self.fac), h, False
+        self.estimates += 1
+
+    def _step_impl(self, t, h, t_next):
+        self._hold_all(t, h)
+        u0 = self.u.copy()
+        self.snapshot("ij")
+        for attempt in (0, 1):
+            r0 = self._take(t, h, t_next, u0)
+            fresh = self._stale or self._jac_h != h
+            if fresh:
+                self._estimate(t, h, u0)
+            du = np.linalg.solve(np.eye(len(u0)) - self.theta[:, None] * self.jacobian, r0)
+            self.restore("ij")
+            r1 = self._take(t, h, t_next, u0 + du)
+            rho = jacobian.contraction(r0, r1, np.abs(u0) + np.abs(r0) + 1e-9)
+            self._stale = rho > jacobian.CONTRACTION
+            if rho <= jacobian.CONTRACTION or fresh or attempt:
+                return
+            self.retries += 1
+            self.restore("ij")
+
+
 MASTERS: dict[str, type[Master]] = {"jacobi": Jacobi, "jacobi-sampled": JacobiSampled, "gauss-seidel": GaussSeidel,
-                                    "iterative": Iterative}
+                                    "iterative": Iterative, "jacobian": InterfaceJacobian}
 
 
 def master_class(name: str) -> type[Master]:

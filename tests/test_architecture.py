@@ -17,7 +17,8 @@ LAYERS = [
     (1, ("fmus",)),                                               # FMU slaves, catalog, build, references
     (2, ("harness.errors", "harness.clock", "harness.fmi")),      # FMI layer
     (3, ("harness.specs", "harness.model", "harness.graph", "harness.extrapolation", "harness.stepcontrol",
-         "harness.coupling", "harness.masters", "harness.results", "harness.qoi")),    # system model and masters
+         "harness.coupling", "harness.iteration", "harness.jacobian", "harness.masters", "harness.results",
+         "harness.qoi")),                                         # system model and masters
     (4, ("harness", "harness.run", "harness.ssp", "harness.charts",   # run / ssp (and the package's lazy API)
          "systems")),                                             # the drives as data, loaded by run.load
     (5, ("harness.studies", "harness.synthesis", "harness.__main__")),  # studies, synthesis, CLI

@@ -559,3 +559,20 @@ def test_a_c_fmu_always_runs_through_fmi(c_fmu):
         fmu = open_instance(c_fmu, f"osc_{in_process}", in_process=in_process)
         assert isinstance(fmu, FMU) and fmu.path_kind == "fmi"
         fmu.free()
+
+
+def test_ring_jacobian_master_reaches_the_trapezoidal_fixed_point(c_fmu):
+    """A foreign C FMU under the interface-Jacobian master (Jacobians by rollback and perturbation): no power
+    bonds, so the fixed point is the trapezoid, which the iterative master reaches by iterating to 1e-13;
+    the single Newton correction of a linear pair lands on it, and stays second order."""
+    from harness.masters import IterationOptions
+    from harness.run import RunOptions
+
+    stop, h = 1.0, 2e-3
+    it = _simulate(ring_system(c_fmu), stop_time=stop, step=h, master="iterative", extrapolation=1,
+                   options=RunOptions(iteration=IterationOptions(method="newton", tolerance=1e-13)))
+    ij = _simulate(ring_system(c_fmu), stop_time=stop, step=h, master="jacobian", extrapolation=1)
+    assert ij.attrs["complete"], ij.attrs.get("error")
+    cols = ["a.x", "a.v", "b.x", "b.v"]
+    np.testing.assert_allclose(ij[cols].to_numpy(), it[cols].to_numpy(), rtol=0, atol=1e-9)
+    assert _ring_error(ij) < 1e-4

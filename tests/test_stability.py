@@ -197,7 +197,7 @@ def test_study_cli_theory_only(tmp_path):
                           "--out", str(tmp_path)])
     assert args.func(args) == 0
     table = pd.read_csv(tmp_path / "stability_two_inertia_inertia.csv")
-    assert len(table) == 2 * 6
+    assert len(table) == 2 * 7  # jacobi and gauss-seidel at orders 0-2, jacobian once (its fixed point)
     assert table["h_measured"].isna().all()
     row = table[(table.ratio == 2.0) & (table.master == "gauss-seidel") & (table.order == 1)].iloc[0]
     p = TwoInertia(J1=row.p_J1, J2=row.p_J2, c=row.p_c, d=row.p_d, c1=row.p_c1, d1=row.p_d1, c2=row.p_c2,

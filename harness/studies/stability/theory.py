@@ -57,7 +57,7 @@ import numpy as np
 from scipy.linalg import expm
 
 
-MASTER_NAMES = ("jacobi", "gauss-seidel")
+MASTER_NAMES = ("jacobi", "gauss-seidel", "jacobian")
 ORDERS = (0, 1, 2)
 INTEGRATORS = ("rk4", "exact")
 
@@ -194,7 +194,8 @@ def _check_h(h) -> float:
 
 def _master(master: str) -> str:
     key = str(master).strip().lower().replace("_", "-")
-    key = {"gs": "gauss-seidel", "gauss seidel": "gauss-seidel", "gaussseidel": "gauss-seidel"}.get(key, key)
+    key = {"gs": "gauss-seidel", "gauss seidel": "gauss-seidel", "gaussseidel": "gauss-seidel",
+           "iterative": "jacobian"}.get(key, key)  # converged, the iterative master is the same fixed point
     if key not in MASTER_NAMES:
         raise ValueError(f"master = {master!r} is not admissible: must be one of {', '.join(MASTER_NAMES)}")
     return key
@@ -288,6 +289,8 @@ def amplification_matrix(params, h: float, master: str = "jacobi", order: int = 
     p, h = _as_params(params), _check_h(h)
     master, order = _master(master), _order(order)
     (PA, GA), (PB, GB) = subsystem_maps(p, h, integrator)
+    if master == "jacobian":
+        return _implicit_matrix(p, (PA, GA), (PB, GB))  # 4 x 4: the predictor's order does not enter
     wt, wm = hold_weights(master, order)
     q = order + 1
     N = 4 * q
@@ -312,6 +315,29 @@ def amplification_matrix(params, h: float, master: str = "jacobi", order: int = 
     for j in range(1, q):
         M[4 * j:4 * j + 4] = E[j - 1]
     return M
+
+
+def _implicit_matrix(p: TwoInertia, mapA, mapB) -> np.ndarray:
+    """One-step map ``x_{k+1} = M x_k`` of the ``jacobian`` master's fixed point (harness.jacobian): each held
+    input is ``(1 - theta) y_k + theta y_{k+1}`` of its source, with ``theta = 1/2 + s`` for the torque that
+    ``a`` (motion-output side) holds and ``1/2 - s`` for the motion that ``b`` holds (``s`` =
+    :data:`harness.jacobian.THETA_SHIFT`), solved for x_{k+1}.  For FMUs linear over a step (these two) the
+    master's one Newton correction reaches this fixed point exactly, so this is its amplification matrix
+    whatever the predictor's extrapolation order.  ``s = 0`` is the trapezoid (spectral radius 1 at every step
+    for the undamped pair with exact subsystems); ``s > 0`` damps; a shift the other way, or holding the new
+    sample itself for both, grows at every step."""
+    from harness.jacobian import THETA_SHIFT
+
+    (PA, GA), (PB, GB) = mapA, mapB
+    te, tm = 0.5 + THETA_SHIFT, 0.5 - THETA_SHIFT
+    CA = np.zeros((2, 4))
+    CA[0, 0] = CA[1, 1] = 1.0
+    CB = p.torque_row()[None, :]
+    SB = np.zeros((2, 4))
+    SB[0, 2] = SB[1, 3] = 1.0
+    L = np.vstack([GA @ (te * CB), GB @ (tm * CA)])                      # x_{k+1} = L x_{k+1} + R x_k
+    R = np.vstack([PA @ CA + GA @ ((1 - te) * CB), PB @ SB + GB @ ((1 - tm) * CA)])
+    return np.linalg.solve(np.eye(4) - L, R)
 
 
 def monolithic_matrix(params, h: float, integrator: str = "exact") -> np.ndarray:
