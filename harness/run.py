@@ -477,8 +477,9 @@ def register(subparsers) -> None:
                    help="write a second header row with each column's unit (read it with "
                         "pandas.read_csv(FILE, header=[0, 1], index_col=0)); default: names only")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
-                   help="write a chart of the run (bond speeds and torques, scene quantities) as "
-                        "DIR/<system>.png/.svg, DIR/<system>.partial.png/.svg for a run that stopped early "
+                   help="write charts of the run: DIR/<system>.png/.svg (the system's signals over time) and, "
+                        "where the system declares its crank angle, DIR/<system>_cycle.png/.svg (over the last "
+                        "complete crank revolution); <name>.partial.png/.svg for a run that stopped early "
                         "(default: no chart)")
     p.add_argument("--fmi-only", action="store_true",
                    help="call every FMU through its FMI library (default: pythonfmu FMUs, the toolkit's and "
@@ -504,22 +505,22 @@ def _check_targets(args) -> None:
         check_writable(args.plot, "--plot", folder=True)
 
 
-def _plot(system, df, folder: Path) -> Path:
-    """The run's chart in ``folder``; an incomplete run's under ``<system>.partial.png/.svg``, so it never
-    replaces the chart of a complete run (drawn beside it, then renamed)."""
+def _plot(system, df, folder: Path) -> list[Path]:
+    """The run's charts in ``folder`` (the PNGs are returned); an incomplete run's under
+    ``<name>.partial.png/.svg``, so they never replace the charts of a complete run (drawn beside, renamed)."""
     import os
     import tempfile
 
     from harness.charts import plot_result
 
     if df.attrs.get("complete", True):
-        return plot_result(system, df, folder)[0]
+        return [p for p in plot_result(system, df, folder) if p.suffix == ".png"]
     with tempfile.TemporaryDirectory(dir=folder, prefix=".partial-chart-") as tmp:
         paths = []
         for drawn in plot_result(system, df, tmp):
             paths.append(Path(folder) / f"{drawn.stem}.partial{drawn.suffix}")
             os.replace(drawn, paths[-1])
-    return paths[0]
+    return [p for p in paths if p.suffix == ".png"]
 
 
 def _divergence_hint(a: dict) -> str:
@@ -561,7 +562,7 @@ def run_cli(args) -> int:
         write_result(df, out, units=getattr(args, "units", False))
     where = f"wrote {out}" if out is not None else "no --out given, result not written"
     if args.plot is not None and len(df):
-        where += f"; chart {_plot(system, df, args.plot)}"
+        where += "; chart " + ", ".join(str(p) for p in _plot(system, df, args.plot))
     if not a["complete"]:
         hint = f"; {_divergence_hint(a)}" if a.get("diverged") else ""
         print(f"error: {a['error']}; {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s kept, "

@@ -144,3 +144,17 @@ def test_a_system_that_declares_nothing_gets_its_bonds_titled_by_the_fmus(fmu_di
     assert [p.name for p in paths] == ["two_inertia.png", "two_inertia.svg"]   # no crank: no cycle chart
     titles = [ax.get_title(loc="left") for ax in visible_axes(figures["two_inertia"])]
     assert titles and all(not t.startswith(("bond", "scene")) and "(" in t and t.endswith("]") for t in titles)
+
+
+def test_run_plot_writes_and_names_both_charts(fmu_dir, tmp_path, monkeypatch, capsys):
+    from harness.__main__ import main
+
+    monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
+    import warnings
+
+    monkeypatch.setattr(warnings, "showwarning", warnings.showwarning)   # main() sets its own
+    assert main(["run", "bed_drive", "--stop-time", "1.05", "--plot", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    for name in ("bed_drive.png", "bed_drive.svg", "bed_drive_cycle.png", "bed_drive_cycle.svg"):
+        assert (tmp_path / name).exists(), name
+    assert str(tmp_path / "bed_drive.png") in out and str(tmp_path / "bed_drive_cycle.png") in out
