@@ -127,3 +127,50 @@ def test_stone_rate_on_both_branches(branch):
         assert rate == pytest.approx(numeric, rel=1e-6, abs=1e-8)
         assert (rho, rate) == G.stone_radius_rate_scalar(phi, g, g1, lam1, lam2, branch)
         assert 0.0 <= theta <= math.pi / 2
+
+
+def test_an_undefined_pressure_angle_does_not_fail_the_groove():
+    """Issue 31: where the stone stands still in the groove (the kulisa at rest at a stroke end) the pressure
+    angle is 0/0 = NaN; np.all over it failed the whole groove at scattered lambda2 (C0: 10 of 160 grid values
+    on 3.9-5.5) and ended the C0 interval at such an artefact.  K0 at lambda2 = 5.4 has one such sample."""
+    lam2 = 5.4
+    law = G.kulisa_law(LAM1, lam2, LAM3, L.get_law("K0"))
+    p = G.synthesize_law(law, LAM1, lam2, 3600, G.base_branch(LAM1, lam2, LAM3))
+    assert np.isnan(p.theta).sum() == 1
+    rep = G.assess(p, 0.04, 0.0, math.radians(89.0))
+    assert "pressure" not in rep["all_failed"] and rep["pressure_angle_max"] < math.radians(89.0)
+    assert "pressure" in G.assess(p, 0.04, 0.0, rep["pressure_angle_max"] - 1e-6)["all_failed"]   # still checked
+
+
+def test_scan_labels_the_criterion_that_bounds_each_end_and_prints_no_raw_dicts(capsys):
+    """C0: the lower end is the connection break (its own interval ends there; a cusp or the pressure angle
+    fail at the same point but do not bound it), the upper end the pressure-angle limit, where the
+    pressure criterion's own interval ends; the text output has one line per criterion."""
+    a = _args("--law", "C0", "--scan", "lambda2", "--json")
+    assert a.func(a) == 0
+    out = json.loads(capsys.readouterr().out)
+    by = out["bounds_by_criterion"]
+    assert out["lower_limit"] == "connection" and out["seed_lower_limit"] == "connection"
+    assert out["lambda2_min"] == pytest.approx(by["connection"]["interval"][0], abs=1e-6)
+    assert out["upper_limit"] == "pressure"
+    assert out["lambda2_max"] == pytest.approx(by["pressure"]["interval"][1], abs=1e-6)
+    law = G.kulisa_law(LAM1, out["lambda2_max"] - 1e-4, LAM3, L.get_law("C0"))
+    p = G.synthesize_law(law, LAM1, out["lambda2_max"] - 1e-4, 3600, G.base_branch(LAM1, out["lambda2_max"], LAM3))
+    assert G.assess(p, 0.04, 0.0, math.radians(60.0))["failed"] is None
+    a = _args("--law", "C0", "--scan", "lambda2")
+    assert a.func(a) == 0
+    text = capsys.readouterr().out
+    assert "{" not in text and "  pressure: [" in text
+
+
+def test_compare_laws_says_where_each_column_belongs(capsys):
+    """--compare-laws: the interval column is each law's scan, the failed criteria and the figures are at the
+    lambda2 column; no 'feasible True' beside a failed criterion, floats rounded."""
+    a = _args("--compare-laws", "--lambda2", "4.2")
+    assert a.func(a) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split()[:4] == ["law", "interval", "lambda2", "failed_at_lambda2"]
+    k0 = next(line for line in lines if line.split()[0] == "K0")
+    assert "True" not in k0 and "[4.0173, 4.0547]" in k0 and "pressure" in k0 and "4.2000" in k0
+    assert all(len(tok.split(".")[-1]) <= 4 for line in lines[1:6] for tok in line.split()
+               if tok.replace(".", "").replace("-", "").isdigit())

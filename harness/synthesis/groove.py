@@ -135,17 +135,33 @@ def _scan(a, law: str) -> dict:
         hi_ = bisect(grid[hi_i], grid[hi_i + 1], only) if hi_i < len(grid) - 1 else (grid[-1], "scan bound")
         return [round(float(lo_[0]), 6), round(float(hi_[0]), 6)], lo_[1], hi_[1]
 
-    lo, lo_crit = bisect(grid[i0], grid[i0 - 1]) if i0 > 0 else (grid[0], "scan bound")
-    hi, hi_crit = bisect(grid[i1], grid[i1 + 1]) if i1 < len(grid) - 1 else (grid[-1], "scan bound")
+    lo, lo_first = bisect(grid[i0], grid[i0 - 1]) if i0 > 0 else (grid[0], "scan bound")
+    hi, hi_first = bisect(grid[i1], grid[i1 + 1]) if i1 < len(grid) - 1 else (grid[-1], "scan bound")
     by_criterion = {}
     for c in groove.CRITERIA:
         if c == "undercut" and not a.roller_radius > 0.0:
             continue                              # not checked without a roller radius
         iv, lc, hc = extent((c,))
         by_criterion[c] = dict(interval=iv, lower_limit=lc, upper_limit=hc)
+
+    def bound_by(end: int, value: float, first: str, names) -> str:
+        """The criteria that bound the interval at this end: those whose own interval ends there (to the
+        bisection's resolution), or the base four-bar's existence where every one of them runs on to it.  The
+        first criterion violated just outside is only a fallback: at the connection break a cusp and the
+        pressure angle fail at the same point, and the first of them in the list is not what bounds it."""
+        own = {c: by_criterion[c] for c in names if c in by_criterion}
+        hits = [c for c, b in own.items() if abs(b["interval"][end] - value) < 1e-5 and
+                b[("lower_limit", "upper_limit")[end]] != "base four-bar"]
+        if not hits and any(b[("lower_limit", "upper_limit")[end]] == "base four-bar"
+                            and abs(b["interval"][end] - value) < 1e-5 for b in own.values()):
+            return "base four-bar"
+        return ", ".join(hits) or first
+
     seed_iv, seed_lo, seed_hi = extent(SEED_CRITERIA)
-    return dict(law=law, law_return=a.law_return or law, lambda2_min=round(float(lo), 6), lambda2_max=round(float(hi), 6),
-                lower_limit=lo_crit, upper_limit=hi_crit, feasible_intervals=len(runs),
+    lo, hi = round(float(lo), 6), round(float(hi), 6)
+    return dict(law=law, law_return=a.law_return or law, lambda2_min=lo, lambda2_max=hi,
+                lower_limit=bound_by(0, lo, lo_first, by_criterion), upper_limit=bound_by(1, hi, hi_first, by_criterion),
+                feasible_intervals=len(runs),
                 max_pressure_angle_deg=a.max_pressure_angle, roller_radius=a.roller_radius,
                 crank_radius=a.crank_radius, lambda1=a.lambda1, lambda3=a.lambda3, dwell_deg=a.dwell,
                 scan_step=step,
@@ -153,10 +169,14 @@ def _scan(a, law: str) -> dict:
                          "curvature radius > roller radius; pressure angle (conrod vs groove, force-based) <= limit",
                 bounds_by_criterion=by_criterion,
                 seed_criteria=", ".join(SEED_CRITERIA) + " (" + SEED_SOURCES + ")",
-                seed_interval=seed_iv, seed_lower_limit=seed_lo, seed_upper_limit=seed_hi)
+                seed_interval=seed_iv, seed_lower_limit=bound_by(0, seed_iv[0], seed_lo, SEED_CRITERIA),
+                seed_upper_limit=bound_by(1, seed_iv[1], seed_hi, SEED_CRITERIA))
 
 
 def _compare(a) -> list[dict]:
+    """One row per law: its feasible interval of lambda2 (the scan) and, at one lambda2 -- the one given, else
+    the interval's middle (for a law without one, sqrt(lambda1^2 - lambda3^2 + 1)) -- the criteria it fails
+    there and the motion's figures."""
     rows = []
     for law in COMPARE:
         row = dict(law=law)
@@ -165,7 +185,7 @@ def _compare(a) -> list[dict]:
             row.update(lambda2_min=s["lambda2_min"], lambda2_max=s["lambda2_max"], feasible=True)
             lam2 = a.lambda2 if a.lambda2 is not None else 0.5 * (s["lambda2_min"] + s["lambda2_max"])
         except ValueError:
-            row.update(feasible=False)
+            row.update(lambda2_min=math.nan, lambda2_max=math.nan, feasible=False)
             lam2 = a.lambda2 if a.lambda2 is not None else math.sqrt(a.lambda1 ** 2 - a.lambda3 ** 2 + 1)
         kl, p = _design(a, law, lam2)
         g, g1, g2 = kl(p.phi)
@@ -176,9 +196,40 @@ def _compare(a) -> list[dict]:
                    rms_eps_per_w2=float(np.sqrt(np.mean(g2 ** 2))),
                    peak_inertia_power_per_Jw3=float(np.max(np.abs(g1 * g2))),
                    dwell_deg=a.dwell, swing_deg=math.degrees(kl.swing),
-                   pressure_angle_max_deg=math.degrees(rep["pressure_angle_max"]), failed=rep["failed"])
+                   pressure_angle_max_deg=math.degrees(rep["pressure_angle_max"]),
+                   failed_at_lambda2=", ".join(rep["all_failed"]) or "none")
         rows.append(row)
     return rows
+
+
+def _compare_table(rows: list[dict]) -> str:
+    """The --compare-laws table as text: the interval column is the scan's, every column right of lambda2 is
+    evaluated at that lambda2; floats rounded."""
+    keys = ("law", "interval", "lambda2", "failed_at_lambda2", "C_v", "C_a", "peak_eps_per_w2", "rms_eps_per_w2",
+            "peak_inertia_power_per_Jw3", "swing_deg", "dwell_deg", "pressure_angle_max_deg")
+    lines = [" ".join(f"{k:>18}" for k in keys)]
+    for r in rows:
+        iv = f"[{r['lambda2_min']:.4f}, {r['lambda2_max']:.4f}]" if r["feasible"] else "none"
+        cells = [r["law"], iv] + [r[k] for k in keys[2:]]
+        lines.append(" ".join(f"{c:18.4f}" if isinstance(c, float) else f"{c!s:>18}" for c in cells))
+    lines.append("interval: each law's feasible lambda2 (the scan); the columns from lambda2 on are at that lambda2")
+    return "\n".join(lines)
+
+
+def _scan_text(out: dict) -> str:
+    """The scan as text: one line per item, each criterion's own interval on a line of its own (no raw dicts)."""
+    lines = []
+    for k, v in out.items():
+        if k == "bounds_by_criterion":
+            lines.append("bounds by criterion (each alone):")
+            for c, b in v.items():
+                lines.append(f"  {c}: [{b['interval'][0]:.6f}, {b['interval'][1]:.6f}] (lower end: "
+                             f"{b['lower_limit']}, upper end: {b['upper_limit']})")
+        elif k == "seed_interval":
+            lines.append(f"{k}: [{v[0]:.6f}, {v[1]:.6f}]")
+        else:
+            lines.append(f"{k}: {round(v, 6) if isinstance(v, float) else v}")
+    return "\n".join(lines)
 
 
 def run(args) -> int:
@@ -192,18 +243,11 @@ def run(args) -> int:
             return _fail(f"{typed('crank_radius', a.crank_radius, 'm')} must be > 0")
         if a.compare_laws:
             rows = _compare(a)
-            if a.json:
-                print(json.dumps(rows))
-            else:
-                keys = ("law", "feasible", "lambda2", "C_v", "C_a", "peak_eps_per_w2", "rms_eps_per_w2",
-                        "peak_inertia_power_per_Jw3", "dwell_deg", "pressure_angle_max_deg", "failed")
-                print(" ".join(f"{k:>12}" for k in keys))
-                for r in rows:
-                    print(" ".join(f"{r.get(k)!s:>12}" if not isinstance(r.get(k), float) else f"{r[k]:12.4f}" for k in keys))
+            print(json.dumps(rows) if a.json else _compare_table(rows))
             return 0
         if a.scan == "lambda2":
             out = _scan(a, a.law)
-            print(json.dumps(out) if a.json else "\n".join(f"{k}: {v}" for k, v in out.items()))
+            print(json.dumps(out) if a.json else _scan_text(out))
             return 0
         if a.lambda2 is None:
             return _fail("give --scan lambda2, --compare-laws, or --lambda2 (with --out)")
