@@ -1,0 +1,68 @@
+"""Belt conveyors of a non-stop book-block trimmer (seed 003, second article: P. V. Topolnytskyi).
+
+    motor (MotorBelt, ideal speed source) <-pulley- drive (FlywheelShaft: drive pulley, shaft, the conveyors'
+    pulley, belts and blocks reduced to it) -crank-> trim (ConveyorLoad: head and tail knives)
+
+* The article's test conditions: blocks at a 500 mm pitch, a 1200 mm tool, head and tail trimmed at once;
+  this system is its Fig. 1 case, the 320x450x36 mm coated block with a 320 mm cut, at 1.8 m/s (one of its
+  speeds 0.5, 1.0, 1.8, 2.7 m/s).  The article's results are not in our copy: the load is the toolkit's
+  cutting-work model (fmus/docs/conveyor_load/index.md), specific cutting work 2.5e4 J/m2 (an order of
+  magnitude), the whole tool cutting.  The sweep over the article's grid is systems/studies/conveyor_grid.yaml.
+* Assumed, the article gives none: conveyor drive pulley r = 50 mm; a motor of 1425 rpm through a belt, the
+  driven pulley sized for the belt speed (d = 0.1 m * w_motor * r / V); the drive's shaft steel 50 mm x 0.6 m;
+  0.05 kg.m2 on the motor side (pulley), 0.1 kg.m2 on the conveyor side (pulley, belts and three blocks of
+  about 5.7 kg, 5.7*3*0.05^2 = 0.043, rounded up).
+* The blocks stream from the start (the first at the end of the cutting zone, x0 = zone + cut length), and
+  the scenes read four whole pitches after the belts' start-up transient, so a mean is the pitch's mean.
+"""
+import math
+
+from harness.model import Experiment, Instance, System, bond
+from harness.specs import PrecisionSpec, Scene
+
+RPM = 2 * math.pi / 60
+SPEED = 1.8                                   # m/s, transport speed
+R_PULLEY = 0.05                               # m, conveyor drive pulley
+W_MOTOR = 1425.0 * RPM                        # rad/s
+W_DRIVE = SPEED / R_PULLEY                    # rad/s, conveyor drive shaft
+PITCH, ZONE, CUT = 0.5, 1.2, 0.32             # m
+T_PITCH = PITCH / SPEED                       # s, one block
+WINDOW = (0.1, round(0.1 + 4 * T_PITCH, 4))   # s: four whole pitches after the belts' start-up transient
+
+SYSTEM = System(
+    name="trimmer_conveyor",
+    description="Belt conveyors of a non-stop book-block trimmer: rigid motor, V-belt, drive shaft, "
+                "transport load of head and tail trimming (seed 003, second article)",
+    instances=[
+        Instance("motor", "MotorBelt", {
+            "fidelity": 0, "w_rated": W_MOTOR, "w_sync": 1500.0 * RPM,          # rad/s
+            "d_motor_pulley": 0.1, "d_driven_pulley": 0.1 * W_MOTOR / W_DRIVE,  # m: belt ratio for SPEED
+            "c_belt": 2.0e5, "d_belt": 300.0,                                    # N/m, N.s/m
+        }),
+        Instance("drive", "FlywheelShaft", {
+            "fidelity": 1, "J_flywheel": 0.05, "J_crank": 0.1,                  # kg.m2
+            "G": 8.1e10, "d": 0.05, "l": 0.6, "psi": 0.5,                         # Pa, m, m, 1
+            "w0": W_DRIVE,                                                        # rad/s
+        }),
+        Instance("trim", "ConveyorLoad", {
+            "w_cut": 2.5e4, "thickness": 0.036, "cut_length": 0.32,             # J/m2, m, m
+            "pitch": PITCH, "tool_length": 1.2, "zone": ZONE, "knives": 2,      # m, m, m, 1
+            "r_pulley": R_PULLEY, "x0": ZONE + CUT,                               # m: a steady stream from t = 0
+        }),
+    ],
+    bonds=[
+        bond("drive.pulley", "motor.pulley"),
+        bond("drive.crank", "trim.shaft"),
+    ],
+    experiment=Experiment(stop_time=WINDOW[1], step=2e-4, master="jacobi"),
+    free_inputs={"drive.aux.tau": "the drive shaft's second take-off drives nothing here: no torque on it"},
+    scenes=[
+        Scene("mean_moment", "What mean moment does trimming put on the conveyors' drive shaft?",
+              'mean(window(r["trim.shaft.tau"], %g, %g))' % WINDOW, tolerance=0.01, unit="N.m"),
+        Scene("peak_moment", "What peak moment does the drive shaft carry?",
+              'peak(window(r["drive.shaft_torque"], %g, %g))' % WINDOW, tolerance=0.02, unit="N.m"),
+    ],
+    default_scene="mean_moment",  # the article's quantity: the moment on the drive shaft (its Fig. 1)
+    precision=PrecisionSpec("trim.shaft.tau", "moment on the drive shaft", "N.m", stop_time=0.6,
+                            steps=(2e-4, 4e-4, 8e-4, 1.6e-3), columns=("drive.crank.w", "drive.shaft_twist")),
+)
