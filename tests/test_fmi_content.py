@@ -9,7 +9,7 @@
   Float32, Int32 and Boolean connections gives under every master exactly what the same system of their FMI 2.0
   builds gives (same C models, other FMI version).  Clocks and arrays are refused in one line naming them.
 * Model Exchange (harness/fmi/me.py): the Reference-FMUs BouncingBall (state events), VanDerPol, Dahlquist,
-  Stair (time events), Feedthrough and Resource through their FMI 2.0 ME interface, each alone, agree with
+  Stair (time events), Feedthrough and Resource through their FMI 2.0 and 3.0 ME interfaces, each alone, agree with
   fmpy.simulate_fmu(fmi_type="ModelExchange") at the same relative tolerance (the same CVODE); in a system with
   co-simulation FMUs and a discrete input (set in event mode) they run under every master, rollback included;
   an SSD component with implementation="ModelExchange" runs as ME (it used to run as co-simulation).
@@ -260,6 +260,27 @@ def reference_me(reference2) -> dict[str, Path]:
     return {m: model_exchange_only(reference2[m]) for m in ME_MODELS}
 
 
+@pytest.fixture(scope="session")
+def reference_me3(reference3) -> dict[str, Path]:
+    """The same for the FMI 3.0 Reference-FMUs."""
+    from harness.fmi.cache import model_exchange_only
+
+    return {m: model_exchange_only(reference3[m]) for m in ME_MODELS}
+
+
+@pytest.fixture(params=["2.0", "3.0"])
+def me_and_cs(request) -> tuple[dict[str, Path], dict[str, Path]]:
+    """(the Reference-FMUs as ME only, the same as co-simulation FMUs) of one FMI version."""
+    if request.param == "2.0":
+        return request.getfixturevalue("reference_me"), request.getfixturevalue("reference2")
+    return request.getfixturevalue("reference_me3"), request.getfixturevalue("reference3")
+
+
+@pytest.fixture
+def me_fmus(me_and_cs) -> dict[str, Path]:
+    return me_and_cs[0]
+
+
 def fmpy_me(fmu: Path, stop: float, step: float, rtol: float) -> pd.DataFrame:
     from fmpy import simulate_fmu
 
@@ -269,12 +290,12 @@ def fmpy_me(fmu: Path, stop: float, step: float, rtol: float) -> pd.DataFrame:
 
 @pytest.mark.parametrize("rtol", [1e-6, 1e-8])
 @pytest.mark.parametrize("model", ME_MODELS)
-def test_model_exchange_fmu_alone_matches_fmpy(reference_me, model, rtol):
-    from harness.fmi import ModelExchange2, open_instance
+def test_model_exchange_fmu_alone_matches_fmpy(me_fmus, model, rtol):
+    from harness.fmi import ModelExchange2, ModelExchange3, open_instance
 
-    fmu = reference_me[model]
+    fmu = me_fmus[model]
     inst = open_instance(fmu, "probe")
-    assert type(inst) is ModelExchange2
+    assert type(inst) is (ModelExchange3 if inst.md.fmiVersion.startswith("3") else ModelExchange2)
     inst.free()
     stop, step = 3.0, 0.01
     df = quiet(System(model, [Instance("m", str(fmu))], experiment=Experiment(stop_time=stop, step=step)),
@@ -284,10 +305,10 @@ def test_model_exchange_fmu_alone_matches_fmpy(reference_me, model, rtol):
     assert assert_agrees(df, fmpy_me(fmu, stop, step, rtol), "m.", 1e-12, f"{model} ME") >= 1
 
 
-def test_model_exchange_events_happen(reference_me):
+def test_model_exchange_events_happen(me_fmus):
     """Independent of fmpy: the bouncing ball bounces (state events) and the stair counts (time events)."""
-    df = quiet(System("ev", [Instance("bb", str(reference_me["BouncingBall"])),
-                             Instance("stair", str(reference_me["Stair"]))],
+    df = quiet(System("ev", [Instance("bb", str(me_fmus["BouncingBall"])),
+                             Instance("stair", str(me_fmus["Stair"]))],
                       experiment=Experiment(stop_time=3.0, step=0.01)), master="jacobi", on_error="raise")
     v = df["bb.v"].to_numpy()
     assert (np.diff(np.sign(v)) > 0).sum() >= 2          # the velocity turns upward at each bounce
@@ -309,11 +330,12 @@ def mixed_system(me: dict, cs: dict) -> System:
 
 
 @pytest.mark.parametrize("master", MASTERS)
-def test_model_exchange_fmus_in_a_co_simulation_under_every_master(reference_me, reference2, master):
+def test_model_exchange_fmus_in_a_co_simulation_under_every_master(me_and_cs, master):
     rtol = 1e-6
-    df = quiet(mixed_system(reference_me, reference2), master=master, tolerance=rtol, on_error="raise")
+    me_fmus, cs_fmus = me_and_cs
+    df = quiet(mixed_system(me_fmus, cs_fmus), master=master, tolerance=rtol, on_error="raise")
     assert df.attrs["complete"] and len(df) == 301
-    ref = fmpy_me(reference_me["VanDerPol"], 3.0, 0.01, rtol)
+    ref = fmpy_me(me_fmus["VanDerPol"], 3.0, 0.01, rtol)
     x0 = df["vdp.x0"].to_numpy()
     err = np.abs(x0 - ref["x0"].to_numpy()).max() / np.abs(ref["x0"].to_numpy()).max()
     if master == "iterative":
@@ -326,7 +348,7 @@ def test_model_exchange_fmus_in_a_co_simulation_under_every_master(reference_me,
     assert counter[-1] == 4                       # the time events survive the iterative master's rollbacks
     # the discrete signals (Stair's counter into the ME Feedthrough's Int32 input, set in event mode) are
     # exactly what the same system of co-simulation FMUs gives under the same master
-    cs = quiet(mixed_system(reference2, reference2), master=master, on_error="raise")
+    cs = quiet(mixed_system(cs_fmus, cs_fmus), master=master, on_error="raise")
     for col in ("stair.counter", "ftm.Int32_output", "ftm.Boolean_output"):
         assert (df[col].to_numpy() == cs[col].to_numpy()).all(), f"{master}: {col}"
     assert (df["ftm.Int32_output"].to_numpy() != 1).any()

@@ -11,9 +11,10 @@ from harness.fmi.cache import model_description
 from harness.fmi.fmu import FMU, Instance, extracted
 from harness.fmi.fmu1 import FMU1
 from harness.fmi.fmu3 import FMU3
-from harness.fmi.me import ModelExchange2, SolverSettings
+from harness.fmi.me import ModelExchange2, ModelExchange3, SolverSettings
 
-__all__ = ["FMU", "FMU1", "FMU3", "ModelExchange2", "SolverSettings", "Instance", "IMPLEMENTATIONS", "open_instance", "extracted", "IN_PROCESS_CHOICES", "InProcessFallback"]
+__all__ = ["FMU", "FMU1", "FMU3", "ModelExchange2", "ModelExchange3", "SolverSettings", "Instance", "IMPLEMENTATIONS",
+           "open_instance", "extracted", "IN_PROCESS_CHOICES", "InProcessFallback"]
 
 IN_PROCESS_CHOICES = (None, True, False)
 IMPLEMENTATIONS = ("any", "CoSimulation", "ModelExchange")  # SSP 1.0's words for an FMU component's interface
@@ -49,10 +50,12 @@ def open_instance(path: str | Path, name: str, logging_on: bool = True, in_proce
     md = model_description(path) if Path(path).is_file() else None
     if md is not None and (implementation == "ModelExchange"
                            or (implementation == "any" and md.coSimulation is None and md.modelExchange is not None)):
+        if str(md.fmiVersion).startswith("3"):
+            return ModelExchange3(path, name, logging_on)
         if md.fmiVersion != "2.0":
             raise FMUError(name, "instantiate", None, None,
                            detail=f"{Path(path).name}: Model Exchange of FMI {md.fmiVersion} is not supported "
-                                  f"(FMI 2.0 only)")
+                                  f"(FMI 2.0 and 3.0 only)")
         return ModelExchange2(path, name, logging_on)
     md, unzip_dir = extracted(path)
     if md.fmiVersion == "1.0":

@@ -3,8 +3,8 @@
 * :func:`model_description`: fmpy's model description of an FMU file, read once per process and modification
   time; every layer (system validation, the FMI wrapper, the studies, the peer runners) asks here.
 * FMI 3.0 descriptions are given in FMI 2.0's words (:func:`_as_fmi2_types`): Float64/Float32 variables are
-  ``Real``, the eight integer types ``Integer``; Boolean, String and Enumeration keep their names (an array of more than one element is typed
-  e.g. ``Float64[3x3]``, which nothing takes for a scalar), so system
+  ``Real``, the eight integer types ``Integer``; Boolean, String and Enumeration keep their names (an array of
+  more than one element is typed e.g. ``Float64[3x3]``, which nothing takes for a scalar), so system
   validation, coupling and results treat both versions alike.  :func:`native_types` keeps each variable's
   FMI 3.0 type, which the FMI 3.0 wrapper (:mod:`harness.fmi.fmu3`) calls by.
 * :func:`model_exchange_only`: a copy of an FMU that offers both interfaces, without its co-simulation one

@@ -43,10 +43,12 @@ class FMU3(Instance):
 
     path_kind = "fmi3"
 
-    def __init__(self, path: str | Path, name: str, logging_on: bool = True):
-        from fmpy.fmi3 import FMU3Slave
+    def __init__(self, path: str | Path, name: str, logging_on: bool = True, model_exchange: bool = False):
+        """``model_exchange``: instantiate through the Model Exchange interface (fmpy's FMU3Model), for
+        :class:`harness.fmi.me.ModelExchange3`."""
+        from fmpy.fmi3 import FMU3Model, FMU3Slave
 
-        super().__init__(path, name)
+        super().__init__(path, name, model_exchange)
         self.native = native_types(self.md)
         clocks = [n for n, t in self.native.items() if t == "Clock"]
         if clocks:
@@ -64,10 +66,16 @@ class FMU3(Instance):
         self._start, self._stop, self._tolerance = 0.0, None, None
         self._states: list = []
         self._float32 = any(t == "Float32" for t in self.native.values())
-        self._slave = FMU3Slave(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
-                                modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
-        self._call("fmi3InstantiateCoSimulation", self._slave.instantiate, loggingOn=logging_on,
-                   logMessage=self._log_message)
+        if model_exchange:
+            self._slave = FMU3Model(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
+                                    modelIdentifier=self.md.modelExchange.modelIdentifier, instanceName=name)
+            self._call("fmi3InstantiateModelExchange", self._slave.instantiate, loggingOn=logging_on,
+                       logMessage=self._log_message)
+        else:
+            self._slave = FMU3Slave(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
+                                    modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+            self._call("fmi3InstantiateCoSimulation", self._slave.instantiate, loggingOn=logging_on,
+                       logMessage=self._log_message)
         self._c = self._slave.component
 
     def _log_message(self, environment, status, category, message) -> None:

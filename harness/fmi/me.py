@@ -1,7 +1,8 @@
 """Model Exchange FMUs as co-simulation instances: the FMU's equations integrated by an ODE solver of its own.
 
-A Model Exchange FMU (FMI 2.0) gives its state derivatives and event indicators, not a step.  FMPy, OMSimulator
-and PyFMI integrate such FMUs themselves; here :class:`ModelExchange2` does so inside ``do_step`` and offers
+A Model Exchange FMU gives its state derivatives and event indicators, not a step.  FMPy, OMSimulator and PyFMI
+integrate such FMUs themselves; here :class:`ModelExchange2` (FMI 2.0) and :class:`ModelExchange3` (FMI 3.0)
+do so inside ``do_step`` (one loop, :class:`_Integrated`, over either version's calls) and offer
 the master the same :class:`~harness.fmi.fmu.Instance` interface as a co-simulation FMU, so it can be one
 component of a co-simulation like any other.  Over a communication step [t, t + h] its inputs are held (the
 master sets them before the step, as for a co-simulation FMU that cannot interpolate inputs), and
@@ -9,13 +10,14 @@ master sets them before the step, as for a co-simulation FMU that cannot interpo
 * the solver is SUNDIALS CVODE (BDF, dense linear solver) as FMPy ships it (:class:`fmpy.sundials.CVodeSolver`),
   with its root finding on the event indicators: a **state event** stops the integration where an indicator
   changes sign;
-* a **time event** (``nextEventTime`` from fmi2NewDiscreteStates) is a point the integration stops at;
-* a **step event** is what fmi2CompletedIntegratorStep asks for after each integration segment;
-* at each event the FMU goes through event mode (fmi2EnterEventMode, fmi2NewDiscreteStates until no new
-  discrete states are needed, fmi2EnterContinuousTimeMode) and the solver restarts from the new state;
+* a **time event** (``nextEventTime`` from fmi2NewDiscreteStates / fmi3UpdateDiscreteStates) is a point the
+  integration stops at;
+* a **step event** is what fmi2/3CompletedIntegratorStep asks for after each integration segment;
+* at each event the FMU goes through event mode (EnterEventMode, NewDiscreteStates / UpdateDiscreteStates
+  until no more are needed, EnterContinuousTimeMode) and the solver restarts from the new state;
 * an input set since the last step (a discontinuity of the right-hand side for the solver) restarts it at the
   step's start; a discrete input (Integer, Boolean, String, or a Real of discrete variability) is set in event
-  mode, as FMI 2.0 requires, and the event is completed at the step's start.
+  mode, as FMI 2.0 and 3.0 require, and the event is completed at the step's start.
 
 This is the loop of ``fmpy.simulation.simulateME``, restricted to one communication step; with the same
 relative tolerance and maximum solver step (:class:`SolverSettings`) a standalone ME FMU gives what
@@ -28,12 +30,13 @@ swallowed by the C callback.
 from __future__ import annotations
 
 import math
-from ctypes import POINTER, byref, c_double, c_int, cast
+from ctypes import POINTER, byref, c_double, c_int, c_size_t, cast
 from dataclasses import dataclass
 from pathlib import Path
 
 from harness.errors import FMUError
 from harness.fmi.fmu import FMU, WARNING, RealBlock
+from harness.fmi.fmu3 import FMU3
 
 
 @dataclass(frozen=True)
@@ -104,24 +107,23 @@ class _MEState:
         self.fmu_state, self.time, self.mode, self.next_event = fmu_state, time, mode, next_event
 
 
-class ModelExchange2(FMU):
-    """One instance of an FMI 2.0 Model Exchange FMU, stepped as a co-simulation instance (module docstring)."""
+class _Integrated:
+    """The integration of a Model Exchange FMU over communication steps (module docstring), on top of an FMI
+    wrapper (:class:`~harness.fmi.fmu.FMU` or :class:`~harness.fmi.fmu3.FMU3`) that supplies the FMI calls
+    of its version through the ``_fmi_*`` methods."""
 
-    path_kind = "me2"
+    path_kind = "me"
 
-    def __init__(self, path: str | Path, name: str, logging_on: bool = True,
-                 settings: SolverSettings | None = None):
-        super().__init__(path, name, logging_on, model_exchange=True)
+    def _init_integration(self, settings: SolverSettings | None, nx: int, nz: int, needs_completed_step: bool):
         self.settings = settings or SolverSettings()
-        self.nx = int(self.md.numberOfContinuousStates or 0)
-        self.nz = int(self.md.numberOfEventIndicators or 0)
-        self.needs_completed_step = bool(self.md.modelExchange.needsCompletedIntegratorStep)
+        self.nx, self.nz = int(nx), int(nz)
+        self.needs_completed_step = bool(needs_completed_step)
         self._start, self._stop, self._rtol = 0.0, None, DEFAULT_RTOL
         self._mode = "instantiated"          # -> "initialization" -> "event" / "continuous"
         self._solver = None
         self._restart = True                 # the solver restarts at the next step's start
         self._next_event: float | None = None
-        self._t = 0.0                        # the FMU's time (fmi2SetTime)
+        self._t = 0.0                        # the FMU's time (fmi2SetTime / fmi3SetTime)
         self._discrete = {v.name for v in self.md.modelVariables if v.causality == "input"
                           and (v.type != "Real" or v.variability == "discrete")}
 
@@ -141,18 +143,14 @@ class ModelExchange2(FMU):
         self._event_iteration("the initial event iteration")
 
     def _event_iteration(self, when: str) -> None:
-        """fmi2NewDiscreteStates until the FMU needs no more, then continuous-time mode (from event mode)."""
-        from fmpy.fmi2 import fmi2EventInfo
-
-        info = fmi2EventInfo()
-        info.newDiscreteStatesNeeded = 1
-        while info.newDiscreteStatesNeeded:
-            self._check(self._f["fmi2NewDiscreteStates"](self.c, byref(info)), "fmi2NewDiscreteStates")
-            if info.terminateSimulation:
-                raise FMUError(self.name, "fmi2NewDiscreteStates", self._t, None,
+        """Update the discrete states until the FMU needs no more, then continuous-time mode (from event mode)."""
+        more = True
+        while more:
+            more, terminate, self._next_event = self._fmi_update_discrete()
+            if terminate:
+                raise FMUError(self.name, "event iteration", self._t, None,
                                detail=f"the FMU asked to terminate the simulation in {when} at t = {self._t:.6g} s")
-        self._next_event = float(info.nextEventTime) if info.nextEventTimeDefined else None
-        self._check(self._f["fmi2EnterContinuousTimeMode"](self.c), "fmi2EnterContinuousTimeMode")
+        self._fmi_enter_continuous()
         self._mode = "continuous"
         self._restart = True
 
@@ -175,7 +173,7 @@ class ModelExchange2(FMU):
 
     def set_value(self, name: str, value) -> None:
         if self._mode == "continuous" and name in self._discrete:
-            self._check(self._f["fmi2EnterEventMode"](self.c), "fmi2EnterEventMode")
+            self._fmi_enter_event_mode()
             self._mode = "event"
         super().set_value(name, value)
         self._restart = True
@@ -183,30 +181,18 @@ class ModelExchange2(FMU):
     # -- stepping ----------------------------------------------------------------------------------------------
     def _set_time(self, t: float) -> None:
         self._t = t
-        self._check(self._f["fmi2SetTime"](self.c, t), "fmi2SetTime")
-
-    def _vector_call(self, function: str):
-        """A solver callback (pointer, n) -> the FMI call on the FMU, status checked."""
-        fn = self._f[function]
-
-        def call(pointer, n):
-            status = fn(self.c, cast(pointer, POINTER(c_double)), n)
-            if status > WARNING:
-                self._check(status, function)
-        return call
+        self._fmi_set_time(t)
 
     def _new_solver(self, t: float):
         """CVODE from the FMU's current state at ``t`` (module docstring)."""
         max_step = self.settings.max_step
         if max_step is None:
             max_step = (self._stop - self._start) / 50.0 if self._stop is not None else float("inf")
-        return _solver_class()(nx=self.nx, nz=self.nz, get_x=self._vector_call("fmi2GetContinuousStates"),
-                               set_x=self._vector_call("fmi2SetContinuousStates"),
-                               get_dx=self._vector_call("fmi2GetDerivatives"),
-                               get_z=self._vector_call("fmi2GetEventIndicators"),
-                               get_nominals=self._vector_call("fmi2GetNominalsOfContinuousStates"),
-                               set_time=self._set_time, input=_NoInput(), startTime=t, maxStep=max_step,
-                               relativeTolerance=self._rtol, maxNumSteps=self.settings.max_steps)
+        get_x, set_x, get_dx, get_z, get_nominals = self._fmi_vectors()
+        return _solver_class()(nx=self.nx, nz=self.nz, get_x=get_x, set_x=set_x, get_dx=get_dx, get_z=get_z,
+                               get_nominals=get_nominals, set_time=self._set_time, input=_NoInput(),
+                               startTime=t, maxStep=max_step, relativeTolerance=self._rtol,
+                               maxNumSteps=self.settings.max_steps)
 
     def _integrate(self, t: float, t_next: float) -> tuple[bool, float]:
         """One solver segment from ``t`` towards ``t_next``: (state event, time reached)."""
@@ -243,16 +229,13 @@ class ModelExchange2(FMU):
             self._set_time(now)
             step_event = False
             if self.needs_completed_step:
-                enter, terminate = c_int(0), c_int(0)
-                self._check(self._f["fmi2CompletedIntegratorStep"](self.c, 1, byref(enter), byref(terminate)),
-                            "fmi2CompletedIntegratorStep")
-                if terminate.value:
-                    raise FMUError(self.name, "fmi2CompletedIntegratorStep", now, None,
+                step_event, terminate = self._fmi_completed_step()
+                if terminate:
+                    raise FMUError(self.name, "completed integrator step", now, None,
                                    detail=f"the FMU asked to terminate the simulation at t = {now:.6g} s")
-                step_event = bool(enter.value)
             time_event = self._next_event is not None and abs(now - self._next_event) <= eps
             if state_event or time_event or step_event:
-                self._check(self._f["fmi2EnterEventMode"](self.c), "fmi2EnterEventMode")
+                self._fmi_enter_event_mode()
                 self._mode = "event"
                 self._event_iteration(f"the event at t = {now:.6g} s")
         if now != end:  # within eps: the communication point itself, exactly
@@ -261,7 +244,7 @@ class ModelExchange2(FMU):
 
     # -- FMU state (rollback) ----------------------------------------------------------------------------------
     def get_state(self, state=None):
-        """The FMU's state and its time; the solver restarts from it when it is set."""
+        """The FMU's state, its time, mode and next time event; the solver restarts from it when it is set."""
         if state is None:
             return _MEState(super().get_state(), self._t, self._mode, self._next_event)
         super().get_state(state.fmu_state)
@@ -277,4 +260,104 @@ class ModelExchange2(FMU):
         super().free_state(state.fmu_state)
 
 
-__all__ = ["ModelExchange2", "SolverSettings"]
+class ModelExchange2(_Integrated, FMU):
+    """One instance of an FMI 2.0 Model Exchange FMU, stepped as a co-simulation instance (module docstring)."""
+
+    path_kind = "me2"
+
+    def __init__(self, path: str | Path, name: str, logging_on: bool = True,
+                 settings: SolverSettings | None = None):
+        FMU.__init__(self, path, name, logging_on, model_exchange=True)
+        self._init_integration(settings, self.md.numberOfContinuousStates or 0,
+                               self.md.numberOfEventIndicators or 0,
+                               self.md.modelExchange.needsCompletedIntegratorStep)
+
+    def _fmi_set_time(self, t: float) -> None:
+        self._check(self._f["fmi2SetTime"](self.c, t), "fmi2SetTime")
+
+    def _fmi_enter_event_mode(self) -> None:
+        self._check(self._f["fmi2EnterEventMode"](self.c), "fmi2EnterEventMode")
+
+    def _fmi_enter_continuous(self) -> None:
+        self._check(self._f["fmi2EnterContinuousTimeMode"](self.c), "fmi2EnterContinuousTimeMode")
+
+    def _fmi_update_discrete(self):
+        from fmpy.fmi2 import fmi2EventInfo
+
+        info = fmi2EventInfo()
+        self._check(self._f["fmi2NewDiscreteStates"](self.c, byref(info)), "fmi2NewDiscreteStates")
+        return (bool(info.newDiscreteStatesNeeded), bool(info.terminateSimulation),
+                float(info.nextEventTime) if info.nextEventTimeDefined else None)
+
+    def _fmi_completed_step(self):
+        enter, terminate = c_int(0), c_int(0)
+        self._check(self._f["fmi2CompletedIntegratorStep"](self.c, 1, byref(enter), byref(terminate)),
+                    "fmi2CompletedIntegratorStep")
+        return bool(enter.value), bool(terminate.value)
+
+    def _fmi_vectors(self):
+        def vector(function: str):
+            fn = self._f[function]
+
+            def call(pointer, n):
+                status = fn(self.c, cast(pointer, POINTER(c_double)), n)
+                if status > WARNING:
+                    self._check(status, function)
+            return call
+        return tuple(vector(f) for f in ("fmi2GetContinuousStates", "fmi2SetContinuousStates", "fmi2GetDerivatives",
+                                         "fmi2GetEventIndicators", "fmi2GetNominalsOfContinuousStates"))
+
+
+class ModelExchange3(_Integrated, FMU3):
+    """One instance of an FMI 3.0 Model Exchange FMU, stepped as a co-simulation instance (module docstring;
+    the FMI 3.0 calls of the same loop: fmi3UpdateDiscreteStates, fmi3GetContinuousStateDerivatives...)."""
+
+    path_kind = "me3"
+
+    def __init__(self, path: str | Path, name: str, logging_on: bool = True,
+                 settings: SolverSettings | None = None):
+        FMU3.__init__(self, path, name, logging_on, model_exchange=True)
+        nx, nz = c_size_t(), c_size_t()
+        self._call("fmi3GetNumberOfContinuousStates", self._slave.fmi3GetNumberOfContinuousStates, self._c, byref(nx))
+        self._call("fmi3GetNumberOfEventIndicators", self._slave.fmi3GetNumberOfEventIndicators, self._c, byref(nz))
+        self._init_integration(settings, nx.value, nz.value, self.md.modelExchange.needsCompletedIntegratorStep)
+
+    def _fmi_set_time(self, t: float) -> None:
+        self._call("fmi3SetTime", self._slave.fmi3SetTime, self._c, t)
+
+    def _fmi_enter_event_mode(self) -> None:
+        self._call("fmi3EnterEventMode", self._slave.fmi3EnterEventMode, self._c)
+
+    def _fmi_enter_continuous(self) -> None:
+        self._call("fmi3EnterContinuousTimeMode", self._slave.fmi3EnterContinuousTimeMode, self._c)
+
+    def _fmi_update_discrete(self):
+        from fmpy.fmi3 import fmi3Boolean, fmi3Float64
+
+        more, terminate, nominals, values, defined = (fmi3Boolean() for _ in range(5))
+        next_time = fmi3Float64()
+        self._call("fmi3UpdateDiscreteStates", self._slave.fmi3UpdateDiscreteStates, self._c, byref(more),
+                   byref(terminate), byref(nominals), byref(values), byref(defined), byref(next_time))
+        return bool(more.value), bool(terminate.value), float(next_time.value) if defined.value else None
+
+    def _fmi_completed_step(self):
+        from fmpy.fmi3 import fmi3Boolean
+
+        enter, terminate = fmi3Boolean(), fmi3Boolean()
+        self._call("fmi3CompletedIntegratorStep", self._slave.fmi3CompletedIntegratorStep, self._c, True,
+                   byref(enter), byref(terminate))
+        return bool(enter.value), bool(terminate.value)
+
+    def _fmi_vectors(self):
+        def vector(function: str):
+            method = getattr(self._slave, function)
+
+            def call(pointer, n):
+                self._call(function, method, self._c, cast(pointer, POINTER(c_double)), n)
+            return call
+        return tuple(vector(f) for f in ("fmi3GetContinuousStates", "fmi3SetContinuousStates",
+                                         "fmi3GetContinuousStateDerivatives", "fmi3GetEventIndicators",
+                                         "fmi3GetNominalsOfContinuousStates"))
+
+
+__all__ = ["ModelExchange2", "ModelExchange3", "SolverSettings"]
