@@ -61,10 +61,13 @@ def _descriptions(system) -> dict[str, str]:
 
 
 def _meaning(column: str, descriptions: dict[str, str]) -> str:
-    """A title for a column the system did not describe: the FMU's description ("crank-side end of the main
-    shaft: angular velocity (motion out)" -> "Crank-side end of the main shaft: angular velocity") and the
-    column, so the reader sees both what it is and where it comes from."""
+    """A title for a column the system did not describe: the FMU's description, a port's cut to the port and
+    the quantity ("driven pulley: torque, reaction this component exerts on the driving flange" -> "Driven
+    pulley: torque"), and the column, so the reader sees both what it is and where it comes from."""
     text = descriptions.get(column, "").replace("(motion out)", "").strip()
+    port, colon, what = text.partition(": ")
+    if colon:
+        text = f"{port}: {what.split(', ')[0]}"
     if not text:
         return column
     return f"{text[0].upper()}{text[1:]} ({column})"
@@ -151,17 +154,22 @@ def _values(df: pd.DataFrame, column: str, units: dict) -> tuple[np.ndarray, str
 
 
 def _draw_panel(ax, x, df, panel: Panel, units: dict, rows=slice(None)) -> None:
-    shown = []
-    for i, c in enumerate(panel.columns):
-        y, unit = _values(df, c, units)
-        shown.append(unit)
-        label = panel.labels[i] if panel.labels else c
-        ax.plot(x, y[rows], lw=0.9, label=label)
-    unit = ", ".join(sorted(set(shown)))
-    ax.set_title(f"{panel.title} [{unit}]", fontsize=8.5, loc="left")
+    """One panel: its columns (angles in degrees), the title with the unit, values as they are on the axis
+    (no offset, no "1e-5" above it: a tiny or huge signal carries its power of ten in the unit instead)."""
+    import textwrap
+
+    drawn = [(_values(df, c, units), panel.labels[i] if panel.labels else c) for i, c in enumerate(panel.columns)]
+    peak = max((float(np.nanmax(np.abs(y[rows]))) for (y, _), _ in drawn if np.isfinite(y[rows]).any()),
+               default=0.0)
+    power = 3 * math.floor(math.log10(peak) / 3) if peak > 0 and not 1e-2 <= peak < 1e5 else 0
+    for (y, _), label in drawn:
+        ax.plot(x, y[rows] / 10.0 ** power, lw=0.9, label=label)
+    unit = ", ".join(sorted({u for (_, u), _ in drawn}))
+    unit = f"1e{power} {unit}" if power else unit
+    ax.set_title("\n".join(textwrap.wrap(f"{panel.title} [{unit}]", 95)), fontsize=8.5, loc="left")
     ax.set_ylabel(f"[{unit}]", fontsize=7)
     ax.tick_params(labelsize=7, labelbottom=True)
-    ax.ticklabel_format(axis="y", useOffset=False)  # values as they are, not "+1.636e1" above the axis
+    ax.ticklabel_format(axis="y", style="plain", useOffset=False)
     ax.grid(alpha=0.3)
     if len(panel.columns) > 1:
         ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
