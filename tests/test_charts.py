@@ -158,3 +158,25 @@ def test_run_plot_writes_and_names_both_charts(fmu_dir, tmp_path, monkeypatch, c
     for name in ("bed_drive.png", "bed_drive.svg", "bed_drive_cycle.png", "bed_drive_cycle.svg"):
         assert (tmp_path / name).exists(), name
     assert str(tmp_path / "bed_drive.png") in out and str(tmp_path / "bed_drive_cycle.png") in out
+
+
+def test_a_tiny_signal_carries_its_power_of_ten_in_the_unit_and_ports_are_titled_short():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    from harness.specs import Panel
+
+    t = np.linspace(0.0, 1.0, 11)
+    df = pd.DataFrame({"press.sync_error": 1.4e-5 * np.sin(6 * t)}, index=t)
+    fig, ax = plt.subplots()
+    charts._draw_panel(ax, t, df, Panel("Synchronisation error", ("press.sync_error",)), {"press.sync_error": "m"})
+    fig.canvas.draw()
+    assert ax.get_ylabel() == "[1e-6 m]" and ax.yaxis.get_offset_text().get_text() == ""
+    assert max(abs(v) for v in ax.get_lines()[0].get_ydata()) == pytest.approx(14.0, rel=0.01)
+    plt.close(fig)
+    title = charts._meaning("motor.pulley.tau", {"motor.pulley.tau": "driven pulley (on the flywheel shaft): "
+                                                 "torque, reaction this component exerts on the driving flange"})
+    assert title == "Driven pulley (on the flywheel shaft): torque (motor.pulley.tau)"
