@@ -11,6 +11,8 @@ import yaml
 from harness.__main__ import main
 from harness.studies import sweep, sweep_checks
 
+ROOT = Path(__file__).resolve().parents[1]
+
 TINY = {"stop_time": 0.02, "step": 1e-3, "master": "jacobi",
         "grid": {"b.c": [50.0, 200.0], "w": [1.0, 2.0]}, "set": {"a.w0": "w * 1.5"},
         "outputs": {"w_end": 'final(r["a.flange.w"])'}}
@@ -296,3 +298,96 @@ def test_a_wrong_free_input_declaration_is_one_line(free, message):
     with pytest.raises(SystemError_) as info:
         _validate(bad)
     assert message in str(info.value) and "\n" not in str(info.value)
+
+
+# -- item 7: study charts a press engineer reads: units everywhere, legends off the data ------------------------
+def _capture(monkeypatch, module):
+    """The figure ``module`` hands to save_figure, drawn, instead of written."""
+    figs = []
+
+    def keep(fig, stem, dpi=None):
+        fig.canvas.draw()
+        figs.append(fig)
+        return []
+    monkeypatch.setattr(module, "save_figure", keep)
+    return figs
+
+
+def _check_chart(fig):
+    import re
+
+    unit = re.compile(r"\[[^\]]+\]")
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert any(ax.get_xlabel() for ax in axes)
+    for ax in axes:
+        assert unit.search(ax.get_xlabel()) or not ax.get_xlabel(), ax.get_xlabel()   # shared x: the lowest row
+        assert unit.search(ax.get_ylabel()), ax.get_ylabel()
+    legends = [*fig.legends, *(ax.get_legend() for ax in axes if ax.get_legend() is not None)]
+    assert legends
+    for leg in legends:
+        box = leg.get_window_extent()
+        for ax in axes:
+            assert not box.overlaps(ax.get_window_extent()), "a legend covers a panel"
+    return legends
+
+
+def test_sweep_chart_has_units_on_axes_and_legend_and_the_legend_off_the_panels(monkeypatch):
+    data = dict(TINY, plot={"x": "w", "y": ["w_end"], "hue": "b.c", "units": {"w": "rad/s", "w_end": "rad/s"}})
+    spec = sweep.parse_spec(data)
+    df = pd.DataFrame({"b.c": [50.0, 50.0, 200.0, 200.0], "w": [1.0, 2.0, 1.0, 2.0], "w_end": [1.0, 2.0, 3.0, 4.0],
+                       "error": ["", "", "", ""], "wall_time": [0.1] * 4})
+    figs = _capture(monkeypatch, sweep)
+    sweep.plot_sweep(df, spec, "unused", units=sweep_checks.parameter_units("two_inertia", spec))
+    (legend,) = _check_chart(figs[0])
+    assert [t.get_text() for t in legend.get_texts()] == ["b.c = 50 N.m/rad", "b.c = 200 N.m/rad"]
+    assert figs[0].axes[0].get_xlabel() == "w [rad/s]"
+
+
+def test_sweep_chart_marks_a_column_without_a_unit():
+    spec = sweep.parse_spec(dict(TINY, plot={"x": "w", "y": ["w_end"]}))
+    assert spec.plot["units"] == {}
+    with pytest.raises(sweep.SweepError, match=r"plot\.units: unknown column 'nope'"):
+        sweep.parse_spec(dict(TINY, plot={"x": "w", "y": ["w_end"], "units": {"nope": "m"}}))
+
+
+def test_shipped_sweep_specs_give_a_unit_to_every_plotted_column():
+    for name, system in [("feeder_clearance", "feeder_gto52"), ("knife_resonance", "spine_knife")]:
+        spec = sweep.read_spec(ROOT / "systems" / "studies" / f"{name}.yaml")
+        known = {**sweep_checks.parameter_units(system, spec), **spec.plot["units"]}
+        pl = spec.plot
+        assert [c for c in [*pl["x"], *pl["y"], *pl["hue"], *pl["facet"]] if c not in known] == [], name
+
+
+def test_stability_maps_have_units_and_legends_off_the_data(monkeypatch):
+    from harness.studies.stability import measured, press
+
+    t = pd.read_csv(ROOT / "docs" / "images" / "stability_two_inertia_inertia.csv")
+    figs = _capture(monkeypatch, measured)
+    measured.plot_stability_map(t, "unused")
+    _check_chart(figs[0])
+    assert figs[0].axes[0].get_xlabel() == "J2/J1 [1]"
+    t = pd.read_csv(ROOT / "docs" / "images" / "stability_bed_drive_fourbar_rocker_inertia.csv")
+    figs = _capture(monkeypatch, press)
+    press.plot_press_map(t, "unused")
+    _check_chart(figs[0])
+    assert figs[0].axes[0].get_xlabel() == "fourbar.rocker_inertia [kg.m2]"
+
+
+def test_scene_chart_names_every_candidate_and_keeps_its_legends_off_the_data(monkeypatch):
+    from harness.specs import Scene
+    from harness.studies import scenes
+    from harness.studies.scenes import Candidate, SceneResult
+
+    full = Candidate({"motor": 2, "fourbar": 2}, 2e-4, 1.0, 0.0, 2.5, True, "", "jacobi")
+    cands = [full, Candidate({"motor": 0, "fourbar": 2}, 2e-4, 1.2, 0.2, 0.7, False, "", "jacobi"),
+             Candidate({"motor": 2, "fourbar": 1}, 2e-4, 1.01, 0.01, 1.1, True, "", "jacobi"),
+             Candidate({"motor": 2, "fourbar": 1}, 4e-4, None, None, 0.1, False, "blew up", "jacobi")]
+    scene = Scene("q", "What?", 'final(r["a.flange.w"])', tolerance=0.05, unit="m/s")
+    figs = _capture(monkeypatch, scenes)
+    scenes.chart(SceneResult(scene, full, cands[2], cands, 2.3), "unused")
+    legends = _check_chart(figs[0])
+    texts = [t.get_text() for leg in legends for t in leg.get_texts()]
+    assert " 1  motor level 0" in texts and " 2  fourbar level 1" in texts
+    assert " 3  fourbar level 1, step 0.4 ms (stopped early)" in texts
+    numbers = [t.get_text() for t in figs[0].axes[0].texts]
+    assert numbers == ["1", "2", "3"]

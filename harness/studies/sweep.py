@@ -25,10 +25,13 @@ A sweep is described by a YAML or JSON file::
       reduce: max                       # max | mean | min over the sweep variables not named above
       logx: false                       # logy too
       xspan: [0.3, 0.4, "seed: threshold"]   # optional: a shaded band over x on every panel (label optional)
+      units: {rpm: rpm, peak_contact_force: N}   # units of the columns that are no FMU parameter ("1": none)
 
 ``python -m harness sweep SYSTEM --grid SPEC --plot DIR`` writes the result file and
-``DIR/<spec stem>.png`` + ``.svg`` in one command.  Spec errors are one line naming the file and the key
-(``spec.yaml: set.flywheel.d: ... uses unknown name 'alpha'``).
+``DIR/<spec stem>.png`` + ``.svg`` in one command.  Every axis and legend entry carries its unit: a parameter's
+from its FMU, ``wall_time`` in s, any other column from ``plot.units``; a column without one is labelled
+``[?]`` and the chart says so, so a missing unit shows instead of passing for a pure number.  Spec errors are
+one line naming the file and the key (``spec.yaml: set.flywheel.d: ... uses unknown name 'alpha'``).
 
 Each worker process loads the FMUs itself (pythonfmu FMUs hold the GIL, so threads would not help).  A
 failed point is recorded with its error and never aborts the sweep.  The result is one DataFrame: the sweep
@@ -134,7 +137,7 @@ def _values(name: str, spec, source: str) -> list[float]:
                      f"{{logspace: [lo, hi, n]}}, not {spec!r}")
 
 
-PLOT_KEYS = ("x", "y", "hue", "facet", "reduce", "logx", "logy", "xspan")
+PLOT_KEYS = ("x", "y", "hue", "facet", "reduce", "logx", "logy", "xspan", "units")
 
 
 def _names(value, what: str, source: str) -> list[str]:
@@ -168,6 +171,13 @@ def _check_plot(plot, names: list[str], sets: dict, outputs: dict, source: str) 
     if out["reduce"] not in ("max", "mean", "min"):
         raise SweepError(f"{source}: plot.reduce: {out['reduce']!r} is not one of max, mean, min")
     out["xspan"] = _check_xspan(plot.get("xspan"), source)
+    units = plot.get("units") or {}
+    if not isinstance(units, dict) or not all(isinstance(u, str) for u in units.values()):
+        raise SweepError(f"{source}: plot.units: expected a mapping column -> unit text, not {units!r}")
+    for c in units:
+        if c not in columns:
+            raise SweepError(f"{source}: plot.units: unknown column {c!r}; columns are {sorted(columns)}")
+    out["units"] = dict(units)
     return out
 
 
@@ -415,7 +425,11 @@ def _run_cli(args) -> int:
     resumed = f" ({skipped} taken from {log.path.name})" if skipped else ""
     print(f"{len(df)} points{resumed}, {failed} failed; wrote {out}")
     if args.plot is not None:
-        paths = plot_sweep(df, spec, args.plot / Path(args.grid).stem, title=f"{Path(args.system).stem}: {Path(args.grid).name}")
+        from harness.studies.sweep_checks import parameter_units
+
+        paths = plot_sweep(df, spec, args.plot / Path(args.grid).stem,
+                           title=f"{Path(args.system).stem}: {Path(args.grid).name}",
+                           units=parameter_units(args.system, spec))
         print("charts: " + ", ".join(str(p) for p in paths))
     if len(df) and failed == len(df):
         first = df["error"].iloc[0]
@@ -424,10 +438,13 @@ def _run_cli(args) -> int:
     return 0
 
 
-def plot_sweep(df: pd.DataFrame, spec: SweepSpec, out_stem: str | Path, title: str = "") -> list[Path]:
+def plot_sweep(df: pd.DataFrame, spec: SweepSpec, out_stem: str | Path, title: str = "",
+               units: dict[str, str] | None = None) -> list[Path]:
     """Charts of a sweep result after the spec's ``plot`` section: a row of panels per ``y``, a column per
     ``facet`` value, a line per ``hue`` combination over ``x``; the sweep variables not named are reduced
-    (max/mean/min).  Failed points (NaN) are left out.  Writes ``<out_stem>.png`` and ``.svg``."""
+    (max/mean/min).  Failed points (NaN) are left out.  ``units``: column -> unit (the parameters' units from
+    their FMUs, :func:`harness.studies.sweep_checks.parameter_units`); the spec's ``plot.units`` overrides
+    them.  The legend stands to the right of the panels, off the data.  Writes ``<out_stem>.png`` and ``.svg``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -440,15 +457,25 @@ def plot_sweep(df: pd.DataFrame, spec: SweepSpec, out_stem: str | Path, title: s
     missing = [c for c in [x, *ys, *hue, *facet] if c not in df.columns]
     if missing:
         raise SweepError(f"{spec.source}: plot: result has no column(s) {missing}")
+    known = {"wall_time": "s", **(units or {}), **pl.get("units", {})}
+    unknown = sorted({c for c in [x, *ys, *hue, *facet] if not known.get(c)})
+
+    def unit(c: str) -> str:
+        return known.get(c) or "?"
+
+    def value(c: str, v) -> str:
+        u = unit(c)
+        return (f"{v:g}" if isinstance(v, (int, float)) else str(v)) + ("" if u == "1" else f" {u}")
+
     fvals = sorted(df[facet[0]].dropna().unique()) if facet else [None]
-    fig, axes = plt.subplots(len(ys), len(fvals), figsize=(4.2 * len(fvals), 2.6 * len(ys)), squeeze=False,
-                             sharex=True)
+    fig, axes = plt.subplots(len(ys), len(fvals), figsize=(4.2 * len(fvals) + 0.6, 2.6 * len(ys) + 0.8),
+                             squeeze=False, sharex=True)
     for j, fv in enumerate(fvals):
         sub = df if fv is None else df[df[facet[0]] == fv]
         groups = sub.groupby(hue, sort=True) if hue else [((), sub)]
         for key, g in groups:
             key = key if isinstance(key, tuple) else (key,)
-            label = ", ".join(f"{h}={k:g}" if isinstance(k, (int, float)) else f"{h}={k}" for h, k in zip(hue, key))
+            label = ", ".join(f"{h} = {value(h, k)}" for h, k in zip(hue, key))
             agg = g.groupby(x, sort=True)[ys].agg(pl["reduce"])
             for i, y in enumerate(ys):
                 axes[i][j].plot(agg.index.to_numpy(), agg[y].to_numpy(), marker="o", ms=3, lw=1.0,
@@ -457,8 +484,9 @@ def plot_sweep(df: pd.DataFrame, spec: SweepSpec, out_stem: str | Path, title: s
             ax = axes[i][j]
             if pl.get("xspan"):
                 lo, hi, lab = pl["xspan"]
-                ax.axvspan(lo, hi, color="0.85", zorder=0, label=lab if (i, j) == (0, len(fvals) - 1) else None)
-            ax.set_title((f"{facet[0]} = {fv:g}: " if fv is not None else "") + y, fontsize=8)
+                ax.axvspan(lo, hi, color="0.85", zorder=0, label=lab if (i, j) == (0, 0) else None)
+            ax.set_title(f"{facet[0]} = {value(facet[0], fv)}" if fv is not None else "", fontsize=8)
+            ax.set_ylabel(f"{y} [{unit(y)}]", fontsize=8)
             ax.tick_params(labelsize=7)
             ax.grid(alpha=0.3)
             if pl["logx"]:
@@ -466,12 +494,20 @@ def plot_sweep(df: pd.DataFrame, spec: SweepSpec, out_stem: str | Path, title: s
             if pl["logy"]:
                 ax.set_yscale("log")
             if i == len(ys) - 1:
-                ax.set_xlabel(x, fontsize=8)
-    if hue or (pl.get("xspan") and pl["xspan"][2]):
-        axes[0][-1].legend(fontsize=6, loc="best")
-    n_fail = int((df["error"] != "").sum()) if "error" in df.columns else 0
+                ax.set_xlabel(f"{x} [{unit(x)}]", fontsize=8)
+    n_fail = int((df["error"].fillna("").astype(str) != "").sum()) if "error" in df.columns else 0
     rest = [v for v in spec.variables if v not in (x, *hue, *facet)]
     note = f"; {pl['reduce']} over {', '.join(rest)}" if rest else ""
-    fig.suptitle(f"{title}{note}; {len(df)} points, {n_fail} failed", fontsize=9)
-    fig.tight_layout()
+    missing_units = f"\n[?]: no unit declared for {', '.join(unknown)} (plot.units)" if unknown else ""
+    fig.suptitle(f"{title}{note}; {len(df)} points, {n_fail} failed{missing_units}", fontsize=9)
+    # the legend in rows above the panels, under the title: off the data, and as wide as the figure
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    height = fig.get_figheight()
+    title_h = 0.35 + (0.18 if unknown else 0.0)
+    ncol = max(1, min(len(labels), int(fig.get_figwidth() // 3.2)))
+    legend_h = 0.17 * -(-len(labels) // ncol) if handles else 0.0
+    if handles:
+        fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 1.0 - title_h / height), ncol=ncol,
+                   fontsize=7, frameon=False)
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - (title_h + legend_h) / height))
     return save_figure(fig, out_stem, dpi=110)

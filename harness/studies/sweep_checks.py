@@ -93,6 +93,22 @@ def _variables(system) -> dict[str, dict]:
             for inst in system.instances}
 
 
+def parameter_units(system_name: str, spec) -> dict[str, str]:
+    """The unit of each sweep column that is an FMU parameter: a dotted sweep variable and ``set:<name>``, from
+    the FMU's modelDescription (its unit, else its declared type's); for the chart's axes and legend."""
+    from harness import load
+    from harness.model import _unit
+
+    variables = _variables(load(system_name))
+    out = {}
+    for name in [*spec.variables, *spec.set]:
+        inst, _, var = name.partition(".")
+        v = variables.get(inst, {}).get(var)
+        if v is not None and _unit(v):
+            out[name if name in spec.variables else f"set:{name}"] = _unit(v)
+    return out
+
+
 def preflight(system_name: str, spec, out: Path | None, workers, local: bool = True) -> None:
     """Every check of the module docstring, before the first point runs (``local``: see :func:`check_workers`)."""
     from harness import load

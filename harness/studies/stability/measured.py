@@ -247,10 +247,11 @@ def plot_stability_map(table, path_stem: Path) -> list[Path]:
         axis.set_major_formatter(FormatStrFormatter("%g"))
         axis.set_minor_formatter(NullFormatter())
     ax.set_xticks(sorted(table["ratio"].unique()))
-    ax.set_xlabel(str(table["ratio_name"].iloc[0]))
+    ax.set_xlabel(f"{table['ratio_name'].iloc[0]} [1]")
     ax.set_ylabel(r"largest stable macro step  $\omega\,H$  [1]")
-    ax.set_title("Two-inertia coupling: stability map")
+    ax.set_title(r"Two-inertia coupling: stability map ($\omega$: the coupled natural frequency [rad/s])",
+                 fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, loc="best")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)   # off the data
     fig.tight_layout()
     return save_figure(fig, path_stem, dpi=150)

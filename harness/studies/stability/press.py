@@ -63,6 +63,13 @@ def _parameter_table(system) -> dict:
     return out
 
 
+def _variable_unit(v) -> str:
+    """A model variable's unit (its own, else its declared type's); "1" where it has none."""
+    from harness.model import _unit
+
+    return _unit(v) or "1"
+
+
 def check_sweep(system, sweep: str, values=None) -> None:
     """One-line ValueError unless ``sweep`` is ``INST.PARAM``, a Real parameter of an instance of ``system``,
     and every value a finite number."""
@@ -243,6 +250,7 @@ def press_stability_table(system: str, sweep: str | None = None, values=None, ma
     base = _with_fmu_dir(load(system), fmu_dir)
     check_sweep(base, sweep, values)
     table = _parameter_table(base)
+    unit = _variable_unit(table[sweep][1])
     h_default = float(base.experiment.step)
     runs = {}       # value -> (omega, T, reference run): every value's reference first, so a value the
     failed = {}     # drive cannot run is known before any bisection; it becomes rows saying why
@@ -279,7 +287,7 @@ def press_stability_table(system: str, sweep: str | None = None, values=None, ma
                         if progress:
                             progress(f"{sweep} = {v:g}  {master:14s} order {order}: {_boundary_text(r)} "
                                      f"({r['runs']} runs)")
-                    rows.append(dict(system=system, sweep=sweep, value=v, master=master, order=order,
+                    rows.append(dict(system=system, sweep=sweep, unit=unit, value=v, master=master, order=order,
                                      h_default=h_default, omega_est=omega, duration=T, **r))
     except KeyboardInterrupt as e:
         raise StudyInterrupted(pd.DataFrame(rows), e) from None
@@ -295,6 +303,16 @@ def _boundary_text(r: dict) -> str:
     return f"largest stable step {r['h_stable']:.4g} s, unstable at {r['h_unstable']:.4g} s"
 
 
+def _sweep_unit(system: str, sweep: str) -> str:
+    """The unit of ``sweep`` (``INST.PARAM``) from the system's FMU: for a table written before it carried one."""
+    from harness import load
+
+    try:
+        return _variable_unit(_parameter_table(load(system))[sweep][1])
+    except Exception:
+        return "?"
+
+
 def plot_press_map(table, path_stem: Path) -> list[Path]:
     """Largest stable step vs the swept parameter for every method, the default step dashed; <stem>.png/.svg.
     A method stable up to the cap is drawn at the cap with an upward triangle; unstable at the floor with a
@@ -304,7 +322,7 @@ def plot_press_map(table, path_stem: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    fig, ax = plt.subplots(figsize=(9.5, 5.0))
     colors = {0: "tab:blue", 1: "tab:orange", 2: "tab:green"}
     styles = {"jacobi": "-", "gauss-seidel": "--", "jacobi-sampled": ":"}
     markers = {"jacobi": "o", "gauss-seidel": "s", "jacobi-sampled": "d"}
@@ -322,15 +340,24 @@ def plot_press_map(table, path_stem: Path) -> list[Path]:
     ax.axhline(hd, color="k", ls="-.", lw=1.0, label=f"system default step {hd:g} s")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    from matplotlib.ticker import FormatStrFormatter, NullFormatter
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
-    ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
-    ax.xaxis.set_minor_formatter(NullFormatter())
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_formatter(FormatStrFormatter("%g"))
+        axis.set_minor_formatter(NullFormatter())
+    ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
     ax.set_xticks(sorted(table["value"].unique()))
-    ax.set_xlabel(str(table["sweep"].iloc[0]))
+    sweep = str(table["sweep"].iloc[0])
+    unit = str(table["unit"].iloc[0]) if "unit" in table else _sweep_unit(str(table["system"].iloc[0]), sweep)
+    ax.set_xlabel(f"{sweep} [{unit}]")
     ax.set_ylabel("largest stable communication step  H  [s]")
     ax.set_title(f"{table['system'].iloc[0]}: stability map (bisection on co-simulation runs)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, loc="best", ncol=2)
+    ax.plot([], [], "k^", label="stable up to the search's cap")
+    ax.plot([], [], "kv", label="unstable down to the search's floor")
+    failed = int((table["status"] == "failed").sum())
+    if failed:
+        ax.plot([], [], " ", label=f"{failed} rows failed (not drawn; see the table's error column)")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)   # off the data
     fig.tight_layout()
     return save_figure(fig, path_stem, dpi=150)
