@@ -391,3 +391,31 @@ def test_scene_chart_names_every_candidate_and_keeps_its_legends_off_the_data(mo
     assert " 3  fourbar level 1, step 0.4 ms (stopped early)" in texts
     numbers = [t.get_text() for t in figs[0].axes[0].texts]
     assert numbers == ["1", "2", "3"]
+
+
+def test_sigterm_from_outside_keeps_a_precision_study_s_finished_runs(tmp_path):
+    """The whole path: ``timeout``/``kill`` sends SIGTERM to the command while it runs its grid."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    env = dict(os.environ, PRESSDRIVE_NORMAL_EXIT="1")
+    proc = subprocess.Popen([sys.executable, "-m", "harness", "study", "precision", "two_inertia", "--stop-time", "0.3",
+                             "--steps", "1e-4", "2e-4", "4e-4", "--masters", "jacobi", "gauss-seidel",
+                             "--out", str(tmp_path)], cwd=ROOT, env=env, stderr=subprocess.PIPE, text=True)
+    lines = []
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        line = proc.stderr.readline()
+        lines.append(line)
+        if "order" in line:            # the first co-simulation of the grid has finished
+            break
+    proc.send_signal(signal.SIGTERM)
+    rest = proc.stderr.read()
+    assert proc.wait(timeout=60) == 143, "".join(lines) + rest
+    assert "terminated (SIGTERM)" in rest and "precision_two_inertia.partial.csv" in rest
+    kept = pd.read_csv(tmp_path / "precision_two_inertia.partial.csv")
+    assert (kept["master"] == "reference").any() and (kept["master"] == "jacobi").any()
+    assert not (tmp_path / "precision_two_inertia.csv").exists()
