@@ -42,7 +42,8 @@ def register(subparsers) -> argparse.ArgumentParser:
             continue
         ap.add_argument(f"--{f.name.replace('_', '-')}", dest=f.name, type=float, default=getattr(base, f.name),
                         help=f"[{UNITS[f.name]}] (default {getattr(base, f.name)})")
-    ap.add_argument("--system", default=None, help="check this system's design (its KnifeLoad and ParallelShafts)")
+    ap.add_argument("--system", default=None,
+                    help="check this system's design (its KnifeLoad and ParallelShafts; default: the options' values)")
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
     ap.set_defaults(func=run)
     return ap
