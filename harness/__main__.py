@@ -21,7 +21,7 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
     from harness import describe, run, ssp, synthesis
-    from harness.studies import precision, scenes, stability, sweep, takeup
+    from harness.studies import accuracy, precision, scenes, stability, sweep, takeup
 
     describe.register(sub)        # list, show SYSTEM
     run.register(sub)             # run a system
@@ -32,6 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     group = study.add_subparsers(dest="study", metavar="STUDY", required=True)
     stability.register_stability(group)    # study stability two_inertia
     precision.register_precision(group)    # study precision SYSTEM
+    accuracy.register(group)               # study accuracy SYSTEM (the cheapest method meeting its accuracy)
     takeup.register(group)                 # study takeup (seed 000's take-up map)
     scenes.register(sub)          # scene X NAME
     sweep.register(sub)           # sweep X --grid spec

@@ -111,7 +111,9 @@ class Master:
         self._slots: dict[str, tuple] = {}
         self._y_list: list | None = None  # y as a list at the end of the last step (None: recompute)
         self.t_ns = 0
+        self._step_calls = len(self.insts)  # do_step calls of one communication step (methods that vary: 0)
         self.iterations = 0  # total iterations (iterative master)
+        self.fmu_steps = 0   # fmi2DoStep calls made, summed over the FMUs (the cost a step size cannot hide)
 
     def _assume_sampled(self, mds: dict, loops: list) -> tuple[dict, list]:
         """A loop only *assumed* by FMI 2.0's default (outputs without declared ``dependencies`` may depend
@@ -389,6 +391,7 @@ class Master:
         if self._discrete and not self.refreshes_discrete:
             self._pass_discrete()  # values sampled at t, held over the step
         self._step_impl(t, h, t_next)
+        self.fmu_steps += self._step_calls
         if self._discrete and self.refreshes_discrete:
             self._pass_discrete()  # refreshed at t_next, as Real feed-through is, before the point is recorded
         y = self._y_list = self.y.tolist()
@@ -573,6 +576,7 @@ class Iterative(Master):
 
         _u, _gu, n = solve_fixed_point(g, u0, self.iteration, self.tol, f"coupled step at t = {t:.9g} s")
         self.iterations += n
+        self.fmu_steps += (n - 1) * len(self.insts)  # the base counted one
 
 
 class InterfaceJacobian(Master):
@@ -601,6 +605,7 @@ class InterfaceJacobian(Master):
         self.jacobian: np.ndarray | None = None  # S of harness.jacobian.assemble, for the step size self._jac_h
         self._jac_h = 0.0
         self._stale = True
+        self._step_calls = 0   # _take and _estimate count their own do_step calls
         self.estimates = 0     # Jacobian estimates (each: one extra FMU step per held input)
         self.retries = 0       # steps taken once more because the correction did not contract
 
@@ -631,6 +636,7 @@ class InterfaceJacobian(Master):
             it.fmu.set_list(it.inp, values[it.isl])
         for it in self.insts:
             it.fmu.do_step(t, h, False)
+        self.fmu_steps += len(self.insts)
         self._exchange(t_next)
         return self._implicit_inputs(t, h) - u
 
@@ -650,6 +656,7 @@ class InterfaceJacobian(Master):
                                                          self.y[it.sl], t, h)
         self.jacobian, self._jac_h, self._stale = jacobian.assemble(A, D, self.src, self.fac), h, False
         self.estimates += 1
+        self.fmu_steps += n_u  # one step per held input
 
     def _step_impl(self, t, h, t_next):
         self._hold_all(t, h)

@@ -138,6 +138,11 @@ def evaluate(expr: str, df: pd.DataFrame) -> float:
     return float(_value(expr, df))
 
 
+def value(expr: str, df: pd.DataFrame):
+    """Value of the expression as it is: a number, or an array (one value per sample, or per event)."""
+    return _value(expr, df)
+
+
 def mask(expr: str, df: pd.DataFrame) -> np.ndarray:
     """The expression as one truth value per sample of ``df`` (e.g. ``between(r["bed.bed.s"], 0.08, 0.24)``:
     where a chart shades a zone); a QoIError names the expression when it is not one per sample."""

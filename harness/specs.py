@@ -102,3 +102,31 @@ class ChartSpec:
     crank_angle: str | None = None
     cycle_origin: float = 0.0
     origin_name: str = ""
+
+
+@dataclass(frozen=True)
+class Requirement:
+    """One accuracy a press engineer states for a drive, checked against the monolithic reference
+    (:mod:`harness.studies.accuracy`).
+
+    ``quantity``: a :mod:`harness.qoi` expression.  One value per sample (``r["bed.bed.s"]``): compared sample by
+    sample at the run's communication points (the reference interpolated there), only where ``where`` (a
+    per-sample qoi expression, evaluated on the reference) holds; error = max |run - reference|.  Any other
+    value (a scalar such as ``peak(...)``, or a list of event instants): compared as it is, element by
+    element, on the reference's own fine grid; a list of another length fails, saying both.  ``relative``:
+    ``tolerance`` is relative to max |reference| over what is compared."""
+    name: str
+    quantity: str
+    tolerance: float
+    unit: str
+    relative: bool = False
+    where: str | None = None
+
+
+@dataclass(frozen=True)
+class AccuracySpec:
+    """The accuracy a drive must meet, in the engineer's terms (``requirements``), over ``stop_time`` [s]
+    of its default experiment; the reference is sampled every ``reference_step`` [s]."""
+    requirements: tuple[Requirement, ...]
+    stop_time: float
+    reference_step: float = 1e-4

@@ -44,7 +44,7 @@ import math
 
 from fmus.physics import bed_law, fourbar, fourbar_synthesis
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import ChartSpec, Panel, PrecisionSpec, Scene, StabilitySpec, Zone
+from harness.specs import AccuracySpec, ChartSpec, Panel, PrecisionSpec, Requirement, Scene, StabilitySpec, Zone
 
 RPM = 2 * math.pi / 60
 CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m
@@ -54,6 +54,7 @@ PHI_START = math.radians(_analysis.working_start_deg)  # crank angle where the w
 ROCKER_START = float(fourbar.position(PHI_START, CRANK, COUPLER, FRAME, ROCKER, 1)[0])  # rad
 PINION_RADIUS = 0.004 * 25 / 2                                  # m: module 4 mm, z6 = 25
 PRINT_ZONE = (0.08, 0.24)                                       # m of bed travel on the working stroke
+IN_ZONE = f'between(r["bed.bed.s"], {PRINT_ZONE[0]!r}, {PRINT_ZONE[1]!r}) & (r["bed.bed.v"] > 0)'  # qoi mask
 BED_STROKE = PINION_RADIUS * (bed_law.SEED_RATIO * abs(bed_law.working_stroke().swing)
                               + (1 + bed_law.SEED_RATIO) * bed_law.SEED_CARRIER_SWING)   # m, about 0.297
 CARRIER_RUNUP = bed_law.runup_for_zone(PRINT_ZONE[0] / BED_STROKE, PRINT_ZONE[1] / BED_STROKE)  # about 0.246
@@ -140,6 +141,13 @@ SYSTEM = System(
                             / p("fourbar.rocker_inertia")),
         "inertia of the ring gear and rocker [kg.m2] on the four-bar's motion-output port (FourBar), coupled "
         "through the rigid James differential to the bed; omega ~ sqrt(c_coupler l_rocker^2 / J_rocker)"),
+    # The accuracy a press engineer asks of the drive (harness.studies.accuracy), over one turn of the main shaft:
+    # the register (bed position while printing), the bed speed's uniformity there, the shaft's peak torque
+    accuracy=AccuracySpec((
+        Requirement("bed position in the printing zone", 'r["bed.bed.s"]', 10e-6, "m", where=IN_ZONE),
+        Requirement("bed speed in the printing zone", 'r["bed.bed.v"]', 1e-3, "m/s", relative=True, where=IN_ZONE),
+        Requirement("peak main-shaft torque", 'peak(r["flywheel.shaft_torque"])', 0.01, "N.m", relative=True),
+    ), stop_time=1.0),
     # The run chart (harness.charts): the seed's quantities over time and over one turn of the main shaft from
     # the start of the working stroke, the printing zone shaded where the bed is in it on the working stroke
     chart=ChartSpec(
@@ -154,7 +162,6 @@ SYSTEM = System(
             Panel("Rack mesh force on the bed", ("bed.mesh_force",)),
             Panel("Motor torque", ("motor.motor_torque",), cycle=False),
         ),
-        zones=(Zone(f"printing zone: bed at {PRINT_ZONE[0]:g} to {PRINT_ZONE[1]:g} m on the working stroke",
-                    f'between(r["bed.bed.s"], {PRINT_ZONE[0]!r}, {PRINT_ZONE[1]!r}) & (r["bed.bed.v"] > 0)'),),
+        zones=(Zone(f"printing zone: bed at {PRINT_ZONE[0]:g} to {PRINT_ZONE[1]:g} m on the working stroke", IN_ZONE),),
         crank_angle="flywheel.crank.phi", cycle_origin=PHI_START, origin_name="start of the working stroke"),
 )

@@ -21,7 +21,7 @@ import math
 
 from fmus.physics import groove
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import ChartSpec, Panel, PrecisionSpec, Scene, StabilitySpec, Zone
+from harness.specs import AccuracySpec, ChartSpec, Panel, PrecisionSpec, Requirement, Scene, StabilitySpec, Zone
 
 RPM = 2 * math.pi / 60
 N_CRANK = 960.0 / 6.4  # rpm, motor rated speed over the belt ratio
@@ -75,6 +75,16 @@ SYSTEM = System(
     default_scene="pin_force",  # seed 000's question: the loads in the clearance joint
     precision=PrecisionSpec("feeder.rocker.phi", "feeder output link angle", "rad", stop_time=0.2,
                             steps=(1e-4, 2e-4, 4e-4, 8e-4), columns=("flywheel.crank.w", "feeder.crank.tau")),
+    # The accuracy a press engineer asks of the feeder (harness.studies.accuracy), at running speed (0.2-0.6 s): the
+    # instants the clearance is taken up (each impact of the stone pin) to half a degree of crank angle, and the
+    # peak pin force to 5 %
+    accuracy=AccuracySpec((
+        Requirement("take-up instants (stone-pin impacts)",
+                    'at_rises(window(r["feeder.impact_count"], 0.2, 0.6), window(t, 0.2, 0.6))',
+                    0.5 / (N_CRANK * 6.0), "s"),                    # 0.5 deg of crank angle at N_CRANK rpm
+        Requirement("peak stone-pin force", 'peak(window(r["feeder.pin_force"], 0.2, 0.6))', 0.05, "N",
+                    relative=True),
+    ), stop_time=0.6),
     stability=StabilitySpec(
         "feeder.stiffness", (1000.0, 2000.0, 5000.0, 10000.0, 20000.0), (1000.0, 5000.0, 20000.0),
         0.1, lambda p: math.sqrt(p("feeder.stiffness") / p("feeder.rocker_inertia")),
