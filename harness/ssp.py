@@ -24,13 +24,18 @@ runs through its FMU's Model Exchange interface (:func:`harness.fmi.cache.model_
 its FMU variable's is converted through the unit definitions (SSP's and FMI's unit model: exponents of the
 SI base units, ``factor`` and ``offset``; :class:`_Unit`), looked up in the .ssv's ``ssv:Units``, then the
 .ssd's ``ssd:Units``, then the FMU's ``UnitDefinitions``; a value that cannot be converted that way is refused
-in one line naming the file, component, parameter, value and both units.  Anything else that changes the meaning of the system
-(nested systems, signal dictionaries, parameter mappings, non-FMU components, system-level connectors,
-non-linear transformations) is refused with one line naming the element and the file.
+in one line naming the file, component, parameter, value and both units.  Parameter mappings (``.ssm`` or
+inline; :class:`_Mapping`) rename and transform a binding's values.  Nested systems are flattened
+(:meth:`_Reader.collect`, :meth:`_Reader.resolve`): a component of system ``Sub`` becomes instance
+``Sub/Component``, and connections through system connectors are followed to the FMU output that drives them.
+An SSP may be given unpacked, as a folder holding SystemStructure.ssd.  Anything else that changes the
+meaning of the system (signal dictionaries, non-FMU components, inputs of the whole system, connection
+transformations other than linear) is refused with one line naming the element and the file.
 """
 from __future__ import annotations
 
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
@@ -43,6 +48,7 @@ NS = {
     "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
     "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
     "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
+    "ssm": "http://ssp-standard.org/SSP1/SystemStructureParameterMapping",
     "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
     "pd": "https://pressdrive.example/ssp-annotations",
 }
@@ -54,6 +60,7 @@ OWN_ANNOTATION = "org.pressdrive"
 FMU_TYPE = "application/x-fmu-sharedlibrary"
 PARAMETER_SET = "default"
 PARAMETER_SET_TYPE = "application/x-ssp-parameter-set"
+PARAMETER_MAPPING_TYPE = "application/x-ssp-parameter-mapping"
 
 
 def _q(tag: str) -> str:
@@ -184,11 +191,16 @@ def _unpack(path: Path) -> Path:
 
 
 def load_ssp(path: str | Path) -> System:
-    """Read an .ssp archive or an .ssd file into a System."""
+    """Read an .ssp archive, an .ssd file, or an SSP unpacked into a folder (holding SystemStructure.ssd)
+    into a System."""
     path = Path(path)
     if not path.exists():
         raise SystemError_(f"{path}: no such file")
-    if path.suffix.lower() == ".ssp":
+    if path.is_dir():
+        ssd_path, root_dir = path / "SystemStructure.ssd", path
+        if not ssd_path.is_file():
+            raise SystemError_(f"{path}: a folder given as an SSP must hold SystemStructure.ssd (it does not)")
+    elif path.suffix.lower() == ".ssp":
         root_dir = _unpack(path)
         ssd_path = root_dir / "SystemStructure.ssd"
         if not ssd_path.exists():
@@ -258,6 +270,96 @@ class _Quantity:
         self.value, self.unit, self.units, self.where = value, unit, units, where
 
 
+NESTED = "/"   # joins a nested system's name and its element's: instance "Sub/Component" (names hold no ".")
+
+
+@dataclass
+class _Edge:
+    """A connection between two endpoints, ("fmu", instance, variable) or ("connector", system path, name)."""
+    source: tuple
+    target: tuple
+    factor: float = 1.0
+    offset: float = 0.0
+
+
+def _label(endpoint: tuple) -> str:
+    kind, owner, name = endpoint
+    if kind == "fmu":
+        return f"{owner}.{name}"
+    return f"system connector '{NESTED.join(owner + (name,)) if owner else name}'"
+
+
+def _bool(text: str | None) -> int:
+    if text in ("true", "1"):
+        return 1
+    if text in ("false", "0"):
+        return 0
+    raise ValueError(text)
+
+
+class _Mapping:
+    """An SSP 1.0 parameter mapping (ssm:ParameterMapping): each ssm:MappingEntry gives the value of the
+    parameter set's ``source`` to ``target`` (one source may feed several targets), through its
+    transformation if it has one: ssc:LinearTransformation (factor x value + offset, on the number as written,
+    in its unit), ssc:IntegerMappingTransformation and ssc:BooleanMappingTransformation (their ssc:MapEntry
+    pairs; a value without an entry is refused: the mapping does not say what it becomes).  The value keeps
+    its unit, converted to the target's as any other (:meth:`_Reader.convert`), unless the entry says
+    ``suppressUnitConversion="true"``.  A mapped source no longer applies under its own name; a parameter
+    the mapping does not name applies under its own name."""
+
+    def __init__(self, root: ET.Element, where: str):
+        self.where = where
+        self.entries = []
+        for e in root.findall(_q("ssm:MappingEntry")):
+            transforms = [t for t in e if t.tag.rsplit("}", 1)[-1] != "Annotations"]
+            self.entries.append((e.get("source", ""), e.get("target", ""), transforms[0] if transforms else None,
+                                 e.get("suppressUnitConversion") in ("true", "1")))
+
+    def apply(self, values: dict, fail) -> dict:
+        out = dict(values)
+        sources, targets = set(), set()
+        for source, target, transform, suppress in self.entries:
+            what = f"{self.where}: mapping entry '{source}' -> '{target}'"
+            if not target:
+                raise fail(f"{what} has no target")
+            if source not in values:
+                raise fail(f"{what}: the parameter set has no parameter '{source}'")
+            out[target] = self._transformed(values[source], transform, suppress, what, fail)
+            sources.add(source)
+            targets.add(target)
+        for source in sources - targets:
+            del out[source]
+        return out
+
+    @staticmethod
+    def _transformed(value, transform, suppress: bool, what: str, fail):
+        quantity = value if isinstance(value, _Quantity) else None
+        number = quantity.value if quantity is not None else value
+        if transform is not None:
+            kind = transform.tag.rsplit("}", 1)[-1]
+            if kind == "LinearTransformation":
+                if isinstance(number, str):
+                    raise fail(f"{what}: ssc:LinearTransformation of the String value {number!r}")
+                number = float(transform.get("factor", "1")) * number + float(transform.get("offset", "0"))
+            elif kind in ("IntegerMappingTransformation", "BooleanMappingTransformation"):
+                parse = int if kind.startswith("Integer") else _bool
+                try:
+                    table = {parse(m.get("source")): parse(m.get("target"))
+                             for m in transform.findall(_q("ssc:MapEntry"))}
+                except (TypeError, ValueError):
+                    raise fail(f"{what}: ssc:{kind} has an ssc:MapEntry that is not a pair of "
+                               f"{'integers' if parse is int else 'booleans'}") from None
+                if isinstance(number, float) or number not in table:
+                    raise fail(f"{what}: ssc:{kind} has no ssc:MapEntry for the value {number!r} "
+                               f"(entries for {sorted(table)})")
+                number = table[number]
+            else:
+                raise fail(f"{what}: ssc:{kind} is not supported (Linear, IntegerMapping and BooleanMapping are)")
+        if quantity is None or suppress:
+            return number
+        return _Quantity(number, quantity.unit, quantity.units, quantity.where)
+
+
 class _Reader:
     def __init__(self, ssd_path: Path, root_dir: Path):
         self.ssd_path, self.root_dir = ssd_path, root_dir
@@ -274,29 +376,10 @@ class _Reader:
             raise self.fail("no ssd:System element")
         self.units = _units(root, "ssd:Units")
         name = sys_el.get("name") or root.get("name") or self.ssd_path.stem
-        if sys_el.find(_q("ssd:SignalDictionaries")) is not None:
-            raise self.fail(f"ssd:SignalDictionaries in system '{name}' are not supported")
-        system_connectors = {c.get("name") for c in sys_el.findall(f"{_q('ssd:Connectors')}/{_q('ssd:Connector')}")}
-        instances = []
-        elements = sys_el.find(_q("ssd:Elements"))
-        for el in (list(elements) if elements is not None else []):
-            if el.tag == _q("ssd:System"):
-                raise self.fail(f"nested ssd:System '{el.get('name')}' is not supported (flatten the system)")
-            if el.tag == _q("ssd:SignalDictionaryReference"):
-                raise self.fail(f"ssd:SignalDictionaryReference '{el.get('name')}' is not supported")
-            if el.tag != _q("ssd:Component"):
-                raise self.fail(f"element <{el.tag}> in ssd:Elements is not supported")
-            instances.append(self.component(el))
-        system_params = self.parameter_bindings(sys_el, f"system '{name}'")
-        by_name = {i.name: i for i in instances}
-        for pname, value in system_params.items():
-            comp, _, var = pname.partition(".")
-            if comp not in by_name or not var:
-                raise self.fail(f"system parameter '{pname}' names no component (expected Component.parameter)")
-            by_name[comp].parameters[var] = self.convert(value, by_name[comp], var)
-        connections = []
-        for c in sys_el.findall(f"{_q('ssd:Connections')}/{_q('ssd:Connection')}"):
-            connections.append(self.connection(c, system_connectors))
+        instances: list[Instance] = []
+        edges: list[_Edge] = []
+        self.collect(sys_el, (), name, instances, edges)
+        connections = self.resolve(edges, name)
         bonds, conversions, exp_extra = self.own_annotation(sys_el)
         bonded = set()
         for b in bonds:
@@ -309,10 +392,88 @@ class _Reader:
         return System(name=name, instances=instances, connections=connections, bonds=bonds,
                       experiment=experiment, description=sys_el.get("description", ""))
 
-    def component(self, el: ET.Element) -> Instance:
+    def collect(self, sys_el: ET.Element, path: tuple, name: str, instances: list, edges: list) -> None:
+        """The components of ``sys_el`` and of every system nested in it (recursively) into ``instances``,
+        named by their path (``Sub/Component``; :data:`NESTED`), and every connection into ``edges``, with
+        system connectors as endpoints of their own (:meth:`resolve` joins them up)."""
+        where = f"system '{'/'.join(path) or name}'"
+        if sys_el.find(_q("ssd:SignalDictionaries")) is not None:
+            raise self.fail(f"ssd:SignalDictionaries in {where} are not supported")
+        prefix = "".join(f"{p}{NESTED}" for p in path)
+        local: dict[str, str] = {}           # element name in this system -> "component" / "system"
+        elements = sys_el.find(_q("ssd:Elements"))
+        for el in (list(elements) if elements is not None else []):
+            el_name = el.get("name")
+            if el.tag == _q("ssd:System"):
+                if not el_name:
+                    raise self.fail(f"an ssd:System in {where} has no name")
+                local[el_name] = "system"
+                self.collect(el, path + (el_name,), name, instances, edges)
+                continue
+            if el.tag == _q("ssd:SignalDictionaryReference"):
+                raise self.fail(f"ssd:SignalDictionaryReference '{el_name}' is not supported")
+            if el.tag != _q("ssd:Component"):
+                raise self.fail(f"element <{el.tag}> in ssd:Elements is not supported")
+            local[el_name] = "component"
+            instances.append(self.component(el, prefix))
+        by_name = {i.name: i for i in instances}
+        for pname, value in self.parameter_bindings(sys_el, where).items():
+            inst, var = self._parameter_target(pname, prefix, by_name)
+            if inst is None:
+                raise self.fail(f"{where}: parameter '{pname}' names no component (expected Component.parameter)")
+            inst.parameters[var] = self.convert(value, inst, var)
+        for c in sys_el.findall(f"{_q('ssd:Connections')}/{_q('ssd:Connection')}"):
+            edges.append(self.connection(c, path, prefix, local, where))
+
+    @staticmethod
+    def _parameter_target(pname: str, prefix: str, by_name: dict):
+        """(instance, variable) a system-level parameter name ``Element.variable`` (or, into nested systems,
+        ``Sub.Element.variable``) sets, or (None, None)."""
+        parts = pname.split(".")
+        for i in range(len(parts) - 1, 0, -1):
+            inst = by_name.get(prefix + NESTED.join(parts[:i]))
+            if inst is not None:
+                return inst, ".".join(parts[i:])
+        return None, None
+
+    def resolve(self, edges: list, name: str) -> list[Connection]:
+        """FMU-to-FMU connections from the connections of every level: a path through system connectors is
+        followed to the FMU output that drives it, and the linear transformations on the way are composed
+        (target = f2 (f1 source + o1) + o2).  A connector of the outermost system that drives something is
+        an input of the whole system, which nothing drives here: refused.  Connections that end at a system
+        connector only pass values on (the outermost system's outputs are its components' outputs, recorded
+        as such)."""
+        driver: dict[tuple, _Edge] = {}
+        for e in edges:
+            if e.target in driver:
+                raise self.fail(f"{_label(e.target)} is the target of two connections "
+                                f"({_label(driver[e.target].source)} and {_label(e.source)})")
+            driver[e.target] = e
+        out = []
+        for e in edges:
+            if e.target[0] != "fmu":
+                continue
+            source, factor, offset, seen = e.source, e.factor, e.offset, {e.target}
+            while source[0] == "connector":
+                if source in seen:
+                    raise self.fail(f"system connectors {_label(source)} form a loop")
+                seen.add(source)
+                up = driver.get(source)
+                if up is None:
+                    system = "/".join(source[1]) or name
+                    raise self.fail(f"system connector '{source[2]}' of system '{system}' drives "
+                                    f"{_label(e.target)} but nothing drives it"
+                                    + (" (an input of the whole system: connect it inside)" if not source[1] else ""))
+                source, factor, offset = up.source, factor * up.factor, factor * up.offset + offset
+            out.append(Connection(source=f"{source[1]}.{source[2]}", target=f"{e.target[1]}.{e.target[2]}",
+                                  factor=factor, offset=offset))
+        return out
+
+    def component(self, el: ET.Element, prefix: str = "") -> Instance:
         name = el.get("name")
         if not name:
             raise self.fail("an ssd:Component has no name")
+        name = prefix + name
         ctype = el.get("type", FMU_TYPE)
         if ctype != FMU_TYPE:
             raise self.fail(f"component '{name}' has type '{ctype}'; only FMUs ({FMU_TYPE}) are supported")
@@ -330,8 +491,6 @@ class _Reader:
             fmu = (self.root_dir / source) if (self.root_dir / source).exists() else (self.ssd_path.parent / source)
         if not fmu.exists():
             raise self.fail(f"component '{name}': source {source} not found")
-        if el.find(f"{_q('ssd:ParameterBindings')}/{_q('ssd:ParameterBinding')}/{_q('ssd:ParameterMapping')}") is not None:
-            raise self.fail(f"component '{name}': ssd:ParameterMapping is not supported")
         if implementation == "ModelExchange":  # run through its ME interface (harness.fmi.me), not as CS
             try:
                 fmu = model_exchange_only(fmu)
@@ -395,8 +554,6 @@ class _Reader:
     def parameter_bindings(self, el: ET.Element, owner: str, component_source: Path | None = None) -> dict:
         values: dict = {}
         for b in el.findall(f"{_q('ssd:ParameterBindings')}/{_q('ssd:ParameterBinding')}"):
-            if b.find(_q("ssd:ParameterMapping")) is not None:
-                raise self.fail(f"{owner}: ssd:ParameterMapping is not supported")
             prefix = b.get("prefix", "")
             btype = b.get("type", PARAMETER_SET_TYPE)
             if btype != PARAMETER_SET_TYPE:
@@ -421,13 +578,39 @@ class _Reader:
             else:
                 continue
             units = {**self.units, **_units(pset, "ssv:Units")}
-            for p in pset.findall(f"{_q('ssv:Parameters')}/{_q('ssv:Parameter')}"):
-                # SSP 1.0 (SystemStructureDescription.xsd, ParameterBinding/@prefix): the prefix is PREPENDED
-                # to every name of the parameter source, so a set of bare names can be bound at system level
-                # to one element with prefix="Element.".  (Until issue 6 the prefix was stripped instead.)
-                pname = prefix + p.get("name", "")
-                values[pname] = self.parameter_value(p, owner, units, where)
+            found = {p.get("name", ""): self.parameter_value(p, owner, units, where)
+                     for p in pset.findall(f"{_q('ssv:Parameters')}/{_q('ssv:Parameter')}")}
+            mapping = b.find(_q("ssd:ParameterMapping"))
+            if mapping is not None:
+                found = self.parameter_mapping(mapping, owner, component_source).apply(found, self.fail)
+            # SSP 1.0 (SystemStructureDescription.xsd, ParameterBinding/@prefix): the prefix is PREPENDED
+            # to every name of the parameter source, so a set of bare names can be bound at system level
+            # to one element with prefix="Element.".  (Until issue 6 the prefix was stripped instead.)
+            for pname, value in found.items():
+                values[prefix + pname] = value
         return values
+
+    def parameter_mapping(self, el: ET.Element, owner: str, component_source: Path | None) -> "_Mapping":
+        """The ssm:ParameterMapping of a binding: referenced (``source``, an .ssm; ``sourceBase`` as for the
+        values) or inline."""
+        mtype = el.get("type", PARAMETER_MAPPING_TYPE)
+        if mtype != PARAMETER_MAPPING_TYPE:
+            raise self.fail(f"{owner}: ssd:ParameterMapping of type '{mtype}' is not supported "
+                            f"(only {PARAMETER_MAPPING_TYPE})")
+        if el.get("source"):
+            where, text = self._source_text(el.get("source"), el.get("sourceBase", "SSD"), owner, component_source)
+            try:
+                root = ET.fromstring(text)
+            except ET.ParseError as e:
+                raise SystemError_(f"{where}: not well-formed XML ({e})") from None
+        else:
+            where, root = str(self.ssd_path), el.find(_q("ssm:ParameterMapping"))
+            if root is None:
+                raise self.fail(f"{owner}: ssd:ParameterMapping has neither a source nor an ssm:ParameterMapping")
+        if root.tag != _q("ssm:ParameterMapping"):
+            raise SystemError_(f"{where}: root element is <{root.tag}>, not ssm:ParameterMapping "
+                               f"(referenced by a ParameterBinding of {owner})")
+        return _Mapping(root, f"{where} ({owner})")
 
     def parameter_value(self, p: ET.Element, owner: str, units: dict, where: str):
         for child in p:
@@ -444,20 +627,30 @@ class _Reader:
             raise self.fail(f"{owner}: parameter '{p.get('name')}' of type ssv:{kind} is not supported")
         raise self.fail(f"{owner}: parameter '{p.get('name')}' has no value")
 
-    def connection(self, c: ET.Element, system_connectors: set) -> Connection:
+    def connection(self, c: ET.Element, path: tuple, prefix: str, local: dict, where: str) -> "_Edge":
+        """One ssd:Connection of the system at ``path`` as an edge between endpoints: ("fmu", instance,
+        variable) or ("connector", system path, connector) for a connector of this system (no element
+        named) or of a system nested in it."""
+        def endpoint(element, connector):
+            if not element:
+                return ("connector", path, connector)
+            kind = local.get(element)
+            if kind is None:
+                raise self.fail(f"{where}: a connection names element '{element}', which the system does not have")
+            if kind == "system":
+                return ("connector", path + (element,), connector)
+            return ("fmu", prefix + element, connector)
+
         s_el, e_el = c.get("startElement"), c.get("endElement")
         s_con, e_con = c.get("startConnector"), c.get("endConnector")
-        if not s_el or not e_el:
-            which = s_con if not s_el else e_con
-            raise self.fail(f"connection to system connector '{which}' is not supported (only component to component)")
         factor, offset = 1.0, 0.0
         for t in c:
             kind = t.tag.rsplit("}", 1)[-1]
             if kind == "LinearTransformation":
                 factor = float(t.get("factor", "1")); offset = float(t.get("offset", "0"))
             elif kind != "Annotations":
-                raise self.fail(f"connection {s_el}.{s_con} -> {e_el}.{e_con}: ssc:{kind} is not supported")
-        return Connection(source=f"{s_el}.{s_con}", target=f"{e_el}.{e_con}", factor=factor, offset=offset)
+                raise self.fail(f"connection {s_el or ''}.{s_con} -> {e_el or ''}.{e_con}: ssc:{kind} is not supported")
+        return _Edge(endpoint(s_el, s_con), endpoint(e_el, e_con), factor, offset)
 
     def own_annotation(self, sys_el: ET.Element):
         bonds, conversions, extra = [], set(), {}

@@ -29,7 +29,7 @@ import harness.fmi.fmu
 from harness import load, simulate
 from benchmarks import peers
 from harness.errors import SystemError_
-from harness.model import Instance, SystemWarning, model_description
+from harness.model import Connection, Instance, System, SystemWarning, model_description
 from harness.ssp import export_ssp, load_ssp
 
 SYSTEMS = ("two_inertia", "feeder_gto52", "bed_drive", "spine_knife", "proof_press")
@@ -228,12 +228,17 @@ B = comp("b", "resources/SpringInertia.fmu")
 
 
 @pytest.mark.parametrize("text,message", [
-    (ssd(A + B, BOND, elements_extra='<ssd:System name="inner"/>'), "nested ssd:System 'inner' is not supported"),
+    (ssd(A + B, BOND + conn("inner", "x", "a", "w0"), elements_extra='<ssd:System name="inner"/>'),
+     "system connector 'x' of system 'inner' drives a.w0 but nothing drives it"),
     (ssd(A, system_extra='<ssd:SignalDictionaries><ssd:SignalDictionary name="sd"/></ssd:SignalDictionaries>'),
      "ssd:SignalDictionaries in system 'hand' are not supported"),
-    (ssd(comp("a", "resources/Inertia.fmu", '<ssd:ParameterBindings><ssd:ParameterBinding source="x.ssv">'
-              '<ssd:ParameterMapping source="m.ssm"/></ssd:ParameterBinding></ssd:ParameterBindings>')),
-     "component 'a': ssd:ParameterMapping is not supported"),
+    (ssd(comp("a", "resources/Inertia.fmu", '<ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues>'
+              '<ssv:ParameterSet version="1.0" name="x"><ssv:Parameters><ssv:Parameter name="k">'
+              '<ssv:Integer value="2"/></ssv:Parameter></ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues>'
+              '<ssd:ParameterMapping><ssm:ParameterMapping version="1.0"><ssm:MappingEntry source="k" target="w0">'
+              '<ssc:EnumerationMappingTransformation/></ssm:MappingEntry></ssm:ParameterMapping>'
+              '</ssd:ParameterMapping></ssd:ParameterBinding></ssd:ParameterBindings>')),
+     "mapping entry 'k' -> 'w0': ssc:EnumerationMappingTransformation is not supported"),
     (ssd(A + '<ssd:Component name="s" type="application/x-ssp-package" source="resources/x.ssp"/>'),
      "component 's' has type 'application/x-ssp-package'; only FMUs"),
     (ssd(A + B, BOND + conn("a", "flange.w", "b", "drive.w",
@@ -242,7 +247,7 @@ B = comp("b", "resources/SpringInertia.fmu")
      "ssc:BooleanMappingTransformation is not supported"),
     (ssd(A, '<ssd:Connection startConnector="in" endElement="a" endConnector="flange.tau"/>',
          system_extra='<ssd:Connectors><ssd:Connector name="in" kind="input"><ssc:Real/></ssd:Connector></ssd:Connectors>'),
-     "connection to system connector 'in' is not supported"),
+     "system connector 'in' of system 'hand' drives a.flange.tau but nothing drives it (an input of the whole"),
     (ssd(comp("a", "resources/Missing.fmu")), "component 'a': source resources/Missing.fmu not found"),
     (ssd(A.replace('<ssd:Component ', '<ssd:Component implementation="ModelExchange" ')),
      "component 'a': implementation='ModelExchange', but "),   # the toolkit's FMUs are co-simulation only
@@ -322,3 +327,128 @@ def test_ssv_value_in_an_unconvertible_unit_is_refused(folder, value, units, mes
         load_ssp(folder / "a.ssd")
     text = str(info.value)
     assert message in text and "component 'a'" in text and "a.ssv" in text and "\n" not in text
+
+
+
+# ------------------------------------------------------------------------------------------------ issue 33: the rest of SSP
+def test_ssp_given_as_an_unpacked_folder(folder):
+    (folder / "a.ssv").write_text(ssv({"J": 0.02, "w0": 1.5}))
+    (folder / "SystemStructure.ssd").write_text(ssd(bound("a.ssv") + B, BOND))
+    s = load_ssp(folder)
+    assert [i.name for i in s.instances] == ["a", "b"] and s.instance("a").parameters == {"J": 0.02, "w0": 1.5}
+    assert s.instance("a").fmu == folder / "resources" / "Inertia.fmu"
+    (folder / "SystemStructure.ssd").unlink()
+    with pytest.raises(SystemError_, match="a folder given as an SSP must hold SystemStructure.ssd"):
+        load_ssp(folder)
+
+
+SSM = ('<?xml version="1.0" encoding="UTF-8"?>\n<ssm:ParameterMapping version="1.0"'
+       ' xmlns:ssm="http://ssp-standard.org/SSP1/SystemStructureParameterMapping"'
+       ' xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon">{}</ssm:ParameterMapping>')
+
+
+def entry(source, target, inner="", extra=""):
+    return f'<ssm:MappingEntry source="{source}" target="{target}"{extra}>{inner}</ssm:MappingEntry>'
+
+
+def test_parameter_mapping_renames_and_transforms_values(folder):
+    values = ('<?xml version="1.0" encoding="UTF-8"?>\n<ssv:ParameterSet version="1.0" name="p"'
+              ' xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"'
+              ' xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon"><ssv:Parameters>'
+              '<ssv:Parameter name="inertia_kg_cm2"><ssv:Real value="200"/></ssv:Parameter>'
+              '<ssv:Parameter name="speed"><ssv:Real value="60" unit="rpm"/></ssv:Parameter>'
+              '<ssv:Parameter name="mode"><ssv:Integer value="3"/></ssv:Parameter>'
+              '<ssv:Parameter name="on"><ssv:Boolean value="true"/></ssv:Parameter>'
+              '<ssv:Parameter name="J"><ssv:Real value="9.0"/></ssv:Parameter>'
+              f'</ssv:Parameters><ssv:Units>{RPM}</ssv:Units></ssv:ParameterSet>')
+    (folder / "a.ssv").write_text(values)
+    (folder / "a.ssm").write_text(SSM.format(
+        entry("inertia_kg_cm2", "J", '<ssc:LinearTransformation factor="1e-4"/>')          # kg.cm2 -> kg.m2
+        + entry("speed", "w0")                                                           # rpm -> rad/s by unit
+        + entry("speed", "w_rpm", extra=' suppressUnitConversion="true"')               # the number as written
+        + entry("mode", "gear", '<ssc:IntegerMappingTransformation><ssc:MapEntry source="3" target="30"/>'
+                                '</ssc:IntegerMappingTransformation>')
+        + entry("on", "off", '<ssc:BooleanMappingTransformation><ssc:MapEntry source="true" target="false"/>'
+                             '</ssc:BooleanMappingTransformation>')))
+    binding = ('<ssd:ParameterBindings><ssd:ParameterBinding source="a.ssv"><ssd:ParameterMapping source="a.ssm"/>'
+               '</ssd:ParameterBinding></ssd:ParameterBindings>')
+    (folder / "m.ssd").write_text(ssd(comp("a", "resources/Inertia.fmu", binding)))
+    p = load_ssp(folder / "m.ssd").instance("a").parameters
+    # J is mapped from inertia_kg_cm2 (the set's own J is a target now, so the mapped value wins)
+    assert p["J"] == pytest.approx(0.02, rel=1e-15) and p["w0"] == pytest.approx(2 * np.pi, rel=1e-15)
+    assert p["w_rpm"] == 60.0 and p["gear"] == 30 and p["off"] == 0
+    assert not {"inertia_kg_cm2", "speed", "mode", "on"} & set(p)      # mapped sources do not apply by name
+    # the mapped system runs: J = 0.02 kg.m2, w0 = 2 pi rad/s reach the FMU
+    (folder / "a.ssm").write_text(SSM.format(entry("inertia_kg_cm2", "J", '<ssc:LinearTransformation factor="1e-4"/>')
+                                             + entry("speed", "w0")))
+    (folder / "values.ssv").write_text(values.replace('<ssv:Parameter name="mode"><ssv:Integer value="3"/></ssv:Parameter>'
+                                                      '<ssv:Parameter name="on"><ssv:Boolean value="true"/></ssv:Parameter>', ""))
+    (folder / "m2.ssd").write_text(ssd(comp("a", "resources/Inertia.fmu", binding.replace("a.ssv", "values.ssv"))))
+    df = quiet_simulate(load_ssp(folder / "m2.ssd"), stop_time=0.01, step=1e-3)
+    assert df["a.flange.w"].iloc[0] == pytest.approx(2 * np.pi, rel=1e-12)
+
+
+@pytest.mark.parametrize("entries,message", [
+    (entry("nothing", "J"), "mapping entry 'nothing' -> 'J': the parameter set has no parameter 'nothing'"),
+    (entry("mode", "gear", '<ssc:IntegerMappingTransformation><ssc:MapEntry source="1" target="10"/>'
+                           '</ssc:IntegerMappingTransformation>'),
+     "ssc:IntegerMappingTransformation has no ssc:MapEntry for the value 3 (entries for [1])"),
+])
+def test_parameter_mapping_errors_are_one_line(folder, entries, message):
+    (folder / "a.ssv").write_text('<?xml version="1.0" encoding="UTF-8"?>\n<ssv:ParameterSet version="1.0" name="p"'
+                                  ' xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues">'
+                                  '<ssv:Parameters><ssv:Parameter name="mode"><ssv:Integer value="3"/></ssv:Parameter>'
+                                  '</ssv:Parameters></ssv:ParameterSet>')
+    (folder / "a.ssm").write_text(SSM.format(entries))
+    (folder / "m.ssd").write_text(ssd(comp("a", "resources/Inertia.fmu", (
+        '<ssd:ParameterBindings><ssd:ParameterBinding source="a.ssv"><ssd:ParameterMapping source="a.ssm"/>'
+        '</ssd:ParameterBinding></ssd:ParameterBindings>'))))
+    with pytest.raises(SystemError_) as info:
+        load_ssp(folder / "m.ssd")
+    assert message in str(info.value) and "a.ssm" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_nested_systems_are_flattened_and_run_like_the_flat_system(folder):
+    """b and g inside system 'sub' (two levels: g inside 'sub/deep'), reached through system connectors,
+    with linear transformations on both sides of a connector; the run equals the flat system's exactly."""
+    (folder / "b.ssv").write_text(ssv({"J": 0.02, "c": 80.0}))
+    inner_connectors = ('<ssd:Connectors><ssd:Connector name="phi" kind="input"/><ssd:Connector name="w" kind="input"/>'
+                        '<ssd:Connector name="tau" kind="output"/></ssd:Connectors>')
+    deep = ('<ssd:System name="deep"><ssd:Connectors><ssd:Connector name="in" kind="input"/></ssd:Connectors>'
+            '<ssd:Elements>' + comp("g", "resources/Gain.fmu") + '</ssd:Elements><ssd:Connections>'
+            '<ssd:Connection startConnector="in" endElement="g" endConnector="u">'
+            '<ssc:LinearTransformation factor="3.0" offset="0.5"/></ssd:Connection></ssd:Connections></ssd:System>')
+    sub = ('<ssd:System name="sub">' + inner_connectors + '<ssd:Elements>'
+           + comp("b", "resources/SpringInertia.fmu",
+                  '<ssd:ParameterBindings><ssd:ParameterBinding source="b.ssv"/></ssd:ParameterBindings>')
+           + deep + '</ssd:Elements><ssd:Connections>'
+           '<ssd:Connection startConnector="phi" endElement="b" endConnector="drive.phi"/>'
+           '<ssd:Connection startConnector="w" endElement="b" endConnector="drive.w"/>'
+           '<ssd:Connection startElement="b" startConnector="drive.tau" endConnector="tau"/>'
+           '<ssd:Connection startConnector="w" endElement="deep" endConnector="in">'
+           '<ssc:LinearTransformation factor="2.0" offset="1.0"/></ssd:Connection>'
+           '</ssd:Connections><ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues>'
+           '<ssv:ParameterSet version="1.0" name="x"><ssv:Parameters><ssv:Parameter name="deep.g.k">'
+           '<ssv:Real value="2.0"/></ssv:Parameter></ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues>'
+           '</ssd:ParameterBinding></ssd:ParameterBindings></ssd:System>')
+    outer = (conn("a", "flange.phi", "sub", "phi") + conn("a", "flange.w", "sub", "w")
+             + conn("sub", "tau", "a", "flange.tau"))
+    (folder / "nested.ssd").write_text(ssd(A, outer, elements_extra=sub))
+    s = load_ssp(folder / "nested.ssd")
+    assert [i.name for i in s.instances] == ["a", "sub/b", "sub/deep/g"]
+    assert s.instance("sub/b").parameters == {"J": 0.02, "c": 80.0}
+    assert s.instance("sub/deep/g").parameters == {"k": 2.0}
+    lin = [c for c in s.connections if c.target == "sub/deep/g.u"][0]
+    assert (lin.source, lin.factor, lin.offset) == ("a.flange.w", 6.0, 3.5)   # 3 (2 w + 1) + 0.5
+    lin.unit_conversion = True
+    flat = System("flat", [Instance("a", folder / "resources" / "Inertia.fmu"),
+                           Instance("b", folder / "resources" / "SpringInertia.fmu", {"J": 0.02, "c": 80.0}),
+                           Instance("g", folder / "resources" / "Gain.fmu", {"k": 2.0})],
+                  [Connection("a.flange.phi", "b.drive.phi"), Connection("a.flange.w", "b.drive.w"),
+                   Connection("b.drive.tau", "a.flange.tau"),
+                   Connection("a.flange.w", "g.u", factor=6.0, offset=3.5, unit_conversion=True)])
+    a = quiet_simulate(s, stop_time=0.05, step=1e-3)
+    b = quiet_simulate(flat, stop_time=0.05, step=1e-3)
+    assert list(a.columns) == [c.replace("b.", "sub/b.", 1).replace("g.", "sub/deep/g.", 1) if c[:2] in ("b.", "g.")
+                               else c for c in b.columns]
+    np.testing.assert_array_equal(a.to_numpy(), b.to_numpy())
