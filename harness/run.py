@@ -448,12 +448,17 @@ def parse_sets(items: list[str] | None) -> dict:
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "run", help="run a system (module in systems/, or .ssp/.ssd) and write its result",
-        description="Co-simulate a system and write the result as CSV (time in s, one column per "
-                    "Instance.variable). A run that stops early (divergence, FMU failure, Ctrl-C) writes what it "
-                    "computed to OUT.partial.csv instead of OUT, says so on stderr in one line and exits 1 (130 "
-                    "after Ctrl-C).")
-    p.add_argument("system", help="system module name in systems/ (e.g. bed_drive), or an .ssp/.ssd file")
+        "run", help="run a system (name in systems/, a .py file defining SYSTEM, or .ssp/.ssd) and write its result",
+        description="Co-simulate a system and write the result as CSV or Parquet (time in s, one column per "
+                    "Instance.variable). --out and --plot are checked before the run. A run that stops early "
+                    "(divergence, FMU failure, Ctrl-C, SIGTERM) writes what it computed to OUT.partial.csv and "
+                    "its chart to DIR/<system>.partial.png instead, never over a complete result, says so on "
+                    "stderr in one line and exits 1 (130 after Ctrl-C, 143 after SIGTERM). The options are "
+                    "those of harness.simulate(): --start-time is start_time, --set fills start_values, "
+                    "--output is output.")
+    p.add_argument("system", help="system name in systems/ (e.g. bed_drive; `list` shows them), a .py file "
+                                  "defining SYSTEM, or an .ssp/.ssd file")
+    p.add_argument("--start-time", type=float, default=0.0, metavar="SECONDS", help="start time [s] (default: 0)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
                    help="stop time [s] (default: the system's default experiment)")
     p.add_argument("--step", type=float, default=None, metavar="SECONDS",
@@ -467,7 +472,8 @@ def register(subparsers) -> None:
     p.add_argument("--tolerance", type=float, default=None, metavar="TOL",
                    help="relative tolerance [-] of step control and iteration (default: the system's, else none)")
     p.add_argument("--set", action="append", default=[], metavar="Instance.param=VALUE",
-                   help="set a parameter in its declared unit (repeatable; default: the system's values)")
+                   help="start value of a parameter, in its declared unit (repeatable; `show SYSTEM` lists "
+                        "them; default: the system's values)")
     p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
                    help="record only these variables (repeatable; default: every output)")
     p.add_argument("--out", type=Path, default=None, metavar="FILE",
@@ -543,7 +549,8 @@ def run_cli(args) -> int:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RunWarning)  # the CLI reports a stop itself, in one line
-            df = simulate(system, stop_time=args.stop_time, step=args.step, master=args.master,
+            df = simulate(system, start_time=args.start_time, stop_time=args.stop_time, step=args.step,
+                          master=args.master,
                           extrapolation=args.extrapolation, step_control=args.step_control,
                           tolerance=args.tolerance, start_values=parse_sets(args.set), output=args.output,
                           options=RunOptions(progress=None, in_process=False if args.fmi_only else None),
