@@ -290,3 +290,18 @@ def test_eq19_is_eq15_with_the_projected_lever():
     a = p.r * math.cos(p.beta)
     np.testing.assert_allclose(d, -0.5 * a * (C[0] + C[1] * t + C[2] * np.sin(lam * t) + C[3] * np.cos(lam * t)),
                                rtol=1e-12, atol=1e-18)
+
+
+def test_fig2_velocity_trace_meets_eq10_after_a_free_impact(tmp_path):
+    """The study's Fig. 2 chart (roller-centre velocity during the take-up): after a free first impact the
+    roller centre moves at eq. (10)'s V3y and stays there until the next contact; the chart is written."""
+    from harness.studies import takeup as S
+
+    p = S.params_for(0.04, 0.0, S.BASE, 1.0, 0.0)
+    tr = S.velocity_trace(p)
+    after = (tr["t"] > tr["first_end"]) & (tr["t"] < tr["result"].history[1].onset)
+    assert after.sum() > 10
+    np.testing.assert_allclose(tr["v_roller"][after], tr["v3y_eq10"], rtol=1e-6)
+    assert tr["v_crank_pin"][0] == pytest.approx(p.v_pin, rel=1e-12) and tr["v_roller"][0] == 0.0
+    files = S.plot_velocity(tmp_path, alpha_c=(0.0,))
+    assert all(f.is_file() and f.stat().st_size > 1000 for f in files)

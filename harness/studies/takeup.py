@@ -25,7 +25,8 @@ play at omega1 r cos(beta); with the feeder clearance sweep's CSV (``--feeder-cs
 smallest pin load pressing the rocker back).
 
 Writes ``takeup.csv`` (one row per take-up), ``takeup_summary.csv`` (per geometry, case, varied parameter and
-alpha_m: the first alpha_c with a non-classical take-up, the classical share) and ``takeup.png/.svg``.
+alpha_m: the first alpha_c with a non-classical take-up, the classical share), ``takeup.png/.svg`` and
+``takeup_velocity.png/.svg`` (the seed's Fig. 2 quantity from the model: :func:`plot_velocity`).
 """
 from __future__ import annotations
 
@@ -182,6 +183,45 @@ def plot(summary: pd.DataFrame, out: Path) -> list[Path]:
     return save_figure(fig, out / "takeup", dpi=110)
 
 
+def velocity_trace(p: TakeUpParams, samples: int = 4000) -> dict:
+    """The seed's Fig. 2 quantity: the roller centre's (stone pin's) velocity R3 gamma' during the take-up,
+    beside the crank pin's r cos(beta) phi1' and eq. (10)'s velocity after the first impact (V3y, with the
+    reduced mass ratio of the consistent model, :func:`fmus.physics.takeup.mass_ratio`)."""
+    from fmus.physics.takeup import mass_ratio, v3y_first
+
+    res = simulate(p, samples=samples)
+    alpha = mass_ratio(p.I1, p.I2, p.r, p.R3, p.beta, p.theta, p.chi)
+    return {"t": res.t, "v_roller": p.R3 * res.y[:, 3], "v_crank_pin": p.r * math.cos(p.beta) * res.y[:, 1],
+            "v3y_eq10": v3y_first(alpha, p.e, p.v_pin, p.V3), "first_end": res.duration, "result": res}
+
+
+def plot_velocity(out: Path, alpha_c=(0.0, 0.05, 0.3), R3: float = 0.040) -> list[Path]:
+    """Fig. 2 of the seed, from the model: the roller centre's velocity during the take-up at beta = 0 (the
+    paper's figure itself is not in the text we have, only its caption)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(alpha_c), figsize=(4.2 * len(alpha_c), 3.4), sharey=True, squeeze=False)
+    for ax, ac in zip(axes[0], alpha_c):
+        p = params_for(R3, 0.0, BASE, 1.0, ac)
+        tr = velocity_trace(p)
+        ax.plot(tr["t"] * 1e3, tr["v_roller"], label="roller centre R3 gamma'")
+        ax.plot(tr["t"] * 1e3, tr["v_crank_pin"], "--", label="crank pin r cos(beta) phi1'")
+        ax.axhline(tr["v3y_eq10"], color="k", lw=0.8, ls=":", label="eq. (10) V3y")
+        ax.axvline(tr["first_end"] * 1e3, color="0.6", lw=0.8)
+        ax.set_title(f"alpha_c = {ac:g}: {'classical' if tr['result'].classical else 'non-classical'}, "
+                     f"{tr['result'].contacts} contacts", fontsize=8)
+        ax.set_xlabel("time from the first onset [ms]")
+    axes[0][0].set_ylabel("velocity along the joint [m/s]")
+    axes[0][0].legend(fontsize=6)
+    fig.suptitle("Seed 000 Fig. 2 from the model: roller-centre velocity during the take-up (alpha_m = 1, r = R3, "
+                 "e = 0.2, 150 rpm, beta = 0; grey: end of the first contact)", fontsize=8)
+    fig.tight_layout()
+    return save_figure(fig, out / "takeup_velocity", dpi=110)
+
+
 def register(study_subparsers) -> None:
     doc = __doc__.split("\n\n")[0].replace("\n", " ")
     p = study_subparsers.add_parser("takeup", help="seed 000: classical vs non-classical take-up of the pin "
@@ -212,7 +252,7 @@ def takeup_cli(args) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     df.to_csv(args.out / "takeup.csv", index=False)
     summary.to_csv(args.out / "takeup_summary.csv", index=False)
-    files = plot(summary, args.out)
+    files = plot(summary, args.out) + plot_velocity(args.out)
     with pd.option_context("display.width", 200, "display.max_rows", 1000):
         print(summary.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     hi, lo = alpha_y_gap(df)
