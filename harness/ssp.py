@@ -364,6 +364,7 @@ class _Reader:
     def __init__(self, ssd_path: Path, root_dir: Path):
         self.ssd_path, self.root_dir = ssd_path, root_dir
         self.units: dict[str, _Unit] = {}   # the .ssd's ssd:Units
+        self.connector_values: dict[tuple, object] = {}   # system connector endpoint -> its bound value
 
     def fail(self, what: str) -> SystemError_:
         return SystemError_(f"{self.ssd_path}: {what}")
@@ -379,7 +380,7 @@ class _Reader:
         instances: list[Instance] = []
         edges: list[_Edge] = []
         self.collect(sys_el, (), name, instances, edges)
-        connections = self.resolve(edges, name)
+        connections = self.resolve(edges, name, instances)
         bonds, conversions, exp_extra = self.own_annotation(sys_el)
         bonded = set()
         for b in bonds:
@@ -417,10 +418,15 @@ class _Reader:
             local[el_name] = "component"
             instances.append(self.component(el, prefix))
         by_name = {i.name: i for i in instances}
+        connectors = {c.get("name") for c in sys_el.findall(f"{_q('ssd:Connectors')}/{_q('ssd:Connector')}")}
         for pname, value in self.parameter_bindings(sys_el, where).items():
+            if pname in connectors:  # a value for a connector of this system: what it passes on (resolve)
+                self.connector_values[("connector", path, pname)] = value
+                continue
             inst, var = self._parameter_target(pname, prefix, by_name)
             if inst is None:
-                raise self.fail(f"{where}: parameter '{pname}' names no component (expected Component.parameter)")
+                raise self.fail(f"{where}: parameter '{pname}' names no component (expected Component.parameter "
+                                f"or a connector of the system)")
             inst.parameters[var] = self.convert(value, inst, var)
         for c in sys_el.findall(f"{_q('ssd:Connections')}/{_q('ssd:Connection')}"):
             edges.append(self.connection(c, path, prefix, local, where))
@@ -436,14 +442,18 @@ class _Reader:
                 return inst, ".".join(parts[i:])
         return None, None
 
-    def resolve(self, edges: list, name: str) -> list[Connection]:
+    def resolve(self, edges: list, name: str, instances: list) -> list[Connection]:
         """FMU-to-FMU connections from the connections of every level: a path through system connectors is
         followed to the FMU output that drives it, and the linear transformations on the way are composed
-        (target = f2 (f1 source + o1) + o2).  A connector of the outermost system that drives something is
-        an input of the whole system, which nothing drives here: refused.  Connections that end at a system
+        (target = f2 (f1 source + o1) + o2).  A system connector that nothing drives but that its system's
+        parameter bindings give a value (as OMSimulator writes a value set on a system input) passes that
+        value on: the FMU inputs it reaches start from it (transformed on the way) and keep it.  Any other
+        connector of the outermost system that drives something is an input of the whole system, which
+        nothing drives here: refused.  Connections that end at a system
         connector only pass values on (the outermost system's outputs are its components' outputs, recorded
         as such)."""
         driver: dict[tuple, _Edge] = {}
+        by_name = {i.name: i for i in instances}
         for e in edges:
             if e.target in driver:
                 raise self.fail(f"{_label(e.target)} is the target of two connections "
@@ -459,12 +469,21 @@ class _Reader:
                     raise self.fail(f"system connectors {_label(source)} form a loop")
                 seen.add(source)
                 up = driver.get(source)
+                if up is None and source in self.connector_values:
+                    break
                 if up is None:
                     system = "/".join(source[1]) or name
                     raise self.fail(f"system connector '{source[2]}' of system '{system}' drives "
                                     f"{_label(e.target)} but nothing drives it"
                                     + (" (an input of the whole system: connect it inside)" if not source[1] else ""))
                 source, factor, offset = up.source, factor * up.factor, factor * up.offset + offset
+            if source[0] == "connector":  # a system connector given a value drives nothing else: a constant
+                inst, var = by_name[e.target[1]], e.target[2]
+                value = self.connector_values[source]
+                if (factor, offset) != (1.0, 0.0):  # on the number as written
+                    value = factor * (value.value if isinstance(value, _Quantity) else value) + offset
+                inst.parameters[var] = self.convert(value, inst, var)
+                continue
             out.append(Connection(source=f"{source[1]}.{source[2]}", target=f"{e.target[1]}.{e.target[2]}",
                                   factor=factor, offset=offset))
         return out

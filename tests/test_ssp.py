@@ -452,3 +452,28 @@ def test_nested_systems_are_flattened_and_run_like_the_flat_system(folder):
     assert list(a.columns) == [c.replace("b.", "sub/b.", 1).replace("g.", "sub/deep/g.", 1) if c[:2] in ("b.", "g.")
                                else c for c in b.columns]
     np.testing.assert_array_equal(a.to_numpy(), b.to_numpy())
+
+
+def test_a_system_connector_given_a_value_drives_its_inputs_with_it(folder):
+    """As OMSimulator writes a value set on a system input (its NestedSystemSimulation tests): the value in
+    the system's parameter bindings, under the connector's name; an input of the whole system without one
+    is refused (test_unsupported_features_fail_with_one_line)."""
+    values = ('<ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues><ssv:ParameterSet version="1.0" '
+              'name="x"><ssv:Parameters><ssv:Parameter name="{}"><ssv:Real value="{}"/></ssv:Parameter>'
+              '</ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues></ssd:ParameterBinding></ssd:ParameterBindings>')
+    sub = ('<ssd:System name="sub"><ssd:Connectors><ssd:Connector name="in" kind="input"/></ssd:Connectors>'
+           + values.format("in", 10.0) + '<ssd:Elements>' + comp("g", "resources/Gain.fmu")
+           + '</ssd:Elements><ssd:Connections><ssd:Connection startConnector="in" endElement="g" endConnector="u"/>'
+           '</ssd:Connections></ssd:System>')
+    text = ssd(comp("g", "resources/Gain.fmu"),
+               '<ssd:Connection startConnector="in" endElement="g" endConnector="u">'
+               '<ssc:LinearTransformation factor="2.0" offset="1.0"/></ssd:Connection>',
+               system_extra='<ssd:Connectors><ssd:Connector name="in" kind="input"/></ssd:Connectors>'
+               + values.format("in", 3.0), elements_extra=sub)
+    (folder / "c.ssd").write_text(text)
+    s = load_ssp(folder / "c.ssd")
+    assert s.connections == []
+    assert s.instance("g").parameters == {"u": 7.0} and s.instance("sub/g").parameters == {"u": 10.0}
+    df = quiet_simulate(s, stop_time=0.01, step=1e-3)
+    k = float(next(v.start for v in model_description(s.instance("g").fmu).modelVariables if v.name == "k"))
+    assert (df["g.y"] == k * 7.0).all() and (df["sub/g.y"] == k * 10.0).all()
