@@ -170,7 +170,7 @@ def test_cli_table_json_and_errors(capsys):
     assert rep["C_red"] == pytest.approx(d0.G * math.pi * 0.02 ** 4 / (16 * d0.l))
     assert cli.main(["knife", "--T-cut", "-1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "T_cut" in err[0]
+    assert len(err) == 1 and "--T-cut -1" in err[0]
 
 
 # ------------------------------------------------------------------------------------------ tier 2
