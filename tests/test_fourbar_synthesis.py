@@ -169,4 +169,4 @@ def test_cli_json_and_errors(capsys):
                            "--rocker", "5"], capture_output=True, text=True)
     assert proc.returncode == 2
     assert proc.stdout == "" and len(proc.stderr.strip().splitlines()) == 1
-    assert "rocker = 5" in proc.stderr and "Traceback" not in proc.stderr
+    assert "--rocker 5" in proc.stderr and "Traceback" not in proc.stderr

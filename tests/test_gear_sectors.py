@@ -230,7 +230,7 @@ def test_cli_default_example_and_errors(capsys):
     assert "r24" in capsys.readouterr().out
     assert cli.main(["sectors", "--l-i", "0.1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("synth sectors:")
+    assert len(err) == 1 and err[0].startswith("error: synth sectors:")
 
 
 # ------------------------------------------------------------------------------------------ tier 2
