@@ -16,11 +16,15 @@ an implicit coupling whose stability no longer depends on the stiffness that spa
   time-varying kinematics and grew at a 2 ms step (measured, also with the fixed point fully converged by
   Newton iteration, so it is the fixed point, not the single correction);
 * so on each power bond the effort held by the motion-output side leans to the step's END and the motion
-  held by the motion-input side to its START, ``theta = 1/2 + s`` and ``1/2 - s`` (:data:`THETA_SHIFT`
-  ``s = 0.1``): the pair then dissipates at every step (two-inertia: its oscillating mode's eigenvalues have
-  modulus below 1 at every step with exact subsystems), while a shift the other way, or ``theta = 1`` on both (the new sample held, the
-  ``iterative`` master's order-0 fixed point), grows at every step.  The price is a first-order term of size
-  ``s h`` in the bond's held values; on the bed drive at 1 ms it stays inside the drive's declared accuracy;
+  held by the motion-input side to its START, ``theta = 1/2 + s`` and ``1/2 - s``: the pair then dissipates
+  at every step, while a shift the other way, or ``theta = 1`` on both (the new sample held, the
+  ``iterative`` master's order-0 fixed point), grows at every step (closed form).  A constant shift would
+  cost a first-order damping at every step size (the undamped two-inertia pair lost a quarter of its
+  amplitude per second at 1 ms with ``s = 0.1``), so the shift follows the bond's loop gain over the step
+  (:func:`bond_gain`: how much of a held value comes back through the bond within the step, about
+  ``(omega h)^2 / 2`` for a spring between inertias): ``s = THETA_SHIFT * min(1, gain)`` with
+  :data:`THETA_SHIFT` = 0.1.  Where the step resolves the bond's dynamics the coupling is the trapezoid,
+  second order; where it does not, it damps (two-inertia: spectral radius 0.96 at omega h = 2 to 12);
 * a bond position that the FMU advances itself with the held speed keeps its value at t (``theta = 0``);
   every other connection takes the trapezoid.
 
@@ -57,7 +61,7 @@ import math
 import numpy as np
 
 CONTRACTION = 0.2   # refresh the Jacobians when a corrector leaves more than this share of the predictor's residual
-THETA_SHIFT = 0.1    # theta = 1/2 +- this for a bond's effort / motion (module docstring: why, and what it costs)
+THETA_SHIFT = 0.1    # largest shift of theta from 1/2 on a bond's effort / motion (module docstring: why and cost)
 RELATIVE_PERTURBATION = 1e-6   # forward-difference perturbation, relative to max(1, |input|)
 
 
@@ -113,14 +117,24 @@ def assemble(A: np.ndarray, D: np.ndarray, src: np.ndarray, fac: np.ndarray) -> 
     return C @ M
 
 
-def target_weights(n_inputs: int, efforts, motion, positions) -> np.ndarray:
-    """theta per held input: the fixed point holds ``(1 - theta) y(t) + theta y(t+h)``.  ``0.5 + THETA_SHIFT``
-    for the effort a bond's motion-output side holds, ``0.5 - THETA_SHIFT`` for the motion its motion-input side
-    holds, 0.5 (the trapezoid) for every other input, and 0 for the bond positions the FMUs advance
-    themselves (they keep their value at t)."""
+def bond_gain(S: np.ndarray, inputs: list[int]) -> float:
+    """The loop gain of one power bond over a step: max |S_kk| over its held inputs (effort and motion), the
+    dimensionless share of a held value that comes back through the bond within the step (~ (omega h)^2 / 2
+    for a spring between two inertias; large for a rigid element between inertias of different size)."""
+    return float(np.max(np.abs(S[inputs, inputs]))) if inputs else 0.0
+
+
+def target_weights(n_inputs: int, bonds, S: np.ndarray | None, positions) -> np.ndarray:
+    """theta per held input: the fixed point holds ``(1 - theta) y(t) + theta y(t+h)``.  On each power bond
+    ``(effort, [motion])`` the held effort gets ``1/2 + s`` and the held motion ``1/2 - s``, with
+    ``s = THETA_SHIFT * min(1, gain)`` (:func:`bond_gain` of ``S``; ``S`` None, before any estimate:
+    ``THETA_SHIFT``); every other input 1/2 (the trapezoid); the bond positions the FMUs advance themselves 0
+    (they keep their value at t)."""
     theta = np.full(n_inputs, 0.5)
-    theta[np.asarray(efforts, dtype=np.intp)] = 0.5 + THETA_SHIFT
-    theta[np.asarray(motion, dtype=np.intp)] = 0.5 - THETA_SHIFT
+    for effort, motion in bonds:
+        s = THETA_SHIFT if S is None else THETA_SHIFT * min(1.0, bond_gain(S, [effort, *motion]))
+        theta[effort] = 0.5 + s
+        theta[np.asarray(motion, dtype=np.intp)] = 0.5 - s
     theta[np.asarray(positions, dtype=np.intp)] = 0.0
     return theta
 

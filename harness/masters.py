@@ -600,8 +600,12 @@ class InterfaceJacobian(Master):
         self._batched = [it for it in self.insts if it.inp.n]
         self._interp = []
         # the fixed point's weight of the sample at t+h per held input (harness.jacobian.target_weights)
-        self.theta = jacobian.target_weights(len(self.u), [b[0] for b in self._bonds],
-                                              self._motion_held(self.bonds), self._pos)
+        # per power bond: the held effort (motion-output side) and the held motion (motion-input side, not the
+        # positions the FMU advances itself); theta from their loop gains at each estimate (harness.jacobian)
+        pos = set(self._pos.tolist())
+        self._bond_inputs = [(b[0], [k for k in self._motion_held(bond) if k not in pos])
+                             for b, bond in zip(self._bonds, self.bonds)]
+        self.theta = jacobian.target_weights(len(self.u), self._bond_inputs, None, self._pos)
         self.jacobian: np.ndarray | None = None  # S of harness.jacobian.assemble, for the step size self._jac_h
         self._jac_h = 0.0
         self._stale = True
@@ -612,15 +616,12 @@ class InterfaceJacobian(Master):
     def needs_rollback(self) -> bool:
         return True
 
-    def _motion_held(self, bonds) -> list[int]:
-        """Indices in u of the motion (position and speed) held at the motion-input port of every bond."""
-        idx = []
-        for b in bonds:
-            inst, port = b.motion_in.split(".", 1)
-            it = self.insts[self.index[inst]]
-            idx += [it.isl.start + k for v, k in it.input_pos.items() if v.rsplit(".", 1)[0] == port
-                    and v.rsplit(".", 1)[1] in ("phi", "w", "s", "v")]
-        return idx
+    def _motion_held(self, bond) -> list[int]:
+        """Indices in u of the motion (position and speed) held at the motion-input port of ``bond``."""
+        inst, port = bond.motion_in.split(".", 1)
+        it = self.insts[self.index[inst]]
+        return [it.isl.start + k for v, k in it.input_pos.items() if v.rsplit(".", 1)[0] == port
+                and v.rsplit(".", 1)[1] in ("phi", "w", "s", "v")]
 
     def _implicit_inputs(self, t: float, h: float) -> np.ndarray:
         """G: the held inputs recomputed from the history whose newest sample is at t+h: ``(1 - theta) y(t) +
@@ -655,6 +656,7 @@ class InterfaceJacobian(Master):
             A[it.sl, it.isl] = jacobian.step_sensitivity(it.fmu, it.inp, it.out, state, u0[it.isl], v,
                                                          self.y[it.sl], t, h)
         self.jacobian, self._jac_h, self._stale = jacobian.assemble(A, D, self.src, self.fac), h, False
+        self.theta = jacobian.target_weights(len(u0), self._bond_inputs, self.jacobian, self._pos)
         self.estimates += 1
         self.fmu_steps += n_u  # one step per held input
 
@@ -667,6 +669,7 @@ class InterfaceJacobian(Master):
             fresh = self._stale or self._jac_h != h
             if fresh:
                 self._estimate(t, h, u0)
+                r0 = self._implicit_inputs(t, h) - u0  # with the new theta, from the same predictor
             du = np.linalg.solve(np.eye(len(u0)) - self.theta[:, None] * self.jacobian, r0)
             self.restore("ij")
             r1 = self._take(t, h, t_next, u0 + du)

@@ -63,15 +63,21 @@ def test_two_inertia_follows_the_closed_form_one_step_map(fmu_dir, order):
     np.testing.assert_allclose(df["b.drive.tau"].to_numpy(), tau, rtol=0, atol=1e-7 * np.abs(tau).max())
 
 
-def test_theory_trapezoid_is_neutral_and_the_shift_damps():
-    """The closed form's two claims (harness.jacobian): with exact subsystems the shifted target's oscillating
-    mode decays at every step (also far beyond Jacobi's limit); with RK4 subsystems the step is limited only
-    near their own bound (RK4's is omega h = 2.785; the spring side b has omega_b = sqrt(c / J2))."""
+def test_theory_the_shift_damps_at_every_step_and_vanishes_at_small_steps():
+    """The closed form's claims (harness.jacobian): with exact subsystems the oscillating mode of the undamped
+    pair decays at every step, far beyond Jacobi's limit, most where the bond's loop gain is of order one
+    (omega h 2 to 12) and hardly at small steps, where the shift fades with the gain and the coupling is the
+    trapezoid (no first-order damping); with RK4 subsystems the step is limited only near their own bound
+    (RK4's is omega h = 2.785; the spring side b has omega_b = sqrt(c / J2))."""
     p = th.TwoInertia()
     w = p.natural_frequency()
+    radius = {}
     for wh in (0.05, 0.5, 2.0, 12.0, 100.0):
         M = th.deflate_rigid(th.amplification_matrix(p, wh / w, "jacobian", 1, "exact"))
-        assert th.spectral_radius(M) < 1.0 - 1e-6, wh
+        radius[wh] = th.spectral_radius(M)
+        assert radius[wh] < 1.0 - 1e-12, wh
+    assert 1.0 - radius[0.05] < 1e-6                  # per step; a constant shift of 0.1 damps 1e-4 here
+    assert radius[2.0] < 0.97 and radius[12.0] < 0.97, radius   # (at omega h -> inf it tends to 1 again)
     h_rk4 = th.stability_boundary(p, "jacobian", 1)
     omega_b = math.sqrt(p.c / p.J2)
     assert 2.6 < h_rk4 * omega_b < 3.2, h_rk4 * omega_b
@@ -103,8 +109,9 @@ def test_assembled_jacobian_equals_finite_differences_of_the_coupled_step(monkey
             self._hold_all(t, h)
             u0 = self.u.copy()
             self.snapshot("ij")
-            r0 = self._take(t, h, t_next, u0)
+            self._take(t, h, t_next, u0)
             self._estimate(t, h, u0)
+            r0 = self._implicit_inputs(t, h) - u0   # with the theta of this estimate
             jg = self.theta[:, None] * self.jacobian
             dp = ij.perturbation(u0)
             fd = np.zeros_like(jg)
@@ -164,3 +171,20 @@ def test_fmus_without_state_support_are_refused_in_one_line(tmp_path):
         _quiet(s, master="jacobian", on_error="raise")
     msg = str(e.value)
     assert "\n" not in msg and "a (PlainLag)" in msg and "canGetAndSetFMUstate" in msg
+
+
+def test_second_order_where_the_step_resolves_the_coupling(fmu_dir):
+    """Undamped pair against its exact solution: halving the step quarters the error (the shift fades with the
+    loop gain, so no first-order damping is left), and the error is far below Jacobi's with linear extrapolation."""
+    from scipy.linalg import expm
+
+    p = th.TwoInertia()
+    system, params = _two_inertia(fmu_dir, p)
+    A = p.coupled()
+    errors = {}
+    for h in (2e-3, 1e-3):
+        df = _quiet(system, stop_time=0.5, step=h, master="jacobian", extrapolation=1,
+                    parameters={**params, "a.w0": 1.0})
+        exact = np.array([expm(A * t) @ np.array([0.0, 1.0, 0.0, 0.0]) for t in df.index.to_numpy()])
+        errors[h] = np.abs(df["a.flange.w"].to_numpy() - exact[:, 1]).max()
+    assert 3.5 < errors[2e-3] / errors[1e-3] < 4.5, errors

@@ -317,19 +317,35 @@ def amplification_matrix(params, h: float, master: str = "jacobi", order: int = 
     return M
 
 
+def _bond_shift(p: TwoInertia, mapA, mapB) -> float:
+    """The shift s of theta on the pair's one bond, as the master computes it (harness.jacobian.target_weights):
+    THETA_SHIFT * min(1, loop gain), the gain being max |S_kk| of ``S = C (I - D C)^-1 A`` over the held
+    inputs ``u = (tau [a], phi_in, w_in [b])`` with outputs ``y = (phi1, w1, tau)`` at the step end."""
+    from harness.jacobian import THETA_SHIFT, assemble, bond_gain
+
+    (_, GA), (_, GB) = mapA, mapB
+    row = p.torque_row()                                  # tau = row . (phi1, w1, phi2, w2)
+    A = np.zeros((3, 3))
+    A[0:2, 0] = GA[:, 0]                                  # a's motion through its state, from the held torque
+    A[2, 1:3] = row[2:4] @ GB                             # b's torque through its state, from the held motion
+    D = np.zeros((3, 3))
+    D[2, 1:3] = row[0:2]                                  # b's torque directly from the motion at the point
+    S = assemble(A, D, np.array([2, 0, 1]), np.ones(3))   # tau <- y[2], phi_in <- y[0], w_in <- y[1]
+    return THETA_SHIFT * min(1.0, bond_gain(S, [0, 1, 2]))
+
+
 def _implicit_matrix(p: TwoInertia, mapA, mapB) -> np.ndarray:
     """One-step map ``x_{k+1} = M x_k`` of the ``jacobian`` master's fixed point (harness.jacobian): each held
     input is ``(1 - theta) y_k + theta y_{k+1}`` of its source, with ``theta = 1/2 + s`` for the torque that
-    ``a`` (motion-output side) holds and ``1/2 - s`` for the motion that ``b`` holds (``s`` =
-    :data:`harness.jacobian.THETA_SHIFT`), solved for x_{k+1}.  For FMUs linear over a step (these two) the
-    master's one Newton correction reaches this fixed point exactly, so this is its amplification matrix
-    whatever the predictor's extrapolation order.  ``s = 0`` is the trapezoid (spectral radius 1 at every step
-    for the undamped pair with exact subsystems); ``s > 0`` damps; a shift the other way, or holding the new
-    sample itself for both, grows at every step."""
-    from harness.jacobian import THETA_SHIFT
-
+    ``a`` (motion-output side) holds and ``1/2 - s`` for the motion that ``b`` holds (``s``:
+    :func:`_bond_shift`), solved for x_{k+1}.  For FMUs linear over a step (these two) the master's one
+    Newton correction reaches this fixed point exactly, so this is its amplification matrix whatever the
+    predictor's extrapolation order.  ``s = 0`` is the trapezoid (spectral radius 1 at every step for the
+    undamped pair with exact subsystems); ``s > 0`` damps; a shift the other way, or holding the new sample
+    itself for both, grows at every step."""
     (PA, GA), (PB, GB) = mapA, mapB
-    te, tm = 0.5 + THETA_SHIFT, 0.5 - THETA_SHIFT
+    shift = _bond_shift(p, mapA, mapB)
+    te, tm = 0.5 + shift, 0.5 - shift
     CA = np.zeros((2, 4))
     CA[0, 0] = CA[1, 1] = 1.0
     CB = p.torque_row()[None, :]
