@@ -97,6 +97,7 @@ class Experiment:
     extrapolation: int = 0
     step_control: str | None = None
     tolerance: float | None = None
+    start_time: float = 0.0     # an SSP's DefaultExperiment may start later (harness.ssp)
 
 
 @dataclass

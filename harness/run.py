@@ -1,7 +1,7 @@
 """Running a system: :func:`load`, :func:`simulate` and the CLI command ``python -m harness run``.
 
 ``simulate(system, stop_time=None, step=None, master=None, extrapolation=None, step_control=None,
-tolerance=None, start_values=None, output=None, *, start_time=0.0, on_error="return", options=None)`` returns
+tolerance=None, start_values=None, output=None, *, start_time=None, on_error="return", options=None)`` returns
 the result DataFrame (see :mod:`harness.results`).  Arguments left at None come from the system's default experiment
 (then: master ``jacobi``, extrapolation 0, fixed step).  Further options live in :class:`RunOptions`
 (iteration of the ``iterative`` master, step-control limits, blow-up limit, progress bar, FMU logging).
@@ -83,12 +83,12 @@ class RunOptions:
 def load(x) -> System:
     """A :class:`System` from a module name in ``systems/`` (its ``SYSTEM``; ``"bed_drive"``, also written
     ``"bed_drive.py"`` or ``"systems/bed_drive.py"``), the path of any Python file that defines ``SYSTEM``, an
-    .ssp/.ssd file, or itself.  Anything else is a :class:`~harness.errors.SystemError_` in one line naming
+    .ssp/.ssd file or an SSP unpacked into a folder (holding SystemStructure.ssd), or itself.  Anything else is a :class:`~harness.errors.SystemError_` in one line naming
     what was given and the known systems (with the closest name when it looks misspelt)."""
     if isinstance(x, System):
         return x
     s = str(x)
-    if s.lower().endswith((".ssp", ".ssd")):
+    if s.lower().endswith((".ssp", ".ssd")) or (Path(s) / "SystemStructure.ssd").is_file():
         from harness.ssp import load_ssp
 
         return load_ssp(s)
@@ -212,7 +212,7 @@ def _renamed(given: dict) -> dict:
 
 def simulate(system, stop_time: float | None = None, step: float | None = None, master: str | None = None,
              extrapolation=None, step_control: str | None = None, tolerance: float | None = None,
-             start_values: dict | None = None, output: list[str] | None = None, *, start_time: float = 0.0,
+             start_values: dict | None = None, output: list[str] | None = None, *, start_time: float | None = None,
              on_error: str = "return", options: RunOptions | None = None, **old_names) -> pd.DataFrame:
     """Co-simulate ``system`` and return its result: a DataFrame indexed by time [s], one column per
     ``Instance.variable`` (in the FMU's declared unit, ``df.attrs["units"]``).
@@ -225,7 +225,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
 
     * ``system``: a module name in ``systems/`` (``"bed_drive"``), a .py file defining ``SYSTEM``, an
       .ssp/.ssd file, or a :class:`System`.
-    * ``start_time`` [s]: start of the run (default 0; finite, before ``stop_time``).
+    * ``start_time`` [s]: start of the run (default: the default experiment's, else 0; finite, before
+      ``stop_time``).
     * ``stop_time`` [s]: end of the run (positive).  ``step`` [s]: communication step (positive, >= 1 ns, at
       most ``stop_time - start_time``; the first step of a variable-step run).
     * ``master``: ``"jacobi"`` (fallback), ``"jacobi-sampled"``, ``"gauss-seidel"`` or ``"iterative"``.
@@ -274,6 +275,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     extrapolation = extrapolation if extrapolation is not None else (exp.extrapolation if exp else 0)
     step_control = step_control if step_control is not None else (exp.step_control if exp else None)
     tolerance = tolerance if tolerance is not None else (exp.tolerance if exp else None)
+    start_time = start_time if start_time is not None else (exp.start_time if exp else 0.0)
     stop_time, step = _positive("stop_time", stop_time), _positive("step", step)
     if tolerance is not None:
         _positive("tolerance", tolerance, unit="")
@@ -458,7 +460,8 @@ def register(subparsers) -> None:
                     "--output is output.")
     p.add_argument("system", help="system name in systems/ (e.g. bed_drive; `list` shows them), a .py file "
                                   "defining SYSTEM, or an .ssp/.ssd file")
-    p.add_argument("--start-time", type=float, default=0.0, metavar="SECONDS", help="start time [s] (default: 0)")
+    p.add_argument("--start-time", type=float, default=None, metavar="SECONDS",
+                   help="start time [s] (default: the system's default experiment, else 0)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
                    help="stop time [s] (default: the system's default experiment)")
     p.add_argument("--step", type=float, default=None, metavar="SECONDS",

@@ -165,7 +165,8 @@ def build_ssd(system: System, sources: dict[str, str]) -> ET.Element:
         u = ET.SubElement(units_el, _q("ssc:Unit"), {"name": name})
         ET.SubElement(u, _q("ssc:BaseUnit"), {k: str(e) for k, e in BASE_UNITS.get(name, {}).items()})
     if exp is not None:
-        de = ET.SubElement(root, _q("ssd:DefaultExperiment"), {"startTime": "0.0", "stopTime": _num(float(exp.stop_time))})
+        de = ET.SubElement(root, _q("ssd:DefaultExperiment"), {"startTime": _num(float(exp.start_time)),
+                                                               "stopTime": _num(float(exp.stop_time))})
         osp = _annotation(de, OSP_ANNOTATION)
         algorithm = ET.SubElement(osp, _q("osp:Algorithm"))
         ET.SubElement(algorithm, _q("osp:FixedStepAlgorithm"), {"baseStepSize": _num(float(exp.step))})
@@ -693,8 +694,8 @@ class _Reader:
         if de is None:
             return None
         start = float(de.get("startTime", "0"))
-        if start != 0.0:
-            raise self.fail(f"ssd:DefaultExperiment startTime={start}: only 0 is supported")
+        if not (start >= 0.0 and start < float("inf")):
+            raise self.fail(f"ssd:DefaultExperiment startTime={de.get('startTime')}: must be a finite time >= 0 s")
         stop = de.get("stopTime")
         step = None
         for info in de.iter(_q("osp:FixedStepAlgorithm")):   # libcosim's form
@@ -704,7 +705,7 @@ class _Reader:
         return Experiment(stop_time=float(stop) if stop is not None else None, step=step,
                           master=extra.get("master", "jacobi"), extrapolation=int(extra.get("extrapolation", 0)),
                           step_control=extra.get("stepControl"),
-                          tolerance=float(extra["tolerance"]) if "tolerance" in extra else None)
+                          tolerance=float(extra["tolerance"]) if "tolerance" in extra else None, start_time=start)
 
 
 # --------------------------------------------------------------------------------------------------------

@@ -337,6 +337,7 @@ def test_ssp_given_as_an_unpacked_folder(folder):
     s = load_ssp(folder)
     assert [i.name for i in s.instances] == ["a", "b"] and s.instance("a").parameters == {"J": 0.02, "w0": 1.5}
     assert s.instance("a").fmu == folder / "resources" / "Inertia.fmu"
+    assert load(folder).instance("a").parameters == {"J": 0.02, "w0": 1.5}      # harness.load and the CLI too
     (folder / "SystemStructure.ssd").unlink()
     with pytest.raises(SystemError_, match="a folder given as an SSP must hold SystemStructure.ssd"):
         load_ssp(folder)
@@ -477,3 +478,19 @@ def test_a_system_connector_given_a_value_drives_its_inputs_with_it(folder):
     df = quiet_simulate(s, stop_time=0.01, step=1e-3)
     k = float(next(v.start for v in model_description(s.instance("g").fmu).modelVariables if v.name == "k"))
     assert (df["g.y"] == k * 7.0).all() and (df["sub/g.y"] == k * 10.0).all()
+
+
+def test_default_experiment_start_time_is_the_run_start(folder):
+    experiment = ('<ssd:DefaultExperiment startTime="0.25" stopTime="0.3"><ssd:Annotations>'
+                  '<ssc:Annotation type="com.opensimulationplatform"><osp:Algorithm>'
+                  '<osp:FixedStepAlgorithm baseStepSize="0.01"/></osp:Algorithm></ssc:Annotation>'
+                  '</ssd:Annotations></ssd:DefaultExperiment>')
+    (folder / "s.ssd").write_text(ssd(A + B, BOND, experiment=experiment))
+    s = load_ssp(folder / "s.ssd")
+    assert (s.experiment.start_time, s.experiment.stop_time) == (0.25, 0.3)
+    df = quiet_simulate(s)
+    np.testing.assert_allclose(df.index.to_numpy(), np.linspace(0.25, 0.3, 6), rtol=0, atol=1e-12)
+    assert quiet_simulate(s, start_time=0.0).index[0] == 0.0        # an explicit start_time still wins
+    # export writes it back
+    out = export_ssp(s, folder / "back.ssp")
+    assert load_ssp(out).experiment.start_time == 0.25
