@@ -484,8 +484,9 @@ def register(subparsers) -> None:
                         "installed; its folder is made if missing, and checked before the run "
                         "(default: not written)")
     p.add_argument("--units", action="store_true",
-                   help="write a second header row with each column's unit (read it with "
-                        "pandas.read_csv(FILE, header=[0, 1], index_col=0)); default: names only")
+                   help="CSV: write a second header row with each column's unit (read it with "
+                        "pandas.read_csv(FILE, header=[0, 1], index_col=0); Parquet keeps the units in its "
+                        "metadata); default: names only")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
                    help="write charts of the run: DIR/<system>.png/.svg (the system's signals over time) and, "
                         "where the system declares its crank angle, DIR/<system>_cycle.png/.svg (over the last "
