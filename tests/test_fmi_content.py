@@ -207,18 +207,41 @@ def test_fmi3_clock_variables_in_a_co_simulation_fmu_are_refused(reference3, tmp
 
 
 # ------------------------------------------------------------------------------------------------ pythonfmu3
-@pytest.fixture(scope="session")
-def pythonslave3(tmp_path_factory) -> Path:
+def _pythonfmu3_build(out: Path, script: str, model: str) -> Path:
     pytest.importorskip("pythonfmu3")
     import sys
 
-    out = tmp_path_factory.mktemp("pythonfmu3")
-    r = subprocess.run([sys.executable, "-m", "pythonfmu3", "build", "-f", str(HERE / "pythonfmu3" / "pythonslave.py"),
+    r = subprocess.run([sys.executable, "-m", "pythonfmu3", "build", "-f", str(HERE / "pythonfmu3" / script),
                         "-d", str(out)], capture_output=True, text=True)
-    fmu = out / "PythonSlave.fmu"
+    fmu = out / f"{model}.fmu"
     if r.returncode != 0 or not fmu.is_file():
-        pytest.skip(f"pythonfmu3 build failed: {r.stderr.strip()[-300:]}")
+        pytest.skip(f"pythonfmu3 build of {script} failed: {r.stderr.strip()[-300:]}")
     return fmu
+
+
+@pytest.fixture(scope="session")
+def pythonslave3(tmp_path_factory) -> Path:
+    return _pythonfmu3_build(tmp_path_factory.mktemp("pythonfmu3"), "pythonslave.py", "PythonSlave")
+
+
+@pytest.fixture(scope="session")
+def pythonslave3_me(tmp_path_factory) -> Path:
+    """pythonfmu3's Model Exchange test slave: Dahlquist's x' = -k x, x(0) = 1, k = 1."""
+    return _pythonfmu3_build(tmp_path_factory.mktemp("pythonfmu3_me"), "pythonslaveMX.py", "Dahlquist")
+
+
+def test_pythonfmu3_model_exchange_fmu_matches_fmpy_and_the_exact_solution(pythonslave3_me):
+    from harness.fmi import ModelExchange3, open_instance
+
+    inst = open_instance(pythonslave3_me, "probe")
+    assert type(inst) is ModelExchange3
+    inst.free()
+    rtol, stop, step = 1e-6, 2.0, 0.05
+    df = quiet(System("d", [Instance("m", str(pythonslave3_me))], experiment=Experiment(stop_time=stop, step=step)),
+               tolerance=rtol, on_error="raise")
+    assert assert_agrees(df, fmpy_me(pythonslave3_me, stop, step, rtol), "m.", 1e-12, "pythonfmu3 ME") == 1
+    # independent of fmpy: the exact solution, to the solver's tolerance (measured 3.2e-6)
+    assert np.abs(df["m.x"].to_numpy() - np.exp(-df.index.to_numpy())).max() <= 10 * rtol
 
 
 def test_pythonfmu3_fmu_is_opened_as_fmi3_not_as_pythonfmu(pythonslave3):
