@@ -171,9 +171,11 @@ def test_detector_on_synthetic_growth_and_steady_signals():
     # a run that ends before the geometric growth could be confirmed (x2.7 per quarter from 280 steps on,
     # confirmation due at 420): reported at the end, as its rate did not slow; a start from rest ending as
     # short passes both ratios too (x3.4, x2.4) but slows, as any power of t does, and is not
-    assert "still growing geometrically at the end of the run" in feed(growing[:400], 0.0)
-    assert feed(from_rest[:400], 0.0) == ""
-    assert feed(growing[:400], 0.0, DivergenceOptions(end_rate=None)) == ""   # the end report switched off
+    # (and fed by the coupling: 1 % of the flow created; the same growth with nothing created is the machine's)
+    assert "still growing geometrically at the end of the run" in feed(growing[:400], 0.01)
+    assert feed(growing[:400], 0.0) == ""
+    assert feed(from_rest[:400], 0.01) == ""
+    assert feed(growing[:400], 0.01, DivergenceOptions(end_rate=None)) == ""   # the end report switched off
 
 
 def test_a_load_that_jumps_is_not_divergence_but_sustained_creation_is():
@@ -239,18 +241,18 @@ def test_gauss_seidel_zero_order_hold_growth_is_stopped():
     assert df.index[-1] < 2.0 and df["b.drive.tau"].abs().max() < 2 * 4.2
 
 
-def test_a_run_ending_in_its_first_machine_cycle_is_kept_complete_and_marked():
-    """bed_drive stopped at 1 s, in its first machine cycle (the return stroke's torque peaks at 0.8 s): the
-    crank power still grows x3.09 then x2.91 per quarter, as an instability could; the run is not stopped (the
-    drive's normal first cycle, complete at 2 s) but its result carries the one line, and the CLI says it on
-    stderr and exits 0."""
+def test_a_drive_cut_short_in_its_first_cycle_is_not_suspect():
+    """bed_drive over exactly one machine cycle (1 s at 60 rpm): the return stroke's power grows x3 per quarter
+    at the end, but the coupling feeds none of it (1e-3 J of ~150 J): no 'still growing' line, nothing printed
+    but the result (issue 30: this line was noise on a plain `run bed_drive --stop-time 1`)."""
     import subprocess
     import sys
 
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        df = simulate("bed_drive", stop_time=1.0)
+    assert df.attrs["complete"] and df.attrs["suspect"] == "", df.attrs["suspect"]
+    assert not [w for w in caught if "growing" in str(w.message)]
     r = subprocess.run([sys.executable, "-m", "harness", "run", "bed_drive", "--stop-time", "1"],
                        capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    lines = r.stderr.strip().splitlines()
-    warning = [x for x in lines if x.startswith("warning: ") and "growing geometrically" in x]
-    assert len(warning) == 1 and "a start-up or first machine cycle still under way, or an instability" in warning[0], r.stderr
-    assert "flywheel.crank->fourbar.crank" in warning[0]
+    assert r.returncode == 0 and "growing" not in r.stderr, r.stderr
