@@ -159,8 +159,11 @@ class ParallelShaftsModel(Model):
         return self.A @ x + self.B @ np.array([u[0], u[1] + u[2]])
 
     def step_matrices(self, h: float) -> tuple[np.ndarray, np.ndarray]:
-        """(E, F) of x(t0 + h) = E x(t0) + F u for inputs held over h (cached per h)."""
+        """(E, F) of x(t0 + h) = E x(t0) + F u for inputs held over h (cached per h; a step controller's many
+        sizes are kept to the last 16)."""
         if h not in self._steps:
+            if len(self._steps) >= 16:
+                self._steps.pop(next(iter(self._steps)))
             # rates in units of the stiffest mode (w/Omega): the matrix is then balanced (entries ~ Omega*h);
             # unbalanced (c/J ~ 4e7 beside 1), the series loses the rigid rotation's last digits and the
             # energy balance of a run drifts by 0.3 % of what the shafts dissipate
