@@ -348,7 +348,8 @@ def mixed_system(me: dict, cs: dict) -> System:
                   [Connection("vdp.x0", "ft.Float64_continuous_input"),
                    Connection("ft.Float64_continuous_output", "ftm.Float64_continuous_input"),
                    Connection("stair.counter", "ftm.Int32_input"),
-                   Connection("bb.h", "ft.Float64_discrete_input")],
+                   Connection("bb.h", "ft.Float64_discrete_input"),
+                   Connection("bb.v", "ftm.Float64_discrete_input")],
                   experiment=Experiment(stop_time=3.0, step=0.01))
 
 
@@ -375,6 +376,9 @@ def test_model_exchange_fmus_in_a_co_simulation_under_every_master(me_and_cs, ma
     for col in ("stair.counter", "ftm.Int32_output", "ftm.Boolean_output"):
         assert (df[col].to_numpy() == cs[col].to_numpy()).all(), f"{master}: {col}"
     assert (df["ftm.Int32_output"].to_numpy() != 1).any()
+    # a Real input of discrete variability (set in event mode too): the ball's speed, of this point or the last
+    out, v = df["ftm.Float64_discrete_output"].to_numpy(), df["bb.v"].to_numpy()
+    assert ((out[1:] == v[1:]) | (out[1:] == v[:-1])).all() and (out != 0).any()
 
 
 def test_ssd_component_with_implementation_model_exchange_runs_as_me(reference2, tmp_path):

@@ -126,6 +126,7 @@ class _Integrated:
         self._t = 0.0                        # the FMU's time (fmi2SetTime / fmi3SetTime)
         self._discrete = {v.name for v in self.md.modelVariables if v.causality == "input"
                           and (v.type != "Real" or v.variability == "discrete")}
+        self._discrete_blocks: dict[int, bool] = {}   # id(RealBlock) -> holds a discrete input
 
     # -- life cycle --------------------------------------------------------------------------------------------
     def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
@@ -163,11 +164,22 @@ class _Integrated:
         super().free()
 
     # -- inputs: a set input restarts the solver; a discrete one is set in event mode ---------------------------
+    def _before_setting(self, block: RealBlock) -> None:
+        """Event mode first if the block holds a Real input of discrete variability (FMI: set in event mode)."""
+        discrete = self._discrete_blocks.get(id(block))
+        if discrete is None:
+            discrete = self._discrete_blocks[id(block)] = any(n in self._discrete for n in block.names)
+        if discrete and self._mode == "continuous":
+            self._fmi_enter_event_mode()
+            self._mode = "event"
+
     def set(self, block: RealBlock, values=None) -> None:
+        self._before_setting(block)
         super().set(block, values)
         self._restart = True
 
     def set_list(self, block: RealBlock, values: list) -> None:
+        self._before_setting(block)
         super().set_list(block, values)
         self._restart = True
 
