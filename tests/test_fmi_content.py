@@ -399,3 +399,32 @@ def test_ssd_component_with_implementation_model_exchange_runs_as_me(reference2,
     np.testing.assert_allclose(runs["ModelExchange"]["vdp.x0"].to_numpy(), me["x0"].to_numpy(), rtol=0, atol=1e-12)
     # the co-simulation interface (forward Euler inside the FMU) gives another result: the choice is honoured
     assert np.abs(runs["CoSimulation"]["vdp.x0"].to_numpy() - me["x0"].to_numpy()).max() > 1e-6
+
+
+# ------------------------------------------------------------------------------------------------ SSV units
+def test_ssv_gravity_in_cm_per_s2_reaches_bouncing_ball_in_m_per_s2(reference2, tmp_path):
+    """The issue's case: g = -981 cm/s2 in an .ssv for the Reference BouncingBall's g, declared (through its
+    type Acceleration) in m/s2; applied raw it was -981 m/s2."""
+    from harness.ssp import load_ssp
+
+    shutil.copy(reference2["BouncingBall"], tmp_path / "BouncingBall.fmu")
+    (tmp_path / "g.ssv").write_text(
+        '<?xml version="1.0" encoding="UTF-8"?>\n<ssv:ParameterSet version="1.0" name="g"'
+        ' xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"'
+        ' xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon"><ssv:Parameters>'
+        '<ssv:Parameter name="g"><ssv:Real value="-981" unit="cm/s2"/></ssv:Parameter></ssv:Parameters>'
+        '<ssv:Units><ssc:Unit name="cm/s2"><ssc:BaseUnit m="1" s="-2" factor="0.01"/></ssc:Unit></ssv:Units>'
+        '</ssv:ParameterSet>')
+    (tmp_path / "bb.ssd").write_text(
+        '<?xml version="1.0" encoding="UTF-8"?>\n<ssd:SystemStructureDescription version="1.0" name="bb"'
+        ' xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription"><ssd:System name="bb"><ssd:Elements>'
+        '<ssd:Component name="ball" type="application/x-fmu-sharedlibrary" source="BouncingBall.fmu">'
+        '<ssd:ParameterBindings><ssd:ParameterBinding source="g.ssv"/></ssd:ParameterBindings></ssd:Component>'
+        '</ssd:Elements></ssd:System><ssd:DefaultExperiment startTime="0" stopTime="2"/>'
+        '</ssd:SystemStructureDescription>')
+    s = load_ssp(tmp_path / "bb.ssd")
+    assert s.instance("ball").parameters["g"] == pytest.approx(-9.81, rel=1e-15)
+    df = quiet(s, step=0.01, on_error="raise")
+    ref = quiet(System("bb", [Instance("ball", str(tmp_path / "BouncingBall.fmu"), {"g": -9.81})]),
+                stop_time=2.0, step=0.01, on_error="raise")
+    np.testing.assert_allclose(df.to_numpy(), ref.to_numpy(), rtol=1e-12, atol=1e-12)
