@@ -428,3 +428,28 @@ def test_ssv_gravity_in_cm_per_s2_reaches_bouncing_ball_in_m_per_s2(reference2, 
     ref = quiet(System("bb", [Instance("ball", str(tmp_path / "BouncingBall.fmu"), {"g": -9.81})]),
                 stop_time=2.0, step=0.01, on_error="raise")
     np.testing.assert_allclose(df.to_numpy(), ref.to_numpy(), rtol=1e-12, atol=1e-12)
+
+
+def test_an_fmu_error_inside_the_solver_is_raised_with_its_own_message(reference_me, monkeypatch):
+    """CVODE calls the FMU from C callbacks; an FMI failure there stops the run with the FMU's error (through
+    fmpy's solver as is, ctypes prints it to stderr and the run ends with CVODE's "the right-hand side
+    routine failed in an unrecoverable manner", which does not say what failed)."""
+    from harness.errors import FMUError
+    from harness.fmi import me
+
+    original = me.ModelExchange2._fmi_vectors
+
+    def failing(self):
+        get_x, set_x, get_dx, get_z, get_nominals = original(self)
+
+        def get_dx_failing(pointer, n):
+            if self._t > 0.5:
+                raise FMUError(self.name, "fmi2GetDerivatives", self._t, 3, "injected failure")
+            get_dx(pointer, n)
+        return get_x, set_x, get_dx_failing, get_z, get_nominals
+
+    monkeypatch.setattr(me.ModelExchange2, "_fmi_vectors", failing)
+    df = quiet(System("v", [Instance("m", str(reference_me["VanDerPol"]))], experiment=Experiment(stop_time=2.0, step=0.1)))
+    assert not df.attrs["complete"]
+    assert "injected failure" in df.attrs["error"] and "fmi2GetDerivatives" in df.attrs["error"]
+    assert df.index[-1] <= 0.6

@@ -24,8 +24,8 @@ relative tolerance and maximum solver step (:class:`SolverSettings`) a standalon
 ``fmpy.simulate_fmu`` gives on the same output grid (tests/test_fmi_content.py).  An FMU that can get and set
 its state (``canGetAndSetFMUstate``) rolls back: the saved state holds the time, and the solver restarts from
 the restored state.  Errors inside the solver's callbacks (an FMU call failing while CVODE evaluates the
-right-hand side) stop the integration and are raised as the FMU's :class:`~harness.errors.FMUError`, never
-swallowed by the C callback.
+right-hand side) stop the integration and are raised as the FMU's own :class:`~harness.errors.FMUError`
+(the FMU's message), not only as CVODE's "the right-hand side routine failed".
 """
 from __future__ import annotations
 
@@ -74,7 +74,7 @@ class _NoInput:
 
 def _solver_class():
     """fmpy's CVodeSolver with callbacks that stop CVODE on an exception (status -1) and keep it, instead of
-    letting ctypes print it and return 0 (which would integrate on with garbage)."""
+    letting ctypes print it to stderr (then CVODE says only that "the right-hand side routine failed")."""
     from fmpy.sundials import CVodeSolver
 
     class Solver(CVodeSolver):
