@@ -41,7 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _version() -> str:
-    """The installed package's version (its metadata), else the source tree's pyproject.toml."""
+    """The installed package's version, from its metadata (one source: pyproject.toml at install time)."""
     from importlib import metadata
 
     try:
