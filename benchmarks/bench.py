@@ -31,7 +31,8 @@ MODES = ("pinned", "unpinned")
 RTOL = 1e-9          # result check: |value - reference| <= RTOL * (|reference| + column scale)
 REFERENCE = "jacobi-sampled"
 PLAIN_FMI = "jacobi-sampled-fmi"      # the same master through the FMUs' C libraries (no in-process path)
-REALTIME_SYSTEM = "bed_drive"         # whose default scene must run >= 5x faster than real time
+REALTIME_SYSTEM = "bed_drive"         # whose default scene must run >= SCENE_GOAL x faster than real time
+SCENE_GOAL = 10.0                     # issue 29 (issue 21: 5x)
 DECLARED_GOALS = {"bed_drive": 10.0, "feeder_gto52": 5.0}   # issue 21: real-time factor of the declared model
 SWEEP_SYSTEM, SWEEP_GOAL = "feeder_gto52", 0.050   # issue 21: per-point overhead of a warm sweep worker [s]
 FIELDS = ("case", "tool", "mode", "fmus", "steps", "step", "seconds", "us_per_fmu_step", "ratio_harness_to_tool",
@@ -301,8 +302,8 @@ def targets(rows: list[dict]) -> list[tuple[str, bool | None, str]]:
         out.append((what, h < measured[best], f"fastest peer {best}: harness/{best} = {h / measured[best]:.2f}"))
     for r in rows:
         if r.get("kind") == "scene" and "realtime_factor" in r:
-            out.append((f"{REALTIME_SYSTEM} default scene >= 5x faster than real time ({r['mode']})",
-                        r["realtime_factor"] >= 5.0, r["note"]))
+            out.append((f"{REALTIME_SYSTEM} default scene >= {SCENE_GOAL:g}x faster than real time ({r['mode']})",
+                        r["realtime_factor"] >= SCENE_GOAL, r["note"]))
     for name, goal in DECLARED_GOALS.items():
         for mode in MODES:
             r = next((r for r in rows if r.get("kind") == "experiment" and r["mode"] == mode
@@ -406,6 +407,9 @@ def main(argv: list[str] | None = None) -> int:
                     help=f"skip the real-time runs ({REALTIME_SYSTEM}'s default scene, the declared models of "
                          f"{', '.join(DECLARED_GOALS)}) and the sweep's per-point overhead")
     ap.add_argument("--timeout", type=float, default=1800.0, help="per configuration [s]")
+    ap.add_argument("--no-coupling", action="store_true",
+                    help="skip the coupling goals (benchmarks.coupling: the largest steps at each drive's declared "
+                         "accuracy, against the peers)")
     args = ap.parse_args(argv)
     args.out, args.chart = output_paths(args.quick, args.out, args.chart)
     cases = _csv_list(args.cases, CASES, "cases")
@@ -414,6 +418,13 @@ def main(argv: list[str] | None = None) -> int:
     rows = run_all(cases, tools, modes, args.quick, args.out, args.timeout, not args.no_realtime)
     path = write_csv(rows, args.out / "benchmark.csv")
     report(rows)
+    if not (args.no_realtime or args.no_coupling):
+        from benchmarks import coupling
+
+        lines = coupling.goal_lines(args.quick, args.timeout)
+        for what, met, evidence in lines:
+            print(f"[{'n/a ' if met is None else ('MET ' if met else 'MISS')}] {what}: {evidence}")
+        print(f"wrote {coupling.write(lines, args.out / 'coupling_goals.csv')}")
     print(f"\nwrote {path}")
     if not args.no_chart:
         print("chart " + ", ".join(str(p) for p in chart(rows, args.chart)))

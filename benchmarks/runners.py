@@ -203,7 +203,8 @@ def run_realtime(system_name: str, run: dict, quick: bool, repeats: int = 3, sta
     for _ in range(1 if quick else repeats):
         with stand_ins(stand_in) as patched:
             df = simulate(system, stop_time=stop, step=run["step"], master=run["master"],
-                          parameters=run["parameters"], outputs=check_columns_of(system)[:1])
+                          extrapolation=run.get("extrapolation"), parameters=run["parameters"],
+                          outputs=check_columns_of(system)[:1])
         if not df.attrs["complete"]:
             raise RuntimeError(f"{system_name}: {df.attrs['error']}")
         if stand_in and len(patched) != len(system.instances):

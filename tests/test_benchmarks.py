@@ -79,7 +79,7 @@ def test_targets_are_judged_from_the_rows():
     # the plain FMI path: 6.0 > 1.3 * 4.5
     assert got["ring pinned: harness on its plain FMI path within 1.3x of the fmpy floor"] is False
     assert got["bed_drive pinned: harness faster than the fastest peer"] is None  # not measured
-    assert got["bed_drive default scene >= 5x faster than real time (pinned)"] is False  # 4.9 < 5
+    assert got["bed_drive default scene >= 10x faster than real time (pinned)"] is False  # 4.9 < 10 (issue 29)
     # issue 21: the declared models' real-time factors and the sweep's per-point overhead against their goals
     assert got["bed_drive declared model >= 10x real time (pinned)"] is False
     assert got["feeder_gto52 declared model >= 5x real time (pinned)"] is True
@@ -267,3 +267,19 @@ def test_unstable_case_is_timed_without_the_detector_and_says_so(fmu_dir, monkey
         runners.run("jacobi-sampled", folder, case.step, 500, cols, "default")
     out = runners.run("jacobi-sampled", folder, case.step, 500, cols, "default", detector=False)
     assert out["steps"] == 500
+
+
+@pytest.mark.slow
+def test_coupling_goal_lines_quick(tmp_path):
+    """python -m benchmarks.coupling --quick: every goal line of issue 29 printed, judged and written (its numbers
+    mean nothing at these sizes; the line for the peers is n/a where none is installed)."""
+    proc = subprocess.run([sys.executable, "-m", "benchmarks.coupling", "--quick", "--out", str(tmp_path)],
+                          capture_output=True, text=True, cwd=str(ROOT), timeout=900)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    rows = list(csv.DictReader(open(tmp_path / "coupling_goals.csv")))
+    goals = [r["goal"] for r in rows]
+    assert any("full model stable at a 2 ms step" in g for g in goals)
+    assert any("full model meets its declared accuracy" in g for g in goals)
+    assert any("bed_drive declared model at its declared accuracy >= 10x" in g for g in goals)
+    assert any("feeder_gto52 declared model at its declared accuracy >= 5x" in g for g in goals)
+    assert all(r["evidence"] for r in rows)
