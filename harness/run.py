@@ -547,8 +547,8 @@ def _divergence_hint(a: dict) -> str:
 
 
 def run_cli(args) -> int:
+    system = load(args.system)  # a wrong name first: no folder is made for it
     _check_targets(args)
-    system = load(args.system)
     status = 0
     try:
         with warnings.catch_warnings():
