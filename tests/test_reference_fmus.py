@@ -104,13 +104,13 @@ def system(fmus: dict, feedthrough: bool = True) -> System:
                   experiment=Experiment(stop_time=STOP, step=STEP))
 
 
-@pytest.mark.parametrize("master", ["jacobi-sampled", "jacobi", "gauss-seidel", "iterative"])
+@pytest.mark.parametrize("master", ["jacobi-sampled", "jacobi", "gauss-seidel", "iterative", "jacobian"])
 def test_reference_system_with_integer_and_boolean_connections(reference_fmus, master):
     df = quiet(system(reference_fmus), master=master)
     assert len(df) == round(STOP / STEP) + 1 and df.attrs["complete"]
     assert df["stair.counter"].dtype == np.int64 and df["ft2.Boolean_output"].dtype == bool
     counter = df["stair.counter"].to_numpy()
-    if master in ("jacobi", "iterative"):
+    if master in ("jacobi", "iterative", "jacobian"):
         # these refresh declared feed-through at each point, Integer and Boolean as Real: Feedthrough's
         # outputs are its inputs of the same point, through the chain stair -> ft -> ft2
         assert (df["ft.Int32_output"].to_numpy() == counter).all()
