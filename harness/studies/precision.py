@@ -286,8 +286,10 @@ def register_precision(study_subparsers) -> None:
                     "(.png, .svg).")
     p.add_argument("system", help=f"system module name in systems/ ({', '.join(sorted(PRECISION))})")
     p.add_argument("--stop-time", type=float, default=None, help="run length [s] (default: the system's study length)")
-    p.add_argument("--steps", type=float, nargs="+", default=None, help="fixed communication steps [s]")
-    p.add_argument("--tolerances", type=float, nargs="+", default=None, help="tolerances of richardson / ecco")
+    p.add_argument("--steps", type=float, nargs="+", default=None,
+                   help="fixed communication steps [s] (default: the system's precision steps)")
+    p.add_argument("--tolerances", type=float, nargs="+", default=None,
+                   help="tolerances of richardson / ecco (default: the system's, else 1e-2 1e-3 1e-4)")
     p.add_argument("--masters", nargs="+", default=None, help=f"masters (default: {' '.join(DEFAULT_MASTERS)})")
     p.add_argument("--orders", type=int, nargs="+", default=None, choices=(0, 1, 2),
                    help="extrapolation orders (default: 0 1 2)")

@@ -42,17 +42,21 @@ def register_stability(study_subparsers) -> None:
     p.add_argument("--sweep", default=None,
                    help="swept parameter: two_inertia: inertia (J2/J1) or stiffness (c/c1); press drive: "
                         "INSTANCE.PARAMETER (default: the system's coupling parameter, e.g. fourbar.rocker_inertia)")
-    p.add_argument("--values", type=float, nargs="+", default=None, help="values of the swept parameter")
+    p.add_argument("--values", type=float, nargs="+", default=None,
+                   help="values of the swept parameter (default: the sweep's own grid)")
     p.add_argument("--masters", nargs="+", default=None, help="press drives: masters (default: "
                                                                + " ".join(PRESS_MASTERS) + "; also jacobi-sampled)")
-    p.add_argument("--orders", type=int, nargs="+", default=None, help="extrapolation orders (default 0 1 2)")
+    p.add_argument("--orders", type=int, nargs="+", default=None, help="extrapolation orders (default: 0 1 2)")
     p.add_argument("--quick", action="store_true",
-                   help="fewer values, shorter runs, coarser bisection (press drives: 3 values, half the run length, rtol 6 %%; "
-                        "two_inertia: theory only)")
-    p.add_argument("--rtol", type=float, default=None, help="relative width of the final bracket")
+                   help="fewer values, shorter runs, coarser bisection (press drives: 3 values, half the run length, "
+                        "rtol 6 %%; two_inertia: theory only)")
+    p.add_argument("--rtol", type=float, default=None,
+                   help="relative width of the final bracket (default: two_inertia 0.005; press drives 0.03, 0.06 "
+                        "with --quick)")
     p.add_argument("--no-measure", action="store_true", help="two_inertia: theory only (no co-simulation runs)")
     p.add_argument("--periods", type=float, default=None,
-                   help="run length in periods of the (estimated) stiffest coupled mode (two_inertia 90, press 10)")
+                   help="run length in periods of the (estimated) stiffest coupled mode (default: two_inertia 90, "
+                        "press drives 10)")
     p.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results/)")
     p.set_defaults(func=stability_cli)
 
