@@ -1,7 +1,10 @@
 """The one way to build the press-drive FMUs with pythonfmu (library of ``build_fmus.py``).
 
-    python build_fmus.py [--out DIR] [--only NAME ...] [--no-validate]
-    from fmus.build import build; build(out_dir, ["pd_fourbar"])
+    python build_fmus.py [--fmi-version 2|3] [--out DIR] [--only NAME ...] [--no-validate]
+
+Both FMI versions are built from the same declarations by the same command: FMI 2.0 (the default, pythonfmu,
+into build/fmus) or FMI 3.0 co-simulation (``--fmi-version 3``, pythonfmu3, into build/fmus3; the declaration's
+names come from ``fmus.slave3`` instead of ``fmus.slave``, :func:`stage_isolated`).
 
 Each FMU is built from its declaration ``fmus/components/pd_<name>.py`` plus the runtime part of the
 ``fmus`` package (the base slave, units and the pure equations in ``fmus/physics``), both bundled under
@@ -32,11 +35,15 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 COMPONENTS = ROOT / "fmus" / "components"
 DOCS = ROOT / "fmus" / "docs"
-RUNTIME = ("__init__.py", "slave.py", "units.py", "physics")
+# the runtime part of the fmus package, for either FMI version; each FMU bundles all but the other version's slave
+RUNTIME = ("__init__.py", "slave_core.py", "slave.py", "slave3.py", "units.py", "physics")
+SLAVE_MODULE = {2: "slave.py", 3: "slave3.py"}
+VERSIONS = tuple(SLAVE_MODULE)
 
 
 LOADER = ROOT / "fmus" / "loader" / "pressdrive_loader.c"
 PLATFORM = "linux64"     # the one platform the host loader is built for (the others keep pythonfmu's wrapper)
+OUT = {2: ROOT / "build" / "fmus", 3: ROOT / "build" / "fmus3"}   # default output folder of each version
 
 
 _DECLARATION = re.compile(r"^class\s+(\w+)\s*\(\s*PressSlave\s*\)", re.M)
@@ -58,11 +65,20 @@ def component_scripts() -> list[Path]:
     return sorted(set(catalog().values()))
 
 
-def stage_runtime(dest: Path, package: str = "fmus") -> Path:
+def runtime(fmi_version: int = 2) -> tuple[str, ...]:
+    """The parts of the fmus package an FMU of this FMI version needs at run time (RUNTIME without the other
+    version's slave module, so an FMU imports only its own exporter)."""
+    if fmi_version not in SLAVE_MODULE:
+        raise ValueError(f"FMI version {fmi_version!r} is not built here (allowed: {', '.join(map(str, VERSIONS))})")
+    other = {m for v, m in SLAVE_MODULE.items() if v != fmi_version}
+    return tuple(n for n in RUNTIME if n not in other)
+
+
+def stage_runtime(dest: Path, package: str = "fmus", fmi_version: int = 2) -> Path:
     """Copy the parts of the fmus package an FMU needs at run time into dest/<package>."""
     pkg = dest / package
     pkg.mkdir(parents=True)
-    for name in RUNTIME:
+    for name in runtime(fmi_version):
         src = ROOT / "fmus" / name
         if src.is_dir():
             shutil.copytree(src, pkg / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
@@ -71,10 +87,10 @@ def stage_runtime(dest: Path, package: str = "fmus") -> Path:
     return pkg
 
 
-def code_hash(script: Path) -> str:
+def code_hash(script: Path, fmi_version: int = 2) -> str:
     """Digest of everything an FMU's Python code consists of: its declaration and the runtime sources."""
     h = hashlib.sha1(script.read_bytes())
-    for name in RUNTIME:
+    for name in runtime(fmi_version):
         src = ROOT / "fmus" / name
         files = sorted(src.rglob("*.py")) if src.is_dir() else [src]
         for f in files:
@@ -83,7 +99,7 @@ def code_hash(script: Path) -> str:
     return h.hexdigest()[:12]
 
 
-def stage_isolated(script: Path, dest: Path) -> tuple[Path, Path]:
+def stage_isolated(script: Path, dest: Path, fmi_version: int = 2) -> tuple[Path, Path]:
     """The FMU's code under names unique to this build: ``fmus_<hash>`` and ``<script>_<hash>``.
 
     Every FMU bundles the runtime package; under one shared name a host process would keep the first copy
@@ -91,11 +107,22 @@ def stage_isolated(script: Path, dest: Path) -> tuple[Path, Path]:
     would silently share it.  The runtime package imports itself relatively; only the declaration names it.
     The staged declaration ends by importing every module of the package, so nothing is imported lazily later
     (a function's own ``from .x import y`` then finds ``x`` in ``sys.modules`` even after the host deleted
-    the folder it came from)."""
-    digest = code_hash(script)
-    pkg = stage_runtime(dest, f"fmus_{digest}")
+    the folder it came from).
+
+    For FMI 3.0 the declaration imports its names from ``fmus.slave3`` instead of ``fmus.slave`` (the same
+    names: the base class is the FMI 3.0 one), and its class statement also names pythonfmu3's ``Fmi3Slave``,
+    already a base of that class: pythonfmu3's builder and C wrapper find the FMU class by that word."""
+    digest = code_hash(script, fmi_version)
+    pkg = stage_runtime(dest, f"fmus_{digest}", fmi_version)
     text = script.read_text(encoding="utf-8")
     text = re.sub(r"^(\s*)(from|import)\s+fmus(?=[.\s])", rf"\1\2 fmus_{digest}", text, flags=re.M)
+    if fmi_version == 3:
+        text, n = re.subn(rf"^(\s*from\s+fmus_{digest}\.slave)(\s+import)", r"\g<1>3\2", text, flags=re.M)
+        text, m = _DECLARATION.subn(r"from pythonfmu3 import Fmi3Slave  # noqa: E402\nclass \1(PressSlave, Fmi3Slave)",
+                                    text)
+        if n != 1 or m != 1:
+            raise RuntimeError(f"{script.name}: an FMI 3.0 build needs one 'from fmus.slave import ...' and one "
+                               f"'class X(PressSlave)' (found {n} and {m})")
     modules = sorted(".".join(f.relative_to(dest).with_suffix("").parts).removesuffix(".__init__")
                      for f in pkg.rglob("*.py"))
     text += ("\n\n# every module of the bundled package, imported now (fmus/build.py: stage_isolated)\n"
@@ -149,17 +176,23 @@ def add_loader(fmu: Path, loader: Path) -> None:
     os.replace(tmp, fmu)
 
 
-def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path | None = None) -> Path:
+def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path | None = None,
+              fmi_version: int = 2) -> Path:
     """Build one FMU from its declaration into ``out`` (its code under build-unique names, see
-    :func:`stage_isolated`); with ``loader``, the host loader goes in front of pythonfmu's wrapper."""
-    import pythonfmu
-    from pythonfmu.builder import FmuBuilder
+    :func:`stage_isolated`); with ``loader``, the host loader goes in front of pythonfmu's wrapper (FMI 2.0
+    only: the loader forwards fmi2* calls)."""
+    if fmi_version == 3:
+        import pythonfmu3 as pythonfmu
+        from pythonfmu3.builder import FmuBuilder
+    else:
+        import pythonfmu
+        from pythonfmu.builder import FmuBuilder
 
     doc_dir = DOCS / script.stem.removeprefix("pd_")
     stage = Path(tempfile.mkdtemp(prefix=f"pressdrive_src_{script.stem}_"))
     try:
-        staged, runtime = stage_isolated(script, stage)
-        fmu = _pythonfmu_build(FmuBuilder, staged, out, runtime, doc_dir)
+        staged, runtime = stage_isolated(script, stage, fmi_version)
+        fmu = _pythonfmu_build(FmuBuilder, staged, out, runtime, doc_dir, fmi_version)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     with zipfile.ZipFile(fmu) as z:
@@ -167,18 +200,20 @@ def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path
             # the pythonfmu in use is a copy from some FMU's resources (no binaries of its own)
             raise RuntimeError(f"{fmu.name} has no binaries: the pythonfmu imported from "
                                f"{Path(pythonfmu.__file__).parent} is not an installed package")
-    if loader is not None:
+    if loader is not None and fmi_version == 2:
         add_loader(fmu, loader)
     return fmu
 
 
-def _pythonfmu_build(FmuBuilder, script: Path, out: Path, runtime: Path, doc_dir: Path) -> Path:
+def _pythonfmu_build(FmuBuilder, script: Path, out: Path, runtime: Path, doc_dir: Path,
+                     fmi_version: int = 2) -> Path:
+    # FMI 3.0 spells the state capability canGetAndSetFMUState (fmus.slave3 sets every capability itself too)
+    state = {"canGetAndSetFMUState" if fmi_version == 3 else "canGetAndSetFMUstate": True}
     with contextlib.redirect_stdout(io.StringIO()):
         fmu = Path(FmuBuilder.build_FMU(
             script, dest=out, project_files=[runtime],
             documentation_folder=doc_dir if doc_dir.is_dir() else None,
-            canGetAndSetFMUstate=True, canHandleVariableCommunicationStepSize=True,
-            needsExecutionTool=False))
+            canHandleVariableCommunicationStepSize=True, needsExecutionTool=False, **state))
     return fmu
 
 
@@ -190,10 +225,15 @@ def validate(fmu: Path) -> list[str]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[1].strip(),
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=ROOT / "build" / "fmus", help="output folder (default build/fmus)")
+    ap.add_argument("--fmi-version", type=int, choices=VERSIONS, default=2,
+                    help="FMI version of the FMUs: 2 (pythonfmu) or 3 (pythonfmu3, co-simulation); default 2")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="output folder (default build/fmus for FMI 2.0, build/fmus3 for FMI 3.0)")
     ap.add_argument("--only", nargs="*", default=None, help="build only these modules (e.g. pd_fourbar)")
     ap.add_argument("--no-validate", action="store_true", help="skip the fmpy validation of each FMU")
     args = ap.parse_args(argv)
+    if args.out is None:
+        args.out = OUT[args.fmi_version]
 
     scripts = component_scripts()
     if args.only:
@@ -207,7 +247,7 @@ def main(argv: list[str] | None = None) -> int:
     failed = []
     with tempfile.TemporaryDirectory(prefix="pressdrive_runtime_") as tmp:
         loader = None
-        if sys.platform.startswith("linux"):
+        if sys.platform.startswith("linux") and args.fmi_version == 2:
             try:
                 loader = compile_loader(Path(tmp))
             except RuntimeError as e:
@@ -219,7 +259,7 @@ def main(argv: list[str] | None = None) -> int:
             stage = Path(tempfile.mkdtemp(prefix=f".{script.stem}_", dir=args.out))
             try:
                 try:
-                    staged = build_one(script, stage, loader=loader)
+                    staged = build_one(script, stage, loader=loader, fmi_version=args.fmi_version)
                 except Exception as e:  # report and continue with the others
                     print(f"build_fmus: FAILED {script.name}: {type(e).__name__}: {e}", file=sys.stderr)
                     failed.append(script.name)
