@@ -37,6 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     scenes.register(sub)          # scene X NAME
     sweep.register(sub)           # sweep X --grid spec
     _show_defaults(ap)
+    _accept_negative_numbers(ap)
     return ap
 
 
@@ -76,20 +77,17 @@ def _show_defaults(parser: argparse.ArgumentParser) -> None:
                 _show_defaults(sp)
 
 
-def _join_negative_values(argv: list[str]) -> list[str]:
-    """``--step -1e-4`` -> ``--step=-1e-4``: argparse takes a negative number in exponent notation for an
-    option and answers "expected one argument"; joined, the value reaches the command's own check."""
+def _accept_negative_numbers(parser: argparse.ArgumentParser) -> None:
+    """Every command takes a negative number in any notation as a value (``--step -1e-4``, ``--values -1e-3
+    0.5``), so it reaches the command's own check and its one-line message: argparse knows ``-1`` and ``-.5``
+    only, and takes ``-1e-4`` for an unknown option (walks the sub-commands)."""
     import re
 
-    number = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$", re.IGNORECASE)
-    plain = re.compile(r"^-\d+$|^-\d*\.\d+$")  # argparse's own: a value as it stands, also of a list (--values -1 2)
-    out: list[str] = []
-    for tok in argv:
-        if out and number.match(tok) and not plain.match(tok) and out[-1].startswith("--") and "=" not in out[-1]:
-            out[-1] = f"{out[-1]}={tok}"
-        else:
-            out.append(tok)
-    return out
+    parser._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$", re.IGNORECASE)
+    for a in parser._actions:
+        if isinstance(a, argparse._SubParsersAction):
+            for sp in a.choices.values():
+                _accept_negative_numbers(sp)
 
 
 def _sigterm_as_interrupt():
@@ -119,7 +117,7 @@ def _debug_anywhere(argv: list[str]) -> tuple[list[str], bool]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = _join_negative_values(sys.argv[1:] if argv is None else list(argv))
+    argv = sys.argv[1:] if argv is None else list(argv)
     argv, debug = _debug_anywhere(argv)
     argv = (["--debug"] if debug else []) + argv
     before = _sigterm_as_interrupt()

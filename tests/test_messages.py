@@ -201,3 +201,14 @@ def test_no_option_help_says_default_none_where_a_default_exists():
 
     walk(build_parser(), [])
     assert not bad, bad
+
+
+@pytest.mark.parametrize("args, expected", [
+    (("study", "stability", "two_inertia", "--values", "-1e-3", "0.5"), "--values: -0.001 is not admissible"),
+    (("run", "two_inertia", "--step", "-1e-4"), "step = -0.0001 is not admissible"),
+    (("run", "two_inertia", "--stop-time", "-inf"), "stop_time = -inf is not admissible"),
+])
+def test_negative_numbers_in_any_notation_reach_the_commands_check(tmp_path, args, expected):
+    """argparse took '-1e-3' for an unknown option ('unrecognized arguments' for a list option, issue 30)."""
+    rc, out, err = cli(*args, "--out", tmp_path / ("x.csv" if args[0] == "run" else "o"))
+    assert rc == 1 and expected in one_line(err), err
