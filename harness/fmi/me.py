@@ -9,7 +9,7 @@ master sets them before the step, as for a co-simulation FMU that cannot interpo
 
 * the solver is SUNDIALS CVODE (BDF, dense linear solver) as FMPy ships it (:class:`fmpy.sundials.CVodeSolver`),
   with its root finding on the event indicators: a **state event** stops the integration where an indicator
-  changes sign;
+  changes sign (scipy's BDF with its event location where FMPy has no CVODE: :class:`_ScipySolver`);
 * a **time event** (``nextEventTime`` from fmi2NewDiscreteStates / fmi3UpdateDiscreteStates) is a point the
   integration stops at;
 * a **step event** is what fmi2/3CompletedIntegratorStep asks for after each integration segment;
@@ -45,13 +45,19 @@ class SolverSettings:
     rtol x each state's nominal, as FMPy sets it); None takes the run's ``tolerance`` if one is given, else
     1e-6 (an order tighter than FMPy's default 1e-5: the component's error adds to the coupling error).
     ``max_step`` [s]: the largest internal step; None is FMPy's choice, (stop - start) / 50, or no limit
-    without a stop time.  ``max_steps``: internal steps allowed per integration segment (FMPy: 500)."""
+    without a stop time.  ``max_steps``: internal steps allowed per integration segment (FMPy: 500).
+    ``solver``: "cvode" (FMPy's SUNDIALS CVODE; where FMPy ships no CVODE for the platform, scipy's is taken,
+    with one warning) or "scipy" (:class:`_ScipySolver`: scipy's BDF with event location, the fallback)."""
 
     rtol: float | None = None
     max_step: float | None = None
     max_steps: int = 500
+    solver: str = "cvode"
 
     def __post_init__(self):
+        if self.solver not in SOLVERS:
+            raise ValueError(f"SolverSettings.solver = {self.solver!r} is not admissible: must be one of "
+                             f"{', '.join(SOLVERS)}")
         for name in ("rtol", "max_step"):
             v = getattr(self, name)
             if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
@@ -62,6 +68,11 @@ class SolverSettings:
 
 
 DEFAULT_RTOL = 1e-6
+SOLVERS = ("cvode", "scipy")
+
+
+class SolverFallback(UserWarning):
+    """A Model Exchange FMU is integrated by scipy because FMPy ships no CVODE for this platform."""
 
 
 class _NoInput:
@@ -72,10 +83,20 @@ class _NoInput:
         return None
 
 
-def _solver_class():
-    """fmpy's CVodeSolver with callbacks that stop CVODE on an exception (status -1) and keep it, instead of
-    letting ctypes print it to stderr (then CVODE says only that "the right-hand side routine failed")."""
-    from fmpy.sundials import CVodeSolver
+def _solver_class(name: str = "cvode"):
+    """The solver class: scipy's (:class:`_ScipySolver`), or fmpy's CVodeSolver with callbacks that stop
+    CVODE on an exception (status -1) and keep it, instead of letting ctypes print it to stderr (then CVODE
+    says only that "the right-hand side routine failed")."""
+    if name == "scipy":
+        return _ScipySolver
+    try:
+        from fmpy.sundials import CVodeSolver
+    except Exception as e:  # no CVODE library for this platform in FMPy
+        import warnings
+
+        warnings.warn(SolverFallback(f"FMPy's CVODE is not available here ({type(e).__name__}: {e}); Model "
+                                     f"Exchange FMUs are integrated by scipy's BDF"), stacklevel=3)
+        return _ScipySolver
 
     class Solver(CVodeSolver):
         failure: BaseException | None = None
@@ -95,6 +116,119 @@ def _solver_class():
                 return -1
 
     return Solver
+
+
+class _ScipySolver:
+    """The fallback solver: scipy's ``solve_ivp`` (BDF) over one segment, its event location on the event
+    indicators (every indicator an event function, terminal), with the interface of fmpy's CVodeSolver
+    (``step(t, t_next)`` -> (state event, roots, time reached), ``reset(t)``).  Without continuous states a
+    dummy state (x' = 0) lets the event location run, as fmpy does for CVODE."""
+
+    failure: BaseException | None = None
+
+    def __init__(self, nx, nz, get_x, set_x, get_dx, get_z, get_nominals, set_time, input, startTime,
+                 maxStep=float("inf"), relativeTolerance=1e-5, maxNumSteps=500):
+        import numpy as np
+
+        self.np = np
+        self.nx, self.nz = nx, nz
+        self.get_x, self.set_x, self.get_dx = get_x, set_x, get_dx
+        self.get_z, self.get_nominals = get_z, get_nominals
+        self.set_time, self.max_step, self.rtol = set_time, maxStep, relativeTolerance
+        self.x = np.zeros(max(nx, 1))
+        self.dx = np.zeros(max(nx, 1))
+        self.z = np.zeros(nz)
+        self.atol = np.full(max(nx, 1), relativeTolerance)
+        self.reset(startTime)
+
+    def _p(self, array):
+        return array.ctypes.data_as(POINTER(c_double))
+
+    def _load(self, t, y) -> None:
+        self.set_time(t)
+        if self.nx:
+            self.x[:] = y
+            self.set_x(self._p(self.x), self.nx)
+
+    def _rhs(self, t, y):
+        self._load(t, y)
+        if not self.nx:
+            return self.np.zeros(1)
+        self.get_dx(self._p(self.dx), self.nx)
+        return self.dx.copy()
+
+    def _indicator(self, i: int, direction: float = 0.0):
+        def event(t, y):
+            self._load(t, y)
+            self.get_z(self._p(self.z), self.nz)
+            return self.z[i]
+        event.terminal = True
+        event.direction = direction
+        return event
+
+    def _directions(self, t, t_next, y0) -> list[float]:
+        """Per indicator, the crossing direction to look for: any, except for an indicator (about) zero at the
+        segment's start (just after an event): only a crossing against the way it is leaving zero, so that
+        the event just handled is not found again at the start (CVODE treats such roots as inactive)."""
+        np = self.np
+        z0 = np.zeros(self.nz)
+        self._load(t, y0)
+        self.get_z(self._p(z0), self.nz)
+        small = np.abs(z0) <= 1e-10 * (1.0 + np.abs(z0).max())
+        if not small.any():
+            return [0.0] * self.nz
+        h = 1e-6 * (t_next - t)
+        y1 = y0 + h * self._rhs(t, y0) if self.nx else y0
+        z1 = np.zeros(self.nz)
+        self._load(t + h, y1)
+        self.get_z(self._p(z1), self.nz)
+        return [float(-np.sign(z1[i] - z0[i])) if small[i] else 0.0 for i in range(self.nz)]
+
+    def reset(self, time) -> None:
+        if self.nx:
+            self.get_x(self._p(self.x), self.nx)
+            nominals = self.np.zeros(self.nx)
+            self.get_nominals(self._p(nominals), self.nx)
+            self.atol = self.rtol * nominals
+
+    def step(self, t, t_next):
+        from scipy.integrate import solve_ivp
+
+        if self.nx:
+            self.get_x(self._p(self.x), self.nx)
+        y0 = self.x.copy() if self.nx else self.np.zeros(1)
+        directions = self._directions(t, t_next, y0) if self.nz else []
+        events = [self._indicator(i, d) for i, d in enumerate(directions)]
+        sol = solve_ivp(self._rhs, (t, t_next), y0, method="BDF", rtol=self.rtol, atol=self.atol,
+                        max_step=self.max_step, events=events or None, dense_output=bool(events))
+        if sol.status < 0:
+            raise RuntimeError(f"scipy solve_ivp failed: {sol.message}")
+        roots = self.np.zeros(self.nz, dtype=self.np.int32)
+        if sol.status == 1:
+            hits = [(te[0], i) for i, te in enumerate(sol.t_events) if len(te)]
+            t_end = min(h[0] for h in hits)
+            first = [i for when, i in hits if when == t_end]
+            roots[first] = 1
+            t_end, y_end = self._past_root(sol, t, t_end, t_next, first, events)
+        else:
+            t_end, y_end = t_next, sol.y[:, -1]
+        self._load(t_end, y_end)
+        return sol.status == 1, roots, float(t_end)
+
+    def _past_root(self, sol, t, t_root, t_next, crossed, events):
+        """The first point at or after the located root where the indicator has really changed sign: scipy
+        locates a root to rounding, on either side; the FMU decides its event from the sign (CVODE, too,
+        returns the point past the root)."""
+        before = {i: events[i](t, sol.sol(t)) for i in crossed}
+        delta = 1e-15 * max(1.0, abs(t_root))
+        when = t_root
+        while when < t_next:
+            y = sol.sol(when)
+            if all(events[i](when, y) * before[i] <= 0.0 for i in crossed):
+                return when, y
+            when = min(t_root + delta, t_next)
+            delta *= 4.0
+        return t_next, sol.sol(t_next)
 
 
 class _MEState:
@@ -201,10 +335,10 @@ class _Integrated:
         if max_step is None:
             max_step = (self._stop - self._start) / 50.0 if self._stop is not None else float("inf")
         get_x, set_x, get_dx, get_z, get_nominals = self._fmi_vectors()
-        return _solver_class()(nx=self.nx, nz=self.nz, get_x=get_x, set_x=set_x, get_dx=get_dx, get_z=get_z,
-                               get_nominals=get_nominals, set_time=self._set_time, input=_NoInput(),
-                               startTime=t, maxStep=max_step, relativeTolerance=self._rtol,
-                               maxNumSteps=self.settings.max_steps)
+        cls = _solver_class(self.settings.solver)
+        return cls(nx=self.nx, nz=self.nz, get_x=get_x, set_x=set_x, get_dx=get_dx, get_z=get_z,
+                   get_nominals=get_nominals, set_time=self._set_time, input=_NoInput(), startTime=t,
+                   maxStep=max_step, relativeTolerance=self._rtol, maxNumSteps=self.settings.max_steps)
 
     def _integrate(self, t: float, t_next: float) -> tuple[bool, float]:
         """One solver segment from ``t`` towards ``t_next``: (state event, time reached)."""
@@ -372,4 +506,4 @@ class ModelExchange3(_Integrated, FMU3):
                                          "fmi3GetNominalsOfContinuousStates"))
 
 
-__all__ = ["ModelExchange2", "ModelExchange3", "SolverSettings"]
+__all__ = ["ModelExchange2", "ModelExchange3", "SolverSettings", "SolverFallback", "SOLVERS"]
