@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import hashlib
+import importlib.util
 import io
 import os
 import re
@@ -202,7 +203,37 @@ def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path
                                f"{Path(pythonfmu.__file__).parent} is not an installed package")
     if loader is not None and fmi_version == 2:
         add_loader(fmu, loader)
+    if fmi_version == 3:
+        add_terminals(fmu, script)
     return fmu
+
+
+def declaration(script: Path) -> type:
+    """The FMU class a declaration ``pd_<name>.py`` defines, imported from the file under a private name
+    (for what the build writes beside the modelDescription)."""
+    names = _DECLARATION.findall(script.read_text(encoding="utf-8"))
+    if len(names) != 1:
+        raise RuntimeError(f"{script.name}: expected one 'class X(PressSlave)', found {len(names)}")
+    spec = importlib.util.spec_from_file_location(f"_pressdrive_declaration_{script.stem}", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return getattr(module, names[0])
+
+
+def add_terminals(fmu: Path, script: Path) -> None:
+    """FMI 3.0: the power bonds as terminals, ``terminalsAndIcons/terminalsAndIcons.xml``
+    (:func:`fmus.slave3.terminals_and_icons`; pythonfmu3 0.3.4's own ``terminals`` option packs a wrong file)."""
+    from xml.dom.minidom import parseString
+    from xml.etree.ElementTree import tostring
+
+    from fmus.slave3 import terminals_and_icons
+
+    root = terminals_and_icons(declaration(script).ports)
+    if root is None:
+        return
+    with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("terminalsAndIcons/terminalsAndIcons.xml",
+                   parseString(tostring(root, "UTF-8")).toprettyxml(encoding="UTF-8"))
 
 
 def _pythonfmu_build(FmuBuilder, script: Path, out: Path, runtime: Path, doc_dir: Path,

@@ -21,6 +21,9 @@ differently:
 pythonfmu3 0.3.4 does not pass ``startTime`` of ``fmi3EnterInitializationMode`` to the slave (its
 ``setup_experiment`` is never called), so outputs before the first step are computed at t = 0; the time of
 every step is the ``currentCommunicationPoint`` the host passes to ``fmi3DoStep``.
+
+The power bonds are FMI 3.0 terminals too (:func:`terminals_and_icons`, packed by the build as
+``terminalsAndIcons/terminalsAndIcons.xml``), so a host that reads terminals connects a flange as one connector.
 """
 from __future__ import annotations
 
@@ -30,6 +33,9 @@ from pythonfmu3 import Fmi3Causality, Fmi3Slave, Fmi3Status, Fmi3Variability, Fl
 
 from .slave_core import (Input, Output, Port, PressBehaviour, Rotational, Translational, Variable,  # noqa: F401
                          unit_definitions)
+
+# terminalKind of a power bond: a host connects two terminals of one kind (a motion-out flange to a motion-in one)
+TERMINAL_KIND = {False: "org.pressdrive.RotationalFlange", True: "org.pressdrive.TranslationalFlange"}
 
 # what the toolkit's FMI 3.0 co-simulation FMUs can do (the same capabilities as their FMI 2.0 twins)
 CO_SIMULATION = {"needsExecutionTool": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
@@ -110,3 +116,26 @@ class PressSlave(PressBehaviour, Fmi3Slave):
         SubElement(tool, "Slave", {"module": type(self).__module__, "class": type(self).__name__,
                                    "advancedPositions": " ".join(self._advanced_positions())})
         return root
+
+
+def terminals_and_icons(ports: tuple[Port, ...]) -> Element | None:
+    """``fmiTerminalsAndIcons`` with one terminal per power bond (None for an FMU without bonds: the schema
+    wants at least one terminal).  A rotational flange is ``phi``, ``w``, ``tau``; a translational one ``s``,
+    ``v``, ``f``; ``matchingRule="plug"`` (every member is connected to the member of the same name).  Motion
+    members are signals.  The effort is FMI 3.0's flow variable: on a motion-out port it is the torque/force
+    the connected part exerts on this flange (``inflow``, positive into the FMU: ``tau*w`` is the power flowing
+    in), on a motion-in port the reaction this component exerts on the driving flange (``outflow``)."""
+    if not ports:
+        return None
+    root = Element("fmiTerminalsAndIcons", fmiVersion="3.0")
+    terminals = SubElement(root, "Terminals")
+    for port in ports:
+        terminal = SubElement(terminals, "Terminal", name=port.name, matchingRule="plug",
+                              terminalKind=TERMINAL_KIND[port.translational],
+                              description=f"{port.doc} (motion {port.motion})")
+        motion, speed, effort = port.variables()
+        for v, kind in ((motion, "signal"), (speed, "signal"),
+                        (effort, "outflow" if port.motion == "in" else "inflow")):
+            SubElement(terminal, "TerminalMemberVariable", variableName=v.name,
+                       memberName=v.name.removeprefix(f"{port.name}."), variableKind=kind)
+    return root

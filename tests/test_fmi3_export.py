@@ -230,12 +230,48 @@ def test_fmpy_simulates_the_fmi3_fmu_through_the_standard_run_of_its_reference_c
     assert dev[worst] <= TOLERANCE, f"{name}: {header[worst]} off by {dev[worst]:.3g} of its range"
 
 
-@pytest.mark.parametrize("name", ["FourBar", "Gain"])
+@pytest.mark.parametrize("name", sorted(CATALOG))
 def test_the_fmi3_run_is_the_fmi2_run_bit_for_bit(name, fmu3_dir, fmu_dir):
     """Same code, same floats: the FMI 3.0 FMU under fmpy gives exactly the FMI 2.0 FMU's numbers (the 1e-9 of
     the reference check is the CSV's rounding, not a difference between the versions)."""
     assert np.array_equal(simulate_standard_run(fmu3_dir / f"{name}.fmu", name),
                           simulate_standard_run(fmu_dir / f"{name}.fmu", name))
+
+
+# -- terminals ------------------------------------------------------------------------------------------------
+def test_terminals_are_schema_valid_and_are_the_power_bonds(fmu3_dir):
+    """terminalsAndIcons.xml against FMI 3.0's schema (fmpy ships it; its validate_fmu does not read terminals):
+    one terminal per declared port, members phi/w/tau (s/v/f) naming the FMU's variables, motion members of one
+    causality and the effort of the other, so a motion-out terminal plugs into a motion-in one member by member."""
+    from lxml import etree
+
+    schema = etree.XMLSchema(file=str(Path(validate_fmu.__code__.co_filename).parent / "schema" / "fmi3"
+                                      / "fmi3TerminalsAndIcons.xsd"))
+    for name in sorted(CATALOG):
+        fmu = fmu3_dir / f"{name}.fmu"
+        ports = declaration_class(name).ports
+        with zipfile.ZipFile(fmu) as z:
+            if not ports:
+                assert "terminalsAndIcons/terminalsAndIcons.xml" not in z.namelist(), name
+                continue
+            doc = etree.fromstring(z.read("terminalsAndIcons/terminalsAndIcons.xml"))
+        assert schema.validate(doc), (name, str(schema.error_log))
+        variables = {v.name: v for v in read_model_description(str(fmu)).modelVariables}
+        terminals = doc.findall("Terminals/Terminal")
+        assert [t.get("name") for t in terminals] == [p.name for p in ports], name
+        for port, terminal in zip(ports, terminals):
+            members = [(m.get("memberName"), m.get("variableName"), m.get("variableKind"))
+                       for m in terminal.findall("TerminalMemberVariable")]
+            x, v, e = ("s", "v", "f") if port.translational else ("phi", "w", "tau")
+            flow = "outflow" if port.motion == "in" else "inflow"
+            assert members == [(x, f"{port.name}.{x}", "signal"), (v, f"{port.name}.{v}", "signal"),
+                               (e, f"{port.name}.{e}", flow)], (name, members)
+            causality = [variables[m[1]].causality for m in members]
+            motion = "input" if port.motion == "in" else "output"
+            assert causality == [motion, motion, "output" if motion == "input" else "input"], (name, causality)
+            assert terminal.get("matchingRule") == "plug"
+            assert terminal.get("terminalKind").endswith("TranslationalFlange" if port.translational
+                                                         else "RotationalFlange")
 
 
 # -- behaviour over FMI 3.0 calls -------------------------------------------------------------------------------
