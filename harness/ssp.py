@@ -20,15 +20,15 @@ the SSP 1.0 schema says; ``sourceBase="component"`` reads the .ssv from inside t
 SSP 1.0 resolves it against the component's source), connections with linear transformations, the
 default experiment and the OSP fixed-step annotation.  A component with ``implementation="ModelExchange"``
 runs through its FMU's Model Exchange interface (:func:`harness.fmi.cache.model_exchange_only`,
-:mod:`harness.fmi.me`).  A Real parameter value given with a ``unit`` other than
-its FMU variable's is converted through the unit definitions (SSP's and FMI's unit model: exponents of the
-SI base units, ``factor`` and ``offset``; :class:`_Unit`), looked up in the .ssv's ``ssv:Units``, then the
-.ssd's ``ssd:Units``, then the FMU's ``UnitDefinitions``; a value that cannot be converted that way is refused
-in one line naming the file, component, parameter, value and both units.  Parameter mappings (``.ssm`` or
-inline; :class:`_Mapping`) rename and transform a binding's values.  Nested systems are flattened
-(:meth:`_Reader.collect`, :meth:`_Reader.resolve`): a component of system ``Sub`` becomes instance
-``Sub/Component``, and connections through system connectors are followed to the FMU output that drives them.
-An SSP may be given unpacked, as a folder holding SystemStructure.ssd.  Anything else that changes the
+:mod:`harness.fmi.me`).  A Real parameter value given with a ``unit`` other than its FMU variable's is
+converted through the unit definitions (SSP's and FMI's unit model, :mod:`harness.ssp_values`), looked up in
+the .ssv's ``ssv:Units``, then the .ssd's ``ssd:Units``, then the FMU's ``UnitDefinitions``; a value that
+cannot be converted that way is refused in one line naming the file, component, parameter, value and both
+units.  Parameter mappings (``.ssm`` or inline; :class:`harness.ssp_values.Mapping`) rename and transform a
+binding's values.  Nested systems are flattened (:meth:`_Reader.collect`, :meth:`_Reader.resolve`): a
+component of system ``Sub`` becomes instance ``Sub/Component``, and connections through system connectors are
+followed to the FMU output that drives them.  An SSP may be given unpacked, as a folder holding
+SystemStructure.ssd; a DefaultExperiment's startTime is the run's start.  Anything else that changes the
 meaning of the system (signal dictionaries, non-FMU components, inputs of the whole system, connection
 transformations other than linear) is refused with one line naming the element and the file.
 """
@@ -43,6 +43,7 @@ from fmus.units import BASE_UNITS
 from harness.errors import SystemError_
 from harness.fmi.cache import model_exchange_only, unzipped
 from harness.model import Bond, Connection, Experiment, Instance, System, model_description, resolve_fmu
+from harness.ssp_values import Mapping, Quantity, Unit, units
 
 NS = {
     "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
@@ -217,60 +218,6 @@ def load_ssp(path: str | Path) -> System:
     return _Reader(ssd_path, root_dir).system(tree.getroot())
 
 
-_BASE = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
-
-
-class _Unit:
-    """A unit as SSP 1.0 (ssc:BaseUnit) and FMI 2.0/3.0 (BaseUnit) define it: the exponents of the SI base
-    units and the affine map to them, value_SI = factor * value + offset."""
-
-    __slots__ = ("exponents", "factor", "offset")
-
-    def __init__(self, exponents: tuple, factor: float = 1.0, offset: float = 0.0):
-        self.exponents, self.factor, self.offset = tuple(exponents), float(factor), float(offset)
-
-    @classmethod
-    def from_xml(cls, base: ET.Element | None) -> "_Unit":
-        if base is None:  # a unit without a BaseUnit: dimensionless, as in FMI
-            return cls((0,) * len(_BASE))
-        return cls([int(base.get(k, "0")) for k in _BASE], float(base.get("factor", "1")),
-                   float(base.get("offset", "0")))
-
-    @classmethod
-    def from_fmpy(cls, unit) -> "_Unit":
-        b = unit.baseUnit
-        if b is None:
-            return cls((0,) * len(_BASE))
-        return cls([int(getattr(b, k) or 0) for k in _BASE], b.factor, b.offset)
-
-    @property
-    def scaled(self) -> bool:
-        return self.factor != 1.0 or self.offset != 0.0
-
-    def dimension(self) -> str:
-        return ".".join(f"{k}{e if e != 1 else ''}" for k, e in zip(_BASE, self.exponents) if e) or "1"
-
-
-def _units(parent: ET.Element | None, tag: str) -> dict[str, _Unit]:
-    """name -> unit of the ssc:Unit elements under ``parent``'s ``tag`` (ssd:Units or ssv:Units)."""
-    out = {}
-    if parent is not None:
-        for u in parent.findall(f"{_q(tag)}/{_q('ssc:Unit')}"):
-            out[u.get("name")] = _Unit.from_xml(u.find(_q("ssc:BaseUnit")))
-    return out
-
-
-class _Quantity:
-    """A Real parameter value given with a unit, converted once its component's FMU is known
-    (:meth:`_Reader.convert`).  ``units``: the definitions that were in scope where it was written (the .ssv's
-    own over the .ssd's); ``where``: the file it came from, for messages."""
-
-    __slots__ = ("value", "unit", "units", "where")
-
-    def __init__(self, value: float, unit: str, units: dict, where: str):
-        self.value, self.unit, self.units, self.where = value, unit, units, where
-
-
 NESTED = "/"   # joins a nested system's name and its element's: instance "Sub/Component" (names hold no ".")
 
 
@@ -290,81 +237,10 @@ def _label(endpoint: tuple) -> str:
     return f"system connector '{NESTED.join(owner + (name,)) if owner else name}'"
 
 
-def _bool(text: str | None) -> int:
-    if text in ("true", "1"):
-        return 1
-    if text in ("false", "0"):
-        return 0
-    raise ValueError(text)
-
-
-class _Mapping:
-    """An SSP 1.0 parameter mapping (ssm:ParameterMapping): each ssm:MappingEntry gives the value of the
-    parameter set's ``source`` to ``target`` (one source may feed several targets), through its
-    transformation if it has one: ssc:LinearTransformation (factor x value + offset, on the number as written,
-    in its unit), ssc:IntegerMappingTransformation and ssc:BooleanMappingTransformation (their ssc:MapEntry
-    pairs; a value without an entry is refused: the mapping does not say what it becomes).  The value keeps
-    its unit, converted to the target's as any other (:meth:`_Reader.convert`), unless the entry says
-    ``suppressUnitConversion="true"``.  A mapped source no longer applies under its own name; a parameter
-    the mapping does not name applies under its own name."""
-
-    def __init__(self, root: ET.Element, where: str):
-        self.where = where
-        self.entries = []
-        for e in root.findall(_q("ssm:MappingEntry")):
-            transforms = [t for t in e if t.tag.rsplit("}", 1)[-1] != "Annotations"]
-            self.entries.append((e.get("source", ""), e.get("target", ""), transforms[0] if transforms else None,
-                                 e.get("suppressUnitConversion") in ("true", "1")))
-
-    def apply(self, values: dict, fail) -> dict:
-        out = dict(values)
-        sources, targets = set(), set()
-        for source, target, transform, suppress in self.entries:
-            what = f"{self.where}: mapping entry '{source}' -> '{target}'"
-            if not target:
-                raise fail(f"{what} has no target")
-            if source not in values:
-                raise fail(f"{what}: the parameter set has no parameter '{source}'")
-            out[target] = self._transformed(values[source], transform, suppress, what, fail)
-            sources.add(source)
-            targets.add(target)
-        for source in sources - targets:
-            del out[source]
-        return out
-
-    @staticmethod
-    def _transformed(value, transform, suppress: bool, what: str, fail):
-        quantity = value if isinstance(value, _Quantity) else None
-        number = quantity.value if quantity is not None else value
-        if transform is not None:
-            kind = transform.tag.rsplit("}", 1)[-1]
-            if kind == "LinearTransformation":
-                if isinstance(number, str):
-                    raise fail(f"{what}: ssc:LinearTransformation of the String value {number!r}")
-                number = float(transform.get("factor", "1")) * number + float(transform.get("offset", "0"))
-            elif kind in ("IntegerMappingTransformation", "BooleanMappingTransformation"):
-                parse = int if kind.startswith("Integer") else _bool
-                try:
-                    table = {parse(m.get("source")): parse(m.get("target"))
-                             for m in transform.findall(_q("ssc:MapEntry"))}
-                except (TypeError, ValueError):
-                    raise fail(f"{what}: ssc:{kind} has an ssc:MapEntry that is not a pair of "
-                               f"{'integers' if parse is int else 'booleans'}") from None
-                if isinstance(number, float) or number not in table:
-                    raise fail(f"{what}: ssc:{kind} has no ssc:MapEntry for the value {number!r} "
-                               f"(entries for {sorted(table)})")
-                number = table[number]
-            else:
-                raise fail(f"{what}: ssc:{kind} is not supported (Linear, IntegerMapping and BooleanMapping are)")
-        if quantity is None or suppress:
-            return number
-        return _Quantity(number, quantity.unit, quantity.units, quantity.where)
-
-
 class _Reader:
     def __init__(self, ssd_path: Path, root_dir: Path):
         self.ssd_path, self.root_dir = ssd_path, root_dir
-        self.units: dict[str, _Unit] = {}   # the .ssd's ssd:Units
+        self.units: dict[str, Unit] = {}   # the .ssd's ssd:Units
         self.connector_values: dict[tuple, object] = {}   # system connector endpoint -> its bound value
 
     def fail(self, what: str) -> SystemError_:
@@ -376,7 +252,7 @@ class _Reader:
         sys_el = root.find(_q("ssd:System"))
         if sys_el is None:
             raise self.fail("no ssd:System element")
-        self.units = _units(root, "ssd:Units")
+        self.units = units(root, "ssd:Units")
         name = sys_el.get("name") or root.get("name") or self.ssd_path.stem
         instances: list[Instance] = []
         edges: list[_Edge] = []
@@ -482,7 +358,7 @@ class _Reader:
                 inst, var = by_name[e.target[1]], e.target[2]
                 value = self.connector_values[source]
                 if (factor, offset) != (1.0, 0.0):  # on the number as written
-                    value = factor * (value.value if isinstance(value, _Quantity) else value) + offset
+                    value = factor * (value.value if isinstance(value, Quantity) else value) + offset
                 inst.parameters[var] = self.convert(value, inst, var)
                 continue
             out.append(Connection(source=f"{source[1]}.{source[2]}", target=f"{e.target[1]}.{e.target[2]}",
@@ -522,7 +398,7 @@ class _Reader:
 
     def convert(self, value, inst: Instance, pname: str):
         """A parameter value in the unit of the FMU's variable (module docstring); any other value as is."""
-        if not isinstance(value, _Quantity):
+        if not isinstance(value, Quantity):
             return value
         md = model_description(inst.fmu)
         var = next((v for v in md.modelVariables if v.name == pname), None)
@@ -531,7 +407,7 @@ class _Reader:
         target = var.unit or (var.declaredType.unit if var.declaredType is not None else None)
         if value.unit == target:
             return value.value
-        fmu_units = {u.name: _Unit.from_fmpy(u) for u in md.unitDefinitions}
+        fmu_units = {u.name: Unit.from_fmpy(u) for u in md.unitDefinitions}
         src = value.units.get(value.unit) or fmu_units.get(value.unit)
         what = (f"{value.where}: component '{inst.name}', parameter '{pname}' = {value.value!r} {value.unit}")
         if target is None:
@@ -597,8 +473,8 @@ class _Reader:
                     raise self.fail(f"{owner}: ssd:ParameterValues holds no ssv:ParameterSet")
             else:
                 continue
-            units = {**self.units, **_units(pset, "ssv:Units")}
-            found = {p.get("name", ""): self.parameter_value(p, owner, units, where)
+            scope = {**self.units, **units(pset, "ssv:Units")}
+            found = {p.get("name", ""): self.parameter_value(p, owner, scope, where)
                      for p in pset.findall(f"{_q('ssv:Parameters')}/{_q('ssv:Parameter')}")}
             mapping = b.find(_q("ssd:ParameterMapping"))
             if mapping is not None:
@@ -610,7 +486,7 @@ class _Reader:
                 values[prefix + pname] = value
         return values
 
-    def parameter_mapping(self, el: ET.Element, owner: str, component_source: Path | None) -> "_Mapping":
+    def parameter_mapping(self, el: ET.Element, owner: str, component_source: Path | None) -> "Mapping":
         """The ssm:ParameterMapping of a binding: referenced (``source``, an .ssm; ``sourceBase`` as for the
         values) or inline."""
         mtype = el.get("type", PARAMETER_MAPPING_TYPE)
@@ -630,14 +506,14 @@ class _Reader:
         if root.tag != _q("ssm:ParameterMapping"):
             raise SystemError_(f"{where}: root element is <{root.tag}>, not ssm:ParameterMapping "
                                f"(referenced by a ParameterBinding of {owner})")
-        return _Mapping(root, f"{where} ({owner})")
+        return Mapping(root, f"{where} ({owner})")
 
-    def parameter_value(self, p: ET.Element, owner: str, units: dict, where: str):
+    def parameter_value(self, p: ET.Element, owner: str, scope: dict, where: str):
         for child in p:
             kind = child.tag.rsplit("}", 1)[-1]
             raw = child.get("value")
             if kind == "Real":
-                return _Quantity(float(raw), child.get("unit"), units, where) if child.get("unit") else float(raw)
+                return Quantity(float(raw), child.get("unit"), scope, where) if child.get("unit") else float(raw)
             if kind in ("Integer", "Enumeration"):
                 return int(raw)
             if kind == "Boolean":
