@@ -506,3 +506,18 @@ def test_without_fmpys_cvode_the_scipy_solver_is_taken_with_a_warning(reference_
     assert cls is me._ScipySolver
     with pytest.raises(ValueError, match="SolverSettings.solver = 'lsoda' is not admissible"):
         me.SolverSettings(solver="lsoda")
+
+
+def test_fmi1_model_exchange_is_refused_in_one_line(tmp_path):
+    """FMI 1.0 Model Exchange (a description without an Implementation element) is not integrated: refused
+    before anything is loaded, naming the feature."""
+    text = (HERE / "fmi1_string" / "modelDescription.xml").read_text()
+    start, end = text.index("<Implementation>"), text.index("</Implementation>") + len("</Implementation>")
+    fmu = tmp_path / "Identity1me.fmu"
+    with zipfile.ZipFile(fmu, "w") as z:
+        z.writestr("modelDescription.xml", text[:start] + text[end:])
+    with pytest.raises(FMUError) as info:
+        quiet(System("me1", [Instance("m", str(fmu))], experiment=Experiment(stop_time=0.1, step=0.01)),
+              on_error="raise")
+    assert "Model Exchange of FMI 1.0 is not supported (FMI 2.0 and 3.0 only)" in str(info.value)
+    assert "\n" not in str(info.value)
