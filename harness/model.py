@@ -186,7 +186,9 @@ class System:
             if dst.causality != "input":
                 raise SystemError_(f"{where}: causality mismatch: target {c.target} is {dst.causality}, "
                                    f"not an input")
-            if src.type != dst.type:
+            # Integer and Enumeration values are both integers (FMI 2.0 passes both through fmi2SetInteger;
+            # OMSimulator connects them)
+            if src.type != dst.type and {src.type, dst.type} != {"Integer", "Enumeration"}:
                 raise SystemError_(f"{where}: type mismatch: {c.source} is {src.type} but {c.target} is "
                                    f"{dst.type} (connected variables must have the same type)")
             if src.type != "Real" and (c.factor != 1 or c.offset != 0):

@@ -521,3 +521,24 @@ def test_fmi1_model_exchange_is_refused_in_one_line(tmp_path):
               on_error="raise")
     assert "Model Exchange of FMI 1.0 is not supported (FMI 2.0 and 3.0 only)" in str(info.value)
     assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_integer_to_enumeration_connection(reference2, master):
+    """Stair's Integer counter into Feedthrough's Enumeration input (type Option: items 1 and 2) and back out to
+    an Integer input (FMI 2.0 passes both through fmi2SetInteger; OMSimulator connects them; a type mismatch
+    before).  When the counter reaches 3, not an item of Option, the FMU's own refusal ends the run."""
+    def system(stop):
+        return System("enum", [Instance("stair", str(reference2["Stair"])),
+                               Instance("ft", str(reference2["Feedthrough"])),
+                               Instance("ft2", str(reference2["Feedthrough"]))],
+                      [Connection("stair.counter", "ft.Enumeration_input"),
+                       Connection("ft.Enumeration_output", "ft2.Int32_input")],
+                      experiment=Experiment(stop_time=stop, step=0.01))
+
+    df = quiet(system(1.5), master=master, on_error="raise")
+    counter, enum = df["stair.counter"].to_numpy(), df["ft.Enumeration_output"].to_numpy()
+    assert counter[-1] == 2 and ((enum == counter).all() or (enum[1:] == counter[:-1]).all())
+    assert set(df["ft2.Int32_output"]) <= {1, 2} and df["ft2.Int32_output"].iloc[-1] == 2
+    df = quiet(system(3.0), master=master)
+    assert not df.attrs["complete"] and "3 is not a legal value for Enumeration_input" in df.attrs["error"]
