@@ -56,3 +56,8 @@ class SimulationError(HarnessError):
                  variable: str | None = None):
         super().__init__(message)
         self.partial, self.time, self.instance, self.variable = partial, time, instance, variable
+
+
+class BlowUp(SimulationError):
+    """An output became non-finite or exceeded the master's blow-up limit: the run diverged faster than the
+    divergence detector could judge it (or a model failed)."""

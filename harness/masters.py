@@ -37,7 +37,7 @@ import numpy as np
 from harness import coupling, graph, jacobian
 from harness.clock import NS
 from harness.coupling import Inst as _Inst
-from harness.errors import AlgebraicLoopError, FMUError, SimulationError, SystemError_
+from harness.errors import AlgebraicLoopError, BlowUp, FMUError, SimulationError, SystemError_
 from harness.extrapolation import DEPTH, History, Polynomial
 from harness.iteration import ConvergenceError, IterationOptions, solve_fixed_point
 
@@ -445,7 +445,7 @@ class Master:
             name = self.signal_names[k]
             inst, var = name.split(".", 1)
             what = "is not finite" if not math.isfinite(y[k]) else f"exceeds the blow-up limit {self.blowup:g}"
-            raise SimulationError(f"t = {t:.9g} s: instance {inst}: output {var} = {float(y[k])!r} {what}",
+            raise BlowUp(f"t = {t:.9g} s: instance {inst}: output {var} = {float(y[k])!r} {what}",
                                   time=t, instance=inst, variable=var)
 
     def terminate(self) -> None:

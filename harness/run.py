@@ -27,7 +27,7 @@ from pathlib import Path
 import pandas as pd
 
 from harness.divergence import Diverged, DivergenceOptions, for_master as _detector
-from harness.errors import FMUError, HarnessError, SimulationError, SystemError_
+from harness.errors import BlowUp, FMUError, HarnessError, SimulationError, SystemError_
 from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import Instance, open_instance
 from harness.masters import NS, ConvergenceError, IterationOptions, master_class
@@ -407,6 +407,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
                 rejected=controller.rejected, max_error_estimate=controller.max_accepted_error)
     df = rec.frame(complete=not error, error=error, **info)
     df.attrs["diverged"] = isinstance(err_obj, Diverged)
+    df.attrs["blew_up"] = isinstance(err_obj, BlowUp)
     df.attrs["interrupted"] = bool(interrupted)
     df.attrs["bad_input"] = bad_input
     df.attrs["suspect"] = suspect
@@ -536,12 +537,13 @@ def _plot(system, df, folder: Path) -> list[Path]:
 
 def _divergence_hint(a: dict) -> str:
     """What to change after a diverged run, from the run itself: a smaller step (or tolerance, under step
-    control) and, where the masters offer one, the next more strongly coupled master."""
+    control) and the interface-Jacobian master, whose implicit coupling is stable where a stiff mode spans FMUs
+    (it needs FMUs that can roll back; it says so in one line if one cannot)."""
     if a.get("step_control") not in (None, "none") and a.get("tolerance") is not None:
         first = f"lower the tolerance (now {a['tolerance']:g})"
     else:
         first = f"reduce the step (now {a['step']:g} s)"
-    better = {"jacobi": "gauss-seidel", "jacobi-sampled": "gauss-seidel", "gauss-seidel": "iterative"}
+    better = {m: "jacobian" for m in ("jacobi", "jacobi-sampled", "gauss-seidel", "iterative")}  # implicit
     nxt = better.get(a.get("master"))
     return first + (f" or use --master {nxt}" if nxt else "")
 
@@ -576,7 +578,7 @@ def run_cli(args) -> int:
     if args.plot is not None and len(df):
         where += "; chart " + ", ".join(str(p) for p in _plot(system, df, args.plot))
     if not a["complete"]:
-        hint = f"; {_divergence_hint(a)}" if a.get("diverged") else ""
+        hint = f"; {_divergence_hint(a)}" if a.get("diverged") or a.get("blew_up") else ""
         print(f"error: {a['error']}; {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s kept, "
               f"{'INCOMPLETE result ' + where if out is not None else where}{hint}", file=sys.stderr)
         return status or 1

@@ -208,11 +208,23 @@ def test_a_diverged_run_ends_with_a_hint_from_its_own_step_and_master(step):
     rc, _, err = cli("run", "two_inertia", "--step", step, *TEXTBOOK)
     line = one_error(err)
     assert rc == 1 and "diverged" in line
-    assert line.endswith(f"; reduce the step (now {float(step):g} s) or use --master gauss-seidel"), line
+    assert line.endswith(f"; reduce the step (now {float(step):g} s) or use --master jacobian"), line
     rc, _, err = cli("run", "two_inertia", "--step", "0.002", "--master", "gauss-seidel", "--extrapolation", "0",
                      "--stop-time", "40")
     line = one_error(err)
-    assert rc == 1 and "diverged" in line and line.endswith("(now 0.002 s) or use --master iterative"), line
+    assert rc == 1 and "diverged" in line and line.endswith("(now 0.002 s) or use --master jacobian"), line
+    # and the hint is right: the same run under the interface-Jacobian master completes
+    rc, _, err = cli("run", "two_inertia", "--step", "0.002", "--master", "jacobian", "--stop-time", "40")
+    assert rc == 0, err
+
+
+def test_a_run_stopped_by_the_blow_up_check_gets_the_hint_too():
+    """Blow-ups faster than the divergence detector's first verdict are stopped by the master's blow-up check
+    (issue 30: those got no hint)."""
+    rc, _, err = cli("run", "bed_drive", "--step", "0.002", "--master", "jacobi", "--stop-time", "0.2")
+    line = one_error(err)
+    assert rc == 1 and "exceeds the blow-up limit" in line, line
+    assert line.endswith("; reduce the step (now 0.002 s) or use --master jacobian"), line
 
 
 # -- 8. help ---------------------------------------------------------------------------------------------------
