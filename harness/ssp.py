@@ -198,12 +198,13 @@ def load_ssp(path: str | Path) -> System:
     path = Path(path)
     if not path.exists():
         raise SystemError_(f"{path}: no such file")
+    archive = None
     if path.is_dir():
         ssd_path, root_dir = path / "SystemStructure.ssd", path
         if not ssd_path.is_file():
             raise SystemError_(f"{path}: a folder given as an SSP must hold SystemStructure.ssd (it does not)")
     elif path.suffix.lower() == ".ssp":
-        root_dir = _unpack(path)
+        root_dir, archive = _unpack(path), path
         ssd_path = root_dir / "SystemStructure.ssd"
         if not ssd_path.exists():
             raise SystemError_(f"{path}: the archive has no SystemStructure.ssd")
@@ -211,11 +212,12 @@ def load_ssp(path: str | Path) -> System:
         ssd_path, root_dir = path, path.parent
     else:
         raise SystemError_(f"{path}: expected an .ssp or .ssd file")
+    reader = _Reader(ssd_path, root_dir, archive)
     try:
         tree = ET.parse(ssd_path)
     except ET.ParseError as e:
-        raise SystemError_(f"{ssd_path}: not well-formed XML ({e})") from None
-    return _Reader(ssd_path, root_dir).system(tree.getroot())
+        raise SystemError_(f"{reader.label(ssd_path)}: not well-formed XML ({e})") from None
+    return reader.system(tree.getroot())
 
 
 NESTED = "/"   # joins a nested system's name and its element's: instance "Sub/Component" (names hold no ".")
@@ -238,13 +240,25 @@ def _label(endpoint: tuple) -> str:
 
 
 class _Reader:
-    def __init__(self, ssd_path: Path, root_dir: Path):
-        self.ssd_path, self.root_dir = ssd_path, root_dir
+    """Reads one .ssd.  ``archive``: the user's .ssp when the .ssd was extracted from one; messages then name
+    files as ``x.ssp!SystemStructure.ssd`` (:meth:`label`), not by their place in the extraction cache."""
+
+    def __init__(self, ssd_path: Path, root_dir: Path, archive: Path | None = None):
+        self.ssd_path, self.root_dir, self.archive = ssd_path, root_dir, archive
         self.units: dict[str, Unit] = {}   # the .ssd's ssd:Units
         self.connector_values: dict[tuple, object] = {}   # system connector endpoint -> its bound value
 
+    def label(self, path: Path) -> str:
+        """A file as the user knows it: inside their .ssp (``x.ssp!resources/a.ssv``), or its path."""
+        if self.archive is not None:
+            try:
+                return f"{self.archive}!{Path(path).relative_to(self.root_dir).as_posix()}"
+            except ValueError:
+                pass
+        return str(path)
+
     def fail(self, what: str) -> SystemError_:
-        return SystemError_(f"{self.ssd_path}: {what}")
+        return SystemError_(f"{self.label(self.ssd_path)}: {what}")
 
     def system(self, root: ET.Element) -> System:
         if root.tag != _q("ssd:SystemStructureDescription"):
@@ -433,7 +447,7 @@ class _Reader:
             p = self.root_dir / src if (self.root_dir / src).exists() else self.ssd_path.parent / src
             if not p.exists():
                 raise self.fail(f"{owner}: parameter values source {src} not found")
-            return str(p), p.read_bytes()
+            return self.label(p), p.read_bytes()
         if base != "component":
             raise self.fail(f"{owner}: ssd:ParameterBinding sourceBase='{base}' is not 'SSD' or 'component'")
         if component_source is None:
@@ -442,7 +456,7 @@ class _Reader:
         inner = src[5:].lstrip("/") if src.startswith("file:") else src.lstrip("/")
         try:
             with zipfile.ZipFile(component_source) as z:
-                return f"{component_source}!{inner}", z.read(inner)
+                return f"{self.label(component_source)}!{inner}", z.read(inner)
         except (KeyError, zipfile.BadZipFile, OSError):
             raise self.fail(f"{owner}: parameter values source {src} (sourceBase='component') not found in "
                             f"{component_source.name}") from None
@@ -456,7 +470,7 @@ class _Reader:
                 raise self.fail(f"{owner}: ssd:ParameterBinding of type '{btype}' is not supported "
                                 f"(only {PARAMETER_SET_TYPE})")
             inline = b.find(_q("ssd:ParameterValues"))
-            where = str(self.ssd_path)
+            where = self.label(self.ssd_path)
             if b.get("source"):
                 p, text = self._source_text(b.get("source"), b.get("sourceBase", "SSD"), owner, component_source)
                 where = p
@@ -500,7 +514,7 @@ class _Reader:
             except ET.ParseError as e:
                 raise SystemError_(f"{where}: not well-formed XML ({e})") from None
         else:
-            where, root = str(self.ssd_path), el.find(_q("ssm:ParameterMapping"))
+            where, root = self.label(self.ssd_path), el.find(_q("ssm:ParameterMapping"))
             if root is None:
                 raise self.fail(f"{owner}: ssd:ParameterMapping has neither a source nor an ssm:ParameterMapping")
         if root.tag != _q("ssm:ParameterMapping"):

@@ -330,7 +330,7 @@ def test_ssv_value_in_an_unconvertible_unit_is_refused(folder, value, units, mes
 
 
 
-# ------------------------------------------------------------------------------------------------ issue 33: the rest of SSP
+# ------------------------------------------------------------------------------------------- issue 33: the rest of SSP
 def test_ssp_given_as_an_unpacked_folder(folder):
     (folder / "a.ssv").write_text(ssv({"J": 0.02, "w0": 1.5}))
     (folder / "SystemStructure.ssd").write_text(ssd(bound("a.ssv") + B, BOND))
@@ -382,8 +382,9 @@ def test_parameter_mapping_renames_and_transforms_values(folder):
     # the mapped system runs: J = 0.02 kg.m2, w0 = 2 pi rad/s reach the FMU
     (folder / "a.ssm").write_text(SSM.format(entry("inertia_kg_cm2", "J", '<ssc:LinearTransformation factor="1e-4"/>')
                                              + entry("speed", "w0")))
-    (folder / "values.ssv").write_text(values.replace('<ssv:Parameter name="mode"><ssv:Integer value="3"/></ssv:Parameter>'
-                                                      '<ssv:Parameter name="on"><ssv:Boolean value="true"/></ssv:Parameter>', ""))
+    unmapped = ('<ssv:Parameter name="mode"><ssv:Integer value="3"/></ssv:Parameter>'
+                '<ssv:Parameter name="on"><ssv:Boolean value="true"/></ssv:Parameter>')
+    (folder / "values.ssv").write_text(values.replace(unmapped, ""))
     (folder / "m2.ssd").write_text(ssd(comp("a", "resources/Inertia.fmu", binding.replace("a.ssv", "values.ssv"))))
     df = quiet_simulate(load_ssp(folder / "m2.ssd"), stop_time=0.01, step=1e-3)
     assert df["a.flange.w"].iloc[0] == pytest.approx(2 * np.pi, rel=1e-12)
@@ -461,7 +462,8 @@ def test_a_system_connector_given_a_value_drives_its_inputs_with_it(folder):
     is refused (test_unsupported_features_fail_with_one_line)."""
     values = ('<ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues><ssv:ParameterSet version="1.0" '
               'name="x"><ssv:Parameters><ssv:Parameter name="{}"><ssv:Real value="{}"/></ssv:Parameter>'
-              '</ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues></ssd:ParameterBinding></ssd:ParameterBindings>')
+              '</ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues></ssd:ParameterBinding>'
+              '</ssd:ParameterBindings>')
     sub = ('<ssd:System name="sub"><ssd:Connectors><ssd:Connector name="in" kind="input"/></ssd:Connectors>'
            + values.format("in", 10.0) + '<ssd:Elements>' + comp("g", "resources/Gain.fmu")
            + '</ssd:Elements><ssd:Connections><ssd:Connection startConnector="in" endElement="g" endConnector="u"/>'
@@ -494,3 +496,24 @@ def test_default_experiment_start_time_is_the_run_start(folder):
     # export writes it back
     out = export_ssp(s, folder / "back.ssp")
     assert load_ssp(out).experiment.start_time == 0.25
+
+
+def test_errors_in_an_ssp_archive_name_the_archive_not_the_extraction_cache(folder):
+    from harness.fmi.cache import cache_dir
+
+    (folder / "a.ssv").write_text(ssv_with_units({"w0": (1.0, "m")},
+                                                 '<ssc:Unit name="m"><ssc:BaseUnit m="1"/></ssc:Unit>'))
+    (folder / "SystemStructure.ssd").write_text(ssd(bound("a.ssv")))
+    archive = folder / "user.ssp"
+    with zipfile.ZipFile(archive, "w") as z:
+        for f in ("SystemStructure.ssd", "a.ssv", "resources/Inertia.fmu"):
+            z.write(folder / f, f)
+    with pytest.raises(SystemError_) as info:
+        load_ssp(archive)
+    text = str(info.value)
+    assert text.startswith(f"{archive}!a.ssv: component 'a', parameter 'w0'") and str(cache_dir()) not in text
+    (folder / "SystemStructure.ssd").write_text(ssd(comp("a", "resources/Missing.fmu")))
+    with zipfile.ZipFile(archive, "w") as z:
+        z.write(folder / "SystemStructure.ssd", "SystemStructure.ssd")
+    with pytest.raises(SystemError_, match=rf"^{archive}!SystemStructure.ssd: component 'a': source resources/Missing"):
+        load_ssp(archive)
