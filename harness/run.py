@@ -270,6 +270,9 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     if step is None:
         if exp is None:
             raise SystemError_(f"system {system.name} has no default experiment: give step")
+        if exp.step is None:  # an SSP's DefaultExperiment without a step (OSP's annotation gives one)
+            raise SystemError_(f"system {system.name}: its default experiment declares no step: give step "
+                               f"(--step on the command line)")
         step = exp.step
     master = master if master is not None else (exp.master if exp else "jacobi")
     extrapolation = extrapolation if extrapolation is not None else (exp.extrapolation if exp else 0)

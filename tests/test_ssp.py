@@ -517,3 +517,10 @@ def test_errors_in_an_ssp_archive_name_the_archive_not_the_extraction_cache(fold
         z.write(folder / "SystemStructure.ssd", "SystemStructure.ssd")
     with pytest.raises(SystemError_, match=rf"^{archive}!SystemStructure.ssd: component 'a': source resources/Missing"):
         load_ssp(archive)
+
+
+def test_an_ssp_without_a_step_says_so(folder):
+    (folder / "n.ssd").write_text(ssd(A + B, BOND, experiment='<ssd:DefaultExperiment startTime="0" stopTime="0.1"/>'))
+    with pytest.raises(SystemError_, match=r"its default experiment declares no step: give step \(--step on the"):
+        quiet_simulate(load_ssp(folder / "n.ssd"))
+    assert len(quiet_simulate(load_ssp(folder / "n.ssd"), step=0.01)) == 11
