@@ -16,6 +16,11 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
+import json
+import os
+import subprocess
+import sys
+import textwrap
 import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
@@ -339,6 +344,123 @@ def test_the_master_knows_which_positions_an_fmi3_fmu_advances(fmu3_dir):
     from harness.fmi.fmu import advanced_positions
 
     assert advanced_positions(Path(extract(str(fmu3_dir / "FourBar.fmu")))) == {"crank.phi"}
+
+
+# -- OMSimulator (a host nobody here wrote; its Python API: the FMUs' wrapper needs the Python of the process) ----
+def _omsimulator_missing() -> str | None:
+    try:
+        import OMSimulator  # noqa: F401
+    except Exception as e:
+        return (f"OMSimulator's Python API is not installed ({type(e).__name__}); install it with "
+                f"../shared/tools/omsimulator/install where that folder exists")
+    return None
+
+
+def _run_script(code: str) -> str:
+    """Run ``code`` in a fresh interpreter and return its stdout; it leaves with os._exit once everything is
+    printed (tearing an interpreter down with a peer tool's FMU instances alive has aborted: tests/conftest.py)."""
+    code = textwrap.dedent(code) + "\nimport os as _os, sys as _sys\n_sys.stdout.flush(); _os._exit(0)\n"
+    r = subprocess.run([sys.executable, "-c", code], cwd=build_fmus.ROOT, capture_output=True, text=True,
+                       timeout=600, env={**os.environ, "PRESSDRIVE_NORMAL_EXIT": "1"})
+    assert r.returncode == 0, f"exit {r.returncode}: {(r.stdout + r.stderr)[-1500:]}"
+    return r.stdout
+
+
+@pytest.mark.interop
+def test_omsimulator_runs_every_fmi3_fmu_like_fmpy(fmu3_dir, tmp_path):
+    """Each FMI 3.0 FMU alone in OMSimulator 3.0 (its inputs at their start values) over 50 steps of 1 ms: every
+    output it records equals fmpy's run of the same FMU to 1e-9 of max(|output|, 1)."""
+    reason = _omsimulator_missing()
+    if reason:
+        pytest.skip(reason)
+    out = _run_script(f"""
+        import json
+        from pathlib import Path
+        import numpy as np, pandas as pd
+        from fmpy import simulate_fmu
+        from OMSimulator import SSP, CRef
+        stop, step, result = 0.05, 1e-3, {{}}
+        for fmu in sorted(Path({str(fmu3_dir)!r}).glob("*.fmu")):
+            m = SSP()
+            m.addResource(str(fmu), new_name=f"resources/{{fmu.name}}")
+            m.addComponent(CRef("default", "c"), f"resources/{{fmu.name}}")
+            im = m.instantiate()
+            csv = Path({str(tmp_path)!r}) / f"{{fmu.stem}}.csv"
+            im.setResultFile(str(csv)); im.setFixedStepSize(step); im.setStopTime(stop)
+            im.initialize(); im.simulate(); im.terminate(); im.delete()
+            oms = pd.read_csv(csv, skipinitialspace=True)
+            oms.columns = [c.strip().strip('"') for c in oms.columns]
+            # the FMU's own independent variable is recorded as default.c.time beside OMSimulator's time
+            oms = oms.drop(columns=["default.c.time"], errors="ignore")
+            oms.columns = [c.removeprefix("default.c.") for c in oms.columns]
+            oms = oms.groupby("time").last()   # OMSimulator writes each point before and after the input update
+            ref = pd.DataFrame(simulate_fmu(str(fmu), stop_time=stop, step_size=step,
+                                            output_interval=step)).set_index("time")
+            cols = [c for c in ref.columns if c in oms.columns]
+            rows = len(oms) == len(ref)
+            scale = np.maximum(ref[cols].abs().max().to_numpy(), 1.0)
+            worst = float((np.abs(oms[cols].to_numpy() - ref[cols].to_numpy()).max(axis=0) / scale).max()) if rows else None
+            result[fmu.stem] = [len(cols), rows, worst]
+        print(json.dumps(result))
+    """)
+    result = json.loads(out.strip().splitlines()[-1])
+    assert sorted(result) == sorted(CATALOG)
+    for name, (n_cols, same_rows, worst) in result.items():
+        assert n_cols >= 1 and same_rows, (name, n_cols, same_rows)
+        assert worst <= 1e-9, f"{name}: OMSimulator differs from fmpy by {worst:.3g}"
+
+
+_OMS_LOOPS = pytest.mark.xfail(strict=True, reason=(
+    "OMSimulator 3.0 finds an algebraic loop among these FMI 3.0 FMUs at initialisation and asks for directional "
+    "derivatives, which they do not provide (the FMI 2.0 FMUs of the same drive run); measured: feeder_gto52 "
+    "loop of size 9/30, bed_drive 18/78; not the reading of dependencies by value reference or index, empty "
+    "dependency lists or a missing dependenciesKind (each tried)"))
+
+
+@pytest.mark.interop
+@pytest.mark.parametrize("name", [pytest.param(s, marks=[] if s == "two_inertia" else [_OMS_LOOPS]) for s in SYSTEMS])
+def test_omsimulator_runs_the_ssp_of_a_drive_made_of_fmi3_fmus(name, fmu3_dir, fmu_dir, tmp_path):
+    """The drive exported as SSP (harness.ssp.export_ssp) from its FMI 3.0 FMUs, run by OMSimulator's API over
+    20 steps: every value at the end equals the master's Jacobi zero-order-hold run of the FMI 2.0 FMUs to 1e-9
+    of its range (OMSimulator's own master is a Jacobi that refreshes feed-through outputs)."""
+    reason = _omsimulator_missing()
+    if reason:
+        pytest.skip(reason)
+    out = _run_script(f"""
+        import dataclasses, json, warnings
+        from pathlib import Path
+        from harness import load, simulate
+        from harness.model import Instance
+        from harness.ssp import export_ssp
+        from OMSimulator import SSP, CRef
+
+        def on(folder):
+            s = load({name!r})
+            return dataclasses.replace(s, instances=[Instance(i.name, Path(folder) / f"{{i.fmu}}.fmu",
+                                                              dict(i.parameters)) for i in s.instances])
+
+        s3 = on({str(fmu3_dir)!r})
+        ssp = export_ssp(s3, Path({str(tmp_path)!r}) / "drive.ssp")
+        step = s3.experiment.step
+        stop = 20 * step
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ref = simulate(on({str(fmu_dir)!r}), stop_time=stop, step=step, master="jacobi", extrapolation=0,
+                           on_error="raise")
+        im = SSP(str(ssp)).instantiate()
+        im.setFixedStepSize(step); im.setStopTime(stop); im.setResultFile({str(tmp_path / 'oms.mat')!r})
+        im.initialize(); im.simulate()
+        errors = {{}}
+        for c in ref.columns:
+            inst, var = c.split(".", 1)
+            value = im.getValue(CRef(s3.name, inst, var))
+            errors[c] = abs(value - ref[c].iloc[-1]) / max(float(ref[c].abs().max()), 1e-2)
+        im.terminate(); im.delete()
+        print(json.dumps(errors))
+    """)
+    errors = json.loads(out.strip().splitlines()[-1])
+    worst = max(errors, key=errors.get)
+    assert len(errors) >= 2 and errors[worst] <= 1e-9, f"{name}: {worst} differs by {errors[worst]:.3g}"
 
 
 # -- behaviour over FMI 3.0 calls -------------------------------------------------------------------------------
