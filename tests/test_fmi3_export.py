@@ -516,6 +516,48 @@ def test_a_non_physical_parameter_is_refused_with_the_fmi2_line(fmu3_dir, capsys
     assert "badInstance (Inertia): parameter J = -1.0" in capsys.readouterr().out
 
 
+def test_many_fmi3_instances_in_one_process(fmu3_dir):
+    """Three instances of every FMI 3.0 FMU alive together, stepped, freed, and created again."""
+    for _round in range(2):
+        alive = []
+        for name in sorted(CATALOG):
+            for k in range(3):
+                md, s = _open3(fmu3_dir / f"{name}.fmu", instance=f"{name}{k}")
+                s.enterInitializationMode()
+                s.exitInitializationMode()
+                s.doStep(0.0, 1e-3)
+                outputs = [v.valueReference for v in md.modelVariables if v.causality == "output"]
+                assert np.all(np.isfinite(s.getFloat64(outputs))), name
+                alive.append(s)
+        for s in alive:
+            s.terminate()
+            s.freeInstance()
+
+
+def test_fmi3_fmus_load_free_and_load_again_under_fmpy(fmu3_dir):
+    """fmpy.simulate_fmu unpacks each FMU into a temporary folder and deletes it afterwards: each FMU keeps its own
+    copy of the runtime package (fmus_<hash>, one per distinct FMU, none shared), and a module only a function
+    imports (CamRocker's law 8 imports the seed-004 carrier law) is found after its folder is gone."""
+    law8 = {"mechanism": 1, "swing": 0.6981317007977318, "law": 8, "law_return": 0, "law_km": 0.246176}
+    order = ["FourBar", "CamRocker", "FourBar", "RackBed", "CamRocker", "MotorBelt"]
+    out = _run_script(f"""
+        import os, sys
+        from fmpy import simulate_fmu
+        for name in {order!r}:
+            r = simulate_fmu(os.path.join({str(fmu3_dir)!r}, name + ".fmu"), stop_time=0.01, step_size=1e-3)
+            print(name, len(r))
+        r = simulate_fmu(os.path.join({str(fmu3_dir)!r}, "CamRocker.fmu"), stop_time=0.002, step_size=1e-4,
+                         output_interval=1e-4,
+                         start_values={law8!r})
+        print("law8", len(r))
+        print("packages", sorted(m for m in sys.modules if m.startswith("fmus_") and "." not in m))
+    """)
+    lines = out.splitlines()
+    assert [line.split()[0] for line in lines[:-2]] == order
+    assert lines[-2] == "law8 21"
+    assert lines[-1].count("fmus_") == 4
+
+
 def test_an_unknown_fmi_version_is_refused_in_one_line():
     with pytest.raises(ValueError, match=r"FMI version 4 is not built here \(allowed: 2, 3\)"):
         build_fmus.runtime(4)
