@@ -83,7 +83,8 @@ class RunOptions:
 def load(x) -> System:
     """A :class:`System` from a module name in ``systems/`` (its ``SYSTEM``; ``"bed_drive"``, also written
     ``"bed_drive.py"`` or ``"systems/bed_drive.py"``), the path of any Python file that defines ``SYSTEM``, an
-    .ssp/.ssd file or an SSP unpacked into a folder (holding SystemStructure.ssd), or itself.  Anything else is a :class:`~harness.errors.SystemError_` in one line naming
+    .ssp/.ssd file or an SSP unpacked into a folder (holding SystemStructure.ssd), a bare .fmu (run alone,
+    :func:`_fmu_system`), or itself.  Anything else is a :class:`~harness.errors.SystemError_` in one line naming
     what was given and the known systems (with the closest name when it looks misspelt)."""
     if isinstance(x, System):
         return x
@@ -94,6 +95,8 @@ def load(x) -> System:
         return load_ssp(s)
     if s.lower().endswith(".py"):
         return _load_file(Path(s))
+    if s.lower().endswith(".fmu"):
+        return _fmu_system(Path(s))
     name = s[len("systems."):] if s.startswith("systems.") else s
     if not name.isidentifier():  # a file of another kind, a folder, a path: no module name at all
         raise SystemError_(f"system {s!r} is neither a system name nor a .py, .ssp or .ssd file; "
@@ -105,6 +108,23 @@ def load(x) -> System:
             raise SystemError_(f"unknown system {s!r}{_close_match(name)}; {_known_systems()}") from None
         raise
     return _system_of(module, f"systems/{name}.py")
+
+
+def _fmu_system(path: Path) -> System:
+    """One FMU run alone, as ``fmpy.simulate_fmu`` runs it: one instance named after the model (``.`` made
+    ``_``), the FMU's DefaultExperiment as the default experiment (no step there: the run asks for one)."""
+    from harness.model import Experiment, Instance as Component  # (Instance here is the FMU wrapper's name)
+
+    if not path.is_file():
+        raise SystemError_(f"{path}: no such FMU file")
+    md = model_description(path)
+    name = (md.modelName or path.stem).replace(".", "_")
+    de = md.defaultExperiment
+    experiment = None
+    if de is not None and de.stopTime is not None:
+        experiment = Experiment(stop_time=float(de.stopTime), step=float(de.stepSize) if de.stepSize else None,
+                                start_time=float(de.startTime or 0.0))
+    return System(name, [Component(name, path)], experiment=experiment)
 
 
 def _load_file(path: Path) -> System:

@@ -542,3 +542,19 @@ def test_integer_to_enumeration_connection(reference2, master):
     assert set(df["ft2.Int32_output"]) <= {1, 2} and df["ft2.Int32_output"].iloc[-1] == 2
     df = quiet(system(3.0), master=master)
     assert not df.attrs["complete"] and "3 is not a legal value for Enumeration_input" in df.attrs["error"]
+
+
+def test_a_bare_fmu_runs_alone_like_fmpy(reference2, reference3):
+    """harness.simulate("x.fmu") (and the CLI's run x.fmu): one instance, the FMU's DefaultExperiment."""
+    from fmpy import simulate_fmu
+
+    from harness import load
+
+    for fmus in (reference2, reference3):
+        fmu = fmus["BouncingBall"]
+        s = load(fmu)
+        assert [i.name for i in s.instances] == ["BouncingBall"]
+        assert (s.experiment.start_time, s.experiment.stop_time, s.experiment.step) == (0.0, 3.0, 0.01)
+        df = quiet(str(fmu), master="jacobi-sampled", on_error="raise")
+        ref = pd.DataFrame(simulate_fmu(str(fmu), output_interval=0.01, fmi_type="CoSimulation")).set_index("time")
+        assert assert_agrees(df, ref, "BouncingBall.", 1e-12, str(fmu)) >= 2   # h, v (FMI 3.0: h_ft too)
