@@ -218,11 +218,13 @@ class System:
             if not isinstance(why, str) or not why.strip():
                 raise SystemError_(f"system {self.name}: free_inputs[{ref!r}] = {why!r}: say why its start value "
                                    f"is right (a non-empty text)")
+        # an input given a value (a binding, an SSP connector value, --set) holds that value on purpose
+        given = {f"{i.name}.{p}" for i in self.instances for p in i.parameters} | set(parameters or {})
         warns = []
         for inst in names:
             for v in variables[inst].values():
                 ref = f"{inst}.{v.name}"
-                if v.causality == "input" and ref not in targets and ref not in self.free_inputs:
+                if v.causality == "input" and ref not in targets and ref not in self.free_inputs and ref not in given:
                     start = v.start
                     if v.type == "Real" and start is not None:
                         start = float(start)

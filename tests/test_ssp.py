@@ -524,3 +524,20 @@ def test_an_ssp_without_a_step_says_so(folder):
     with pytest.raises(SystemError_, match=r"its default experiment declares no step: give step \(--step on the"):
         quiet_simulate(load_ssp(folder / "n.ssd"))
     assert len(quiet_simulate(load_ssp(folder / "n.ssd"), step=0.01)) == 11
+
+
+def test_an_input_given_a_value_is_not_reported_as_keeping_its_start_value(folder):
+    """Gain's input u set by a binding (as OMSimulator's LinearTransformation3 case sets Gain1.u through an
+    .ssm) holds that value on purpose: no 'keeps its start value' warning; an input left alone still warns."""
+    bound_u = ('<ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues><ssv:ParameterSet version="1.0" '
+               'name="x"><ssv:Parameters><ssv:Parameter name="u"><ssv:Real value="14.0"/></ssv:Parameter>'
+               '</ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues></ssd:ParameterBinding>'
+               '</ssd:ParameterBindings>')
+    (folder / "u.ssd").write_text(ssd(comp("g", "resources/Gain.fmu", bound_u) + comp("h", "resources/Gain.fmu")))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        df = simulate(load_ssp(folder / "u.ssd"), stop_time=0.01, step=1e-3, on_error="raise")
+    texts = [str(w.message) for w in caught if issubclass(w.category, SystemWarning)]
+    assert not [t for t in texts if "input g.u" in t]
+    assert [t for t in texts if "input h.u is not connected: it keeps its start value" in t]
+    assert (df["g.y"] > 0).all()
