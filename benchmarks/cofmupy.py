@@ -221,7 +221,7 @@ def _initial_sources(system, connections, step: float) -> dict[str, float]:
     sources = sorted({c.source for c in connections})
     if not sources:
         return {}
-    df = simulate(system, stop_time=step, step=step, master="jacobi-sampled", extrapolation=0, outputs=sources)
+    df = simulate(system, stop_time=step, step=step, master="jacobi-sampled", extrapolation=0, output=sources)
     if not df.attrs["complete"] or df.index[0] != 0.0:
         raise RuntimeError(f"system {system.name}: initialisation failed: {df.attrs['error']}")
     return {s: float(df[s].iloc[0]) for s in sources}

@@ -63,11 +63,11 @@ def full_model_lines(quick: bool, log=print) -> list[tuple[str, bool | None, str
     stop = 0.2 if quick else system.accuracy.stop_time
     stable = []
     for h in FULL_STEPS[:1] if quick else FULL_STEPS:
-        df = _quiet(system, stop_time=stop, step=h, master="jacobian", extrapolation=1, parameters=params)
+        df = _quiet(system, stop_time=stop, step=h, master="jacobian", extrapolation=1, start_values=params)
         log(f"bed_drive full model, jacobian at {h:g} s: {'complete' if df.attrs['complete'] else df.attrs['error']}")
         if df.attrs["complete"]:
             stable.append(h)
-    jac = _quiet(system, stop_time=stop, step=2.5e-4, master="jacobi", extrapolation=1, parameters=params)
+    jac = _quiet(system, stop_time=stop, step=2.5e-4, master="jacobi", extrapolation=1, start_values=params)
     jac_note = "jacobi at 0.25 ms: " + ("complete" if jac.attrs["complete"] else "stopped")
     best = max(stable) if stable else None
     lines = [("bed_drive full model stable at a 2 ms step or more (jacobian)", best is not None and best >= 2e-3,
@@ -78,7 +78,7 @@ def full_model_lines(quick: bool, log=print) -> list[tuple[str, bool | None, str
     sys_acc = replace(system, accuracy=spec)
     meets = []
     for h in FULL_ACCURACY_STEPS[-1:] if quick else FULL_ACCURACY_STEPS:
-        df = _quiet(system, stop_time=stop, step=h, master="jacobian", extrapolation=1, parameters=params)
+        df = _quiet(system, stop_time=stop, step=h, master="jacobian", extrapolation=1, start_values=params)
         checks = accuracy.check(sys_acc, df, ref)
         text = ", ".join(f"{c.name} {c.error:.3g}/{c.tolerance:g}" for c in checks)
         log(f"bed_drive full model, jacobian at {h:g} s: {text}")

@@ -45,7 +45,7 @@ def component_costs(system_name: str, steps: int = 400) -> list[dict]:
     columns = [f"{name}.{u}" for name, (_, ins, _) in inputs.items() for u in ins]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        df = simulate(system, stop_time=steps * exp.step, step=exp.step, outputs=columns)
+        df = simulate(system, stop_time=steps * exp.step, step=exp.step, output=columns)
     rows = []
     for inst in system.instances:
         cls, ins, outs = inputs[inst.name]

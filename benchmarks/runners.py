@@ -46,7 +46,7 @@ def run_harness(folder: Path, tool: str, step: float, n: int, columns: list[str]
     options = RunOptions(in_process=False if tool.endswith("-fmi") else None)
     if not detector:
         options = dataclasses.replace(options, divergence=None)
-    df = simulate(system, stop_time=n * step, step=step, master=master, extrapolation=0, outputs=columns,
+    df = simulate(system, stop_time=n * step, step=step, master=master, extrapolation=0, output=columns,
                   options=options)
     if not df.attrs["complete"]:
         raise RuntimeError(f"harness {tool}: {df.attrs['error']}")
@@ -203,8 +203,8 @@ def run_realtime(system_name: str, run: dict, quick: bool, repeats: int = 3, sta
     for _ in range(1 if quick else repeats):
         with stand_ins(stand_in) as patched:
             df = simulate(system, stop_time=stop, step=run["step"], master=run["master"],
-                          extrapolation=run.get("extrapolation"), parameters=run["parameters"],
-                          outputs=check_columns_of(system)[:1])
+                          extrapolation=run.get("extrapolation"), start_values=run["parameters"],
+                          output=check_columns_of(system)[:1])
         if not df.attrs["complete"]:
             raise RuntimeError(f"{system_name}: {df.attrs['error']}")
         if stand_in and len(patched) != len(system.instances):

@@ -80,7 +80,7 @@ def _columns(df: pd.DataFrame, bond) -> tuple[str | None, str, str]:
             missing = [c for c in need if c not in df.columns]
             if missing:
                 raise ValueError(f"bond {a}->{b}: column {missing[0]!r} is not in the result "
-                                 f"(record it with outputs=[...])")
+                                 f"(record it with output=[...])")
             angle = f"{a}.{p}" if f"{a}.{p}" in df.columns else None
             return angle, f"{a}.{v}", f"{b}.{e}"
     raise ValueError(f"bond {a}->{b}: the result has neither {a}.w/{b}.tau nor {a}.v/{b}.f columns")

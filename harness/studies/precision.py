@@ -155,7 +155,7 @@ def precision_study(system, stop_time: float | None = None, steps=None, toleranc
                 step, tol = (steps[0], value) if variable else (value, None)
                 t1 = time.perf_counter()
                 df = quiet_simulate(system, stop_time=stop_time, step=step, master=master, extrapolation=order,
-                                    step_control=control, tolerance=tol, parameters=parameters, outputs=columns,
+                                    step_control=control, tolerance=tol, start_values=parameters, output=columns,
                                     on_error="return")
                 wall = time.perf_counter() - t1
                 a = df.attrs

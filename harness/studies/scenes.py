@@ -127,8 +127,8 @@ def _run(system, scene: Scene, fidelities: dict[str, int], step: float, full_val
     # quiet: a candidate that blows up or stops early is expected in the search and says so in its own row
     # (``note``); printed per run, five such lines named no configuration
     run = trial(system, stop_time=scene.stop_time or exp.stop_time, step=step,
-                master=master, extrapolation=exp.extrapolation, parameters=params,
-                outputs=qoi.columns(scene.quantity) or None)
+                master=master, extrapolation=exp.extrapolation, start_values=params,
+                output=qoi.columns(scene.quantity) or None)
     wall = run.wall_time
     if not run.complete:
         return Candidate(dict(fidelities), step, None, None, wall, False, run.error, master)

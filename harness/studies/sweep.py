@@ -285,7 +285,7 @@ def run_point(system_name: str, spec: SweepSpec, point: dict[str, float]) -> dic
         wanted = sorted({c for e in spec.outputs.values() for c in qoi.columns(e)})
         # the failure is recorded in the row, not warned about per point; the run's own message (e.g. the FMU
         # refusing a parameter) is the error, and quantities of a partial run would be misleading (NaN)
-        run = trial(load(system_name), parameters=params, outputs=wanted or None, **spec.run)
+        run = trial(load(system_name), start_values=params, output=wanted or None, **spec.run)
         if run.complete:
             for name, expr in spec.outputs.items():
                 row[name] = qoi.evaluate(expr, run.result)

@@ -133,7 +133,7 @@ def two_inertia_run(params, master: str, order: int, periods: float = PERIODS, m
         n = max(int(min_steps), int(math.ceil(span / h)))
         stop = n * h
         return quiet_simulate(base, stop_time=stop, step=h, master=master, extrapolation=order,
-                              parameters=parameters, outputs=["a.flange.w", "b.drive.tau"], on_error="return",
+                              start_values=parameters, output=["a.flange.w", "b.drive.tau"], on_error="return",
                               options=study_options(n))
 
     return run

@@ -163,7 +163,7 @@ class PressRun:
         for _ in range(4):
             n = int(math.ceil(self.duration / h - 1e-9))
             df = quiet_simulate(self.system, stop_time=n * h, step=h, master="gauss-seidel", extrapolation=0,
-                                 parameters=self.parameters, on_error="return")
+                                 start_values=self.parameters, on_error="return")
             if df.attrs.get("complete", True):
                 return df
             err = df.attrs.get("error", "")
@@ -179,7 +179,7 @@ class PressRun:
         n = self.n_steps(h)
         self.runs += 1
         return quiet_simulate(self.system, stop_time=n * h, step=h, master=self.master,
-                               extrapolation=self.order, parameters=self.parameters, on_error="return",
+                               extrapolation=self.order, start_values=self.parameters, on_error="return",
                                options=study_options(n))
 
     def judge(self, df) -> bool:
