@@ -1,8 +1,8 @@
 """FMI content other people bring (issue 33): what was wrong, and what is new.
 
-* FMI 1.0 String values (tests/fmi1_string/identity.c, an FMI 1.0 co-simulation FMU written for this test,
-  compiled with the system C compiler): a String passes through a chain of two connections unchanged (it
-  used to arrive as "b'hello'", then as "b\"b'hello'\"").
+* FMI 1.0 String values (the ViProMa identity FMU from libcosim's test data, and tests/fmi1_string/identity.c,
+  an FMI 1.0 co-simulation FMU written for this test, compiled with the system C compiler): a String passes
+  through a chain of two connections unchanged (it used to arrive as "b'hello'", then as "b\"b'hello'\"").
 * FMI 3.0 co-simulation (harness/fmi/fmu3.py): the Modelica Reference-FMUs 3.0, built from the pinned sources
   in tests/reference_fmus with cmake (-DFMI_VERSION=3), each alone under every master agrees with
   fmpy.simulate_fmu (the same FMU, fmpy's own FMI 3.0 calls) exactly, and a system of them with Float64,
@@ -66,6 +66,24 @@ def quiet(system, **kw):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return simulate(system, **kw)
+
+
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_viproma_identity_fmu_passes_every_type_through_two_connections(master):
+    """The issue's own case, on the FMU it names (libcosim's test data, tests/fmi1_identity): 'hello' through
+    a -> b -> c arrives as 'hello' (Ecos: hello, hello; the master gave "b'hello'", then "b\"b'hello'\"");
+    the Real, Integer and Boolean outputs pass unchanged too."""
+    fmu = str(HERE / "fmi1_identity" / "identity.fmu")
+    start = {"stringIn": "hello", "realIn": 2.5, "integerIn": -7, "booleanIn": True}
+    system = System("identity", [Instance("a", fmu, start), Instance("b", fmu), Instance("c", fmu)],
+                    [Connection(f"a.{k}Out", f"b.{k}In") for k in ("real", "integer", "boolean", "string")]
+                    + [Connection(f"b.{k}Out", f"c.{k}In") for k in ("real", "integer", "boolean", "string")],
+                    experiment=Experiment(stop_time=0.05, step=0.01))
+    df = quiet(system, master=master, on_error="raise")
+    assert df.attrs["complete"]
+    for k, value in (("string", "hello"), ("real", 2.5), ("integer", -7), ("boolean", True)):
+        assert list(df[f"a.{k}Out"]) == [value] * 6
+        assert df[f"c.{k}Out"].iloc[-1] == value and df[f"b.{k}Out"].iloc[-1] == value
 
 
 @pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
