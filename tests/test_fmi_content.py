@@ -576,3 +576,22 @@ def test_a_bare_fmu_runs_alone_like_fmpy(reference2, reference3):
         df = quiet(str(fmu), master="jacobi-sampled", on_error="raise")
         ref = pd.DataFrame(simulate_fmu(str(fmu), output_interval=0.01, fmi_type="CoSimulation")).set_index("time")
         assert assert_agrees(df, ref, "BouncingBall.", 1e-12, str(fmu)) >= 2   # h, v (FMI 3.0: h_ft too)
+
+
+@pytest.mark.parametrize("version,annotation", [
+    ("2.0", '<VendorAnnotations><Tool name="org.pressdrive"><Slave module="m" class="C" '
+            'advancedPositions="crank.phi"/></Tool></VendorAnnotations>'),
+    ("3.0", '<Annotations><Annotation type="org.pressdrive"><Slave module="m" class="C" '
+            'advancedPositions="crank.phi"/></Annotation></Annotations>'),
+])
+def test_the_toolkit_annotation_is_read_in_fmi2_and_fmi3_places(tmp_path, version, annotation):
+    """The toolkit's FMUs name the motion inputs they advance themselves; the master must not extrapolate
+    those.  FMI 3.0 moved vendor annotations to Annotations/Annotation (issue 34's FMI 3.0 FMUs: without it
+    the feeder differed by 1.1e11 from its FMI 2.0 run, measured there)."""
+    from harness.fmi.fmu import advanced_positions, toolkit_annotation
+
+    (tmp_path / "modelDescription.xml").write_text(
+        f'<?xml version="1.0" encoding="UTF-8"?>\n<fmiModelDescription fmiVersion="{version}" modelName="x" '
+        f'instantiationToken="t" guid="t">{annotation}</fmiModelDescription>')
+    assert toolkit_annotation(tmp_path).get("class") == "C"
+    assert advanced_positions(tmp_path) == {"crank.phi"}

@@ -92,9 +92,9 @@ _install_proxy()
 
 
 def toolkit_annotation(unzip_dir: Path):
-    """The toolkit's own annotation of an FMU built by fmus.slave.PressSlave (VendorAnnotations, tool
-    "org.pressdrive", element ``Slave`` with the attributes ``module``, ``class`` and ``advancedPositions``),
-    or None for any other FMU.  Read once per extraction folder (its content never changes: a changed FMU is
+    """The toolkit's own annotation of an FMU built by fmus.slave.PressSlave (FMI 2.0: VendorAnnotations, tool
+    "org.pressdrive"; FMI 3.0: Annotations/Annotation of type "org.pressdrive"; element ``Slave`` with the
+    attributes ``module``, ``class`` and ``advancedPositions``), or None for any other FMU.  Read once per extraction folder (its content never changes: a changed FMU is
     extracted into another folder, see :func:`extracted`)."""
     return _annotation(str(unzip_dir))
 
@@ -107,7 +107,10 @@ def _annotation(unzip_dir: str):
         root = ET.parse(Path(unzip_dir) / "modelDescription.xml").getroot()
     except (OSError, ET.ParseError):
         return None
-    return root.find("VendorAnnotations/Tool[@name='org.pressdrive']/Slave")
+    found = root.find("VendorAnnotations/Tool[@name='org.pressdrive']/Slave")   # FMI 2.0
+    if found is None:
+        found = root.find("Annotations/Annotation[@type='org.pressdrive']/Slave")  # FMI 3.0
+    return found
 
 
 def advanced_positions(unzip_dir: Path) -> frozenset:
