@@ -10,8 +10,8 @@ Each FMU is built from its declaration ``fmus/components/pd_<name>.py`` plus the
 ``fmus`` package (the base slave, units and the pure equations in ``fmus/physics``), both bundled under
 names unique to the FMU's code (``pd_<name>_<hash>``, ``fmus_<hash>``: :func:`stage_isolated`), so FMUs
 of any toolkit version load, unload and reload side by side in one process.  On Linux the host loader
-(``fmus/loader/pressdrive_loader.c``, compiled here) goes in front of pythonfmu's wrapper, so the FMU also
-loads in hosts that do not run Python (:func:`add_loader`).  The modelDescription is written completely by the base slave
+(``fmus/loader/pressdrive_loader.c``, for FMI 3.0 ``pressdrive_loader3.c``, compiled here) goes in front of
+pythonfmu's (pythonfmu3's) wrapper, so the FMU also loads in hosts that do not run Python (:func:`add_loader`).  The modelDescription is written completely by the base slave
 (units, ModelStructure with dependencies, InitialUnknowns); the build then checks each FMU with
 ``fmpy.validation`` and exits non-zero, naming the FMU, if a build or a check fails.
 """
@@ -44,6 +44,9 @@ VERSIONS = tuple(SLAVE_MODULE)
 
 LOADER = ROOT / "fmus" / "loader" / "pressdrive_loader.c"
 PLATFORM = "linux64"     # the one platform the host loader is built for (the others keep pythonfmu's wrapper)
+# per FMI version: the loader's source, its platform folder and the name of the exporter whose wrapper it loads
+LOADERS = {2: (LOADER, PLATFORM, "pythonfmu"),
+           3: (ROOT / "fmus" / "loader" / "pressdrive_loader3.c", "x86_64-linux", "pythonfmu3")}
 OUT = {2: ROOT / "build" / "fmus", 3: ROOT / "build" / "fmus3"}   # default output folder of each version
 
 
@@ -143,33 +146,41 @@ def python_environment() -> str:
                       f"path={':'.join(paths)}")) + "\n"
 
 
-def compile_loader(dest: Path) -> Path:
-    """Compile the host loader (fmus/loader/pressdrive_loader.c) with the C compiler of the machine."""
+def compile_loader(dest: Path, fmi_version: int = 2) -> Path:
+    """Compile the host loader of this FMI version (fmus/loader/pressdrive_loader.c, pressdrive_loader3.c) with
+    the C compiler of the machine; FMI 3.0's takes its prototypes from the FMI 3.0 headers pythonfmu3 ships."""
+    source = LOADERS[fmi_version][0]
     cc = os.environ.get("CC", "cc")
-    out = dest / "pressdrive_loader.so"
-    cmd = [cc, "-shared", "-fPIC", "-O2", "-o", str(out), str(LOADER), "-ldl", "-lpthread"]
+    out = dest / f"{source.stem}.so"
+    cmd = [cc, "-shared", "-fPIC", "-O2", "-o", str(out), str(source), "-ldl", "-lpthread"]
+    if fmi_version == 3:
+        import pythonfmu3
+
+        cmd.insert(1, f"-I{Path(pythonfmu3.__file__).parent / 'pythonfmu-export' / 'src' / 'fmi'}")
     try:
         r = subprocess.run(cmd, capture_output=True, text=True)
     except FileNotFoundError:
-        raise RuntimeError(f"no C compiler {cc!r} to build the host loader {LOADER.name} (set CC)") from None
+        raise RuntimeError(f"no C compiler {cc!r} to build the host loader {source.name} (set CC)") from None
     if r.returncode != 0:
-        raise RuntimeError(f"compiling {LOADER.name} failed: {r.stderr.strip().splitlines()[0] if r.stderr else r.returncode}")
+        raise RuntimeError(f"compiling {source.name} failed: {r.stderr.strip().splitlines()[0] if r.stderr else r.returncode}")
     return out
 
 
-def add_loader(fmu: Path, loader: Path) -> None:
+def add_loader(fmu: Path, loader: Path, fmi_version: int = 2) -> None:
     """Put the host loader in front of pythonfmu's wrapper: binaries/linux64/<id>.so is the loader, the
-    wrapper moves to <id>_pythonfmu.so, and resources/pressdrive_python.txt records this Python."""
+    wrapper moves to <id>_pythonfmu.so, and resources/pressdrive_python.txt records this Python (FMI 3.0:
+    binaries/x86_64-linux/<id>.so and <id>_pythonfmu3.so)."""
+    _, platform, exporter = LOADERS[fmi_version]
     tmp = fmu.with_suffix(".fmu.part")
     with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
         names = zin.namelist()
-        wrapper = [n for n in names if n.startswith(f"binaries/{PLATFORM}/") and n.endswith(".so")]
+        wrapper = [n for n in names if n.startswith(f"binaries/{platform}/") and n.endswith(".so")]
         if len(wrapper) != 1:
-            raise RuntimeError(f"{fmu.name}: expected one binaries/{PLATFORM}/*.so, found {wrapper}")
+            raise RuntimeError(f"{fmu.name}: expected one binaries/{platform}/*.so, found {wrapper}")
         for n in names:
             data = zin.read(n)
             if n == wrapper[0]:
-                zout.writestr(n.removesuffix(".so") + "_pythonfmu.so", data)
+                zout.writestr(n.removesuffix(".so") + f"_{exporter}.so", data)
                 zout.write(loader, n)
             else:
                 zout.writestr(zin.getinfo(n), data)
@@ -180,8 +191,8 @@ def add_loader(fmu: Path, loader: Path) -> None:
 def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path | None = None,
               fmi_version: int = 2) -> Path:
     """Build one FMU from its declaration into ``out`` (its code under build-unique names, see
-    :func:`stage_isolated`); with ``loader``, the host loader goes in front of pythonfmu's wrapper (FMI 2.0
-    only: the loader forwards fmi2* calls)."""
+    :func:`stage_isolated`); with ``loader`` (compiled for the same FMI version), the host loader goes in front
+    of the exporter's wrapper."""
     if fmi_version == 3:
         import pythonfmu3 as pythonfmu
         from pythonfmu3.builder import FmuBuilder
@@ -201,8 +212,8 @@ def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path
             # the pythonfmu in use is a copy from some FMU's resources (no binaries of its own)
             raise RuntimeError(f"{fmu.name} has no binaries: the pythonfmu imported from "
                                f"{Path(pythonfmu.__file__).parent} is not an installed package")
-    if loader is not None and fmi_version == 2:
-        add_loader(fmu, loader)
+    if loader is not None:
+        add_loader(fmu, loader, fmi_version)
     if fmi_version == 3:
         add_terminals(fmu, script)
     return fmu
@@ -278,9 +289,9 @@ def main(argv: list[str] | None = None) -> int:
     failed = []
     with tempfile.TemporaryDirectory(prefix="pressdrive_runtime_") as tmp:
         loader = None
-        if sys.platform.startswith("linux") and args.fmi_version == 2:
+        if sys.platform.startswith("linux"):
             try:
-                loader = compile_loader(Path(tmp))
+                loader = compile_loader(Path(tmp), args.fmi_version)
             except RuntimeError as e:
                 print(f"build_fmus: FAILED host loader: {e}", file=sys.stderr)
                 return 1

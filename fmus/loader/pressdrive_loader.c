@@ -17,6 +17,9 @@
  * A host that already runs Python (FMPy, libcosimpy, ecospy, the harness) is left alone: Python is found
  * initialised and nothing but the forwarding happens.  Python is never finalised (numpy cannot be
  * re-initialised in one process).
+ *
+ * The FMI 3.0 loader (pressdrive_loader3.c) is this file compiled with PRESSDRIVE_FMI3 defined: the same
+ * environment handling in front of pythonfmu3's wrapper, with its own function list and fmi3* API.
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -55,6 +58,10 @@ typedef struct {
 
 #define EXPORT __attribute__((visibility("default")))
 
+#ifndef PRESSDRIVE_EXPORTER          /* the Python package whose wrapper this loader stands in front of */
+#define PRESSDRIVE_EXPORTER "pythonfmu"
+#endif
+
 /* ---------------------------------------------------------------------------------------- configuration */
 static char cfg_version[32], cfg_libpython[PATH_MAX], cfg_home[PATH_MAX], cfg_path[8 * PATH_MAX];
 
@@ -86,6 +93,7 @@ static const char *setting(const char *env, const char *recorded) {
 }
 
 /* ------------------------------------------------------------------------------------------ the wrapper */
+#ifndef PRESSDRIVE_FMI3
 #define FMI_FUNCTIONS(X) \
     X(fmi2SetDebugLogging) X(fmi2Instantiate) X(fmi2FreeInstance) X(fmi2SetupExperiment) \
     X(fmi2EnterInitializationMode) X(fmi2ExitInitializationMode) X(fmi2Terminate) X(fmi2Reset) \
@@ -95,6 +103,7 @@ static const char *setting(const char *env, const char *recorded) {
     X(fmi2GetDirectionalDerivative) X(fmi2SetRealInputDerivatives) X(fmi2GetRealOutputDerivatives) \
     X(fmi2DoStep) X(fmi2CancelStep) X(fmi2GetStatus) X(fmi2GetRealStatus) X(fmi2GetIntegerStatus) \
     X(fmi2GetBooleanStatus) X(fmi2GetStringStatus)
+#endif
 
 #define DECLARE(name) static void *p_##name;
 FMI_FUNCTIONS(DECLARE)
@@ -102,10 +111,12 @@ FMI_FUNCTIONS(DECLARE)
 static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
 static int ready = 0;
 
+#ifndef PRESSDRIVE_FMI3
 static void log_error(const fmi2CallbackFunctions *cb, fmi2String instance, const char *msg) {
     if (cb && cb->logger) cb->logger(cb->componentEnvironment, instance, 3, "logStatusError", "%s", msg);
     else fprintf(stderr, "%s: %s\n", instance ? instance : "pressdrive FMU", msg);
 }
+#endif
 
 static int file_exists(const char *p) {
     struct stat st;
@@ -149,7 +160,7 @@ static int prepare(char *err, size_t n) {
         if (!file_exists(libpython)) {
             snprintf(err, n, "the Python environment this FMU was built for is gone: no libpython at '%s' "
                      "(set PRESSDRIVE_LIBPYTHON to a libpython%s, PRESSDRIVE_PYTHONHOME and PRESSDRIVE_PYTHONPATH "
-                     "to an environment with numpy, scipy and pythonfmu)", libpython, cfg_version);
+                     "to an environment with numpy, scipy and " PRESSDRIVE_EXPORTER ")", libpython, cfg_version);
             return -1;
         }
         py = dlopen(libpython, RTLD_NOW | RTLD_GLOBAL);
@@ -192,23 +203,23 @@ static int prepare(char *err, size_t n) {
         static char script[16 * PATH_MAX];
         snprintf(script, sizeof script, "import site, sys\nfor _p in ");
         py_literal(script, sizeof script, path);
-        strncat(script, ".split(':'):\n    if _p: site.addsitedir(_p)\nimport pythonfmu\n",
+        strncat(script, ".split(':'):\n    if _p: site.addsitedir(_p)\nimport " PRESSDRIVE_EXPORTER "\n",
                 sizeof script - strlen(script) - 1);
         int rc = run(script);
         save_thread();
         if (rc != 0) {
             snprintf(err, n, "the Python environment this FMU was built for is gone or incomplete: importing "
-                     "pythonfmu from '%s' failed (traceback on stderr; set PRESSDRIVE_PYTHONPATH)", path);
+                     PRESSDRIVE_EXPORTER " from '%s' failed (traceback on stderr; set PRESSDRIVE_PYTHONPATH)", path);
             return -1;
         }
     }
     snprintf(wrapper, sizeof wrapper, "%s", self);
     size_t k = strlen(wrapper);
     if (k > 3 && !strcmp(wrapper + k - 3, ".so")) wrapper[k - 3] = 0;
-    strncat(wrapper, "_pythonfmu.so", sizeof wrapper - strlen(wrapper) - 1);
+    strncat(wrapper, "_" PRESSDRIVE_EXPORTER ".so", sizeof wrapper - strlen(wrapper) - 1);
     void *w = dlopen(wrapper, RTLD_NOW | RTLD_LOCAL);
     if (!w) {
-        snprintf(err, n, "cannot load pythonfmu's wrapper '%s' (%s)", wrapper, dlerror());
+        snprintf(err, n, "cannot load " PRESSDRIVE_EXPORTER "'s wrapper '%s' (%s)", wrapper, dlerror());
         return -1;
     }
 #define RESOLVE(name) \
@@ -218,6 +229,7 @@ static int prepare(char *err, size_t n) {
 }
 
 /* ------------------------------------------------------------------------------------------ FMI 2.0 API */
+#ifndef PRESSDRIVE_FMI3
 EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
 EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
 
@@ -279,3 +291,4 @@ FWD(fmi2GetRealStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Real *v), (
 FWD(fmi2GetIntegerStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Integer *v), (c, k, v))
 FWD(fmi2GetBooleanStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v), (c, k, v))
 FWD(fmi2GetStringStatus, (fmi2Component c, const fmi2StatusKind k, fmi2String *v), (c, k, v))
+#endif /* PRESSDRIVE_FMI3 */
