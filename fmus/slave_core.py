@@ -120,6 +120,12 @@ class PressBehaviour:
         self._param_specs = cls.model.Params.specs()
         self._par = {s.name: s.default for s in self._param_specs}
         self._u = [v.start for v in self._io if v.causality == "input"]
+        self._fresh = [True] * len(self._u)  # input set since the last step (else held over it)
+        self._last_step = 0.0                # size of the last step taken (do_step)
+        names = [v.name for v in self._io if v.causality == "input"]
+        # (position, velocity) input indices of the motion-input ports the model advances over a step
+        self._advanced = [(names.index(pos), names.index(f"{port.name}.{'v' if port.translational else 'w'}"))
+                          for port, pos in zip(cls.ports, cls._port_positions()) if pos is not None]
         self._y = [0.0] * len(cls.model.outputs)
         self._x = np.zeros(len(cls.model.states))
         self._time = 0.0
@@ -171,6 +177,7 @@ class PressBehaviour:
     def _in_setter(self, i):
         def set_(value):
             self._u[i] = value
+            self._fresh[i] = True
             self._stale = True
         return set_
 
@@ -210,9 +217,11 @@ class PressBehaviour:
         for vr in vrs:
             if vr not in inp:
                 return False
-        u = self._u
+        u, fresh = self._u, self._fresh
         for vr, value in zip(vrs, values):
-            u[inp[vr]] = value
+            i = inp[vr]
+            u[i] = value
+            fresh[i] = True
             self._stale = True
         return True
 
@@ -236,8 +245,28 @@ class PressBehaviour:
         mdl = self._build_model()
         if not self._initialised:
             self._x = np.asarray(mdl.initial_state(self._u), dtype=float)
-        self._y = [float(v) for v in mdl.output(self._time, self._x, self._u)]
+        self._y = [float(v) for v in mdl.output(self._time, self._x, self._inputs_now())]
         self._stale = False
+
+    def _inputs_now(self) -> list:
+        """The inputs as the model saw them at the slave's time: a motion-input position not set since the last
+        step started is advanced over that step with its velocity, as ``Model.advance`` advanced it.
+
+        Why: libcosim, Ecos and FMPy's ``simulate_ssp`` read the outputs right after ``fmi2DoStep``, before any new
+        input.  An output computed from the state at t+h and the position held from t (a stiff mesh or coupler
+        spring: c * (phi_in - phi)) is then wrong by c * w * h, a first-order error with a large constant that made
+        the exported bed drive 1.4 cm off in those hosts at 0.1 ms (issue 35).  A position set at t+h (a master
+        that refreshes feed-through: the harness's ``jacobi``, OMSimulator) is used as set, so their results do
+        not change."""
+        u = self._u
+        if not (self._initialised and self._advanced):
+            return u
+        u = list(u)
+        h, fresh = self._last_step, self._fresh
+        for ip, iw in self._advanced:
+            if not fresh[ip]:   # held over the last step: the model advanced it by h
+                u[ip] += u[iw] * h
+        return u
 
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):
         self._time = float(start_time)
@@ -266,6 +295,8 @@ class PressBehaviour:
             bad = type(self).model.states[int(np.argmin(np.isfinite(x)))].name
             self._fail(f"state {bad} became non-finite in the step from t = {current_time:.9g} s, h = {step_size:.3g} s")
         self._x = x
+        self._last_step = step_size
+        self._fresh = [False] * len(self._u)
         self._time = current_time + step_size
         self._stale = True
         return True
@@ -275,11 +306,11 @@ class PressBehaviour:
     # a saved state can be restored any number of times.
     def _get_fmu_state(self):
         return (self._x.copy(), list(self._u), list(self._y), self._time, self._stale, self._initialised,
-                dict(self._par), self._mdl)
+                dict(self._par), self._mdl, list(self._fresh), self._last_step)
 
     def _set_fmu_state(self, state):
-        x, u, y, self._time, self._stale, self._initialised, par, self._mdl = state
-        self._x, self._u, self._y, self._par = x.copy(), list(u), list(y), dict(par)
+        x, u, y, self._time, self._stale, self._initialised, par, self._mdl, fresh, self._last_step = state
+        self._x, self._u, self._y, self._par, self._fresh = x.copy(), list(u), list(y), dict(par), list(fresh)
 
     # -- what the modelDescription says, in names (each version writes it in its own XML) ---------------------
     def _units_by_name(self) -> dict[str, str]:
@@ -291,8 +322,13 @@ class PressBehaviour:
 
     def _advanced_positions(self) -> list[str]:
         """The motion-input positions this slave advances itself over a step (``advances_position``)."""
-        return [f"{port.name}.{'s' if port.translational else 'phi'}" for port in type(self).ports
-                if port.motion == "in" and type(self).advances_position]
+        return [pos for pos in type(self)._port_positions() if pos is not None]
+
+    @classmethod
+    def _port_positions(cls) -> list[str | None]:
+        """Per port, the name of its position input if the model advances it over a step, else None."""
+        return [f"{port.name}.{'s' if port.translational else 'phi'}"
+                if port.motion == "in" and cls.advances_position else None for port in cls.ports]
 
     def _output_dependencies(self) -> list[tuple[str, tuple[str, ...], tuple[str, ...]]]:
         """(output, its direct input dependencies in continuous time, its dependencies at initialisation) for

@@ -1,0 +1,346 @@
+"""Are the shipped drives, exported as SSP, as accurate in other hosts as in ours?  (issue 35)
+
+``python -m benchmarks.host_accuracy [--systems bed_drive feeder_gto52] [--hosts ...] [--steps 1e-4 5e-5]``
+
+Each drive that declares an accuracy (``System.accuracy``) is exported (:func:`harness.ssp.export_ssp`) and
+the archive is run, as a user of each tool would run it, in every available host at the step the SSP
+declares (the OSP ``FixedStepAlgorithm`` annotation, read back with :func:`harness.ssp.load_ssp`) and at the
+extra steps asked for.  Every run is judged with :func:`harness.studies.accuracy.check` against the
+monolithic reference (:func:`harness.studies.reference.reference`) over the drive's accuracy span.
+
+Hosts (each with its own algorithm; nothing here changes it):
+
+* ``libcosim`` and ``ecos`` (``benchmarks.peers.run_ssp_libcosim`` / ``run_ssp_ecos``): fixed-step Jacobi,
+  outputs sampled after ``fmi2DoStep`` (a direct feed-through output is not refreshed with the new inputs);
+* ``fmpy-ssp`` (``fmpy.ssp.simulate_ssp``): the same algorithm, in Python.  It applies no parameter binding
+  of the SSD by itself (only a ``parameter_set`` passed to it, names prefixed with the component): the
+  runner passes the SSD's own bindings that way, as a user must (without them the FMUs run their defaults).
+  Its rows carry the time at the START of the step whose outputs they hold: they are put at the step's end;
+* ``omsimulator`` (OMSimulator 3.0's Python API): refreshes feed-through outputs after each step, zero-order
+  hold; it ignores the OSP step annotation, so the step is set with ``setFixedStepSize``;
+* ``harness:<master>``: the toolkit's own masters on the same archive (``harness:jacobi-sampled`` reproduces
+  libcosim and Ecos, ``harness:jacobi`` with hold OMSimulator), to tell the algorithm from the tool.
+
+Every host run goes in a subprocess of its own (``python -m benchmarks.host_accuracy --worker``) with a time
+limit, because a diverging drive can make a host hang (libcosim) or abort the process: a run is ``complete``,
+``hung`` (killed at the limit), ``died`` (the process ended without a result), ``failed`` (the tool reported
+an error) or ``diverged`` (non-finite values).  Only a complete run is judged; anything else meets nothing.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import pickle
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+HOSTS = ("libcosim", "ecos", "fmpy-ssp", "omsimulator", "harness:jacobi-sampled", "harness:jacobi")
+SYSTEMS = ("bed_drive", "feeder_gto52")
+TIMEOUT = 600.0   # s per host run; the slowest complete run measured here (fmpy-ssp, bed_drive, 1 s at 50 us) is below
+
+
+# -- which hosts exist ----------------------------------------------------------------------------------------
+def unavailable(host: str) -> str | None:
+    """None if ``host`` can run here, else one line saying why not."""
+    from benchmarks import peers
+
+    if host in ("libcosim", "ecos"):
+        return peers.available()[host]
+    if host == "fmpy-ssp":
+        try:
+            import fmpy.ssp.simulation  # noqa: F401
+        except Exception as e:
+            return f"fmpy-ssp unavailable: fmpy.ssp.simulation does not import ({type(e).__name__}: {e})"
+        return None
+    if host == "omsimulator":
+        try:
+            import OMSimulator  # noqa: F401
+        except Exception as e:
+            return (f"omsimulator unavailable: its Python API does not import ({type(e).__name__}: {e}); install "
+                    "it with ../shared/tools/omsimulator/install where that folder exists")
+        return None
+    if host.startswith("harness:"):
+        from harness.masters import MASTERS
+
+        return None if host.split(":", 1)[1] in MASTERS else f"{host}: no such master"
+    return f"{host}: unknown host (one of {', '.join(HOSTS)})"
+
+
+# -- one run in one host (called in the worker process) ------------------------------------------------------
+def _run_fmpy_ssp(ssp: Path, stop: float, step: float, columns: list[str]) -> pd.DataFrame:
+    from fmpy.ssp.simulation import simulate_ssp
+    from fmpy.ssp.ssd import Parameter, ParameterSet, read_ssd
+
+    system = read_ssd(str(ssp)).system
+    bound = ParameterSet(name="bindings")
+    for element in system.elements:
+        for binding in element.parameterBindings:
+            for values in binding.parameterValues:
+                for p in values.parameters:
+                    bound.parameters.append(Parameter(name=f"{element.name}.{p.name}", type=p.type, value=p.value))
+    result = simulate_ssp(str(ssp), stop_time=stop, step_size=step, parameter_set=bound)
+    names = result.dtype.names
+    frame = {}
+    for c in columns:
+        hits = [n for n in names if n.endswith("." + c) or n == c]
+        if not hits:
+            raise KeyError(f"fmpy-ssp: no column for {c} among {len(names)} connectors")
+        frame[c] = np.asarray(result[hits[0]], dtype=float)
+    # each row holds the outputs after the step that STARTS at its time
+    return pd.DataFrame(frame, index=pd.Index(np.asarray(result["time"]) + step, name="time"))
+
+
+def _run_omsimulator(ssp: Path, stop: float, step: float, columns: list[str], system_name: str) -> pd.DataFrame:
+    from OMSimulator import SSP
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "oms.csv"
+        im = SSP(str(ssp)).instantiate()
+        im.setFixedStepSize(step)
+        im.setStopTime(stop)
+        im.setResultFile(str(out))
+        im.initialize()
+        im.simulate()
+        im.terminate()
+        im.delete()
+        raw = pd.read_csv(out, skipinitialspace=True)
+    raw.columns = [c.strip().strip('"') for c in raw.columns]
+    raw = raw.groupby("time").last()       # each point is written twice (before and after the input update)
+    df = raw[[f"{system_name}.{c}" for c in columns]].astype(float)
+    df.columns = list(columns)
+    df.index.name = "time"
+    return df
+
+
+def _run_harness(ssp: Path, stop: float, step: float, columns: list[str], master: str) -> pd.DataFrame:
+    from harness.studies.trial import quiet_simulate
+    from harness.ssp import load_ssp
+
+    df = quiet_simulate(load_ssp(ssp), stop_time=stop, step=step, master=master, extrapolation=0,
+                        output=list(columns))
+    if df.attrs.get("complete") is False:
+        raise RuntimeError(str(df.attrs.get("error") or "incomplete run"))
+    return df[list(columns)]
+
+
+def run_host(host: str, ssp: Path, stop: float, step: float, columns: list[str], system_name: str) -> pd.DataFrame:
+    """One run of the archive in ``host``, IN THIS PROCESS (see :func:`run_guarded` for the safe way)."""
+    from benchmarks import peers
+
+    if host == "libcosim":
+        return peers.run_ssp_libcosim(ssp, stop, step, columns)
+    if host == "ecos":
+        return peers.run_ssp_ecos(ssp, stop, step, columns, parameter_set="default")
+    if host == "fmpy-ssp":
+        return _run_fmpy_ssp(ssp, stop, step, columns)
+    if host == "omsimulator":
+        return _run_omsimulator(ssp, stop, step, columns, system_name)
+    if host.startswith("harness:"):
+        return _run_harness(ssp, stop, step, columns, host.split(":", 1)[1])
+    raise ValueError(f"{host}: unknown host (one of {', '.join(HOSTS)})")
+
+
+@dataclass
+class HostRun:
+    """``status``: complete, hung, died, failed or diverged; ``result`` only when complete."""
+    host: str
+    step: float
+    status: str
+    wall_time: float
+    result: pd.DataFrame | None = None
+    error: str = ""
+
+
+def run_guarded(host: str, ssp: Path, stop: float, step: float, columns: list[str], system_name: str,
+                timeout: float = TIMEOUT) -> HostRun:
+    """:func:`run_host` in a fresh Python process, killed after ``timeout`` s; never raises for the host's sake."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run.pkl"
+        cmd = [sys.executable, "-m", "benchmarks.host_accuracy", "--worker", host, str(ssp), repr(stop), repr(step),
+               system_name, str(out), *columns]
+        t0 = time.perf_counter()
+        try:
+            r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=timeout,
+                               env={**os.environ, "PRESSDRIVE_NORMAL_EXIT": "1"})
+        except subprocess.TimeoutExpired:
+            return HostRun(host, step, "hung", time.perf_counter() - t0,
+                           error=f"no result after {timeout:g} s: killed")
+        wall = time.perf_counter() - t0
+        if not out.exists():
+            tail = " ".join((r.stderr or r.stdout or "").split())[-300:]
+            return HostRun(host, step, "died", wall, error=f"exit code {r.returncode}: {tail}")
+        with open(out, "rb") as f:
+            kind, payload = pickle.load(f)
+    if kind == "error":
+        return HostRun(host, step, "failed", wall, error=payload)
+    df = payload
+    if not np.isfinite(df.to_numpy(dtype=float)).all():
+        bad = df.index[~np.isfinite(df.to_numpy(dtype=float)).all(axis=1)][0]
+        return HostRun(host, step, "diverged", wall, error=f"non-finite values from t = {bad:g} s")
+    return HostRun(host, step, "complete", wall, result=df)
+
+
+def _worker(argv: list[str]) -> int:
+    host, ssp, stop, step, system_name, out, *columns = argv
+    try:
+        df = run_host(host, Path(ssp), float(stop), float(step), columns, system_name)
+        payload = ("ok", pd.DataFrame(df))
+    except Exception as e:  # the tool's error, as one line
+        payload = ("error", " ".join(f"{type(e).__name__}: {e}".split())[:500])
+    with open(out, "wb") as f:
+        pickle.dump(payload, f)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    # leave without tearing down the interpreter: pythonfmu instances a host still references have aborted
+    # the interpreter's exit (tests/conftest.py)
+    os._exit(0)
+
+
+# -- what to record and how to judge it ----------------------------------------------------------------------
+def columns_of(system) -> list[str]:
+    """The 'Instance.variable' columns the drive's accuracy requirements read (``r["..."]`` in a quantity or
+    its ``where``)."""
+    from harness.studies.accuracy import accuracy_spec
+
+    found: list[str] = []
+    for req in accuracy_spec(system).requirements:
+        for text in (req.quantity, req.where or ""):
+            for name in re.findall(r'r\["([^"]+)"\]', text):
+                if name not in found:
+                    found.append(name)
+    return found
+
+
+def declared_step(ssp: Path) -> float:
+    """The step the exported SSP declares (its OSP FixedStepAlgorithm annotation)."""
+    from harness.ssp import load_ssp
+
+    exp = load_ssp(ssp).experiment
+    if exp is None or exp.step is None:
+        raise ValueError(f"{ssp}: declares no step (no DefaultExperiment with an OSP FixedStepAlgorithm)")
+    return float(exp.step)
+
+
+@dataclass
+class Verdict:
+    """A host run judged: ``checks`` from :func:`harness.studies.accuracy.check` (empty unless complete)."""
+    system: str
+    run: HostRun
+    checks: list = field(default_factory=list)
+
+    @property
+    def meets(self) -> bool:
+        return self.run.status == "complete" and bool(self.checks) and all(c.ok for c in self.checks)
+
+
+def judge(system, run: HostRun, reference: pd.DataFrame) -> Verdict:
+    from harness.studies.accuracy import check
+
+    if run.status != "complete":
+        return Verdict(system.name, run)
+    return Verdict(system.name, run, check(system, run.result, reference))
+
+
+def measure(system_name: str, hosts, extra_steps=(), out_dir: Path | None = None, timeout: float = TIMEOUT,
+            progress=None) -> list[Verdict]:
+    """Export ``system_name``, run it in each host at its declared step and at ``extra_steps``, judge each."""
+    from harness import load
+    from harness.ssp import export_ssp
+    from harness.studies.accuracy import accuracy_spec
+    from harness.studies.reference import reference
+
+    system = load(system_name)
+    spec = accuracy_spec(system)
+    folder = Path(out_dir or tempfile.mkdtemp(prefix="host_accuracy_"))
+    ssp = export_ssp(system, folder / f"{system_name}.ssp")
+    steps = [declared_step(ssp)] + [h for h in extra_steps if not math.isclose(h, declared_step(ssp))]
+    ref = reference(system, stop_time=spec.stop_time, step=spec.reference_step)
+    columns = columns_of(system)
+    verdicts = []
+    for host in hosts:
+        reason = unavailable(host)
+        if reason:
+            if progress:
+                progress(f"{system_name} {host}: skipped: {reason}")
+            continue
+        for h in steps:
+            v = judge(system, run_guarded(host, ssp, spec.stop_time, h, columns, system_name, timeout), ref)
+            verdicts.append(v)
+            if progress:
+                progress(describe(v))
+    return verdicts
+
+
+def describe(v: Verdict) -> str:
+    r = v.run
+    head = f"{v.system} {r.host} step {r.step:g} s: {r.status} ({r.wall_time:.1f} s)"
+    if r.status != "complete":
+        return f"{head}: {r.error}"
+    return f"{head}: " + ("meets" if v.meets else "misses") + "; " + "; ".join(
+        f"{c.name} {c.error:.3g}/{c.tolerance:g} {c.unit}" + (f" ({c.note})" if c.note else "") for c in v.checks)
+
+
+def table(verdicts: list[Verdict]) -> pd.DataFrame:
+    """One row per run: system, host, step, status, wall time, every requirement's error and tolerance."""
+    rows = []
+    for v in verdicts:
+        row = dict(system=v.system, host=v.run.host, step=v.run.step, status=v.run.status,
+                   wall_time=round(v.run.wall_time, 1), meets=v.meets, error=v.run.error)
+        for c in v.checks:
+            row[c.name] = c.error
+            row[f"{c.name} tolerance"] = c.tolerance
+            if c.note:
+                row["error"] = (row["error"] + "; " if row["error"] else "") + f"{c.name}: {c.note}"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def markdown(verdicts: list[Verdict]) -> str:
+    """The table for docs/interoperability.md: per drive, host and step, each requirement's error / tolerance."""
+    lines = ["| drive | host | step | run | " + "requirement: error / tolerance | meets |", "|---|---|---|---|---|---|"]
+    for v in verdicts:
+        r = v.run
+        if r.status != "complete":
+            cells = r.error
+        else:
+            cells = "; ".join(f"{c.name}: " + (f"{c.error:.3g} / {c.tolerance:g} {c.unit}" if not c.note
+                                               else f"not judged ({c.note})") for c in v.checks)
+        lines.append(f"| {v.system} | {r.host} | {r.step * 1e3:g} ms | {r.status} | {cells} | "
+                     f"{'yes' if v.meets else 'no'} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["--worker"]:
+        return _worker(argv[1:])
+    p = argparse.ArgumentParser(prog="python -m benchmarks.host_accuracy", description=__doc__.splitlines()[0])
+    p.add_argument("--systems", nargs="+", default=list(SYSTEMS))
+    p.add_argument("--hosts", nargs="+", default=list(HOSTS))
+    p.add_argument("--steps", nargs="*", type=float, default=[], help="steps [s] besides the SSP's declared one")
+    p.add_argument("--timeout", type=float, default=TIMEOUT, help="s per host run before it counts as hung")
+    p.add_argument("--out", default="results", help="folder of host_accuracy.csv and the exported SSPs")
+    args = p.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    verdicts = []
+    for name in args.systems:
+        verdicts += measure(name, args.hosts, args.steps, out, args.timeout,
+                            progress=lambda s: print(s, file=sys.stderr, flush=True))
+    table(verdicts).to_csv(out / "host_accuracy.csv", index=False)
+    print(markdown(verdicts))
+    return 0 if all(v.meets for v in verdicts) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,208 @@
+"""Every shipped drive with a declared accuracy, exported as SSP, run in each FMI host with the host's own
+algorithm, judged against the monolithic reference by the drive's own accuracy (``harness.studies.accuracy.check``;
+issue 35).  The runner is ``benchmarks/host_accuracy.py``; the measured table is in docs/interoperability.md
+("Accuracy in other hosts").
+
+* At the step the exported SSP declares (the drive's default experiment): a host that misses is a finding, an
+  ``xfail`` (strict: it fails the day the host meets it) whose reason is what was measured.  Cases measured to
+  HANG are also marked ``slow`` (each costs the whole time limit; ``-m slow`` runs them).
+* At the largest step of the ladder 0.5, 0.2, 0.1, 0.05 ms at which the host was measured to meet the
+  accuracy: it must meet it (this is what the base slave's outputs-after-a-step fix bought: libcosim and Ecos
+  had the bed 14.5 mm off at 0.1 ms before it).
+* The base slave's part of that fix, FMU by FMU: an output read right after ``fmi2DoStep`` is the one the
+  model gives at the positions it advanced its motion inputs to.
+
+A host that is not installed skips, saying why.
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from benchmarks import host_accuracy as ha
+from harness import load
+from harness.model import Instance
+from harness.ssp import export_ssp
+from harness.studies.accuracy import accuracy_spec
+from harness.studies.reference import reference
+
+pytestmark = pytest.mark.interop
+
+PEER_HOSTS = ("libcosim", "ecos", "fmpy-ssp", "omsimulator")
+# A complete run of either drive over its accuracy span takes at most ~65 s in any host here at 0.05 ms
+# (OMSimulator, bed_drive) and ~15 s at the declared steps; a run still going after this is hung.
+TIMEOUT = 150.0
+
+# Measured at the declared step (bed_drive 0.5 ms, feeder_gto52 0.2 ms; python -m benchmarks.host_accuracy)
+SAMPLED_BED = ("hangs at 0.5 ms (killed after 90 s without a result; jacobi-sampled diverges at 0.022 s): "
+               "outputs sampled after doStep, so the effort through the rigid differential and cam arrives a step "
+               "late and the coupling is unstable above ~0.1 ms (0.2 ms: bed 0.4-6 m off)")
+SAMPLED_FEEDER = ("take-up instants 1.3 ms off the reference's (tolerance 0.56 ms = 0.5 deg of crank) at 0.2 ms, "
+                  "0.7 ms at 0.1 ms, 0.35 ms at 0.05 ms: first order in the step (outputs sampled after doStep)")
+AT_DECLARED = {
+    ("bed_drive", "libcosim"): ("hang", SAMPLED_BED),
+    ("bed_drive", "ecos"): ("hang", SAMPLED_BED),
+    ("bed_drive", "fmpy-ssp"): ("hang", SAMPLED_BED),
+    ("bed_drive", "omsimulator"): ("miss", "bed position 15.5 um off in the printing zone (tolerance 10 um), peak "
+                                           "shaft torque 1.3 % (1 %) at 0.5 ms with its zero-order hold; meets at "
+                                           "0.2 ms"),
+    ("feeder_gto52", "libcosim"): ("miss", SAMPLED_FEEDER),
+    ("feeder_gto52", "ecos"): ("miss", SAMPLED_FEEDER),
+    ("feeder_gto52", "fmpy-ssp"): ("miss", SAMPLED_FEEDER),
+}
+# The largest step of the ladder at which each host was measured to meet the drive's accuracy
+MEETS_AT = {("bed_drive", "libcosim"): 1e-4, ("bed_drive", "ecos"): 1e-4, ("bed_drive", "omsimulator"): 2e-4,
+            ("feeder_gto52", "libcosim"): 5e-5, ("feeder_gto52", "fmpy-ssp"): 5e-5,
+            ("feeder_gto52", "omsimulator"): 2e-4}
+# Ecos at 0.05 ms: its accumulated time (t += h) is 5e-14 s off k*h at row 10570, which the runner's time check
+# (benchmarks.peers, 1e-9 of a step) refuses; at 0.1 ms it misses the take-up instants by 0.7 ms
+NO_STEP = {("bed_drive", "fmpy-ssp"): "misses at every step of the ladder: bed 0.2 m off at 0.1 and 0.05 ms, "
+                                      "where libcosim and Ecos meet with the same algorithm; FMPy's simulate_ssp "
+                                      "starts every connector at 0.0 instead of the initial outputs (its source), "
+                                      "so the first step sees the four-bar rocker and the cam at 0 rad",
+           ("feeder_gto52", "ecos"): "0.1 ms misses (take-up instants 0.7 ms off); 0.05 ms is refused by the "
+                                     "runner's time check (Ecos's accumulated time 5e-14 s off k*h)"}
+
+
+def _declared_case(name: str, host: str):
+    kind, reason = AT_DECLARED.get((name, host), (None, None))
+    marks = [pytest.mark.xfail(reason=f"measured: {reason}", strict=True)] if reason else []
+    if kind == "hang":
+        marks.append(pytest.mark.slow)
+    return pytest.param(name, host, marks=marks, id=f"{name}-{host}")
+
+
+def _step_case(name: str, host: str):
+    reason = NO_STEP.get((name, host))
+    marks = [pytest.mark.xfail(reason=f"measured: {reason}", strict=True)] if reason else []
+    return pytest.param(name, host, MEETS_AT.get((name, host), 1e-4), marks=marks, id=f"{name}-{host}")
+
+
+@pytest.fixture(scope="module")
+def exported(fmu_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("host_accuracy")
+    archives = {}
+    for name in ha.SYSTEMS:
+        s = load(name)
+        s = dataclasses.replace(s, instances=[Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters))
+                                              for i in s.instances])
+        archives[name] = export_ssp(s, out / f"{name}.ssp")
+    return archives
+
+
+@pytest.fixture(scope="module")
+def references():
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            system = load(name)
+            spec = accuracy_spec(system)
+            cache[name] = reference(system, stop_time=spec.stop_time, step=spec.reference_step)
+        return cache[name]
+    return get
+
+
+def _run_and_judge(exported, references, name: str, host: str, step: float):
+    reason = ha.unavailable(host)
+    if reason:
+        pytest.skip(reason)
+    system = load(name)
+    spec = accuracy_spec(system)
+    run = ha.run_guarded(host, exported[name], spec.stop_time, step, ha.columns_of(system), name, TIMEOUT)
+    return ha.judge(system, run, references(name))
+
+
+@pytest.mark.parametrize("name,host", [_declared_case(n, h) for n in ha.SYSTEMS for h in PEER_HOSTS])
+def test_exported_drive_meets_its_accuracy_in_host_at_the_declared_step(exported, references, name, host):
+    step = ha.declared_step(exported[name])
+    assert step == load(name).experiment.step
+    verdict = _run_and_judge(exported, references, name, host, step)
+    assert verdict.meets, ha.describe(verdict)
+
+
+@pytest.mark.parametrize("name,host,step", [_step_case(n, h) for n in ha.SYSTEMS for h in PEER_HOSTS])
+def test_exported_drive_meets_its_accuracy_in_host_at_a_step_it_can_take(exported, references, name, host, step):
+    verdict = _run_and_judge(exported, references, name, host, step)
+    assert verdict.meets, ha.describe(verdict)
+
+
+# ------------------------------------------------------------------- outputs read right after a step (the fix)
+def _advancing_models() -> dict[str, list[tuple[str, str]]]:
+    """Model -> (position, velocity) inputs of the motion-input ports whose position it advances over a step
+    (``advances_position``: every toolkit FMU but the textbook SpringInertia, which holds its inputs)."""
+    from harness.studies.reference import component_classes
+
+    out = {}
+    for name, cls in component_classes().items():
+        pairs = [(f"{p.name}.s", f"{p.name}.v") if p.translational else (f"{p.name}.phi", f"{p.name}.w")
+                 for p in cls.ports if p.motion == "in"]
+        if pairs and cls.advances_position:
+            out[name] = pairs
+    return out
+
+
+ADVANCING = _advancing_models()
+
+
+@pytest.mark.parametrize("model", sorted(ADVANCING))
+def test_outputs_read_right_after_a_step_see_the_positions_the_step_advanced(fmu_dir, model):
+    """libcosim, Ecos and FMPy's simulate_ssp read outputs after fmi2DoStep before setting new inputs.  The
+    model advanced each motion input's position over the step with its velocity, so an output read then must
+    be the one it gives with the position set to that advanced value (what a refreshing master sets)."""
+    from fmpy.fmi2 import FMU2Slave
+    from harness.fmi.fmu import extracted
+
+    fmu = Path(fmu_dir) / f"{model}.fmu"
+    md, unzip_dir = extracted(fmu)
+    pairs = ADVANCING[model]
+    refs = {v.name: v.valueReference for v in md.modelVariables}
+    outputs = [v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=str(unzip_dir), modelIdentifier=md.coSimulation.modelIdentifier,
+                      instanceName=f"{model}_after_step")
+    slave.instantiate(loggingOn=False)
+    slave.setupExperiment(startTime=0.0)
+    start = {pos: 0.1 for pos, _ in pairs} | {vel: 0.5 for _, vel in pairs}
+    slave.setReal([refs[n] for n in start], list(start.values()))
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    h = 1e-3
+    slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=h)
+    out_refs = [refs[n] for n in outputs]
+    sampled = np.array(slave.getReal(out_refs))
+    slave.setReal([refs[pos] for pos, _ in pairs], [0.1 + 0.5 * h for _ in pairs])
+    refreshed = np.array(slave.getReal(out_refs))
+    slave.terminate()
+    slave.fmi2FreeInstance(slave.component)
+    scale = np.maximum(np.abs(refreshed), 1.0)
+    worst = int(np.argmax(np.abs(sampled - refreshed) / scale))
+    assert np.allclose(sampled, refreshed, rtol=1e-12, atol=1e-12), (
+        f"{model}.{outputs[worst]}: {sampled[worst]!r} right after the step, {refreshed[worst]!r} with the advanced "
+        f"position set")
+
+
+def test_the_fmus_checked_above_are_the_drives_components():
+    assert {"FourBar", "CamRocker", "JamesDifferential", "RackBed", "MotorBelt", "TorqueLoad"} <= set(ADVANCING)
+    assert "SpringInertia" not in ADVANCING
+
+
+# ---------------------------------------------------------------------------------------- the runner itself
+def test_the_columns_judged_are_the_ones_the_requirements_read():
+    assert ha.columns_of(load("bed_drive")) == ["bed.bed.s", "bed.bed.v", "flywheel.shaft_torque"]
+    assert ha.columns_of(load("feeder_gto52")) == ["feeder.impact_count", "feeder.pin_force"]
+
+
+def test_a_run_that_does_not_return_is_marked_hung_and_judged_as_meeting_nothing(exported, references):
+    system = load("bed_drive")
+    run = ha.run_guarded("harness:jacobi", exported["bed_drive"], 1.0, 1e-5, ha.columns_of(system), "bed_drive",
+                         timeout=3.0)
+    assert run.status == "hung" and run.result is None and "3 s" in run.error
+    assert not ha.judge(system, run, references("bed_drive")).meets
+
+
+def test_a_host_the_tool_does_not_know_is_named():
+    assert "unknown host" in ha.unavailable("nonesuch")
+    assert ha.unavailable("harness:jacobi") is None
