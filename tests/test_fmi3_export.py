@@ -397,19 +397,28 @@ def test_omsimulator_runs_every_fmi3_fmu_like_fmpy(fmu3_dir, tmp_path):
         assert worst <= 1e-9, f"{name}: OMSimulator differs from fmpy by {worst:.3g}"
 
 
-_OMS_LOOPS = pytest.mark.xfail(strict=True, reason=(
-    "OMSimulator 3.0 finds an algebraic loop among these FMI 3.0 FMUs at initialisation and asks for directional "
-    "derivatives, which they do not provide (the FMI 2.0 FMUs of the same drive run); measured: feeder_gto52 "
-    "loop of size 9/30, bed_drive 18/78; not the reading of dependencies by value reference or index, empty "
-    "dependency lists or a missing dependenciesKind (each tried)"))
+# OMSimulator 3.0 takes these FMI 3.0 FMUs' outputs as depending on every input (their Output/InitialUnknown
+# dependencies are those of the FMI 2.0 builds, read by fmpy as such; the FMI 2.0 builds of the same drives have
+# no loop there), finds an algebraic loop (feeder_gto52 9 of 30 variables, bed_drive 18 of 78) and solves it with
+# KINSOL, which asks for directional derivatives the FMUs do not provide, unless told to use finite differences.
+# Tried without effect: value references equal to 1-based indices, no empty dependency list, dependenciesKind,
+# initial="calculated" on the outputs, no independent variable.  With finite differences it iterates the loop
+# every step: bed_drive then differs from the Jacobi run by 3.4e-2 of a range (measured), the others agree.
+_NO_DD = "--directionalDerivatives=false"
+_OMS_CASES = [pytest.param("two_inertia", ""), pytest.param("feeder_gto52", _NO_DD),
+              pytest.param("bed_drive", _NO_DD, marks=pytest.mark.xfail(strict=True, reason=(
+                  "OMSimulator iterates the loop it sees among the FMI 3.0 FMUs (see above): 3.4e-2 of a range "
+                  "from the Jacobi run, measured"))),
+              pytest.param("spine_knife", _NO_DD), pytest.param("proof_press", _NO_DD)]
 
 
 @pytest.mark.interop
-@pytest.mark.parametrize("name", [pytest.param(s, marks=[] if s == "two_inertia" else [_OMS_LOOPS]) for s in SYSTEMS])
-def test_omsimulator_runs_the_ssp_of_a_drive_made_of_fmi3_fmus(name, fmu3_dir, fmu_dir, tmp_path):
+@pytest.mark.parametrize("name,options", _OMS_CASES)
+def test_omsimulator_runs_the_ssp_of_a_drive_made_of_fmi3_fmus(name, options, fmu3_dir, fmu_dir, tmp_path):
     """The drive exported as SSP (harness.ssp.export_ssp) from its FMI 3.0 FMUs, run by OMSimulator's API over
     20 steps: every value at the end equals the master's Jacobi zero-order-hold run of the FMI 2.0 FMUs to 1e-9
-    of its range (OMSimulator's own master is a Jacobi that refreshes feed-through outputs)."""
+    of its range (OMSimulator's own master is a Jacobi that refreshes feed-through outputs).  ``options``: the
+    OMSimulator command-line options the drive needs (above)."""
     reason = _omsimulator_missing()
     if reason:
         pytest.skip(reason)
@@ -419,7 +428,10 @@ def test_omsimulator_runs_the_ssp_of_a_drive_made_of_fmi3_fmus(name, fmu3_dir, f
         from harness import load, simulate
         from harness.model import Instance
         from harness.ssp import export_ssp
-        from OMSimulator import SSP, CRef
+        from OMSimulator import SSP, CRef, capi
+
+        for option in {options!r}.split():
+            capi.Capi.setCommandLineOption(option)
 
         def on(folder):
             s = load({name!r})
