@@ -1,7 +1,8 @@
 """Co-simulation masters: one stepping loop, one ``_step_impl`` per method (scipy.integrate._ivp style).
 
-(About 600 lines on purpose: the loop, its hooks and the four methods read together in one file; the
-coupling layout lives in :mod:`harness.coupling`, the loop's parts in extrapolation, stepcontrol, graph.)
+(About 700 lines on purpose: the loop, its hooks and the five methods read together in one file; the
+coupling layout lives in :mod:`harness.coupling`, the loop's parts in extrapolation, stepcontrol, graph,
+iteration (the fixed-point solvers) and jacobian (the interface Jacobians).)
 
 The base class :class:`Master` owns the coupling data (prepared once: value-reference blocks, a signal
 vector ``y`` of every Real output, the connection index arrays, the extrapolation :class:`History`), the
@@ -13,7 +14,9 @@ loop.  A method only says how one communication step ``[t, t+h]`` is taken:
                   direct feed-through first); each uses the newest outputs, including those already at ``t+h``;
 ``iterative``     the step is repeated with get/set-FMU-state rollback until the held inputs are a fixed point
                   (fixed-point, Anderson-accelerated or Newton iteration; :class:`IterationOptions`); the same
-                  solver resolves algebraic loops at each communication point.
+                  solver resolves algebraic loops at each communication point;
+``jacobian``      a Jacobi prediction, one Newton correction of the held inputs with interface Jacobians toward
+                  an implicit fixed point, and the step again on the corrected inputs (:mod:`harness.jacobian`).
 
 At every communication point the outputs are made consistent (:meth:`Master._exchange`): instances are
 evaluated in the direct-feed-through order of :func:`harness.graph.evaluation_order`; an instance with
