@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import hashlib
+import importlib
 import importlib.util
 import io
 import os
@@ -276,6 +277,13 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.out is None:
         args.out = OUT[args.fmi_version]
+    exporter = LOADERS[args.fmi_version][2]
+    try:
+        importlib.import_module(exporter)
+    except ImportError as e:
+        print(f"build_fmus: FMI {args.fmi_version}.0 FMUs are built with {exporter}, which does not import here "
+              f"({e}); install it with: pip install {exporter}", file=sys.stderr)
+        return 2
 
     scripts = component_scripts()
     if args.only:

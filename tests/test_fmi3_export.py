@@ -676,6 +676,14 @@ def test_every_fmi3_fmu_carries_the_loader_and_the_recorded_python(fmu3_dir):
         assert config["version"] == f"{sys.version_info.major}.{sys.version_info.minor}"
 
 
+def test_a_missing_exporter_is_one_line_and_builds_nothing(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "pythonfmu3", None)     # import pythonfmu3 now raises ImportError
+    assert build_fmus.main(["--fmi-version", "3", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "built with pythonfmu3, which does not import here" in err[0]
+    assert "pip install pythonfmu3" in err[0] and not list(tmp_path.iterdir())
+
+
 def test_an_unknown_fmi_version_is_refused_in_one_line():
     with pytest.raises(ValueError, match=r"FMI version 4 is not built here \(allowed: 2, 3\)"):
         build_fmus.runtime(4)
