@@ -11,9 +11,10 @@ Each FMU is built from its declaration ``fmus/components/pd_<name>.py`` plus the
 names unique to the FMU's code (``pd_<name>_<hash>``, ``fmus_<hash>``: :func:`stage_isolated`), so FMUs
 of any toolkit version load, unload and reload side by side in one process.  On Linux the host loader
 (``fmus/loader/pressdrive_loader.c``, for FMI 3.0 ``pressdrive_loader3.c``, compiled here) goes in front of
-pythonfmu's (pythonfmu3's) wrapper, so the FMU also loads in hosts that do not run Python (:func:`add_loader`).  The modelDescription is written completely by the base slave
-(units, ModelStructure with dependencies, InitialUnknowns); the build then checks each FMU with
-``fmpy.validation`` and exits non-zero, naming the FMU, if a build or a check fails.
+pythonfmu's (pythonfmu3's) wrapper, so the FMU also loads in hosts that do not run Python (:func:`add_loader`).
+The modelDescription is written completely by the base slave (units, ModelStructure with dependencies,
+InitialUnknowns); an FMI 3.0 FMU also gets its power bonds as terminals (:func:`add_terminals`).  The build then
+checks each FMU with ``fmpy.validation`` and exits non-zero, naming the FMU, if a build or a check fails.
 """
 from __future__ import annotations
 
@@ -163,7 +164,8 @@ def compile_loader(dest: Path, fmi_version: int = 2) -> Path:
     except FileNotFoundError:
         raise RuntimeError(f"no C compiler {cc!r} to build the host loader {source.name} (set CC)") from None
     if r.returncode != 0:
-        raise RuntimeError(f"compiling {source.name} failed: {r.stderr.strip().splitlines()[0] if r.stderr else r.returncode}")
+        first = r.stderr.strip().splitlines()[0] if r.stderr.strip() else f"exit {r.returncode}"
+        raise RuntimeError(f"compiling {source.name} failed: {first}")
     return out
 
 

@@ -22,8 +22,8 @@ pythonfmu3 0.3.4 does not pass ``startTime`` of ``fmi3EnterInitializationMode`` 
 ``setup_experiment`` is never called), so outputs before the first step are computed at t = 0 (no output of the
 toolkit depends on the time itself there: with default parameters a run from t = 0.5 s equals the FMI 2.0 one,
 tests/test_fmi3_export.py) and ``time`` reads 0 until the first step; the time of every step is the
-``currentCommunicationPoint`` the host passes to ``fmi3DoStep``.  On Linux the FMU's binary is the host loader (fmus/loader/pressdrive_loader3.c) in
-front of pythonfmu3's wrapper, so the FMU also runs in hosts without Python.
+``currentCommunicationPoint`` the host passes to ``fmi3DoStep``.  On Linux the FMU's binary is the host loader
+(fmus/loader/pressdrive_loader3.c) in front of pythonfmu3's wrapper, so the FMU also runs in hosts without Python.
 
 The power bonds are FMI 3.0 terminals too (:func:`terminals_and_icons`, packed by the build as
 ``terminalsAndIcons/terminalsAndIcons.xml``), so a host that reads terminals connects a flange as one connector.

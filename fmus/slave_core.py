@@ -102,7 +102,8 @@ class PressBehaviour:
     feedthrough: ClassVar[dict[str, tuple[str, ...]]] = {}
     # motion-input ports whose position the model advances over a step with the held velocity input
     # (phi(t) = port.phi + port.w*(t - t0)); declared in the modelDescription (tool "org.pressdrive": FMI 2.0's
-    # VendorAnnotations, FMI 3.0's Annotations) so a master hands these positions over at the step start, not extrapolated
+    # VendorAnnotations, FMI 3.0's Annotations) so a master hands these positions over at the step start, not
+    # extrapolated
     advances_position: ClassVar[bool] = True
     author = "press-drive toolkit"
     license = "MIT"

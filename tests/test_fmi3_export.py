@@ -117,8 +117,9 @@ def test_fmi3_variables_units_and_structure_are_the_fmi2_ones(name, fmu3_dir, fm
     root = _md_root(fmu3_dir / f"{name}.fmu")
     slave = root.find("Annotations/Annotation[@type='org.pressdrive']/Slave")
     assert slave is not None and slave.get("class") == name
-    assert slave.get("advancedPositions") == " ".join(
-        f"{p.name}.{'s' if p.translational else 'phi'}" for p in cls.ports if p.motion == "in" and cls.advances_position)
+    advanced = [f"{p.name}.{'s' if p.translational else 'phi'}" for p in cls.ports
+                if p.motion == "in" and cls.advances_position]
+    assert slave.get("advancedPositions") == " ".join(advanced)
 
 
 # -- the standard run through fmpy ----------------------------------------------------------------------------
@@ -392,7 +393,8 @@ def test_omsimulator_runs_every_fmi3_fmu_like_fmpy(fmu3_dir, tmp_path):
             cols = [c for c in ref.columns if c in oms.columns]
             rows = len(oms) == len(ref)
             scale = np.maximum(ref[cols].abs().max().to_numpy(), 1.0)
-            worst = float((np.abs(oms[cols].to_numpy() - ref[cols].to_numpy()).max(axis=0) / scale).max()) if rows else None
+            error = np.abs(oms[cols].to_numpy() - ref[cols].to_numpy()).max(axis=0) / scale if rows else None
+            worst = float(error.max()) if rows else None
             result[fmu.stem] = [len(cols), rows, worst]
         print(json.dumps(result))
     """)
