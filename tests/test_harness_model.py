@@ -185,3 +185,26 @@ def test_cli_failure_is_one_line_without_traceback(fmu_dir, tmp_path):
     r = _cli(["run", "two_inertia", "--master", "bogus"], fmu_dir)
     assert r.returncode != 0 and "Traceback" not in r.stderr
     assert r.stderr.strip().splitlines()[-1].startswith("error: master = 'bogus'")
+
+
+@pytest.mark.parametrize("part", ["slave_core.py", "slave.py", "units.py", "physics/contact.py"])
+def test_an_fmu_is_stale_when_any_part_it_packs_changed(tmp_path, part):
+    """A change to the shared slave core (split out for FMI 3.0) left build/fmus stale and old code ran
+    silently: every part of fmus.build.RUNTIME counts, as the declaration does."""
+    import os
+
+    from harness.model import ROOT, _sources_newer_than
+
+    fmu = tmp_path / "X.fmu"
+    fmu.write_bytes(b"")
+    script = ROOT / "fmus" / "components" / "pd_inertia.py"
+    newest = max(p.stat().st_mtime for p in (ROOT / "fmus").rglob("*.py"))
+    os.utime(fmu, (newest + 10, newest + 10))
+    assert not _sources_newer_than(fmu, script)
+    src = ROOT / "fmus" / part
+    old = src.stat().st_mtime
+    try:
+        os.utime(src, (newest + 20, newest + 20))
+        assert _sources_newer_than(fmu, script)
+    finally:
+        os.utime(src, (old, old))
