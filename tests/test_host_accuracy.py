@@ -61,8 +61,8 @@ MEETS_AT = {("bed_drive", "libcosim"): 1e-4, ("bed_drive", "ecos"): 1e-4, ("bed_
 # (benchmarks.peers, 1e-9 of a step) refuses; at 0.1 ms it misses the take-up instants by 0.7 ms
 NO_STEP = {("bed_drive", "fmpy-ssp"): "misses at every step of the ladder: bed 0.2 m off at 0.1 and 0.05 ms, "
                                       "where libcosim and Ecos meet with the same algorithm; FMPy's simulate_ssp "
-                                      "sets no input before initialisation, so the motor initialises from pulley "
-                                      "speed 0 and starts at 196 rad/s instead of 149",
+                                      "sets no input before initialisation, so the motor takes its rotor angle "
+                                      "from pulley angle 0: belt stretched, -78900 N.m after the first step",
            ("feeder_gto52", "ecos"): "0.1 ms misses (take-up instants 0.7 ms off); 0.05 ms is refused by the "
                                      "runner's time check (Ecos's accumulated time 5e-14 s off k*h)"}
 
