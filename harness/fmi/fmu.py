@@ -205,6 +205,29 @@ class Instance:
             self._reported = len(self.errors)
             raise cls(self.name, function, self.time, status, log)
 
+    def _call_fmpy(self, function: str, method, *args, **kwargs):
+        """``method(*args, **kwargs)`` of an FMPy slave that raises on a bad status (FMI 1.0 and 3.0): the
+        status becomes :class:`StepDiscarded` (discard) or :class:`FMUError` with the FMU's logged error; a
+        library that cannot be called at all, an FMUError naming the Python error; an instance that failed
+        before is not called again."""
+        from fmpy.fmi1 import FMICallException  # the one exception class FMPy raises for every FMI version
+
+        if self.failed:
+            raise FMUError(self.name, function, self.time, ERROR, detail="the instance failed before")
+        try:
+            return method(*args, **kwargs)
+        except FMICallException as e:
+            status = int(getattr(e, "status", ERROR))
+            log = self.last_error
+            self._reported = len(self.errors)
+            if status == DISCARD:
+                raise StepDiscarded(self.name, function, self.time, status, log) from None
+            self.failed = True
+            raise FMUError(self.name, function, self.time, status, log) from None
+        except Exception as e:  # the library could not be called at all
+            self.failed = True
+            raise FMUError(self.name, function, self.time, ERROR, detail=f"{type(e).__name__}: {e}") from None
+
     def var(self, name: str):
         v = self.variables.get(name)
         if name in self._ambiguous:

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from harness.errors import FMUError, StepDiscarded
-from harness.fmi.fmu import DISCARD, ERROR, Instance, RealBlock
+from harness.errors import FMUError
+from harness.fmi.fmu import ERROR, Instance, RealBlock
 
 def _text(value) -> str:
     """An fmiString as fmpy returns it (bytes, or None for a null pointer) as text: FMI 1.0 strings are
@@ -49,21 +49,7 @@ class FMU1(Instance):
         self._call("fmiInstantiateSlave", self._slave.instantiate, loggingOn=False)
 
     def _call(self, function: str, method, *args, **kwargs):
-        from fmpy.fmi1 import FMICallException
-
-        if self.failed:
-            raise FMUError(self.name, function, self.time, ERROR, detail="the instance failed before")
-        try:
-            return method(*args, **kwargs)
-        except FMICallException as e:
-            status = int(getattr(e, "status", ERROR))
-            if status == DISCARD:
-                raise StepDiscarded(self.name, function, self.time, status, "") from None
-            self.failed = True
-            raise FMUError(self.name, function, self.time, status, "") from None
-        except Exception as e:  # the library could not be called at all
-            self.failed = True
-            raise FMUError(self.name, function, self.time, ERROR, detail=f"{type(e).__name__}: {e}") from None
+        return self._call_fmpy(function, method, *args, **kwargs)
 
     # -- life cycle --------------------------------------------------------------------------------------------
     def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):

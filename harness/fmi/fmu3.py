@@ -25,9 +25,9 @@ import math
 from ctypes import byref
 from pathlib import Path
 
-from harness.errors import FMUError, StepDiscarded
+from harness.errors import FMUError
 from harness.fmi.cache import native_types
-from harness.fmi.fmu import DISCARD, ERROR, Instance, RealBlock
+from harness.fmi.fmu import ERROR, Instance, RealBlock
 
 _INTEGERS = ("Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")
 
@@ -85,23 +85,7 @@ class FMU3(Instance):
             self.errors.append(" ".join(text.split()))
 
     def _call(self, function: str, method, *args, **kwargs):
-        from fmpy.fmi1 import FMICallException
-
-        if self.failed:
-            raise FMUError(self.name, function, self.time, ERROR, detail="the instance failed before")
-        try:
-            return method(*args, **kwargs)
-        except FMICallException as e:
-            status = int(getattr(e, "status", ERROR))
-            log = self.last_error
-            self._reported = len(self.errors)
-            if status == DISCARD:
-                raise StepDiscarded(self.name, function, self.time, status, log) from None
-            self.failed = True
-            raise FMUError(self.name, function, self.time, status, log) from None
-        except Exception as e:  # the library could not be called at all
-            self.failed = True
-            raise FMUError(self.name, function, self.time, ERROR, detail=f"{type(e).__name__}: {e}") from None
+        return self._call_fmpy(function, method, *args, **kwargs)
 
     # -- life cycle --------------------------------------------------------------------------------------------
     def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
