@@ -126,7 +126,14 @@ class Requirement:
 @dataclass(frozen=True)
 class AccuracySpec:
     """The accuracy a drive must meet, in the engineer's terms (``requirements``), over ``stop_time`` [s]
-    of its default experiment; the reference is sampled every ``reference_step`` [s]."""
+    of its default experiment; the reference is sampled every ``reference_step`` [s].
+
+    ``sampled_host_step`` [s]: the largest step of the ladder 0.5, 0.2, 0.1, 0.05 ms (where it divides the stop
+    time) at which a host that reads outputs right after ``fmi2DoStep`` and holds them over the next step
+    (libcosim, Ecos, FMPy's ``simulate_ssp``; the harness's ``jacobi-sampled`` with hold) meets the
+    requirements; measured, recorded by the drive, checked by tests/test_host_accuracy.py.  The SSP export
+    declares it as the OSP step such hosts take (:func:`harness.ssp.export_ssp`); None: the experiment's."""
     requirements: tuple[Requirement, ...]
     stop_time: float
     reference_step: float = 1e-4
+    sampled_host_step: float | None = None

@@ -8,8 +8,9 @@ Export (``python -m harness export X OUT.ssp``) writes ``SystemStructure.ssd`` w
   applies inline values on load);
 * every connection (power bonds expanded), with ``ssc:LinearTransformation`` where one is declared;
 * the units used, a ``DefaultExperiment`` carrying the OSP ``FixedStepAlgorithm`` annotation so libcosim takes
-  the same step, and a ``org.pressdrive`` annotation that keeps what SSP cannot say (power bonds, master,
-  extrapolation) so that export -> import is a lossless round trip;
+  the step at which its algorithm meets the drive's accuracy (:func:`host_step`), and a ``org.pressdrive``
+  annotation that keeps what SSP cannot say (power bonds, master, extrapolation, the harness's own step) so
+  that export -> import is a lossless round trip;
 
 and packs the FMUs into ``resources/``.
 
@@ -160,7 +161,7 @@ def build_ssd(system: System, sources: dict[str, str]) -> ET.Element:
     if exp is not None:
         ET.SubElement(own, _q("pd:Experiment"), {k: str(v) for k, v in (
             ("master", exp.master), ("extrapolation", exp.extrapolation), ("stepControl", exp.step_control),
-            ("tolerance", exp.tolerance)) if v is not None})
+            ("tolerance", exp.tolerance), ("step", _num(float(exp.step)) if exp.step else None)) if v is not None})
     units_el = ET.SubElement(root, _q("ssd:Units"))
     for name in sorted(used_units):
         u = ET.SubElement(units_el, _q("ssc:Unit"), {"name": name})
@@ -170,8 +171,19 @@ def build_ssd(system: System, sources: dict[str, str]) -> ET.Element:
                                                                "stopTime": _num(float(exp.stop_time))})
         osp = _annotation(de, OSP_ANNOTATION)
         algorithm = ET.SubElement(osp, _q("osp:Algorithm"))
-        ET.SubElement(algorithm, _q("osp:FixedStepAlgorithm"), {"baseStepSize": _num(float(exp.step))})
+        ET.SubElement(algorithm, _q("osp:FixedStepAlgorithm"), {"baseStepSize": _num(host_step(system))})
     return root
+
+
+def host_step(system: System) -> float:
+    """The step the SSP declares to other hosts (the OSP annotation): the drive's ``sampled_host_step`` where it
+    declares one below its experiment's step -- libcosim, Ecos and FMPy read outputs right after each step and
+    hold them, and need a smaller step than the harness's own master to meet the drive's accuracy (issue 35) --
+    else the experiment's step.  The harness's own step goes in the ``pd:Experiment`` annotation."""
+    step = float(system.experiment.step)
+    accuracy = getattr(system, "accuracy", None)
+    sampled = getattr(accuracy, "sampled_host_step", None)
+    return min(step, float(sampled)) if sampled else step
 
 
 def _annotation(parent: ET.Element, kind: str) -> ET.Element:
@@ -592,6 +604,8 @@ class _Reader:
             step = float(info.get("baseStepSize"))
         for info in de.iter(_q("osp:FixedStepMaster")):      # the older SimulationInformation form
             step = float(info.get("stepSize"))
+        if "step" in extra:   # the harness's own step, where the OSP one is for hosts of another algorithm
+            step = float(extra["step"])
         return Experiment(stop_time=float(stop) if stop is not None else None, step=step,
                           master=extra.get("master", "jacobi"), extrapolation=int(extra.get("extrapolation", 0)),
                           step_control=extra.get("stepControl"),

@@ -1,14 +1,14 @@
 """Every shipped drive with a declared accuracy, exported as SSP, run in each FMI host with the host's own
-algorithm, judged against the monolithic reference by the drive's own accuracy (``harness.studies.accuracy.check``;
-issue 35).  The runner is ``benchmarks/host_accuracy.py``; the measured table is in docs/interoperability.md
-("Accuracy in other hosts").
+algorithm at the step the SSP declares, judged against the monolithic reference by the drive's own accuracy
+(``harness.studies.accuracy.check``; issue 35).  The runner is ``benchmarks/host_accuracy.py``; the measured
+table is in docs/interoperability.md ("Accuracy in other hosts").
 
-* At the step the exported SSP declares (the drive's default experiment): a host that misses is a finding, an
-  ``xfail`` (strict: it fails the day the host meets it) whose reason is what was measured.  Cases measured to
-  HANG are also marked ``slow`` (each costs the whole time limit; ``-m slow`` runs them).
-* At the largest step of the ladder 0.5, 0.2, 0.1, 0.05 ms at which the host was measured to meet the
-  accuracy: it must meet it (this is what the base slave's outputs-after-a-step fix bought: libcosim and Ecos
-  had the bed 14.5 mm off at 0.1 ms before it).
+* The step the SSP declares to other hosts (its OSP annotation, :func:`harness.ssp.host_step`) is the drive's
+  ``AccuracySpec.sampled_host_step``: checked here to be the largest step of the ladder at which the sampled
+  Jacobi of libcosim, Ecos and FMPy (the harness's ``jacobi-sampled`` with hold) meets the accuracy.
+* Each host at that step must meet the accuracy; a host that misses is a finding, an ``xfail`` (strict: it
+  fails the day the host meets it) whose reason is what was measured.  Before the base slave's
+  outputs-after-a-step fix, libcosim and Ecos had the bed 14.5 mm off at 0.1 ms.
 * The base slave's part of that fix, FMU by FMU: an output read right after ``fmi2DoStep`` is the one the
   model gives at the positions it advanced its motion inputs to.
 
@@ -25,60 +25,32 @@ import pytest
 from benchmarks import host_accuracy as ha
 from harness import load
 from harness.model import Instance
-from harness.ssp import export_ssp
-from harness.studies.accuracy import accuracy_spec
+from harness.ssp import export_ssp, host_step, load_ssp
+from harness.studies.accuracy import accuracy_spec, check
 from harness.studies.reference import reference
+from harness.studies.trial import trial
 
 pytestmark = pytest.mark.interop
 
 PEER_HOSTS = ("libcosim", "ecos", "fmpy-ssp", "omsimulator")
-# A complete run of either drive over its accuracy span takes at most ~65 s in any host here at 0.05 ms
-# (OMSimulator, bed_drive) and ~15 s at the declared steps; a run still going after this is hung.
+LADDER = (5e-4, 2e-4, 1e-4, 5e-5)   # s: the steps searched (AccuracySpec.sampled_host_step)
+# A complete run of either drive over its accuracy span takes at most ~65 s in any host here (OMSimulator,
+# bed_drive, 1 s at 0.05 ms); a run still going after this is hung.
 TIMEOUT = 150.0
 
-# Measured at the declared step (bed_drive 0.5 ms, feeder_gto52 0.2 ms; python -m benchmarks.host_accuracy)
-SAMPLED_BED = ("hangs at 0.5 ms (killed after 150 s without a result; jacobi-sampled diverges at 0.022 s): "
-               "outputs sampled after doStep, so the effort through the rigid differential and cam arrives a step "
-               "late and the coupling is unstable above 0.1 ms (0.2 ms: bed 0.4-19 m off)")
-SAMPLED_FEEDER = ("take-up instants 1.3 ms off the reference's (tolerance 0.56 ms = 0.5 deg of crank) at 0.2 ms, "
-                  "0.7 ms at 0.1 ms, 0.35 ms at 0.05 ms: first order in the step (outputs sampled after doStep)")
-AT_DECLARED = {
-    ("bed_drive", "libcosim"): ("hang", SAMPLED_BED),
-    ("bed_drive", "ecos"): ("hang", SAMPLED_BED),
-    ("bed_drive", "fmpy-ssp"): ("hang", SAMPLED_BED),
-    ("bed_drive", "omsimulator"): ("miss", "bed position 15.5 um off in the printing zone (tolerance 10 um), peak "
-                                           "shaft torque 1.3 % (1 %) at 0.5 ms with its zero-order hold; meets at "
-                                           "0.2 ms"),
-    ("feeder_gto52", "libcosim"): ("miss", SAMPLED_FEEDER),
-    ("feeder_gto52", "ecos"): ("miss", SAMPLED_FEEDER),
-    ("feeder_gto52", "fmpy-ssp"): ("miss", SAMPLED_FEEDER),
+# Measured at the declared step (python -m benchmarks.host_accuracy), where a host misses
+MISSES = {
+    ("bed_drive", "fmpy-ssp"): "bed 0.205 m off at 0.1 ms (0.215 m at 0.05 ms) where libcosim and Ecos meet with "
+                               "the same algorithm: FMPy's simulate_ssp sets no input before initialisation, so "
+                               "the motor takes its rotor angle from pulley angle 0: belt stretched, -78900 N.m "
+                               "after the first step",
 }
-# The largest step of the ladder at which each host was measured to meet the drive's accuracy
-MEETS_AT = {("bed_drive", "libcosim"): 1e-4, ("bed_drive", "ecos"): 1e-4, ("bed_drive", "omsimulator"): 2e-4,
-            ("feeder_gto52", "libcosim"): 5e-5, ("feeder_gto52", "fmpy-ssp"): 5e-5,
-            ("feeder_gto52", "omsimulator"): 2e-4}
-# Ecos at 0.05 ms: its accumulated time (t += h) is 5e-14 s off k*h at row 10570, which the runner's time check
-# (benchmarks.peers, 1e-9 of a step) refuses; at 0.1 ms it misses the take-up instants by 0.7 ms
-NO_STEP = {("bed_drive", "fmpy-ssp"): "misses at every step of the ladder: bed 0.2 m off at 0.1 and 0.05 ms, "
-                                      "where libcosim and Ecos meet with the same algorithm; FMPy's simulate_ssp "
-                                      "sets no input before initialisation, so the motor takes its rotor angle "
-                                      "from pulley angle 0: belt stretched, -78900 N.m after the first step",
-           ("feeder_gto52", "ecos"): "0.1 ms misses (take-up instants 0.7 ms off); 0.05 ms is refused by the "
-                                     "runner's time check (Ecos's accumulated time 5e-14 s off k*h)"}
 
 
-def _declared_case(name: str, host: str):
-    kind, reason = AT_DECLARED.get((name, host), (None, None))
+def _case(name: str, host: str):
+    reason = MISSES.get((name, host))
     marks = [pytest.mark.xfail(reason=f"measured: {reason}", strict=True)] if reason else []
-    if kind == "hang":
-        marks.append(pytest.mark.slow)
     return pytest.param(name, host, marks=marks, id=f"{name}-{host}")
-
-
-def _step_case(name: str, host: str):
-    reason = NO_STEP.get((name, host))
-    marks = [pytest.mark.xfail(reason=f"measured: {reason}", strict=True)] if reason else []
-    return pytest.param(name, host, MEETS_AT.get((name, host), 1e-4), marks=marks, id=f"{name}-{host}")
 
 
 @pytest.fixture(scope="module")
@@ -106,27 +78,40 @@ def references():
     return get
 
 
-def _run_and_judge(exported, references, name: str, host: str, step: float):
+@pytest.mark.parametrize("name", ha.SYSTEMS)
+def test_the_declared_host_step_is_the_largest_at_which_the_sampled_jacobi_meets_the_accuracy(references, name):
+    system = load(name)
+    spec = accuracy_spec(system)
+    h = spec.sampled_host_step
+    assert h in LADDER
+    larger = [s for s in LADDER if s > h and abs(spec.stop_time / s - round(spec.stop_time / s)) < 1e-9]
+    assert larger, "the ladder has no larger step to show this one is the largest"
+
+    def meets(step):
+        t = trial(system, stop_time=spec.stop_time, step=step, master="jacobi-sampled", extrapolation=0)
+        return t.result is not None and all(c.ok for c in check(system, t.result, references(name)))
+    assert meets(h)
+    assert not meets(min(larger))
+
+
+@pytest.mark.parametrize("name", ha.SYSTEMS)
+def test_the_ssp_declares_the_host_step_and_keeps_the_harness_step(exported, name):
+    system = load(name)
+    assert ha.declared_step(exported[name]) == host_step(system) == accuracy_spec(system).sampled_host_step
+    assert host_step(system) < system.experiment.step
+    assert load_ssp(exported[name]).experiment == system.experiment      # the harness's own, round trip
+
+
+@pytest.mark.parametrize("name,host", [_case(n, h) for n in ha.SYSTEMS for h in PEER_HOSTS])
+def test_exported_drive_meets_its_accuracy_in_host_at_the_declared_step(exported, references, name, host):
     reason = ha.unavailable(host)
     if reason:
         pytest.skip(reason)
     system = load(name)
     spec = accuracy_spec(system)
-    run = ha.run_guarded(host, exported[name], spec.stop_time, step, ha.columns_of(system), name, TIMEOUT)
-    return ha.judge(system, run, references(name))
-
-
-@pytest.mark.parametrize("name,host", [_declared_case(n, h) for n in ha.SYSTEMS for h in PEER_HOSTS])
-def test_exported_drive_meets_its_accuracy_in_host_at_the_declared_step(exported, references, name, host):
     step = ha.declared_step(exported[name])
-    assert step == load(name).experiment.step
-    verdict = _run_and_judge(exported, references, name, host, step)
-    assert verdict.meets, ha.describe(verdict)
-
-
-@pytest.mark.parametrize("name,host,step", [_step_case(n, h) for n in ha.SYSTEMS for h in PEER_HOSTS])
-def test_exported_drive_meets_its_accuracy_in_host_at_a_step_it_can_take(exported, references, name, host, step):
-    verdict = _run_and_judge(exported, references, name, host, step)
+    run = ha.run_guarded(host, exported[name], spec.stop_time, step, ha.columns_of(system), name, TIMEOUT)
+    verdict = ha.judge(system, run, references(name))
     assert verdict.meets, ha.describe(verdict)
 
 
