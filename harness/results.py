@@ -62,6 +62,28 @@ def bond_energy(result: pd.DataFrame, label: str | None = None) -> pd.DataFrame:
     return log.frame(label)
 
 
+def _states_of_silent(master) -> list[str]:
+    """For instances without outputs (a plain model of one's own, a model exchange FMU), their continuous
+    local variables (the states, as such models declare them); a system with nothing at all to record is
+    refused in one line that says what to ask for."""
+    columns, silent = [], []
+    for it in master.insts:
+        variables = it.fmu.md.modelVariables
+        if any(v.causality == "output" for v in variables):
+            continue
+        found = [f"{it.name}.{v.name}" for v in variables if v.causality == "local" and v.variability == "continuous"]
+        columns += found
+        if not found:
+            silent.append(it)
+    if silent and not master.signal_names and not columns:
+        it = silent[0]
+        named = [v.name for v in it.fmu.md.modelVariables][:6]
+        raise SystemError_(f"instance {it.name} ({it.fmu.md.modelName}) has no outputs and no continuous local "
+                           f"variables to record: ask for variables with output=[...] (CLI: --output), e.g. "
+                           f"{', '.join(f'{it.name}.{n}' for n in named) or 'none: it declares no variable'}")
+    return columns
+
+
 class Recorder:
     """Records the requested variables at every accepted communication point.
 
@@ -76,6 +98,7 @@ class Recorder:
             columns = list(master.signal_names) + [
                 f"{it.name}.{v.name}" for it in master.insts for v in it.fmu.md.modelVariables
                 if v.causality == "output" and v.type != "Real"]
+            columns += _states_of_silent(master)
         seen = set()
         self.columns = [c for c in columns if not (c in seen or seen.add(c))]
         self._from_y = []      # (column position, y index)

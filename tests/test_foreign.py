@@ -339,3 +339,37 @@ def test_an_output_outside_its_declared_range_stops_the_run_in_one_line(plain_la
     err = df.attrs["error"]
     assert "\n" not in err and "instance lag3: output y = 4.0 is outside the range [-inf, 3.5]" in err
     assert "PlainLag" in err
+
+
+def _plain(tmp_path_factory, script: str, model: str) -> Path:
+    out = tmp_path_factory.mktemp(model)
+    exe = Path(sys.executable).with_name("pythonfmu")
+    if not exe.is_file():
+        pytest.skip("pythonfmu command not installed")
+    r = subprocess.run([str(exe), "build", "-f", str(HERE / "foreign" / script), "-d", str(out)],
+                       capture_output=True, text=True)
+    if r.returncode != 0 or not (out / f"{model}.fmu").is_file():
+        pytest.skip(f"pythonfmu build failed: {r.stderr.strip()[-300:]}")
+    return out / f"{model}.fmu"
+
+
+def test_an_fmu_without_outputs_records_its_states(tmp_path_factory):
+    """Issue 33: an FMU with no outputs gave an empty result; its continuous local variables (its states, as a
+    plain model declares them) are recorded instead."""
+    fmu = _plain(tmp_path_factory, "plain_decay.py", "PlainDecay")
+    s = System("decay", [Instance("d", str(fmu))], experiment=Experiment(stop_time=0.5, step=0.05))
+    df, _ = run(s, "jacobi")
+    assert list(df.columns) == ["d.x"]
+    np.testing.assert_allclose(df["d.x"].to_numpy(), (1 - 0.05 / 0.5) ** np.arange(11), rtol=1e-12)
+
+
+def test_an_fmu_with_nothing_to_record_says_what_to_ask_for(tmp_path_factory):
+    fmu = _plain(tmp_path_factory, "plain_quiet.py", "PlainQuiet")
+    s = System("quiet", [Instance("q", str(fmu))], experiment=Experiment(stop_time=0.5, step=0.05))
+    with pytest.raises(SystemError_) as e:
+        run(s, "jacobi")
+    msg = str(e.value)
+    assert "\n" not in msg and "instance q (PlainQuiet) has no outputs" in msg and "output=[...]" in msg
+    assert "q.gain" in msg
+    df, _ = run(s, "jacobi", output=["q.gain"])        # asked for: recorded
+    assert (df["q.gain"] == 2.0).all()
