@@ -31,7 +31,7 @@ def standard_run(model, inputs: Callable[[int, float], Sequence[float]], h: floa
     return rows
 
 
-def write_reference(script: str | Path, model, rows, fmt: str = "%.12g") -> Path:
+def write_reference(script: str | Path, model, rows, fmt: str = "%.15g") -> Path:
     """Write ``rows`` as ``reference.csv`` beside ``script`` (header ``time`` and the model's outputs)."""
     path = Path(script).resolve().with_name("reference.csv")
     np.savetxt(path, np.array(rows, dtype=float), delimiter=",", fmt=fmt,
