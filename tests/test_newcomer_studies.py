@@ -419,3 +419,27 @@ def test_sigterm_from_outside_keeps_a_precision_study_s_finished_runs(tmp_path):
     kept = pd.read_csv(tmp_path / "precision_two_inertia.partial.csv")
     assert (kept["master"] == "reference").any() and (kept["master"] == "jacobi").any()
     assert not (tmp_path / "precision_two_inertia.csv").exists()
+
+
+def test_study_takeup_keeps_its_finished_take_ups_on_sigterm(tmp_path):
+    """Issue 30: SIGTERM during `study takeup` threw every finished take-up away (nothing written, exit 0)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "harness", "study", "takeup", "--out", str(tmp_path)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    first = ""
+    while time.time() < deadline and "done" not in first:   # one block of take-ups finished
+        first = proc.stderr.readline()
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    partial = tmp_path / "takeup.partial.csv"
+    assert partial.is_file() and not (tmp_path / "takeup.csv").exists()
+    import pandas as pd
+
+    assert len(pd.read_csv(partial)) > 0
+    assert "kept in" in err and "\n" not in err.strip().splitlines()[-1]

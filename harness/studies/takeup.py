@@ -36,11 +36,11 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from fmus.physics.takeup import ALPHA_Y_CLASSICAL, TakeUpParams, simulate
 from harness.charts import save_figure
+from harness.studies.trial import StudyInterrupted, keep_interrupted, write_complete
 
 ROOT = Path(__file__).resolve().parents[2]          # the source tree (default input paths work from any folder)
 ALPHA_C = (0.01, 0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 1.0, 2.0, 5.0)
@@ -112,15 +112,19 @@ def run_map(feeder: dict | None = None, alpha_c=ALPHA_C, alpha_m=ALPHA_M, grid=N
     if feeder is not None:
         cases += [(c, ("", 0.0, dict(BASE))) for c in ("feeder", "feeder held")]
     rows = []
-    for (geo, R3), (case, (varied, b, s)) in itertools.product(geometries.items(), cases):
-        for am, ac in itertools.product(alpha_m, alpha_c):
-            p = params_for(R3, b, s, am, ac)
-            if case != "seed":
-                p = replace(p, V3=p.v_pin - feeder["v_median"], load=feeder["F_min"] if case == "feeder held" else 0.0)
-            rows.append({"geometry": geo, "case": case, "varied": varied, "beta_deg": b, **s, "R3": R3,
-                         "alpha_m": am, "alpha_c": ac, "load": p.load, **take_up_row(p)})
-        if progress:
-            progress(f"{geo} / {case} {varied or 'base'} beta={b:g}: done")
+    try:  # Ctrl-C or SIGTERM: the take-ups finished so far go with the interrupt
+        for (geo, R3), (case, (varied, b, s)) in itertools.product(geometries.items(), cases):
+            for am, ac in itertools.product(alpha_m, alpha_c):
+                p = params_for(R3, b, s, am, ac)
+                if case != "seed":
+                    p = replace(p, V3=p.v_pin - feeder["v_median"],
+                                load=feeder["F_min"] if case == "feeder held" else 0.0)
+                rows.append({"geometry": geo, "case": case, "varied": varied, "beta_deg": b, **s, "R3": R3,
+                             "alpha_m": am, "alpha_c": ac, "load": p.load, **take_up_row(p)})
+            if progress:
+                progress(f"{geo} / {case} {varied or 'base'} beta={b:g}: done")
+    except KeyboardInterrupt as e:
+        raise StudyInterrupted(pd.DataFrame(rows), e) from None
     return pd.DataFrame(rows)
 
 
@@ -247,10 +251,15 @@ def takeup_cli(args) -> int:
     if args.quick:
         kw = dict(alpha_c=(0.01, 0.1, 0.3, 1.0, 5.0), alpha_m=(0.5, 2.0), geometries={"seed r=R3": 0.040},
                   grid=settings_grid((0.0, 120.0), {"theta_deg": (40.0,), "e": (1.0,)}, (0.0,)))
-    df = run_map(feeder, progress=lambda s: print(s, file=sys.stderr), **kw)
+    from harness.results import check_writable
+
+    check_writable(args.out / "takeup.csv", "--out")  # before any take-up: a bad folder loses nothing
+    try:
+        df = run_map(feeder, progress=lambda s: print(s, file=sys.stderr), **kw)
+    except StudyInterrupted as e:
+        return keep_interrupted(e, args.out / "takeup.csv", "study takeup")
     summary = summarise(df)
-    args.out.mkdir(parents=True, exist_ok=True)
-    df.to_csv(args.out / "takeup.csv", index=False)
+    write_complete(df, args.out / "takeup.csv")
     summary.to_csv(args.out / "takeup_summary.csv", index=False)
     files = plot(summary, args.out) + plot_velocity(args.out)
     with pd.option_context("display.width", 200, "display.max_rows", 1000):
