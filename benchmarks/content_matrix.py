@@ -222,8 +222,8 @@ def build(kind: str, work: Path) -> Content:
         return Content(kind, "SSP as an unpacked folder", str(path), False, ["vdp.x0", "vdp.x1"], 2.0, 0.01,
                        parameter_set="p")
     if kind == "ssp-start":
-        path = _ssp(work, "start", _elements(_component("ball", "BouncingBall", connectors=BALL)), {"BouncingBall": ref["BouncingBall"]},
-                    {}, 1.5, start=0.5)
+        path = _ssp(work, "start", _elements(_component("ball", "BouncingBall", connectors=BALL)),
+                    {"BouncingBall": ref["BouncingBall"]}, {}, 1.5, start=0.5)
         return Content(kind, "SSP, DefaultExperiment startTime = 0.5 s", str(path), False, ["ball.h", "ball.v"], 1.5,
                        0.01, start=0.5)
     raise SystemExit(f"content_matrix: unknown kind {kind!r} (kinds: {', '.join(KINDS)})")
