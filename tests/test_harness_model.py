@@ -198,7 +198,7 @@ def test_an_fmu_is_stale_when_any_part_it_packs_changed(tmp_path, part):
     fmu = tmp_path / "X.fmu"
     fmu.write_bytes(b"")
     script = ROOT / "fmus" / "components" / "pd_inertia.py"
-    newest = max(p.stat().st_mtime for p in (ROOT / "fmus").rglob("*.py"))
+    newest = max(p.stat().st_mtime for p in (ROOT / "fmus").rglob("*") if p.suffix in (".py", ".c"))
     os.utime(fmu, (newest + 10, newest + 10))
     assert not _sources_newer_than(fmu, script)
     src = ROOT / "fmus" / part

@@ -118,6 +118,23 @@ static void log_error(const fmi2CallbackFunctions *cb, fmi2String instance, cons
 }
 #endif
 
+/* pythonfmu's wrappers (0.7 for FMI 2.0, pythonfmu3 0.3.4 for FMI 3.0) keep their interpreter handle in a
+ * namespace-scope std::shared_ptr and clear it again from an __attribute__((destructor)) function,
+ * finalizePythonInterpreter: at exit the C++ destructor of the shared_ptr runs first (an exit handler), then
+ * the library's destructor assigns to the destroyed object and releases its control block a second time
+ * (valgrind: invalid read in finalizePythonInterpreter).  The corrupted heap then aborts the host at exit,
+ * "corrupted double-linked list" or "free(): corrupted unsorted chunks", depending on the heap's layout (a
+ * Python host whose FMU failed, a C host).  Registering that same function as an exit handler AFTER the wrapper
+ * is loaded makes it run first, while the object is alive; the two later calls then find it empty.  ``symbol``:
+ * any function of the loaded wrapper. */
+static void clear_wrapper_state_first_at_exit(void *symbol) {
+    Dl_info info;
+    if (!symbol || !dladdr(symbol, &info) || !info.dli_fname) return;
+    void *w = dlopen(info.dli_fname, RTLD_NOW | RTLD_NOLOAD);
+    void (*clear)(void) = w ? (void (*)(void))dlsym(w, "finalizePythonInterpreter") : NULL;
+    if (clear) atexit(clear);
+}
+
 static int file_exists(const char *p) {
     struct stat st;
     return p && *p && stat(p, &st) == 0;
@@ -245,6 +262,7 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
             log_error(functions, instanceName, err);
             return NULL;
         }
+        clear_wrapper_state_first_at_exit(p_fmi2DoStep);
         ready = 1;
     }
     pthread_mutex_unlock(&lock);

@@ -43,21 +43,6 @@
 #include "pressdrive_loader.c"
 
 /* ------------------------------------------------------------------------------------------ FMI 3.0 API */
-/* pythonfmu3 0.3.4's wrapper keeps its interpreter handle in a namespace-scope std::shared_ptr and clears it
- * again from an __attribute__((destructor)) function, finalizePythonInterpreter: at exit the C++ destructor of
- * the shared_ptr runs first (an exit handler), then the library's destructor assigns to the destroyed object and
- * releases its control block a second time (valgrind: invalid read in finalizePythonInterpreter; the corrupted
- * heap then aborts a C host in a later library's exit code, "free(): corrupted unsorted chunks").  Registering
- * that same function as an exit handler AFTER the wrapper is loaded makes it run first, while the object is
- * alive; the two later calls then find it empty. */
-static void clear_wrapper_state_first_at_exit(void) {
-    Dl_info info;
-    if (!dladdr(p_fmi3DoStep, &info) || !info.dli_fname) return;
-    void *w = dlopen(info.dli_fname, RTLD_NOW | RTLD_NOLOAD);
-    void (*clear)(void) = w ? (void (*)(void))dlsym(w, "finalizePythonInterpreter") : NULL;
-    if (clear) atexit(clear);
-}
-
 /* Python and the wrapper ready (once per process); else the one error line through the host's logger */
 static int ready3(fmi3String instance, fmi3InstanceEnvironment env, fmi3LogMessageCallback log) {
     char err[2 * PATH_MAX + 512];
@@ -70,7 +55,7 @@ static int ready3(fmi3String instance, fmi3InstanceEnvironment env, fmi3LogMessa
             else fprintf(stderr, "%s: %s\n", instance ? instance : "pressdrive FMU", err);
             return 0;
         }
-        clear_wrapper_state_first_at_exit();
+        clear_wrapper_state_first_at_exit(p_fmi3DoStep);  /* pressdrive_loader.c: why */
         ready = 1;
     }
     pthread_mutex_unlock(&lock);
