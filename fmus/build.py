@@ -93,15 +93,23 @@ def stage_runtime(dest: Path, package: str = "fmus", fmi_version: int = 2) -> Pa
     return pkg
 
 
+def runtime_files(fmi_version: int | None = None) -> list[Path]:
+    """The source files an FMU packs besides its declaration: every file of :func:`runtime` (of both FMI versions
+    when ``fmi_version`` is None), folders walked for ``*.py``."""
+    names = RUNTIME if fmi_version is None else runtime(fmi_version)
+    files: list[Path] = []
+    for name in names:
+        src = ROOT / "fmus" / name
+        files += sorted(src.rglob("*.py")) if src.is_dir() else [src]
+    return files
+
+
 def code_hash(script: Path, fmi_version: int = 2) -> str:
     """Digest of everything an FMU's Python code consists of: its declaration and the runtime sources."""
     h = hashlib.sha1(script.read_bytes())
-    for name in runtime(fmi_version):
-        src = ROOT / "fmus" / name
-        files = sorted(src.rglob("*.py")) if src.is_dir() else [src]
-        for f in files:
-            h.update(str(f.relative_to(ROOT)).encode())
-            h.update(f.read_bytes())
+    for f in runtime_files(fmi_version):
+        h.update(str(f.relative_to(ROOT)).encode())
+        h.update(f.read_bytes())
     return h.hexdigest()[:12]
 
 

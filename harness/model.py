@@ -288,13 +288,10 @@ def _sources_newer_than(fmu: Path, script: Path) -> bool:
     """Whether a source the FMU packs changed after it was built: its declaration, every part of the fmus
     package an FMU carries (``fmus.build.RUNTIME``: the slaves of both FMI versions, units, physics) and the
     host loader."""
-    from fmus.build import RUNTIME
+    from fmus.build import runtime_files
 
     t = fmu.stat().st_mtime
-    sources = [script, *(ROOT / "fmus" / "loader").glob("*.c")]
-    for name in RUNTIME:
-        part = ROOT / "fmus" / name
-        sources += list(part.glob("*.py")) if part.is_dir() else [part]
+    sources = [script, *(ROOT / "fmus" / "loader").glob("*.c"), *runtime_files()]
     return any(s.stat().st_mtime > t for s in sources if s.exists())
 
 

@@ -205,7 +205,7 @@ class Instance:
             self._reported = len(self.errors)
             raise cls(self.name, function, self.time, status, log)
 
-    def _call_fmpy(self, function: str, method, *args, **kwargs):
+    def _call(self, function: str, method, *args, **kwargs):
         """``method(*args, **kwargs)`` of an FMPy slave that raises on a bad status (FMI 1.0 and 3.0): the
         status becomes :class:`StepDiscarded` (discard) or :class:`FMUError` with the FMU's logged error; a
         library that cannot be called at all, an FMUError naming the Python error; an instance that failed

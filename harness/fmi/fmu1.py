@@ -48,9 +48,6 @@ class FMU1(Instance):
                                 modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         self._call("fmiInstantiateSlave", self._slave.instantiate, loggingOn=False)
 
-    def _call(self, function: str, method, *args, **kwargs):
-        return self._call_fmpy(function, method, *args, **kwargs)
-
     # -- life cycle --------------------------------------------------------------------------------------------
     def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
         self.time = start_time

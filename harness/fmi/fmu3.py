@@ -84,9 +84,6 @@ class FMU3(Instance):
         if status >= ERROR:
             self.errors.append(" ".join(text.split()))
 
-    def _call(self, function: str, method, *args, **kwargs):
-        return self._call_fmpy(function, method, *args, **kwargs)
-
     # -- life cycle --------------------------------------------------------------------------------------------
     def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
         """FMI 3.0 has no fmi3SetupExperiment: the values go to fmi3EnterInitializationMode."""
