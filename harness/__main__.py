@@ -142,10 +142,11 @@ def _main(argv: list[str], debug: bool) -> int:
         args = ap.parse_args(argv)
         return int(args.func(args) or 0)
     except KeyboardInterrupt as e:
-        from harness.run import Terminated
+        from harness.run import interruption
 
-        print("terminated (SIGTERM)" if isinstance(e, Terminated) else "interrupted", file=sys.stderr)
-        return getattr(e, "status", 130)
+        status, how = interruption(e)  # also a run's or study's interrupt re-raised with its status
+        print(how, file=sys.stderr)
+        return status
     except Exception as e:  # one line, no traceback
         if debug:
             raise

@@ -59,6 +59,14 @@ class Terminated(KeyboardInterrupt):
     signal = "SIGTERM"
 
 
+def interruption(e: BaseException) -> tuple[int, str]:
+    """(exit status, words) of an interrupt, also one that a run or study re-raised with the status it carries
+    (:class:`RunInterrupted`, ``StudyInterrupted``): 143 and "terminated (SIGTERM)" after SIGTERM, else 130 and
+    "interrupted (Ctrl-C)"."""
+    status = int(getattr(e, "status", 130))
+    return status, "terminated (SIGTERM)" if status == 143 else "interrupted (Ctrl-C)"
+
+
 @dataclass
 class RunOptions:
     """Options of :func:`simulate` beyond its keyword arguments.
@@ -419,8 +427,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
                                                     f"instance {e.instance}: {log}")
             bad_input = True
     except KeyboardInterrupt as e:
-        interrupted = getattr(e, "status", 130)
-        how = f"terminated ({e.signal})" if isinstance(e, Terminated) else "interrupted (Ctrl-C)"
+        interrupted, how = interruption(e)
         error = f"{how} at t = {rec.time[rec.rows - 1] if rec.rows else 0.0:.9g} s"
     finally:
         if bar is not None:

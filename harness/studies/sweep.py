@@ -414,8 +414,9 @@ def _run_cli(args) -> int:
     try:
         df = run_sweep(args.system, spec, scheduler=args.scheduler, workers=workers, log=log)
     except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM as the command line raises it (status 143)
-        status = int(getattr(e, "status", 130))
-        how = "terminated (SIGTERM)" if status == 143 else "interrupted (Ctrl-C)"
+        from harness.run import interruption
+
+        status, how = interruption(e)
         print(f"error: {how}: {len(log.rows)} of {len(spec.points)} points finished and kept in "
               f"{log.path}; rerun with --resume to skip them", file=sys.stderr)
         return status

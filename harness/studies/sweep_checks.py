@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from harness import qoi
+from harness.studies.trial import partial_csv as partial_path  # the point log of an unfinished sweep
 
 
 class SweepError(ValueError):
@@ -183,11 +184,6 @@ def _check_variables_act(spec, system, variables: dict[str, dict]) -> None:
         _fail(f"{spec.source}: {spec.variable_key(name)}: {name!r} changes nothing in {system.name}: it is no "
               f"instance.parameter and no set: expression reads it{reads}{hint}; a sweep variable is a parameter "
               f"as instance.parameter (instances: {', '.join(variables)}) or a name a set: expression reads")
-
-
-def partial_path(out: Path) -> Path:
-    out = Path(out)
-    return out.with_name(f"{out.stem}.partial.csv")
 
 
 def point_key(spec, row) -> tuple:

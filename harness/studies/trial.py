@@ -71,8 +71,9 @@ class StudyInterrupted(KeyboardInterrupt):
     says which.  A KeyboardInterrupt still, so a caller that does not look for it is interrupted as before."""
 
     def __init__(self, table: pd.DataFrame, cause: BaseException):
-        self.status = int(getattr(cause, "status", 130))
-        self.how = "terminated (SIGTERM)" if self.status == 143 else "interrupted (Ctrl-C)"
+        from harness.run import interruption
+
+        self.status, self.how = interruption(cause)
         super().__init__(f"{self.how}: {len(table)} rows finished")
         self.table = table
 
