@@ -22,8 +22,6 @@ from __future__ import annotations
 import argparse
 import csv
 import math
-import tempfile
-import time
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -129,62 +127,34 @@ def declared_lines(quick: bool, timeout: float, log=print):
     return lines, cheapest
 
 
-def _peer_run(tool: str, ssp: Path, stop: float, step: float, columns: list[str]):
-    from benchmarks import peers
-
-    t0 = time.perf_counter()
-    if tool == "libcosim":
-        df = peers.run_ssp_libcosim(ssp, stop, step, columns)
-    else:
-        df = peers.run_ssp_ecos(ssp, stop, step, columns, parameter_set="default")
-    return df, time.perf_counter() - t0
-
-
 def peer_lines(cheapest: dict, quick: bool, timeout: float, log=print):
-    """Line 3: each drive's time to its declared accuracy, the harness's cheapest run against the peers'."""
-    from harness import load, qoi
-    from harness.ssp import export_ssp
-    from harness.studies import accuracy
-    from harness.studies.reference import reference
+    """Line 3: each drive's time to its declared accuracy, the harness's cheapest run against the peers' own runs of
+    the exported SSP (:func:`benchmarks.host_accuracy.measure`: each in a guarded process, judged by the same
+    check); a peer's time is its tool's own run (loading and stepping), as the harness's is."""
+    from benchmarks import host_accuracy
 
-    from benchmarks import peers
-
-    available = [t for t in ("libcosim", "ecos") if peers.available().get(t) is None]
     lines = []
     for name, (best, rt) in cheapest.items():
         what = f"{name}: time to its declared accuracy >= {PEER_GOAL:g}x shorter than the fastest peer's"
-        if not available:
+        if quick:  # a quick run's harness time is over a shortened span: nothing to compare
+            lines.append((what, None, "quick: not measured"))
+            continue
+        hosts = [h for h in ("libcosim", "ecos") if host_accuracy.unavailable(h) is None]
+        if not hosts:
             lines.append((what, None, "no peer available"))
             continue
-        system = load(name)
-        stop = float(best["stop_time"])
-        spec = replace(system.accuracy, stop_time=stop)
-        sys_acc = replace(system, accuracy=spec)
-        ref = reference(system, stop_time=stop, step=spec.reference_step)
-        columns = sorted({c for r in spec.requirements for e in (r.quantity, r.where or "") if e
-                          for c in qoi.columns(e)})
-        ours = stop / rt
-        with tempfile.TemporaryDirectory() as tmp:
-            ssp = export_ssp(system, Path(tmp) / f"{name}.ssp")
-            times, tried = {}, []
-            steps = PEER_STEPS[:1] if quick else PEER_STEPS
-            for tool in available:
-                for h in steps:
-                    try:
-                        df, wall = peers.run_isolated(_peer_run, tool, ssp, stop, h, columns, timeout=timeout)
-                    except Exception as e:  # a hang, a crash, a refusal: that step does not meet it
-                        tried.append(f"{tool} {h * 1e3:g} ms: {str(e).splitlines()[0][:80]}")
-                        continue
-                    df.attrs["complete"] = True
-                    checks = accuracy.check(sys_acc, df, ref)
-                    ok = all(c.ok for c in checks)
-                    tried.append(f"{tool} {h * 1e3:g} ms: " + ", ".join(f"{c.error:.3g}/{c.tolerance:g}" for c in checks))
-                    log(f"{name}: {tried[-1]}")
-                    if ok:
-                        times[tool] = min(times.get(tool, math.inf), wall)
+        ours = float(best["stop_time"]) / rt
+        verdicts = host_accuracy.measure(name, hosts, extra_steps=PEER_STEPS, timeout=timeout,
+                                         progress=lambda text: log(text))
+        times = {}
+        for v in verdicts:
+            if v.meets:
+                times[v.run.host] = min(times.get(v.run.host, math.inf), v.run.run_time)
         if not times:
-            lines.append((what, True, f"no peer meets it at any step tried (down to {min(steps) * 1e3:g} ms): "
-                                      + "; ".join(tried) + f"; the harness: {ours:.3g} s"))
+            tried = "; ".join(host_accuracy.describe(v) for v in verdicts)
+            lines.append((what, True, f"no peer meets it at any step tried (down to "
+                                      f"{min(v.run.step for v in verdicts) * 1e3:g} ms): {tried}; "
+                                      f"the harness: {ours:.3g} s"))
             continue
         fastest = min(times, key=times.get)
         lines.append((what, times[fastest] >= PEER_GOAL * ours,

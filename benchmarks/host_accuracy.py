@@ -178,13 +178,16 @@ def run_host(host: str, ssp: Path, stop: float, step: float, columns: list[str],
 
 @dataclass
 class HostRun:
-    """``status``: complete, hung, died, failed or diverged; ``result`` only when complete."""
+    """``status``: complete, hung, died, failed or diverged; ``result`` only when complete.  ``wall_time``: the
+    whole guarded run (a fresh process: its start-up and imports too); ``run_time``: the tool's own run inside
+    it (loading the archive and stepping: what a user of the tool waits for), NaN unless complete."""
     host: str
     step: float
     status: str
     wall_time: float
     result: pd.DataFrame | None = None
     error: str = ""
+    run_time: float = math.nan
 
 
 def run_guarded(host: str, ssp: Path, stop: float, step: float, columns: list[str], system_name: str,
@@ -209,18 +212,19 @@ def run_guarded(host: str, ssp: Path, stop: float, step: float, columns: list[st
             kind, payload = pickle.load(f)
     if kind == "error":
         return HostRun(host, step, "failed", wall, error=payload)
-    df = payload
+    df, seconds = payload
     if not np.isfinite(df.to_numpy(dtype=float)).all():
         bad = df.index[~np.isfinite(df.to_numpy(dtype=float)).all(axis=1)][0]
         return HostRun(host, step, "diverged", wall, error=f"non-finite values from t = {bad:g} s")
-    return HostRun(host, step, "complete", wall, result=df)
+    return HostRun(host, step, "complete", wall, result=df, run_time=seconds)
 
 
 def _worker(argv: list[str]) -> int:
     host, ssp, stop, step, system_name, out, *columns = argv
     try:
+        t0 = time.perf_counter()
         df = run_host(host, Path(ssp), float(stop), float(step), columns, system_name)
-        payload = ("ok", pd.DataFrame(df))
+        payload = ("ok", (pd.DataFrame(df), time.perf_counter() - t0))
     except Exception as e:  # the tool's error, as one line
         payload = ("error", " ".join(f"{type(e).__name__}: {e}".split())[:500])
     with open(out, "wb") as f:
