@@ -421,7 +421,7 @@ def main(argv: list[str] | None = None) -> int:
     if not (args.no_realtime or args.no_coupling):
         from benchmarks import coupling
 
-        lines = coupling.goal_lines(args.quick, args.timeout)
+        lines = coupling.goal_lines(args.quick, args.timeout, out=args.out)
         for what, met, evidence in lines:
             print(f"[{'n/a ' if met is None else ('MET ' if met else 'MISS')}] {what}: {evidence}")
         print(f"wrote {coupling.write(lines, args.out / 'coupling_goals.csv')}")

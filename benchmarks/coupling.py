@@ -15,6 +15,10 @@ Four lines, each MET / MISS with its evidence:
    that meets the accuracy (none: the line says down to which step none did);
 4. (the default scene's real-time line is the benchmark's own, ``targets``).
 
+With an output folder, each drive's work-precision chart (:func:`work_precision_chart`): every harness run of
+the ladder and every peer run on the same axes, the run's time against its worst requirement error as a
+multiple of that requirement's tolerance.
+
 Wall times are measured on a shared machine; the FMU steps beside them (fmi2DoStep calls) are not noisy.
 """
 from __future__ import annotations
@@ -103,13 +107,14 @@ def declared_lines(quick: bool, timeout: float, log=print):
     from harness import load
     from harness.studies import accuracy
 
-    lines, cheapest = [], {}
+    lines, cheapest, tables = [], {}, {}
     for name, goal in DECLARED_GOALS.items():
         system = load(name)
         if quick:
             system = replace(system, accuracy=replace(system.accuracy, stop_time=system.experiment.step * 400))
         steps = STEPS[name][:2] if quick else STEPS[name]
         table = accuracy.search(system, METHODS, steps, progress=lambda s: log(f"{name}: {s}"))
+        tables[name] = table
         best = accuracy.cheapest(table)
         what = f"{name} declared model at its declared accuracy >= {goal:g}x real time"
         if best is None:
@@ -124,16 +129,17 @@ def declared_lines(quick: bool, timeout: float, log=print):
         lines.append((what, rt >= goal,
                       f"cheapest: {best['master']} order {best['order']} at {best['step'] * 1e3:g} ms, "
                       f"{int(best['fmu_steps'])} FMU steps over {best['stop_time']:g} s: {rt:.2f}x real time ({how})"))
-    return lines, cheapest
+    return lines, cheapest, tables
 
 
 def peer_lines(cheapest: dict, quick: bool, timeout: float, log=print):
     """Line 3: each drive's time to its declared accuracy, the harness's cheapest run against the peers' own runs of
     the exported SSP (:func:`benchmarks.host_accuracy.measure`: each in a guarded process, judged by the same
-    check); a peer's time is its tool's own run (loading and stepping), as the harness's is."""
+    check); a peer's time is its tool's own run (loading and stepping), as the harness's is.  Returns the lines
+    and every peer verdict per drive."""
     from benchmarks import host_accuracy
 
-    lines = []
+    lines, runs = [], {}
     for name, (best, rt) in cheapest.items():
         what = f"{name}: time to its declared accuracy >= {PEER_GOAL:g}x shorter than the fastest peer's"
         if quick:  # a quick run's harness time is over a shortened span: nothing to compare
@@ -146,6 +152,7 @@ def peer_lines(cheapest: dict, quick: bool, timeout: float, log=print):
         ours = float(best["stop_time"]) / rt
         verdicts = host_accuracy.measure(name, hosts, extra_steps=PEER_STEPS, timeout=timeout,
                                          progress=lambda text: log(text))
+        runs[name] = verdicts
         times = {}
         for v in verdicts:
             if v.meets:
@@ -160,13 +167,77 @@ def peer_lines(cheapest: dict, quick: bool, timeout: float, log=print):
         lines.append((what, times[fastest] >= PEER_GOAL * ours,
                       f"fastest peer {fastest} {times[fastest]:.3g} s, the harness {ours:.3g} s "
                       f"({times[fastest] / ours:.2f}x)"))
-    return lines
+    return lines, runs
 
 
-def goal_lines(quick: bool = False, timeout: float = 1800.0, log=print) -> list[tuple[str, bool | None, str]]:
+def goal_lines(quick: bool = False, timeout: float = 1800.0, log=print,
+               out: Path | None = None) -> list[tuple[str, bool | None, str]]:
+    """The goal lines; with ``out``, each drive's work-precision chart is written there too."""
     lines = full_model_lines(quick, log)
-    declared, cheapest = declared_lines(quick, timeout, log)
-    return lines + declared + peer_lines(cheapest, quick, timeout, log)
+    declared, cheapest, tables = declared_lines(quick, timeout, log)
+    peers, runs = peer_lines(cheapest, quick, timeout, log)
+    if out is not None:
+        for name, table in tables.items():
+            for path in work_precision_chart(name, table, runs.get(name, []), Path(out) / f"work_precision_{name}"):
+                log(f"wrote {path}")
+    return lines + declared + peers
+
+
+def _worst(errors_and_tolerances) -> float:
+    """The worst requirement error as a multiple of its tolerance (NaN if any could not be judged)."""
+    ratios = [e / t for e, t in errors_and_tolerances]
+    return math.nan if not ratios or any(not math.isfinite(r) for r in ratios) else max(ratios)
+
+
+def work_precision_chart(name: str, table, verdicts, stem: Path) -> list[Path]:
+    """Time to run against accuracy for one drive: each harness run of the accuracy ladder (one line per
+    method through its steps) and each peer's run of the exported SSP (one line per tool), the error being the
+    worst of the drive's declared requirements as a multiple of its tolerance (below 1: the run meets them
+    all).  Runs that did not complete or could not be judged are drawn on the top edge with a cross."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from harness import load
+    from harness.charts import save_figure
+
+    reqs = load(name).accuracy.requirements
+    series = []   # (label, marker, [(time, worst, step)])
+    for (master, order), g in table.groupby(["master", "order"], sort=False):
+        pts = [(float(r["wall_time"]), _worst((float(r[q.name]), q.tolerance) for q in reqs) if r["complete"]
+                else math.nan, float(r["step"])) for _, r in g.iterrows()]
+        series.append((f"harness {master}, order {order}", "o", pts))
+    by_host: dict = {}
+    for v in verdicts:
+        worst = _worst((c.error, c.tolerance) for c in v.checks) if v.checks else math.nan
+        by_host.setdefault(v.run.host, []).append((float(v.run.run_time if math.isfinite(v.run.run_time)
+                                                         else v.run.wall_time), worst, float(v.run.step)))
+    series += [(f"{host} (its own algorithm)", "s", pts) for host, pts in by_host.items()]
+    finite = [w for _, _, pts in series for _, w, _ in pts if math.isfinite(w)]
+    top = max([10.0] + [3.0 * w for w in finite])
+    fig, ax = plt.subplots(figsize=(9.5, 5.5))
+    for label, marker, pts in series:
+        pts = sorted(pts, key=lambda p: -p[2])
+        t = [p[0] for p in pts]
+        w = [p[1] if math.isfinite(p[1]) else top for p in pts]
+        line, = ax.plot(t, w, "-" + marker, mfc="none", ms=6, label=label)
+        for ti, wi, (_, raw, h) in zip(t, w, pts):
+            ax.annotate(f"{h * 1e3:g} ms", (ti, wi), textcoords="offset points", xytext=(4, 3), fontsize=6,
+                        color=line.get_color())
+            if not math.isfinite(raw):
+                ax.plot([ti], [wi], "x", color=line.get_color(), ms=9)
+    ax.axhline(1.0, color="k", lw=1.0, ls="--", label="declared accuracy (every requirement at its tolerance)")
+    ax.plot([], [], "kx", ms=9, label="diverged, failed or not judged (drawn at the top)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(f"time to run {load(name).accuracy.stop_time:g} s of the drive [s]  (wall time, shared machine)")
+    ax.set_ylabel("worst requirement error / its tolerance  [1]")
+    ax.set_title(f"{name}: time against accuracy, the harness's masters and the peers' own runs of the exported SSP")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)
+    fig.tight_layout()
+    return save_figure(fig, Path(stem), dpi=150)
 
 
 def write(lines, path: Path) -> Path:
@@ -187,7 +258,7 @@ def main(argv=None) -> int:
     ap.add_argument("--timeout", type=float, default=1800.0, help="per peer run and per pinned run [s]")
     args = ap.parse_args(argv)
     out = args.out or ROOT / "results" / ("benchmark-quick" if args.quick else "benchmark")
-    lines = goal_lines(args.quick, args.timeout)
+    lines = goal_lines(args.quick, args.timeout, out=out)
     print("")
     for what, met, evidence in lines:
         print(f"[{'n/a ' if met is None else ('MET ' if met else 'MISS')}] {what}: {evidence}")

@@ -283,3 +283,41 @@ def test_coupling_goal_lines_quick(tmp_path):
     assert any("bed_drive declared model at its declared accuracy >= 10x" in g for g in goals)
     assert any("feeder_gto52 declared model at its declared accuracy >= 5x" in g for g in goals)
     assert all(r["evidence"] for r in rows)
+    for name in ("bed_drive", "feeder_gto52"):
+        assert (tmp_path / f"work_precision_{name}.png").stat().st_size > 10_000
+
+
+def test_work_precision_chart_puts_harness_and_peer_runs_on_one_scale(tmp_path, monkeypatch):
+    """The chart's error axis is the worst requirement error over its tolerance; a run that did not complete has no
+    error and is drawn as a cross, never as an accurate point."""
+    import math
+
+    import matplotlib.axes
+    import pandas as pd
+
+    from benchmarks import coupling, host_accuracy
+    from harness import load
+    from harness.studies.accuracy import Check
+
+    reqs = load("bed_drive").accuracy.requirements
+    rows = [dict(master="jacobi", order=1, step=h, complete=ok, wall_time=w,
+                 **{q.name: (q.tolerance * f if ok else math.nan) for q in reqs})
+            for h, ok, w, f in ((5e-4, True, 0.3, 0.5), (1e-3, False, 0.1, 0))]
+    peer = host_accuracy.Verdict("bed_drive", host_accuracy.HostRun("libcosim", 1e-4, "complete", 6.0, run_time=5.0),
+                                 [Check(q.name, 3 * q.tolerance, q.tolerance, q.unit, False) for q in reqs])
+    drawn = []
+    real_plot = matplotlib.axes.Axes.plot
+
+    def spy(self, *args, **kwargs):
+        drawn.append((args, kwargs.get("label")))
+        return real_plot(self, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.axes.Axes, "plot", spy)
+    paths = coupling.work_precision_chart("bed_drive", pd.DataFrame(rows), [peer], tmp_path / "wp")
+    assert {p.suffix for p in paths} == {".png", ".svg"}
+    lines = {label: args for args, label in drawn if label}
+    t, w = lines["harness jacobi, order 1"][:2]
+    assert list(t) == [0.1, 0.3] and w[1] == pytest.approx(0.5) and w[0] >= 10.0   # the failed run on the top edge
+    t, w = lines["libcosim (its own algorithm)"][:2]
+    assert list(t) == [5.0] and w == [pytest.approx(3.0)]
+    assert any(a[-1] == "x" and a[0] == [0.1] for a, label in drawn if not label)
