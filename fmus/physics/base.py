@@ -15,6 +15,9 @@ import numpy as np
 from . import integrate
 
 
+DIFFERENCE_STEP = 6e-6   # relative step of Model.output_jacobian_by_differences (~ cube root of the float epsilon)
+
+
 class ParameterError(ValueError):
     """A parameter value that is not physical.  The message names the parameter and the value."""
 
@@ -147,6 +150,35 @@ class Model:
 
     def output(self, t: float, x: np.ndarray, u: Sequence[float]) -> Sequence[float]:
         raise NotImplementedError
+
+    def output_jacobian(self, t: float, x: np.ndarray, u: Sequence[float]) -> np.ndarray:
+        """d output(t, x, u) / d u: the direct feed-through block D (outputs x inputs, in the orders of
+        ``outputs`` and ``inputs``) at the state ``x``, from the component's own equations.  It is what the FMU
+        answers to fmi2GetDirectionalDerivative / fmi3GetDirectionalDerivative (co-simulation: partial derivatives
+        of the outputs with respect to the inputs at the current time).  A component that implements it declares
+        ``providesDirectionalDerivative``; one that does not keeps its FMU without (:meth:`provides_output_jacobian`).
+        At a switch of a piecewise law (a contact closing, a saturation) it gives the one-sided derivative of the
+        branch the output itself takes."""
+        raise NotImplementedError(f"{type(self).__name__} declares no output Jacobian")
+
+    @classmethod
+    def provides_output_jacobian(cls) -> bool:
+        return cls.output_jacobian is not Model.output_jacobian
+
+    def output_jacobian_by_differences(self, t: float, x: np.ndarray, u: Sequence[float]) -> np.ndarray:
+        """:meth:`output_jacobian` by central differences of :meth:`output` in each input (step
+        ``DIFFERENCE_STEP * max(1, |u_j|)``, truncation and rounding both ~1e-10 relative).  Only for a component
+        that says why it has no closed form (kinematic chains solved by branches, contact laws); the others
+        differentiate their equations."""
+        u = [float(v) for v in u]
+        D = np.zeros((len(self.outputs), len(u)))
+        for j, uj in enumerate(u):
+            step = DIFFERENCE_STEP * max(1.0, abs(uj))
+            up, um = list(u), list(u)
+            up[j], um[j] = uj + step, uj - step
+            D[:, j] = (np.asarray(self.output(t, x, up), dtype=float)
+                       - np.asarray(self.output(t, x, um), dtype=float)) / (up[j] - um[j])
+        return D
 
     # -- provided ----------------------------------------------------------------------------------------
     def advance(self, t0: float, h: float, x: np.ndarray, u: Sequence[float]) -> np.ndarray:

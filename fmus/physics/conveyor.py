@@ -67,6 +67,21 @@ def edge_in_zone(x, pitch: float, cut_length: float, zone: float):
     return total, count
 
 
+def edge_slope(x: float, pitch: float, cut_length: float, zone: float) -> float:
+    """d edge_in_zone(x)[0] / dx for one travel x: each block's overlap min(lead, zone) - max(lead - cut_length,
+    0), where positive, grows with its leading end below the zone's end and shrinks with its trailing end past
+    the zone's start (the same blocks as edge_in_zone)."""
+    k_max = int(math.ceil((zone + cut_length) / pitch)) + 1
+    first = math.floor(x / pitch)
+    slope = 0.0
+    for j in range(k_max + 1):
+        k = first - j
+        lead = x - k * pitch
+        if k >= 0 and min(lead, zone) - max(lead - cut_length, 0.0) > 0.0:
+            slope += (1.0 if lead < zone else 0.0) - (1.0 if lead - cut_length > 0.0 else 0.0)
+    return slope
+
+
 @dataclass(frozen=True)
 class ConveyorLoadParams(Params):
     w_cut: float = param(2.5e4, "N/m", "specific cutting work of the paper stack per unit cut area, J/m2 (assumed order)",
@@ -121,3 +136,12 @@ class ConveyorLoadModel(Model):
         edge, count = edge_in_zone(travel, p.pitch, p.cut_length, p.zone)
         F = p.F0 + p.knives * p.w_cut * p.thickness / p.zone * float(edge)
         return (-F * p.r_pulley / p.eta, F, float(count))
+
+    def output_jacobian(self, t, x, u):
+        """The transport force grows with the edge length in the zone, whose slope in the travel is the number of
+        blocks with exactly one end of their edge inside the zone, +1 for a leading end, -1 for a trailing one
+        (edge_slope); the travel is r*phi; nothing depends on the speed."""
+        p = self.p
+        dF = p.knives * p.w_cut * p.thickness / p.zone * edge_slope(p.x0 + p.r_pulley * u[0], p.pitch,
+                                                                    p.cut_length, p.zone) * p.r_pulley
+        return np.array([[-dF * p.r_pulley / p.eta, 0.0], [dF, 0.0], [0.0, 0.0]])

@@ -167,3 +167,27 @@ class JamesDifferentialModel(Model):
         ring_tau, carrier_tau = -t_ring, -t_c
         return (p.ring_sense * ring_tau, carrier_tau, phi_s, w_s, -ring_tau * w_r, -carrier_tau * w_c, -u[4] * w_s,
                 self.kp * w_r + (1.0 - self.kp) * w_c, m)
+
+    def output_jacobian(self, t, x, u):
+        """From the output's equations: the mesh torque m (fidelity 0: -sun.tau; 1: the mesh law on the kinematic
+        sun motion), the static torques ring.tau = f k m, carrier.tau = -(1 + f k) m with the efficiency factor f
+        of the power's direction (constant on each side of its switch), and the powers as products."""
+        k, p, s = self.k, self.p, self.p.ring_sense
+        e = np.eye(5)
+        d_phik = -k * s * e[0] + (1.0 + k) * e[2]      # the kinematic sun angle and speed
+        d_wk = -k * s * e[1] + (1.0 + k) * e[3]
+        w_r, w_c = s * u[1], u[3]
+        if p.fidelity == 0:
+            m, dm = -u[4], -e[4]
+            d_phis, d_ws, w_s = d_phik, d_wk, self.kinematic(u)[1]
+        else:
+            m, dm = self.mesh(x, u), p.c_alpha * d_phik + p.d_mesh * d_wk
+            d_phis, d_ws, w_s = np.zeros(5), np.zeros(5), x[1]
+        f = 1.0
+        if p.efficiency != 1.0:     # static_torques: the sun's relative power -t_sun k (w_r - w_c), t_sun = -m
+            f = p.efficiency if m * k * (w_r - w_c) > 0.0 else 1.0 / p.efficiency
+        d_ring, d_carrier = f * k * dm, -(1.0 + f * k) * dm
+        ring_tau, carrier_tau = f * k * m, -(1.0 + f * k) * m
+        return np.array([s * d_ring, d_carrier, d_phis, d_ws,
+                         -(d_ring * w_r + ring_tau * s * e[1]), -(d_carrier * w_c + carrier_tau * e[3]),
+                         -(e[4] * w_s + u[4] * d_ws), self.kp * s * e[1] + (1.0 - self.kp) * e[3], dm])

@@ -41,6 +41,10 @@ class InertiaModel(Model):
     def output(self, t, x, u):
         return (x[0], x[1])
 
+    def output_jacobian(self, t, x, u):
+        """The flange's motion is the state: no feed-through from the torque."""
+        return np.zeros((2, 1))
+
     def energy(self, x) -> float:
         """Kinetic plus ground-spring energy [J]."""
         return 0.5 * self.p.J * x[1] ** 2 + 0.5 * self.p.c_ground * x[0] ** 2
@@ -81,6 +85,10 @@ class SpringInertiaModel(Model):
 
     def output(self, t, x, u):
         return (-self.spring_torque(x, u),)
+
+    def output_jacobian(self, t, x, u):
+        """drive.tau = -(c*(phi_in - phi) + d*(w_in - w)): -c and -d."""
+        return np.array([[-self.p.c, -self.p.d]])
 
     def energy(self, x, u) -> float:
         p = self.p

@@ -130,3 +130,7 @@ class FlywheelShaftModel(Model):
         potential = 0.5 * self.c * twist * twist if self.p.fidelity == 1 else 0.0
         return (x[0], x[1], x[2], x[3], x[2], x[3], self.shaft_torque(x),
                 twist if self.p.fidelity == 1 else 0.0, kinetic, potential)
+
+    def output_jacobian(self, t, x, u):
+        """Every output is a function of the state (the torques only drive it): no feed-through."""
+        return np.zeros((len(self.outputs), len(self.inputs)))

@@ -446,6 +446,14 @@ class FourBarModel(Model):
         side = self._side(q)
         return (crank_tau, x[0], x[1], mu, force, abs(force), abs(side), x[3], x[4], x[5])
 
+    def output_jacobian(self, t, x, u):
+        """By central differences of :meth:`output` (Model.output_jacobian_by_differences).  Why not in closed
+        form: the rigid level's outputs need the second derivative of the branch-wise loop-closure solution
+        (kinematics_scalar) and the transmission angle's, and fidelity 2's the contact law's slopes in each of its
+        laws and phases; the outputs are smooth in the inputs between those switches, where the differences
+        agree with the exact slopes to ~1e-9 relative."""
+        return self.output_jacobian_by_differences(t, x, u)
+
     def _step(self, t, x, dt, u, t0, contact_on=True):
         """One classical Runge-Kutta step of length dt from (t, x); phi(t) uses the step start t0.
 

@@ -275,6 +275,18 @@ class KnifeLoadModel(Model):
         F, cut = self.force(t, u[0])
         return (-dist_moment(F, self.p.R, self.kg), F, cut)
 
+    def output_jacobian(self, t, x, u):
+        """dF/dphi = K1 * scale * F_T'(tau) inside the cut (the polynomial of eq. (1) differentiated), 0 outside;
+        the load does not depend on the speed."""
+        p = self.p
+        theta = u[0] % (2.0 * math.pi)
+        K1 = ramp(t - p.t_block, self.T_entry) if p.fidelity >= 1 else 1.0
+        dF = 0.0
+        if p.phi_s <= theta <= math.pi and K1 != 0.0:
+            tau, A = (theta - p.phi_s) * self.scale, self.A
+            dF = (A[0] + tau * (2.0 * A[1] + tau * (3.0 * A[2] + tau * 4.0 * A[3]))) * self.scale * K1
+        return np.array([[-dist_moment(dF, p.R, self.kg), 0.0], [dF, 0.0], [0.0, 0.0]])
+
 
 def dist_force(F_T: float, kg: float) -> float:
     """Eqs. (7)-(8): F_dist = F' + F_fr = F_T k_geo (magnitudes added, A8)."""

@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from .base import Model, Params, param
 
 
@@ -41,6 +43,12 @@ class TorqueLoadModel(Model):
 
     def output(self, t, x, u):
         return (-self.load_torque(u[0], u[1]),)
+
+    def output_jacobian(self, t, x, u):
+        """-(c, T_coulomb/w_reg*(1 - tanh^2(w/w_reg)) + d)."""
+        p = self.p
+        th = math.tanh(u[1] / p.w_reg)
+        return np.array([[-p.c, -(p.T_coulomb / p.w_reg * (1.0 - th * th) + p.d)]])
 
     def advance(self, t0, h, x, u):
         return x

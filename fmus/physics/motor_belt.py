@@ -173,6 +173,19 @@ class MotorBeltModel(Model):
         p_el = air_gap / p.efficiency if air_gap >= 0.0 else air_gap * p.efficiency
         return (force * self.r_d, x[1], motor_torque, p_el, motor_torque * x[1], belt_torque)
 
+    def output_jacobian(self, t, x, u):
+        """The belt force's slopes in the driven pulley's motion (the creep rate follows the elastic force), and
+        at fidelity 0, where the motor torque is the belt's, the powers that follow it."""
+        p = self.p
+        force, _ = self._belt(x, u[0], u[1])
+        d_force = np.array([-p.c_belt * self.r_d * (1.0 - p.d_belt * self.r_d * self.creep_gain * abs(x[1])),
+                            -p.d_belt * self.r_d])
+        d_belt = d_force * self.r_m
+        d_motor = d_belt if p.fidelity == 0 else np.zeros(2)
+        air_gap = (force * self.r_m if p.fidelity == 0 else self.kloss_torque(x[1])) * p.w_sync
+        d_el = d_motor * p.w_sync * (1.0 / p.efficiency if air_gap >= 0.0 else p.efficiency)
+        return np.array([d_force * self.r_d, np.zeros(2), d_motor, d_el, d_motor * x[1], d_belt])
+
     def belt_energy(self, x, phi_d: float) -> float:
         """Elastic energy of the belt [J]."""
         stretch = self.r_m * x[0] - self.r_d * (phi_d + x[2])

@@ -204,3 +204,7 @@ class ParallelShaftsModel(Model):
             potential = 0.5 * (self.c1 * (q1 * q1 + q2 * q2) + p.belt_stiffness * qb * qb)
             dissipation = self.b1 * (q1d * q1d + q2d * q2d) + p.belt_damping * qbd * qbd
         return (x[0], x[1], x[2], x[3], x[2], x[3], torque, q1, q2, qb, kinetic, potential, dissipation)
+
+    def output_jacobian(self, t, x, u):
+        """Every output is a function of the state (the torques only drive it): no feed-through."""
+        return np.zeros((len(self.outputs), len(self.inputs)))

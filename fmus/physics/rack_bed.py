@@ -148,6 +148,41 @@ class RackBedModel(Model):
             a = (f_mesh - self.friction(v) - self.printing_load(s, v)) / p.m_T
         return (-self.R * f_mesh, s, v, a, f_mesh)
 
+    # -- the direct feed-through (output_jacobian) -----------------------------------------------------------
+    def friction_slope(self, v: float) -> float:
+        """d friction / d v."""
+        th = math.tanh(v / self.p.v_reg)
+        return self.F_coulomb / self.p.v_reg * (1.0 - th * th) + self.p.d_visc
+
+    def zone_slope(self, s: float) -> float:
+        """d zone / d s (the smoothstep's slope 6x(1 - x) is 0 where the clipping starts, so no case at the ends)."""
+        p = self.p
+        x = min(max((s - p.s_print_start) / p.ramp, 0.0), 1.0)
+        y = min(max((p.s_print_end - s) / p.ramp, 0.0), 1.0)
+        return (6.0 * x * (1.0 - x) * y * y * (3.0 - 2.0 * y) - x * x * (3.0 - 2.0 * x) * 6.0 * y * (1.0 - y)) / p.ramp
+
+    def printing_load_slopes(self, s: float, v: float) -> tuple[float, float]:
+        """(d printing_load / d s, d printing_load / d v)."""
+        p = self.p
+        if v <= 0.0 or p.F_print == 0.0:
+            return 0.0, 0.0
+        th = math.tanh(v / p.v_reg)
+        return p.F_print * self.zone_slope(s) * th, p.F_print * self.zone(s) * (1.0 - th * th) / p.v_reg
+
+    def output_jacobian(self, t, x, u):
+        """Fidelity 0: s = R phi, v = R w and the mesh force carries the friction and printing load at them
+        (a is the state); fidelity 1: the mesh force c (R phi - s) + d (R w - v) and the acceleration it gives."""
+        p, R = self.p, self.R
+        if p.fidelity == 0:
+            s, v = R * u[0], R * u[1]
+            dl_ds, dl_dv = self.printing_load_slopes(s, v)
+            df = np.array([dl_ds * R, (self.friction_slope(v) + dl_dv) * R])
+            ds, dv, da = np.array([R, 0.0]), np.array([0.0, R]), np.zeros(2)
+        else:
+            df = np.array([p.c_mesh * R, p.d_mesh * R])
+            ds, dv, da = np.zeros(2), np.zeros(2), df / p.m_T
+        return np.array([-R * df, ds, dv, da, df])
+
     def mesh_energy(self, x, phi: float) -> float:
         """Elastic energy of the rack mesh [J] (fidelity 1)."""
         stretch = self.R * phi - x[0]

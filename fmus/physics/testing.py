@@ -41,3 +41,9 @@ class GainModel(Model):
         p = self.p
         y = p.k * u[0] + p.offset
         return (min(p.limit, max(-p.limit, y)), float(x[0]))
+
+    def output_jacobian(self, t, x, u):
+        """dy/du = k inside the limits, 0 where y is saturated; the integral is the state."""
+        p = self.p
+        inside = -p.limit < p.k * u[0] + p.offset < p.limit
+        return np.array([[p.k if inside else 0.0], [0.0]])
