@@ -13,19 +13,17 @@ from harness.fmi.fmu1 import FMU1
 from harness.fmi.fmu3 import FMU3
 from harness.fmi.me import ModelExchange2, ModelExchange3, SolverSettings
 
-__all__ = ["FMU", "FMU1", "FMU3", "ModelExchange2", "ModelExchange3", "SolverSettings", "Instance", "IMPLEMENTATIONS",
+__all__ = ["FMU", "FMU1", "FMU3", "ModelExchange2", "ModelExchange3", "SolverSettings", "Instance",
            "open_instance", "extracted", "IN_PROCESS_CHOICES", "InProcessFallback"]
 
 IN_PROCESS_CHOICES = (None, True, False)
-IMPLEMENTATIONS = ("any", "CoSimulation", "ModelExchange")  # SSP 1.0's words for an FMU component's interface
 
 
 class InProcessFallback(UserWarning):
     """A pythonfmu FMU runs through its FMI library because its script does not import in this process."""
 
 
-def open_instance(path: str | Path, name: str, logging_on: bool = True, in_process: bool | None = None,
-                  implementation: str = "any") -> Instance:
+def open_instance(path: str | Path, name: str, logging_on: bool = True, in_process: bool | None = None) -> Instance:
     """An instance of the FMU at ``path``, called in-process or through FMI.
 
     ``in_process``: None (default) runs every pythonfmu FMU in this process
@@ -37,19 +35,16 @@ def open_instance(path: str | Path, name: str, logging_on: bool = True, in_proce
     :class:`harness.fmi.fmu1.FMU1`, FMI 3.0 ones (pythonfmu3's too: their slave is an Fmi3Slave, which the
     in-process path does not call) through :class:`harness.fmi.fmu3.FMU3`.
 
-    ``implementation`` (SSP's attribute of a component): "any" runs an FMU through its co-simulation
-    interface if it has one, else through its Model Exchange interface (:mod:`harness.fmi.me`: integrated
-    by a solver of its own); "CoSimulation" or "ModelExchange" insists on that interface."""
+    An FMU runs through its co-simulation interface if it has one, else through its Model Exchange interface
+    (:mod:`harness.fmi.me`: integrated by a solver of its own).  That is the one way to choose ME: an SSP
+    component with ``implementation="ModelExchange"`` reaches here as a copy of its FMU without the
+    co-simulation interface (:func:`harness.fmi.cache.model_exchange_only`), so every layer above (system
+    validation, coupling, results) sees the interface that runs."""
     if in_process not in IN_PROCESS_CHOICES:
         raise FMUError(name, "instantiate", None, None,
                        detail=f"in_process = {in_process!r} is not admissible: must be None, True or False")
-    if implementation not in IMPLEMENTATIONS:
-        raise FMUError(name, "instantiate", None, None,
-                       detail=f"implementation = {implementation!r} is not admissible: must be one of "
-                              f"{', '.join(IMPLEMENTATIONS)}")
     md = model_description(path) if Path(path).is_file() else None
-    if md is not None and (implementation == "ModelExchange"
-                           or (implementation == "any" and md.coSimulation is None and md.modelExchange is not None)):
+    if md is not None and md.coSimulation is None and md.modelExchange is not None:
         if str(md.fmiVersion).startswith("3"):
             return ModelExchange3(path, name, logging_on)
         if md.fmiVersion != "2.0":
