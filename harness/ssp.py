@@ -44,16 +44,8 @@ from fmus.units import BASE_UNITS
 from harness.errors import SystemError_
 from harness.fmi.cache import model_exchange_only, unzipped
 from harness.model import Bond, Connection, Experiment, Instance, System, model_description, resolve_fmu
-from harness.ssp_values import Mapping, Quantity, Unit, units
+from harness.ssp_values import NS, Mapping, Quantity, Unit, _q, units
 
-NS = {
-    "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
-    "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
-    "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
-    "ssm": "http://ssp-standard.org/SSP1/SystemStructureParameterMapping",
-    "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
-    "pd": "https://pressdrive.example/ssp-annotations",
-}
 for _prefix, _uri in NS.items():
     ET.register_namespace(_prefix, _uri)
 
@@ -63,11 +55,6 @@ FMU_TYPE = "application/x-fmu-sharedlibrary"
 PARAMETER_SET = "default"
 PARAMETER_SET_TYPE = "application/x-ssp-parameter-set"
 PARAMETER_MAPPING_TYPE = "application/x-ssp-parameter-mapping"
-
-
-def _q(tag: str) -> str:
-    prefix, name = tag.split(":")
-    return f"{{{NS[prefix]}}}{name}"
 
 
 def _num(value) -> str:

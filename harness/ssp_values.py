@@ -12,15 +12,19 @@ from __future__ import annotations
 from xml.etree import ElementTree as ET
 
 
+# the one table of the SSP namespaces, with the OSP and toolkit annotation ones: harness.ssp reads and writes by it
 NS = {
+    "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
     "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
     "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
     "ssm": "http://ssp-standard.org/SSP1/SystemStructureParameterMapping",
-    "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+    "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
+    "pd": "https://pressdrive.example/ssp-annotations",
 }
 
 
 def _q(tag: str) -> str:
+    """``"ssd:System"`` as ElementTree's ``{namespace}System``."""
     prefix, name = tag.split(":")
     return f"{{{NS[prefix]}}}{name}"
 
