@@ -198,7 +198,7 @@ def result_format(path: str | Path, option: str = "--out") -> str:
         return suffix[1:]
     if suffix == ".parquet":
         raise SystemError_(f"{option} {path}: Parquet needs pyarrow or fastparquet, neither is installed; use .csv")
-    raise SystemError_(f"{option} {path}: unknown result format {path.suffix or '(no suffix)'!r}; use {allowed}")
+    raise SystemError_(f"{option} {path}: unknown result format {path.suffix or '(no suffix)'!r}: use {allowed}")
 
 
 def check_writable(path: str | Path, option: str, folder: bool = False) -> Path:

@@ -7,7 +7,7 @@ nor read by a ``set:`` expression: a misspelt key), with the close names; a para
 not a parameter of the system's FMUs (checked at every point, so an expression that fails at one point fails
 before any run); a quantity of interest names a variable no FMU has, or does not evaluate on a result of the
 right columns (a typo in a function name); the output file cannot be written (unknown suffix, Parquet without
-pyarrow, a folder that cannot be created).
+pyarrow or fastparquet, a folder that cannot be created or written: the run command's checks).
 
 :class:`PointLog` appends each finished point to ``<out stem>.partial.csv`` as it finishes (header first).
 A sweep that completes writes ``--out`` and removes the partial file; one that is interrupted (Ctrl-C) or
@@ -66,24 +66,17 @@ def check_workers(workers, local: bool = True) -> int:
 
 
 def check_out(out: Path) -> None:
-    suffix = out.suffix.lower()
-    if suffix not in (".csv", ".parquet"):
-        _fail(f"--out {out}: unknown result format {out.suffix or '(no suffix)'!r}: use .csv or .parquet")
-    if suffix == ".parquet":
-        try:
-            import pyarrow  # noqa: F401
-        except ImportError:
-            _fail(f"--out {out}: Parquet needs pyarrow (pip install pyarrow); use a .csv name")
+    """``--out`` can be written: the run command's own checks (:func:`harness.results.result_format`: .csv, or
+    .parquet where pyarrow or fastparquet is installed; :func:`harness.results.check_writable`: the folder
+    is made and writable), said as a :class:`SweepError`."""
+    from harness.errors import SystemError_
+    from harness.results import check_writable, result_format
+
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        _fail(f"--out {out}: cannot create folder {out.parent}: {e.strerror}")
-    probe = out.parent / f".{out.name}.probe"
-    try:
-        probe.write_text("")
-        probe.unlink()
-    except OSError as e:
-        _fail(f"--out {out}: folder {out.parent} is not writable: {e.strerror}")
+        result_format(out)
+        check_writable(out, "--out")
+    except SystemError_ as e:
+        _fail(str(e))
 
 
 def _variables(system) -> dict[str, dict]:
