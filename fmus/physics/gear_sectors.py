@@ -123,6 +123,40 @@ class SectorTask:
     delta0: float    # angle of O_B C_B at beta = 0 [rad]
 
 
+# What each given quantity may be (open intervals): the sizes are lengths, the speeds those of a cylinder that
+# turns one way (omega_C > 0, so v = omega_C D_Ci / 2 > 0), phi12 a phase of the cycle whose four phases fill
+# one turn (eq. 2), phiC12 the cylinder's forward turn on it.  w2, c1 and delta0 may have either sign.  A
+# quantity left NaN is not given: the residual that needs it is not computed into the verdict (build_law).
+GIVEN_RANGES = {"D_Ci": (0.0, math.inf), "v1": (0.0, math.inf), "v2": (0.0, math.inf),
+                "w2": (-math.inf, math.inf), "l_i": (0.0, math.inf), "phi12": (0.0, 2.0 * math.pi),
+                "phiC12": (0.0, math.inf), "c1": (-math.inf, math.inf), "delta0": (-math.inf, math.inf)}
+# The given quantities each residual compares with (r18: point 1's zero acceleration needs none).
+RESIDUAL_DATA = {"r17": ("v1", "D_Ci"), "r18": (), "r19": ("v2", "D_Ci"), "r20": ("w2", "D_Ci"),
+                 "r21": ("l_i",), "r22": ("phi12",), "r23": ("phiC12",), "r24": ("c1",)}
+RESIDUAL_MEANING = {"r17": "eq. 17, speed v1 at point 1", "r18": "eq. 18, zero acceleration at point 1",
+                    "r19": "eq. 19, bed speed v2 at point 2", "r20": "eq. 20, bed acceleration w2 at point 2",
+                    "r21": "eq. 21, centre distance l_i", "r22": "eq. 22, phase angle phi12",
+                    "r23": "eq. 23, cylinder turn phiC12", "r24": "eq. 24', character coefficient c1"}
+JUNCTION_TOL = 1e-6   # largest |residual| of a condition not solved for that still counts as met
+
+
+def out_of_range(task: SectorTask) -> tuple[str, float, str] | None:
+    """The first given quantity outside its range (:data:`GIVEN_RANGES`) as (name, value, allowed range),
+    or None.  NaN means "not given"; an infinite value is never admissible."""
+    for name, (lo, hi) in GIVEN_RANGES.items():
+        v = getattr(task, name)
+        if math.isnan(v):
+            continue
+        if not (lo < v < hi) or math.isinf(v):
+            return name, v, f"({lo:g}, {hi:.6g})"
+    return None
+
+
+def checked_residuals(task: SectorTask) -> tuple[str, ...]:
+    """The residuals whose given data are all given (not NaN): those the verdict ``feasible`` requires."""
+    return tuple(n for n in RESIDUALS if all(not math.isnan(getattr(task, d)) for d in RESIDUAL_DATA[n]))
+
+
 def residuals(x, task: SectorTask) -> dict[str, float]:
     """All junction residuals r17..r24 (spec §2.1.7) at unknowns x = (eps1, eps2, kappa, beta0)."""
     eps1, eps2, kappa, beta0 = x
@@ -174,18 +208,53 @@ def _feasible(x, delta0) -> tuple[bool, str]:
     return True, "ok"
 
 
+def _junctions_met(x, task: SectorTask, junction_tol: float) -> tuple[bool, str]:
+    """Every residual with given data within ``junction_tol`` (solve_sectors' ``feasible``)."""
+    try:
+        res = residuals(x, task)
+    except (ZeroDivisionError, FloatingPointError):
+        return False, "the residuals cannot be evaluated"
+    unmet = [n for n in checked_residuals(task) if not abs(res[n]) <= junction_tol]
+    if not unmet:
+        return True, "ok"
+    return False, ("unmet: " + ", ".join(f"{n} = {res[n]:.3g} ({RESIDUAL_MEANING[n]})" for n in unmet)
+                   + f", each must be within {junction_tol:g}")
+
+
+def _checked_norm(x, task: SectorTask) -> float:
+    """Norm of every residual with given data (inf where they cannot be evaluated)."""
+    try:
+        res = residuals(x, task)
+    except (ZeroDivisionError, FloatingPointError):
+        return math.inf
+    v = float(np.linalg.norm([res[n] for n in checked_residuals(task)]))
+    return v if math.isfinite(v) else math.inf
+
+
 DEFAULT_STARTS = ((0.3, 0.3, 1.0, 0.8), (0.1, 0.1, 1.5, 0.5), (0.5, 0.2, 2.0, 1.0), (0.2, 0.5, 0.8, 1.2),
                   (-0.2, 0.3, 1.2, 0.6), (0.4, -0.3, 1.0, 0.9), (0.6, 0.6, 1.5, 1.5), (0.05, 0.05, 1.0, 0.3))
 
 
 def solve_sectors(task: SectorTask, use: tuple[str, ...] | str = DEFAULT_SET, starts=None,
-                  tol: float = 1e-9) -> SectorSolution:
+                  tol: float = 1e-9, junction_tol: float = JUNCTION_TOL) -> SectorSolution:
     """Solve the transcendental system (25) for (eps1, eps2, kappa, beta0).
 
     ``use``: four residual names (root finding, scipy.optimize.root, hybr) or "lsq" (least squares over
     all eight with scipy.optimize.least_squares).  Several starting points; the first converged feasible
     solution with the smallest residual norm wins.  ``converged`` means every used residual is below
-    ``tol`` (for "lsq": the solver converged; the residuals tell how well the data fit)."""
+    ``tol`` (for "lsq": the solver converged; the residuals tell how well the data fit).
+
+    ``feasible`` means a sector pair that can be built (:func:`_feasible`) AND meets every condition whose
+    data are given, the ones not solved for included, to ``junction_tol``: the seed's combined law joins its
+    phases only where (17)-(20) all hold ("the following equalities must be kept"), and its (25) asks the
+    given l_i, phi12, phiC12 and c1 of the same pair.  Four of eight conditions solved for say nothing of
+    the other four: with data that over-determine (25) inconsistently the solution is marked infeasible
+    and the message names the unmet conditions.  Given quantities out of range (:data:`GIVEN_RANGES`)
+    raise ValueError."""
+    bad_given = out_of_range(task)
+    if bad_given is not None:
+        name, v, allowed = bad_given
+        raise ValueError(f"SectorTask.{name} = {v!r} outside the allowed range {allowed}")
     lsq = use == "lsq"
     names = RESIDUALS if lsq else tuple(use)
     if not lsq:
@@ -212,14 +281,19 @@ def solve_sectors(task: SectorTask, use: tuple[str, ...] | str = DEFAULT_SET, st
                 sol = optimize.root(f, x0, method="hybr", options={"xtol": 1e-13})
                 x = sol.x
                 ok = bool(np.all(np.isfinite(x))) and float(np.max(np.abs(f(x)))) < tol
-            feas, why = _feasible(x, task.delta0) if np.all(np.isfinite(x)) else (False, "non-finite")
+            buildable, why = _feasible(x, task.delta0) if np.all(np.isfinite(x)) else (False, "non-finite")
+            feas = buildable
+            if buildable:
+                feas, why = _junctions_met(x, task, junction_tol)
             norm = float(np.linalg.norm(f(x)))
-            cand = (not (ok and feas), norm, x, ok, feas, why)
-            if best is None or cand[:2] < best[:2]:
+            # rank: a full solution; else a converged buildable pair (its unmet conditions are the news),
+            # the one nearest to meeting them all; else the smallest residual
+            cand = ((not (ok and feas), not (ok and buildable), _checked_norm(x, task), norm), x, ok, feas, why)
+            if best is None or cand[0] < best[0]:
                 best = cand
             if ok and feas and not lsq:
                 break
-    _, norm, x, ok, feas, why = best
+    (_, _, _, norm), x, ok, feas, why = best
     res = residuals(x, task)
     msg = ("converged" if ok else f"not converged (|r| = {norm:.3g})") + ("" if feas else f"; infeasible: {why}")
     return SectorSolution(*map(float, x), res, bool(ok), bool(feas), msg, names)

@@ -2,15 +2,19 @@
 
     synth sectors [--residuals r24,r18,r23,r21 | lsq] [--D-Ci ..] [--v1 ..] ... [--json]
 
-Solves for eps1, eps2, kappa, beta0 and prints them with all residuals r17..r24 and whether the solver
-converged.  Given quantities left out take the values of a worked example: the forward kinematics of
-eps1 = 0.3, eps2 = 0.3, kappa = 1.5, beta0 = 0.8 rad, delta0 = -1.2 rad, D_Ci = 1.68 (so the default
-problem has that exact solution).  No feasible solution: one line on stderr, exit code 2.
+Solves for eps1, eps2, kappa, beta0 and prints them with all residuals r17..r24, whether the solver
+converged and whether the pair is feasible: buildable (pivots inside the sectors, the crank angle monotonic)
+and meeting every condition r17..r24 to --junction-tol, the four not solved for included (the seed's
+combined law joins its phases only where all of them hold).  Given quantities left out take the values of
+a worked example: the forward kinematics of eps1 = 0.3, eps2 = 0.3, kappa = 1.5, beta0 = 0.8 rad,
+delta0 = -1.2 rad, D_Ci = 1.68 (so the default problem has that exact solution).  A given quantity out of
+its range, or no feasible solution: one line on stderr, exit code 2.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 from fmus.physics import gear_sectors as gs
@@ -39,6 +43,9 @@ def register(subparsers) -> argparse.ArgumentParser:
     for name in GIVEN:
         ap.add_argument(f"--{name.replace('_', '-')}", dest=name, type=float, default=None,
                         help=f"{HELP[name]} (default: worked example)")
+    ap.add_argument("--junction-tol", type=float, default=gs.JUNCTION_TOL,
+                    help="largest |residual| of a condition not solved for that still counts as met "
+                         "(default %(default)g)")
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     ap.set_defaults(func=run)
     return ap
@@ -49,11 +56,15 @@ def run(args) -> int:
     values = {n: (getattr(args, n) if getattr(args, n, None) is not None else getattr(base, n)) for n in GIVEN}
     task = gs.SectorTask(**values)
     use = "lsq" if args.residuals.strip() == "lsq" else tuple(s.strip() for s in args.residuals.split(","))
-    for name in ("D_Ci", "l_i"):  # a diameter and a centre distance: positive lengths
-        if not values[name] > 0.0:
-            return fail("sectors", f"{typed(name, values[name])} ({HELP[name]}) must be > 0")
+    for name in GIVEN:   # every quantity is given here (NaN, "not given", is for the library's build_law)
+        lo, hi = gs.GIVEN_RANGES[name]
+        v = values[name]
+        if math.isnan(v) or gs.out_of_range(gs.SectorTask(**{**{n: math.nan for n in GIVEN}, name: v})):
+            return fail("sectors", f"{typed(name, v)}: {HELP[name]} outside the allowed range ({lo:g}, {hi:.6g})")
+    if not args.junction_tol > 0.0:
+        return fail("sectors", f"{typed('junction_tol', args.junction_tol)} outside the allowed range (0, inf)")
     try:
-        sol = gs.solve_sectors(task, use)
+        sol = gs.solve_sectors(task, use, junction_tol=args.junction_tol)
     except ValueError as e:
         return fail("sectors", str(e))
     if args.json:
@@ -64,7 +75,8 @@ def run(args) -> int:
             print(f"  {n:7s} = {getattr(sol, n): .10g}")
         print("residuals:")
         for n, r in sol.residuals.items():
-            print(f"  {n}{'*' if n in sol.used else ' '} = {r: .3e}")
+            print(f"  {n}{'*' if n in sol.used else ' '} = {r: .3e}   {gs.RESIDUAL_MEANING[n]}")
+        print("  (* solved for; feasible needs every residual within the junction tolerance)")
         print(f"converged: {sol.converged}  feasible: {sol.feasible}  ({sol.message})")
     if not (sol.converged and sol.feasible):
         return fail("sectors", f"no feasible solution: {sol.message}")

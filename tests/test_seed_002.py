@@ -1,0 +1,130 @@
+"""Seed 002 (proof press, eccentric round gear sectors): `synth sectors` refuses out-of-range data in one line,
+calls a pair feasible only where every junction condition of the seed holds (the ones not solved for
+included), and the proof_press system keeps the seed's rules (docs/seed_002.md)."""
+from __future__ import annotations
+
+import dataclasses
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from fmus.physics import gear_sectors as gs
+from harness.synthesis.sectors import example_task
+
+
+def synth(*args):
+    p = subprocess.run([sys.executable, "-m", "harness", "synth", "sectors", *args], capture_output=True,
+                       text=True, timeout=120)
+    return p.returncode, p.stdout, p.stderr
+
+
+# ------------------------------------------------------------------------------------------ bugs (issue 32)
+@pytest.mark.parametrize("option, value, allowed", [
+    ("--D-Ci", "-5", "(0, inf)"), ("--D-Ci", "0", "(0, inf)"), ("--l-i", "-1", "(0, inf)"),
+    ("--v1", "0", "(0, inf)"), ("--v2", "-0.9", "(0, inf)"), ("--phi12", "-1", "(0, 6.28319)"),
+    ("--phiC12", "0", "(0, inf)"),
+])
+def test_out_of_range_sizes_speeds_and_angles_are_refused_in_one_line(option, value, allowed):
+    rc, out, err = synth(option, value)
+    lines = err.strip().splitlines()
+    assert rc == 2 and len(lines) == 1, err
+    assert lines[0].startswith("error: synth sectors: ") and f"{option} {value}" in lines[0], lines[0]
+    assert f"allowed range {allowed}" in lines[0], lines[0]
+    assert "converged" not in out
+
+
+def test_feasible_needs_the_junction_conditions_not_solved_for():
+    """The default set solves (18), (21), (23), (24'); with a uniform speed v1 that the solved pair does not
+    have, (17) is unmet and the pair cannot join the uniform phase: not feasible (it was 'feasible: True')."""
+    task = dataclasses.replace(example_task(), v1=0.5)
+    sol = gs.solve_sectors(task)
+    assert sol.converged
+    assert abs(sol.residuals["r17"]) > 0.1
+    assert not sol.feasible and "r17" in sol.message and "eq. 17" in sol.message
+    # least squares over inconsistent data converges, but what it fits is not a solution of the seed's system
+    fit = gs.solve_sectors(task, "lsq")
+    assert fit.converged and not fit.feasible
+
+
+def test_cli_reports_an_unmet_junction_as_no_feasible_solution():
+    rc, out, err = synth("--v1", "0.5")
+    assert rc == 2 and "feasible: False" in out and "feasible: True" not in out
+    assert err.strip().startswith("error: synth sectors: no feasible solution") and "r17" in err
+
+
+def test_consistent_data_and_not_given_conditions_stay_feasible():
+    """The worked example meets all eight; a task that gives only (17)-(20) (build_law's) is judged on them."""
+    sol = gs.solve_sectors(example_task())
+    assert sol.converged and sol.feasible
+    assert max(abs(r) for r in sol.residuals.values()) < 1e-12
+    t = example_task()
+    only = dataclasses.replace(t, l_i=math.nan, phi12=math.nan, phiC12=math.nan, c1=math.nan)
+    assert gs.checked_residuals(only) == ("r17", "r18", "r19", "r20")
+    sol = gs.solve_sectors(only, ("r17", "r18", "r19", "r20"))
+    assert sol.converged and sol.feasible
+
+
+# ------------------------------------------------------------------------------------------ the seed's rules
+@pytest.fixture(scope="module")
+def press():
+    import systems.proof_press as pp
+    inst = next(i for i in pp.SYSTEM.instances if i.name == "press")
+    p = gs.GearSectorsParams(**inst.parameters)
+    return p, gs.GearSectorsModel(p)
+
+
+def test_proof_press_phases_fill_one_turn_and_the_cylinder_path_closes(press):
+    """Eq. (2): the four phase angles sum to 2 pi, each positive; eq. (1): the surface path of one cycle is
+    n pi D_Ci, here with n = 1 (the cylinder angle after one turn of the main shaft, evaluated)."""
+    _, m = press
+    law = m.law
+    phases = (law.phi12, law.phi23, law.phi34, law.phi41)
+    assert min(phases) > 0 and sum(phases) == pytest.approx(2 * math.pi, abs=1e-12)
+    turn = law.evaluate(law.phi1 + 0.1 + 2 * math.pi)[0] - law.evaluate(law.phi1 + 0.1)[0]
+    assert turn == pytest.approx(2 * math.pi * law.n_rev, abs=1e-9) and law.n_rev == 1
+
+
+def test_proof_press_sectors_meet_the_junction_conditions_at_both_points(press):
+    """(17)-(20) at points 1 and 2 of the acceleration pair and (mapped) of the braking pair, recomputed from
+    the bed law and the solved geometry, not read from the solver's residuals."""
+    p, m = press
+    D = p.D_C / (p.r_K * p.i_CK)
+    for sol, d0, phi, sign in ((m.acc, p.delta0_acc, p.phi2, 1.0), (m.brk, p.delta0_brk, p.phi3, -1.0)):
+        _, v, w = gs.bed_law(phi, p.lambda_s)
+        s = gs.summarize(*sol.x, d0)
+        assert s.monotonic
+        assert s.omega1 * D / 2 == pytest.approx(p.v1, abs=1e-9)          # (17)
+        assert s.eps1_fwd == pytest.approx(0.0, abs=1e-9)                  # (18)
+        assert s.omega2 * D / 2 == pytest.approx(v, abs=1e-9)              # (19)
+        assert s.eps2_fwd * D / 2 == pytest.approx(sign * w, abs=1e-9)     # (20)
+        assert abs(sol.eps1) < sol.kappa and abs(sol.eps2) < 1.0           # round sectors, pivots inside
+
+
+def test_concentric_sectors_turn_at_the_tooth_ratio():
+    """With eps1 = eps2 = 0 the 'non-round' pair is an ordinary gear pair: omega_C = kappa = z_A/z_B, no
+    acceleration, constant centre distance kappa + 1."""
+    beta = np.linspace(0.0, 0.9, 50)
+    _, _, li, om, ec = gs.sector_arrays(beta, 0.0, 0.0, 1.7, 0.9, 0.3)
+    assert np.allclose(om, 1.7) and np.allclose(ec, 0.0, atol=1e-12) and np.allclose(li, 2.7)
+
+
+def test_kinematics_depend_only_on_the_relative_sizes():
+    """The seed after eq. (16): the cylinder kinematics depend only on eps1, eps2, kappa and beta0, not on the
+    absolute sizes.  Scaling every length of a pair (R_B, e1, e2, R_A) by s leaves the invariants unchanged:
+    computed from dimensional coordinates of C_A and C_B (eq. 3-4) for R_B = 0.05 and 0.2 m."""
+    def dimensional(R_B, e1, e2, R_A, beta0, delta0, beta):
+        dl = delta0 + (R_A / R_B + 1.0) * beta
+        x = e2 * np.cos(dl) + (R_A + R_B) * np.cos(beta) - e1 * math.cos(beta0)
+        y = e2 * np.sin(dl) + (R_A + R_B) * np.sin(beta) - e1 * math.sin(beta0)
+        sigma = np.unwrap(np.arctan2(y, x))
+        return np.gradient(dl - sigma, sigma), np.hypot(x, y) / R_B
+    beta = np.linspace(0.0, 0.8, 4001)
+    a = dimensional(0.05, 0.015, 0.015, 0.075, 0.8, -1.2, beta)
+    b = dimensional(0.20, 0.060, 0.060, 0.300, 0.8, -1.2, beta)
+    inv = gs.sector_arrays(beta, 0.3, 0.3, 1.5, 0.8, -1.2)
+    assert np.allclose(a[0], b[0], atol=1e-12) and np.allclose(a[1], b[1], atol=1e-12)
+    # and they are the invariants of eqs (5), (12): |d psi / d sigma| = omega_C (finite differences)
+    assert np.allclose(np.abs(a[0][5:-5]), inv[3][5:-5], rtol=1e-5) and np.allclose(a[1], inv[2])
