@@ -88,6 +88,9 @@ class PressSlave(PressBehaviour, Fmi2Slave):
             real = sv.find("Real")
             if real is not None:
                 real.set("unit", units_by_name[sv.get("name")])
+        if type(self).model.provides_output_jacobian():
+            # answered by the host loader from directional_derivative (fmus.slave_core), and in process
+            root.find("CoSimulation").set("providesDirectionalDerivative", "true")
         pos = list(root).index(root.find("CoSimulation")) + 1
         root.insert(pos, unit_definitions(units_by_name.values()))
 

@@ -99,6 +99,8 @@ class PressSlave(PressBehaviour, Fmi3Slave):
         cs = root.find("CoSimulation")
         for name, value in CO_SIMULATION.items():
             cs.set(name, value)
+        if type(self).model.provides_output_jacobian():   # FMI 3.0's name is plural; the loader answers it
+            cs.set("providesDirectionalDerivatives", "true")
         root.insert(list(root).index(cs) + 1, unit_definitions([*self._units_by_name().values(), "s"]))
 
         vr = {v.name: v.value_reference for v in self.vars.values()}

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import math
 import sys
+import threading
+import types
 from dataclasses import dataclass
 from typing import ClassVar
 from xml.etree.ElementTree import Element, SubElement
@@ -90,6 +92,26 @@ def _hold_module_dict(cls: type) -> None:
         _MODULE_DICT_REFS.append(vars(module))
 
 
+# The module through which a slave offers its directional derivatives to the host loader
+# (fmus/loader/pressdrive_loader.c): pythonfmu's wrappers answer fmi2/fmi3GetDirectionalDerivative "not supported"
+# and give the loader no way to reach the slave object, so each slave, while the wrapper constructs it inside
+# fmi*Instantiate, leaves its ``directional_derivative`` here under the constructing thread's id; the loader, on
+# the same thread right after the wrapper returns the instance, takes it (``take()``) and keeps it by instance.
+# A fixed name in ``sys.modules``, not a module of this package: every FMU packs its own copy of this package
+# under its own name, and one loader serves them all.
+LOADER_BRIDGE = "_pressdrive_directional_derivatives"
+
+
+def _offer_to_loader(instance_name: str, directional_derivative) -> None:
+    bridge = sys.modules.get(LOADER_BRIDGE)
+    if bridge is None:
+        bridge = types.ModuleType(LOADER_BRIDGE, "directional derivatives offered to the host loader (fmus.slave_core)")
+        bridge.offered = {}
+        bridge.take = lambda offered=bridge.offered: offered.pop(threading.get_ident(), None)
+        sys.modules[LOADER_BRIDGE] = bridge
+    bridge.offered[threading.get_ident()] = (instance_name, directional_derivative)
+
+
 class PressBehaviour:
     """What every press-drive slave does, whatever its FMI version (module docstring).  A version's base class
     derives from this and its exporter's slave class and adds ``_register``, the value-access calls and
@@ -140,6 +162,9 @@ class PressBehaviour:
                            if io.causality == "output" and v.name == io.name}
         self._in_by_vr = {vr: i for vr, v in self.vars.items() for i, io in enumerate(self._io)
                           if io.causality == "input" and v.name == io.name}
+        self._D = (None, None)  # (key, feed-through block) of the last directional derivative
+        if cls.model.provides_output_jacobian():
+            _offer_to_loader(self.instance_name, self.directional_derivative)
 
     # -- declaration -----------------------------------------------------------------------------------
     @classmethod
@@ -268,6 +293,53 @@ class PressBehaviour:
             if not fresh[ip]:   # held over the last step: the model advanced it by h
                 u[ip] += u[iw] * h
         return u
+
+    # -- directional derivatives (FMI co-simulation: outputs with respect to inputs at the current time) --------
+    def directional_derivative(self, unknowns, knowns, seed) -> list[float]:
+        """sum_j d unknowns_i / d knowns_j * seed_j: the outputs' partial derivatives with respect to the inputs at
+        the current time and state (fmi2GetDirectionalDerivative / fmi3GetDirectionalDerivative in co-simulation),
+        from the model's :meth:`~fmus.physics.base.Model.output_jacobian`.  The unknowns are value references of
+        outputs, the knowns of inputs; anything else, a seed of another length or a call before initialisation
+        has ended is refused in one line (ValueError).
+
+        The outputs use a motion-input position held over the last step advanced by its speed (``_inputs_now``),
+        so the derivative is taken through that too: with the position held, d/d speed gains h * d/d position,
+        which is what setting the speed alone and reading the outputs again gives."""
+        cls = type(self)
+        if not self._initialised:
+            raise ValueError(f"{self.instance_name} ({cls.__name__}): directional derivatives are given after "
+                             f"initialisation (outputs with respect to inputs at a communication point)")
+        knowns, unknowns = list(knowns), list(unknowns)
+        if len(seed) != len(knowns):
+            raise ValueError(f"{self.instance_name} ({cls.__name__}): {len(seed)} seed values for {len(knowns)} knowns")
+        names = {vr: v.name for vr, v in self.vars.items()}
+        rows, cols = [], []
+        for vrs, index, kind, out in ((unknowns, self._out_by_vr, "an output", rows), (knowns, self._in_by_vr,
+                                                                                        "an input", cols)):
+            for vr in vrs:
+                if vr not in index:
+                    raise ValueError(f"{self.instance_name} ({cls.__name__}): directional derivative: value reference "
+                                     f"{vr} ({names.get(vr, 'no variable')}) is not {kind}; the FMU gives d outputs "
+                                     f"/ d inputs")
+                out.append(index[vr])
+        D = self._feedthrough()
+        return [float(v) for v in D[np.ix_(rows, cols)] @ np.asarray(seed, dtype=float)] if rows else []
+
+    def _feedthrough(self) -> np.ndarray:
+        """D = d outputs / d inputs as the FMU's outputs see the inputs (``directional_derivative``), kept while
+        time, state and inputs stay the same (a master asks for it one seed at a time)."""
+        u = self._inputs_now()
+        key = (self._time, self._last_step, tuple(self._u), tuple(self._fresh), self._x.tobytes())
+        if self._D[0] == key:
+            return self._D[1]
+        D = np.asarray(self._build_model().output_jacobian(self._time, self._x, u), dtype=float)
+        if self._initialised and self._advanced:
+            h = self._last_step
+            for ip, iw in self._advanced:
+                if not self._fresh[ip]:     # u_now[ip] = u[ip] + h * u[iw]
+                    D[:, iw] += h * D[:, ip]
+        self._D = (key, D)
+        return D
 
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):
         self._time = float(start_time)

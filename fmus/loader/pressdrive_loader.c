@@ -15,7 +15,18 @@
  *     missing and the variable to set, and fmi2Instantiate returns NULL.
  *
  * A host that already runs Python (FMPy, libcosimpy, ecospy, the harness) is left alone: Python is found
- * initialised and nothing but the forwarding happens.  Python is never finalised (numpy cannot be
+ * initialised and nothing but the forwarding happens.
+ *
+ * Directional derivatives: pythonfmu's wrappers answer fmi2GetDirectionalDerivative (fmi3...) "not supported".
+ * The loader answers them itself from the slave: a toolkit slave, while the wrapper constructs it, offers its
+ * directional_derivative(unknowns, knowns, seed) in the module _pressdrive_directional_derivatives (see
+ * fmus/slave_core.py: LOADER_BRIDGE); right after the wrapper's fmi2Instantiate returns, on the same thread, the
+ * loader takes that callable (the slot was emptied just before the call, and the offer must carry the instance's
+ * name, so it is this instance's) and keeps it by instance.  fmi2GetDirectionalDerivative then takes the GIL
+ * (PyGILState_Ensure, as the wrapper does on every call), calls it with lists of the value references and the
+ * seed, and writes the returned floats; a Python exception is one fmi2Error line through the host's logger.  An
+ * FMU whose slave offers nothing (a model without output Jacobian) keeps the wrapper's answer.  The Python C API
+ * is looked up with dlsym like the rest, so the loader still links no libpython.  Python is never finalised (numpy cannot be
  * re-initialised in one process).
  *
  * The FMI 3.0 loader (pressdrive_loader3.c) is this file compiled with PRESSDRIVE_FMI3 defined: the same
@@ -110,6 +121,45 @@ FMI_FUNCTIONS(DECLARE)
 
 static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
 static int ready = 0;
+static void *python = NULL;   /* where the Python C API is looked up (prepare) */
+
+/* ------------------------------------------------------------------------ directional derivatives (header) */
+typedef struct PyObject PyObject;   /* opaque: only pointers pass through here */
+#define BRIDGE_MODULE "_pressdrive_directional_derivatives"   /* fmus/slave_core.py: LOADER_BRIDGE */
+
+static struct {
+    int (*gil_ensure)(void);
+    void (*gil_release)(int);
+    PyObject *(*import)(const char *);
+    PyObject *(*call_method)(PyObject *, const char *, const char *, ...);
+    PyObject *(*call_args)(PyObject *, ...);
+    PyObject *(*list_new)(ssize_t);
+    int (*list_set)(PyObject *, ssize_t, PyObject *);
+    PyObject *(*from_ulong)(unsigned long);
+    PyObject *(*from_double)(double);
+    ssize_t (*size)(PyObject *);
+    PyObject *(*item)(PyObject *, ssize_t);
+    double (*as_double)(PyObject *);
+    PyObject *(*occurred)(void);
+    void (*fetch)(PyObject **, PyObject **, PyObject **);
+    void (*clear)(void);
+    PyObject *(*str)(PyObject *);
+    const char *(*utf8)(PyObject *);
+    void (*decref)(PyObject *);
+    int (*callable)(PyObject *);
+    int bound;
+} api;
+
+typedef struct {
+    void *instance;               /* the wrapper's instance */
+    PyObject *call;               /* the slave's directional_derivative (a reference we own) */
+    char name[256];               /* instance name, for messages */
+    fmi2CallbackFunctions cb2;    /* FMI 2.0: the host's logger (copied) */
+    void *env3, *log3;            /* FMI 3.0: instance environment and fmi3LogMessageCallback */
+} Derivatives;
+
+static Derivatives *derivatives = NULL;
+static size_t n_derivatives = 0, cap_derivatives = 0;
 
 #ifndef PRESSDRIVE_FMI3
 static void log_error(const fmi2CallbackFunctions *cb, fmi2String instance, const char *msg) {
@@ -186,6 +236,7 @@ static int prepare(char *err, size_t n) {
             return -1;
         }
     }
+    python = py;
     const char *(*get_version)(void) = (const char *(*)(void))dlsym(py, "Py_GetVersion");
     int (*is_initialized)(void) = (int (*)(void))dlsym(py, "Py_IsInitialized");
     if (!get_version || !is_initialized) {
@@ -245,6 +296,146 @@ static int prepare(char *err, size_t n) {
     return 0;
 }
 
+/* ------------------------------------------------------------------------------- directional derivatives */
+/* the Python C API functions the bridge calls; 0 if one is missing (then the wrapper keeps answering) */
+static int bind_api(void) {
+    if (api.bound) return api.bound > 0;
+#define BIND(field, symbol) if (!(*(void **)&api.field = dlsym(python ? python : RTLD_DEFAULT, symbol))) { api.bound = -1; return 0; }
+    BIND(gil_ensure, "PyGILState_Ensure") BIND(gil_release, "PyGILState_Release")
+    BIND(import, "PyImport_ImportModule") BIND(call_method, "PyObject_CallMethod")
+    BIND(call_args, "PyObject_CallFunctionObjArgs") BIND(list_new, "PyList_New") BIND(list_set, "PyList_SetItem")
+    BIND(from_ulong, "PyLong_FromUnsignedLong") BIND(from_double, "PyFloat_FromDouble")
+    BIND(size, "PySequence_Size") BIND(item, "PySequence_GetItem") BIND(as_double, "PyFloat_AsDouble")
+    BIND(occurred, "PyErr_Occurred") BIND(fetch, "PyErr_Fetch") BIND(clear, "PyErr_Clear")
+    BIND(str, "PyObject_Str") BIND(utf8, "PyUnicode_AsUTF8") BIND(decref, "Py_DecRef")
+    BIND(callable, "PyCallable_Check")
+#undef BIND
+    api.bound = 1;
+    return 1;
+}
+
+static void decref(PyObject *o) { if (o) api.decref(o); }
+
+/* the pending Python error as one line in err (and cleared) */
+static void python_error(char *err, size_t n) {
+    PyObject *type = NULL, *value = NULL, *tb = NULL;
+    api.fetch(&type, &value, &tb);
+    PyObject *text = value ? api.str(value) : NULL;
+    const char *s = text ? api.utf8(text) : NULL;
+    snprintf(err, n, "%s", s ? s : "Python error without a message");
+    if (!s) api.clear();
+    decref(text); decref(type); decref(value); decref(tb);
+}
+
+/* The slave's offer under this thread's id (a new reference) if it is instance ``name``'s, else NULL.  With the
+ * GIL held.  take() pops the slot, so calling it before the wrapper's instantiate empties it of any stale offer
+ * (a slave constructed in this thread outside this loader, e.g. in process). */
+static PyObject *take_offer(const char *name) {
+    PyObject *bridge = api.import(BRIDGE_MODULE);
+    if (!bridge) { api.clear(); return NULL; }   /* no toolkit slave has offered anything in this process */
+    PyObject *offer = api.call_method(bridge, "take", NULL);
+    decref(bridge);
+    if (!offer) { api.clear(); return NULL; }
+    PyObject *call = NULL;
+    if (api.size(offer) == 2) {     /* (instance name, directional_derivative) */
+        PyObject *who = api.item(offer, 0), *fn = api.item(offer, 1);
+        const char *s = who ? api.utf8(who) : NULL;
+        if (s && name && !strcmp(s, name) && fn && api.callable(fn)) { call = fn; fn = NULL; }
+        decref(who); decref(fn);
+    }
+    if (api.occurred()) api.clear();   /* None has no length: nothing offered */
+    decref(offer);
+    return call;
+}
+
+static void clear_offer(void) {
+    if (!bind_api()) return;
+    int g = api.gil_ensure();
+    decref(take_offer(NULL));
+    api.gil_release(g);
+}
+
+/* after the wrapper made ``instance``: keep the slave's directional derivative, if it offered one */
+static void keep_offer(void *instance, const char *name, const fmi2CallbackFunctions *cb2, void *env3, void *log3) {
+    if (!instance || !bind_api()) return;
+    int g = api.gil_ensure();
+    PyObject *call = take_offer(name);
+    api.gil_release(g);
+    if (!call) return;
+    pthread_mutex_lock(&lock);
+    if (n_derivatives == cap_derivatives) {
+        size_t cap = cap_derivatives ? 2 * cap_derivatives : 16;
+        Derivatives *d = realloc(derivatives, cap * sizeof *d);
+        if (!d) { pthread_mutex_unlock(&lock); g = api.gil_ensure(); decref(call); api.gil_release(g); return; }
+        derivatives = d, cap_derivatives = cap;
+    }
+    Derivatives *e = &derivatives[n_derivatives++];
+    memset(e, 0, sizeof *e);
+    e->instance = instance, e->call = call, e->env3 = env3, e->log3 = log3;
+    snprintf(e->name, sizeof e->name, "%s", name ? name : "");
+    if (cb2) e->cb2 = *cb2;
+    pthread_mutex_unlock(&lock);
+}
+
+/* copy of the entry of ``instance`` (0 if it has none) */
+static int find_offer(void *instance, Derivatives *out) {
+    int found = 0;
+    pthread_mutex_lock(&lock);
+    for (size_t i = 0; i < n_derivatives; i++)
+        if (derivatives[i].instance == instance) { *out = derivatives[i]; found = 1; break; }
+    pthread_mutex_unlock(&lock);
+    return found;
+}
+
+static void drop_offer(void *instance) {
+    PyObject *call = NULL;
+    pthread_mutex_lock(&lock);
+    for (size_t i = 0; i < n_derivatives; i++)
+        if (derivatives[i].instance == instance) {
+            call = derivatives[i].call;
+            derivatives[i] = derivatives[--n_derivatives];
+            break;
+        }
+    pthread_mutex_unlock(&lock);
+    if (call) { int g = api.gil_ensure(); decref(call); api.gil_release(g); }
+}
+
+/* sensitivity[i] = sum_j d unknowns[i] / d knowns[j] * seed[j] from the slave; 0, else err holds one line */
+static int directional_derivative(PyObject *call, const unsigned int unknowns[], size_t nu, const unsigned int knowns[],
+                                  size_t nk, const double seed[], double sensitivity[], char *err, size_t n) {
+    int rc = -1, g = api.gil_ensure();
+    PyObject *lu = api.list_new((ssize_t)nu), *lk = api.list_new((ssize_t)nk), *ls = api.list_new((ssize_t)nk);
+    PyObject *result = NULL;
+    if (!lu || !lk || !ls) goto python_failed;
+    for (size_t i = 0; i < nu; i++) api.list_set(lu, (ssize_t)i, api.from_ulong(unknowns[i]));
+    for (size_t j = 0; j < nk; j++) {
+        api.list_set(lk, (ssize_t)j, api.from_ulong(knowns[j]));
+        api.list_set(ls, (ssize_t)j, api.from_double(seed[j]));
+    }
+    if (api.occurred()) goto python_failed;
+    result = api.call_args(call, lu, lk, ls, NULL);
+    if (!result) goto python_failed;
+    if (api.size(result) != (ssize_t)nu) {
+        if (api.occurred()) api.clear();
+        snprintf(err, n, "directional_derivative returned no sequence of %zu values", nu);
+        goto done;
+    }
+    for (size_t i = 0; i < nu; i++) {
+        PyObject *v = api.item(result, (ssize_t)i);
+        sensitivity[i] = v ? api.as_double(v) : 0.0;
+        decref(v);
+        if (api.occurred()) goto python_failed;
+    }
+    rc = 0;
+    goto done;
+python_failed:
+    python_error(err, n);
+done:
+    decref(result); decref(lu); decref(lk); decref(ls);
+    api.gil_release(g);
+    return rc;
+}
+
 /* ------------------------------------------------------------------------------------------ FMI 2.0 API */
 #ifndef PRESSDRIVE_FMI3
 EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
@@ -266,16 +457,23 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
         ready = 1;
     }
     pthread_mutex_unlock(&lock);
-    return ((fmi2Component (*)(fmi2String, fmi2Type, fmi2String, fmi2String, const fmi2CallbackFunctions *,
-                               fmi2Boolean, fmi2Boolean))p_fmi2Instantiate)(
+    clear_offer();
+    fmi2Component c = ((fmi2Component (*)(fmi2String, fmi2Type, fmi2String, fmi2String, const fmi2CallbackFunctions *,
+                                          fmi2Boolean, fmi2Boolean))p_fmi2Instantiate)(
         instanceName, fmuType, guid, resourceLocation, functions, visible, loggingOn);
+    keep_offer(c, instanceName, functions, NULL, NULL);
+    return c;
 }
 
 #define FWD(name, params, args) \
     EXPORT fmi2Status name params { return ((fmi2Status (*) params)p_##name) args; }
 
 FWD(fmi2SetDebugLogging, (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cats[]), (c, on, n, cats))
-EXPORT void fmi2FreeInstance(fmi2Component c) { if (c && p_fmi2FreeInstance) ((void (*)(fmi2Component))p_fmi2FreeInstance)(c); }
+EXPORT void fmi2FreeInstance(fmi2Component c) {
+    if (!c || !p_fmi2FreeInstance) return;
+    drop_offer(c);
+    ((void (*)(fmi2Component))p_fmi2FreeInstance)(c);
+}
 FWD(fmi2SetupExperiment, (fmi2Component c, fmi2Boolean tolDef, fmi2Real tol, fmi2Real t0, fmi2Boolean stopDef, fmi2Real t1),
     (c, tolDef, tol, t0, stopDef, t1))
 FWD(fmi2EnterInitializationMode, (fmi2Component c), (c))
@@ -296,8 +494,20 @@ FWD(fmi2FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
 FWD(fmi2SerializedFMUstateSize, (fmi2Component c, fmi2FMUstate s, size_t *size), (c, s, size))
 FWD(fmi2SerializeFMUstate, (fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t size), (c, s, b, size))
 FWD(fmi2DeSerializeFMUstate, (fmi2Component c, const fmi2Byte b[], size_t size, fmi2FMUstate *s), (c, b, size, s))
-FWD(fmi2GetDirectionalDerivative, (fmi2Component c, const fmi2ValueReference u[], size_t nu, const fmi2ValueReference z[],
-                                   size_t nz, const fmi2Real dv[], fmi2Real dz[]), (c, u, nu, z, nz, dv, dz))
+/* the slave's answer (see "Directional derivatives" at the top); the wrapper's for a slave that offered none */
+EXPORT fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference unknowns[], size_t nu,
+                                               const fmi2ValueReference knowns[], size_t nk, const fmi2Real seed[],
+                                               fmi2Real sensitivity[]) {
+    Derivatives d;
+    char err[1024];
+    if (!find_offer(c, &d))
+        return ((fmi2Status (*)(fmi2Component, const fmi2ValueReference *, size_t, const fmi2ValueReference *, size_t,
+                                const fmi2Real *, fmi2Real *))p_fmi2GetDirectionalDerivative)(
+            c, unknowns, nu, knowns, nk, seed, sensitivity);
+    if (directional_derivative(d.call, unknowns, nu, knowns, nk, seed, sensitivity, err, sizeof err) == 0) return 0;
+    log_error(d.cb2.logger ? &d.cb2 : NULL, d.name, err);
+    return 3;  /* fmi2Error */
+}
 FWD(fmi2SetRealInputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[],
                                   const fmi2Real v[]), (c, vr, n, o, v))
 FWD(fmi2GetRealOutputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[],

@@ -78,9 +78,12 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
                                          size_t nRequired, fmi3InstanceEnvironment env,
                                          fmi3LogMessageCallback log, fmi3IntermediateUpdateCallback update) {
     if (!ready3(name, env, log)) return NULL;
-    return ((fmi3InstantiateCoSimulationTYPE *)p_fmi3InstantiateCoSimulation)(
+    clear_offer();   /* directional derivatives: pressdrive_loader.c */
+    fmi3Instance c = ((fmi3InstantiateCoSimulationTYPE *)p_fmi3InstantiateCoSimulation)(
         name, token, resources, visible, loggingOn, eventModeUsed, earlyReturnAllowed, required, nRequired, env,
         log, update);
+    keep_offer(c, name, NULL, env, (void *)log);
+    return c;
 }
 
 fmi3Instance fmi3InstantiateScheduledExecution(fmi3String name, fmi3String token, fmi3String resources,
@@ -95,7 +98,9 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String name, fmi3String token
 }
 
 void fmi3FreeInstance(fmi3Instance c) {
-    if (c && p_fmi3FreeInstance) ((fmi3FreeInstanceTYPE *)p_fmi3FreeInstance)(c);
+    if (!c || !p_fmi3FreeInstance) return;
+    drop_offer(c);
+    ((fmi3FreeInstanceTYPE *)p_fmi3FreeInstance)(c);
 }
 
 /* any other call needs an instance, so the wrapper is loaded by then */
@@ -138,10 +143,26 @@ FWD3(fmi3FreeFMUState, (fmi3Instance c, fmi3FMUState *s), (c, s))
 FWD3(fmi3SerializedFMUStateSize, (fmi3Instance c, fmi3FMUState s, size_t *size), (c, s, size))
 FWD3(fmi3SerializeFMUState, (fmi3Instance c, fmi3FMUState s, fmi3Byte b[], size_t size), (c, s, b, size))
 FWD3(fmi3DeserializeFMUState, (fmi3Instance c, const fmi3Byte b[], size_t size, fmi3FMUState *s), (c, b, size, s))
-FWD3(fmi3GetDirectionalDerivative, (fmi3Instance c, const fmi3ValueReference unknowns[], size_t nu,
-                                    const fmi3ValueReference knowns[], size_t nk, const fmi3Float64 seed[],
-                                    size_t ns, fmi3Float64 sens[], size_t nsens),
-     (c, unknowns, nu, knowns, nk, seed, ns, sens, nsens))
+/* the slave's answer (pressdrive_loader.c, "Directional derivatives"); the wrapper's for a slave that offered none.
+ * The toolkit's variables are scalars, so there is one seed per known and one sensitivity per unknown. */
+fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nu,
+                                        const fmi3ValueReference knowns[], size_t nk, const fmi3Float64 seed[],
+                                        size_t ns, fmi3Float64 sens[], size_t nsens) {
+    Derivatives d;
+    char err[1024];
+    if (!find_offer(c, &d))
+        return ((fmi3GetDirectionalDerivativeTYPE *)p_fmi3GetDirectionalDerivative)(
+            c, unknowns, nu, knowns, nk, seed, ns, sens, nsens);
+    if (ns != nk || nsens != nu)
+        snprintf(err, sizeof err, "fmi3GetDirectionalDerivative: %zu seed values for %zu knowns and %zu sensitivities "
+                 "for %zu unknowns (every variable is a scalar)", ns, nk, nsens, nu);
+    else if (directional_derivative(d.call, unknowns, nu, knowns, nk, seed, sens, err, sizeof err) == 0)
+        return fmi3OK;
+    fmi3LogMessageCallback log = (fmi3LogMessageCallback)d.log3;
+    if (log) log(d.env3, fmi3Error, "logStatusError", err);
+    else fprintf(stderr, "%s: %s\n", d.name, err);
+    return fmi3Error;
+}
 FWD3(fmi3GetAdjointDerivative, (fmi3Instance c, const fmi3ValueReference unknowns[], size_t nu,
                                 const fmi3ValueReference knowns[], size_t nk, const fmi3Float64 seed[], size_t ns,
                                 fmi3Float64 sens[], size_t nsens),
