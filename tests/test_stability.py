@@ -328,3 +328,32 @@ def test_full_press_map_cli(tmp_path, fmu_dir, monkeypatch):
     prun = st.PressRun("proof_press", row.master, int(row.order), {row.sweep: row.value}, duration=row.duration,
                        fmu_dir=fmu_dir)
     assert not prun.unstable(row.h_stable) and prun.unstable(row.h_unstable)
+
+
+class _BandedRun:
+    """A fake press run whose verdict is not monotone in the step: stable up to 2 ms, unstable in a band
+    (2-3 ms), stable again up to 4 ms (what the jacobian master showed on the bed drive)."""
+
+    h_default = 5e-4
+    duration = 0.1
+    runs = 0
+
+    def unstable(self, h):
+        self.runs += 1
+        return 2e-3 < h < 3e-3 or h > 4e-3
+
+    def __call__(self, h):
+        return h
+
+    def judge(self, h):
+        return self.unstable(h)
+
+
+def test_press_search_reports_the_first_unstable_step_when_verdicts_come_in_bands():
+    """Doubling 0.5 -> 1 -> 2 -> 4 ms would have stepped over the unstable band and reported ~4 ms; the fine
+    upward scan stops at the band."""
+    from harness.studies.stability.press import press_boundary
+
+    r = press_boundary(_BandedRun(), rtol=0.02, cap=64.0)
+    assert r["status"] == "bracketed"
+    assert r["h_stable"] <= 2e-3 < r["h_unstable"] < 3e-3

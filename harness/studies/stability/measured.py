@@ -25,8 +25,8 @@ import numpy as np
 
 from harness.charts import save_figure
 from harness.studies.trial import StudyInterrupted, quiet_simulate, study_options
-from harness.studies.stability.theory import (MASTER_NAMES, ORDERS, TwoInertia, _as_params, _check_h, _master,
-                                              _order, stability_boundary)
+from harness.studies.stability.theory import (MASTER_NAMES, TwoInertia, _as_params, _check_h, _master, _order,
+                                              orders_for, stability_boundary)
 
 
 PERIODS = 90.0  # run length of the two-inertia study [periods of the coupled natural frequency]
@@ -181,7 +181,7 @@ def stability_table(base: TwoInertia = STUDY_BASE, sweep: str = "inertia", value
             p = make(base, float(v))
             omega = p.natural_frequency()
             for master in MASTER_NAMES:
-                for order in (ORDERS if master != "jacobian" else (1,)):  # jacobian: one fixed point
+                for order in orders_for(master):
                     h_th = stability_boundary(p, master, order, integrator="rk4")
                     h_ex = stability_boundary(p, master, order, integrator="exact")
                     h_me = math.nan

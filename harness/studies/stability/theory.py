@@ -201,6 +201,12 @@ def _master(master: str) -> str:
     return key
 
 
+def orders_for(master: str, orders=ORDERS) -> tuple[int, ...]:
+    """The extrapolation orders a map measures for ``master``: ``jacobian`` solves one fixed point whatever the
+    predictor (the order only sets its first guess), so it is measured once, at order 1."""
+    return (1,) if master == "jacobian" else tuple(orders)
+
+
 def _order(order) -> int:
     if isinstance(order, bool) or order not in ORDERS:
         raise ValueError(f"order = {order!r} is not admissible: must be one of 0, 1, 2")
