@@ -240,8 +240,7 @@ def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[
             barred = True
         ax.set_xlabel("time [s]", fontsize=7, labelpad=1)
         ax.set_xlim(t[0], t[-1])
-    key = [(f"{label}", dict(color=_ZONE_COLOURS[k % len(_ZONE_COLOURS)], alpha=0.3))
-           for k, (label, spans) in enumerate(zone_spans) if spans]
+    key = _zone_key(zone_spans)
     if barred:
         key.append(("time window a scene reads (bar at the top)", dict(color="0.3")))
     _key(fig, key)
@@ -250,10 +249,11 @@ def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[
     return save_figure(fig, out_dir / system.name, dpi=110)
 
 
-def last_revolution(angle: np.ndarray, origin: float = 0.0) -> tuple[np.ndarray, int] | None:
+def last_revolution(angle: np.ndarray, origin: float = 0.0) -> tuple[np.ndarray, int, np.ndarray] | None:
     """The samples of the last complete revolution of a cumulative shaft angle [rad], counted in whole turns
-    from ``origin`` in the sense the shaft turns: (a boolean mask, the revolution's number from 0), or None
-    when the run did not complete one."""
+    from ``origin`` in the sense the shaft turns: (a boolean mask, the revolution's number from 0, the angle
+    within that revolution in degrees, 0 to 360, of the masked samples), or None when the run did not
+    complete one."""
     angle = np.asarray(angle, dtype=float)
     if angle.size < 2 or not np.all(np.isfinite(angle)) or angle[-1] == angle[0]:
         return None
@@ -261,7 +261,14 @@ def last_revolution(angle: np.ndarray, origin: float = 0.0) -> tuple[np.ndarray,
     k = math.floor(theta[-1] / (2 * math.pi)) - 1          # the turn [k, k + 1] that ends inside the run
     if k * 2 * math.pi < theta[0]:
         return None
-    return (theta >= k * 2 * math.pi) & (theta <= (k + 1) * 2 * math.pi), k
+    rows = (theta >= k * 2 * math.pi) & (theta <= (k + 1) * 2 * math.pi)
+    return rows, k, np.degrees(theta[rows] - k * 2 * math.pi)
+
+
+def _zone_key(zone_spans) -> list:
+    """Legend entries of the zones that are shaded somewhere in the chart (colour as :func:`_shade` draws it)."""
+    return [(label, dict(color=_ZONE_COLOURS[k % len(_ZONE_COLOURS)], alpha=0.3))
+            for k, (label, spans) in enumerate(zone_spans) if spans]
 
 
 def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[Path]:
@@ -273,9 +280,7 @@ def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list
     found = last_revolution(angle, spec.cycle_origin)
     if found is None:
         return []
-    rows, k = found
-    sense = math.copysign(1.0, angle[-1] - angle[0])
-    x = np.degrees((angle[rows] - spec.cycle_origin) * sense - k * 2 * math.pi)
+    rows, k, x = found
     t = df.index.to_numpy(dtype=float)[rows]
     units = df.attrs.get("units") or {}
     zone_spans = [(label, _spans(x, on[rows])) for label, on in zones]
@@ -287,8 +292,7 @@ def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list
         ax.set_xticks(np.arange(0.0, 361.0, 45.0))
         ax.set_xlabel("crank angle [deg]" + (f" from the {spec.origin_name}" if spec.origin_name else ""),
                       fontsize=7, labelpad=1)
-    key = [(label, dict(color=_ZONE_COLOURS[k_ % len(_ZONE_COLOURS)], alpha=0.3))
-           for k_, (label, spans) in enumerate(zone_spans) if spans]
+    key = _zone_key(zone_spans)
     _key(fig, key)
     fig.suptitle(f"{system.name}, one machine cycle: crank revolution {k + 1} (t = {t[0]:.3g} to {t[-1]:.3g} s), "
                  f"{_status(df)}", fontsize=9)

@@ -90,7 +90,7 @@ def test_printing_zone_is_read_from_the_system_and_lies_on_the_working_stroke(be
     assert s[on].min() == pytest.approx(PRINT_ZONE[0], abs=travel)
     assert s[on].max() == pytest.approx(PRINT_ZONE[1], abs=travel)
     # against the crank angle: within the working stroke, where the four-bar's rocker (the ring) turns one way
-    rows, k = charts.last_revolution(df[system.chart.crank_angle].to_numpy(), system.chart.cycle_origin)
+    rows, k, _deg = charts.last_revolution(df[system.chart.crank_angle].to_numpy(), system.chart.cycle_origin)
     ring_w = np.gradient(df["fourbar.rocker.phi"].to_numpy(), t)
     assert (rows & on).any()
     assert np.all(np.sign(ring_w[rows & on]) == np.sign(ring_w[rows][len(ring_w[rows]) // 8]))
@@ -118,10 +118,13 @@ def test_cycle_chart_runs_over_one_turn_against_crank_angle_with_the_zone(bed, f
 def test_last_revolution_needs_a_complete_turn():
     t = np.linspace(0.0, 1.0, 101)
     assert charts.last_revolution(2 * math.pi * 0.9 * t) is None            # 0.9 of a turn
-    rows, k = charts.last_revolution(2 * math.pi * 2.5 * t)                 # 2.5 turns: the second one
+    rows, k, deg = charts.last_revolution(2 * math.pi * 2.5 * t)            # 2.5 turns: the second one
     assert k == 1 and t[rows][0] == pytest.approx(0.4) and t[rows][-1] == pytest.approx(0.8)
-    rows, k = charts.last_revolution(-2 * math.pi * 1.5 * t, origin=0.0)     # turning backwards
+    assert deg[0] == pytest.approx(0.0, abs=1e-9) and deg[-1] == pytest.approx(360.0)
+    np.testing.assert_allclose(deg, 360.0 * 2.5 * t[rows] - 360.0)        # the angle within that turn
+    rows, k, deg = charts.last_revolution(-2 * math.pi * 1.5 * t, origin=0.0)  # turning backwards
     assert k == 0 and t[rows][-1] == pytest.approx(2 / 3, abs=0.01)
+    np.testing.assert_allclose(deg, 360.0 * 1.5 * t[rows])                # counted in the sense it turns
 
 
 def test_feeder_dwell_is_shaded_where_the_head_stands_still(feeder, figures, tmp_path):
