@@ -265,13 +265,8 @@ def run_study(system, out_dir: str | Path = "results", metric: str = "max_abs", 
             kwargs["tolerances"] = sorted(spec.tolerances, reverse=True)[: QUICK["n_tolerances"]]
     kwargs = {k: v for k, v in kwargs.items() if v is not None}
     stem = Path(out_dir) / f"precision_{system.name}"
-    csv = stem.with_name(stem.name + ".csv")
-    try:
-        study = precision_study(system, **kwargs)
-    except StudyInterrupted as e:
-        e.csv = csv  # where the command line keeps the finished rows (beside it, as .partial.csv)
-        raise
-    study.files = [write_complete(study.table, csv)] + plot_work_precision(study, stem, metric)
+    study = precision_study(system, **kwargs)
+    study.files = [write_complete(study.table, stem.with_suffix(".csv"))] + plot_work_precision(study, stem, metric)
     return study
 
 
@@ -316,7 +311,10 @@ def precision_cli(args) -> int:
                           progress=lambda s: print(s, file=sys.stderr), **kwargs)
     except StudyInterrupted as e:
         runs = int((e.table["quantity"] & (e.table["master"] != "reference")).sum()) if len(e.table) else 0
-        return keep_interrupted(e, e.csv, f"precision study stopped after {runs} runs beside the reference")
+        from harness.run import load
+
+        csv = Path(args.out) / f"precision_{load(args.system).name}.csv"   # the study's own CSV (run_study)
+        return keep_interrupted(e, csv, f"precision study stopped after {runs} runs beside the reference")
     q = study.quantity_rows()
     ok = q[q["complete"]]
     print(f"{study.system}: {len(q)} runs ({len(q) - len(ok)} failed), reference {study.reference_time:.3g} s; "
