@@ -303,7 +303,12 @@ class _Integrated:
         discrete = self._discrete_blocks.get(id(block))
         if discrete is None:
             discrete = self._discrete_blocks[id(block)] = any(n in self._discrete for n in block.names)
-        if discrete and self._mode == "continuous":
+        if discrete:
+            self._to_event_mode()
+
+    def _to_event_mode(self) -> None:
+        """Enter event mode unless already in it (a discrete input set, an event found while integrating)."""
+        if self._mode == "continuous":
             self._fmi_enter_event_mode()
             self._mode = "event"
 
@@ -318,9 +323,8 @@ class _Integrated:
         self._restart = True
 
     def set_value(self, name: str, value) -> None:
-        if self._mode == "continuous" and name in self._discrete:
-            self._fmi_enter_event_mode()
-            self._mode = "event"
+        if name in self._discrete:
+            self._to_event_mode()
         super().set_value(name, value)
         self._restart = True
 
@@ -381,8 +385,7 @@ class _Integrated:
                                    detail=f"the FMU asked to terminate the simulation at t = {now:.6g} s")
             time_event = self._next_event is not None and abs(now - self._next_event) <= eps
             if state_event or time_event or step_event:
-                self._fmi_enter_event_mode()
-                self._mode = "event"
+                self._to_event_mode()
                 self._event_iteration(f"the event at t = {now:.6g} s")
         if now != end:  # within eps: the communication point itself, exactly
             self._set_time(end)
