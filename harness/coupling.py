@@ -8,7 +8,8 @@ Two vectors carry every Real value the master passes on:
        (``Inst.isl`` is an instance's slice; ``Inst.src``/``fac``/``off``/``held`` are views over it).
 
 Connections of Integer, Boolean, String and Enumeration variables have no place in either vector: they are
-listed in ``discrete`` as (source instance, variable, target instance, variable) and passed on as values.
+listed in ``discrete`` as (source instance, variable, target instance, variable, value table or None) and
+passed on as values (:func:`passed_value`).
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from harness import graph
+from harness.errors import SimulationError
 
 
 class Inst:
@@ -43,7 +45,7 @@ class Layout:
     fac: np.ndarray
     off: np.ndarray
     u: np.ndarray
-    discrete: list[tuple]            # (source FMU, variable, target FMU, variable) of non-Real connections
+    discrete: list[tuple]            # (source FMU, variable, target FMU, variable, mapping) of non-Real connections
 
 
 def layout(fmus: dict, connections, mds: dict, interpolate: bool) -> Layout:
@@ -68,7 +70,7 @@ def layout(fmus: dict, connections, mds: dict, interpolate: bool) -> Layout:
         si, sv = c.source.split(".", 1)
         if fmus[si].var(sv).type != "Real":
             ti, tv = c.target.split(".", 1)
-            discrete.append((fmus[si], sv, fmus[ti], tv))
+            discrete.append((fmus[si], sv, fmus[ti], tv, c.mapping))
             continue
         by_target[c.target.split(".", 1)[0]].append(c)
     ordered = [c for it in insts for c in by_target[it.name]]
@@ -112,9 +114,9 @@ def discrete_refresh(discrete: list[tuple]) -> tuple[list[tuple], list[tuple]]:
                 return {d.name for d in u.dependencies}
         return set()
 
-    set_by = {(id(dst), dv): k for k, (_, _, dst, dv) in enumerate(discrete)}
+    set_by = {(id(dst), dv): k for k, (_, _, dst, dv, _) in enumerate(discrete)}
     g = nx.DiGraph()
-    for k, (src, sv, _, _) in enumerate(discrete):
+    for k, (src, sv, *_) in enumerate(discrete):
         for d in declared(src, sv):
             j = set_by.get((id(src), d))
             if j is not None:
@@ -123,6 +125,23 @@ def discrete_refresh(discrete: list[tuple]) -> tuple[list[tuple], list[tuple]]:
     chained = {k for k in g.nodes if g.in_degree(k)}
     order = [k for k in nx.lexicographical_topological_sort(g) if k in chained]
     return [c for k, c in enumerate(discrete) if k not in chained], [discrete[k] for k in order]
+
+
+def passed_value(link: tuple, value, t: float):
+    """What the non-Real connection ``link`` (an entry of ``Layout.discrete``) hands its target when its source
+    holds ``value`` at time ``t``: the value itself, or through the connection's value table
+    (:class:`harness.model.Connection` ``mapping``).  A value the table has no entry for stops the run
+    (:class:`SimulationError` naming the connection, the value, the time and the entries)."""
+    table = link[4]
+    if table is None:
+        return value
+    try:
+        return table[value]
+    except KeyError:
+        src, sv, dst, dv, _ = link
+        raise SimulationError(f"connection {src.name}.{sv} -> {dst.name}.{dv} at t = {t:.9g} s: its value mapping "
+                              f"has no entry for the value {value!r} (entries for {sorted(table)})",
+                              time=t, instance=dst.name, variable=dv) from None
 
 
 def exchange_plan(groups: list[list[int]], insts: list[Inst], connections, mds: dict,

@@ -181,19 +181,20 @@ class Master:
         self.bond_log[:] = (p_out, p_in, energy)
 
     # -- coupling primitives -----------------------------------------------------------------------------------
-    def _pass_discrete(self) -> None:
+    def _pass_discrete(self, t: float) -> None:
         """Integer, Boolean, String and Enumeration connections: each target input takes its source's value
-        at the current communication point and holds it over the step (no transformation, no
-        extrapolation), as libcosim and Ecos pass such values.  A master that refreshes feed-through
+        at the current communication point ``t`` (through the connection's value mapping if it has one,
+        :func:`harness.coupling.passed_value`) and holds it over the step (no extrapolation), as libcosim
+        and Ecos pass such values.  A master that refreshes feed-through
         (``refreshes_discrete``: ``jacobi``, ``iterative``) passes them at the END of each step, so a
         feed-through output is recorded with its input of the same point, and then passes the connections
         whose source declares a direct dependency on a value just set, in chain order
         (:func:`harness.coupling.discrete_refresh`); the others pass them at the start of the step."""
-        values = [src.get_value(sv) for src, sv, _, _ in self._discrete]  # every source first: a target
-        for (_, _, dst, dv), value in zip(self._discrete, values):      # may feed one through
-            dst.set_value(dv, value)
-        for src, sv, dst, dv in self._discrete_chain:
-            dst.set_value(dv, src.get_value(sv))
+        values = [src.get_value(sv) for src, sv, *_ in self._discrete]  # every source first: a target
+        for link, value in zip(self._discrete, values):                # may feed one through
+            link[2].set_value(link[3], coupling.passed_value(link, value, t))
+        for link in self._discrete_chain:
+            link[2].set_value(link[3], coupling.passed_value(link, link[0].get_value(link[1]), t))
 
     def _read(self, it: _Inst) -> None:
         self.y[it.sl] = it.fmu.get(it.out)
@@ -377,7 +378,7 @@ class Master:
         for it in self.insts:
             self._set_point_inputs(it, values)
         if self._discrete:
-            self._pass_discrete()
+            self._pass_discrete(t)
         self._exchange(t)
         for it in self.insts:
             it.fmu.exit_initialization()
@@ -392,11 +393,11 @@ class Master:
         t, h, t_next = t_ns / NS, h_ns / NS, (t_ns + h_ns) / NS
         y0 = self._y_list if self._y_list is not None else self.y.tolist()
         if self._discrete and not self.refreshes_discrete:
-            self._pass_discrete()  # values sampled at t, held over the step
+            self._pass_discrete(t)  # values sampled at t, held over the step
         self._step_impl(t, h, t_next)
         self.fmu_steps += self._step_calls
         if self._discrete and self.refreshes_discrete:
-            self._pass_discrete()  # refreshed at t_next, as Real feed-through is, before the point is recorded
+            self._pass_discrete(t_next)  # refreshed at t_next, as Real feed-through is, before the point is recorded
         y = self._y_list = self.y.tolist()
         self._check(t_next, y)
         if self._bonds:

@@ -52,12 +52,18 @@ class Instance:
 @dataclass
 class Connection:
     """``target = factor * source + offset`` (``"Instance.variable"`` strings).  Connected variables must
-    have the same unit unless ``unit_conversion`` is True (then factor/offset convert between the units)."""
+    have the same unit unless ``unit_conversion`` is True (then factor/offset convert between the units).
+
+    ``mapping``: on an Integer, Enumeration or Boolean connection, the table ``{source value: target value}``
+    the value passes through (SSP 1.0's ``ssc:IntegerMappingTransformation`` and
+    ``ssc:BooleanMappingTransformation``); a source value the table has no entry for ends the run with an
+    error naming the connection and the value (the table does not say what it becomes)."""
     source: str
     target: str
     factor: float = 1.0
     offset: float = 0.0
     unit_conversion: bool = False
+    mapping: dict | None = None
 
 
 @dataclass
@@ -195,6 +201,8 @@ class System:
                 raise SystemError_(f"{where}: factor = {c.factor!r}, offset = {c.offset!r}: a linear "
                                    f"transformation applies to Real variables only, not to {src.type} "
                                    f"(allowed: factor 1, offset 0)")
+            if c.mapping is not None:
+                _check_mapping(c.mapping, src.type, where)
             if c.target in targets:
                 raise SystemError_(f"input {c.target} is connected twice: from {targets[c.target]} and "
                                    f"from {c.source}")
@@ -240,6 +248,27 @@ def _unit(v) -> str:
         return v.unit
     dt = getattr(v, "declaredType", None)
     return getattr(dt, "unit", None) or "" if dt is not None else ""
+
+
+def _check_mapping(mapping, kind: str, where: str) -> None:
+    """A connection's value table (:class:`Connection` ``mapping``) fits its variables' type: integers for
+    Integer and Enumeration, booleans (or 0/1) for Boolean; none on Real or String."""
+    if kind not in ("Integer", "Enumeration", "Boolean"):
+        raise SystemError_(f"{where}: a value mapping applies to Integer, Enumeration and Boolean connections, "
+                           f"not to {kind} (use factor/offset on a Real connection)")
+    if not isinstance(mapping, dict) or not mapping:
+        raise SystemError_(f"{where}: mapping = {mapping!r} must be a non-empty dict {{source value: target value}}")
+    for k, v in mapping.items():
+        if not (_fits(k, kind) and _fits(v, kind)):
+            allowed = "booleans" if kind == "Boolean" else "integers"
+            raise SystemError_(f"{where}: mapping entry {k!r} -> {v!r}: {kind} connections map {allowed} to "
+                               f"{allowed}")
+
+
+def _fits(value, kind: str) -> bool:
+    if kind == "Boolean":
+        return isinstance(value, (bool, int)) and value in (0, 1)
+    return isinstance(value, int) and not isinstance(value, bool)
 
 
 def _check_parameter(v, ref: str, value) -> None:

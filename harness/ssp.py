@@ -44,7 +44,7 @@ from fmus.units import BASE_UNITS
 from harness.errors import SystemError_
 from harness.fmi.cache import model_exchange_only, unzipped
 from harness.model import Bond, Connection, Experiment, Instance, System, model_description, resolve_fmu
-from harness.ssp_values import NS, Mapping, Quantity, Unit, _q, units
+from harness.ssp_values import NS, VALUE_TABLES, Mapping, Quantity, Unit, _q, units, value_table
 
 for _prefix, _uri in NS.items():
     ET.register_namespace(_prefix, _uri)
@@ -133,6 +133,8 @@ def build_ssd(system: System, sources: dict[str, str]) -> ET.Element:
         if c.factor != 1.0 or c.offset != 0.0:
             ET.SubElement(e, _q("ssc:LinearTransformation"), {"factor": _num(float(c.factor)),
                                                               "offset": _num(float(c.offset))})
+        if c.mapping is not None:   # an Integer/Enumeration or Boolean connection's value table
+            _value_table(e, c.mapping, _variable_type(system, c.source) == "Boolean")
     # SSP 1.0 allows exactly one child element per ssc:Annotation: everything of ours goes into pd:Drive
     own = ET.SubElement(_annotation(sys_el, OWN_ANNOTATION), _q("pd:Drive"))
     bonds_el = ET.SubElement(own, _q("pd:Bonds"))
@@ -160,6 +162,20 @@ def build_ssd(system: System, sources: dict[str, str]) -> ET.Element:
         algorithm = ET.SubElement(osp, _q("osp:Algorithm"))
         ET.SubElement(algorithm, _q("osp:FixedStepAlgorithm"), {"baseStepSize": _num(host_step(system))})
     return root
+
+
+def _variable_type(system: System, ref: str) -> str:
+    inst, var = ref.split(".", 1)
+    md = model_description(resolve_fmu(system.instance(inst).fmu))
+    return next(v.type for v in md.modelVariables if v.name == var)
+
+
+def _value_table(parent: ET.Element, table: dict, boolean: bool) -> None:
+    """``table`` as SSP 1.0 writes it: ssc:BooleanMappingTransformation or ssc:IntegerMappingTransformation."""
+    text = (lambda x: "true" if x else "false") if boolean else (lambda x: str(int(x)))
+    el = ET.SubElement(parent, _q(f"ssc:{'Boolean' if boolean else 'Integer'}MappingTransformation"))
+    for k, v in table.items():
+        ET.SubElement(el, _q("ssc:MapEntry"), {"source": text(k), "target": text(v)})
 
 
 def host_step(system: System) -> float:
@@ -229,6 +245,8 @@ class _Edge:
     target: tuple
     factor: float = 1.0
     offset: float = 0.0
+    mapping: dict | None = None   # an integer or boolean value table (Connection.mapping)
+    mapping_kind: str | None = None   # the transformation it came from: IntegerMapping... or BooleanMapping...
 
 
 def _label(endpoint: tuple) -> str:
@@ -236,6 +254,14 @@ def _label(endpoint: tuple) -> str:
     if kind == "fmu":
         return f"{owner}.{name}"
     return f"system connector '{NESTED.join(owner + (name,)) if owner else name}'"
+
+
+def _composed(first: dict | None, then: dict | None) -> dict | None:
+    """The value table of two mapped connections in a row (through a system connector): ``then`` after
+    ``first``; a value ``first`` maps to one ``then`` has no entry for has none in the result either."""
+    if first is None or then is None:
+        return then if first is None else first
+    return {k: then[v] for k, v in first.items() if v in then}
 
 
 class _Reader:
@@ -353,7 +379,8 @@ class _Reader:
         for e in edges:
             if e.target[0] != "fmu":
                 continue
-            source, factor, offset, seen = e.source, e.factor, e.offset, {e.target}
+            source, factor, offset, table, seen = e.source, e.factor, e.offset, e.mapping, {e.target}
+            kinds = {e.mapping_kind} - {None}
             while source[0] == "connector":
                 if source in seen:
                     raise self.fail(f"system connectors {_label(source)} form a loop")
@@ -367,16 +394,40 @@ class _Reader:
                                     f"{_label(e.target)} but nothing drives it"
                                     + (" (an input of the whole system: connect it inside)" if not source[1] else ""))
                 source, factor, offset = up.source, factor * up.factor, factor * up.offset + offset
+                table = _composed(up.mapping, table)
+                kinds |= {up.mapping_kind} - {None}
             if source[0] == "connector":  # a system connector given a value drives nothing else: a constant
                 inst, var = by_name[e.target[1]], e.target[2]
                 value = self.connector_values[source]
                 if (factor, offset) != (1.0, 0.0):  # on the number as written
                     value = factor * (value.value if isinstance(value, Quantity) else value) + offset
+                if table is not None:
+                    if value not in table:
+                        raise self.fail(f"{_label(source)} passes {value!r} to {_label(e.target)}, and the "
+                                        f"connections' value mapping has no entry for it (entries for "
+                                        f"{sorted(table)})")
+                    value = table[value]
                 inst.parameters[var] = self.convert(value, inst, var)
                 continue
+            if kinds:
+                self.check_mapping_kinds(kinds, source, e.target, by_name[source[1]])
             out.append(Connection(source=f"{source[1]}.{source[2]}", target=f"{e.target[1]}.{e.target[2]}",
-                                  factor=factor, offset=offset))
+                                  factor=factor, offset=offset, mapping=table))
         return out
+
+    def check_mapping_kinds(self, kinds: set, source: tuple, target: tuple, inst: Instance) -> None:
+        """SSP 1.0: an IntegerMappingTransformation is valid for Integer and Enumeration values, a
+        BooleanMappingTransformation for Boolean ones; anything else on the way from ``source`` is refused."""
+        var = next((v for v in model_description(inst.fmu).modelVariables if v.name == source[2]), None)
+        if var is None:   # no such variable: the system's validation names it
+            return
+        want = {"Boolean": "BooleanMappingTransformation", "Integer": "IntegerMappingTransformation",
+                "Enumeration": "IntegerMappingTransformation"}.get(var.type)
+        wrong = sorted(kinds - {want})
+        if wrong:
+            raise self.fail(f"connection {_label(source)} -> {_label(target)}: ssc:{wrong[0]} does not apply to "
+                            f"{var.type} values (IntegerMappingTransformation: Integer and Enumeration; "
+                            f"BooleanMappingTransformation: Boolean)")
 
     def component(self, el: ET.Element, prefix: str = "") -> Instance:
         name = el.get("name")
@@ -552,14 +603,20 @@ class _Reader:
 
         s_el, e_el = c.get("startElement"), c.get("endElement")
         s_con, e_con = c.get("startConnector"), c.get("endConnector")
-        factor, offset = 1.0, 0.0
+        factor, offset, table, table_kind = 1.0, 0.0, None, None
+        what = f"connection {s_el or ''}.{s_con} -> {e_el or ''}.{e_con}"
         for t in c:
             kind = t.tag.rsplit("}", 1)[-1]
             if kind == "LinearTransformation":
                 factor = float(t.get("factor", "1")); offset = float(t.get("offset", "0"))
+            elif kind in VALUE_TABLES:   # Integer/Enumeration or Boolean values through a table (Connection.mapping)
+                try:
+                    table, table_kind = value_table(t), kind
+                except ValueError as e:
+                    raise self.fail(f"{what}: {e}") from None
             elif kind != "Annotations":
-                raise self.fail(f"connection {s_el or ''}.{s_con} -> {e_el or ''}.{e_con}: ssc:{kind} is not supported")
-        return _Edge(endpoint(s_el, s_con), endpoint(e_el, e_con), factor, offset)
+                raise self.fail(f"{what}: ssc:{kind} is not supported")
+        return _Edge(endpoint(s_el, s_con), endpoint(e_el, e_con), factor, offset, table, table_kind)
 
     def own_annotation(self, sys_el: ET.Element):
         bonds, conversions, extra = [], set(), {}

@@ -6,6 +6,8 @@ Used by the SSP import (:mod:`harness.ssp`):
   :func:`units` reads the ssc:Unit elements of an .ssd or .ssv; a Real value written with a unit is a
   :class:`Quantity` until the importer knows its FMU variable and converts it.
 * :class:`Mapping` is one ssm:ParameterMapping: it renames a binding's values and transforms them.
+* :func:`value_table` reads an integer or boolean mapping transformation, of a parameter mapping or of a
+  connection.
 """
 from __future__ import annotations
 
@@ -91,6 +93,26 @@ def _bool(text: str | None) -> int:
     raise ValueError(text)
 
 
+VALUE_TABLES = ("IntegerMappingTransformation", "BooleanMappingTransformation")
+
+
+def value_table(transform: ET.Element) -> dict:
+    """``{source: target}`` of an ssc:IntegerMappingTransformation (integers, for Integer and Enumeration
+    values) or ssc:BooleanMappingTransformation (booleans as 1/0): its ssc:MapEntry pairs, which SSP 1.0
+    (SystemStructureCommon.xsd, GTransformationChoice) defines for parameter mappings and connections alike.
+    A ValueError says which transformation has an entry that is not such a pair, or none at all."""
+    kind = transform.tag.rsplit("}", 1)[-1]
+    parse = int if kind == "IntegerMappingTransformation" else _bool
+    words = "integers" if parse is int else "booleans"
+    try:
+        table = {parse(m.get("source")): parse(m.get("target")) for m in transform.findall(_q("ssc:MapEntry"))}
+    except (TypeError, ValueError):
+        raise ValueError(f"ssc:{kind} has an ssc:MapEntry that is not a pair of {words}") from None
+    if not table:
+        raise ValueError(f"ssc:{kind} has no ssc:MapEntry (SSP 1.0 requires at least one)")
+    return table
+
+
 class Mapping:
     """An SSP 1.0 parameter mapping (ssm:ParameterMapping): each ssm:MappingEntry gives the value of the
     parameter set's ``source`` to ``target`` (one source may feed several targets), through its
@@ -135,14 +157,11 @@ class Mapping:
                 if isinstance(number, str):
                     raise fail(f"{what}: ssc:LinearTransformation of the String value {number!r}")
                 number = float(transform.get("factor", "1")) * number + float(transform.get("offset", "0"))
-            elif kind in ("IntegerMappingTransformation", "BooleanMappingTransformation"):
-                parse = int if kind.startswith("Integer") else _bool
+            elif kind in VALUE_TABLES:
                 try:
-                    table = {parse(m.get("source")): parse(m.get("target"))
-                             for m in transform.findall(_q("ssc:MapEntry"))}
-                except (TypeError, ValueError):
-                    raise fail(f"{what}: ssc:{kind} has an ssc:MapEntry that is not a pair of "
-                               f"{'integers' if parse is int else 'booleans'}") from None
+                    table = value_table(transform)
+                except ValueError as e:
+                    raise fail(f"{what}: {e}") from None
                 if isinstance(number, float) or number not in table:
                     raise fail(f"{what}: ssc:{kind} has no ssc:MapEntry for the value {number!r} "
                                f"(entries for {sorted(table)})")
@@ -154,4 +173,4 @@ class Mapping:
         return Quantity(number, quantity.unit, quantity.units, quantity.where)
 
 
-__all__ = ["BASE", "Mapping", "NS", "Quantity", "Unit", "units"]
+__all__ = ["BASE", "Mapping", "NS", "Quantity", "Unit", "VALUE_TABLES", "units", "value_table"]

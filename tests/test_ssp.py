@@ -244,10 +244,14 @@ B = comp("b", "resources/SpringInertia.fmu")
      "mapping entry 'k' -> 'w0': ssc:EnumerationMappingTransformation is not supported"),
     (ssd(A + '<ssd:Component name="s" type="application/x-ssp-package" source="resources/x.ssp"/>'),
      "component 's' has type 'application/x-ssp-package'; only FMUs"),
-    (ssd(A + B, BOND + conn("a", "flange.w", "b", "drive.w",
-                            '<ssc:BooleanMappingTransformation><ssc:MapEntry source="true" target="false"/>'
-                            '</ssc:BooleanMappingTransformation>')),
-     "ssc:BooleanMappingTransformation is not supported"),
+    (ssd(A + comp("g", "resources/Gain.fmu"), conn("a", "flange.w", "g", "u",
+                                                   '<ssc:BooleanMappingTransformation><ssc:MapEntry source="true" '
+                                                   'target="false"/></ssc:BooleanMappingTransformation>')),
+     "connection a.flange.w -> g.u: ssc:BooleanMappingTransformation does not apply to Real values"),
+    (ssd(A + comp("g", "resources/Gain.fmu"), conn("a", "flange.w", "g", "u",
+                                                   '<ssc:EnumerationMappingTransformation><ssc:MapEntry source="x" '
+                                                   'target="y"/></ssc:EnumerationMappingTransformation>')),
+     "connection a.flange.w -> g.u: ssc:EnumerationMappingTransformation is not supported"),
     (ssd(A, '<ssd:Connection startConnector="in" endElement="a" endConnector="flange.tau"/>',
          system_extra='<ssd:Connectors><ssd:Connector name="in" kind="input"><ssc:Real/></ssd:Connector></ssd:Connectors>'),
      "system connector 'in' of system 'hand' drives a.flange.tau but nothing drives it (an input of the whole"),
