@@ -25,8 +25,11 @@ play at omega1 r cos(beta); with the feeder clearance sweep's CSV (``--feeder-cs
 smallest pin load pressing the rocker back).
 
 Writes ``takeup.csv`` (one row per take-up), ``takeup_summary.csv`` (per geometry, case, varied parameter and
-alpha_m: the first alpha_c with a non-classical take-up, the classical share), ``takeup.png/.svg`` and
-``takeup_velocity.png/.svg`` (the seed's Fig. 2 quantity from the model: :func:`plot_velocity`).
+alpha_m: the first alpha_c with a non-classical take-up, the classical share), ``takeup.png/.svg``, and the
+seed's figures from the model (alone with ``--figures``): ``takeup_velocity.png/.svg`` (Fig. 2, the roller
+centre's velocity during the take-up: :func:`plot_velocity`) and ``takeup_liftoff.png/.svg`` with
+``takeup_liftoff.csv`` (Fig. 3, where the roller lifts off its groove wall for K0 and C0 on the feeder's
+groove: :func:`plot_liftoff`, :func:`fmus.physics.takeup.lift_off`).
 """
 from __future__ import annotations
 
@@ -36,6 +39,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from fmus.physics.takeup import ALPHA_Y_CLASSICAL, TakeUpParams, simulate
@@ -226,6 +230,101 @@ def plot_velocity(out: Path, alpha_c=(0.0, 0.05, 0.3), R3: float = 0.040) -> lis
     return save_figure(fig, out / "takeup_velocity", dpi=110)
 
 
+LIFTOFF_LAWS = ("K0", "C0")            # the seed's Fig. 3: a - K0, b - C0
+LIFTOFF_LOADS = ((150.0, 0.0), (100.0, 0.05), (200.0, 0.05))   # (rpm, head friction N.m): the seed's case
+#                                      without external forces, then the feeder head's guide friction
+#                                      (systems/feeder_gto52: 0.05 N.m) at the seed's 100 and 200 rpm
+
+
+def liftoff_rows(w, case) -> list[dict]:
+    """One row per lift-off: where the roller leaves its wall (crank angle from the forward stroke's start,
+    stone radius, kulisa angle) and whether the rocker is then at an extreme position (within 1 % of the
+    swing of either end: its dead centres and the dwell) or between them."""
+    from fmus.physics import groove
+
+    start = groove.base_design(case.lam1, case.lam2, case.lam3)["phi_start"]
+    g_lo, g_hi = float(w.gamma.min()), float(w.gamma.max())
+    rows = []
+    h = w.phi[1] - w.phi[0]
+    for i, j in w.lift_off:
+        Nj = -w.N[j] if (j < i and w.wrap_flip) else w.N[j]     # after the turn's last sample: its first
+        f = w.N[i] / (w.N[i] - Nj)                     # linear interpolation of the zero crossing
+        dphi = ((j - i) % len(w.phi)) * h
+        g = w.gamma[i] + f * (w.gamma[j] - w.gamma[i])
+        extreme = min(g - g_lo, g_hi - g) < 0.01 * (g_hi - g_lo)
+        rows.append({"law": case.law, "rpm": case.rpm, "head_friction": case.head_friction,
+                     "phi_deg": math.degrees((w.phi[i] + f * dphi - start) % (2 * math.pi)),
+                     "rho_mm": 1e3 * (w.rho[i] + f * (w.rho[j] - w.rho[i])),
+                     "gamma_deg": math.degrees(g), "position": "extreme" if extreme else "intermediate",
+                     "leaves": "+n" if w.N[i] > 0 else "-n"})
+    return rows
+
+
+def liftoff_map(laws=LIFTOFF_LAWS, loads=LIFTOFF_LOADS) -> tuple[pd.DataFrame, dict]:
+    """Every lift-off of the seed's Fig. 3 cases, and the wall forces behind them ({(law, rpm, friction): w})."""
+    from fmus.physics.takeup import LiftOffCase, lift_off
+
+    rows, runs = [], {}
+    for law, (rpm, fr) in itertools.product(laws, loads):
+        case = LiftOffCase(law=law, rpm=rpm, head_friction=fr)
+        w = lift_off(case)
+        runs[(law, rpm, fr)] = (case, w)
+        rows += liftoff_rows(w, case)
+    return pd.DataFrame(rows), runs
+
+
+def plot_liftoff(out: Path, runs: dict) -> list[Path]:
+    """Fig. 3 of the seed, from the model: the roller's lift-off positions for K0 (a) and C0 (b).  Top: the
+    groove's centre line (the roller centre's path) in the kulisa's frame F2, drawn by the wall that carries
+    the roller, each lift-off marked; bottom: the wall force over the crank turn for each load case."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from fmus.physics import groove
+
+    laws = list(dict.fromkeys(k[0] for k in runs))
+    fig, axes = plt.subplots(2, len(laws), figsize=(5.2 * len(laws), 8.0), squeeze=False)
+    for col, law in enumerate(laws):
+        keys = [k for k in runs if k[0] == law]
+        case, w = runs[keys[0]]
+        start = groove.base_design(case.lam1, case.lam2, case.lam3)["phi_start"]
+        ax = axes[0][col]
+        B = w.B * 1e3
+        for side, colour, name in ((1, "C0", "roller on the +n wall"), (-1, "C3", "roller on the -n wall")):
+            on = np.where(np.sign(w.N) == side, 1.0, np.nan)
+            ax.plot(B[:, 0] * on, B[:, 1] * on, color=colour, lw=2, label=name)
+        for k, (i, _) in enumerate(w.lift_off, 1):
+            ax.plot(*B[i], "ko", ms=4)
+            ax.annotate(str(k), B[i], textcoords="offset points", xytext=(4, 4), fontsize=7)
+        ax.plot(0.0, 0.0, "k+")
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [mm] (frame F2, origin at the kulisa pivot)")
+        ax.set_ylabel("y [mm]")
+        ax.set_title(f"{'ab'[col] if col < 2 else col} - {law}: {len(w.lift_off)} lift-offs "
+                     f"({case.rpm:g} rpm, no load)", fontsize=9)
+        ax.legend(fontsize=7)
+        ax = axes[1][col]
+        for (lw_, rpm, fr), style in zip(keys, ("-", "--", ":")):
+            c, wf = runs[(lw_, rpm, fr)]
+            deg = np.degrees((wf.phi - start) % (2 * np.pi))
+            order = np.argsort(deg)
+            ax.plot(deg[order], wf.N[order], style, label=f"{rpm:g} rpm, head friction {fr:g} N.m")
+            if fr == 0.0:
+                ax.plot(deg[wf.lift_off[:, 0]], np.zeros(len(wf.lift_off)), "ko", ms=4)
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_xlabel("crank angle from the forward stroke's start [deg]")
+        ax.set_ylabel("wall force N on the roller [N]")
+        ax.legend(fontsize=7)
+    fig.suptitle(f"Seed 000 Fig. 3 from the model: where the roller lifts off its groove wall (the rolling "
+                 f"roller's normal force passes zero)\nr = {case.r * 1e3:g} mm, lambda2 = {case.lam2:g}, dwell "
+                 f"{math.degrees(case.dwell):g} deg, J = {case.J:g} kg.m2, stone {case.m_stone:g} kg; "
+                 f"dots: lift-offs without load", fontsize=8)
+    fig.tight_layout()
+    return save_figure(fig, out / "takeup_liftoff", dpi=110)
+
+
 def register(study_subparsers) -> None:
     doc = __doc__.split("\n\n")[0].replace("\n", " ")
     p = study_subparsers.add_parser("takeup", help="seed 000: classical vs non-classical take-up of the pin "
@@ -235,12 +334,33 @@ def register(study_subparsers) -> None:
                         "tree's docs/images/feeder_clearance.csv, skipped with a note when absent)")
     p.add_argument("--quick", action="store_true", help="a small grid: alpha_c 0.01 0.1 0.3 1 5, alpha_m 0.5 2, "
                    "beta 0 120, theta and e varied, one geometry")
+    p.add_argument("--figures", action="store_true", help="only the seed's figures from the model: Fig. 2 "
+                   "(takeup_velocity) and Fig. 3 with its table of lift-offs (takeup_liftoff, .csv); no map")
     p.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results/ in the "
                    "current folder)")
     p.set_defaults(func=takeup_cli)
 
 
+def figures(out: Path) -> list[Path]:
+    """The seed's Figs 2 and 3 from the model, with Fig. 3's lift-offs as ``takeup_liftoff.csv`` and printed."""
+    table, runs = liftoff_map()
+    table = table.sort_values(["law", "rpm", "head_friction", "phi_deg"])
+    write_complete(table, out / "takeup_liftoff.csv")
+    files = plot_velocity(out) + plot_liftoff(out, runs)
+    with pd.option_context("display.width", 200, "display.max_rows", 1000):
+        print("roller lift-offs (seed Fig. 3; phi from the forward stroke's start):")
+        print(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    return files + [out / "takeup_liftoff.csv"]
+
+
 def takeup_cli(args) -> int:
+    from harness.results import check_writable
+
+    check_writable(args.out / "takeup.csv", "--out")  # before any take-up: a bad folder loses nothing
+    if args.figures:
+        files = figures(args.out)
+        print(f"wrote {', '.join(str(f) for f in files)}")
+        return 0
     feeder = None
     default_csv = args.feeder_csv == ROOT / "docs" / "images" / "feeder_clearance.csv"
     if args.feeder_csv.is_file() or not default_csv:
@@ -251,9 +371,6 @@ def takeup_cli(args) -> int:
     if args.quick:
         kw = dict(alpha_c=(0.01, 0.1, 0.3, 1.0, 5.0), alpha_m=(0.5, 2.0), geometries={"seed r=R3": 0.040},
                   grid=settings_grid((0.0, 120.0), {"theta_deg": (40.0,), "e": (1.0,)}, (0.0,)))
-    from harness.results import check_writable
-
-    check_writable(args.out / "takeup.csv", "--out")  # before any take-up: a bad folder loses nothing
     try:
         df = run_map(feeder, progress=lambda s: print(s, file=sys.stderr), **kw)
     except StudyInterrupted as e:
@@ -261,7 +378,7 @@ def takeup_cli(args) -> int:
     summary = summarise(df)
     write_complete(df, args.out / "takeup.csv")
     summary.to_csv(args.out / "takeup_summary.csv", index=False)
-    files = plot(summary, args.out) + plot_velocity(args.out)
+    files = plot(summary, args.out) + figures(args.out)
     with pd.option_context("display.width", 200, "display.max_rows", 1000):
         print(summary.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     hi, lo = alpha_y_gap(df)

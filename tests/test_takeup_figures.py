@@ -1,0 +1,142 @@
+"""Seed 000's figures from the model (issue 31): Fig. 2, the roller centre's velocity during the take-up, and
+Fig. 3, where the roller lifts off its groove wall for the laws K0 and C0 (the rolling condition).  Each
+chart's numbers are checked on a case whose answer is known without the code under test."""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fmus.physics import groove
+from fmus.physics import takeup as T
+
+LAM1, LAM2, LAM3, R = 3.5, 4.2, 3.0, 0.040
+
+
+def _periodic_d(y, h):
+    return (np.roll(y, -1) - np.roll(y, 1)) / (2 * h)
+
+
+def _base_fourbar(n=7200):
+    """The base four-bar's own kulisa law on a fine grid: its groove is the circle rho = lambda3."""
+    phi = np.linspace(0.0, 2 * math.pi, n, endpoint=False)
+    g = np.unwrap(groove.base_fourbar_angle(phi, LAM1, LAM2, LAM3))
+    h = phi[1] - phi[0]
+    g1 = _periodic_d(g, h)
+    g2 = (np.roll(g, -1) - 2 * g + np.roll(g, 1)) / h ** 2
+    prof = groove.synthesize(phi, g, g1, g2, LAM1, LAM2, groove.base_branch(LAM1, LAM2, LAM3))
+    return phi, g, g1, g2, prof
+
+
+def _crossings(y):
+    """Indices i where the periodic samples y change sign between i and i + 1."""
+    return set(np.nonzero(y * np.roll(y, -1) < 0.0)[0].tolist())
+
+
+def test_fig3_circular_groove_lifts_off_at_the_rockers_inflections_and_a_right_transmission_angle():
+    """Known answer: the base four-bar's groove is a circle about O2, so its wall normal is the slot; with a
+    massless stone the conrod's pull along the slot is all the wall carries, N = -F_c cos(conrod, slot), and
+    the conrod's moment F_c rho sin(conrod, slot) drives the kulisa, J gamma''.  So N = 0 exactly where the
+    rocker's acceleration changes sign (its inflections) or the conrod stands square to the slot -- and
+    nowhere else: not at the dead centres, where the stone reverses along the arc (the old travel-based
+    normal flipped there)."""
+    phi, g, g1, g2, prof = _base_fourbar()
+    assert np.allclose(prof.rho, LAM3, atol=1e-9)
+    w = T.wall_forces(prof, g1, g2, R, 15.0, 0.00043, 0.0)
+    A = np.stack([-LAM1 + np.cos(phi), np.sin(phi)], axis=-1)
+    Bn = LAM3 * np.stack([np.cos(g), np.sin(g)], axis=-1)
+    along = np.sum((A - Bn) * np.stack([np.cos(g), np.sin(g)], axis=-1), axis=1)    # conrod . slot
+    expected = _crossings(g2) | _crossings(along)
+    found = {int(i) for i, _ in w.lift_off}
+
+    def near(a, b):
+        return min(abs(a - b), len(phi) - abs(a - b)) <= 1
+    assert len(expected) >= 2 and len(found) == len(expected)
+    assert all(any(near(f, e) for f in found) for e in expected)
+    # the kulisa's moment balance alone fixes the conrod force: F_c (e_c . n) rho = J gamma'' (to the
+    # difference-quotient law's own inconsistency, which tilts the circle's normal near the dead centres)
+    e_c = (A - Bn) / LAM2
+    n = np.stack([-np.sin(g), np.cos(g)], axis=-1)
+    moment = 0.00043 * g2 * 15.0 ** 2
+    np.testing.assert_allclose(w.F_conrod * np.sum(e_c * n, axis=1) * R * LAM3, moment,
+                               atol=1e-3 * np.max(np.abs(moment)))
+
+
+@pytest.mark.parametrize("law", ["K0", "C0"])
+def test_fig3_wall_forces_balance_the_stone_and_the_kulisas_energy(law):
+    """The forces of the chart against motion computed without them: the roller centre's acceleration from
+    second differences of its path B(t), and the power balance -- the rolling roller's wall force does no
+    work (it is normal to the groove), so the conrod alone feeds the kinetic energy of kulisa and stone."""
+    case = T.LiftOffCase(law=law, n=14400)
+    w = T.lift_off(case)
+    om, h = case.omega, w.phi[1] - w.phi[0]
+    dt = h / om
+    B = w.B
+    v = (np.roll(B, -1, axis=0) - np.roll(B, 1, axis=0)) / (2 * dt)
+    acc = (np.roll(B, -1, axis=0) - 2 * B + np.roll(B, 1, axis=0)) / dt ** 2
+    u = np.stack([np.cos(w.gamma), np.sin(w.gamma)], axis=-1)
+    A = case.r * np.stack([-case.lam1 + np.cos(w.phi), np.sin(w.phi)], axis=-1)
+    e_c = (A - B) / np.linalg.norm(A - B, axis=1)[:, None]
+    gw = _periodic_d(np.unwrap(w.gamma), h) * om
+    kinetic = 0.5 * case.J * gw ** 2 + 0.5 * case.m_stone * np.sum(v * v, axis=1)
+    power = w.F_conrod * np.sum(e_c * v, axis=1)
+    smooth = np.isfinite(w.N) & (np.abs(np.roll(w.N, 1) - w.N) < 0.02) & (np.abs(np.roll(w.N, -1) - w.N) < 0.02)
+    smooth &= np.roll(smooth, 1) & np.roll(smooth, -1)          # away from the laws' acceleration jumps
+    scale = np.max(np.abs(power[smooth]))
+    np.testing.assert_allclose(power[smooth], _periodic_d(kinetic, dt)[smooth], atol=2e-3 * scale)
+    # the stone along the slot: conrod and wall forces against its absolute acceleration (the slot's reaction
+    # is normal to it)
+    lhs = w.F_conrod * np.sum(e_c * u, axis=1) + w.N * np.sum(w.n_wall * u, axis=1)
+    rhs = case.m_stone * np.sum(acc * u, axis=1)
+    np.testing.assert_allclose(lhs[smooth], rhs[smooth], atol=2e-3 * np.max(np.abs(rhs[smooth])))
+    # and the wall force is normal to the groove
+    assert np.nanmax(np.abs(np.sum(w.n_wall * v, axis=1) / np.linalg.norm(v, axis=1))[smooth]) < 1e-3
+
+
+def test_fig3_chart_rows_are_the_zero_crossings_and_lift_offs_happen_between_the_extremes(tmp_path):
+    """The chart's table: one row per lift-off, the same crank angles and stone radii (to 0.1 deg, 0.1 mm)
+    on a grid four times finer; both laws show lift-offs between the rocker's extreme positions (the seed:
+    "not only at the extreme positions of the rocker but also after its lift-off ... at various positions of
+    the stone depending on the law"), at different stone radii for K0 and C0; the figure is written."""
+    from harness.studies import takeup as S
+
+    df, runs = S.liftoff_map(loads=((150.0, 0.0),))
+    for (law, _, _), (case, w) in runs.items():
+        rows = df[df["law"] == law].sort_values("phi_deg")
+        assert len(rows) == len(w.lift_off) > 0
+        fine = T.LiftOffCase(law=law, n=4 * case.n)
+        ref = pd.DataFrame(S.liftoff_rows(T.lift_off(fine), fine)).sort_values("phi_deg")
+        np.testing.assert_allclose(rows["phi_deg"], ref["phi_deg"], atol=0.1)
+        np.testing.assert_allclose(rows["rho_mm"], ref["rho_mm"], atol=0.1)
+    mid = df[df["position"] == "intermediate"]
+    assert set(mid["law"]) == {"K0", "C0"}
+    assert set(np.round(mid[mid["law"] == "K0"]["rho_mm"], 1)).isdisjoint(np.round(mid[mid["law"] == "C0"]["rho_mm"], 1))
+    files = S.plot_liftoff(tmp_path, runs)
+    assert all(f.is_file() and f.stat().st_size > 1000 for f in files)
+
+
+def test_fig3_without_load_the_lift_offs_do_not_depend_on_the_crank_speed():
+    """Every force is an inertia force, omega^2 times a function of the crank angle."""
+    a = T.lift_off(T.LiftOffCase(law="K0", rpm=100.0))
+    b = T.lift_off(T.LiftOffCase(law="K0", rpm=200.0))
+    np.testing.assert_array_equal(a.lift_off, b.lift_off)
+    np.testing.assert_allclose(b.N, 4.0 * a.N, rtol=1e-9, atol=1e-12)
+
+
+def test_fig3_refuses_a_law_without_a_groove():
+    with pytest.raises(ValueError, match="lambda2 = 3.6 has no groove"):
+        T.lift_off(T.LiftOffCase(law="K0", lam2=3.6))
+
+
+def test_study_figures_option_writes_figs_2_and_3_without_the_map(tmp_path):
+    p = subprocess.run([sys.executable, "-m", "harness", "study", "takeup", "--figures", "--out", str(tmp_path)],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    names = {f.name for f in tmp_path.iterdir()}
+    assert {"takeup_velocity.png", "takeup_liftoff.png", "takeup_liftoff.csv"} <= names
+    assert "takeup.csv" not in names
+    assert "lift-off" in p.stdout
