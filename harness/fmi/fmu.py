@@ -10,6 +10,9 @@
   naming the instance, the FMI call and the time, with the last error message the FMU logged (pythonfmu
   reports a Python exception as fmi2Fatal with the text only in the log).  fmi2Discard from fmi2DoStep raises
   :class:`~harness.errors.StepDiscarded`.
+* Directional derivatives (:meth:`Instance.directional_derivative`): d outputs / d inputs at the current time,
+  what FMI co-simulation defines fmi2GetDirectionalDerivative for, where the FMU declares
+  ``providesDirectionalDerivative``; an FMU that does not is refused in one line (the master then perturbs).
 """
 from __future__ import annotations
 
@@ -180,6 +183,9 @@ class Instance:
         self.can_vary_step = model_exchange or bool(cs.canHandleVariableCommunicationStepSize)
         self.can_interpolate_inputs = not model_exchange and bool(cs.canInterpolateInputs)
         self.advanced_positions = advanced_positions(self.unzip_dir)
+        # fmi2GetDirectionalDerivative answers d outputs / d inputs (co-simulation; FMI 3.0: harness.fmi.fmu3)
+        self.provides_directional_derivative = (not model_exchange
+                                                and bool(getattr(cs, "providesDirectionalDerivative", False)))
         self.max_input_derivative_order = 2 if self.can_interpolate_inputs else 0
         self.log: deque = deque(maxlen=200)
         self.errors: list[str] = []   # error messages logged by the FMU
@@ -227,6 +233,20 @@ class Instance:
         except Exception as e:  # the library could not be called at all
             self.failed = True
             raise FMUError(self.name, function, self.time, ERROR, detail=f"{type(e).__name__}: {e}") from None
+
+    def _directional_refused(self, function: str):
+        """The one-line refusal of a directional derivative the FMU does not declare (None if it does)."""
+        if not self.provides_directional_derivative:
+            raise FMUError(self.name, function, self.time, None,
+                           detail=f"FMU {self.md.modelName} does not provide directional derivatives (its "
+                                  f"modelDescription does not declare them)")
+
+    def directional_derivative(self, unknowns: RealBlock, knowns: RealBlock, seed) -> np.ndarray:
+        """d unknowns / d knowns * seed (FMI 2.0 and 3.0 co-simulation, where declared; the versions' classes);
+        here, an interface without directional derivatives (FMI 1.0, model exchange), the one-line refusal."""
+        self._directional_refused("GetDirectionalDerivative")
+        raise FMUError(self.name, "GetDirectionalDerivative", self.time, None,
+                       detail=f"{type(self).__name__} instances do not call directional derivatives")
 
     def var(self, name: str):
         v = self.variables.get(name)
@@ -410,6 +430,16 @@ class FMU(Instance):
         buf = (c_char_p * 1)()
         self._check(self._f["fmi2GetString"](self.c, vr, 1, buf), "fmi2GetString")
         return (buf[0] or b"").decode("utf-8")
+
+    def directional_derivative(self, unknowns: RealBlock, knowns: RealBlock, seed) -> np.ndarray:
+        """fmi2GetDirectionalDerivative: sum_j d unknowns_i / d knowns_j * seed_j at the current time (outputs,
+        inputs); refused in one line for an FMU that does not declare it."""
+        self._directional_refused("fmi2GetDirectionalDerivative")
+        seed_buf = (c_double * max(1, knowns.n))(*[float(s) for s in seed])
+        out = (c_double * max(1, unknowns.n))()
+        self._check(self._f["fmi2GetDirectionalDerivative"](self.c, unknowns.vr, unknowns.n, knowns.vr, knowns.n,
+                                                             seed_buf, out), "fmi2GetDirectionalDerivative")
+        return np.array(out[:unknowns.n], dtype=float)
 
     # -- stepping ----------------------------------------------------------------------------------------------
     def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:

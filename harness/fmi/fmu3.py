@@ -16,7 +16,9 @@ What the master cannot use is refused when the instance is made, in one line nam
 
 The co-simulation runs without event mode and without early return (FMI 3.0's basic step mode, as an FMI 2.0
 slave runs); an FMU that asks to terminate in ``fmi3DoStep`` raises :class:`~harness.errors.FMUError`
-naming the time.  FMI 3.0 has no input derivatives for co-simulation in the master's sense, so
+naming the time.  Directional derivatives (fmi3GetDirectionalDerivative, outputs with respect to inputs) where the
+``CoSimulation`` element declares ``providesDirectionalDerivatives`` (read here: fmpy 0.3's reader of FMI 3.0
+leaves it out).  FMI 3.0 has no input derivatives for co-simulation in the master's sense, so
 ``can_interpolate_inputs`` is False.
 """
 from __future__ import annotations
@@ -24,6 +26,8 @@ from __future__ import annotations
 import math
 from ctypes import byref
 from pathlib import Path
+
+import numpy as np
 
 from harness.errors import FMUError
 from harness.fmi.cache import native_types
@@ -36,6 +40,17 @@ def _elements(v) -> int:
     """Number of elements of a variable (1 for a scalar; fmpy gives an array's shape, () for a scalar)."""
     shape = getattr(v, "shape", None) or ()
     return math.prod(int(n) for n in shape) if shape else 1
+
+
+def _declares_directional_derivatives(unzip_dir: Path) -> bool:
+    """``CoSimulation/@providesDirectionalDerivatives`` of an extracted FMI 3.0 FMU."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        cs = ET.parse(Path(unzip_dir) / "modelDescription.xml").getroot().find("CoSimulation")
+    except (OSError, ET.ParseError):
+        return False
+    return cs is not None and cs.get("providesDirectionalDerivatives") in ("true", "1")
 
 
 class FMU3(Instance):
@@ -63,6 +78,7 @@ class FMU3(Instance):
                                   f"{', '.join(arrays[:4])}: FMI 3.0 arrays are not supported (only scalars)")
         self.can_interpolate_inputs = False
         self.max_input_derivative_order = 0
+        self.provides_directional_derivative = not model_exchange and _declares_directional_derivatives(self.unzip_dir)
         self._start, self._stop, self._tolerance = 0.0, None, None
         self._states: list = []
         self._float32 = any(t == "Float32" for t in self.native.values())
@@ -178,6 +194,13 @@ class FMU3(Instance):
         if kind == "Boolean":
             return bool(value)
         return value
+
+    def directional_derivative(self, unknowns: RealBlock, knowns: RealBlock, seed):
+        """fmi3GetDirectionalDerivative: sum_j d unknowns_i / d knowns_j * seed_j at the current time (scalar
+        outputs, inputs); refused in one line for an FMU that does not declare it."""
+        self._directional_refused("fmi3GetDirectionalDerivative")
+        return np.array(self._call("fmi3GetDirectionalDerivative", self._slave.getDirectionalDerivative,
+                                   unknowns.refs, knowns.refs, [float(s) for s in seed]), dtype=float)
 
     # -- stepping ----------------------------------------------------------------------------------------------
     def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:

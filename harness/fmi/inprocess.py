@@ -32,6 +32,8 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+import numpy as np
+
 from harness.errors import FMUError, StepDiscarded
 from harness.fmi.fmu import DISCARD, ERROR, FATAL, WARNING, Instance, RealBlock, toolkit_annotation
 
@@ -276,6 +278,14 @@ class InProcessFMU(Instance):
         v = self.var(name)
         method, function, kind = self._GETTERS[v.type]
         return kind(self._call(function, getattr(self._slave, method), [v.valueReference])[0])
+
+    def directional_derivative(self, unknowns: RealBlock, knowns: RealBlock, seed):
+        """The slave's directional_derivative (what the host loader answers fmi2GetDirectionalDerivative with):
+        sum_j d unknowns_i / d knowns_j * seed_j at the current time; refused in one line for an FMU that does not
+        declare it."""
+        self._directional_refused("fmi2GetDirectionalDerivative")
+        return np.array(self._call("fmi2GetDirectionalDerivative", self._slave.directional_derivative,
+                                   unknowns.refs, knowns.refs, [float(s) for s in seed]), dtype=float)
 
     # -- stepping ----------------------------------------------------------------------------------------------
     def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:

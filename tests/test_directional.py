@@ -1,0 +1,275 @@
+"""Directional derivatives of the toolkit's FMUs (issues 29 and 34): d outputs / d inputs at the current time, from
+each component's physics (``Model.output_jacobian``), in process and through the FMUs' binaries (the host loader
+answers fmi2/fmi3GetDirectionalDerivative from the slave), against central differences of the outputs read
+through the same path; the ``jacobian`` master's results with them against its results by perturbation; FMUs
+without them refused in one line and still run."""
+from __future__ import annotations
+
+import sys
+import types
+import warnings
+import xml.etree.ElementTree as ET
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fmus import build as build_fmus
+from fmus.build import catalog
+from harness import jacobian, load, simulate
+from harness.errors import FMUError
+from harness.fmi import open_instance
+from harness.fmi.fmu import FMU
+from harness.fmi.fmu3 import FMU3
+from harness.fmi.inprocess import InProcessFMU
+
+NAMES = sorted(catalog())
+STEP = 1e-3
+# operating points: input j = base + 0.37 j (each after one step from the previous point's inputs)
+BASES = (0.2, 1.1, -0.6)
+
+
+@pytest.fixture(scope="session")
+def fmu3_dir(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("fmus3_dd")
+    assert build_fmus.main(["--fmi-version", "3", "--out", str(out)]) == 0, "build_fmus.py failed (see stderr)"
+    return out
+
+
+def _point(n: int, base: float) -> np.ndarray:
+    return base + 0.37 * np.arange(n)
+
+
+def _central(set_inputs, get_outputs, u: np.ndarray) -> np.ndarray:
+    """d outputs / d inputs by central differences through the FMU's own set/get (every input set each time)."""
+    cols = []
+    for j in range(u.size):
+        h = 1e-6 * max(1.0, abs(u[j]))
+        up, um = u.copy(), u.copy()
+        up[j] += h
+        um[j] -= h
+        set_inputs(up)
+        yp = np.array(get_outputs(), dtype=float)
+        set_inputs(um)
+        ym = np.array(get_outputs(), dtype=float)
+        cols.append((yp - ym) / (up[j] - um[j]))
+    set_inputs(u)
+    return np.column_stack(cols)
+
+
+def _check(D: np.ndarray, fd: np.ndarray, where: str) -> float:
+    """D agrees with the differences to 1e-6 of the largest entry (the differences' own error is ~1e-9 of it);
+    returns the largest deviation relative to that scale."""
+    scale = max(1.0, float(np.max(np.abs(fd))))
+    dev = float(np.max(np.abs(D - fd))) / scale
+    assert dev < 1e-6, f"{where}: directional derivatives differ from the differences by {dev:.3g} of {scale:.3g}\n" \
+                       f"D =\n{D}\nfd =\n{fd}"
+    return dev
+
+
+def _harness_case(inst, where: str) -> list[float]:
+    ins = [v.name for v in inst.md.modelVariables if v.causality == "input"]
+    outs = [v.name for v in inst.md.modelVariables if v.causality == "output"]
+    inp, out = inst.reals(ins), inst.reals(outs)
+    assert inst.provides_directional_derivative, f"{where}: does not declare directional derivatives"
+    inst.setup(0.0)
+    inst.enter_initialization()
+    inst.exit_initialization()
+    devs, t = [], 0.0
+    for base in BASES:
+        u = _point(len(ins), base)
+        inst.set(inp, u)
+        inst.do_step(t, STEP)
+        t += STEP
+        inst.set(inp, u)
+        D = np.column_stack([inst.directional_derivative(out, inp, e) for e in np.eye(len(ins))])
+        fd = _central(lambda v: inst.set(inp, v), lambda: inst.get(out).copy(), u)
+        devs.append(_check(D, fd, f"{where} at inputs {u}"))
+    return devs
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_in_process_directional_derivatives_match_differences(fmu_dir, name):
+    inst = open_instance(fmu_dir / f"{name}.fmu", "dd", in_process=True)
+    assert isinstance(inst, InProcessFMU)
+    try:
+        _harness_case(inst, f"{name} in process")
+    finally:
+        inst.free()
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_fmi2_binary_directional_derivatives_match_differences(fmu_dir, name):
+    inst = open_instance(fmu_dir / f"{name}.fmu", "dd2", in_process=False)
+    assert type(inst) is FMU
+    try:
+        _harness_case(inst, f"{name} FMI 2.0 binary")
+    finally:
+        inst.free()
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_fmi3_binary_directional_derivatives_match_differences(fmu3_dir, name):
+    inst = open_instance(fmu3_dir / f"{name}.fmu", "dd3")
+    assert isinstance(inst, FMU3)
+    try:
+        _harness_case(inst, f"{name} FMI 3.0 binary")
+    finally:
+        inst.free()
+
+
+def _fmpy_case(path: Path, version: int) -> None:
+    """Through fmpy's plain FMU2Slave / FMU3Slave (a host nobody here wrote): its getDirectionalDerivative on the
+    FMU's binary, against differences of its own getReal/getFloat64."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi3 import FMU3Slave
+
+    md = read_model_description(str(path))
+    unzip = extract(str(path))
+    cls = FMU3Slave if version == 3 else FMU2Slave
+    s = cls(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="plain")
+    iv = [v.valueReference for v in md.modelVariables if v.causality == "input"]
+    ov = [v.valueReference for v in md.modelVariables if v.causality == "output"]
+    s.instantiate()
+    if version == 2:
+        s.setupExperiment(startTime=0.0)
+        get, set_ = s.getReal, s.setReal
+    else:
+        get, set_ = s.getFloat64, s.setFloat64
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    t = 0.0
+    for base in BASES:
+        u = _point(len(iv), base)
+        set_(iv, list(u))
+        s.doStep(t, STEP)
+        t += STEP
+        set_(iv, list(u))
+        D = np.column_stack([s.getDirectionalDerivative(ov, iv, list(e)) for e in np.eye(len(iv))])
+        fd = _central(lambda v: set_(iv, list(v)), lambda: get(ov), u)
+        _check(D, fd, f"{path.name} FMI {version}.0 through fmpy at inputs {u}")
+    s.terminate()
+    s.freeInstance()
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_fmpy_plain_slaves_get_directional_derivatives_from_the_binaries(fmu_dir, fmu3_dir, name):
+    _fmpy_case(fmu_dir / f"{name}.fmu", 2)
+    _fmpy_case(fmu3_dir / f"{name}.fmu", 3)
+
+
+def _cosim(fmu: Path) -> ET.Element:
+    with zipfile.ZipFile(fmu) as z:
+        return ET.fromstring(z.read("modelDescription.xml")).find("CoSimulation")
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_model_descriptions_declare_directional_derivatives(fmu_dir, fmu3_dir, name):
+    """FMI 2.0's attribute providesDirectionalDerivative, FMI 3.0's providesDirectionalDerivatives (the schemas'
+    names; fmpy validate passes on both, build_fmus validates every FMU)."""
+    assert _cosim(fmu_dir / f"{name}.fmu").get("providesDirectionalDerivative") == "true"
+    assert _cosim(fmu3_dir / f"{name}.fmu").get("providesDirectionalDerivatives") == "true"
+
+
+@pytest.mark.parametrize("in_process", [True, False])
+def test_held_position_enters_the_speed_derivative(fmu_dir, in_process):
+    """TorqueLoad's flange.tau = -(d w + c (phi - phi_ref)) (no Coulomb part here) uses the angle held over the
+    last step advanced by the speed (slave_core._inputs_now): with only the speed set after a step, d tau / d w is
+    -(d + c h), which is what setting the speed alone and reading the torque again gives."""
+    inst = open_instance(fmu_dir / "TorqueLoad.fmu", "held", in_process=in_process)
+    try:
+        c, d = 250.0, 0.5
+        for name, value in (("c", c), ("d", d), ("T_coulomb", 0.0)):
+            inst.set_value(name, value)
+        inst.setup(0.0)
+        inst.enter_initialization()
+        inst.exit_initialization()
+        phi, w, tau = inst.reals(["flange.phi"]), inst.reals(["flange.w"]), inst.reals(["flange.tau"])
+        inst.set(phi, [0.1])
+        inst.set(w, [2.0])
+        inst.do_step(0.0, STEP)
+        inst.set(w, [2.0])              # the speed set again, the angle held
+        D = inst.directional_derivative(tau, w, [1.0])
+        base = inst.get(tau)[0]
+        inst.set(w, [2.0 + 1e-6])
+        fd = (inst.get(tau)[0] - base) / 1e-6
+        assert D[0] == pytest.approx(-(d + c * STEP), rel=1e-12)
+        assert D[0] == pytest.approx(fd, rel=1e-6)
+    finally:
+        inst.free()
+
+
+@pytest.mark.parametrize("in_process", [True, False])
+def test_bad_directional_derivative_calls_are_refused_in_one_line(fmu_dir, in_process):
+    inst = open_instance(fmu_dir / "SpringInertia.fmu", "bad", in_process=in_process)
+    try:
+        inst.setup(0.0)
+        inst.enter_initialization()
+        inst.exit_initialization()
+        tau, phi = inst.reals(["drive.tau"]), inst.reals(["drive.phi"])
+        with pytest.raises(FMUError) as e:
+            inst.directional_derivative(phi, tau, [1.0])       # an input as unknown, an output as known
+        assert "is not an output" in str(e.value) and "\n" not in str(e.value)
+    finally:
+        inst.free()
+
+
+def test_fmu_without_directional_derivatives_is_refused_and_perturbed(tmp_path):
+    """A plain pythonfmu FMU (no providesDirectionalDerivative): the wrapper refuses the call in one line and the
+    jacobian master's feed-through block falls back to forward differences."""
+    import subprocess
+
+    exe = Path(sys.executable).with_name("pythonfmu")
+    if not exe.is_file():
+        pytest.skip("pythonfmu command not installed")
+    r = subprocess.run([str(exe), "build", "-f", str(Path(__file__).parent / "foreign" / "plain_lag.py"), "-d",
+                        str(tmp_path)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    for in_process in (True, False):
+        inst = open_instance(tmp_path / "PlainLag.fmu", f"lag{int(in_process)}", in_process=in_process)
+        try:
+            assert not inst.provides_directional_derivative
+            inst.setup(0.0)
+            inst.enter_initialization()
+            inst.exit_initialization()
+            u, y = inst.reals(["u"]), inst.reals(["y"])
+            with pytest.raises(FMUError, match="does not provide directional derivatives"):
+                inst.directional_derivative(y, u, [1.0])
+            assert jacobian.feedthrough_block(inst, u, y, np.array([0.5])) == pytest.approx(np.zeros((1, 1)))
+        finally:
+            inst.free()
+
+
+def _by_differences(fmu, inp, out, point):
+    """The feed-through block as the master estimated it before directional derivatives: the FMU seen without them."""
+    return _FEEDTHROUGH(types.SimpleNamespace(set=fmu.set, get=fmu.get), inp, out, point)
+
+
+_FEEDTHROUGH = jacobian.feedthrough_block
+
+
+@pytest.mark.parametrize("name,stop", [("two_inertia", 0.2), ("feeder_gto52", 0.05), ("proof_press", 0.1)])
+def test_jacobian_master_results_unchanged_with_directional_derivatives(name, stop, monkeypatch):
+    """The jacobian master with the FMUs' D blocks against the same run with D by perturbation: the same results to
+    1e-6 of each signal's range (measured: two_inertia 1e-17, proof_press 4e-12, feeder_gto52 6e-8 over 0.2 s),
+    and the D blocks did come from the FMUs."""
+    used = []
+
+    def spy(fmu, inp, out, point):
+        used.append(bool(getattr(fmu, "provides_directional_derivative", False)))
+        return _FEEDTHROUGH(fmu, inp, out, point)
+
+    runs = {}
+    for label, block in (("provided", spy), ("perturbed", _by_differences)):
+        monkeypatch.setattr(jacobian, "feedthrough_block", block)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            runs[label] = simulate(load(name), stop_time=stop, master="jacobian", on_error="raise")
+    assert used and all(used)
+    a, b = runs["provided"], runs["perturbed"]
+    assert list(a.columns) == list(b.columns) and len(a) == len(b)
+    for c in b.columns:
+        scale = max(float(np.max(np.abs(b[c].values))), 1e-9)
+        assert float(np.max(np.abs(a[c].values - b[c].values))) <= 1e-6 * scale, c
