@@ -10,8 +10,8 @@ Four lines, each MET / MISS with its evidence:
 2. each declared model at its declared accuracy faster than real time by the goal (bed_drive 10x, feeder 5x):
    the cheapest method and step that meets the accuracy (:func:`harness.studies.accuracy.search`), then its
    real-time factor pinned to one CPU, best of 3 (the benchmark's worker);
-3. the time to reach each drive's declared accuracy at least 3x shorter than the fastest peer's: libcosim and
-   Ecos run the exported SSP with their own algorithm at decreasing steps; a peer's time is its fastest run
+3. the time to reach each drive's declared accuracy at least 3x shorter than the fastest peer's: libcosim, Ecos
+   and OMSimulator (where installed) run the exported SSP with their own algorithm at decreasing steps; a peer's time is its fastest run
    that meets the accuracy (none: the line says down to which step none did);
 4. (the default scene's real-time line is the benchmark's own, ``targets``).
 
@@ -38,6 +38,7 @@ METHODS = (("jacobi", 1), ("gauss-seidel", 1), ("jacobian", 1))
 STEPS = {"bed_drive": (2e-4, 5e-4, 1e-3, 2e-3), "feeder_gto52": (1e-4, 2e-4, 4e-4, 1e-3)}
 PEER_STEPS = (2e-4, 1e-4, 5e-5)
 PEER_GOAL = 3.0
+PEERS = ("libcosim", "ecos", "omsimulator")   # each with its own algorithm on the exported SSP
 
 
 def _quiet(*args, **kwargs):
@@ -145,7 +146,7 @@ def peer_lines(cheapest: dict, quick: bool, timeout: float, log=print):
         if quick:  # a quick run's harness time is over a shortened span: nothing to compare
             lines.append((what, None, "quick: not measured"))
             continue
-        hosts = [h for h in ("libcosim", "ecos") if host_accuracy.unavailable(h) is None]
+        hosts = [h for h in PEERS if host_accuracy.unavailable(h) is None]
         if not hosts:
             lines.append((what, None, "no peer available"))
             continue
