@@ -140,3 +140,41 @@ def test_study_figures_option_writes_figs_2_and_3_without_the_map(tmp_path):
     assert {"takeup_velocity.png", "takeup_liftoff.png", "takeup_liftoff.csv"} <= names
     assert "takeup.csv" not in names
     assert "lift-off" in p.stdout
+
+
+@pytest.mark.parametrize("law", ["K0", "C0"])
+def test_fig2_kinematic_row_is_the_roller_paths_velocity_and_zero_across_the_slot_at_the_extremes(law):
+    """Fig. 2's top row against motion computed without its formulas: along the slot d rho/dt and across it
+    rho d gamma/dt from central differences of the roller's path over time; at every marked extreme the
+    rocker's velocity is zero (the seed: "its angular (kinematic) velocity is zero"), while the stone can still
+    run along the slot (V3 of eq. 10)."""
+    from harness.studies import takeup as S
+
+    case = T.LiftOffCase(law=law, n=14400)
+    w = T.lift_off(case)
+    dt = (w.phi[1] - w.phi[0]) / case.omega
+    slot = _periodic_d(w.rho, dt)
+    across = w.rho * _periodic_d(np.unwrap(w.gamma), dt)
+    ok = np.isfinite(slot)
+    scale = np.max(np.abs(across))
+    # (5e-4: the central difference at the laws' acceleration jumps, e.g. K0's at the folded dead centre)
+    np.testing.assert_allclose(w.v_slot[ok], slot[ok], atol=5e-4 * scale)
+    np.testing.assert_allclose(w.v_rocker, across, atol=5e-4 * scale)
+    ext = S.rocker_extremes(w)
+    assert len(ext) == 3                        # the folded dead centre and both ends of the dwell
+    assert np.all(np.abs(w.v_rocker[ext]) < 2e-3 * scale)
+    assert np.max(np.abs(w.v_slot[ext])) > 0.2  # the stone runs along the slot at the dwell's ends
+    p = S.params_for(0.040, 0.0, S.BASE, 1.0, 0.0)
+    rows = S.kinematic_rows(w, case, p)
+    alpha = T.mass_ratio(p.I1, p.I2, p.r, p.R3, p.beta, p.theta, p.chi)
+    for row in rows:   # eq. (10) by hand
+        assert row["V3y_eq10"] == pytest.approx((alpha * 1.2 * p.v_pin + (1 - 0.2 * alpha) * row["V3"]) / (alpha + 1))
+
+
+def test_fig2_circular_groove_has_no_velocity_along_the_slot():
+    """Known answer: on the base four-bar's circle the stone never moves along the slot; the roller centre
+    moves across it at lambda3 r gamma' omega."""
+    phi, g, g1, g2, prof = _base_fourbar()
+    w = T.wall_forces(prof, g1, g2, R, 15.0, 0.00043, 0.01)
+    assert np.max(np.abs(w.v_slot)) < 1e-6 * np.max(np.abs(w.v_rocker))
+    np.testing.assert_allclose(w.v_rocker, LAM3 * R * g1 * 15.0, rtol=1e-9)

@@ -533,6 +533,9 @@ class WallForces:
     F_conrod: np.ndarray              # N, conrod force on the stone along e_c (> 0: the conrod pulls)
     N: np.ndarray                     # N, wall force along n_g (its sign: which wall carries the roller)
     n_wall: np.ndarray                # the wall normal n_g (n, 2), continuous along the groove
+    v_slot: np.ndarray                # m/s, the roller centre's kinematic velocity along the slot, rho'
+    #                                   (the stone's V3 of eq. 10)
+    v_rocker: np.ndarray              # m/s, and across it, rho gamma' (the rocker's; zero at its extremes)
     lift_off: np.ndarray              # (k, 2) sample pairs (i, j): N changes sign from i to the next finite
     #                                   sample j (after the last comes the first: ``wrap_flip`` says how)
     moving: np.ndarray                # the kulisa moves (outside its dwells and dead-centre instants)
@@ -603,7 +606,7 @@ def wall_forces(profile, g1, g2, r: float, omega: float, J: float, m_stone: floa
     if wrap_flip:
         N_next[-1] = -N_next[-1]
     lift = np.stack([idx, nxt], axis=-1)[N[idx] * N_next < 0.0]
-    return WallForces(phi, g, rho, B, F_c, N, n_g, lift, g1 != 0.0, wrap_flip)
+    return WallForces(phi, g, rho, B, F_c, N, n_g, rho1, rho * w, lift, g1 != 0.0, wrap_flip)
 
 
 def lift_off(case: LiftOffCase) -> WallForces:

@@ -191,6 +191,9 @@ def plot(summary: pd.DataFrame, out: Path) -> list[Path]:
     return save_figure(fig, out / "takeup", dpi=110)
 
 
+LIFTOFF_LAWS = ("K0", "C0")            # the seed's Fig. 3: a - K0, b - C0 (and Fig. 2's kinematic row)
+
+
 def velocity_trace(p: TakeUpParams, samples: int = 4000) -> dict:
     """The seed's Fig. 2 quantity: the roller centre's (stone pin's) velocity R3 gamma' during the take-up,
     beside the crank pin's r cos(beta) phi1' and eq. (10)'s velocity after the first impact (V3y, with the
@@ -203,34 +206,88 @@ def velocity_trace(p: TakeUpParams, samples: int = 4000) -> dict:
             "v3y_eq10": v3y_first(alpha, p.e, p.v_pin, p.V3), "first_end": res.duration, "result": res}
 
 
-def plot_velocity(out: Path, alpha_c=(0.0, 0.05, 0.3), R3: float = 0.040) -> list[Path]:
-    """Fig. 2 of the seed, from the model: the roller centre's velocity during the take-up at beta = 0 (the
-    paper's figure itself is not in the text we have, only its caption)."""
+def rocker_extremes(w) -> np.ndarray:
+    """Samples where the rocker's kinematic angular velocity is zero (its dead centres, both ends of a dwell):
+    where rho gamma' changes sign or enters or leaves exactly zero -- the take-up instants the seed names."""
+    v = w.v_rocker
+    nxt = np.roll(v, -1)
+    hits = np.nonzero(((v * nxt) < 0.0) | ((v == 0.0) != (nxt == 0.0)))[0]
+    # one instant per extreme: a dead centre that falls on a sample enters and leaves zero within two samples
+    n = len(v)
+    keep = [i for k, i in enumerate(hits) if len(hits) == 1 or (i - hits[k - 1]) % n > 2]
+    return np.asarray(keep if keep else hits[:1], dtype=int)
+
+
+def kinematic_rows(w, case, p: TakeUpParams) -> list[dict]:
+    """At each of the rocker's extremes: the roller centre's kinematic velocity along the slot V3 (the stone's,
+    eq. 10's V3) and eq. (10)'s V3y for it, with the mass ratio and crank-pin speed of the take-up ``p`` (as
+    Fig. 2's bottom row: :func:`velocity_trace`)."""
+    from fmus.physics import groove
+    from fmus.physics.takeup import mass_ratio, v3y_first
+
+    start = groove.base_design(case.lam1, case.lam2, case.lam3)["phi_start"]
+    alpha = mass_ratio(p.I1, p.I2, p.r, p.R3, p.beta, p.theta, p.chi)
+    return [{"law": case.law, "phi_deg": math.degrees((w.phi[i] - start) % (2 * math.pi)),
+             "rho_mm": 1e3 * w.rho[i], "V3": float(w.v_slot[i]), "v_rocker": float(w.v_rocker[i]),
+             "V3y_eq10": v3y_first(alpha, p.e, p.v_pin, float(w.v_slot[i]))} for i in rocker_extremes(w)]
+
+
+def plot_velocity(out: Path, alpha_c=(0.0, 0.05, 0.3), R3: float = 0.040, laws=LIFTOFF_LAWS) -> list[Path]:
+    """Fig. 2 of the seed, from the model (the paper's figure is not in the text we have, only its caption and
+    two references to it).  Top: "according to the rocker's motion graph its angular (kinematic) velocity is
+    zero" at the take-up -- the roller centre's kinematic velocity over the crank turn on the feeder's groove
+    for K0 and C0, across the slot (the rocker's) and along it (the stone's V3 of eq. 10), the rocker's
+    extremes marked.  Bottom: the roller centre's velocity during the take-up itself at beta = 0 (eq. 5's
+    take-up, the rocker at rest), against eq. (10)'s V3y."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(alpha_c), figsize=(4.2 * len(alpha_c), 3.4), sharey=True, squeeze=False)
-    for ax, ac in zip(axes[0], alpha_c):
+    from fmus.physics import groove
+    from fmus.physics.takeup import LiftOffCase, lift_off
+
+    cols = max(len(alpha_c), len(laws))
+    fig, axes = plt.subplots(2, cols, figsize=(4.2 * cols, 6.8), squeeze=False)
+    for ax, law in zip(axes[0], laws):
+        case = LiftOffCase(law=law)
+        w = lift_off(case)
+        start = groove.base_design(case.lam1, case.lam2, case.lam3)["phi_start"]
+        deg = np.degrees((w.phi - start) % (2 * np.pi))
+        order = np.argsort(deg)
+        ax.plot(deg[order], np.hypot(w.v_slot, w.v_rocker)[order], "k", lw=1, label="roller centre |v|")
+        ax.plot(deg[order], w.v_rocker[order], label="across the slot, rho gamma' (rocker)")
+        ax.plot(deg[order], w.v_slot[order], "--", label="along the slot, V3 (stone)")
+        for i in rocker_extremes(w):
+            ax.axvline(deg[i], color="0.6", lw=0.8)
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_title(f"{law}, {case.rpm:g} rpm: kinematic velocity (grey: rocker at an extreme)", fontsize=8)
+        ax.set_xlabel("crank angle from the forward stroke's start [deg]")
+    axes[0][0].set_ylabel("roller-centre velocity [m/s]")
+    axes[0][0].legend(fontsize=6)
+    for ax in axes[0][len(laws):]:
+        ax.axis("off")
+    for ax, ac in zip(axes[1], alpha_c):
         p = params_for(R3, 0.0, BASE, 1.0, ac)
         tr = velocity_trace(p)
         ax.plot(tr["t"] * 1e3, tr["v_roller"], label="roller centre R3 gamma'")
         ax.plot(tr["t"] * 1e3, tr["v_crank_pin"], "--", label="crank pin r cos(beta) phi1'")
         ax.axhline(tr["v3y_eq10"], color="k", lw=0.8, ls=":", label="eq. (10) V3y")
         ax.axvline(tr["first_end"] * 1e3, color="0.6", lw=0.8)
-        ax.set_title(f"alpha_c = {ac:g}: {'classical' if tr['result'].classical else 'non-classical'}, "
+        ax.set_title(f"take-up, alpha_c = {ac:g}: {'classical' if tr['result'].classical else 'non-classical'}, "
                      f"{tr['result'].contacts} contacts", fontsize=8)
         ax.set_xlabel("time from the first onset [ms]")
-    axes[0][0].set_ylabel("velocity along the joint [m/s]")
-    axes[0][0].legend(fontsize=6)
-    fig.suptitle("Seed 000 Fig. 2 from the model: roller-centre velocity during the take-up (alpha_m = 1, r = R3, "
-                 "e = 0.2, 150 rpm, beta = 0; grey: end of the first contact)", fontsize=8)
+    axes[1][0].set_ylabel("velocity along the joint [m/s]")
+    axes[1][0].legend(fontsize=6)
+    for ax in axes[1][len(alpha_c):]:
+        ax.axis("off")
+    fig.suptitle("Seed 000 Fig. 2 from the model: the roller centre's velocity. Top: over the crank turn on the "
+                 "feeder's groove (r = 40 mm, lambda2 = 4.2, 30 deg dwell).\nBottom: during the take-up (alpha_m = "
+                 "1, r = R3, e = 0.2, 150 rpm, beta = 0; grey: end of the first contact)", fontsize=8)
     fig.tight_layout()
     return save_figure(fig, out / "takeup_velocity", dpi=110)
 
 
-LIFTOFF_LAWS = ("K0", "C0")            # the seed's Fig. 3: a - K0, b - C0
 LIFTOFF_LOADS = ((150.0, 0.0), (100.0, 0.05), (200.0, 0.05))   # (rpm, head friction N.m): the seed's case
 #                                      without external forces, then the feeder head's guide friction
 #                                      (systems/feeder_gto52: 0.05 N.m) at the seed's 100 and 200 rpm
@@ -343,11 +400,19 @@ def register(study_subparsers) -> None:
 
 def figures(out: Path) -> list[Path]:
     """The seed's Figs 2 and 3 from the model, with Fig. 3's lift-offs as ``takeup_liftoff.csv`` and printed."""
+    from fmus.physics.takeup import LiftOffCase, lift_off
+
     table, runs = liftoff_map()
     table = table.sort_values(["law", "rpm", "head_friction", "phi_deg"])
     write_complete(table, out / "takeup_liftoff.csv")
+    p = params_for(0.040, 0.0, BASE, 1.0, 0.0)
+    kin = pd.DataFrame([r for law in LIFTOFF_LAWS for r in kinematic_rows(lift_off(LiftOffCase(law=law)),
+                                                                            LiftOffCase(law=law), p)])
     files = plot_velocity(out) + plot_liftoff(out, runs)
     with pd.option_context("display.width", 200, "display.max_rows", 1000):
+        print("the rocker's extremes (seed Fig. 2; 150 rpm): the roller centre's kinematic velocity along the slot "
+              "V3 and eq. (10)'s V3y (alpha_m 1, r = R3, e 0.2, chi 0.2, beta 0, as the take-ups below it):")
+        print(kin.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
         print("roller lift-offs (seed Fig. 3; phi from the forward stroke's start):")
         print(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     return files + [out / "takeup_liftoff.csv"]
