@@ -447,12 +447,65 @@ class FourBarModel(Model):
         return (crank_tau, x[0], x[1], mu, force, abs(force), abs(side), x[3], x[4], x[5])
 
     def output_jacobian(self, t, x, u):
-        """By central differences of :meth:`output` (Model.output_jacobian_by_differences).  Why not in closed
-        form: the rigid level's outputs need the second derivative of the branch-wise loop-closure solution
-        (kinematics_scalar) and the transmission angle's, and fidelity 2's the contact law's slopes in each of its
-        laws and phases; the outputs are smooth in the inputs between those switches, where the differences
-        agree with the exact slopes to ~1e-9 relative."""
-        return self.output_jacobian_by_differences(t, x, u)
+        """d outputs / d (crank.phi, crank.w, rocker.tau) in closed form at fidelities 0 and 1, from the coupler's
+        geometry (:meth:`_geometry_slopes`, the partial derivatives :meth:`_acc_jet_at` integrates with) and, at
+        the rigid level, the loop closure's psi' and psi'' (kinematics_scalar).  Fidelity 2 by central differences
+        of :meth:`output` (Model.output_jacobian_by_differences): its force is the clearance contact law's, with
+        a slope of its own in each law and phase (contact.py), which the law does not give."""
+        p = self.p
+        if p.fidelity == 2:
+            return self.output_jacobian_by_differences(t, x, u)
+        phi, wc, tau = float(u[0]), float(u[1]), float(u[2])
+        D = np.zeros((len(self.outputs), len(self.inputs)))
+        if p.fidelity == 0:
+            psi, v, _ = self.rigid_kinematics(phi)
+            acc = 0.0 if self.kind == "parallelogram" else kinematics_scalar(phi, self._a, self._b, self._f,
+                                                                              self._r, p.branch)[2]
+            g = self._geometry_slopes(phi, wc, psi, v * wc)
+            D[0] = (tau * acc, 0.0, v)                                  # crank.tau = tau * psi'
+            D[1, 0] = v                                                 # rocker.phi = psi(phi)
+            D[2, :2] = (acc * wc, v)                                    # rocker.w = psi' * w
+            if self.kind == "parallelogram":                            # mu = |phi| wrapped to [-pi, pi]
+                D[3, 0] = math.copysign(1.0, math.atan2(math.sin(phi), math.cos(phi)))
+            else:
+                D[3, 0] = g["mu_phi"] + g["mu_psi"] * v
+            arm = g["arm"]
+            if abs(arm) > 1e-12 * self._r:                              # joint_force = tau / arm(phi, psi(phi))
+                D[4] = (-tau * (g["arm_phi"] + g["arm_psi"] * v) / (arm * arm), 0.0, 1.0 / arm)
+            return D
+        g = self._geometry_slopes(phi, wc, float(x[0]), float(x[1]))
+        k, cd = p.coupler_stiffness, p.coupler_damping
+        force = k * g["q"] + cd * g["qd"]
+        d_force = np.array([-k * g["arm_crank"] + cd * g["qd_phi"], -cd * g["arm_crank"], 0.0])
+        D[0] = d_force * g["arm_crank"] + np.array([force * g["crank_phi"] - p.belt_stiffness, -p.belt_damping, 0.0])
+        D[3, 0] = g["mu_phi"]
+        D[4] = d_force
+        return D
+
+    def _geometry_slopes(self, phi, wc, psi, w) -> dict[str, float]:
+        """The coupler's geometry and its partial derivatives in the crank angle phi and the rocker angle psi (the
+        closed forms of :meth:`_acc_jet_at`: with d = B - A, e = d/|d|, t_r = dd/dpsi, t_c = dd/dphi, the stretch
+        has dq/dpsi = e.t_r = arm and dq/dphi = e.t_c = -arm_crank and the unit vector turns by
+        de = (t - e (e.t)) / |d|), and of the transmission angle mu = acos(e . (cos psi, sin psi))."""
+        a, r = self._a, self._r
+        c, s = math.cos(phi), math.sin(phi)
+        cp, sp = math.cos(psi), math.sin(psi)
+        q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w)
+        length = q + self._b
+        rr_c = -r * a * (cp * c + sp * s)
+        arm_psi = -r * (ex * cp + ey * sp) + (r * r - arm * arm) / length
+        arm_phi = (rr_c + arm * arm_crank) / length
+        crank_phi = -(a * (ex * c + ey * s) + (a * a - arm_crank * arm_crank) / length)
+        cos_mu = ex * cp + ey * sp
+        sin_mu = math.sqrt(max(0.0, 1.0 - cos_mu * cos_mu))
+        # d cos_mu: the unit vector turning (de . rocker direction), and at psi the rocker direction turning too
+        e_tc = -arm_crank                                   # e . t_c
+        dcos_phi = ((a * s - ex * e_tc) * cp + (-a * c - ey * e_tc) * sp) / length
+        dcos_psi = ((-r * sp - ex * arm) * cp + (r * cp - ey * arm) * sp) / length + (-ex * sp + ey * cp)
+        inv = -1.0 / sin_mu if sin_mu > 0.0 else 0.0
+        return {"q": q, "qd": qd, "arm": arm, "arm_crank": arm_crank, "arm_psi": arm_psi, "arm_phi": arm_phi,
+                "crank_phi": crank_phi, "qd_phi": w * arm_phi - wc * crank_phi,
+                "mu_phi": inv * dcos_phi, "mu_psi": inv * dcos_psi}
 
     def _step(self, t, x, dt, u, t0, contact_on=True):
         """One classical Runge-Kutta step of length dt from (t, x); phi(t) uses the step start t0.
