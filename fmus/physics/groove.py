@@ -304,3 +304,127 @@ def export_points(path, p: Profile, r: float, comment: str = "") -> None:
             f.write(f"# {line}\n")
         for x, y in p.B * r:
             f.write(f"{x:.9f} {y:.9f}\n")
+
+
+# -- rocker-slider output stage (K1)-(K5) --------------------------------------------------------------------
+@dataclass(frozen=True)
+class RockerSlider:
+    """The rocker-slider contour of seed 001 (its Fig. 2), frame FE: origin at the rocker pivot O2, x along the
+    carriage guide, the guide on the line y = e, the carriage E = (s, e), the rocker angle gamma of O2D from
+    the guide direction, D = R (cos gamma, sin gamma), E to the right of D (s > D_x).
+
+      (K1) s = s0 - a_k S                                 carriage position from the slider law's invariant a_k
+      (K2) gamma01 = delta0 + arctan(e / s0)              the rocker's initial position
+      (K3) mu = arccos[(L^2 + R^2 - (e^2 + s^2)) / (2 L R)]   transmission angle at D (rocker vs tie rod)
+      (K4) theta = mu + gamma - pi                       pressure angle at the carriage (tie rod vs guide)
+      (K5) gamma = arctan(e / s) + delta,  delta = arccos[(R^2 + d^2 - L^2) / (2 R d)],  d^2 = e^2 + s^2
+
+    The seed prints (K5) as "pi + delta - arctg(e/s)", the mirrored layout (E on the negative x side); the
+    form above is the one (K2)-(K4) hold in (feeder.md 2.2).  Lengths in any one unit (R, L, e, s0, S)."""
+    R: float
+    L: float
+    e: float
+    s0: float
+    S: float
+
+    def position(self, a):
+        """(K1)."""
+        return self.s0 - np.asarray(a, dtype=float) * self.S
+
+    def angle(self, s):
+        """(K5): gamma(s) with d gamma/ds and d2 gamma/ds2 (closed forms; NaN where D cannot reach E)."""
+        s = np.asarray(s, dtype=float)
+        R, L, e = self.R, self.L, self.e
+        d2 = e * e + s * s
+        d = np.sqrt(d2)
+        X = (R * R - L * L) / (2.0 * R * d) + d / (2.0 * R)          # cos delta
+        Xd = -(R * R - L * L) / (2.0 * R * d2) + 1.0 / (2.0 * R)
+        Xdd = (R * R - L * L) / (R * d2 * d)
+        Xs = Xd * s / d
+        Xss = Xdd * (s / d) ** 2 + Xd * e * e / (d2 * d)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            w = np.sqrt(1.0 - X * X)
+            delta = np.arccos(X)
+            ds = -Xs / w
+            dss = -X * Xs ** 2 / w ** 3 - Xss / w
+        return np.arctan2(e, s) + delta, -e / d2 + ds, 2.0 * e * s / d2 ** 2 + dss
+
+    def delta0(self) -> float:
+        """The auxiliary angle of (K2): the angle at O2 between O2E and O2D in the initial position."""
+        d2 = self.e ** 2 + self.s0 ** 2
+        return math.acos((self.R ** 2 + d2 - self.L ** 2) / (2.0 * self.R * math.sqrt(d2)))
+
+    def gamma01(self) -> float:
+        """(K2)."""
+        return self.delta0() + math.atan(self.e / self.s0)
+
+    def transmission(self, s):
+        """(K3)."""
+        s = np.asarray(s, dtype=float)
+        return np.arccos((self.L ** 2 + self.R ** 2 - (self.e ** 2 + s * s)) / (2.0 * self.L * self.R))
+
+    def pressure(self, s):
+        """(K4): the signed angle between the tie rod D->E and the guide."""
+        return self.transmission(s) + self.angle(s)[0] - math.pi
+
+    def swing(self) -> float:
+        """The rocker's swing over the stroke: gamma(s0 - S) - gamma(s0)."""
+        return float(self.angle(self.s0 - self.S)[0] - self.angle(self.s0)[0])
+
+    def rocker_law(self, slider: Law, stroke: str = "forward") -> Law:
+        """The transformed law on the rocker ("трансформированный ЗПД на коромысле"), normalised to [0, 1]:
+        forward, the carriage runs s0 -> s0 - S by ``slider`` and the rocker turns gamma01 -> gamma01 + swing;
+        "return", the carriage runs back by ``slider`` (s = s0 - S (1 - a)) and the rocker's normalised
+        return law is 1 - (gamma - gamma01)/swing, as :class:`fmus.physics.laws.DwellCycle` takes it."""
+        if stroke not in ("forward", "return"):
+            raise ValueError(f"stroke = {stroke!r} must be 'forward' or 'return'")
+        g0, G = float(self.angle(self.s0)[0]), self.swing()
+        sign = 1.0 if stroke == "forward" else -1.0
+
+        def wrap(f):
+            def piece(k, m):
+                a, b, c = (np.asarray(v, dtype=float) for v in f(np.asarray(k, dtype=float), np))
+                s = self.position(a if stroke == "forward" else 1.0 - a)
+                g, gs, gss = self.angle(s)
+                ds = -sign * self.S                       # ds/da
+                out = ((g - g0) / G if stroke == "forward" else 1.0 - (g - g0) / G,
+                       sign * gs * ds * b / G, sign * (gss * ds * ds * b * b + gs * ds * c) / G)
+                return tuple(float(v) for v in out) if m is math else out
+            return piece
+
+        return Law(f"{slider.name}@rocker", f"law {slider.name} of the carriage seen on the rocker ({stroke} "
+                   f"stroke) through the rocker-slider stage R={self.R:g}, L={self.L:g}, e={self.e:g}, "
+                   f"s0={self.s0:g}, S={self.S:g}", tuple((end, wrap(f)) for end, f in slider.pieces),
+                   slider.params)
+
+
+def rocker_slider_for_swing(swing: float, R: float = 1.0, L: float = 2.5) -> RockerSlider:
+    """A rocker-slider stage whose rocker turns through ``swing`` [rad] over the stroke, with rocker R and tie rod
+    L (the seed leaves them to "constructional considerations"; ours: L = 2.5 R).  The rocker swings
+    symmetrically about the normal to the guide, gamma from pi/2 - swing/2 to pi/2 + swing/2, and e follows from
+    the seed's condition of staying away from jamming: the pressure angle (K4) is asin((D_y - e)/L) and D_y
+    runs over [R cos(swing/2), R], so e = R (1 + cos(swing/2))/2 makes its largest magnitude least."""
+    if not (0.0 < swing < math.pi):
+        raise ValueError(f"rocker swing = {swing!r} rad must be in (0, pi)")
+    if not (R > 0.0 and L > R):
+        raise ValueError(f"tie rod L = {L!r} must exceed the rocker R = {R!r} > 0")
+    e = 0.5 * R * (1.0 + math.cos(0.5 * swing))
+
+    def s_at(gamma: float) -> float:
+        dx, dy = R * math.cos(gamma), R * math.sin(gamma)
+        return dx + math.sqrt(L * L - (e - dy) ** 2)
+
+    s0 = s_at(0.5 * math.pi - 0.5 * swing)
+    return RockerSlider(R, L, e, s0, s0 - s_at(0.5 * math.pi + 0.5 * swing))
+
+
+def combined_kulisa_law(lam1: float, lam2: float, lam3: float, forward: Law, ret: Law | None = None,
+                        dwell: float = 0.0, assembly: int = 1, tie_rod: float = 2.5) -> tuple[KulisaLaw, RockerSlider]:
+    """Seed 001's combined mechanism: ``forward``/``ret`` are the CARRIAGE's laws; the rocker-slider stage
+    (:func:`rocker_slider_for_swing`, tie rod ``tie_rod`` rocker lengths) is laid out for the base four-bar's
+    swing, and the kulisa, rigid with the rocker, follows the transformed laws (K1)-(K5) with the phases and the
+    dwell of :func:`kulisa_law`."""
+    stage = rocker_slider_for_swing(base_design(lam1, lam2, lam3, assembly)["swing"], 1.0, tie_rod)
+    ret = forward if ret is None else ret
+    return kulisa_law(lam1, lam2, lam3, stage.rocker_law(forward), stage.rocker_law(ret, "return"), dwell,
+                      assembly), stage

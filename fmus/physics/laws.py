@@ -18,6 +18,9 @@ Registry (``get_law(name, **params)``):
                harmonic group; c(0) = 0, c(1) = -pi^2: no soft impact at the start, one at the end).
   power        eps = C[1 - (2k)^n] on 0 <= k <= 1/2 with point-symmetric completion about k = 1/2 and
                C = 4(n+1)(n+2)/[n(n+3)] from a(1) = 1 (spec §2.1.3); parameter n > 0 (default 2).
+  1,3 1,4 1,5  seed 001's harmonic-group laws, read as the seed's own formula with the power coefficient n that
+               the name gives: eps = C[1 - (2k)^n], n = 1.3, 1.4, 1.5 (the power family below with that n; see
+               :data:`SEED_HARMONIC`).  The seed gives no other formula for any named law.
   polydynamic  3-4-5 polynomial a = 10k^3 - 15k^4 + 6k^5 (Savvin group placeholder, spec §2.1.4);
   4567         4-5-6-7 polynomial a = 35k^4 - 84k^5 + 70k^6 - 20k^7 (zero jerk at both ends).
   P6           Stoddart's P6 is only named in the source (no formula).  WE DO NOT HAVE IT: "P6" here is a
@@ -29,6 +32,12 @@ Registry (``get_law(name, **params)``):
   bed004       seed 004's carrier law synthesised so that the bed moves uniformly through the printing zone
                with the published four-bar and z3/z5 = 3, swing 40 deg (fmus.physics.bed_law); parameter
                k_m = the bed's run-up share of the working stroke (default 0.2).
+  bed004r      seed 004's carrier return law: with the four-bar's idle stroke it returns the bed by the harmonic
+               law K0 (fmus.physics.bed_law.carrier_return_law); a law for the return phase (law_return = 9).
+
+Named by seed 001 without anything to build them from (``get_law`` refuses them, saying so): "2,12" and "Ш"
+(Shun's law, "Шуна"), cycloidal group; "3,8" (printed "Pd 3,8"), polydynamic group.  What the seed says of them
+is in :data:`SEED_UNDEFINED`.
 """
 from __future__ import annotations
 
@@ -89,6 +98,31 @@ def _power(n: float) -> Law:
 
     return Law("power", f"power family eps = C[1-(2k)^n], n = {n:g}, C = {C:.6g}, point-symmetric completion",
                ((0.5, first), (1.0, second)), (("n", n),))
+
+
+# Seed 001: "Harmonic slider LPMs ("K0", "0000") -- by a dependence in the form of a continuous function of the type
+# eps_k = C[1 - (2k)^n], where C is the constant of the acceleration peak, n the power coefficient (Fig. 4)";
+# Fig. 4's curves are "1 - K0; 2 - 0000; 3 - 1,3; 4 - 1,5", and the text names "K0, 1,4 and similar" as the
+# harmonic group.  The one reading that builds these laws from the seed alone: the name is n (decimal comma).
+# The other reading (catalogue codes "group, number" of Tir & Senyk [10]: 1 harmonic, 2 cycloidal, 3
+# polydynamic) fits the group digits as well but names laws whose formulas the seed does not carry.
+SEED_HARMONIC = {"1,3": 1.3, "1,4": 1.4, "1,5": 1.5}
+
+SEED_UNDEFINED = {
+    "2,12": "cycloidal group (the seed: profiles of the forward stroke like a sine wave with a sharpening at its end)",
+    "Ш": "cycloidal group, 'Шуна' (the seed: would cut the acceleration peaks substantially; its forward profiles "
+         "violate the no-sharpening condition)",
+    "3,8": "polydynamic group, 'Pd 3,8' (the seed: an approximate pause or constant-speed stretches of the "
+           "pushers; its forward profile is undercut)",
+}
+_UNDEFINED_ALIASES = {"Shuna": "Ш", "Sh": "Ш", "Шуна": "Ш", "Pd 3,8": "3,8", "2.12": "2,12", "3.8": "3,8"}
+
+
+def _seed_harmonic(name: str) -> Law:
+    n = SEED_HARMONIC[name]
+    law = _power(n)
+    return Law(name, f"seed 001 harmonic-group law {name}: eps = C[1-(2k)^n] with n = {n:g} (the name read as n), "
+               f"C = {power_constant(n):.6g}, point-symmetric about k = 1/2", law.pieces, (("n", n),))
 
 
 def _check_km(name: str, km: float) -> None:
@@ -161,8 +195,23 @@ def _bed004(k_m: float) -> Law:
 
 
 _FAMILIES["bed004"] = (_bed004, {"k_m": 0.2})
-LAW_NAMES: tuple[str, ...] = ("K0", "C0", "0000", "power", "polydynamic", "4567", "P6", "composite", "bed004")
-"""Known law names; the index in this tuple is the Integer ``law`` parameter of the components."""
+
+
+def _bed004r(k_m: float) -> Law:
+    """Seed 004's carrier return law for a harmonic bed return (fmus.physics.bed_law); k_m is not used."""
+    from .bed_law import carrier_return_law
+    return carrier_return_law()
+
+
+_FAMILIES["bed004r"] = (_bed004r, {"k_m": 0.2})
+for _name in SEED_HARMONIC:
+    _FIXED[_name] = _seed_harmonic(_name)
+LAW_NAMES: tuple[str, ...] = ("K0", "C0", "0000", "power", "polydynamic", "4567", "P6", "composite", "bed004",
+                              "bed004r")
+"""The laws the components take; the index in this tuple is their Integer ``law`` parameter (so the FMUs'
+interface does not change when a law is added for the synthesis tools only)."""
+KNOWN_LAWS: tuple[str, ...] = LAW_NAMES + tuple(SEED_HARMONIC)
+"""Every name :func:`get_law` builds: the components' laws and seed 001's harmonic-group laws."""
 
 
 def get_law(name: str, **params: float) -> Law:
@@ -173,7 +222,11 @@ def get_law(name: str, **params: float) -> Law:
         make, defaults = _FAMILIES[name]
         kw = {p: float(params.get(p, v)) for p, v in defaults.items()}
         return make(**kw)
-    raise ValueError(f"unknown law of periodic motion {name!r}; known laws: {', '.join(LAW_NAMES)}")
+    seed = _UNDEFINED_ALIASES.get(name, name)
+    if seed in SEED_UNDEFINED:
+        raise ValueError(f"law {name!r} is named by seed 001 without a formula: {SEED_UNDEFINED[seed]}; "
+                         f"known laws: {', '.join(KNOWN_LAWS)}")
+    raise ValueError(f"unknown law of periodic motion {name!r}; known laws: {', '.join(KNOWN_LAWS)}")
 
 
 # -- the dwell cycle -----------------------------------------------------------------------------------------

@@ -18,10 +18,10 @@ import warnings
 import numpy as np
 
 from fmus.physics import groove
-from fmus.physics.laws import LAW_NAMES, get_law
+from fmus.physics.laws import KNOWN_LAWS, get_law
 from harness.synthesis import fail, summary, typed
 
-COMPARE = ("K0", "C0", "power", "polydynamic", "P6")
+COMPARE = ("K0", "C0", "1,3", "1,5", "polydynamic", "P6")
 # The criteria seed 001 itself states (feeder.md): the kinematic connection (K6) whose break bounds lambda2
 # from below and shows as a cusp of the centroid curve (S1-2), the stone on the working side rho > 0 (K8,
 # section 1.3), no cusp / no undercut (S1-6, S1-7; undercut needs a roller radius, which the seed does not
@@ -40,7 +40,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     ap.add_argument("--lambda2", type=float, default=None,
                     help="conrod length / r of one design (needed for --out; default with --compare-laws: the "
                          "middle of each law's feasible interval)")
-    ap.add_argument("--law", default="K0", help=f"law of the forward phase ({', '.join(LAW_NAMES)})")
+    ap.add_argument("--law", default="K0", help=f"law of the forward phase ({', '.join(KNOWN_LAWS)})")
     ap.add_argument("--law-return", default=None, help="law of the return phase (default: --law)")
     ap.add_argument("--n", type=float, default=2.0, help="exponent of the power law")
     ap.add_argument("--k-m", type=float, default=0.4, help="k_m of the P6 stand-in / composite law")
@@ -52,7 +52,13 @@ def register(subparsers) -> argparse.ArgumentParser:
                     help="allowable pressure angle [deg] (default 60 = 90 - mu_min 30 of seed 004)")
     ap.add_argument("--scan", choices=("lambda2",), default=None,
                     help="find the feasible interval of lambda2 (default: no scan)")
-    ap.add_argument("--compare-laws", action="store_true", help="table of K0, C0, power, polydynamic, P6")
+    ap.add_argument("--slider-stage", action="store_true",
+                    help="the laws are the carriage's: the kulisa follows them through the rocker-slider stage "
+                         "(K1)-(K5), seed 001's combined mechanism (default: the laws are the kulisa's)")
+    ap.add_argument("--compare-laws", action="store_true", help=f"table of {', '.join(COMPARE)}")
+    ap.add_argument("--seed-figures", default=None, metavar="DIR",
+                    help="seed 001's statements against ours (slider stage, 80 deg dwell, size and energy) and its "
+                         "Figs. 2, 4 and 7 as charts in DIR (slow: about two minutes)")
     ap.add_argument("--out", default=None,
                     help="write the profile (x y per line, metres) for --lambda2 (default: not written)")
     ap.add_argument("--points", type=int, default=3600, help="crank-angle grid points")
@@ -65,10 +71,17 @@ def _fail(msg: str) -> int:
     return fail("groove", msg)
 
 
+def _kulisa(a, lf, lr, lam2: float) -> groove.KulisaLaw:
+    """The kulisa law of lam2: the laws themselves, or with --slider-stage the carriage's laws through (K1)-(K5)."""
+    if getattr(a, "slider_stage", False):
+        return groove.combined_kulisa_law(a.lambda1, lam2, a.lambda3, lf, lr, math.radians(a.dwell), a.assembly)[0]
+    return groove.kulisa_law(a.lambda1, lam2, a.lambda3, lf, lr, math.radians(a.dwell), a.assembly)
+
+
 def _design(a, law: str, lam2: float):
     lf = get_law(law, n=a.n, k_m=a.k_m)
     lr = lf if a.law_return is None else get_law(a.law_return, n=a.n, k_m=a.k_m)
-    kl = groove.kulisa_law(a.lambda1, lam2, a.lambda3, lf, lr, math.radians(a.dwell), a.assembly)
+    kl = _kulisa(a, lf, lr, lam2)
     return kl, groove.synthesize_law(kl, a.lambda1, lam2, a.points,
                                      groove.base_branch(a.lambda1, lam2, a.lambda3, a.assembly))
 
@@ -81,17 +94,21 @@ def _scan(a, law: str) -> dict:
     def failed(l2: float) -> list:
         """Every criterion the groove of l2 violates (groove.CRITERIA names; 'base four-bar' if none exists)."""
         try:
-            kl = groove.kulisa_law(a.lambda1, l2, a.lambda3, lf, lr, math.radians(a.dwell), a.assembly)
+            kl = _kulisa(a, lf, lr, l2)
         except ValueError:
             return ["base four-bar"]
         p = groove.synthesize_law(kl, a.lambda1, l2, a.points, groove.base_branch(a.lambda1, l2, a.lambda3, a.assembly))
         return groove.assess(p, a.crank_radius, a.roller_radius, mp)["all_failed"]
 
     def ok(l2: float, only=None):
-        """The first violated criterion (of ``only`` if given), None if feasible."""
+        """The first violated criterion (of ``only`` if given), None if feasible.  Where the connection breaks
+        there is no groove, and no other criterion has a value to judge: that is reported as 'connection'
+        whatever ``only`` asks (a pressure angle read off a clipped, non-existent groove bounded nothing)."""
         f = failed(l2)
         if f == ["base four-bar"]:
             return f[0]
+        if "connection" in f:
+            return "connection"
         f = [c for c in f if only is None or c in only]
         return f[0] if f else None
 
@@ -151,10 +168,12 @@ def _scan(a, law: str) -> dict:
         pressure angle fail at the same point, and the first of them in the list is not what bounds it."""
         own = {c: by_criterion[c] for c in names if c in by_criterion}
         hits = [c for c, b in own.items() if abs(b["interval"][end] - value) < 1e-5 and
-                b[("lower_limit", "upper_limit")[end]] != "base four-bar"]
+                b[("lower_limit", "upper_limit")[end]] == c]
         if not hits and any(b[("lower_limit", "upper_limit")[end]] == "base four-bar"
                             and abs(b["interval"][end] - value) < 1e-5 for b in own.values()):
             return "base four-bar"
+        if "connection" in hits:
+            return "connection"       # a cusp appears at the break itself (the seed: the break shows as a sharpening)
         return ", ".join(hits) or first
 
     seed_iv, seed_lo, seed_hi = extent(SEED_CRITERIA)
@@ -182,10 +201,10 @@ def _compare(a) -> list[dict]:
         row = dict(law=law)
         try:
             s = _scan(a, law)
-            row.update(lambda2_min=s["lambda2_min"], lambda2_max=s["lambda2_max"], feasible=True)
+            row.update(lambda2_min=s["lambda2_min"], lambda2_max=s["lambda2_max"], interval_found=True)
             lam2 = a.lambda2 if a.lambda2 is not None else 0.5 * (s["lambda2_min"] + s["lambda2_max"])
         except ValueError:
-            row.update(lambda2_min=math.nan, lambda2_max=math.nan, feasible=False)
+            row.update(lambda2_min=math.nan, lambda2_max=math.nan, interval_found=False)
             lam2 = a.lambda2 if a.lambda2 is not None else math.sqrt(a.lambda1 ** 2 - a.lambda3 ** 2 + 1)
         kl, p = _design(a, law, lam2)
         g, g1, g2 = kl(p.phi)
@@ -197,7 +216,8 @@ def _compare(a) -> list[dict]:
                    peak_inertia_power_per_Jw3=float(np.max(np.abs(g1 * g2))),
                    dwell_deg=a.dwell, swing_deg=math.degrees(kl.swing),
                    pressure_angle_max_deg=math.degrees(rep["pressure_angle_max"]),
-                   failed_at_lambda2=", ".join(rep["all_failed"]) or "none")
+                   failed_at_lambda2=", ".join(rep["all_failed"]) or "none",
+                   feasible_at_lambda2=not rep["all_failed"])
         rows.append(row)
     return rows
 
@@ -209,7 +229,7 @@ def _compare_table(rows: list[dict]) -> str:
             "peak_inertia_power_per_Jw3", "swing_deg", "dwell_deg", "pressure_angle_max_deg")
     lines = [" ".join(f"{k:>18}" for k in keys)]
     for r in rows:
-        iv = f"[{r['lambda2_min']:.4f}, {r['lambda2_max']:.4f}]" if r["feasible"] else "none"
+        iv = f"[{r['lambda2_min']:.4f}, {r['lambda2_max']:.4f}]" if r["interval_found"] else "none"
         cells = [r["law"], iv] + [r[k] for k in keys[2:]]
         lines.append(" ".join(f"{c:18.4f}" if isinstance(c, float) else f"{c!s:>18}" for c in cells))
     lines.append("interval: each law's feasible lambda2 (the scan); the columns from lambda2 on are at that lambda2")
@@ -241,6 +261,16 @@ def run(args) -> int:
             get_law(a.law_return, n=a.n, k_m=a.k_m)
         if not a.crank_radius > 0.0:
             return _fail(f"{typed('crank_radius', a.crank_radius, 'm')} must be > 0")
+        if a.seed_figures:
+            from pathlib import Path
+
+            from harness.synthesis import groove_seed
+            try:                                  # the folder is checked before a minute of work, not after
+                Path(a.seed_figures).mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                return _fail(f"--seed-figures {a.seed_figures}: cannot make the folder ({e.strerror})")
+            print(groove_seed.report(a, a.seed_figures, _scan))
+            return 0
         if a.compare_laws:
             rows = _compare(a)
             print(json.dumps(rows) if a.json else _compare_table(rows))

@@ -1,0 +1,151 @@
+"""Seed 001's rocker-slider stage (K1)-(K5), the combined mechanism, the scan's labels and --compare-laws, and
+the command that sets the seed's statements beside ours (issue 31)."""
+import argparse
+import json
+import math
+
+import numpy as np
+import pytest
+
+from fmus.physics import groove as G
+from fmus.physics import laws as L
+from harness.synthesis import groove as cli
+from harness.synthesis import groove_seed as seed
+
+LAM1, LAM3 = 3.5, 3.0
+
+
+def _args(*extra):
+    ap = argparse.ArgumentParser()
+    cli.register(ap.add_subparsers())
+    return ap.parse_args(["groove", *extra])
+
+
+@pytest.mark.parametrize("swing_deg, L_", [(46.0, 2.5), (70.0, 1.8)])
+def test_rocker_slider_k1_to_k5_against_the_geometry(swing_deg, L_):
+    st = G.rocker_slider_for_swing(math.radians(swing_deg), 1.0, L_)
+    assert st.swing() == pytest.approx(math.radians(swing_deg), abs=1e-12)
+    a = np.linspace(0.0, 1.0, 41)
+    s = st.position(a)                                                    # (K1)
+    assert s[0] == st.s0 and s[-1] == pytest.approx(st.s0 - st.S)
+    g, gs, gss = st.angle(s)                                              # (K5)
+    D = st.R * np.stack([np.cos(g), np.sin(g)], axis=1)
+    E = np.stack([s, np.full_like(s, st.e)], axis=1)
+    assert np.allclose(np.hypot(*(E - D).T), st.L, atol=1e-12)            # the tie rod keeps its length
+    assert st.gamma01() == pytest.approx(g[0], abs=1e-12)                 # (K2)
+    u, w = -D, E - D                                                      # (K3): the angle at D
+    mu = np.arccos(np.sum(u * w, axis=1) / (np.hypot(*u.T) * np.hypot(*w.T)))
+    assert np.allclose(st.transmission(s), mu, atol=1e-12)
+    psi = np.arctan2(w[:, 1], w[:, 0])                                    # (K4): tie rod D->E against the guide
+    assert np.allclose(st.pressure(s), psi, atol=1e-12)
+    h = 1e-6                                                              # closed-form derivatives of (K5)
+    assert np.allclose(gs, (st.angle(s + h)[0] - st.angle(s - h)[0]) / (2 * h), rtol=1e-6, atol=1e-8)
+    assert np.allclose(gss, (st.angle(s + h)[1] - st.angle(s - h)[1]) / (2 * h), rtol=1e-5, atol=1e-6)
+
+
+def test_guide_offset_is_the_one_farthest_from_jamming():
+    """e = R(1 + cos(swing/2))/2 makes the largest |pressure angle| (K4) least: moving e either way raises it."""
+    swing, R, L_ = math.radians(55.0), 1.0, 2.5
+    st = G.rocker_slider_for_swing(swing, R, L_)
+
+    def worst(e):
+        g = np.linspace(math.pi / 2 - swing / 2, math.pi / 2 + swing / 2, 2001)
+        return np.max(np.abs(np.arcsin((R * np.sin(g) - e) / L_)))
+
+    s = np.linspace(st.s0 - st.S, st.s0, 2001)
+    assert np.max(np.abs(st.pressure(s))) == pytest.approx(worst(st.e), rel=1e-6)
+    assert worst(st.e + 0.01) > worst(st.e) and worst(st.e - 0.01) > worst(st.e)
+
+
+@pytest.mark.parametrize("law", ["K0", "1,5", "C0"])
+def test_rocker_law_is_the_carriage_law_through_the_stage(law):
+    """The transformed law on the rocker: normalised, at rest at both ends where the carriage law is, and
+    (gamma - gamma01)/swing of the carriage's position along the stroke; the return law mirrors it."""
+    st = G.rocker_slider_for_swing(math.radians(60.0))
+    lf = L.get_law(law)
+    k = np.linspace(0.0, 1.0, 2001)
+    a, b, c = st.rocker_law(lf)(k)
+    ac = lf(k)[0]
+    g = st.angle(st.position(ac))[0]
+    assert np.allclose(a, (g - g[0]) / st.swing(), atol=1e-12)
+    assert a[0] == pytest.approx(0.0, abs=1e-12) and a[-1] == pytest.approx(1.0, abs=1e-12)
+    assert abs(b[0]) < 1e-12 and abs(b[-1]) < 1e-12
+    h = k[1] - k[0]
+    assert np.max(np.abs(np.gradient(a, h) - b)[1:-1]) < 1e-5
+    ar = st.rocker_law(lf, "return")(k)[0]
+    gr = st.angle(st.position(1.0 - ac))[0]
+    assert np.allclose(1.0 - ar, (gr - g[0]) / st.swing(), atol=1e-12)
+    # the stage is not linear: the rocker law is not the carriage law
+    assert np.max(np.abs(a - ac)) > 1e-3
+    with pytest.raises(ValueError, match="stroke"):
+        st.rocker_law(lf, "back")
+
+
+def test_combined_mechanism_turns_the_kulisa_through_the_base_swing():
+    lam2 = 4.5
+    kl, st = G.combined_kulisa_law(LAM1, lam2, LAM3, L.get_law("1,5"), dwell=math.radians(80.0))
+    ref = G.base_design(LAM1, lam2, LAM3)
+    assert st.swing() == pytest.approx(ref["swing"], abs=1e-12)
+    phi = kl.cycle.phi_start + np.linspace(0.0, 2 * math.pi, 7200, endpoint=False)
+    g = kl(phi)[0]
+    assert g.min() == pytest.approx(min(ref["gamma_start"], ref["gamma_end"]), abs=1e-9)
+    assert g.max() == pytest.approx(max(ref["gamma_start"], ref["gamma_end"]), abs=1e-9)
+    s1 = kl.cycle(phi)[1]
+    dwell = np.sum((s1 == 0.0) & (kl.cycle(phi)[0] == 1.0)) * 360.0 / len(phi)
+    assert dwell == pytest.approx(80.0, abs=0.1)
+
+
+def test_each_criterion_alone_is_labelled_connection_where_no_groove_exists(capsys):
+    """Issue 31: below the connection break there is no groove, yet the pressure criterion alone was judged on
+    its clipped points and read '[3.245523, 4.054717] (lower end: pressure)' for K0; its interval now starts at
+    the break, labelled connection."""
+    a = _args("--law", "K0", "--scan", "lambda2", "--json")
+    assert a.func(a) == 0
+    out = json.loads(capsys.readouterr().out)
+    by = out["bounds_by_criterion"]
+    lo = by["connection"]["interval"][0]
+    for c, b in by.items():
+        assert b["interval"][0] >= lo - 1e-9, c
+    assert by["pressure"]["lower_limit"] == "connection"
+    assert out["lower_limit"] == "connection" and out["upper_limit"] == "pressure"
+
+
+def test_compare_laws_json_says_what_is_feasible_where(capsys):
+    """--compare-laws --json: no 'feasible': true beside a failed criterion; whether a law has a feasible
+    interval and whether the lambda2 column is feasible are two keys; the seed's laws 1,3 and 1,5 are compared."""
+    a = _args("--compare-laws", "--lambda2", "4.2", "--json")
+    assert a.func(a) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert {"1,3", "1,5"} <= {r["law"] for r in rows}
+    for r in rows:
+        assert "feasible" not in r
+        assert r["feasible_at_lambda2"] == (r["failed_at_lambda2"] == "none")
+        assert r["lambda2"] == 4.2
+    k0 = next(r for r in rows if r["law"] == "K0")
+    assert k0["interval_found"] and not k0["feasible_at_lambda2"]
+
+
+def test_inertia_work_of_a_sine_swing_is_twice_its_peak_kinetic_energy():
+    phi = np.linspace(0.0, 2 * math.pi, 20000, endpoint=False)
+    A = 0.7
+    f = seed.energy_figures(A * np.cos(phi), -A * np.sin(phi))
+    assert f["work"] == pytest.approx(A * A, rel=1e-3)
+    assert f["peak_eps"] == pytest.approx(A, rel=1e-6) and f["peak_power"] == pytest.approx(A * A / 2, rel=1e-6)
+
+
+def test_rocker_acceleration_of_harmonic_laws_is_of_the_seeds_type():
+    """The seed: a harmonic carriage law gives a rocker acceleration of the type C[1 - (2k)^n].  Measured: the
+    fit leaves less than 6 % of the peak for K0, 1,3 and 1,5 through the stage."""
+    st = G.rocker_slider_for_swing(math.radians(55.0))
+    for name in ("K0", "1,3", "1,5"):
+        n, misfit = seed.fit_power(st.rocker_law(L.get_law(name)))
+        assert 0.5 < n < 3.0 and misfit < 0.06, name
+
+
+def test_seed_figures_command_writes_figs_2_4_7_and_the_statements(tmp_path, capsys):
+    a = _args("--seed-figures", str(tmp_path), "--points", "720")
+    assert a.func(a) == 0
+    text = capsys.readouterr().out
+    for stem in ("seed001_fig2", "seed001_fig4", "seed001_fig7"):
+        assert (tmp_path / f"{stem}.png").stat().st_size > 10000 and (tmp_path / f"{stem}.svg").exists()
+    assert "up to 80 deg" in text and "14-31 %" in text and "12-38 %" in text and "{" not in text
