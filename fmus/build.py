@@ -39,9 +39,11 @@ ROOT = Path(__file__).resolve().parents[1]
 COMPONENTS = ROOT / "fmus" / "components"
 DOCS = ROOT / "fmus" / "docs"
 # the runtime part of the fmus package, for either FMI version; each FMU bundles all but the other version's slave
-RUNTIME = ("__init__.py", "slave_core.py", "slave.py", "slave3.py", "units.py", "physics")
+RUNTIME = ("__init__.py", "slave_core.py", "slave.py", "slave3.py", "slave3_me.py", "units.py", "physics")
 SLAVE_MODULE = {2: "slave.py", 3: "slave3.py"}
 VERSIONS = tuple(SLAVE_MODULE)
+# FMI 3.0 model exchange (--model-exchange): the declaration's names come from this module, which extends slave3
+ME_MODULE = "slave3_me.py"
 
 
 LOADER = ROOT / "fmus" / "loader" / "pressdrive_loader.c"
@@ -50,6 +52,7 @@ PLATFORM = "linux64"     # the one platform the host loader is built for (the ot
 LOADERS = {2: (LOADER, PLATFORM, "pythonfmu"),
            3: (ROOT / "fmus" / "loader" / "pressdrive_loader3.c", "x86_64-linux", "pythonfmu3")}
 OUT = {2: ROOT / "build" / "fmus", 3: ROOT / "build" / "fmus3"}   # default output folder of each version
+OUT_ME = ROOT / "build" / "fmus3me"                                 # ... of the FMI 3.0 model exchange FMUs
 
 
 _DECLARATION = re.compile(r"^class\s+(\w+)\s*\(\s*PressSlave\s*\)", re.M)
@@ -71,20 +74,23 @@ def component_scripts() -> list[Path]:
     return sorted(set(catalog().values()))
 
 
-def runtime(fmi_version: int = 2) -> tuple[str, ...]:
+def runtime(fmi_version: int = 2, model_exchange: bool = False) -> tuple[str, ...]:
     """The parts of the fmus package an FMU of this FMI version needs at run time (RUNTIME without the other
-    version's slave module, so an FMU imports only its own exporter)."""
+    version's slave module, so an FMU imports only its own exporter; the model exchange slave only in a model
+    exchange FMU, so the co-simulation FMUs pack what they packed before it existed)."""
     if fmi_version not in SLAVE_MODULE:
         raise ValueError(f"FMI version {fmi_version!r} is not built here (allowed: {', '.join(map(str, VERSIONS))})")
-    other = {m for v, m in SLAVE_MODULE.items() if v != fmi_version}
+    if model_exchange and fmi_version != 3:
+        raise ValueError(f"model exchange FMUs are built for FMI 3.0 only (asked: FMI {fmi_version})")
+    other = {m for v, m in SLAVE_MODULE.items() if v != fmi_version} | (set() if model_exchange else {ME_MODULE})
     return tuple(n for n in RUNTIME if n not in other)
 
 
-def stage_runtime(dest: Path, package: str = "fmus", fmi_version: int = 2) -> Path:
+def stage_runtime(dest: Path, package: str = "fmus", fmi_version: int = 2, model_exchange: bool = False) -> Path:
     """Copy the parts of the fmus package an FMU needs at run time into dest/<package>."""
     pkg = dest / package
     pkg.mkdir(parents=True)
-    for name in runtime(fmi_version):
+    for name in runtime(fmi_version, model_exchange):
         src = ROOT / "fmus" / name
         if src.is_dir():
             shutil.copytree(src, pkg / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
@@ -93,10 +99,10 @@ def stage_runtime(dest: Path, package: str = "fmus", fmi_version: int = 2) -> Pa
     return pkg
 
 
-def runtime_files(fmi_version: int | None = None) -> list[Path]:
+def runtime_files(fmi_version: int | None = None, model_exchange: bool = False) -> list[Path]:
     """The source files an FMU packs besides its declaration: every file of :func:`runtime` (of both FMI versions
-    when ``fmi_version`` is None), folders walked for ``*.py``."""
-    names = RUNTIME if fmi_version is None else runtime(fmi_version)
+    and both interfaces when ``fmi_version`` is None), folders walked for ``*.py``."""
+    names = RUNTIME if fmi_version is None else runtime(fmi_version, model_exchange)
     files: list[Path] = []
     for name in names:
         src = ROOT / "fmus" / name
@@ -104,16 +110,18 @@ def runtime_files(fmi_version: int | None = None) -> list[Path]:
     return files
 
 
-def code_hash(script: Path, fmi_version: int = 2) -> str:
+def code_hash(script: Path, fmi_version: int = 2, model_exchange: bool = False) -> str:
     """Digest of everything an FMU's Python code consists of: its declaration and the runtime sources."""
     h = hashlib.sha1(script.read_bytes())
-    for f in runtime_files(fmi_version):
+    if model_exchange:
+        h.update(b"model exchange")
+    for f in runtime_files(fmi_version, model_exchange):
         h.update(str(f.relative_to(ROOT)).encode())
         h.update(f.read_bytes())
     return h.hexdigest()[:12]
 
 
-def stage_isolated(script: Path, dest: Path, fmi_version: int = 2) -> tuple[Path, Path]:
+def stage_isolated(script: Path, dest: Path, fmi_version: int = 2, model_exchange: bool = False) -> tuple[Path, Path]:
     """The FMU's code under names unique to this build: ``fmus_<hash>`` and ``<script>_<hash>``.
 
     Every FMU bundles the runtime package; under one shared name a host process would keep the first copy
@@ -125,13 +133,15 @@ def stage_isolated(script: Path, dest: Path, fmi_version: int = 2) -> tuple[Path
 
     For FMI 3.0 the declaration imports its names from ``fmus.slave3`` instead of ``fmus.slave`` (the same
     names: the base class is the FMI 3.0 one), and its class statement also names pythonfmu3's ``Fmi3Slave``,
-    already a base of that class: pythonfmu3's builder and C wrapper find the FMU class by that word."""
-    digest = code_hash(script, fmi_version)
-    pkg = stage_runtime(dest, f"fmus_{digest}", fmi_version)
+    already a base of that class: pythonfmu3's builder and C wrapper find the FMU class by that word.  A model
+    exchange build (``model_exchange``) takes them from ``fmus.slave3_me``."""
+    digest = code_hash(script, fmi_version, model_exchange)
+    pkg = stage_runtime(dest, f"fmus_{digest}", fmi_version, model_exchange)
     text = script.read_text(encoding="utf-8")
     text = re.sub(r"^(\s*)(from|import)\s+fmus(?=[.\s])", rf"\1\2 fmus_{digest}", text, flags=re.M)
     if fmi_version == 3:
-        text, n = re.subn(rf"^(\s*from\s+fmus_{digest}\.slave)(\s+import)", r"\g<1>3\2", text, flags=re.M)
+        slave = "3_me" if model_exchange else "3"
+        text, n = re.subn(rf"^(\s*from\s+fmus_{digest}\.slave)(\s+import)", rf"\g<1>{slave}\2", text, flags=re.M)
         text, m = _DECLARATION.subn(r"from pythonfmu3 import Fmi3Slave  # noqa: E402\nclass \1(PressSlave, Fmi3Slave)",
                                     text)
         if n != 1 or m != 1:
@@ -200,7 +210,7 @@ def add_loader(fmu: Path, loader: Path, fmi_version: int = 2) -> None:
 
 
 def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path | None = None,
-              fmi_version: int = 2) -> Path:
+              fmi_version: int = 2, model_exchange: bool = False) -> Path:
     """Build one FMU from its declaration into ``out`` (its code under build-unique names, see
     :func:`stage_isolated`); with ``loader`` (compiled for the same FMI version), the host loader goes in front
     of the exporter's wrapper."""
@@ -214,7 +224,7 @@ def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path
     doc_dir = DOCS / script.stem.removeprefix("pd_")
     stage = Path(tempfile.mkdtemp(prefix=f"pressdrive_src_{script.stem}_"))
     try:
-        staged, runtime = stage_isolated(script, stage, fmi_version)
+        staged, runtime = stage_isolated(script, stage, fmi_version, model_exchange)
         fmu = _pythonfmu_build(FmuBuilder, staged, out, runtime, doc_dir, fmi_version)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
@@ -280,13 +290,21 @@ def main(argv: list[str] | None = None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--fmi-version", type=int, choices=VERSIONS, default=2,
                     help="FMI version of the FMUs: 2 (pythonfmu) or 3 (pythonfmu3, co-simulation); default 2")
+    ap.add_argument("--model-exchange", action="store_true",
+                    help="FMI 3.0 model exchange FMUs (the model's ODE, integrated by the host) instead of "
+                         "co-simulation ones; with --fmi-version 3, into build/fmus3me")
     ap.add_argument("--out", type=Path, default=None,
-                    help="output folder (default build/fmus for FMI 2.0, build/fmus3 for FMI 3.0)")
+                    help="output folder (default build/fmus for FMI 2.0, build/fmus3 for FMI 3.0, build/fmus3me "
+                         "for FMI 3.0 model exchange)")
     ap.add_argument("--only", nargs="*", default=None, help="build only these modules (e.g. pd_fourbar)")
     ap.add_argument("--no-validate", action="store_true", help="skip the fmpy validation of each FMU")
     args = ap.parse_args(argv)
+    if args.model_exchange and args.fmi_version != 3:
+        print(f"build_fmus: --model-exchange builds FMI 3.0 FMUs: add --fmi-version 3 (got {args.fmi_version})",
+              file=sys.stderr)
+        return 2
     if args.out is None:
-        args.out = OUT[args.fmi_version]
+        args.out = OUT_ME if args.model_exchange else OUT[args.fmi_version]
     exporter = LOADERS[args.fmi_version][2]
     try:
         importlib.import_module(exporter)
@@ -319,7 +337,8 @@ def main(argv: list[str] | None = None) -> int:
             stage = Path(tempfile.mkdtemp(prefix=f".{script.stem}_", dir=args.out))
             try:
                 try:
-                    staged = build_one(script, stage, loader=loader, fmi_version=args.fmi_version)
+                    staged = build_one(script, stage, loader=loader, fmi_version=args.fmi_version,
+                                       model_exchange=args.model_exchange)
                 except Exception as e:  # report and continue with the others
                     print(f"build_fmus: FAILED {script.name}: {type(e).__name__}: {e}", file=sys.stderr)
                     failed.append(script.name)
