@@ -13,6 +13,7 @@ import math
 import sys
 import threading
 import types
+import weakref
 from dataclasses import dataclass
 from typing import ClassVar
 from xml.etree.ElementTree import Element, SubElement
@@ -103,13 +104,22 @@ LOADER_BRIDGE = "_pressdrive_directional_derivatives"
 
 
 def _offer_to_loader(instance_name: str, directional_derivative) -> None:
+    """Offer a slave's bound method (weakly: a slave made outside the loader, in process, is not kept alive by an
+    offer nobody takes; the next construction on the thread replaces it)."""
     bridge = sys.modules.get(LOADER_BRIDGE)
     if bridge is None:
         bridge = types.ModuleType(LOADER_BRIDGE, "directional derivatives offered to the host loader (fmus.slave_core)")
         bridge.offered = {}
-        bridge.take = lambda offered=bridge.offered: offered.pop(threading.get_ident(), None)
+        bridge.take = _take_offer
         sys.modules[LOADER_BRIDGE] = bridge
-    bridge.offered[threading.get_ident()] = (instance_name, directional_derivative)
+    bridge.offered[threading.get_ident()] = (instance_name, weakref.WeakMethod(directional_derivative))
+
+
+def _take_offer():
+    """(instance name, directional_derivative) offered on this thread, removed from the bridge, or None."""
+    entry = sys.modules[LOADER_BRIDGE].offered.pop(threading.get_ident(), None)
+    method = entry[1]() if entry is not None else None
+    return None if method is None else (entry[0], method)
 
 
 class PressBehaviour:

@@ -273,3 +273,35 @@ def test_jacobian_master_results_unchanged_with_directional_derivatives(name, st
     for c in b.columns:
         scale = max(float(np.max(np.abs(b[c].values))), 1e-9)
         assert float(np.max(np.abs(a[c].values - b[c].values))) <= 1e-6 * scale, c
+
+
+def test_binary_instances_answer_from_their_own_slaves(fmu_dir, fmu3_dir):
+    """The host loader keeps each instance's slave: instances of one FMU with different stiffness side by side,
+    one made after an in-process slave of the same instance name on the same thread (whose offer the loader must
+    not take), and one made after another was freed, each answer d drive.tau / d drive.phi = -c of their own."""
+    made = []
+    try:
+        stray = open_instance(fmu_dir / "SpringInertia.fmu", "twin", in_process=True)
+        stray.set_value("c", 777.0)
+        made.append(stray)
+        for path in (fmu_dir, fmu3_dir):
+            insts = []
+            for i, c in enumerate((100.0, 300.0, 50.0)):
+                inst = open_instance(path / "SpringInertia.fmu", "twin", in_process=False)
+                assert not isinstance(inst, InProcessFMU)
+                inst.set_value("c", c)
+                inst.setup(0.0)
+                inst.enter_initialization()
+                inst.exit_initialization()
+                insts.append((inst, c))
+                if i == 1:                      # free the second one; the third is made after
+                    inst.free()
+                    insts.pop()
+                else:
+                    made.append(inst)
+            for inst, c in insts:
+                phi, tau = inst.reals(["drive.phi"]), inst.reals(["drive.tau"])
+                assert inst.directional_derivative(tau, phi, [1.0])[0] == pytest.approx(-c, rel=1e-15), (path, c)
+    finally:
+        for inst in made:
+            inst.free()
