@@ -21,6 +21,9 @@ the same declaration builds an FMI 3.0 FMU on ``fmus.slave3.PressSlave``, ``buil
 * integrates the model inside ``do_step`` over exactly ``communicationStepSize`` (``Model.advance``);
 * computes outputs lazily, so outputs that depend directly on inputs follow ``fmi2SetReal`` at once;
 * saves and restores the complete internal state (``fmi2GetFMUstate``/``fmi2SetFMUstate``) bit for bit;
+* gives directional derivatives, d outputs / d inputs at the current time from the model's ``output_jacobian``
+  (``providesDirectionalDerivative``): pythonfmu's wrapper does not forward ``fmi2GetDirectionalDerivative``, so
+  the host loader answers it from ``directional_derivative`` (fmus/loader/pressdrive_loader.c);
 * validates parameters on entering/leaving initialisation and inputs before each step: a bad value is
   logged as one line naming the instance, variable and value, and the call fails (pythonfmu reports a
   Python exception as ``fmi2Fatal``; it offers no way to return ``fmi2Error`` from these calls).
