@@ -149,3 +149,35 @@ def test_seed_figures_command_writes_figs_2_4_7_and_the_statements(tmp_path, cap
     for stem in ("seed001_fig2", "seed001_fig4", "seed001_fig7"):
         assert (tmp_path / f"{stem}.png").stat().st_size > 10000 and (tmp_path / f"{stem}.svg").exists()
     assert "up to 80 deg" in text and "14-31 %" in text and "12-38 %" in text and "{" not in text
+
+
+@pytest.mark.parametrize("law", ["K0", "C0", "1,5"])
+def test_base_return_keeps_the_return_profile_the_same_for_every_lambda2(law):
+    """The seed: 'the character and the parameters of the profile on the return stroke of the kulisa are constant
+    for all values of lambda2'.  With --law-return base the return branch is the arc rho = lambda3 for every
+    lambda2; with the law on both strokes it is not (12-13 mm off the arc at r = 40 mm)."""
+    for lam2 in (4.05, 4.6, 5.2):
+        kl = G.kulisa_law_base_return(LAM1, lam2, LAM3, L.get_law(law), dwell=math.radians(20.0))
+        p = G.synthesize_law(kl, LAM1, lam2, 3600, G.base_branch(LAM1, lam2, LAM3))
+        back = ~p.forward & p.moving
+        assert back.sum() > 1000 and np.max(np.abs(p.rho[back] - LAM3)) < 1e-9
+        assert np.max(np.abs(p.rho[p.forward & p.moving] - LAM3)) > 0.1     # the forward stroke is the law's
+        kl2 = G.kulisa_law(LAM1, lam2, LAM3, L.get_law(law))
+        p2 = G.synthesize_law(kl2, LAM1, lam2, 3600, G.base_branch(LAM1, lam2, LAM3))
+        assert np.max(np.abs(p2.rho[~p2.forward & p2.moving] - LAM3)) * 0.04 > 0.010
+
+
+@pytest.mark.parametrize("limit_deg", [60.0, 65.0])
+def test_with_the_base_return_the_upper_end_is_the_four_bars_transmission_limit(capsys, limit_deg):
+    """Item 4: the upper end of lambda2 is set by whatever allowable pressure angle is taken (the seed gives none):
+    with the base return it is where the base four-bar's transmission angle at phi = 0 falls to 90 deg - limit,
+    lambda2 = lambda3 cos mu + sqrt((lambda1 - 1)^2 - lambda3^2 sin^2 mu)."""
+    a = _args("--law", "K0", "--law-return", "base", "--scan", "lambda2", "--json",
+              "--max-pressure-angle", str(limit_deg))
+    assert a.func(a) == 0
+    out = json.loads(capsys.readouterr().out)
+    mu = math.radians(90.0 - limit_deg)
+    expected = LAM3 * math.cos(mu) + math.sqrt((LAM1 - 1.0) ** 2 - (LAM3 * math.sin(mu)) ** 2)
+    assert out["upper_limit"] == "pressure" and out["lambda2_max"] == pytest.approx(expected, abs=2e-6)
+    assert out["lower_limit"] == "connection" and out["lambda2_min"] == pytest.approx(4.01732, abs=2e-6)
+

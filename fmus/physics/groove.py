@@ -125,6 +125,47 @@ def kulisa_law(lam1: float, lam2: float, lam3: float, forward: Law, ret: Law | N
     return KulisaLaw(cyc, ref["gamma_start"], ref["direction"], ref["swing"])
 
 
+def base_return_law(lam1: float, lam2: float, lam3: float, assembly: int = 1) -> Law:
+    """The base four-bar's own return stroke as a normalised law: a(k) = (gamma_end - gamma(phi))/(gamma_end -
+    gamma_start) with phi = phi_extended + k * phase_return.  A kulisa that returns by it keeps the stone at
+    rho = lambda3, so the return-stroke profile is the arc of radius lambda3 whatever lambda2 is: the seed's
+    "the character and the parameters of the profile on the return stroke are the same for all lambda2".
+    Derivatives by central differences of the closed-form angle (h = 1e-4 rad: b to 1e-8, c to 1e-6)."""
+    ref = base_design(lam1, lam2, lam3, assembly)
+    pe, P = ref["phi_start"] + ref["phase_forward"], ref["phase_return"]
+    g_end, span = ref["gamma_end"], ref["gamma_end"] - ref["gamma_start"]
+    h = 1e-4
+
+    def angle(phi):
+        g = base_fourbar_angle(phi, lam1, lam2, lam3, assembly)
+        return g_end + np.remainder(g - g_end + math.pi, TWO_PI) - math.pi
+
+    def piece(k, m):
+        phi = pe + np.asarray(k, dtype=float) * P
+        g, gp, gm = angle(phi), angle(phi + h), angle(phi - h)
+        a = (g_end - g) / span
+        b = -(gp - gm) / (2.0 * h) * P / span
+        c = -(gp - 2.0 * g + gm) / (h * h) * P * P / span
+        return (float(a), float(b), float(c)) if m is math else (a, b, c)
+
+    return Law("base", f"the base four-bar's own return stroke (lambda1={lam1:g}, lambda2={lam2:g}, "
+               f"lambda3={lam3:g})", ((1.0, piece),))
+
+
+def kulisa_law_base_return(lam1: float, lam2: float, lam3: float, forward: Law, dwell: float = 0.0,
+                           assembly: int = 1) -> KulisaLaw:
+    """The kulisa follows ``forward`` from the folded dead centre, dwells ``dwell`` rad before the extended one,
+    and returns as the base four-bar does (:func:`base_return_law`): the roller leaves the groove's law on the
+    return stroke."""
+    ref = base_design(lam1, lam2, lam3, assembly)
+    pf = ref["phase_forward"] - dwell
+    if not pf > 0.0:
+        raise ValueError(f"dwell = {dwell!r} rad leaves no forward phase (base four-bar's {ref['phase_forward']:.4f} rad)")
+    cyc = DwellCycle(forward, base_return_law(lam1, lam2, lam3, assembly), pf, ref["phase_return"], dwell,
+                     ref["phi_start"])
+    return KulisaLaw(cyc, ref["gamma_start"], ref["direction"], ref["swing"])
+
+
 def base_branch(lam1: float, lam2: float, lam3: float, assembly: int = 1) -> int:
     """Root of (K8) the base four-bar takes at its folded dead centre: +1 (cos mu >= 0) or -1."""
     pf, gf = fourbar_extremes(lam1, lam2, lam3, assembly)["folded"]

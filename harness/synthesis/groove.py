@@ -41,7 +41,9 @@ def register(subparsers) -> argparse.ArgumentParser:
                     help="conrod length / r of one design (needed for --out; default with --compare-laws: the "
                          "middle of each law's feasible interval)")
     ap.add_argument("--law", default="K0", help=f"law of the forward phase ({', '.join(KNOWN_LAWS)})")
-    ap.add_argument("--law-return", default=None, help="law of the return phase (default: --law)")
+    ap.add_argument("--law-return", default=None,
+                    help="law of the return phase, or 'base': the kulisa returns as the base four-bar does, the "
+                         "roller off the groove's law (default: --law)")
     ap.add_argument("--n", type=float, default=2.0, help="exponent of the power law")
     ap.add_argument("--k-m", type=float, default=0.4, help="k_m of the P6 stand-in / composite law")
     ap.add_argument("--dwell", type=float, default=0.0, help="dwell [deg], centred on the extended dead centre")
@@ -72,15 +74,28 @@ def _fail(msg: str) -> int:
 
 
 def _kulisa(a, lf, lr, lam2: float) -> groove.KulisaLaw:
-    """The kulisa law of lam2: the laws themselves, or with --slider-stage the carriage's laws through (K1)-(K5)."""
+    """The kulisa law of lam2: the laws themselves, or with --slider-stage the carriage's laws through (K1)-(K5);
+    ``lr`` None: the return stroke is the base four-bar's own."""
+    if lr is None:
+        if getattr(a, "slider_stage", False):
+            raise ValueError("--law-return base and --slider-stage: the base four-bar's return is a kulisa law, "
+                             "not a carriage law; give one of them")
+        return groove.kulisa_law_base_return(a.lambda1, lam2, a.lambda3, lf, math.radians(a.dwell), a.assembly)
     if getattr(a, "slider_stage", False):
         return groove.combined_kulisa_law(a.lambda1, lam2, a.lambda3, lf, lr, math.radians(a.dwell), a.assembly)[0]
     return groove.kulisa_law(a.lambda1, lam2, a.lambda3, lf, lr, math.radians(a.dwell), a.assembly)
 
 
+def _return_law(a, lf):
+    """The return law: --law-return, the forward law without it, None for 'base' (the base four-bar's)."""
+    if a.law_return == "base":
+        return None
+    return lf if a.law_return is None else get_law(a.law_return, n=a.n, k_m=a.k_m)
+
+
 def _design(a, law: str, lam2: float):
     lf = get_law(law, n=a.n, k_m=a.k_m)
-    lr = lf if a.law_return is None else get_law(a.law_return, n=a.n, k_m=a.k_m)
+    lr = _return_law(a, lf)
     kl = _kulisa(a, lf, lr, lam2)
     return kl, groove.synthesize_law(kl, a.lambda1, lam2, a.points,
                                      groove.base_branch(a.lambda1, lam2, a.lambda3, a.assembly))
@@ -88,7 +103,7 @@ def _design(a, law: str, lam2: float):
 
 def _scan(a, law: str) -> dict:
     lf = get_law(law, n=a.n, k_m=a.k_m)
-    lr = lf if a.law_return is None else get_law(a.law_return, n=a.n, k_m=a.k_m)
+    lr = _return_law(a, lf)
     mp = math.radians(a.max_pressure_angle)
 
     def failed(l2: float) -> list:
@@ -257,7 +272,7 @@ def run(args) -> int:
     a = args
     try:
         get_law(a.law, n=a.n, k_m=a.k_m)
-        if a.law_return is not None:
+        if a.law_return not in (None, "base"):
             get_law(a.law_return, n=a.n, k_m=a.k_m)
         if not a.crank_radius > 0.0:
             return _fail(f"{typed('crank_radius', a.crank_radius, 'm')} must be > 0")
