@@ -128,3 +128,18 @@ def test_kinematics_depend_only_on_the_relative_sizes():
     assert np.allclose(a[0], b[0], atol=1e-12) and np.allclose(a[1], b[1], atol=1e-12)
     # and they are the invariants of eqs (5), (12): |d psi / d sigma| = omega_C (finite differences)
     assert np.allclose(np.abs(a[0][5:-5]), inv[3][5:-5], rtol=1e-5) and np.allclose(a[1], inv[2])
+
+
+def test_sizes_follow_from_the_driven_sectors_radius():
+    """The seed after (25): "then, from the design conditions, with R_B we find the parameters of the
+    non-round sectors e1, e2, R_A": the printed sizes are the relative ones times R_B; a non-positive R_B is
+    refused in one line."""
+    import json
+
+    rc, out, _ = synth("--R-B", "0.05", "--json")
+    res = json.loads(out)
+    assert rc == 0 and res["sizes_m"] == pytest.approx(
+        {"R_B": 0.05, "e1": 0.05 * res["eps1"], "e2": 0.05 * res["eps2"], "R_A": 0.05 * res["kappa"]})
+    rc, _, err = synth("--R-B", "0")
+    assert rc == 2 and err.strip() == ("error: synth sectors: --R-B 0 m: pitch radius of the driven sector "
+                                       "outside the allowed range (0, inf) m")

@@ -46,6 +46,9 @@ def register(subparsers) -> argparse.ArgumentParser:
     ap.add_argument("--junction-tol", type=float, default=gs.JUNCTION_TOL,
                     help="largest |residual| of a condition not solved for that still counts as met "
                          "(default %(default)g)")
+    ap.add_argument("--R-B", dest="R_B", type=float, default=None,
+                    help="pitch radius of the driven sector [m]: also print the sizes the seed derives from it "
+                         "(e1 = eps1 R_B, e2 = eps2 R_B, R_A = kappa R_B)")
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     ap.set_defaults(func=run)
     return ap
@@ -61,18 +64,25 @@ def run(args) -> int:
         v = values[name]
         if math.isnan(v) or gs.out_of_range(gs.SectorTask(**{**{n: math.nan for n in GIVEN}, name: v})):
             return fail("sectors", f"{typed(name, v)}: {HELP[name]} outside the allowed range ({lo:g}, {hi:.6g})")
+    if args.R_B is not None and not (0.0 < args.R_B < math.inf):
+        return fail("sectors", f"{typed('R_B', args.R_B, 'm')}: pitch radius of the driven sector outside the "
+                               f"allowed range (0, inf) m")
     if not args.junction_tol > 0.0:
         return fail("sectors", f"{typed('junction_tol', args.junction_tol)} outside the allowed range (0, inf)")
     try:
         sol = gs.solve_sectors(task, use, junction_tol=args.junction_tol)
     except ValueError as e:
         return fail("sectors", str(e))
+    sizes = {} if args.R_B is None else {"R_B": args.R_B, "e1": sol.eps1 * args.R_B, "e2": sol.eps2 * args.R_B,
+                                         "R_A": sol.kappa * args.R_B}
     if args.json:
-        print(json.dumps({"given": values, **sol.as_dict()}, indent=2))
+        print(json.dumps({"given": values, **sol.as_dict(), **({"sizes_m": sizes} if sizes else {})}, indent=2))
     else:
         print(f"residual set: {','.join(sol.used)}")
         for n in gs.UNKNOWNS:
             print(f"  {n:7s} = {getattr(sol, n): .10g}")
+        if sizes:
+            print("sizes: " + ", ".join(f"{k} = {v:.6g} m" for k, v in sizes.items()))
         print("residuals:")
         for n, r in sol.residuals.items():
             print(f"  {n}{'*' if n in sol.used else ' '} = {r: .3e}   {gs.RESIDUAL_MEANING[n]}")
