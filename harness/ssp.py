@@ -6,7 +6,10 @@ Export (``python -m harness export X OUT.ssp``) writes ``SystemStructure.ssd`` w
   units (inputs, outputs and the parameters it sets), and its parameter values inline as an
   ``ssv:ParameterSet`` named ``default`` (Ecos applies it with ``init(parameter_set="default")``; libcosim
   applies inline values on load);
-* every connection (power bonds expanded), with ``ssc:LinearTransformation`` where one is declared;
+* every connection (power bonds expanded into their member variables: SSP 1.0 has no terminals, an
+  ``ssd:Connector`` is one variable, so the FMI 3.0 FMUs' flange terminals are not named in the .ssd; a host
+  that reads terminals finds them in the FMUs), with ``ssc:LinearTransformation`` where one is declared and
+  ``ssc:IntegerMappingTransformation`` / ``ssc:BooleanMappingTransformation`` for a value mapping;
 * the units used, a ``DefaultExperiment`` carrying the OSP ``FixedStepAlgorithm`` annotation so libcosim takes
   the step at which its algorithm meets the drive's accuracy (:func:`host_step`), and a ``org.pressdrive``
   annotation that keeps what SSP cannot say (power bonds, master, extrapolation, the harness's own step) so
@@ -18,8 +21,11 @@ Import (:func:`load_ssp`) reads SSP written by any tool: components with ``sourc
 archive (or the .ssd's folder), inline and referenced (``.ssv``) parameter values on components or on the
 system (``Component.parameter`` names; a binding's ``prefix`` is prepended to the names of its source, as
 the SSP 1.0 schema says; ``sourceBase="component"`` reads the .ssv from inside the component's FMU, as
-SSP 1.0 resolves it against the component's source), connections with linear transformations, the
-default experiment and the OSP fixed-step annotation.  A component with ``implementation="ModelExchange"``
+SSP 1.0 resolves it against the component's source), connections with linear, integer and boolean mapping
+transformations, the default experiment and the OSP fixed-step annotation.  The FMUs' FMI 3.0 terminals are
+read (:meth:`_Reader.terminal_edges`, :meth:`_Reader.bonds_from_terminals`): a connection that names two
+terminals connects their members (two flanges: a power bond), and member connections that make up a flange
+pair are that bond, also without this toolkit's annotation.  A component with ``implementation="ModelExchange"``
 runs through its FMU's Model Exchange interface (:func:`harness.fmi.cache.model_exchange_only`,
 :mod:`harness.fmi.me`).  A Real parameter value given with a ``unit`` other than its FMU variable's is
 converted through the unit definitions (SSP's and FMI's unit model, :mod:`harness.ssp_values`), looked up in
@@ -30,8 +36,11 @@ binding's values.  Nested systems are flattened (:meth:`_Reader.collect`, :meth:
 component of system ``Sub`` becomes instance ``Sub/Component``, and connections through system connectors are
 followed to the FMU output that drives them.  An SSP may be given unpacked, as a folder holding
 SystemStructure.ssd; a DefaultExperiment's startTime is the run's start.  Anything else that changes the
-meaning of the system (signal dictionaries, non-FMU components, inputs of the whole system, connection
-transformations other than linear) is refused with one line naming the element and the file.
+meaning of the system (signal dictionaries, non-FMU components, inputs of the whole system, an
+``ssc:EnumerationMappingTransformation``) is refused with one line naming the element and the file.
+
+The module is over 600 lines: it writes and reads one format, and keeps both sides together so that every
+element the export writes is one the import reads back (the round trip the tests hold equal).
 """
 from __future__ import annotations
 
@@ -42,7 +51,7 @@ from xml.etree import ElementTree as ET
 
 from fmus.units import BASE_UNITS
 from harness.errors import SystemError_
-from harness.fmi.cache import model_exchange_only, unzipped
+from harness.fmi.cache import model_exchange_only, terminals, unzipped
 from harness.model import Bond, Connection, Experiment, Instance, System, model_description, resolve_fmu
 from harness.ssp_values import NS, VALUE_TABLES, Mapping, Quantity, Unit, _q, units, value_table
 
@@ -256,6 +265,28 @@ def _label(endpoint: tuple) -> str:
     return f"system connector '{NESTED.join(owner + (name,)) if owner else name}'"
 
 
+def _as_bond(members: list, ends: dict) -> Bond | None:
+    """The Bond that member edges between two terminals (``ends``: instance -> Terminal) make, if they are a
+    power bond's: the members of both terminals are phi, w, tau (or s, v, f), each named
+    ``<terminal>.<member>`` (the toolkit's port convention, :class:`harness.model.Bond`), with the motion
+    members going one way and the effort the other."""
+    for tr in (False, True):
+        names = Bond("", "", tr).names()
+        by_member = {}
+        for m in members:
+            (_, a, va), (_, b, vb) = m.source, m.target
+            ta, tb = ends[a], ends[b]
+            if a == b or va != f"{ta.name}.{va.split('.', 1)[-1]}" or vb != f"{tb.name}.{vb.split('.', 1)[-1]}":
+                return None
+            by_member[va.split(".", 1)[-1]] = (f"{a}.{ta.name}", f"{b}.{tb.name}", vb.split(".", 1)[-1])
+        if sorted(by_member) != sorted(names) or any(k != v[2] for k, v in by_member.items()):
+            continue
+        (out_p, in_p, _), (out_v, in_v, _), (from_e, to_e, _) = (by_member[n] for n in names)
+        if (out_p, in_p) == (out_v, in_v) == (to_e, from_e):
+            return Bond(out_p, in_p, tr)
+    return None
+
+
 def _composed(first: dict | None, then: dict | None) -> dict | None:
     """The value table of two mapped connections in a row (through a system connector): ``then`` after
     ``first``; a value ``first`` maps to one ``then`` has no entry for has none in the result either."""
@@ -296,6 +327,7 @@ class _Reader:
         instances: list[Instance] = []
         edges: list[_Edge] = []
         self.collect(sys_el, (), name, instances, edges)
+        edges, terminal_bonds = self.terminal_edges(edges, instances)
         connections = self.resolve(edges, name, instances)
         bonds, conversions, exp_extra = self.own_annotation(sys_el)
         bonded = set()
@@ -305,6 +337,8 @@ class _Reader:
             if (c.source, c.target) in conversions:
                 c.unit_conversion = True
         connections = [c for c in connections if (c.source, c.target) not in bonded]
+        connections, found = self.bonds_from_terminals(connections, instances)
+        bonds += terminal_bonds + found
         experiment = self.experiment(root, exp_extra)
         return System(name=name, instances=instances, connections=connections, bonds=bonds,
                       experiment=experiment, description=sys_el.get("description", ""))
@@ -617,6 +651,113 @@ class _Reader:
             elif kind != "Annotations":
                 raise self.fail(f"{what}: ssc:{kind} is not supported")
         return _Edge(endpoint(s_el, s_con), endpoint(e_el, e_con), factor, offset, table, table_kind)
+
+    # -- FMI 3.0 terminals ----------------------------------------------------------------------------------------
+    def _terminal(self, endpoint: tuple, by_name: dict):
+        """(instance, Terminal) when ``endpoint`` names a terminal of its FMU and no variable, else None."""
+        inst = by_name.get(endpoint[1]) if endpoint[0] == "fmu" else None
+        if inst is None or any(v.name == endpoint[2] for v in model_description(inst.fmu).modelVariables):
+            return None
+        t = terminals(inst.fmu).get(endpoint[2])
+        return None if t is None else (inst, t)
+
+    def terminal_edges(self, edges: list, instances: list) -> tuple[list, list]:
+        """Connections that name a terminal of an FMU at both ends (FMI 3.0 terminalsAndIcons.xml) instead of a
+        variable, with their members' edges in their place; a pair of power-bond flanges becomes a Bond.
+
+        SSP 1.0 cannot say this (an ssd:Connector is one variable of the component; the standard predates FMI
+        3.0's terminals), so an SSP written for other tools lists the members (as :func:`export_ssp` does, and
+        OMSimulator 3.0 refuses a connector it cannot find); a hand-written .ssd may name the terminals
+        instead.  Their members are paired as FMI 3.0 says (matchingRule plug: the same memberNames on both
+        sides; bus: the memberNames both have; sequence: in order), each pair from its output to its input;
+        terminals of different terminalKinds, a terminal to a variable, a transformation on the connection,
+        or members that are not an output and an input are refused in one line."""
+        by_name = {i.name: i for i in instances}
+        out, bonds = [], []
+        for e in edges:
+            ends = (self._terminal(e.source, by_name), self._terminal(e.target, by_name))
+            if ends == (None, None):
+                out.append(e)
+                continue
+            what = f"connection {_label(e.source)} -> {_label(e.target)}"
+            if None in ends:
+                raise self.fail(f"{what}: connects a terminal to a variable or system connector: connect it to "
+                                f"a terminal of another FMU, or connect its members")
+            (ia, ta), (ib, tb) = ends
+            if ta.kind != tb.kind:
+                raise self.fail(f"{what}: terminalKind '{ta.kind}' and '{tb.kind}' differ (FMI 3.0 connects "
+                                f"terminals of one kind)")
+            if (e.factor, e.offset, e.mapping) != (1.0, 0.0, None) or ta.unsupported or tb.unsupported:
+                extra = ta.unsupported or tb.unsupported
+                raise self.fail(f"{what}: " + (f"a terminal with {extra} is not supported" if extra else
+                                               "a transformation on a terminal connection is not supported"))
+            members = []
+            for (ma, va), (mb, vb) in self._paired(ta, tb, what):
+                ca, cb = (self._causality(i, v) for i, v in ((ia, va), (ib, vb)))
+                if (ca, cb) == ("output", "input"):
+                    members.append(_Edge(("fmu", ia.name, va), ("fmu", ib.name, vb)))
+                elif (ca, cb) == ("input", "output"):
+                    members.append(_Edge(("fmu", ib.name, vb), ("fmu", ia.name, va)))
+                else:
+                    raise self.fail(f"{what}: member '{ma}' is {ia.name}.{va} ({ca}) and {ib.name}.{vb} ({cb}): "
+                                    f"a connected member needs an output on one side and an input on the other")
+            bond = _as_bond(members, {ia.name: ta, ib.name: tb})
+            if bond is not None:
+                bonds.append(bond)
+            else:
+                out.extend(members)
+        return out, bonds
+
+    def _paired(self, ta, tb, what: str) -> list:
+        """((member, variable) of ``ta``, (member, variable) of ``tb``) pairs by the terminals' matchingRule."""
+        a = {m: v for m, v, _ in ta.members}
+        b = {m: v for m, v, _ in tb.members}
+        rule = ta.matching or tb.matching
+        if rule != tb.matching and tb.matching:
+            raise self.fail(f"{what}: matchingRule '{ta.matching}' and '{tb.matching}' differ")
+        if rule == "plug":
+            if set(a) != set(b):
+                raise self.fail(f"{what}: matchingRule 'plug' needs the same members on both terminals "
+                                f"({', '.join(sorted(a))} / {', '.join(sorted(b))})")
+            return [((m, a[m]), (m, b[m])) for m in a]
+        if rule == "bus":
+            return [((m, a[m]), (m, b[m])) for m in a if m in b]
+        if rule == "sequence":
+            if len(a) != len(b):
+                raise self.fail(f"{what}: matchingRule 'sequence' needs as many members on both terminals "
+                                f"({len(a)} / {len(b)})")
+            return [((ma, va), (mb, vb)) for (ma, va, _), (mb, vb, _) in zip(ta.members, tb.members)]
+        raise self.fail(f"{what}: matchingRule '{rule}' is not one of FMI 3.0's (plug, bus, sequence)")
+
+    @staticmethod
+    def _causality(inst: Instance, var: str) -> str:
+        v = next((v for v in model_description(inst.fmu).modelVariables if v.name == var), None)
+        return v.causality if v is not None else "missing"
+
+    def bonds_from_terminals(self, connections: list, instances: list) -> tuple[list, list]:
+        """The power bonds the FMUs' terminals show among plain connections: two flange terminals whose three
+        members are connected as a bond connects them (motion out, effort back; no transformation) become that
+        Bond, as when the SSP names them (:meth:`terminal_edges`) or carries this toolkit's annotation.  An SSP
+        of these FMUs saved by another tool keeps its bonds so.  Returns (the other connections, the bonds)."""
+        plain = {(c.source, c.target): c for c in connections
+                 if (c.factor, c.offset, c.mapping, c.unit_conversion) == (1.0, 0.0, None, False)}
+        ports = {f"{i.name}.{t.name}": (i, t) for i in instances for t in terminals(i.fmu).values()}
+        bonds, used = [], set()
+        for port_in, (inst, t) in ports.items():
+            for tr in (False, True):
+                p, v, e = Bond(port_in, port_in, tr).names()
+                c = plain.get(next((k for k in plain if k[1] == f"{port_in}.{p}"), None))
+                port_out = c.source.rsplit(".", 1)[0] if c is not None else None
+                if port_out not in ports or ports[port_out][1].kind != t.kind:
+                    continue
+                bond = Bond(port_out, port_in, tr)
+                links = [(x.source, x.target) for x in bond.connections()]
+                if all(k in plain for k in links) and _as_bond(
+                        [_Edge(("fmu", *a.split(".", 1)), ("fmu", *b.split(".", 1))) for a, b in links],
+                        {inst.name: t, ports[port_out][0].name: ports[port_out][1]}) is not None:
+                    bonds.append(bond)
+                    used.update(links)
+        return [c for c in connections if (c.source, c.target) not in used], bonds
 
     def own_annotation(self, sys_el: ET.Element):
         bonds, conversions, extra = [], set(), {}

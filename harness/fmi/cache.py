@@ -7,6 +7,8 @@
   more than one element is typed e.g. ``Float64[3x3]``, which nothing takes for a scalar), so system
   validation, coupling and results treat both versions alike.  :func:`native_types` keeps each variable's
   FMI 3.0 type, which the FMI 3.0 wrapper (:mod:`harness.fmi.fmu3`) calls by.
+* :func:`terminals`: an FMI 3.0 FMU's terminals (``terminalsAndIcons/terminalsAndIcons.xml``), read once per
+  process and modification time, as :class:`Terminal` records.
 * :func:`model_exchange_only`: a copy of an FMU that offers both interfaces, without its co-simulation one
   (what an SSP component with ``implementation="ModelExchange"`` asks for), so that every layer runs it as ME.
 * :func:`unzipped`: a zip archive (an FMU or an SSP) extracted once into a content-keyed folder under
@@ -23,6 +25,7 @@ import shutil
 import tempfile
 import warnings
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 
 from harness.errors import SystemError_
@@ -80,6 +83,56 @@ def native_types(md) -> dict[str, str]:
     """Variable name -> FMI 3.0 type (Float64, Int32, UInt8, Boolean, Binary, Clock...) of an FMI 3.0
     description read by :func:`model_description`; empty for FMI 1.0 and 2.0."""
     return _NATIVE_TYPES.get(id(md), {})
+
+
+@dataclass(frozen=True)
+class Terminal:
+    """One FMI 3.0 terminal (fmi3TerminalsAndIcons: Terminal): ``kind`` its terminalKind, ``matching`` its
+    matchingRule (plug, bus or sequence), ``members`` its TerminalMemberVariables as (memberName,
+    variableName, variableKind) in order; ``unsupported`` names what it holds besides (nested terminals,
+    stream members), which a host that connects it must refuse."""
+    name: str
+    kind: str
+    matching: str
+    members: tuple
+    unsupported: str = ""
+
+
+_TERMINALS: dict[tuple[str, float], dict[str, Terminal]] = {}
+_TERMINAL_PARTS = {"TerminalMemberVariable", "Annotations", "TerminalGraphicalRepresentation"}  # all else: unsupported
+
+
+def terminals(path: str | Path) -> dict[str, Terminal]:
+    """Terminal name -> :class:`Terminal` of the top-level terminals an FMU declares in
+    ``terminalsAndIcons/terminalsAndIcons.xml`` (FMI 3.0, section 2.4.9); empty for an FMU without that file
+    (FMI 1.0 and 2.0 have none).  An unreadable file is a one-line :class:`SystemError_` naming the FMU."""
+    from xml.etree import ElementTree as ET
+
+    p = Path(path).resolve()
+    key = (str(p), p.stat().st_mtime)
+    if key not in _TERMINALS:
+        try:
+            with zipfile.ZipFile(p) as z:
+                text = z.read("terminalsAndIcons/terminalsAndIcons.xml")
+        except KeyError:
+            _TERMINALS[key] = {}
+            return _TERMINALS[key]
+        except (zipfile.BadZipFile, OSError) as e:
+            raise SystemError_(f"{p}: not a readable FMU ({e})") from None
+        try:
+            root = ET.fromstring(text)
+        except ET.ParseError as e:
+            raise SystemError_(f"{p}!terminalsAndIcons/terminalsAndIcons.xml: not well-formed XML ({e})") from None
+        out = {}
+        for t in root.findall("Terminals/Terminal"):
+            others = sorted({c.tag for c in t} - _TERMINAL_PARTS)
+            out[t.get("name", "")] = Terminal(
+                t.get("name", ""), t.get("terminalKind", ""), t.get("matchingRule", ""),
+                tuple((m.get("memberName", ""), m.get("variableName", ""), m.get("variableKind", ""))
+                      for m in t.findall("TerminalMemberVariable")),
+                ", ".join(others))
+        _TERMINALS[key] = out
+    return _TERMINALS[key]
 
 
 class InvalidModelDescription(UserWarning):
