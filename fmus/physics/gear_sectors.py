@@ -524,8 +524,22 @@ class GearSectorsModel(Model):
         return (crank_tau, phi_cyl, w_cyl, L * S, L * v * wk, sync, float(phase))
 
     def output_jacobian(self, t, x, u):
-        """By central differences of :meth:`output` (Model.output_jacobian_by_differences).  Why not in closed
-        form: crank.tau's slope in the crank angle needs the third derivatives of the four-phase sector law and
-        of the slider-crank, which the laws do not evaluate; the outputs are smooth in the inputs inside each
-        phase of the law, where the differences agree with the exact slopes to ~1e-9 relative."""
-        return self.output_jacobian_by_differences(t, x, u)
+        """d outputs / d (crank.phi, crank.w, cylinder.tau, bed.f): the columns of the crank speed and the two loads
+        in closed form from :meth:`output`'s equations; the crank angle's column by central differences of
+        :meth:`output` (Model.output_jacobian_by_differences), because crank.tau's slope in the angle needs the third
+        derivatives of the four-phase sector law and of the slider-crank, which the laws do not evaluate (inside
+        each phase of the law the output is smooth and the differences agree with the slope to ~1e-9)."""
+        p, L = self.p, self.L
+        phi, wk = u[0], u[1]
+        _, om, ec, _ = self.law.evaluate(phi)
+        _, v, w = bed_law(phi, p.lambda_s)
+        D = np.zeros((len(self.outputs), len(self.inputs)))
+        D[:, 0] = self.output_jacobian_by_differences(t, x, u)[:, 0]
+        d_bed_w = 2.0 * p.m_bed * L * L * w * v * wk        # d bed_term / d wk
+        if p.fidelity == 0:
+            D[0, 1:] = (-2.0 * p.J_cyl * ec * wk * om - d_bed_w, om, L * v)
+            D[2, 1] = om                                     # cylinder.w = om * wk
+        else:
+            D[0, 1:] = (-p.d_cyl * om * om - d_bed_w, 0.0, L * v)
+        D[4, 1] = L * v                                      # bed.v = L v wk
+        return D
