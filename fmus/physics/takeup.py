@@ -41,6 +41,11 @@ other wall (the approach speed is negative); where cos(beta) cos(beta + theta) <
 mass is negative (the conrod's reaction pushes the crank on, into the joint) and the take-up frequency
 lambda_m^2 = k (1/m1 + 1/m2) can be negative: ``TakeUpResult.stable`` says so, the simulation still runs.
 
+The seed's Fig. 3 (the roller's lift-off from its groove wall for K0 and C0, by the rolling condition) is the
+last section: :func:`lift_off`, :func:`wall_forces`.  It keeps this module over 600 lines because it is the
+same seed's analysis of the same joint (the roller whose take-up the rest models), on the groove of
+fmus.physics.groove.
+
 Pure numpy/scipy; no FMI import.
 """
 from __future__ import annotations
