@@ -648,7 +648,7 @@ class _Reader:
                     table, table_kind = value_table(t), kind
                 except ValueError as e:
                     raise self.fail(f"{what}: {e}") from None
-            elif kind != "Annotations":
+            elif kind not in ("Annotations", "ConnectionGeometry"):   # the geometry is the diagram's only
                 raise self.fail(f"{what}: ssc:{kind} is not supported")
         return _Edge(endpoint(s_el, s_con), endpoint(e_el, e_con), factor, offset, table, table_kind)
 

@@ -315,3 +315,12 @@ def test_omsimulator_takes_the_member_connections_and_not_terminal_names(pair3, 
     """)
     assert "members loads" in out
     assert "terminals refused: Connector 'flange' not found in element 'a'" in out
+
+
+def test_a_connection_with_its_diagram_geometry_loads(pair3, tmp_path):
+    """ssd:ConnectionGeometry (the connection's points in a diagram, which OMSimulator writes) changes nothing
+    the simulation reads; it used to be refused as 'not supported'."""
+    geometry = '<ssd:ConnectionGeometry pointsX="1 2" pointsY="3 4"/>'
+    text = flange("a", "flange", "b", "drive").replace("/>", f">{geometry}</ssd:Connection>")
+    system = load_ssp(terminal_ssd(tmp_path, pair3, text))
+    assert [(b.motion_out, b.motion_in) for b in system.bonds] == [("a.flange", "b.drive")]
