@@ -21,12 +21,13 @@ Import (:func:`load_ssp`) reads SSP written by any tool: components with ``sourc
 archive (or the .ssd's folder), inline and referenced (``.ssv``) parameter values on components or on the
 system (``Component.parameter`` names; a binding's ``prefix`` is prepended to the names of its source, as
 the SSP 1.0 schema says; ``sourceBase="component"`` reads the .ssv from inside the component's FMU, as
-SSP 1.0 resolves it against the component's source), connections with linear, integer and boolean mapping
-transformations, the default experiment and the OSP fixed-step annotation.  The FMUs' FMI 3.0 terminals are
-read (:meth:`_Reader.terminal_edges`, :meth:`_Reader.bonds_from_terminals`): a connection that names two
+SSP 1.0 resolves it against the component's source), connections with linear, integer, boolean and
+enumeration mapping transformations (the last by item names, looked up in both variables' types), the
+default experiment and the OSP fixed-step annotation.  The FMUs' FMI 3.0 terminals are read
+(:meth:`_Reader.terminal_edges`, :meth:`_Reader.bonds_from_terminals`): a connection that names two
 terminals connects their members (two flanges: a power bond), and member connections that make up a flange
-pair are that bond, also without this toolkit's annotation.  A component with ``implementation="ModelExchange"``
-runs through its FMU's Model Exchange interface (:func:`harness.fmi.cache.model_exchange_only`,
+pair are that bond, also without this toolkit's annotation.  A component with
+``implementation="ModelExchange"`` runs through its FMU's Model Exchange interface (:func:`harness.fmi.cache.model_exchange_only`,
 :mod:`harness.fmi.me`).  A Real parameter value given with a ``unit`` other than its FMU variable's is
 converted through the unit definitions (SSP's and FMI's unit model, :mod:`harness.ssp_values`), looked up in
 the .ssv's ``ssv:Units``, then the .ssd's ``ssd:Units``, then the FMU's ``UnitDefinitions``; a value that
@@ -36,8 +37,8 @@ binding's values.  Nested systems are flattened (:meth:`_Reader.collect`, :meth:
 component of system ``Sub`` becomes instance ``Sub/Component``, and connections through system connectors are
 followed to the FMU output that drives them.  An SSP may be given unpacked, as a folder holding
 SystemStructure.ssd; a DefaultExperiment's startTime is the run's start.  Anything else that changes the
-meaning of the system (signal dictionaries, non-FMU components, inputs of the whole system, an
-``ssc:EnumerationMappingTransformation``) is refused with one line naming the element and the file.
+meaning of the system (signal dictionaries, non-FMU components, inputs of the whole system) is refused with
+one line naming the element and the file.
 
 The module is over 600 lines: it writes and reads one format, and keeps both sides together so that every
 element the export writes is one the import reads back (the round trip the tests hold equal).
@@ -244,6 +245,7 @@ def load_ssp(path: str | Path) -> System:
     return reader.system(tree.getroot())
 
 
+ENUMERATION_MAPPING = "EnumerationMappingTransformation"
 NESTED = "/"   # joins a nested system's name and its element's: instance "Sub/Component" (names hold no ".")
 
 
@@ -435,6 +437,10 @@ class _Reader:
                 value = self.connector_values[source]
                 if (factor, offset) != (1.0, 0.0):  # on the number as written
                     value = factor * (value.value if isinstance(value, Quantity) else value) + offset
+                if ENUMERATION_MAPPING in kinds:
+                    raise self.fail(f"{_label(source)} passes a bound value to {_label(e.target)} through an "
+                                    f"ssc:{ENUMERATION_MAPPING}: its item names have no type there; give the value "
+                                    f"of the target's item instead")
                 if table is not None:
                     if value not in table:
                         raise self.fail(f"{_label(source)} passes {value!r} to {_label(e.target)}, and the "
@@ -445,6 +451,8 @@ class _Reader:
                 continue
             if kinds:
                 self.check_mapping_kinds(kinds, source, e.target, by_name[source[1]])
+            if ENUMERATION_MAPPING in kinds:
+                table = self.enumeration_values(table, source, e.target, by_name)
             out.append(Connection(source=f"{source[1]}.{source[2]}", target=f"{e.target[1]}.{e.target[2]}",
                                   factor=factor, offset=offset, mapping=table))
         return out
@@ -455,13 +463,39 @@ class _Reader:
         var = next((v for v in model_description(inst.fmu).modelVariables if v.name == source[2]), None)
         if var is None:   # no such variable: the system's validation names it
             return
-        want = {"Boolean": "BooleanMappingTransformation", "Integer": "IntegerMappingTransformation",
-                "Enumeration": "IntegerMappingTransformation"}.get(var.type)
-        wrong = sorted(kinds - {want})
+        want = {"Boolean": {"BooleanMappingTransformation"}, "Integer": {"IntegerMappingTransformation"},
+                "Enumeration": {"IntegerMappingTransformation", ENUMERATION_MAPPING}}.get(var.type, set())
+        wrong = sorted(kinds - want)
+        what = f"connection {_label(source)} -> {_label(target)}"
         if wrong:
-            raise self.fail(f"connection {_label(source)} -> {_label(target)}: ssc:{wrong[0]} does not apply to "
-                            f"{var.type} values (IntegerMappingTransformation: Integer and Enumeration; "
-                            f"BooleanMappingTransformation: Boolean)")
+            raise self.fail(f"{what}: ssc:{wrong[0]} does not apply to {var.type} values (IntegerMapping"
+                            f"Transformation: Integer and Enumeration; BooleanMappingTransformation: Boolean; "
+                            f"{ENUMERATION_MAPPING}: Enumeration)")
+        if len(kinds) > 1:
+            raise self.fail(f"{what}: an ssc:{ENUMERATION_MAPPING} (item names) and an "
+                            f"ssc:IntegerMappingTransformation (values) on one path are not supported")
+
+    def enumeration_values(self, names: dict, source: tuple, target: tuple, by_name: dict) -> dict:
+        """An ssc:EnumerationMappingTransformation's table of item names as the table of their values: each
+        name looked up in the source's and the target's enumeration type (SSP 1.0: the mapping is "based on
+        a mapping table of their enumeration item names"); a name the type has not is refused in one line."""
+        what = f"connection {_label(source)} -> {_label(target)}"
+        items = []
+        for end in (source, target):
+            var = next((v for v in model_description(by_name[end[1]].fmu).modelVariables if v.name == end[2]), None)
+            dt = getattr(var, "declaredType", None) if var is not None else None
+            if var is None or var.type != "Enumeration" or dt is None or not getattr(dt, "items", None):
+                raise self.fail(f"{what}: ssc:{ENUMERATION_MAPPING} needs an Enumeration variable with a declared "
+                                f"type at both ends; {_label(end)} is not one")
+            items.append({i.name: int(i.value) for i in dt.items})
+        out = {}
+        for a, b in names.items():
+            for name, known, end in ((a, items[0], source), (b, items[1], target)):
+                if name not in known:
+                    raise self.fail(f"{what}: ssc:{ENUMERATION_MAPPING} maps '{name}', which is no item of "
+                                    f"{_label(end)}'s type (items: {', '.join(known)})")
+            out[items[0][a]] = items[1][b]
+        return out
 
     def component(self, el: ET.Element, prefix: str = "") -> Instance:
         name = el.get("name")
@@ -648,6 +682,10 @@ class _Reader:
                     table, table_kind = value_table(t), kind
                 except ValueError as e:
                     raise self.fail(f"{what}: {e}") from None
+            elif kind == ENUMERATION_MAPPING:   # by item names: made a table of values in resolve
+                table, table_kind = {m.get("source"): m.get("target") for m in t.findall(_q("ssc:MapEntry"))}, kind
+                if not table or None in table or None in table.values():
+                    raise self.fail(f"{what}: ssc:{kind} needs ssc:MapEntry elements with a source and a target")
             elif kind not in ("Annotations", "ConnectionGeometry"):   # the geometry is the diagram's only
                 raise self.fail(f"{what}: ssc:{kind} is not supported")
         return _Edge(endpoint(s_el, s_con), endpoint(e_el, e_con), factor, offset, table, table_kind)

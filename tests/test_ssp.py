@@ -251,7 +251,7 @@ B = comp("b", "resources/SpringInertia.fmu")
     (ssd(A + comp("g", "resources/Gain.fmu"), conn("a", "flange.w", "g", "u",
                                                    '<ssc:EnumerationMappingTransformation><ssc:MapEntry source="x" '
                                                    'target="y"/></ssc:EnumerationMappingTransformation>')),
-     "connection a.flange.w -> g.u: ssc:EnumerationMappingTransformation is not supported"),
+     "connection a.flange.w -> g.u: ssc:EnumerationMappingTransformation does not apply to Real values"),
     (ssd(A, '<ssd:Connection startConnector="in" endElement="a" endConnector="flange.tau"/>',
          system_extra='<ssd:Connectors><ssd:Connector name="in" kind="input"><ssc:Real/></ssd:Connector></ssd:Connectors>'),
      "system connector 'in' of system 'hand' drives a.flange.tau but nothing drives it (an input of the whole"),

@@ -136,6 +136,45 @@ def test_mapping_round_trips_through_export_and_composes_through_a_system_connec
     assert (c.source, c.target, c.mapping) == ("stair.counter", "Sub/ft.Enumeration_input", {1: 1, 2: 1})
 
 
+def with_connection(folder: Path, connection: str) -> Path:
+    """The SSD of :func:`mapped_ssp` in ``folder`` with one more connection; returns the folder (an SSP)."""
+    ssd = folder / "SystemStructure.ssd"
+    ssd.write_text(ssd.read_text().replace("</ssd:Connections>", connection + "</ssd:Connections>"))
+    return folder
+
+
+SWAP = ('<ssd:Connection startElement="ft" startConnector="Enumeration_output" endElement="ft2" '
+        'endConnector="Enumeration_input"><ssc:EnumerationMappingTransformation>'
+        '<ssc:MapEntry source="Option 1" target="Option 2"/><ssc:MapEntry source="Option 2" target="Option 1"/>'
+        '</ssc:EnumerationMappingTransformation></ssd:Connection>')
+
+
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_enumeration_mapping_by_item_names(ref2, tmp_path, master):
+    """ssc:EnumerationMappingTransformation maps by item names (SSP 1.0): Option 1 -> Option 2 and back,
+    looked up in Feedthrough's type Option (items 1 and 2) at both ends."""
+    mapped_ssp(tmp_path, ref2, 2.5)
+    system = load_ssp(with_connection(tmp_path, SWAP))
+    assert [c.mapping for c in system.connections if c.target == "ft2.Enumeration_input"] == [{1: 2, 2: 1}]
+    df = quiet(system, step=0.01, master=master, on_error="raise")
+    assert _as_defined(df, "ft.Enumeration_output", "ft2.Enumeration_output", {1: 2, 2: 1})
+    assert set(df["ft2.Enumeration_output"].iloc[1:]) == {1, 2}
+
+
+@pytest.mark.parametrize("change, message", [
+    (('source="Option 2" target="Option 1"', 'source="Option 3" target="Option 1"'),
+     "ssc:EnumerationMappingTransformation maps 'Option 3', which is no item of ft.Enumeration_output's type "
+     "(items: Option 1, Option 2)"),
+    (('startConnector="Enumeration_output"', 'startConnector="Int32_output"'),
+     "ssc:EnumerationMappingTransformation does not apply to Integer values"),
+])
+def test_enumeration_mapping_names_a_wrong_item_or_type(ref2, tmp_path, change, message):
+    mapped_ssp(tmp_path, ref2, 1.0)
+    with pytest.raises(SystemError_) as info:
+        load_ssp(with_connection(tmp_path, SWAP.replace(*change)))
+    assert message in str(info.value) and "\n" not in str(info.value) and "SystemStructure.ssd" in str(info.value)
+
+
 @pytest.mark.parametrize("connection, message", [
     (Connection("ft.Float64_continuous_output", "ft2.Float64_continuous_input", mapping={1: 2}),
      "a value mapping applies to Integer, Enumeration and Boolean connections, not to Real"),
