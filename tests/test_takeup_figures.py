@@ -178,3 +178,59 @@ def test_fig2_circular_groove_has_no_velocity_along_the_slot():
     w = T.wall_forces(prof, g1, g2, R, 15.0, 0.00043, 0.01)
     assert np.max(np.abs(w.v_slot)) < 1e-6 * np.max(np.abs(w.v_rocker))
     np.testing.assert_allclose(w.v_rocker, LAM3 * R * g1 * 15.0, rtol=1e-9)
+
+
+def _one_lift_off(N_of_k):
+    """The K0 case's first lift-off sample i with the wall force replaced by N_of_k(k - i, dt) (k the sample,
+    dt the time step between samples)."""
+    import dataclasses
+
+    case = T.LiftOffCase(law="K0")
+    w = T.lift_off(case)
+    i = int(w.lift_off[0][0])
+    k = (np.arange(len(w.phi)) - i) % len(w.phi)
+    s = math.copysign(1.0, w.N[i])
+    dt = (w.phi[1] - w.phi[0]) / case.omega
+    w = dataclasses.replace(w, N=s * N_of_k(k.astype(float), dt), lift_off=np.array([[i, (i + 1) % len(w.phi)]]))
+    return case, w, dt
+
+
+def test_crossing_of_the_play_after_a_lift_off_meets_the_closed_forms():
+    """After a lift-off the roller crosses the play under the missing wall force over its reduced mass.
+    Known answers: a force that passes zero at the rate Ndot crosses 10 um in t = (6 clearance m_n / Ndot)^(1/3)
+    and strikes at Ndot t^2 / (2 m_n); a force that steps to N1 (a law's acceleration jump, ramped over the
+    half sample after the crossing) in the time of constant acceleration after that ramp."""
+    clearance, Ndot = 10e-6, 50.0
+    case, w, dt = _one_lift_off(lambda k, dt: -Ndot * (np.where(k > 1000, 1000, k) - 0.5) * dt)
+    cr = T.crossing(w, case, clearance)[0]
+    m_n = cr["m_n"]
+    t = (6 * clearance * m_n / Ndot) ** (1 / 3)
+    assert cr["t_cross"] == pytest.approx(t, rel=1e-4)
+    assert cr["v_impact"] == pytest.approx(Ndot * t * t / (2 * m_n), rel=1e-4)
+    assert cr["crank_deg"] == pytest.approx(math.degrees(case.omega * t), rel=1e-4)
+    N1 = 1.0
+    case, w, dt = _one_lift_off(lambda k, dt: np.where(k == 0, N1, -N1))
+    cr = T.crossing(w, case, clearance)[0]
+    a0, ramp = N1 / cr["m_n"], dt / 2
+    x = -ramp / 2 + math.sqrt(ramp ** 2 / 4 - 2 * (ramp ** 2 / 6 - clearance / a0))
+    assert cr["t_cross"] == pytest.approx(ramp + x, rel=1e-4)
+    assert cr["v_impact"] == pytest.approx(a0 * (ramp / 2 + x), rel=1e-4)
+    # a force that turns back before the roller has crossed: it returns to its wall, no crossing
+    case, w, dt = _one_lift_off(lambda k, dt: np.where((k >= 1) & (k <= 3), -1e-3, 1.0))
+    assert math.isnan(T.crossing(w, case, clearance)[0]["t_cross"])
+
+
+def test_crossing_mass_is_the_free_kulisas_inertia_seen_along_the_wall_normal():
+    """m_n = (J + m_s |dB/dgamma|^2) / (dB/dgamma . n_g)^2, with dB/dgamma from the stone's position at the
+    frozen crank angle for two kulisa angles (central difference of the roller centre, not of rho)."""
+    case = T.LiftOffCase(law="C0")
+    w = T.lift_off(case)
+    branch = groove.base_branch(case.lam1, case.lam2, case.lam3)
+    for (i, _), cr in zip(w.lift_off, T.crossing(w, case)):
+        phi, g, dg = w.phi[i], w.gamma[i], 1e-5
+
+        def B(gg):
+            return case.r * groove.stone_radius_scalar(phi, gg, case.lam1, case.lam2, branch) * np.array(
+                [math.cos(gg), math.sin(gg)])
+        dB = (B(g + dg) - B(g - dg)) / (2 * dg)
+        assert cr["m_n"] == pytest.approx((case.J + case.m_stone * dB @ dB) / (dB @ w.n_wall[i]) ** 2, rel=1e-6)

@@ -629,3 +629,60 @@ def lift_off(case: LiftOffCase) -> WallForces:
                          f"python -m harness synth groove --scan lambda2 admits)")
     _, g1, g2 = law(prof.phi)
     return wall_forces(prof, g1, g2, case.r, case.omega, case.J, case.m_stone, case.head_friction)
+
+
+def crossing(w: WallForces, case: LiftOffCase, clearance: float = 10e-6, window: float = math.radians(30.0),
+             substeps: int = 50) -> list[dict]:
+    """After each lift-off the roller crosses the groove's play to the other wall ("the duration of the
+    displacement", which the seed takes from its ref. [6], not in our copy).  Linearised about the prescribed
+    motion at the lift-off: the free mechanism (crank and conrod rigid, the roller off both walls) has one
+    degree of freedom, the kulisa angle, of inertia M = J + m_s (rho^2 + (d rho/d gamma)^2) at the frozen crank
+    angle; the roller centre's offset d along the wall normal moves k = dB/dgamma . n_g per radian, so its
+    reduced mass is m_n = M / k^2, and the force the prescribed motion needs from the walls, missing now,
+    drives it away from the wall it left: d'' = -s N(t) / m_n (s the sign of N before the lift-off; N as
+    sampled, linear between samples, so that a law's acceleration jump -- K0 at its dwell -- is a step and a
+    smooth change a ramp, which gives t = (6 clearance m_n / |Ndot|)^(1/3)).  The roller leaves with zero
+    relative speed and strikes the other wall where d reaches ``clearance`` [m]: time t_cross, crank angle,
+    speed v_impact.  If N turns back first and the roller returns to its wall within ``window`` of crank
+    angle, t_cross is NaN (no crossing).  One dict per lift-off, in the order of ``w.lift_off``."""
+    from . import groove
+
+    branch = groove.base_branch(case.lam1, case.lam2, case.lam3)
+    n, h = len(w.phi), float(w.phi[1] - w.phi[0])
+    dt = h / case.omega
+    out = []
+    for i, j in w.lift_off:
+        phi, g = float(w.phi[i]), float(w.gamma[i])
+        dg = 1e-6
+        drho = case.r * (groove.stone_radius_scalar(phi, g + dg, case.lam1, case.lam2, branch)
+                         - groove.stone_radius_scalar(phi, g - dg, case.lam1, case.lam2, branch)) / (2 * dg)
+        rho = float(w.rho[i])
+        M = case.J + case.m_stone * (rho ** 2 + drho ** 2)
+        dB = drho * np.array([math.cos(g), math.sin(g)]) + rho * np.array([-math.sin(g), math.cos(g)])
+        m_n = M / float(dB @ w.n_wall[i]) ** 2
+        # the needed wall force from the zero crossing on, as sampled (signed so that > 0 pushes away)
+        steps = int(window / h) + 1
+        idx = (i + np.arange(steps + 1)) % n
+        N = w.N[idx].copy()
+        if w.wrap_flip:
+            N[idx < i] *= -1.0                   # past the turn's last sample the normal comes back reversed
+        N = -math.copysign(1.0, w.N[i]) * N
+        N = np.interp(np.arange(steps + 1, dtype=float), np.nonzero(np.isfinite(N))[0], N[np.isfinite(N)])
+        f0 = N[0] / (N[0] - N[1])                # the zero crossing inside the first sample
+        tt = np.linspace(f0, steps, (steps - 1) * substeps + 1)
+        a = np.interp(tt, np.arange(steps + 1, dtype=float), N) / m_n
+        a[0] = 0.0
+        tau = (tt - f0) * dt
+        v = np.concatenate([[0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * np.diff(tau))])
+        d = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(tau))])
+        back = np.nonzero(d[1:] < 0.0)[0]
+        hit = np.nonzero(d >= clearance)[0]
+        if len(hit) and (not len(back) or back[0] + 1 > hit[0]):
+            k = hit[0]
+            x = (clearance - d[k - 1]) / (d[k] - d[k - 1])
+            t = tau[k - 1] + x * (tau[k] - tau[k - 1])
+            out.append({"t_cross": t, "crank_deg": math.degrees(case.omega * t),
+                        "v_impact": v[k - 1] + x * (v[k] - v[k - 1]), "m_n": m_n})
+        else:
+            out.append({"t_cross": math.nan, "crank_deg": math.nan, "v_impact": math.nan, "m_n": m_n})
+    return out

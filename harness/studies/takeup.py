@@ -293,17 +293,23 @@ LIFTOFF_LOADS = ((150.0, 0.0), (100.0, 0.05), (200.0, 0.05))   # (rpm, head fric
 #                                      (systems/feeder_gto52: 0.05 N.m) at the seed's 100 and 200 rpm
 
 
+GROOVE_CLEARANCE = 10e-6   # m, the feeder's groove play (CamRocker's groove_clearance; seed: 5-20 um)
+
+
 def liftoff_rows(w, case) -> list[dict]:
     """One row per lift-off: where the roller leaves its wall (crank angle from the forward stroke's start,
-    stone radius, kulisa angle) and whether the rocker is then at an extreme position (within 1 % of the
-    swing of either end: its dead centres and the dwell) or between them."""
+    stone radius, kulisa angle), whether the rocker is then at an extreme position (within 1 % of the swing
+    of either end: its dead centres and the dwell) or between them, and its crossing of the groove's play to
+    the other wall (:func:`fmus.physics.takeup.crossing`: time, crank angle, impact speed)."""
     from fmus.physics import groove
+    from fmus.physics.takeup import crossing
 
     start = groove.base_design(case.lam1, case.lam2, case.lam3)["phi_start"]
     g_lo, g_hi = float(w.gamma.min()), float(w.gamma.max())
     rows = []
     h = w.phi[1] - w.phi[0]
-    for i, j in w.lift_off:
+    crossings = crossing(w, case, GROOVE_CLEARANCE)
+    for (i, j), cr in zip(w.lift_off, crossings):
         Nj = -w.N[j] if (j < i and w.wrap_flip) else w.N[j]     # after the turn's last sample: its first
         f = w.N[i] / (w.N[i] - Nj)                     # linear interpolation of the zero crossing
         dphi = ((j - i) % len(w.phi)) * h
@@ -313,7 +319,8 @@ def liftoff_rows(w, case) -> list[dict]:
                      "phi_deg": math.degrees((w.phi[i] + f * dphi - start) % (2 * math.pi)),
                      "rho_mm": 1e3 * (w.rho[i] + f * (w.rho[j] - w.rho[i])),
                      "gamma_deg": math.degrees(g), "position": "extreme" if extreme else "intermediate",
-                     "leaves": "+n" if w.N[i] > 0 else "-n"})
+                     "leaves": "+n" if w.N[i] > 0 else "-n", "cross_ms": 1e3 * cr["t_cross"],
+                     "cross_deg": cr["crank_deg"], "impact_mm_s": 1e3 * cr["v_impact"]})
     return rows
 
 
