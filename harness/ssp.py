@@ -779,13 +779,14 @@ class _Reader:
         of these FMUs saved by another tool keeps its bonds so.  Returns (the other connections, the bonds)."""
         plain = {(c.source, c.target): c for c in connections
                  if (c.factor, c.offset, c.mapping, c.unit_conversion) == (1.0, 0.0, None, False)}
+        driver = {target: source for source, target in plain}   # input -> the output that drives it
         ports = {f"{i.name}.{t.name}": (i, t) for i in instances for t in terminals(i.fmu).values()}
         bonds, used = [], set()
         for port_in, (inst, t) in ports.items():
             for tr in (False, True):
-                p, v, e = Bond(port_in, port_in, tr).names()
-                c = plain.get(next((k for k in plain if k[1] == f"{port_in}.{p}"), None))
-                port_out = c.source.rsplit(".", 1)[0] if c is not None else None
+                position = Bond(port_in, port_in, tr).names()[0]
+                source = driver.get(f"{port_in}.{position}")
+                port_out = source.rsplit(".", 1)[0] if source else None
                 if port_out not in ports or ports[port_out][1].kind != t.kind:
                     continue
                 bond = Bond(port_out, port_in, tr)
