@@ -12,14 +12,12 @@ What a host integrates is the model's own equations (:mod:`fmus.physics`):
 * derivatives: ``Model.derivatives(t, x, u, t0=t)``: in model exchange the inputs are the host's values at t
   (a motion-input position is not extrapolated over a step as in co-simulation: the host gives it at every t);
 * outputs: ``Model.output(t, x, u)``, as in co-simulation;
-* state events: ``Model.switches`` name the model's event indicators (``Model.event_indicators``: a contact
-  closing or opening), and at each located event ``Model.at_event`` updates what the co-simulation step keeps
-  as memory (an impact count, a contact flag, an approach speed); those memory entries are states whose
-  derivative is 0, so their change is reported as ``valuesOfContinuousStatesChanged``.
+* no event indicators: the components' switches (a clearance closing or opening) keep memory that only their
+  co-simulation step updates, so those parameter sets are refused (next paragraph), not integrated wrongly.
 
 A component whose equations at the given parameters are not an ODE the host could integrate (a state that is
-a step quantity, e.g. an acceleration from the input history) is refused at initialisation in one line, with
-the reason ``Model.ode_form`` gives; nothing is integrated then.
+a step quantity, e.g. an acceleration from the input history; contact memory) is refused at initialisation in
+one line, with the reason ``Model.ode_form`` gives; nothing is integrated then.
 
 pythonfmu3 0.3.4's wrapper reads fmi3UpdateDiscreteStates' results under the C names
 (``discreteStatesNeedUpdate``, ``nominalContinuousStatesChanged``), not those of its own Python result class, so
@@ -82,26 +80,18 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         by_name = {v.name: v for v in self.vars.values()}
         for i, st in enumerate(cls.model.states):
             by_name[st.name].setter = self._state_setter(i)
-        n_switch = len(cls.model.switches)
         for i, st in enumerate(cls.model.states):
             unit = derivative_unit(st.unit)
             self.register_variable(Float64(f"der({st.name})", causality=Fmi3Causality.local,
                                            variability=Fmi3Variability.continuous, description=f"d {st.name}/dt",
                                            derivative=by_name[st.name].value_reference, getter=self._der_getter(i),
                                            **({"unit": unit} if unit else {})), nested=False)
-        for i, sw in enumerate(cls.model.switches):
-            self.register_variable(Float64(sw.name, causality=Fmi3Causality.local,
-                                           variability=Fmi3Variability.continuous, description=sw.doc,
-                                           unit=sw.unit, getter=self._indicator_getter(i)),
-                                   nested=False, has_event_indicator=True)
-        self._n_switch = n_switch
 
     def _units_by_name(self) -> dict[str, str]:
-        """The co-simulation FMU's units, those of the derivatives and of the event indicators."""
+        """The co-simulation FMU's units and those of the derivatives."""
         units = super()._units_by_name()
         model = type(self).model
         units.update({f"der({s.name})": u for s in model.states if (u := derivative_unit(s.unit))})
-        units.update({s.name: s.unit for s in model.switches})
         return units
 
     def _state_setter(self, i):
@@ -113,12 +103,14 @@ class PressSlave(slave3.PressSlave, ModelExchange):
     def _der_getter(self, i):
         return lambda: float(self._derivatives()[i])
 
-    def _indicator_getter(self, i):
-        return lambda: float(self._indicators()[i])
-
     def _inputs_now(self) -> list:
         """The inputs as the host set them at the present time (no extrapolation: module docstring)."""
         return self._u
+
+    def _advanced_positions(self) -> list[str]:
+        """None: a model exchange FMU takes every input as the host gives it at each time (the annotation then
+        tells a master to extrapolate the positions, as for any FMU that does not advance them)."""
+        return []
 
     def _ode_model(self):
         mdl = self._build_model()
@@ -139,11 +131,6 @@ class PressSlave(slave3.PressSlave, ModelExchange):
             self._fail(f"derivative of state {bad} is not finite at t = {self._time:.9g} s")
         return dx
 
-    def _indicators(self) -> list[float]:
-        if not self._n_switch:
-            return []
-        return [float(z) for z in self._mdl.event_indicators(self._time, self._x, self._u)]
-
     # -- the ModelExchange calls pythonfmu3's wrapper makes ------------------------------------------------
     def get_continuous_states(self):
         if not self._initialised:
@@ -161,25 +148,18 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         return [float(v) for v in self._derivatives()]
 
     def get_number_of_event_indicators(self) -> int:
-        return len(type(self).model.switches)
+        return 0
 
     def get_event_indicators(self):
-        return self._indicators()
+        return []
 
     def get_nominals_of_continuous_states(self, size: int):
         return [1.0] * size
 
     def update_discrete_states(self):
-        """At an event (an indicator's sign change located by the host, an input changed in event mode): the
-        model's memory update (``Model.at_event``) at the present time."""
-        result = _UpdateResult()
-        if self._n_switch and self._initialised:
-            x = np.asarray(self._mdl.at_event(self._time, self._x.copy(), self._u), dtype=float)
-            if not np.array_equal(x, self._x):
-                self._x = x
-                self._stale = True
-                result.valuesOfContinuousStatesChanged = True
-        return result
+        """An event (an input changed in event mode): no discrete state changes; the results under the names the
+        C wrapper reads (module docstring)."""
+        return _UpdateResult()
 
     def do_step(self, current_time, step_size):
         self._fail("a model exchange FMU is integrated by its host (fmi3DoStep is co-simulation)")
@@ -194,7 +174,7 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         for extra in root.findall("ModelExchange")[1:]:   # pythonfmu3's own element (ModelExchange mixin)
             root.remove(extra)
 
-        # ModelStructure in FMI 3.0's order: Output, ContinuousStateDerivative, InitialUnknown, EventIndicator.
+        # ModelStructure in FMI 3.0's order: Output, ContinuousStateDerivative, InitialUnknown.
         # An output of a model with states depends on them too (the co-simulation FMU lists only its inputs).
         vr = {v.name: v.value_reference for v in self.vars.values()}
         states = [vr[s.name] for s in type(self).model.states]
@@ -214,8 +194,6 @@ class PressSlave(slave3.PressSlave, ModelExchange):
             if unknowns[v] is not None:
                 attrs["dependencies"] = unknowns[v]
             SubElement(structure, "InitialUnknown", attrs)
-        for sw in type(self).model.switches:
-            SubElement(structure, "EventIndicator", valueReference=str(vr[sw.name]))
         root.insert(list(root).index(old), structure)
         root.remove(old)
         return root

@@ -295,6 +295,14 @@ class CamRockerModel(Model):
             dx[0], dx[1] = x[1], self._acceleration(t, x[0], x[1], x, u, t0)
         return dx
 
+    def ode_form(self):
+        """Fidelity 2 and 3 keep contact memory (flag, impact count, approach speed) that ``advance`` updates at
+        sub-step boundaries or located events; no event indicators for a host are written yet."""
+        if self.p.fidelity >= 2:
+            return (f"fidelity {self.p.fidelity}'s contact memory (contact_flag, impacts, v_impact) is updated inside "
+                    f"advance only: its switches are not event indicators yet")
+        return None
+
     def _update_contact(self, w: float, x: np.ndarray, kin) -> None:
         q, qd, _, _ = self._pin(*kin, w, x)
         pen, pen_dot, side = contact.penetration(q, qd, self.p.clearance)

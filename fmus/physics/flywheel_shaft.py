@@ -102,6 +102,13 @@ class FlywheelShaftModel(Model):
         ts = self.c * (x[0] - x[2]) + self.b * (x[1] - x[3])
         return np.array([x[1], (u[0] - ts) / self.J1, x[3], (t_crank + ts) / self.J2, 0.0])
 
+    def ode_form(self):
+        """Fidelity 0 keeps the rigid shaft's torque as a state set at each step's end from the held torques (a
+        step quantity, derivative 0 in ``derivatives``): no ODE a host could integrate."""
+        if self.p.fidelity == 0:
+            return "fidelity 0's shaft torque is a state set at each step's end (rigid_shaft_torque), not an ODE"
+        return None
+
     def advance(self, t0, h, x, u):
         """Exact solution over [t0, t0+h] for inputs held over the step."""
         J1, J2, Jt = self.J1, self.J2, self.Jt

@@ -349,6 +349,14 @@ class FourBarModel(Model):
     def derivatives(self, t, x, u, t0):
         return self._rates(t, x, u, t0, True)
 
+    def ode_form(self):
+        """Fidelity 2's contact memory (onsets, approach and rebound speeds) is updated at the contact events
+        ``advance`` locates; no event indicators for a host are written yet."""
+        if self.p.fidelity == 2:
+            return ("fidelity 2's contact memory (onsets, v_impact, v_last_onset, v_last_separation) is updated "
+                    "inside advance only: its switches are not event indicators yet")
+        return None
+
     def _acceleration(self, t, psi, w, v_impact, u, t0, contact_on):
         """Rocker angular acceleration [rad/s2] at time t for rocker angle psi and speed w."""
         phi = u[0] + u[1] * (t - t0)

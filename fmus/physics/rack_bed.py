@@ -127,6 +127,13 @@ class RackBedModel(Model):
             return np.zeros(5)
         return np.array([x[1], self._acceleration(t, x[0], x[1], u, t0), 0.0, 0.0, 0.0])
 
+    def ode_form(self):
+        """Fidelity 0 takes the bed's acceleration from the input history (the last step's speed and size are
+        states): no ODE a host could integrate."""
+        if self.p.fidelity == 0:
+            return "fidelity 0's bed acceleration comes from the input history (w_last, h_last), not an ODE"
+        return None
+
     def advance(self, t0, h, x, u):
         if self.p.fidelity == 1:
             # RK4 on (s, v) in plain floats: the base class's rk4 numbers without an array per stage
