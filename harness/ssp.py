@@ -694,10 +694,11 @@ class _Reader:
     def _terminal(self, endpoint: tuple, by_name: dict):
         """(instance, Terminal) when ``endpoint`` names a terminal of its FMU and no variable, else None."""
         inst = by_name.get(endpoint[1]) if endpoint[0] == "fmu" else None
-        if inst is None or any(v.name == endpoint[2] for v in model_description(inst.fmu).modelVariables):
+        t = terminals(inst.fmu).get(endpoint[2]) if inst is not None else None
+        # the terminal file first: most FMUs have none, and their descriptions are then read where used
+        if t is None or any(v.name == endpoint[2] for v in model_description(inst.fmu).modelVariables):
             return None
-        t = terminals(inst.fmu).get(endpoint[2])
-        return None if t is None else (inst, t)
+        return inst, t
 
     def terminal_edges(self, edges: list, instances: list) -> tuple[list, list]:
         """Connections that name a terminal of an FMU at both ends (FMI 3.0 terminalsAndIcons.xml) instead of a
