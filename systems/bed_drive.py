@@ -5,19 +5,26 @@
     diff (JamesDifferential) -sun-> bed (RackBed: pinion z6, rack, bed mass m_T)
 
 * Four-bar O2ADO5 with the published relative lengths 1 : 1.91579 : 2.10526 : 2.25263 (crank 0.1 m, an
-  assumed scale), synthesised for a 60 deg rocker swing and a 30 deg minimum transmission angle.
+  assumed scale), synthesised for a 60 deg rocker swing and a 30 deg minimum transmission angle, assembled on
+  the seed's branch (bed_law.SEED_BRANCH = -1 with the crank turning counter-clockwise): its working stroke
+  has the small acceleration peak at the run-up (C1 3.113, C3 12.884), as the seed's.
 * The disc cam on the same main shaft swings the carrier by 40 deg with the published rise / return phases
   216 deg 53' 10" / 143 deg 06' 50"; its rise starts with the four-bar's working stroke (both inputs leave their
   extreme positions together, as the seed requires), so the run starts there too (flywheel phi0).
 * The carrier's rise law is the seed's: synthesised so that, summed with the four-bar through the
   differential, the bed moves uniformly through the printing zone (law 8, ``bed004``,
   fmus/physics/bed_law.py); its run-up share ``law_km`` is computed here from the zone and the stroke
-  (``CARRIER_RUNUP``: the largest one whose uniform segment covers the zone); the return is harmonic (K0:
-  the seed publishes no idle-stroke law).  The harmonic K0 rise is ``--set cam.law=0``.
-* The cam geometry meets the seed's largest pressure angle of 28 deg for this law: follower arm 0.1 m,
-  centre distance 0.14633 m, base radius 0.080628 m (r0/S = 1.155; the seed's r0/S = 0.95 gives at best
-  29.7 deg in this geometry).  The numbers are bed_cam.design_cam(CARRIER_RUNUP) (9 s to compute, so
-  recorded here; tests/test_bed_law.py checks that the synthesis gives them).
+  (``CARRIER_RUNUP``: the largest one whose uniform segment covers the zone).  The return is the seed's too
+  (law 9, ``bed004r``): the carrier's law that, with the four-bar's idle stroke, returns the bed by the
+  harmonic law (accelerated, no printing).  The harmonic K0 rise and return are ``--set cam.law=0
+  --set cam.law_return=0``.
+* The cam geometry meets the seed's largest pressure angle of 28 deg for these laws: designed with a 0.1 m
+  follower arm, centre distance 0.141426 m, pitch base radius 0.082419 m (r0/S = 1.181; the seed's r0/S =
+  0.95 on the pitch curve gives at best 29.9 deg); the seed's 0.95 holds for the working profile with a
+  roller of 0.2306 S.  The numbers are bed_cam.design_cam(CARRIER_RUNUP) (4-9 s to compute, so recorded
+  here; tests/test_bed_law.py checks that the synthesis gives them), scaled so that the cam centre to carrier
+  pivot distance is the four-bar's frame O2O5 (both the rocker and the carrier turn about O5, the cams sit on
+  O2): follower arm 0.14886 m, centre distance 0.210526 m.
 * The cam is declared rigid (fidelity 0); its elastic levels (1, 2: the scenes' full model) get values for
   this drive, not the component defaults, which are the seed-000 feeder's (5000 N.m/rad and 5e5 N/m for a
   0.00043 kg.m2 rocker): against the bed's inertia reflected to the carrier, (1 + z3/z5)^2 * m_T * R6^2 =
@@ -49,9 +56,10 @@ from harness.specs import AccuracySpec, ChartSpec, Panel, PrecisionSpec, Require
 RPM = 2 * math.pi / 60
 CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m
 C_COUPLER, D_COUPLER = 5e7, 2e3  # N/m, N.s/m: four-bar coupler (assumed); the cam transmission copies them
-_analysis = fourbar_synthesis.analyse(1.0, COUPLER / CRANK, FRAME / CRANK, ROCKER / CRANK)
+BRANCH = bed_law.SEED_BRANCH                                      # the seed's assembly of the four-bar
+_analysis = fourbar_synthesis.analyse(1.0, COUPLER / CRANK, FRAME / CRANK, ROCKER / CRANK, branch=BRANCH)
 PHI_START = math.radians(_analysis.working_start_deg)  # crank angle where the working stroke begins
-ROCKER_START = float(fourbar.position(PHI_START, CRANK, COUPLER, FRAME, ROCKER, 1)[0])  # rad
+ROCKER_START = float(fourbar.position(PHI_START, CRANK, COUPLER, FRAME, ROCKER, BRANCH)[0])  # rad
 PINION_RADIUS = 0.004 * 25 / 2                                  # m: module 4 mm, z6 = 25
 PRINT_ZONE = (0.08, 0.24)                                       # m of bed travel on the working stroke
 IN_ZONE = f'between(r["bed.bed.s"], {PRINT_ZONE[0]!r}, {PRINT_ZONE[1]!r}) & (r["bed.bed.v"] > 0)'  # qoi mask
@@ -59,7 +67,8 @@ BED_STROKE = PINION_RADIUS * (bed_law.SEED_RATIO * abs(bed_law.working_stroke().
                               + (1 + bed_law.SEED_RATIO) * bed_law.SEED_CARRIER_SWING)   # m, about 0.297
 CARRIER_RUNUP = bed_law.runup_for_zone(PRINT_ZONE[0] / BED_STROKE, PRINT_ZONE[1] / BED_STROKE)  # about 0.246
 FULL_MODEL_STEP = 2e-4                                           # s: the scenes' full model (below)
-CAM_ARM, CAM_DISTANCE, CAM_BASE_RADIUS = 0.1, 0.1463304172, 0.0806281607  # m: bed_cam.design_cam(CARRIER_RUNUP)
+CAM_DESIGN = (0.1, 0.1414255816, 0.0824194029)   # m: arm, distance, base radius of bed_cam.design_cam(CARRIER_RUNUP)
+CAM_ARM, CAM_DISTANCE, CAM_BASE_RADIUS = (FRAME / CAM_DESIGN[1] * v for v in CAM_DESIGN)  # m: distance = O2O5
 
 SYSTEM = System(
     name="bed_drive",
@@ -81,10 +90,11 @@ SYSTEM = System(
             "crank_length": CRANK, "coupler_length": COUPLER, "frame_length": FRAME, "rocker_length": ROCKER,
             "fidelity": 1, "coupler_stiffness": C_COUPLER, "coupler_damping": D_COUPLER,  # N/m, N.s/m
             "rocker_inertia": 0.5, "clearance": 0.0,                            # kg.m2 (ring gear z3 + rocker)
+            "branch": BRANCH,
         }),
         Instance("cam", "CamRocker", {
             "mechanism": 1, "fidelity": 0,                           # disc cam, rigid
-            "law": 8, "law_return": 0, "law_km": CARRIER_RUNUP,      # seed 004's carrier law, K0 return
+            "law": 8, "law_return": 9, "law_km": CARRIER_RUNUP,      # seed 004's carrier laws (bed004, bed004r)
             "follower_arm": CAM_ARM, "cam_distance": CAM_DISTANCE, "cam_base_radius": CAM_BASE_RADIUS,  # m
             "swing": math.radians(40.0), "phi_start": PHI_START,     # rad
             "rocker_inertia": 0.05,                                  # kg.m2 (carrier + follower)

@@ -74,12 +74,13 @@ def test_invariants_of_k0_are_its_closed_forms():
 
 
 def test_cam_geometry_meets_the_seeds_pressure_angle():
-    # the geometry `synth carrier` prints for 28 deg (arm 0.1 m); the pressure angle is CamRocker's own
+    # the geometry `synth carrier` prints for 28 deg (arm 0.1 m) with the seed's rise and return laws; the
+    # pressure angle is CamRocker's own
     S = stroke_m()
     u = B.runup_for_zone(ZONE[0] / S, ZONE[1] / S)
-    th = bed_cam.max_pressure_angle(u, 0.1463, 0.1, 0.0806, points=1441)
+    th = bed_cam.max_pressure_angle(u, 0.14143, 0.1, 0.08242, points=1441)
     assert math.degrees(th) <= 28.05
-    # and the current bed_drive geometry (centre distance 0.15 m, r0 = 0.0663 m) does not
+    # and the former geometry (centre distance 0.15 m, r0 = 0.0663 m) does not
     assert math.degrees(bed_cam.max_pressure_angle(u, 0.15, 0.1, 0.0663)) > 40.0
 
 
@@ -96,7 +97,7 @@ def test_cosimulated_bed_speed_is_uniform_in_the_printing_zone():
     S = stroke_m()
     u = B.runup_for_zone(ZONE[0] / S, ZONE[1] / S)
     cam = system.instance("cam").parameters
-    assert (cam["law"], cam["law_return"]) == (8, 0) and cam["law_km"] == pytest.approx(u, rel=1e-12)
+    assert (cam["law"], cam["law_return"]) == (8, 9) and cam["law_km"] == pytest.approx(u, rel=1e-12)
     df = simulate(system, stop_time=1.6, step=2e-4)
     assert df.attrs.get("complete", True)
     # the cam meets the seed's 28 deg pressure angle (to the recorded geometry's 10 digits)
@@ -141,7 +142,7 @@ def test_pitch_curvature_equals_finite_differences_of_the_pitch_curve():
     d2 = (np.roll(X, -1, 1) - 2 * X + np.roll(X, 1, 1)) / h ** 2
     k = -(d1[0] * d2[1] - d1[1] * d2[0]) / np.hypot(*d1) ** 3
     fd = 1.0 / k[int(np.argmin(np.abs(1.0 / k)))]
-    assert bed_cam.pitch_curvature_min(u, a, l, r0) == pytest.approx(fd, rel=2e-3)
+    assert bed_cam.pitch_curvature_min(u, a, l, r0, law_return=0) == pytest.approx(fd, rel=2e-3)
     assert abs(np.hypot(*X).min() - r0) < 1e-6            # the pitch curve touches the base circle
 
 
@@ -150,7 +151,11 @@ def test_bed_drive_cam_geometry_is_the_synthesised_one():
     from systems import bed_drive as sys_bd
 
     d = bed_cam.design_cam(sys_bd.CARRIER_RUNUP)
-    assert d.follower_arm == sys_bd.CAM_ARM
-    assert d.cam_distance == pytest.approx(sys_bd.CAM_DISTANCE, abs=1e-9)
-    assert d.base_radius == pytest.approx(sys_bd.CAM_BASE_RADIUS, abs=1e-9)
+    assert d.follower_arm == sys_bd.CAM_DESIGN[0]
+    assert d.cam_distance == pytest.approx(sys_bd.CAM_DESIGN[1], abs=1e-9)
+    assert d.base_radius == pytest.approx(sys_bd.CAM_DESIGN[2], abs=1e-9)
+    # bed_drive scales it so that the cam centre to carrier pivot distance is the four-bar's frame O2O5
+    scale = sys_bd.FRAME / d.cam_distance
+    assert (sys_bd.CAM_ARM, sys_bd.CAM_DISTANCE, sys_bd.CAM_BASE_RADIUS) == pytest.approx(
+        (scale * d.follower_arm, sys_bd.FRAME, scale * d.base_radius), rel=1e-9)
     assert np.degrees(d.pressure_max) <= 28.0 + 1e-9

@@ -20,10 +20,11 @@ from .laws import LAW_NAMES
 
 SEED_R0_OVER_S = 0.95                              # r0 / S (seed; S read as the roller's arc, arm * swing)
 SEED_PRESSURE_MAX = math.radians(28.0)             # the seed's maximum pressure angle
+SEED_RETURN = LAW_NAMES.index("bed004r")           # the carrier's return law for the seed's harmonic bed return
 
 
 def max_pressure_angle(runup: float, cam_distance: float, follower_arm: float, base_radius: float,
-                       law_return: int = 0, points: int = 721) -> float:
+                       law_return: int = SEED_RETURN, points: int = 721) -> float:
     """Largest pressure angle [rad] over a turn of the disc cam (CamRocker mechanism 1, its own geometry:
     fmus.physics.cam_rocker) driving the carrier by the bed004 law on the rise and law ``law_return`` (index
     of fmus.physics.laws.LAW_NAMES, default K0) on the return, seed phases and swing."""
@@ -43,6 +44,13 @@ class CamDesign:
     r0_over_S: float
     pressure_max: float     # rad
     best_at_seed_ratio: float   # rad: the smallest max pressure angle reachable with r0/S = 0.95
+
+    @property
+    def roller_radius(self) -> float:
+        """Roller radius [m] that makes the seed's r0/S hold for the working profile: the seed's r0 read as the
+        smallest radius vector of the cam's profile, the pitch curve's base radius less the roller's (the seed
+        gives no roller).  0 when the seed's ratio already holds on the pitch curve."""
+        return max(0.0, self.base_radius - SEED_R0_OVER_S * self.follower_arm * SEED_CARRIER_SWING)
 
 
 def _best_distance(runup, arm, r0, law_return):
@@ -65,10 +73,12 @@ def _best_distance(runup, arm, r0, law_return):
 
 
 def design_cam(runup: float, pressure_max: float = SEED_PRESSURE_MAX, arm: float = 0.1,
-               r0_over_S: float = SEED_R0_OVER_S, law_return: int = 0) -> CamDesign:
-    """Cam geometry for the bed004 carrier law whose largest pressure angle is at most ``pressure_max``.
-    First the seed's r0/S with the centre distance that minimises the largest pressure angle; if that stays
-    above the target, the smallest r0/S (bisection, to 1e-4) for which some centre distance meets it."""
+               r0_over_S: float = SEED_R0_OVER_S, law_return: int = SEED_RETURN) -> CamDesign:
+    """Cam geometry for the bed004 carrier law (return law ``law_return``, default the seed's bed004r) whose
+    largest pressure angle is at most ``pressure_max``.  First the seed's r0/S with the centre distance that
+    minimises the largest pressure angle; if that stays above the target, the smallest r0/S of the pitch curve
+    (bisection, to 1e-4) for which some centre distance meets it.  Both of the seed's numbers then hold with
+    r0 read as the working profile's radius vector and the roller of :attr:`CamDesign.roller_radius`."""
     S = arm * SEED_CARRIER_SWING
     best, a = _best_distance(runup, arm, r0_over_S * S, law_return)
     if best <= pressure_max:
@@ -89,7 +99,7 @@ def design_cam(runup: float, pressure_max: float = SEED_PRESSURE_MAX, arm: float
 
 
 def pitch_curvature_min(runup: float, cam_distance: float, follower_arm: float, base_radius: float,
-                        law_return: int = 0, points: int = 7200) -> float:
+                        law_return: int = SEED_RETURN, points: int = 7200) -> float:
     """Smallest radius of curvature [m] of the cam's pitch curve (the roller centre seen from the turning
     cam; CamRocker mechanism 1: roller centre (a - l cos psi, l sin psi), psi = psi0 + G(phi), the cam turning
     counter-clockwise at phi), from closed-form derivatives of G: the value of smallest magnitude, positive on

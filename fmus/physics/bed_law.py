@@ -19,10 +19,11 @@ run-up share u (the run-out mirrors it, so the two acceleration peaks are equal)
 
 Each run-up and run-out is a quarter-wave of a harmonic acceleration, largest at the stroke's ends and
 zero where the uniform segment begins and ends (conjugate harmonic segments with equal peaks).  Why not the
-half-wave c = sin(pi k / u), which starts at c = 0: the four-bar's rocker starts its working stroke with a
-finite acceleration (its run-up invariant C1 = 12.9), so K delta grows as k^2 from the extreme position,
-faster than a bed law whose acceleration starts at zero (k^3); the carrier would have to turn back first
-(measured: b_gamma < 0 near k = 0.06 for every run-up share 0.1-0.4).  The carrier's forward stroke is then
+half-wave c = sin(pi k / u), which starts and ends at c = 0: the four-bar's rocker reaches and leaves its
+extreme positions with a finite acceleration (on the seed's branch, SEED_BRANCH, 3.1 at the working stroke's
+start and 12.9 at its end), so K delta moves as (1 - k)^2 near the stroke's end, faster than a bed law whose
+acceleration ends at zero ((1 - k)^3); the carrier would have to turn back (measured: b_gamma < 0 near
+k = 0.95 for every run-up share 0.1-0.4; near k = 0.06 on the other branch).  The carrier's forward stroke is then
 
     a_gamma(k) = [alpha_S a_alpha(k) - K delta_S a_delta(k)] / ((1 + K) gamma_S),
     alpha_S = K delta_S + (1 + K) gamma_S,
@@ -30,8 +31,9 @@ faster than a bed law whose acceleration starts at zero (k^3); the carrier would
 with a_delta the four-bar rocker's invariant over its working stroke, and the same for b and c (the phase
 of the cam rise equals the four-bar's working stroke, 216 deg 53' in the seed; the four-bar gives
 216.886 deg).  The carrier must rise monotonically (b_gamma >= 0); :func:`carrier_law` refuses a run-up
-share for which it does not.  The idle stroke is not constrained by printing: the cam's return phase keeps
-its own law.
+share for which it does not.  The idle stroke is not constrained by printing: the seed's bed returns by a harmonic law (accelerated, no printing), and the carrier's return
+law follows from it and the four-bar's idle stroke as the rise does (:func:`carrier_return_law`, law
+``bed004r``).
 
 :func:`runup_for_zone` chooses u: the largest run-up share (the smallest bed acceleration) whose uniform
 segment still covers a printing zone given as shares of the bed stroke.
@@ -54,6 +56,13 @@ from .motion_law import Law
 SEED_LINKAGE = (1.0, 1.91579, 2.10526, 2.25263)   # seed 004: O2A : AD : O2O5 : DO5
 SEED_RATIO = 3.0                                  # z3 / z5 (seed: i_53^b = -3)
 SEED_CARRIER_SWING = math.radians(40.0)           # gamma_Sigma (seed)
+# The seed's assembly branch of the four-bar for a crank turning counter-clockwise (fmus.physics.fourbar's
+# sign(cross(D - O5, A - O5)) = branch).  The seed's working stroke has the small peak of the rocker's
+# acceleration at its run-up and the large one at its run-out (its Fig. 2 as issue 32 reads it; our copy has
+# no figures): branch -1 gives C_delta_px1 = 3.113 < C_delta_px3 = 12.884, branch +1 the mirror image
+# (12.884 > 3.113).  The two branches are mirror images of one linkage: branch -1 turning counter-clockwise
+# is branch +1 turning clockwise, i.e. every stroke run backwards in time (B kept, C1 and C3 exchanged).
+SEED_BRANCH = -1
 PI = math.pi
 
 
@@ -97,6 +106,27 @@ def runup_for_zone(zone_start: float, zone_end: float) -> float:
     return PI / (2.0 * (1.0 / f - 2.0 + PI))
 
 
+def equal_peak_runup(time_ratio: float) -> float:
+    """Run-up share u for which the bed's whole cycle has equal acceleration peaks: the working stroke's quarter
+    waves (peak C(u) / T_px^2 at the extreme positions) join the idle stroke's harmonic half-wave (peak
+    (pi^2 / 2) / T_xx^2) with no jump, C(u) = (pi^2 / 2) (K_px / (1 - K_px))^2.  One reading of the seed's
+    "conjugate harmonics with equal peaks" over the whole cycle; it fixes u by K_px alone (0.1564 for the
+    seed's four-bar), but then a larger K_px gives a longer uniform segment, against the seed's statement that
+    raising K_px shortens it, so bed_drive does not use it (docs/seeds.md)."""
+    from scipy.optimize import brentq
+    if not 0.0 < time_ratio < 1.0:
+        raise ValueError(f"time ratio K_px = {time_ratio!r}: allowed 0 < K_px < 1")
+    target = PI * PI / 2.0 * (time_ratio / (1.0 - time_ratio)) ** 2
+
+    def peak(u):
+        w = PI / (2.0 * u)
+        return 1.0 / (2.0 / (w * w) + (1.0 - 2.0 * u) / w)
+    lo, hi = 1e-6, 0.5 - 1e-12
+    if not peak(hi) <= target <= peak(lo):
+        raise ValueError(f"time ratio K_px = {time_ratio!r}: no run-up share in (0, 0.5) gives equal peaks")
+    return brentq(lambda u: peak(u) - target, lo, hi, xtol=1e-15)
+
+
 @dataclass(frozen=True)
 class FourBarStroke:
     """The four-bar rocker over its working stroke: crank angle start, crank span, swing (rad, signed)."""
@@ -122,10 +152,22 @@ class FourBarStroke:
 
 
 @lru_cache(maxsize=16)
-def working_stroke(linkage=SEED_LINKAGE, branch: int = 1) -> FourBarStroke:
+def working_stroke(linkage=SEED_LINKAGE, branch: int = SEED_BRANCH) -> FourBarStroke:
+    """The four-bar rocker over its working stroke (the slower one), crank turning counter-clockwise."""
+    return _stroke(linkage, branch, idle=False)
+
+
+@lru_cache(maxsize=16)
+def idle_stroke(linkage=SEED_LINKAGE, branch: int = SEED_BRANCH) -> FourBarStroke:
+    """The four-bar rocker over its idle (return) stroke; its invariants a run 0 -> 1 as the rocker returns."""
+    return _stroke(linkage, branch, idle=True)
+
+
+def _stroke(linkage, branch, idle):
     an = fourbar_synthesis.analyse(*linkage, branch=branch)
     a, b, f, r = 1.0, an.coupler, an.frame, an.rocker
-    start, span = math.radians(an.working_start_deg), math.radians(an.working_stroke_deg)
+    start = math.radians(an.idle_start_deg if idle else an.working_start_deg)
+    span = math.radians(an.idle_stroke_deg if idle else an.working_stroke_deg)
     psi0 = float(fourbar.position(start, a, b, f, r, branch)[0])
     swing = float(fourbar.position(start + span, a, b, f, r, branch)[0]) - psi0
     return FourBarStroke(a, b, f, r, branch, start, span, swing, psi0)
@@ -144,7 +186,7 @@ class CarrierLaw:
 
 
 def carrier_law(runup: float, ratio: float = SEED_RATIO, gamma_swing: float = SEED_CARRIER_SWING,
-                linkage=SEED_LINKAGE, branch: int = 1, check_points: int = 4001) -> CarrierLaw:
+                linkage=SEED_LINKAGE, branch: int = SEED_BRANCH, check_points: int = 4001) -> CarrierLaw:
     """The carrier's forward-stroke law that makes alpha5 the uniform-zone bed law of run-up share ``runup``."""
     if not 0.0 < runup < 0.5:
         raise ValueError(f"bed run-up share runup = {runup!r}: allowed 0 < runup < 0.5")
@@ -168,6 +210,46 @@ def carrier_law(runup: float, ratio: float = SEED_RATIO, gamma_swing: float = SE
         raise ValueError(f"bed run-up share runup = {runup:g}: the carrier would turn back at k = {bad:.3f} "
                          f"(b_gamma = {float(np.min(b)):.3g} < 0); allowed: a run-up share that keeps b_gamma >= 0")
     return CarrierLaw(law, runup, K, dS, gamma_swing, aS, st.span)
+
+
+def bed_idle_invariants(k, m=np):
+    """(a, b, c) of the bed's idle stroke at phase share k (a: share of the return travelled): the harmonic law
+    K0, c = (pi^2 / 2) cos(pi k).  The seed (after Tyurin, bed_drives.md 1.2) asks of the idle stroke only that
+    it be accelerated and that the acceleration diagram be made of harmonic segments; nothing is printed there
+    (no uniform segment), so the stroke is one harmonic half-wave, the K0 law, run in the idle stroke's time."""
+    return (1.0 - m.cos(PI * k)) / 2.0, PI / 2.0 * m.sin(PI * k), PI * PI / 2.0 * m.cos(PI * k)
+
+
+def carrier_return_law(ratio: float = SEED_RATIO, gamma_swing: float = SEED_CARRIER_SWING, linkage=SEED_LINKAGE,
+                       branch: int = SEED_BRANCH, check_points: int = 4001) -> Law:
+    """The carrier's idle-stroke (cam return) law that, summed with the four-bar's idle stroke through the
+    differential, returns the bed by the harmonic law of :func:`bed_idle_invariants`:
+
+        a_gamma(k) = [alpha_S a_alpha(k) - K delta_S a_delta(k)] / ((1 + K) gamma_S)
+
+    over the idle stroke (k = its phase share, a = the share of each return travelled; the cam's return phase
+    equals the four-bar's idle stroke, 143 deg 07' in the seed).  The seed's Fig. 2 adds the carrier's
+    velocity to the four-bar's over the whole cycle to make the bed's law, so the carrier's return follows from
+    the bed's idle law as its rise does from the working stroke's; the former return law, the harmonic K0 on
+    the carrier itself, gave the bed a return that is neither harmonic nor the seed's.  Raises ValueError if
+    the carrier would turn back (b_gamma < 0)."""
+    st = idle_stroke(tuple(linkage), branch)
+    dS, K = abs(st.swing), float(ratio)
+    aS = K * dS + (1.0 + K) * gamma_swing
+    wd, wa = K * dS / ((1.0 + K) * gamma_swing), aS / ((1.0 + K) * gamma_swing)
+
+    def piece(k, m):
+        ba, bb, bc = bed_idle_invariants(k, m)
+        da, db, dc = st.invariants(k, m)
+        return wa * ba - wd * da, wa * bb - wd * db, wa * bc - wd * dc
+
+    law = Law("bed004r", f"seed 004 carrier return law for a harmonic bed return (K = {K:g})", ((1.0, piece),))
+    k = np.linspace(0.0, 1.0, check_points)
+    _, b, _ = law(k)
+    if np.min(b) < -1e-9:
+        raise ValueError(f"the carrier would turn back on its return at k = {float(k[int(np.argmin(b))]):.3f} "
+                         f"(b_gamma = {float(np.min(b)):.3g} < 0) with this four-bar and ratio")
+    return law
 
 
 def stroke_invariants(law: Law, n: int = 20001) -> dict:

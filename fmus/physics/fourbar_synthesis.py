@@ -193,7 +193,7 @@ def _best_transmission(swing, theta, n=721):
     return best
 
 
-def synthesise(swing_deg: float, min_transmission_deg: float) -> FourBarAnalysis:
+def synthesise(swing_deg: float, min_transmission_deg: float, branch: int = 1) -> FourBarAnalysis:
     """Crank-rocker (crank = 1) by the two extreme positions with the largest time ratio the limit allows.
 
     Exact formulation (ambiguity 17 of the spec; the source gives no algorithm):
@@ -207,9 +207,14 @@ def synthesise(swing_deg: float, min_transmission_deg: float) -> FourBarAnalysis
     2.25263 (within 1.9 %, 0.8 %, 0.3 %); the published linkage has min transmission 29.35 deg, i.e. it
     slightly violates the stated 30 deg (a graphical design: 19 : 36.4 : 40 : 42.8 mm), so no strict
     formulation can return it exactly.
+    The lengths do not depend on the assembly branch; ``branch`` only orients the invariants of the result
+    (branch -1 is the mirror image: every stroke run backwards, C1 and C3 exchanged; seed 004's is -1,
+    fmus.physics.bed_law.SEED_BRANCH).
     Raises ParameterError if the inputs are out of range or no crank-rocker meets them.
     """
     from scipy.optimize import brentq
+    if branch not in (-1, 1):
+        raise ParameterError("branch", branch, "must be +1 or -1")
     if not 0.0 < swing_deg < 180.0:
         raise ParameterError("swing", swing_deg, "must be in (0, 180) deg")
     if not 0.0 < min_transmission_deg < 90.0:
@@ -231,4 +236,4 @@ def synthesise(swing_deg: float, min_transmission_deg: float) -> FourBarAnalysis
     theta = brentq(excess, thetas[k - 1], thetas[k], xtol=1e-13)
     s = _best_transmission(swing, theta)[1]
     a, b, f, r = (float(v[0]) for v in _family(swing, theta, s))
-    return analyse(1.0, b / a, f / a, r / a)
+    return analyse(1.0, b / a, f / a, r / a, branch=branch)

@@ -1,5 +1,6 @@
-"""``synth carrier``: seed 004's carrier (cam) law for a uniform bed speed in the printing zone, its
-invariants B, C1, C3, and the disc-cam geometry for the seed's maximum pressure angle.
+"""``synth carrier``: seed 004's carrier (cam) law for a uniform bed speed in the printing zone and for the
+bed's harmonic return, its invariants B, C1, C3 on both strokes, and the disc-cam geometry for the seed's
+maximum pressure angle (with the roller that makes the seed's r0/S hold for the working profile).
 
     synth carrier [--zone START END] [--stroke M] [--runup U] [--pressure DEG] [--arm M] [--no-cam] [--json]
 
@@ -52,7 +53,7 @@ def run(args) -> int:
     import numpy as np
 
     from fmus.physics import bed_cam, bed_law as B
-    from fmus.physics.laws import Law, get_law
+    from fmus.physics.motion_law import Law
 
     st = B.working_stroke()
     K = B.SEED_RATIO
@@ -77,7 +78,9 @@ def run(args) -> int:
                                    float(B.bed_invariants(1 - u, u, math)[0])],
                 "bed_b_zone_min": float(bed_b[zone].min()), "bed_b_zone_max": float(bed_b[zone].max()),
                 "carrier_working": B.stroke_invariants(cl.law),
-                "carrier_idle_K0": B.stroke_invariants(get_law("K0")),
+                "carrier_idle": B.stroke_invariants(B.carrier_return_law()),
+                "branch": st.branch,
+                "equal_peak_runup": B.equal_peak_runup(cl.phase / (2 * math.pi)),
                 "bed_working": B.stroke_invariants(Law("bed", "", ((1.0, lambda x, m: B.bed_invariants(x, u, m)),)))}
         if not args.no_cam:
             d = bed_cam.design_cam(u, math.radians(args.pressure), args.arm)
@@ -86,24 +89,29 @@ def run(args) -> int:
                            "pitch_curvature_min_m": rc, "r_min_over_S": rc / (d.follower_arm * B.SEED_CARRIER_SWING),
                            "base_radius_m": d.base_radius, "r0_over_S": d.r0_over_S,
                            "pressure_max_deg": math.degrees(d.pressure_max),
+                           "roller_radius_m": d.roller_radius,
+                           "profile_r_min_over_S": (rc - d.roller_radius) / (d.follower_arm * B.SEED_CARRIER_SWING),
                            "best_pressure_at_r0_S_0.95_deg": math.degrees(d.best_at_seed_ratio)}
     except ValueError as e:
         return fail("carrier", str(e))
     if args.json:
         print(json.dumps(data))
         return 0
-    cw, ci, bw = data["carrier_working"], data["carrier_idle_K0"], data["bed_working"]
+    cw, ci, bw = data["carrier_working"], data["carrier_idle"], data["bed_working"]
     print(f"seed 004 carrier law for a uniform bed (four-bar 1 : 1.91579 : 2.10526 : 2.25263, z3/z5 = {K:g}, "
-          f"carrier swing 40 deg, rise phase = the four-bar's working stroke {math.degrees(cl.phase):.4f} deg)")
+          f"branch {st.branch:+d}, carrier swing 40 deg, rise phase = the four-bar's working stroke "
+          f"{math.degrees(cl.phase):.4f} deg)")
     print(f"  bed swing alpha_S = 3 delta_S + 4 gamma_S       {data['alpha_swing_deg']:.4f} deg "
           f"(delta_S = {data['delta_swing_deg']:.4f} deg), stroke {stroke:.4f} m")
     print(f"  printing zone (share of the stroke)             {data['zone_shares'][0]:.4f} - {data['zone_shares'][1]:.4f}")
     print(f"  bed run-up share u (largest covering the zone)  {u:.6f}  -> uniform from "
           f"{data['uniform_shares'][0]:.4f} to {data['uniform_shares'][1]:.4f} of the stroke")
     print(f"  bed velocity invariant in the uniform segment   {data['bed_b_zone_min']:.12f} - {data['bed_b_zone_max']:.12f}")
+    print(f"  (the run-up share with equal acceleration peaks over the whole cycle, working and idle, would be "
+          f"{data['equal_peak_runup']:.4f})")
     print("  invariants (Tir; each stroke by its own duration and swing): B = peak of b = da/dk,")
     print("  C1 = peak |c| = |d2a/dk2| before the velocity peak (run-up), C3 = after it (run-out)")
-    for name, v in (("carrier, working stroke (synthesised)", cw), ("carrier, idle stroke (return law K0)", ci),
+    for name, v in (("carrier, working stroke (synthesised)", cw), ("carrier, idle stroke (bed returns by K0)", ci),
                     ("bed, working stroke (target law)", bw)):
         print(f"  {name:<40s} B = {v['B']:.4f}  C1 = {v['C1']:.4f}  C3 = {v['C3']:.4f}")
     if "cam" in data:
@@ -115,4 +123,6 @@ def run(args) -> int:
               f"{c['base_radius_m']:.4f} m (r0/S = {c['r0_over_S']:.4f}): {c['pressure_max_deg']:.2f} deg")
         print(f"    smallest radius of curvature of its pitch curve {c['pitch_curvature_min_m']:.4f} m "
               f"(r_min/S = {c['r_min_over_S']:.4f}; > 0: convex)")
+        print(f"    the seed's r0/S = 0.95 read for the working profile: roller radius {c['roller_radius_m']:.4f} m; "
+              f"the profile's r_min/S = {c['profile_r_min_over_S']:.4f}")
     return 0

@@ -1,6 +1,6 @@
 """``synth fourbar``: four-bar synthesis by two extreme positions and kinematic analysis (seed 004).
 
-    synth fourbar --swing DEG --min-transmission DEG [--json]
+    synth fourbar --swing DEG --min-transmission DEG [--branch {1,-1}] [--json]
     synth fourbar --analyse --coupler L --frame L --rocker L [--branch {1,-1}] [--json]     (crank = 1)
 
 The equations live in fmus.physics.fourbar_synthesis (``synthesise``, ``analyse``); this module only parses, prints
@@ -37,7 +37,9 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    help="frame length / crank length (no default: required with --analyse)")
     p.add_argument("--rocker", type=float, metavar="L",
                    help="rocker length / crank length (no default: required with --analyse)")
-    p.add_argument("--branch", type=int, choices=(1, -1), default=1, help="assembly branch (default 1)")
+    p.add_argument("--branch", type=int, choices=(1, -1), default=1,
+                   help="assembly branch, crank turning CCW (default 1; seed 004's is -1: the small acceleration "
+                        "peak of the working stroke at its run-up)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
 
@@ -80,7 +82,7 @@ def run(args) -> int:
         else:
             if args.swing is None or args.min_transmission is None:
                 return _fail("give --swing and --min-transmission (or --analyse with --coupler/--frame/--rocker)")
-            result = synthesise(args.swing, args.min_transmission)
+            result = synthesise(args.swing, args.min_transmission, branch=args.branch)
     except ParameterError as e:
         return _fail(_in_users_words(e, args))
     except ValueError as e:
