@@ -60,7 +60,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     ap.add_argument("--compare-laws", action="store_true", help=f"table of {', '.join(COMPARE)}")
     ap.add_argument("--seed-figures", default=None, metavar="DIR",
                     help="seed 001's statements against ours (slider stage, 80 deg dwell, size and energy) and its "
-                         "Figs. 2, 4 and 7 as charts in DIR (slow: about two minutes)")
+                         "Figs. 2, 4 and 7 as charts in DIR (slow: about 40 s)")
     ap.add_argument("--out", default=None,
                     help="write the profile (x y per line, metres) for --lambda2 (default: not written)")
     ap.add_argument("--points", type=int, default=3600, help="crank-angle grid points")
@@ -132,8 +132,11 @@ def _scan(a, law: str) -> dict:
     res = [ok(x) for x in grid]
     flags = np.array([r is None for r in res])
     if not flags.any():
+        seed_ok = [x for x, r in zip(grid, res) if r == "pressure" and ok(x, SEED_CRITERIA) is None]
+        why = (f"; the seed's criteria alone hold on [{seed_ok[0]:.2f}, {seed_ok[-1]:.2f}] of the grid, where the "
+               f"pressure angle exceeds {a.max_pressure_angle:g} deg (--max-pressure-angle)") if seed_ok else ""
         raise ValueError(f"law {law}: no feasible lambda2 for lambda1 = {a.lambda1:g}, lambda3 = {a.lambda3:g} "
-                         f"(criteria met nowhere on [{grid[0]:g}, {grid[-1]:g}])")
+                         f"(criteria met nowhere on [{grid[0]:g}, {grid[-1]:g}]){why}")
     runs, i = [], 0
     while i < len(flags):
         if flags[i]:
