@@ -127,9 +127,15 @@ def test_fig3_without_load_the_lift_offs_do_not_depend_on_the_crank_speed():
     np.testing.assert_allclose(b.N, 4.0 * a.N, rtol=1e-9, atol=1e-12)
 
 
-def test_fig3_refuses_a_law_without_a_groove():
+def test_fig3_refuses_a_law_without_a_groove_and_unphysical_values_in_one_line():
     with pytest.raises(ValueError, match="lambda2 = 3.6 has no groove"):
         T.lift_off(T.LiftOffCase(law="K0", lam2=3.6))
+    for kw, msg in (({"rpm": 0.0}, r"LiftOffCase.rpm = 0.0 outside \(0, inf\)"),
+                    ({"m_stone": -0.01}, r"LiftOffCase.m_stone = -0.01 outside \[0, inf\)"),
+                    ({"J": 0.0, "m_stone": 0.0}, "moves nothing"), ({"law": "Sh"}, "law")):
+        with pytest.raises(ValueError, match=msg) as e:
+            T.lift_off(T.LiftOffCase(**kw))
+        assert "\n" not in str(e.value)
 
 
 def test_study_figures_option_writes_figs_2_and_3_without_the_map(tmp_path):

@@ -527,6 +527,18 @@ class LiftOffCase:
     def omega(self) -> float:
         return self.rpm * 2.0 * math.pi / 60.0
 
+    def check(self) -> None:
+        for name, lo, lo_open in (("r", 0.0, True), ("lam1", 0.0, True), ("lam2", 0.0, True), ("lam3", 0.0, True),
+                                  ("dwell", 0.0, False), ("rpm", 0.0, True), ("J", 0.0, False),
+                                  ("m_stone", 0.0, False), ("head_friction", 0.0, False)):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and (v > lo if lo_open else v >= lo)):
+                raise ValueError(f"LiftOffCase.{name} = {v!r} outside {'(' if lo_open else '['}{lo:g}, inf)")
+        if not self.J + self.m_stone > 0.0:
+            raise ValueError("LiftOffCase: J = m_stone = 0 moves nothing (allowed: J + m_stone > 0)")
+        if not self.n >= 360:
+            raise ValueError(f"LiftOffCase.n = {self.n!r} outside [360, inf) samples per turn")
+
 
 @dataclass
 class WallForces:
@@ -620,6 +632,7 @@ def lift_off(case: LiftOffCase) -> WallForces:
     from . import groove
     from .laws import get_law
 
+    case.check()
     law = groove.kulisa_law(case.lam1, case.lam2, case.lam3, get_law(case.law), dwell=case.dwell)
     branch = groove.base_branch(case.lam1, case.lam2, case.lam3)
     prof = groove.synthesize_law(law, case.lam1, case.lam2, n=case.n, branch=branch)
@@ -647,6 +660,8 @@ def crossing(w: WallForces, case: LiftOffCase, clearance: float = 10e-6, window:
     angle, t_cross is NaN (no crossing).  One dict per lift-off, in the order of ``w.lift_off``."""
     from . import groove
 
+    if not (clearance > 0.0 and window > 0.0):
+        raise ValueError(f"crossing: clearance = {clearance!r} m and window = {window!r} rad must be > 0")
     branch = groove.base_branch(case.lam1, case.lam2, case.lam3)
     n, h = len(w.phi), float(w.phi[1] - w.phi[0])
     dt = h / case.omega
