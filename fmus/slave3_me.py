@@ -9,8 +9,13 @@ What a host integrates is the model's own equations (:mod:`fmus.physics`):
 
 * continuous states: the model's ``states`` (``x``), each with a derivative variable ``der(<state>)`` registered
   after ``time``, so every other value reference is the co-simulation FMU's;
-* derivatives: ``Model.derivatives(t, x, u, t0=t)``: in model exchange the inputs are the host's values at t
-  (a motion-input position is not extrapolated over a step as in co-simulation: the host gives it at every t);
+* derivatives: ``Model.derivatives(t, x, u, t0=t)`` with the inputs at t: as the host set them, except a
+  motion-input position of a port the model advances (``advances_position``, the co-simulation FMU's
+  ``advancedPositions`` annotation, kept): set at ``t_s`` and not set again, it is ``position + speed * (t - t_s)``.
+  A host that sets the inputs at every time it evaluates (the FMI ideal) sees them as set; a host that holds
+  them between its communication points (fmpy's CVODE right-hand side sets the time and the states, not the
+  inputs; the toolkit's master holds them over a step) gets the position its speed implies, not a staircase of
+  a stiff belt's or mesh's input (c * w * (t - t_s), the co-simulation FMU's reason for the same rule, issue 35);
 * outputs: ``Model.output(t, x, u)``, as in co-simulation;
 * no event indicators: the components' switches (a clearance closing or opening) keep memory that only their
   co-simulation step updates, so those parameter sets are refused (next paragraph), not integrated wrongly.
@@ -103,14 +108,31 @@ class PressSlave(slave3.PressSlave, ModelExchange):
     def _der_getter(self, i):
         return lambda: float(self._derivatives()[i])
 
-    def _inputs_now(self) -> list:
-        """The inputs as the host set them at the present time (no extrapolation: module docstring)."""
-        return self._u
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self._pos_time = {ip: 0.0 for ip, _ in self._advanced}   # time each advanced position was last set
 
-    def _advanced_positions(self) -> list[str]:
-        """None: a model exchange FMU takes every input as the host gives it at each time (the annotation then
-        tells a master to extrapolate the positions, as for any FMU that does not advance them)."""
-        return []
+    def set_float64(self, vrs, values):
+        super().set_float64(vrs, values)
+        self._mark_positions()
+
+    def _mark_positions(self) -> None:
+        """A motion-input position just set holds from the present time (module docstring)."""
+        for ip, _ in self._advanced:
+            if self._fresh[ip]:
+                self._pos_time[ip] = self._time
+                self._fresh[ip] = False
+
+    def _inputs_now(self) -> list:
+        """The inputs at the present time: as the host set them, except that a motion-input position the model
+        advances is taken as ``position + speed * (t - t_set)`` when the host has not set it since ``t_set``
+        (module docstring)."""
+        if not self._advanced:
+            return self._u
+        u = list(self._u)
+        for ip, iw in self._advanced:
+            u[ip] += u[iw] * (self._time - self._pos_time[ip])
+        return u
 
     def _ode_model(self):
         mdl = self._build_model()
@@ -122,14 +144,24 @@ class PressSlave(slave3.PressSlave, ModelExchange):
     def exit_initialization_mode(self):
         self._ode_model()
         super().exit_initialization_mode()
+        self._pos_time = {ip: self._time for ip in self._pos_time}
+        self._fresh = [False] * len(self._u)
 
     def _derivatives(self) -> np.ndarray:
         self._check_inputs()
-        dx = np.asarray(self._mdl.derivatives(self._time, self._x, self._u, self._time), dtype=float)
+        dx = np.asarray(self._mdl.derivatives(self._time, self._x, self._inputs_now(), self._time), dtype=float)
         if not np.all(np.isfinite(dx)):
             bad = type(self).model.states[int(np.argmin(np.isfinite(dx)))].name
             self._fail(f"derivative of state {bad} is not finite at t = {self._time:.9g} s")
         return dx
+
+    def _get_fmu_state(self):
+        return super()._get_fmu_state(), dict(self._pos_time)
+
+    def _set_fmu_state(self, state):
+        base, pos_time = state
+        super()._set_fmu_state(base)
+        self._pos_time = dict(pos_time)
 
     # -- the ModelExchange calls pythonfmu3's wrapper makes ------------------------------------------------
     def get_continuous_states(self):
