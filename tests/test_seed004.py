@@ -163,3 +163,20 @@ def test_equal_peak_runup_joins_the_strokes_without_a_jump_and_lengthens_the_uni
         assert c_work == pytest.approx(-c_idle, rel=1e-9)       # the return's deceleration is a forward push
         shares.append(1 - 2 * B.bed_invariants(u, u, math)[0])
     assert shares[0] < shares[1] < shares[2]
+
+
+def test_the_published_linkage_is_the_synthesis_optimum_at_its_own_swing_and_transmission_angle(capsys):
+    """The seed's criterion (the largest K_px for a swing and a smallest transmission angle) picks the published
+    linkage up to the flatness of K_px near its maximum: at the linkage's own swing (59.965 deg) and smallest
+    transmission angle (29.354 deg, not the stated 30) no crank-rocker reaches a K_px larger by 1e-4."""
+    from harness.__main__ import main
+
+    assert main(["synth", "fourbar", "--analyse", "--coupler", "1.91579", "--frame", "2.10526", "--rocker",
+                 "2.25263", "--branch", "-1", "--optimum", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    best = out["optimum"]
+    assert best["swing_deg"] == pytest.approx(out["swing_deg"], abs=1e-6)
+    assert best["min_transmission_deg"] == pytest.approx(out["min_transmission_deg"], abs=1e-6)
+    assert out["time_ratio"] <= best["time_ratio"] + 1e-9
+    assert best["time_ratio"] - out["time_ratio"] < 1e-4
+    assert out["min_transmission_deg"] < 30.0 - 0.5          # the published linkage breaks the stated limit

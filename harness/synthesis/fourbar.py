@@ -1,7 +1,7 @@
 """``synth fourbar``: four-bar synthesis by two extreme positions and kinematic analysis (seed 004).
 
     synth fourbar --swing DEG --min-transmission DEG [--branch {1,-1}] [--json]
-    synth fourbar --analyse --coupler L --frame L --rocker L [--branch {1,-1}] [--json]     (crank = 1)
+    synth fourbar --analyse --coupler L --frame L --rocker L [--branch {1,-1}] [--optimum] [--json]  (crank = 1)
 
 The equations live in fmus.physics.fourbar_synthesis (``synthesise``, ``analyse``); this module only parses, prints
 and turns a linkage that cannot be built into a one-line error (exit code 2).
@@ -40,6 +40,9 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--branch", type=int, choices=(1, -1), default=1,
                    help="assembly branch, crank turning CCW (default 1; seed 004's is -1: the small acceleration "
                         "peak of the working stroke at its run-up)")
+    p.add_argument("--optimum", action="store_true",
+                   help="with --analyse: also the largest time ratio any crank-rocker reaches at this linkage's own "
+                        "swing and minimum transmission angle (the synthesis's criterion, seed 004's)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
 
@@ -79,6 +82,8 @@ def run(args) -> int:
             if missing:
                 return _fail("--analyse needs " + ", ".join(f"--{n}" for n in missing))
             result = analyse(1.0, args.coupler, args.frame, args.rocker, branch=args.branch)
+            if args.optimum:
+                best = synthesise(result.swing_deg, result.min_transmission_deg, branch=args.branch)
         else:
             if args.swing is None or args.min_transmission is None:
                 return _fail("give --swing and --min-transmission (or --analyse with --coupler/--frame/--rocker)")
@@ -88,6 +93,8 @@ def run(args) -> int:
     except ValueError as e:
         return _fail(str(e))
     data = result.as_dict()
+    if args.analyse and args.optimum:
+        data["optimum"] = best.as_dict()
     if args.json:
         print(json.dumps(data))
         return 0
@@ -96,6 +103,11 @@ def run(args) -> int:
     print(title + " (crank = 1, crank turning CCW, branch %+d)" % data["branch"])
     for key, label, unit in _ROWS:
         print(f"  {label:<34s} {data[key]:>12.6f} {unit}")
+    if "optimum" in data:
+        o = data["optimum"]
+        print(f"  largest K_px at this swing and min transmission angle {o['time_ratio']:12.6f}  (short by "
+              f"{o['time_ratio'] - data['time_ratio']:.2g}; its lengths 1 : {o['coupler']:.5f} : {o['frame']:.5f} : "
+              f"{o['rocker']:.5f})")
     print("  invariants of each stroke, normalised by its own duration T and swing psi_S (seed 004, Tir):")
     print("    tau = t/T, b = (dpsi/dtau)/psi_S, c = (d2psi/dtau2)/psi_S; B = max b (peak over mean speed),")
     print("    C1 = max |c| before the velocity peak (run-up), C3 = max |c| after it (run-out)")
