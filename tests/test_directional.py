@@ -26,8 +26,13 @@ from harness.fmi.inprocess import InProcessFMU
 
 NAMES = sorted(catalog())
 STEP = 1e-3
-# operating points: input j = base + 0.37 j (each after one step from the previous point's inputs)
-BASES = (0.2, 1.1, -0.6)
+# operating points: input j = base + 0.37 j (each after one step from the previous point's inputs); 2.0 puts the
+# knife inside its cut
+BASES = (0.2, 1.1, 2.0, -0.6)
+# parameters that give the loads a slope at all (their defaults are a constant torque; the knife's block arrives
+# at t = 0, its entry ramp then half way); the components without feed-through (the torques only drive states)
+PARAMETERS = {"TorqueLoad": {"c": 40.0, "d": 0.3, "T_coulomb": 2.0}, "KnifeLoad": {"t_block": -1e-3}}
+NO_FEEDTHROUGH = {"Inertia", "FlywheelShaft", "ParallelShafts"}
 
 
 @pytest.fixture(scope="session")
@@ -68,15 +73,19 @@ def _check(D: np.ndarray, fd: np.ndarray, where: str) -> float:
     return dev
 
 
-def _harness_case(inst, where: str) -> list[float]:
+def _harness_case(inst, name: str, where: str) -> list[float]:
+    """D at each operating point against differences; D is not zero everywhere unless the component has no
+    feed-through (a test at points where every slope vanishes would prove nothing)."""
     ins = [v.name for v in inst.md.modelVariables if v.causality == "input"]
     outs = [v.name for v in inst.md.modelVariables if v.causality == "output"]
     inp, out = inst.reals(ins), inst.reals(outs)
     assert inst.provides_directional_derivative, f"{where}: does not declare directional derivatives"
+    for key, value in PARAMETERS.get(name, {}).items():
+        inst.set_value(key, value)
     inst.setup(0.0)
     inst.enter_initialization()
     inst.exit_initialization()
-    devs, t = [], 0.0
+    devs, t, nonzero = [], 0.0, 0
     for base in BASES:
         u = _point(len(ins), base)
         inst.set(inp, u)
@@ -86,6 +95,8 @@ def _harness_case(inst, where: str) -> list[float]:
         D = np.column_stack([inst.directional_derivative(out, inp, e) for e in np.eye(len(ins))])
         fd = _central(lambda v: inst.set(inp, v), lambda: inst.get(out).copy(), u)
         devs.append(_check(D, fd, f"{where} at inputs {u}"))
+        nonzero += int(np.count_nonzero(D))
+    assert (nonzero == 0) == (name in NO_FEEDTHROUGH), f"{where}: {nonzero} non-zero slopes"
     return devs
 
 
@@ -94,7 +105,7 @@ def test_in_process_directional_derivatives_match_differences(fmu_dir, name):
     inst = open_instance(fmu_dir / f"{name}.fmu", "dd", in_process=True)
     assert isinstance(inst, InProcessFMU)
     try:
-        _harness_case(inst, f"{name} in process")
+        _harness_case(inst, name, f"{name} in process")
     finally:
         inst.free()
 
@@ -104,7 +115,7 @@ def test_fmi2_binary_directional_derivatives_match_differences(fmu_dir, name):
     inst = open_instance(fmu_dir / f"{name}.fmu", "dd2", in_process=False)
     assert type(inst) is FMU
     try:
-        _harness_case(inst, f"{name} FMI 2.0 binary")
+        _harness_case(inst, name, f"{name} FMI 2.0 binary")
     finally:
         inst.free()
 
@@ -114,7 +125,7 @@ def test_fmi3_binary_directional_derivatives_match_differences(fmu3_dir, name):
     inst = open_instance(fmu3_dir / f"{name}.fmu", "dd3")
     assert isinstance(inst, FMU3)
     try:
-        _harness_case(inst, f"{name} FMI 3.0 binary")
+        _harness_case(inst, name, f"{name} FMI 3.0 binary")
     finally:
         inst.free()
 
@@ -132,7 +143,10 @@ def _fmpy_case(path: Path, version: int) -> None:
     s = cls(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="plain")
     iv = [v.valueReference for v in md.modelVariables if v.causality == "input"]
     ov = [v.valueReference for v in md.modelVariables if v.causality == "output"]
+    vr = {v.name: v.valueReference for v in md.modelVariables}
     s.instantiate()
+    for key, value in PARAMETERS.get(path.stem, {}).items():
+        (s.setFloat64 if version == 3 else s.setReal)([vr[key]], [value])
     if version == 2:
         s.setupExperiment(startTime=0.0)
         get, set_ = s.getReal, s.setReal
@@ -305,3 +319,125 @@ def test_binary_instances_answer_from_their_own_slaves(fmu_dir, fmu3_dir):
     finally:
         for inst in made:
             inst.free()
+
+
+# -- a host without Python: the loader initialises Python itself and answers from the slave ---------------------
+C_HOST = r"""
+/* dd_host <2|3> <binary.so> <resources> <guid/token> <in vrs a,b,..> <out vrs a,b,..>: instantiate, initialise,
+   set inputs 0.3 + 0.37 j, one step of 1 ms, set them again; print "DEV <max |DD - central difference| / scale>"
+   over a unit seed per input (DD from Get...DirectionalDerivative, differences from Set/Get); exit 4 on a failed
+   call. */
+#include <dlfcn.h>
+#include <math.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+typedef void *I;
+typedef int (*SetGet)(I, const unsigned *, size_t, double *);
+typedef int (*SetGet3)(I, const unsigned *, size_t, double *, size_t);
+static void logger2(void *e, const char *n, int s, const char *c, const char *m, ...) { printf("LOG %d %s\n", s, m); }
+static void logger3(void *e, int s, const char *c, const char *m) { printf("LOG %d %s\n", s, m); }
+static size_t parse(const char *t, unsigned *v) { size_t n = 0; char *s = strdup(t), *x = NULL;
+    for (char *i = strtok_r(s, ",", &x); i; i = strtok_r(NULL, ",", &x)) v[n++] = strtoul(i, NULL, 10);
+    free(s); return n; }
+static int v3; static I c; static void *lib;
+static int set(const unsigned *vr, size_t n, double *v) {
+    return v3 ? ((SetGet3)dlsym(lib, "fmi3SetFloat64"))(c, vr, n, v, n) : ((SetGet)dlsym(lib, "fmi2SetReal"))(c, vr, n, v); }
+static int get(const unsigned *vr, size_t n, double *v) {
+    return v3 ? ((SetGet3)dlsym(lib, "fmi3GetFloat64"))(c, vr, n, v, n) : ((SetGet)dlsym(lib, "fmi2GetReal"))(c, vr, n, v); }
+int main(int argc, char **argv) {
+    unsigned in[64], out[64]; double u[64], seed[64], dd[64], yp[64], ym[64], D[64][64], F[64][64];
+    v3 = argv[1][0] == '3';
+    if (!(lib = dlopen(argv[2], RTLD_NOW | RTLD_LOCAL))) { printf("%s\n", dlerror()); return 2; }
+    size_t ni = parse(argv[5], in), no = parse(argv[6], out);
+    if (v3) {
+        c = ((I (*)(const char *, const char *, const char *, bool, bool, bool, bool, const unsigned *, size_t, void *,
+                    void *, void *))dlsym(lib, "fmi3InstantiateCoSimulation"))("c", argv[4], argv[3], 0, 0, 0, 0, NULL,
+                                                                              0, NULL, (void *)logger3, NULL);
+        if (!c) return 3;
+        if (((int (*)(I, bool, double, double, bool, double))dlsym(lib, "fmi3EnterInitializationMode"))(c, 0, 0, 0, 0, 0)
+            || ((int (*)(I))dlsym(lib, "fmi3ExitInitializationMode"))(c)) return 4;
+    } else {
+        struct { void *l, *a, *f, *s, *e; } cb = {(void *)logger2, (void *)calloc, (void *)free, NULL, NULL};
+        char uri[4200]; snprintf(uri, sizeof uri, "file://%s", argv[3]);
+        c = ((I (*)(const char *, int, const char *, const char *, void *, int, int))dlsym(lib, "fmi2Instantiate"))(
+            "c", 1, argv[4], uri, &cb, 0, 0);
+        if (!c) return 3;
+        if (((int (*)(I, int, double, double, int, double))dlsym(lib, "fmi2SetupExperiment"))(c, 0, 0, 0, 0, 0)
+            || ((int (*)(I))dlsym(lib, "fmi2EnterInitializationMode"))(c)
+            || ((int (*)(I))dlsym(lib, "fmi2ExitInitializationMode"))(c)) return 4;
+    }
+    for (size_t j = 0; j < ni; j++) u[j] = 0.3 + 0.37 * j;
+    if (set(in, ni, u)) return 4;
+    bool b1, b2, b3; double last;
+    if (v3 ? ((int (*)(I, double, double, bool, bool *, bool *, bool *, double *))dlsym(lib, "fmi3DoStep"))(
+                 c, 0.0, 1e-3, 1, &b1, &b2, &b3, &last)
+           : ((int (*)(I, double, double, int))dlsym(lib, "fmi2DoStep"))(c, 0.0, 1e-3, 1)) return 4;
+    if (set(in, ni, u)) return 4;
+    double scale = 1.0, dev = 0.0;
+    for (size_t j = 0; j < ni; j++) {
+        for (size_t k = 0; k < ni; k++) seed[k] = k == j;
+        int s = v3 ? ((int (*)(I, const unsigned *, size_t, const unsigned *, size_t, const double *, size_t, double *,
+                               size_t))dlsym(lib, "fmi3GetDirectionalDerivative"))(c, out, no, in, ni, seed, ni, dd, no)
+                   : ((int (*)(I, const unsigned *, size_t, const unsigned *, size_t, const double *, double *))dlsym(
+                         lib, "fmi2GetDirectionalDerivative"))(c, out, no, in, ni, seed, dd);
+        if (s) return 4;
+        double h = 1e-6 * fmax(1.0, fabs(u[j])), uj = u[j];
+        u[j] = uj + h; set(in, ni, u); get(out, no, yp);
+        u[j] = uj - h; set(in, ni, u); get(out, no, ym);
+        u[j] = uj; set(in, ni, u);
+        for (size_t i = 0; i < no; i++) { D[i][j] = dd[i]; F[i][j] = (yp[i] - ym[i]) / (2 * h);
+                                          scale = fmax(scale, fabs(F[i][j])); }
+    }
+    for (size_t i = 0; i < no; i++) for (size_t j = 0; j < ni; j++) dev = fmax(dev, fabs(D[i][j] - F[i][j]));
+    printf("DEV %.3e\n", dev / scale);
+    if (v3) ((void (*)(I))dlsym(lib, "fmi3FreeInstance"))(c); else ((void (*)(I))dlsym(lib, "fmi2FreeInstance"))(c);
+    return 0;
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def dd_host(tmp_path_factory) -> Path:
+    import os
+    import shutil
+    import subprocess
+
+    folder = tmp_path_factory.mktemp("dd_host")
+    cc = os.environ.get("CC", "cc")
+    if shutil.which(cc) is None:
+        pytest.skip(f"no C compiler {cc!r} to build the test host")
+    (folder / "dd_host.c").write_text(C_HOST)
+    r = subprocess.run([cc, "-O2", "-o", str(folder / "dd_host"), str(folder / "dd_host.c"), "-ldl", "-lm"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return folder / "dd_host"
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_c_host_without_python_gets_directional_derivatives(fmu_dir, fmu3_dir, dd_host, tmp_path, version):
+    """A C program with no Python in it or in its environment: the loader initialises the recorded Python, and
+    fmi2/fmi3GetDirectionalDerivative (the GIL taken with PyGILState_Ensure after the loader released it) agree
+    with the host's own central differences of the outputs for every FMU, to 1e-6 of scale."""
+    import os
+    import subprocess
+
+    from fmpy import extract, read_model_description
+
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("PYTHON", "PRESSDRIVE_", "VIRTUAL_ENV", "LD_PRELOAD"))}
+    platform = "x86_64-linux" if version == 3 else "linux64"
+    for name in NAMES:
+        fmu = (fmu3_dir if version == 3 else fmu_dir) / f"{name}.fmu"
+        folder = Path(extract(str(fmu), unzipdir=str(tmp_path / name)))
+        md = read_model_description(str(fmu))
+        ins = ",".join(str(v.valueReference) for v in md.modelVariables if v.causality == "input")
+        outs = ",".join(str(v.valueReference) for v in md.modelVariables if v.causality == "output")
+        resources = folder / "resources"
+        r = subprocess.run([str(dd_host), str(version), str(folder / "binaries" / platform / f"{name}.so"),
+                            str(resources), md.guid, ins, outs],
+                           capture_output=True, text=True, env=env, timeout=300)
+        assert r.returncode == 0, f"{name}: exit {r.returncode}: {(r.stdout + r.stderr)[-800:]}"
+        dev = float(next(line.split()[1] for line in r.stdout.splitlines() if line.startswith("DEV")))
+        assert dev < 1e-6, (name, dev)
