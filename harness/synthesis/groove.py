@@ -60,7 +60,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     ap.add_argument("--compare-laws", action="store_true", help=f"table of {', '.join(COMPARE)}")
     ap.add_argument("--seed-figures", default=None, metavar="DIR",
                     help="seed 001's statements against ours (slider stage, 80 deg dwell, size and energy) and its "
-                         "Figs. 2, 4 and 7 as charts in DIR (slow: about 40 s)")
+                         "Figs. 2, 4 and 7 as charts in DIR (slow: about 40 s; default: not written)")
     ap.add_argument("--out", default=None,
                     help="write the profile (x y per line, metres) for --lambda2 (default: not written)")
     ap.add_argument("--points", type=int, default=3600, help="crank-angle grid points")
