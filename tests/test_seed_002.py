@@ -143,3 +143,29 @@ def test_sizes_follow_from_the_driven_sectors_radius():
     rc, _, err = synth("--R-B", "0")
     assert rc == 2 and err.strip() == ("error: synth sectors: --R-B 0 m: pitch radius of the driven sector "
                                        "outside the allowed range (0, inf) m")
+
+
+def test_quantities_left_out_free_their_conditions_and_the_pairs_own_values_are_printed():
+    """The seed's data over-determine (25): with --not-given the conditions that need a left-out quantity
+    are reported 'not given' instead of failing the pair, and the pair's own value is printed; a solved-for
+    condition cannot lose its data, and D_Ci cannot be left out."""
+    import json
+
+    rc, out, err = synth("--v1", "0.75", "--residuals", "r17,r18,r19,r20")
+    assert rc == 2 and "feasible: False" in out and "r21" in err
+    rc, out, err = synth("--v1", "0.75", "--residuals", "r17,r18,r19,r20", "--not-given", "l_i,phi12,phiC12,c1",
+                         "--json")
+    res = json.loads(out)
+    assert rc == 0 and res["converged"] and res["feasible"], err
+    assert [res["residuals"][n] for n in ("r21", "r22", "r23", "r24")] == [None] * 4
+    own = gs.task_from_geometry(res["eps1"], res["eps2"], res["kappa"], res["beta0"], -1.2, D_Ci=1.68)
+    assert res["not_given_the_pairs_own"]["l_i"] == pytest.approx(own.l_i)
+    assert gs.summarize(res["eps1"], res["eps2"], res["kappa"], res["beta0"], -1.2).omega1 * 1.68 / 2 == \
+        pytest.approx(0.75, abs=1e-9)
+    rc, _, err = synth("--residuals", "r17,r18,r19,r20", "--not-given", "v1")
+    assert rc == 2 and err.strip() == ("error: synth sectors: residual set r17,r18,r19,r20: r17 needs v1, which "
+                                       "is not given")
+    rc, _, err = synth("--not-given", "D_Ci")
+    assert rc == 2 and "D_Ci cannot be left out (allowed: v1, v2, w2, l_i, phi12, phiC12, c1)" in err
+    rc, out, _ = synth("--residuals", "lsq", "--not-given", "c1")
+    assert rc == 0 and "r24  =   not given" in out

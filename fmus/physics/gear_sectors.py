@@ -256,11 +256,18 @@ def solve_sectors(task: SectorTask, use: tuple[str, ...] | str = DEFAULT_SET, st
         name, v, allowed = bad_given
         raise ValueError(f"SectorTask.{name} = {v!r} outside the allowed range {allowed}")
     lsq = use == "lsq"
-    names = RESIDUALS if lsq else tuple(use)
+    names = checked_residuals(task) if lsq else tuple(use)   # lsq: every condition whose data are given
     if not lsq:
         bad = [n for n in names if n not in RESIDUALS]
         if bad or len(names) != 4:
             raise ValueError(f"residual set {','.join(names)} must name 4 of {','.join(RESIDUALS)}")
+        blind = [n for n in names if n not in checked_residuals(task)]
+        if blind:
+            need = sorted({d for n in blind for d in RESIDUAL_DATA[n] if math.isnan(getattr(task, d))})
+            raise ValueError(f"residual set {','.join(names)}: {','.join(blind)} needs {', '.join(need)}, "
+                             f"which is not given")
+    elif len(names) < 4:
+        raise ValueError(f"least squares needs at least 4 conditions with given data, has {','.join(names)}")
 
     def f(x):
         try:

@@ -5,8 +5,9 @@
 Solves for eps1, eps2, kappa, beta0 and prints them with all residuals r17..r24, whether the solver
 converged and whether the pair is feasible: buildable (pivots inside the sectors, the crank angle monotonic)
 and meeting every condition r17..r24 to --junction-tol, the four not solved for included (the seed's
-combined law joins its phases only where all of them hold).  Given quantities left out take the values of
-a worked example: the forward kinematics of eps1 = 0.3, eps2 = 0.3, kappa = 1.5, beta0 = 0.8 rad,
+combined law joins its phases only where all of them hold; the seed's data over-determine its system, so
+--not-given frees the conditions of the quantities it names and prints the pair's own values of them).
+Given quantities not typed take the values of a worked example: the forward kinematics of eps1 = 0.3, eps2 = 0.3, kappa = 1.5, beta0 = 0.8 rad,
 delta0 = -1.2 rad, D_Ci = 1.68 (so the default problem has that exact solution).  A given quantity out of
 its range, or no feasible solution: one line on stderr, exit code 2.
 """
@@ -29,6 +30,9 @@ HELP = {"D_Ci": "cylinder diameter / (r_K i_CK)", "v1": "uniform surface speed i
         "delta0": "angle of O_B C_B at point 2 [rad]"}
 
 
+OPTIONAL = ("v1", "v2", "w2", "l_i", "phi12", "phiC12", "c1")   # may be left out (D_Ci and delta0 may not)
+
+
 def example_task() -> gs.SectorTask:
     e = EXAMPLE
     return gs.task_from_geometry(e["eps1"], e["eps2"], e["kappa"], e["beta0"], e["delta0"], D_Ci=e["D_Ci"])
@@ -43,6 +47,10 @@ def register(subparsers) -> argparse.ArgumentParser:
     for name in GIVEN:
         ap.add_argument(f"--{name.replace('_', '-')}", dest=name, type=float, default=None,
                         help=f"{HELP[name]} (default: worked example)")
+    ap.add_argument("--not-given", default="", metavar="NAMES",
+                    help="given quantities to leave out, separated by commas (of " + ", ".join(OPTIONAL) + "): "
+                         "the conditions that need them are not required for 'feasible', and the pair's own "
+                         "values are printed instead (the seed's data over-determine its system (25))")
     ap.add_argument("--junction-tol", type=float, default=gs.JUNCTION_TOL,
                     help="largest |residual| of a condition not solved for that still counts as met "
                          "(default %(default)g)")
@@ -57,13 +65,19 @@ def register(subparsers) -> argparse.ArgumentParser:
 def run(args) -> int:
     base = example_task()
     values = {n: (getattr(args, n) if getattr(args, n, None) is not None else getattr(base, n)) for n in GIVEN}
-    task = gs.SectorTask(**values)
+    left_out = tuple(n.strip() for n in args.not_given.split(",") if n.strip())
+    bad = [n for n in left_out if n not in OPTIONAL]
+    if bad:
+        return fail("sectors", f"--not-given {args.not_given}: {', '.join(bad)} cannot be left out (allowed: "
+                               f"{', '.join(OPTIONAL)})")
     use = "lsq" if args.residuals.strip() == "lsq" else tuple(s.strip() for s in args.residuals.split(","))
-    for name in GIVEN:   # every quantity is given here (NaN, "not given", is for the library's build_law)
+    for name in GIVEN:   # NaN means "not given": only through --not-given
         lo, hi = gs.GIVEN_RANGES[name]
         v = values[name]
         if math.isnan(v) or gs.out_of_range(gs.SectorTask(**{**{n: math.nan for n in GIVEN}, name: v})):
             return fail("sectors", f"{typed(name, v)}: {HELP[name]} outside the allowed range ({lo:g}, {hi:.6g})")
+    values.update({n: math.nan for n in left_out})
+    task = gs.SectorTask(**values)
     if args.R_B is not None and not (0.0 < args.R_B < math.inf):
         return fail("sectors", f"{typed('R_B', args.R_B, 'm')}: pitch radius of the driven sector outside the "
                                f"allowed range (0, inf) m")
@@ -75,8 +89,15 @@ def run(args) -> int:
         return fail("sectors", str(e))
     sizes = {} if args.R_B is None else {"R_B": args.R_B, "e1": sol.eps1 * args.R_B, "e2": sol.eps2 * args.R_B,
                                          "R_A": sol.kappa * args.R_B}
+    own = gs.task_from_geometry(*sol.x, task.delta0, D_Ci=task.D_Ci)      # what the pair itself has
+    produced = {n: float(getattr(own, n)) for n in left_out}
     if args.json:
-        print(json.dumps({"given": values, **sol.as_dict(), **({"sizes_m": sizes} if sizes else {})}, indent=2))
+        def plain(d):
+            return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in d.items()}
+        out = {"given": plain(values), **sol.as_dict(), **({"sizes_m": sizes} if sizes else {}),
+               **({"not_given_the_pairs_own": produced} if produced else {})}
+        out["residuals"] = plain(out["residuals"])
+        print(json.dumps(out, indent=2))
     else:
         print(f"residual set: {','.join(sol.used)}")
         for n in gs.UNKNOWNS:
@@ -85,7 +106,10 @@ def run(args) -> int:
             print("sizes: " + ", ".join(f"{k} = {v:.6g} m" for k, v in sizes.items()))
         print("residuals:")
         for n, r in sol.residuals.items():
-            print(f"  {n}{'*' if n in sol.used else ' '} = {r: .3e}   {gs.RESIDUAL_MEANING[n]}")
+            shown = "  not given" if math.isnan(r) and n not in sol.used else f"{r: .3e}"
+            print(f"  {n}{'*' if n in sol.used else ' '} = {shown}   {gs.RESIDUAL_MEANING[n]}")
+        if produced:
+            print("not given, the pair's own: " + ", ".join(f"{k} = {v:.6g}" for k, v in produced.items()))
         print("  (* solved for; feasible needs every residual within the junction tolerance)")
         print(f"converged: {sol.converged}  feasible: {sol.feasible}  ({sol.message})")
     if not (sol.converged and sol.feasible):
