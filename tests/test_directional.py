@@ -5,6 +5,7 @@ through the same path; the ``jacobian`` master's results with them against its r
 without them refused in one line and still run."""
 from __future__ import annotations
 
+import dataclasses
 import sys
 import types
 import warnings
@@ -23,6 +24,8 @@ from harness.fmi import open_instance
 from harness.fmi.fmu import FMU
 from harness.fmi.fmu3 import FMU3
 from harness.fmi.inprocess import InProcessFMU
+from harness.model import Instance
+from harness.run import RunOptions
 
 NAMES = sorted(catalog())
 STEP = 1e-3
@@ -264,61 +267,42 @@ def _by_differences(fmu, inp, out, point):
 _FEEDTHROUGH = jacobian.feedthrough_block
 
 
-@pytest.mark.parametrize("name,stop", [("two_inertia", 0.2), ("feeder_gto52", 0.05), ("proof_press", 0.1)])
-def test_jacobian_master_results_unchanged_with_directional_derivatives(name, stop, monkeypatch):
+def _on_fmus(name: str, folder: Path):
+    """System ``name`` with its FMUs taken from ``folder`` (the FMI 3.0 builds)."""
+    system = load(name)
+    return dataclasses.replace(system, instances=[Instance(i.name, folder / f"{i.fmu}.fmu", dict(i.parameters))
+                                                  for i in system.instances])
+
+
+@pytest.mark.parametrize("name,stop,path", [("two_inertia", 0.2, "in-process"), ("feeder_gto52", 0.05, "in-process"),
+                                            ("proof_press", 0.1, "in-process"), ("two_inertia", 0.2, "fmi2"),
+                                            ("feeder_gto52", 0.05, "fmi3")])
+def test_jacobian_master_results_unchanged_with_directional_derivatives(name, stop, path, fmu3_dir, monkeypatch):
     """The jacobian master with the FMUs' D blocks against the same run with D by perturbation: the same results to
-    1e-6 of each signal's range (measured: two_inertia 1e-17, proof_press 4e-12, feeder_gto52 6e-8 over 0.2 s),
-    and the D blocks did come from the FMUs."""
+    1e-6 of each signal's range (measured in process: two_inertia 1e-17, proof_press 4e-12, feeder_gto52 6e-8 over
+    0.2 s), and the D blocks did come from the FMUs; in process, through the FMI 2.0 binaries and from the FMI 3.0
+    FMUs."""
     used = []
 
     def spy(fmu, inp, out, point):
-        used.append(bool(getattr(fmu, "provides_directional_derivative", False)))
+        used.append((bool(getattr(fmu, "provides_directional_derivative", False)), type(fmu).__name__))
         return _FEEDTHROUGH(fmu, inp, out, point)
 
+    system = _on_fmus(name, fmu3_dir) if path == "fmi3" else load(name)
+    options = RunOptions(in_process=False) if path == "fmi2" else None
     runs = {}
     for label, block in (("provided", spy), ("perturbed", _by_differences)):
         monkeypatch.setattr(jacobian, "feedthrough_block", block)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            runs[label] = simulate(load(name), stop_time=stop, master="jacobian", on_error="raise")
-    assert used and all(used)
+            runs[label] = simulate(system, stop_time=stop, master="jacobian", on_error="raise", options=options)
+    kind = {"in-process": "InProcessFMU", "fmi2": "FMU", "fmi3": "FMU3"}[path]
+    assert used and all(provided and cls == kind for provided, cls in used), set(used)
     a, b = runs["provided"], runs["perturbed"]
     assert list(a.columns) == list(b.columns) and len(a) == len(b)
     for c in b.columns:
         scale = max(float(np.max(np.abs(b[c].values))), 1e-9)
         assert float(np.max(np.abs(a[c].values - b[c].values))) <= 1e-6 * scale, c
-
-
-def test_binary_instances_answer_from_their_own_slaves(fmu_dir, fmu3_dir):
-    """The host loader keeps each instance's slave: instances of one FMU with different stiffness side by side,
-    one made after an in-process slave of the same instance name on the same thread (whose offer the loader must
-    not take), and one made after another was freed, each answer d drive.tau / d drive.phi = -c of their own."""
-    made = []
-    try:
-        stray = open_instance(fmu_dir / "SpringInertia.fmu", "twin", in_process=True)
-        stray.set_value("c", 777.0)
-        made.append(stray)
-        for path in (fmu_dir, fmu3_dir):
-            insts = []
-            for i, c in enumerate((100.0, 300.0, 50.0)):
-                inst = open_instance(path / "SpringInertia.fmu", "twin", in_process=False)
-                assert not isinstance(inst, InProcessFMU)
-                inst.set_value("c", c)
-                inst.setup(0.0)
-                inst.enter_initialization()
-                inst.exit_initialization()
-                insts.append((inst, c))
-                if i == 1:                      # free the second one; the third is made after
-                    inst.free()
-                    insts.pop()
-                else:
-                    made.append(inst)
-            for inst, c in insts:
-                phi, tau = inst.reals(["drive.phi"]), inst.reals(["drive.tau"])
-                assert inst.directional_derivative(tau, phi, [1.0])[0] == pytest.approx(-c, rel=1e-15), (path, c)
-    finally:
-        for inst in made:
-            inst.free()
 
 
 # -- a host without Python: the loader initialises Python itself and answers from the slave ---------------------
