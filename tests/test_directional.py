@@ -21,8 +21,6 @@ from fmus.build import catalog
 from harness import jacobian, load, simulate
 from harness.errors import FMUError
 from harness.fmi import open_instance
-from harness.fmi.fmu import FMU
-from harness.fmi.fmu3 import FMU3
 from harness.fmi.inprocess import InProcessFMU
 from harness.model import Instance
 from harness.run import RunOptions
@@ -103,32 +101,19 @@ def _harness_case(inst, name: str, where: str) -> list[float]:
     return devs
 
 
+# how the harness calls an FMU: the open_instance choice and the wrapper class it gives
+PATHS = {"in-process": (True, "InProcessFMU"), "fmi2": (False, "FMU"), "fmi3": (None, "FMU3")}
+
+
+@pytest.mark.parametrize("path", sorted(PATHS))
 @pytest.mark.parametrize("name", NAMES)
-def test_in_process_directional_derivatives_match_differences(fmu_dir, name):
-    inst = open_instance(fmu_dir / f"{name}.fmu", "dd", in_process=True)
-    assert isinstance(inst, InProcessFMU)
+def test_directional_derivatives_match_differences(fmu_dir, fmu3_dir, name, path):
+    """In process (the slave's method), through the FMI 2.0 binary and through the FMI 3.0 binary (the loader)."""
+    in_process, kind = PATHS[path]
+    inst = open_instance((fmu3_dir if path == "fmi3" else fmu_dir) / f"{name}.fmu", "dd", in_process=in_process)
+    assert type(inst).__name__ == kind
     try:
-        _harness_case(inst, name, f"{name} in process")
-    finally:
-        inst.free()
-
-
-@pytest.mark.parametrize("name", NAMES)
-def test_fmi2_binary_directional_derivatives_match_differences(fmu_dir, name):
-    inst = open_instance(fmu_dir / f"{name}.fmu", "dd2", in_process=False)
-    assert type(inst) is FMU
-    try:
-        _harness_case(inst, name, f"{name} FMI 2.0 binary")
-    finally:
-        inst.free()
-
-
-@pytest.mark.parametrize("name", NAMES)
-def test_fmi3_binary_directional_derivatives_match_differences(fmu3_dir, name):
-    inst = open_instance(fmu3_dir / f"{name}.fmu", "dd3")
-    assert isinstance(inst, FMU3)
-    try:
-        _harness_case(inst, name, f"{name} FMI 3.0 binary")
+        _harness_case(inst, name, f"{name} {path}")
     finally:
         inst.free()
 
@@ -296,13 +281,45 @@ def test_jacobian_master_results_unchanged_with_directional_derivatives(name, st
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             runs[label] = simulate(system, stop_time=stop, master="jacobian", on_error="raise", options=options)
-    kind = {"in-process": "InProcessFMU", "fmi2": "FMU", "fmi3": "FMU3"}[path]
+    kind = PATHS[path][1]
     assert used and all(provided and cls == kind for provided, cls in used), set(used)
     a, b = runs["provided"], runs["perturbed"]
     assert list(a.columns) == list(b.columns) and len(a) == len(b)
     for c in b.columns:
         scale = max(float(np.max(np.abs(b[c].values))), 1e-9)
         assert float(np.max(np.abs(a[c].values - b[c].values))) <= 1e-6 * scale, c
+
+
+def test_binary_instances_answer_from_their_own_slaves(fmu_dir, fmu3_dir):
+    """The host loader keeps each instance's slave: instances of one FMU with different stiffness side by side,
+    one made after an in-process slave of the same instance name on the same thread (whose offer the loader must
+    not take), and one made after another was freed, each answer d drive.tau / d drive.phi = -c of their own."""
+    made = []
+    try:
+        stray = open_instance(fmu_dir / "SpringInertia.fmu", "twin", in_process=True)
+        stray.set_value("c", 777.0)
+        made.append(stray)
+        for path in (fmu_dir, fmu3_dir):
+            insts = []
+            for i, c in enumerate((100.0, 300.0, 50.0)):
+                inst = open_instance(path / "SpringInertia.fmu", "twin", in_process=False)
+                assert not isinstance(inst, InProcessFMU)
+                inst.set_value("c", c)
+                inst.setup(0.0)
+                inst.enter_initialization()
+                inst.exit_initialization()
+                insts.append((inst, c))
+                if i == 1:                      # free the second one; the third is made after
+                    inst.free()
+                    insts.pop()
+                else:
+                    made.append(inst)
+            for inst, c in insts:
+                phi, tau = inst.reals(["drive.phi"]), inst.reals(["drive.tau"])
+                assert inst.directional_derivative(tau, phi, [1.0])[0] == pytest.approx(-c, rel=1e-15), (path, c)
+    finally:
+        for inst in made:
+            inst.free()
 
 
 # -- a host without Python: the loader initialises Python itself and answers from the slave ---------------------
