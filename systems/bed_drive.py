@@ -159,8 +159,9 @@ SYSTEM = System(
         Requirement("peak main-shaft torque", 'peak(r["flywheel.shaft_torque"])', 0.01, "N.m", relative=True),
     ), stop_time=1.0,
         # hosts that read outputs after the step and hold them (libcosim, Ecos): jacobi-sampled with hold meets
-        # this at 0.1 ms (2.7 um, 0.050 %, 0.88 %) and diverges at 0.2 ms (the effort through the rigid
-        # differential and cam arrives a step late); the exported SSP declares it (tests/test_host_accuracy.py)
+        # this at 0.1 ms (2.5 um, 0.038 %, 0.72 %, the seed's mechanism of issue 32) and diverges at 0.2 ms (the
+        # effort through the rigid differential and cam arrives a step late); the exported SSP declares it
+        # (tests/test_host_accuracy.py)
         sampled_host_step=1e-4),
     # The run chart (harness.charts): the seed's quantities over time and over one turn of the main shaft from
     # the start of the working stroke, the printing zone shaded where the bed is in it on the working stroke
