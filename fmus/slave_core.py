@@ -20,7 +20,7 @@ from xml.etree.ElementTree import Element, SubElement
 
 import numpy as np
 
-from .physics.base import Model, ParameterError
+from .physics.base import DIFFERENCE_STEP, Model, ParameterError
 from .units import BASE_UNITS, check_unit
 
 _ROT = (("phi", "rad", "angle"), ("w", "rad/s", "angular velocity"), ("tau", "N.m", "torque"))
@@ -308,17 +308,14 @@ class PressBehaviour:
     def directional_derivative(self, unknowns, knowns, seed) -> list[float]:
         """sum_j d unknowns_i / d knowns_j * seed_j: the outputs' partial derivatives with respect to the inputs at
         the current time and state (fmi2GetDirectionalDerivative / fmi3GetDirectionalDerivative in co-simulation),
-        from the model's :meth:`~fmus.physics.base.Model.output_jacobian`.  The unknowns are value references of
-        outputs, the knowns of inputs; anything else, a seed of another length or a call before initialisation
-        has ended is refused in one line (ValueError).
+        from the model's :meth:`~fmus.physics.base.Model.output_jacobian`; in initialisation mode those of the
+        initial outputs (:meth:`_initial_feedthrough`).  The unknowns are value references of outputs, the knowns
+        of inputs; anything else or a seed of another length is refused in one line (ValueError).
 
         The outputs use a motion-input position held over the last step advanced by its speed (``_inputs_now``),
         so the derivative is taken through that too: with the position held, d/d speed gains h * d/d position,
         which is what setting the speed alone and reading the outputs again gives."""
         cls = type(self)
-        if not self._initialised:
-            raise ValueError(f"{self.instance_name} ({cls.__name__}): directional derivatives are given after "
-                             f"initialisation (outputs with respect to inputs at a communication point)")
         knowns, unknowns = list(knowns), list(unknowns)
         if len(seed) != len(knowns):
             raise ValueError(f"{self.instance_name} ({cls.__name__}): {len(seed)} seed values for {len(knowns)} knowns")
@@ -342,13 +339,36 @@ class PressBehaviour:
         key = (self._time, self._last_step, tuple(self._u), tuple(self._fresh), self._x.tobytes())
         if self._D[0] == key:
             return self._D[1]
-        D = np.asarray(self._build_model().output_jacobian(self._time, self._x, u), dtype=float)
-        if self._initialised and self._advanced:
+        mdl = self._build_model()
+        if not self._initialised:
+            D = self._initial_feedthrough(mdl)
+            self._D = (key, D)
+            return D
+        D = np.asarray(mdl.output_jacobian(self._time, self._x, u), dtype=float)
+        if self._advanced:
             h = self._last_step
             for ip, iw in self._advanced:
                 if not self._fresh[ip]:     # u_now[ip] = u[ip] + h * u[iw]
                     D[:, iw] += h * D[:, ip]
         self._D = (key, D)
+        return D
+
+    def _initial_feedthrough(self, mdl: Model) -> np.ndarray:
+        """d outputs / d inputs before initialisation has ended, where the state is the model's initial state for
+        the inputs (``_refresh``: x = initial_state(u)), so the initial outputs output(t, initial_state(u), u)
+        also move with the inputs through the state.  The models give no slope of their initial state (kinematic
+        closures solved by branches, among others), so this one is by central differences of that composite
+        (step DIFFERENCE_STEP * max(1, |u_j|), as Model.output_jacobian_by_differences); after initialisation the
+        state is the state and the slopes are the models' own."""
+        u = [float(v) for v in self._u]
+        D = np.zeros((len(self._y), len(u)))
+        for j, uj in enumerate(u):
+            step = DIFFERENCE_STEP * max(1.0, abs(uj))
+            up, um = list(u), list(u)
+            up[j], um[j] = uj + step, uj - step
+            yp = np.asarray(mdl.output(self._time, np.asarray(mdl.initial_state(up), dtype=float), up), dtype=float)
+            ym = np.asarray(mdl.output(self._time, np.asarray(mdl.initial_state(um), dtype=float), um), dtype=float)
+            D[:, j] = (yp - ym) / (up[j] - um[j])
         return D
 
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):

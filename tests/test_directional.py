@@ -118,6 +118,32 @@ def test_directional_derivatives_match_differences(fmu_dir, fmu3_dir, name, path
         inst.free()
 
 
+@pytest.mark.parametrize("path", sorted(PATHS))
+@pytest.mark.parametrize("name", NAMES)
+def test_directional_derivatives_in_initialisation_mode(fmu_dir, fmu3_dir, name, path):
+    """In initialisation mode the outputs are those of the initial state for the inputs, and so are their slopes
+    (slave_core._initial_feedthrough): against differences of the outputs read in that mode."""
+    in_process, kind = PATHS[path]
+    inst = open_instance((fmu3_dir if path == "fmi3" else fmu_dir) / f"{name}.fmu", "init", in_process=in_process)
+    assert type(inst).__name__ == kind
+    try:
+        for key, value in PARAMETERS.get(name, {}).items():
+            inst.set_value(key, value)
+        ins = [v.name for v in inst.md.modelVariables if v.causality == "input"]
+        outs = [v.name for v in inst.md.modelVariables if v.causality == "output"]
+        inp, out = inst.reals(ins), inst.reals(outs)
+        inst.setup(0.0)
+        inst.enter_initialization()
+        u = _point(len(ins), 1.1)
+        inst.set(inp, u)
+        D = np.column_stack([inst.directional_derivative(out, inp, e) for e in np.eye(len(ins))])
+        fd = _central(lambda v: inst.set(inp, v), lambda: inst.get(out).copy(), u)
+        _check(D, fd, f"{name} {path} in initialisation mode")
+        inst.exit_initialization()
+    finally:
+        inst.free()
+
+
 def _fmpy_case(path: Path, version: int) -> None:
     """Through fmpy's plain FMU2Slave / FMU3Slave (a host nobody here wrote): its getDirectionalDerivative on the
     FMU's binary, against differences of its own getReal/getFloat64."""
