@@ -181,3 +181,30 @@ def test_with_the_base_return_the_upper_end_is_the_four_bars_transmission_limit(
     assert out["upper_limit"] == "pressure" and out["lambda2_max"] == pytest.approx(expected, abs=2e-6)
     assert out["lower_limit"] == "connection" and out["lambda2_min"] == pytest.approx(4.01732, abs=2e-6)
 
+
+
+def test_undercut_is_judged_away_from_the_stones_turning_points():
+    """Where a branch ends the stone reverses and the centroid's curvature radius falls to ~0 whatever the law:
+    the undercut check failed every roller above 0.22 mm there (K0, lambda2 = 4.5, 3600 points).  Now a 5 mm roller fits
+    K0's groove, and the check still fails a roller larger than the working stretch's curvature radius."""
+    lam2 = 4.5
+    kl = G.kulisa_law_base_return(LAM1, lam2, LAM3, L.get_law("K0"))
+    p = G.synthesize_law(kl, LAM1, lam2, 3600, G.base_branch(LAM1, lam2, LAM3))
+    rep = G.assess(p, 0.04, 0.005, math.radians(90.0))
+    assert "undercut" not in rep["all_failed"] and rep["curvature_radius_min"] < 1e-3
+    kl = G.kulisa_law_base_return(LAM1, 4.1, LAM3, L.get_law("C0"))
+    p = G.synthesize_law(kl, LAM1, 4.1, 3600, G.base_branch(LAM1, 4.1, LAM3))
+    rep = G.assess(p, 0.04, 0.002, math.radians(90.0))
+    assert "undercut" not in rep["all_failed"]
+    assert "undercut" in G.assess(p, 0.04, rep["curvature_radius_min_working"] * 1.2, math.radians(90.0))["all_failed"]
+
+
+@pytest.mark.parametrize("lam2", [4.1, 4.5])
+def test_harmonic_laws_take_larger_rollers_than_cycloidal_and_polydynamic(lam2):
+    """The seed: harmonic profiles are smooth; cycloidal ones sharpen at the end of the forward stroke and
+    polydynamic ones undercut.  Measured as the largest roller that undercuts no wall: K0, 1,3 and 1,5 take at
+    least 1.5 times the roller C0 and the 3-4-5 polynomial take."""
+    a = _args()
+    harmonic = min(seed.largest_roller(a, n, lam2) for n in ("K0", "1,3", "1,5"))
+    other = max(seed.largest_roller(a, n, lam2) for n in ("C0", "polydynamic"))
+    assert 0.0 < other and harmonic > 1.5 * other

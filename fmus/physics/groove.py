@@ -301,6 +301,28 @@ def cusps(p: Profile) -> np.ndarray:
     return np.nonzero((dots < 0.0) & inside)[0]
 
 
+def away_from_branch_ends(p: Profile, length: float) -> np.ndarray:
+    """True at the points farther than ``length`` (in units of r) along the centroid from both ends of their
+    branch.  A branch is a run of points of one stroke (forward or return) where the kulisa moves; its ends are
+    the stone's turning points at the dead centres and the dwells."""
+    n = len(p.phi)
+    key = np.where(p.moving, np.where(p.forward, 1, 2), 0)
+    starts = np.nonzero(key != np.roll(key, 1))[0]
+    ds = p.speed * np.abs(np.gradient(p.phi))
+    if len(starts) == 0:
+        return p.moving.copy()
+    out = np.zeros(n, dtype=bool)
+    for i, s0 in enumerate(starts):
+        if key[s0] == 0:
+            continue
+        e0 = starts[(i + 1) % len(starts)]
+        idx = np.arange(s0, e0 if e0 > s0 else e0 + n) % n
+        seg = ds[idx]
+        along = np.cumsum(seg) - 0.5 * seg
+        out[idx] = np.minimum(along, along[-1] + 0.5 * seg[-1] - along) > length
+    return out
+
+
 def assess(p: Profile, r: float, roller_radius: float = 0.0, max_pressure: float = DEFAULT_MAX_PRESSURE) -> dict:
     """Feasibility report: values of each criterion and the first one violated (None if feasible)."""
     rep: dict = dict(lambda2=p.lam2, connection_margin=float(np.min(p.lam2 - np.abs(p.N))))
@@ -322,8 +344,15 @@ def assess(p: Profile, r: float, roller_radius: float = 0.0, max_pressure: float
     with np.errstate(divide="ignore"):
         rc = np.where(inside, np.abs(1.0 / p.curvature) * r, np.nan)
     rep["curvature_radius_min"] = float(np.nanmin(rc)) if np.any(np.isfinite(rc)) else math.nan
-    if not fails and roller_radius > 0.0 and not rep["curvature_radius_min"] > roller_radius:
-        fails.append("undercut")
+    if roller_radius > 0.0:
+        # where a branch ends the stone reverses and the path turns on itself (curvature radius -> 0 there
+        # whatever the law): the groove's end is the roller's own circle, so a wall can be undercut only
+        # farther than one roller radius along the path from the branch's ends
+        away = away_from_branch_ends(p, roller_radius / r)
+        rw = np.where(away & inside, rc, np.nan)
+        rep["curvature_radius_min_working"] = float(np.nanmin(rw)) if np.any(np.isfinite(rw)) else math.nan
+        if not fails and not rep["curvature_radius_min_working"] >= roller_radius:
+            fails.append("undercut")          # NaN too: no stretch of a branch is longer than two rollers
     # the pressure angle is 0/0 (NaN) where the stone stands still in the groove (the kulisa at rest at a stroke
     # end: rho' = g' = 0): undefined there, not a violation -- np.all on a NaN failed the whole groove
     rep["pressure_angle_max"] = float(np.nanmax(p.theta))

@@ -127,6 +127,22 @@ def max_dwell(a, law: str, max_pressure_deg: float = 90.0, tol: float = 1.0) -> 
     return lo, iv
 
 
+def largest_roller(a, law: str, lam2: float, step: float = 2.5e-4, top: float = 0.06) -> float:
+    """The largest roller radius [m] such that it and every smaller one (on a grid of ``step``, up to ``top``)
+    undercut no groove wall, the kulisa following ``law`` forward and returning as the base four-bar does (the
+    seed's return stroke).  Counted up from the smallest: near a branch's end the roller's own circle takes the
+    first roller radius of the path, so a larger roller can pass over a sharp bend there that a smaller one
+    cannot follow; the first failure decides."""
+    kl = groove.kulisa_law_base_return(a.lambda1, lam2, a.lambda3, get_law(law), math.radians(a.dwell), a.assembly)
+    p = groove.synthesize_law(kl, a.lambda1, lam2, a.points, groove.base_branch(a.lambda1, lam2, a.lambda3, a.assembly))
+    rr = step
+    while rr <= top + 1e-12:
+        if "undercut" in groove.assess(p, a.crank_radius, rr, math.pi / 2)["all_failed"]:
+            return rr - step
+        rr += step
+    return top
+
+
 def least_pressure(a, law: str, dwell_deg: float, samples: int = 41) -> tuple[float, float]:
     """(lambda2, deg): the groove whose largest pressure angle is least, over the lambda2 the seed's criteria
     admit at this dwell (sampled); the seed checks the angle against jamming but gives no allowable value."""
@@ -257,6 +273,14 @@ def report(a, folder, scan) -> str:
             continue
         n, mis = fit_power(law)
         lines.append(f"  {name:>5}: rocker c(0) = {c0:.4f}, fitted n = {n:.3f}, worst misfit {mis:.4f} of c(0)")
+    lines.append("")
+    lines.append("Sharpening and undercut -- seed: harmonic laws (K0, 1,4 ...) give smooth profiles; cycloidal (C0, Shun, "
+                 "2,12) a sharpening at the end of the forward stroke; polydynamic (3,8) undercut")
+    lines.append("  largest roller radius [mm] that undercuts no wall, to 0.25 mm, at most 60 (law forward, the base "
+                 "four-bar's return):")
+    for l2 in (4.1, 4.5):
+        cells = [f"{name} {1000 * largest_roller(a, name, l2):.2f}" for name in ("K0", "1,3", "1,5", "C0", "polydynamic")]
+        lines.append(f"    lambda2 = {l2:g}: " + ", ".join(cells))
     lines.append("")
     lines.append("Cycle pause -- seed: 'a cycle pause of up to 80 deg'")
     for name in ("K0", "1,5"):
