@@ -208,3 +208,10 @@ def test_harmonic_laws_take_larger_rollers_than_cycloidal_and_polydynamic(lam2):
     harmonic = min(seed.largest_roller(a, n, lam2) for n in ("K0", "1,3", "1,5"))
     other = max(seed.largest_roller(a, n, lam2) for n in ("C0", "polydynamic"))
     assert 0.0 < other and harmonic > 1.5 * other
+
+
+def test_base_return_with_the_slider_stage_is_refused_in_one_line(capsys):
+    a = _args("--slider-stage", "--law-return", "base", "--scan", "lambda2")
+    assert a.func(a) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--law-return base with --slider-stage" in err

@@ -277,6 +277,9 @@ def run(args) -> int:
         get_law(a.law, n=a.n, k_m=a.k_m)
         if a.law_return not in (None, "base"):
             get_law(a.law_return, n=a.n, k_m=a.k_m)
+        if a.slider_stage and a.law_return == "base":
+            return _fail("--law-return base with --slider-stage: the base four-bar's return is a kulisa law, not a "
+                         "carriage law; give one of them")
         if not a.crank_radius > 0.0:
             return _fail(f"{typed('crank_radius', a.crank_radius, 'm')} must be > 0")
         if a.seed_figures:
