@@ -192,9 +192,11 @@ class Master:
         (:func:`harness.coupling.discrete_refresh`); the others pass them at the start of the step."""
         values = [src.get_value(sv) for src, sv, *_ in self._discrete]  # every source first: a target
         for link, value in zip(self._discrete, values):                # may feed one through
-            link[2].set_value(link[3], coupling.passed_value(link, value, t))
+            _, _, dst, dv, _ = link
+            dst.set_value(dv, coupling.passed_value(link, value, t))
         for link in self._discrete_chain:
-            link[2].set_value(link[3], coupling.passed_value(link, link[0].get_value(link[1]), t))
+            src, sv, dst, dv, _ = link
+            dst.set_value(dv, coupling.passed_value(link, src.get_value(sv), t))
 
     def _read(self, it: _Inst) -> None:
         self.y[it.sl] = it.fmu.get(it.out)
