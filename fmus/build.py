@@ -1,10 +1,12 @@
 """The one way to build the press-drive FMUs with pythonfmu (library of ``build_fmus.py``).
 
-    python build_fmus.py [--fmi-version 2|3] [--out DIR] [--only NAME ...] [--no-validate]
+    python build_fmus.py [--fmi-version 2|3] [--model-exchange] [--out DIR] [--only NAME ...] [--no-validate]
 
 Both FMI versions are built from the same declarations by the same command: FMI 2.0 (the default, pythonfmu,
 into build/fmus) or FMI 3.0 co-simulation (``--fmi-version 3``, pythonfmu3, into build/fmus3; the declaration's
-names come from ``fmus.slave3`` instead of ``fmus.slave``, :func:`stage_isolated`).
+names come from ``fmus.slave3`` instead of ``fmus.slave``, :func:`stage_isolated`), or FMI 3.0 model exchange
+(``--fmi-version 3 --model-exchange``, into build/fmus3me; names from ``fmus.slave3_me``: the host integrates the
+model's derivatives).
 
 Each FMU is built from its declaration ``fmus/components/pd_<name>.py`` plus the runtime part of the
 ``fmus`` package (the base slave, units and the pure equations in ``fmus/physics``), both bundled under
