@@ -182,7 +182,9 @@ def _variable_type(system: System, ref: str) -> str:
 
 def _value_table(parent: ET.Element, table: dict, boolean: bool) -> None:
     """``table`` as SSP 1.0 writes it: ssc:BooleanMappingTransformation or ssc:IntegerMappingTransformation."""
-    text = (lambda x: "true" if x else "false") if boolean else (lambda x: str(int(x)))
+    def text(x) -> str:
+        return ("true" if x else "false") if boolean else str(int(x))
+
     el = ET.SubElement(parent, _q(f"ssc:{'Boolean' if boolean else 'Integer'}MappingTransformation"))
     for k, v in table.items():
         ET.SubElement(el, _q("ssc:MapEntry"), {"source": text(k), "target": text(v)})
