@@ -319,27 +319,27 @@ class PressBehaviour:
         knowns, unknowns = list(knowns), list(unknowns)
         if len(seed) != len(knowns):
             raise ValueError(f"{self.instance_name} ({cls.__name__}): {len(seed)} seed values for {len(knowns)} knowns")
-        names = {vr: v.name for vr, v in self.vars.items()}
         rows, cols = [], []
         for vrs, index, kind, out in ((unknowns, self._out_by_vr, "an output", rows), (knowns, self._in_by_vr,
                                                                                         "an input", cols)):
             for vr in vrs:
                 if vr not in index:
+                    name = self.vars[vr].name if vr in self.vars else "no variable"
                     raise ValueError(f"{self.instance_name} ({cls.__name__}): directional derivative: value reference "
-                                     f"{vr} ({names.get(vr, 'no variable')}) is not {kind}; the FMU gives d outputs "
-                                     f"/ d inputs")
+                                     f"{vr} ({name}) is not {kind}; the FMU gives d outputs / d inputs")
                 out.append(index[vr])
         D = self._feedthrough()
         return [float(v) for v in D[np.ix_(rows, cols)] @ np.asarray(seed, dtype=float)] if rows else []
 
     def _feedthrough(self) -> np.ndarray:
         """D = d outputs / d inputs as the FMU's outputs see the inputs (``directional_derivative``), kept while
-        time, state and inputs stay the same (a master asks for it one seed at a time)."""
+        model, mode, time, state and inputs stay the same (a master asks for it one seed at a time)."""
         u = self._inputs_now()
-        key = (self._time, self._last_step, tuple(self._u), tuple(self._fresh), self._x.tobytes())
+        mdl = self._build_model()    # a new object after a parameter changed
+        key = (mdl, self._initialised, self._time, self._last_step, tuple(self._u), tuple(self._fresh),
+               self._x.tobytes())
         if self._D[0] == key:
             return self._D[1]
-        mdl = self._build_model()
         if not self._initialised:
             D = self._initial_feedthrough(mdl)
             self._D = (key, D)

@@ -144,6 +144,49 @@ def test_directional_derivatives_in_initialisation_mode(fmu_dir, fmu3_dir, name,
         inst.free()
 
 
+@pytest.mark.parametrize("in_process", [True, False])
+def test_initialisation_slopes_end_with_initialisation(fmu_dir, in_process):
+    """RackBed's elastic mesh starts relaxed (the bed state is R*phi for the inputs), so in initialisation mode the
+    mesh force does not move with the pinion angle; once initialised the bed has its own state and it moves with
+    c_mesh*R: the slope asked at the same inputs right after fmi2ExitInitializationMode is the step mode's."""
+    inst = open_instance(fmu_dir / "RackBed.fmu", "rack", in_process=in_process)
+    try:
+        inst.set_value("fidelity", 1)
+        inst.setup(0.0)
+        inst.enter_initialization()
+        phi, force = inst.reals(["pinion.phi", "pinion.w"]), inst.reals(["mesh_force"])
+        inst.set(phi, [0.4, 2.0])
+        inst.get(force)                 # the initial state for these inputs, as exit_initialization makes it
+        initial = inst.directional_derivative(force, phi, [1.0, 0.0])[0]
+        inst.exit_initialization()
+        after = inst.directional_derivative(force, phi, [1.0, 0.0])[0]
+        c, module, teeth = (inst.get_value(n) for n in ("c_mesh", "module", "z_pinion"))
+        assert abs(initial) <= 1e-6 * c * module * teeth
+        assert after == pytest.approx(c * 0.5 * module * teeth, rel=1e-12)
+    finally:
+        inst.free()
+
+
+@pytest.mark.parametrize("in_process", [True, False])
+def test_slopes_follow_a_parameter_set_in_initialisation_mode(fmu_dir, in_process):
+    """SpringInertia's d drive.tau / d drive.phi is -c: asked, then c changed in initialisation mode, then asked
+    again at the same inputs, it is the new -c."""
+    inst = open_instance(fmu_dir / "SpringInertia.fmu", "spring", in_process=in_process)
+    try:
+        inst.setup(0.0)
+        inst.enter_initialization()
+        phi, tau = inst.reals(["drive.phi"]), inst.reals(["drive.tau"])
+        inst.set(phi, [0.2])
+        inst.get(tau)
+        before = inst.directional_derivative(tau, phi, [1.0])[0]
+        inst.set_value("c", 3.0 * -before)
+        inst.get(tau)
+        assert inst.directional_derivative(tau, phi, [1.0])[0] == pytest.approx(3.0 * before, rel=1e-12)
+        inst.exit_initialization()
+    finally:
+        inst.free()
+
+
 def _fmpy_case(path: Path, version: int) -> None:
     """Through fmpy's plain FMU2Slave / FMU3Slave (a host nobody here wrote): its getDirectionalDerivative on the
     FMU's binary, against differences of its own getReal/getFloat64."""
