@@ -80,7 +80,8 @@ def export_ssp(system: System, out: str | Path) -> Path:
     if out.suffix.lower() != ".ssp":
         raise SystemError_(f"{out}: an SSP archive must end in .ssp")
     fmu_paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
-    ssd = build_ssd(system, {name: f"resources/{p.name}" for name, p in fmu_paths.items()})
+    ssd = build_ssd(system, {name: f"resources/{p.name}" for name, p in fmu_paths.items()},
+                    consistent_inputs(system))
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_suffix(".ssp.part")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
@@ -91,14 +92,56 @@ def export_ssp(system: System, out: str | Path) -> Path:
     return out
 
 
-def build_ssd(system: System, sources: dict[str, str]) -> ET.Element:
-    """The SystemStructure.ssd element tree of a system (``sources``: instance -> FMU path in the archive)."""
+def consistent_inputs(system: System) -> dict[str, dict]:
+    """Instance -> {input: value} of every connected input at the start of the default experiment, as the
+    harness initialises the system (:meth:`harness.masters.Master.initialize`: the outputs in initialization
+    mode, each input from its source through the connection's transformation).
+
+    The export binds them as the inputs' start values, because a host need not set inputs before
+    initialization: FMPy's ``simulate_ssp`` sets none (only a parameter set), and an FMU that takes a state
+    from an input (a motor's rotor angle from its pulley's, a four-bar's rocker from its crank) then starts
+    from the input's FMU default, 0: the exported bed drive in FMPy had its bed 0.19 m off at 0.3 s, 2.6 mm
+    with these start values (issue 35)."""
+    from harness.clock import NS as NS_PER_S
+    from harness.fmi import open_instance
+    from harness.masters import master_class
+
+    paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
+    mds = {name: model_description(p) for name, p in paths.items()}
+    exp = system.experiment
+    start = float(exp.start_time) if exp is not None else 0.0
+    fmus: dict = {}
+    m = None
+    try:
+        for inst in system.instances:
+            fmus[inst.name] = open_instance(paths[inst.name], inst.name, logging_on=False)
+        m = master_class(exp.master if exp is not None else "jacobi")(fmus, system.all_connections(mds),
+                                                                      system.bonds)
+        m.initialize(int(round(start * NS_PER_S)), None, None, {i.name: dict(i.parameters) for i in system.instances})
+        out: dict[str, dict] = {}
+        for c in system.all_connections(mds):
+            inst, var = c.target.split(".", 1)
+            out.setdefault(inst, {})[var] = fmus[inst].get_value(var)
+        return out
+    finally:
+        if m is not None:
+            m.terminate()
+            m.free()
+        else:
+            for f in fmus.values():
+                f.free()
+
+
+def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] | None = None) -> ET.Element:
+    """The SystemStructure.ssd element tree of a system (``sources``: instance -> FMU path in the archive;
+    ``starts``: instance -> {input: start value}, bound with the instance's parameters: :func:`consistent_inputs`)."""
     root = ET.Element(_q("ssd:SystemStructureDescription"), {"version": "1.0", "name": system.name})
     sys_el = ET.SubElement(root, _q("ssd:System"), {"name": system.name})
     if system.description:
         sys_el.set("description", system.description.strip().splitlines()[0])
     elements = ET.SubElement(sys_el, _q("ssd:Elements"))
     connections = system.all_connections()
+    driven = {c.target for c in connections}
     used_units: set[str] = set()
     for inst in system.instances:
         md = model_description(resolve_fmu(inst.fmu))
@@ -107,20 +150,30 @@ def build_ssd(system: System, sources: dict[str, str]) -> ET.Element:
         conns = ET.SubElement(comp, _q("ssd:Connectors"))
         variables = {v.name: v for v in md.modelVariables}
         for v in md.modelVariables:
-            if v.causality in ("input", "output") or (v.causality == "parameter" and v.name in inst.parameters):
+            # an input no connection drives is no connector (unless a value is bound to it): FMPy's simulate_ssp
+            # (0.3.x get_connections) wires a declared input without a connection to the source of the input
+            # declared before it; the trimmer's unused take-off aux.tau took the cutting torque and doubled the
+            # shaft's torque (issue 35)
+            if (v.causality == "output" or v.name in inst.parameters
+                    or (v.causality == "input" and f"{inst.name}.{v.name}" in driven)):
                 c = ET.SubElement(conns, _q("ssd:Connector"), {"name": v.name, "kind": v.causality})
                 attrs = {}
                 if v.type == "Real" and v.unit:
                     attrs["unit"] = v.unit
                     used_units.add(v.unit)
                 ET.SubElement(c, _q(f"ssc:{v.type}"), attrs)
-        if inst.parameters:
+        # OMSimulator 3.0 reads a bound name that begins with its component's name as a path from the system
+        # (component knife, input knife.phi: "Unknown signal model.root.knife.phi", and the process dies): such
+        # an input is not bound, it starts from its FMU's start value
+        start = {k: v for k, v in (starts or {}).get(inst.name, {}).items() if not k.startswith(f"{inst.name}.")}
+        bound = {**inst.parameters, **start}
+        if bound:
             bindings = ET.SubElement(comp, _q("ssd:ParameterBindings"))
             binding = ET.SubElement(bindings, _q("ssd:ParameterBinding"))
             values = ET.SubElement(binding, _q("ssd:ParameterValues"))
             pset = ET.SubElement(values, _q("ssv:ParameterSet"), {"version": "1.0", "name": PARAMETER_SET})
             params = ET.SubElement(pset, _q("ssv:Parameters"))
-            for name, value in inst.parameters.items():
+            for name, value in bound.items():
                 if name not in variables:
                     raise SystemError_(f"instance {inst.name}: FMU {md.modelName} has no parameter {name}")
                 v = variables[name]
@@ -333,6 +386,12 @@ class _Reader:
         self.collect(sys_el, (), name, instances, edges)
         edges, terminal_bonds = self.terminal_edges(edges, instances)
         connections = self.resolve(edges, name, instances)
+        # a value bound on a connected input is only its start (export_ssp binds the consistent one for hosts
+        # that set no input before initialization): the harness initialises the input from its source
+        driven = {c.target for c in connections}
+        for inst in instances:
+            for k in [k for k in inst.parameters if f"{inst.name}.{k}" in driven]:
+                del inst.parameters[k]
         bonds, conversions, exp_extra = self.own_annotation(sys_el)
         bonded = set()
         for b in bonds:
