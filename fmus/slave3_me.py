@@ -17,8 +17,10 @@ What a host integrates is the model's own equations (:mod:`fmus.physics`):
   inputs; the toolkit's master holds them over a step) gets the position its speed implies, not a staircase of
   a stiff belt's or mesh's input (c * w * (t - t_s), the co-simulation FMU's reason for the same rule, issue 35);
 * outputs: ``Model.output(t, x, u)``, as in co-simulation;
-* no event indicators: the components' switches (a clearance closing or opening) keep memory that only their
-  co-simulation step updates, so those parameter sets are refused (next paragraph), not integrated wrongly.
+* state events: ``Model.switches`` name the model's event indicators (``Model.event_indicators``: a clearance
+  closing or opening), and at each event the host locates ``Model.at_event`` updates what the co-simulation step
+  keeps as memory there (a contact flag, an impact count, an approach speed); those memory entries are states
+  whose derivative is 0, so their change is reported as ``valuesOfContinuousStatesChanged``.
 
 A component whose equations at the given parameters are not an ODE the host could integrate (a state that is
 a step quantity, e.g. an acceleration from the input history; contact memory) is refused at initialisation in
@@ -91,12 +93,18 @@ class PressSlave(slave3.PressSlave, ModelExchange):
                                            variability=Fmi3Variability.continuous, description=f"d {st.name}/dt",
                                            derivative=by_name[st.name].value_reference, getter=self._der_getter(i),
                                            **({"unit": unit} if unit else {})), nested=False)
+        for i, sw in enumerate(cls.model.switches):
+            self.register_variable(Float64(sw.name, causality=Fmi3Causality.local,
+                                           variability=Fmi3Variability.continuous, description=sw.doc,
+                                           unit=sw.unit, getter=self._indicator_getter(i)),
+                                   nested=False, has_event_indicator=True)
 
     def _units_by_name(self) -> dict[str, str]:
-        """The co-simulation FMU's units and those of the derivatives."""
+        """The co-simulation FMU's units, those of the derivatives and of the event indicators."""
         units = super()._units_by_name()
         model = type(self).model
         units.update({f"der({s.name})": u for s in model.states if (u := derivative_unit(s.unit))})
+        units.update({s.name: s.unit for s in model.switches})
         return units
 
     def _state_setter(self, i):
@@ -107,6 +115,15 @@ class PressSlave(slave3.PressSlave, ModelExchange):
 
     def _der_getter(self, i):
         return lambda: float(self._derivatives()[i])
+
+    def _indicator_getter(self, i):
+        return lambda: float(self._indicators()[i])
+
+    def _indicators(self) -> list[float]:
+        if not type(self).model.switches:
+            return []
+        mdl = self._mdl if self._initialised else self._build_model()
+        return [float(z) for z in mdl.event_indicators(self._time, self._x, self._inputs_now())]
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -180,18 +197,26 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         return [float(v) for v in self._derivatives()]
 
     def get_number_of_event_indicators(self) -> int:
-        return 0
+        return len(type(self).model.switches)
 
     def get_event_indicators(self):
-        return []
+        return self._indicators()
 
     def get_nominals_of_continuous_states(self, size: int):
         return [1.0] * size
 
     def update_discrete_states(self):
-        """An event (an input changed in event mode): no discrete state changes; the results under the names the
-        C wrapper reads (module docstring)."""
-        return _UpdateResult()
+        """At an event (an indicator's sign change the host located, an input changed in event mode): the model's
+        memory update (``Model.at_event``) at the present time; the results under the names the C wrapper reads
+        (module docstring)."""
+        result = _UpdateResult()
+        if type(self).model.switches and self._initialised:
+            x = np.asarray(self._mdl.at_event(self._time, self._x.copy(), self._inputs_now()), dtype=float)
+            if not np.array_equal(x, self._x):
+                self._x = x
+                self._stale = True
+                result.valuesOfContinuousStatesChanged = True
+        return result
 
     def do_step(self, current_time, step_size):
         self._fail("a model exchange FMU is integrated by its host (fmi3DoStep is co-simulation)")
@@ -226,6 +251,8 @@ class PressSlave(slave3.PressSlave, ModelExchange):
             if unknowns[v] is not None:
                 attrs["dependencies"] = unknowns[v]
             SubElement(structure, "InitialUnknown", attrs)
+        for sw in type(self).model.switches:
+            SubElement(structure, "EventIndicator", valueReference=str(vr[sw.name]))
         root.insert(list(root).index(old), structure)
         root.remove(old)
         return root

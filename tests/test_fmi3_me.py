@@ -15,9 +15,14 @@ checked by hosts nobody here wrote.
   Inertia 1.2e-6, Gain 1.7e-15, the stateless ones and the rigid levels of GearSectors and JamesDifferential 0.
   Without the FMU's own position advance (positions held between fmpy's points) MotorBelt was 2.18 and RackBed
   47.3 of a range off.
+  Where the difference is larger, the model exchange run must be converged (at rtol 1e-11 it moves by less than
+  a tenth of that difference: the difference is then the co-simulation's own) and within 1e-2: CamRocker at
+  fidelity 2 (its clearance walls as event indicators, located by CVODE) 1.6e-3 on pin_force (1.59e-3, 1.59e-3,
+  1.60e-3 at rtol 1e-9, 1e-10, 1e-11; the 1e-11 run moves by 4.2e-5), the co-simulation's exponential steps'
+  error; every flag and count (in_contact, impact_count) equal at every step.
 * Where a component's equations at the standard run's parameters are no ODE (``Model.ode_form``), the FMU
-  refuses in one line at initialisation (FourBar and CamRocker at fidelity 2: contact memory updated inside the
-  co-simulation step only).
+  refuses in one line at initialisation (FourBar at fidelity 2: contact memory updated inside the co-simulation
+  step only).
 * The master's model exchange support (harness.fmi.me) runs the two-inertia drive from the model exchange FMUs
   and agrees with the monolithic reference as closely as the co-simulation FMUs do.
 """
@@ -42,6 +47,7 @@ pytest.importorskip("pythonfmu3")
 
 TOLERANCE = 1e-4    # of each output's range: the co-simulation run's own integration error (module docstring)
 RTOL = 1e-10        # CVODE's relative tolerance in fmpy
+CONVERGED_LIMIT = 1e-2   # a converged ME run against a co-simulation run with unlocated or coarse events
 
 @pytest.fixture(scope="module")
 def me_dir(tmp_path_factory) -> Path:
@@ -101,7 +107,7 @@ def _me_inputs(model, cls, h: float, n: int, u: list) -> np.ndarray | None:
     return np.array(rows, dtype=[("time", np.float64)] + [(i, np.float64) for i in names])
 
 
-def simulate_me_standard_run(fmu: Path, name: str) -> np.ndarray:
+def simulate_me_standard_run(fmu: Path, name: str, rtol: float = RTOL) -> np.ndarray:
     """fmpy's model exchange run on the standard run's grid: the last sample at each grid time (fmpy records a
     point before and after the inputs' event there; the reference row is after)."""
     model, h, n, u = standard_run_setup(name)
@@ -109,7 +115,7 @@ def simulate_me_standard_run(fmu: Path, name: str) -> np.ndarray:
     outputs = list(model.outputs)
     start = {s.name: getattr(model.p, s.name) for s in type(model.p).specs()}
     res = simulate_fmu(str(fmu), fmi_type="ModelExchange", stop_time=n * h, output_interval=h, start_values=start,
-                       input=_me_inputs(model, cls, h, n, u), output=outputs, relative_tolerance=RTOL,
+                       input=_me_inputs(model, cls, h, n, u), output=outputs, relative_tolerance=rtol,
                        record_events=True)
     t = res["time"]
     rows = {}
@@ -139,7 +145,15 @@ def test_fmpy_integrates_the_me_fmu_through_the_standard_run(name, me_dir, capfd
     dev = deviation(run, ref)
     worst = int(np.argmax(dev))
     columns = ["time", *model.outputs]
-    assert dev[worst] <= TOLERANCE, f"{name}: {columns[worst]} off by {dev[worst]:.3g} of its range"
+    counts = [j for j in range(1, ref.shape[1]) if np.array_equal(ref[:, j], np.round(ref[:, j]))]
+    assert all(np.array_equal(run[:, j], ref[:, j]) for j in counts), f"{name}: a flag or count differs"
+    if dev[worst] > TOLERANCE:
+        # more than the fixed-step error: only where the model exchange run is converged (the difference is the
+        # co-simulation's), and never more than CONVERGED_LIMIT
+        finer = simulate_me_standard_run(fmu, name, RTOL / 10.0)
+        change = float(np.max(deviation(finer, run)))
+        assert change <= 0.1 * dev[worst], f"{name}: the ME run moves by {change:.3g} at rtol {RTOL / 10:g}"
+        assert dev[worst] <= CONVERGED_LIMIT, f"{name}: {columns[worst]} off by {dev[worst]:.3g} of its range"
 
 
 def test_a_level_without_an_ode_form_is_refused_in_one_line(me_dir, capfd):

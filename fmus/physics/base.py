@@ -130,6 +130,10 @@ class Model:
     inputs: ClassVar[tuple[str, ...]] = ()
     outputs: ClassVar[tuple[str, ...]] = ()
     states: ClassVar[tuple[Signal, ...]] = ()
+    # the event indicators of the model's switches (a clearance closing or opening), for a host that integrates
+    # derivatives() itself (FMI 3.0 model exchange, fmus.slave3_me): event_indicators gives their values (a switch
+    # is a sign change), at_event the memory update at a located one
+    switches: ClassVar[tuple[Signal, ...]] = ()
 
     def __init__(self, p: Params):
         p.validate()
@@ -162,13 +166,22 @@ class Model:
         raise NotImplementedError(f"{type(self).__name__} declares no output Jacobian")
 
     def ode_form(self) -> str | None:
-        """None when :meth:`derivatives` is the model at these parameters, for every state: integrating it is what
-        :meth:`advance` approximates, so a host may integrate it (FMI 3.0 model exchange, fmus.slave3_me).
+        """None when :meth:`derivatives` is the model at these parameters, for every state: integrating it (with
+        :meth:`at_event` at the sign changes of :meth:`event_indicators`) is what :meth:`advance` approximates, so
+        a host may integrate it (FMI 3.0 model exchange, fmus.slave3_me).
         Otherwise one line saying why not (a state that is a step quantity, contact memory updated only inside
         ``advance``).  Default: a model without states, or with derivatives of its own."""
         if not self.states or type(self).derivatives is not Model.derivatives:
             return None
         return f"{type(self).__name__} gives no derivatives (its advance is its only form)"
+
+    def event_indicators(self, t: float, x: np.ndarray, u: Sequence[float]) -> Sequence[float]:
+        """The values of ``switches`` at (t, x, u) (inputs at t: no position extrapolated, ``t0 = t``)."""
+        return ()
+
+    def at_event(self, t: float, x: np.ndarray, u: Sequence[float]) -> np.ndarray:
+        """The state after a switch located at (t, x, u): the memory ``advance`` updates at that switch."""
+        return x
 
     @classmethod
     def provides_output_jacobian(cls) -> bool:

@@ -166,6 +166,10 @@ class CamRockerModel(Model):
               Signal("groove_v_impact", "m/s", "roller-groove approach speed at the start of the current contact (fidelity 3)"),
               Signal("groove_impacts", "1", "number of roller-groove impacts so far (fidelity 3)"),
               Signal("groove_flag", "1", "1 while the roller touches a groove wall (fidelity 3)"))
+    switches = (Signal("pin_wall_positive", "m", "stone-pin play minus its positive wall (fidelity 2, 3)"),
+                Signal("pin_wall_negative", "m", "stone-pin play plus its negative wall (fidelity 2, 3)"),
+                Signal("groove_wall_positive", "m", "roller offset in the groove minus its positive wall (fidelity 3)"),
+                Signal("groove_wall_negative", "m", "roller offset in the groove plus its negative wall (fidelity 3)"))
 
     def __init__(self, p: CamRockerParams):
         super().__init__(p)
@@ -295,13 +299,30 @@ class CamRockerModel(Model):
             dx[0], dx[1] = x[1], self._acceleration(t, x[0], x[1], x, u, t0)
         return dx
 
-    def ode_form(self):
-        """Fidelity 2 and 3 keep contact memory (flag, impact count, approach speed) that ``advance`` updates at
-        sub-step boundaries or located events; no event indicators for a host are written yet."""
-        if self.p.fidelity >= 2:
-            return (f"fidelity {self.p.fidelity}'s contact memory (contact_flag, impacts, v_impact) is updated inside "
-                    f"advance only: its switches are not event indicators yet")
-        return None
+    def event_indicators(self, t, x, u):
+        """The walls of the clearances (``switches``): q -+ clearance/2 of the stone pin (fidelity 2, 3) and
+        d_g -+ groove_clearance/2 of the roller in the groove (fidelity 3); a constant 1 where a level has no such
+        wall.  A contact begins or ends where one changes sign (contact.penetration's bands)."""
+        p = self.p
+        if p.fidelity == 2:
+            q = self._pin(*self._kin(u[0]), u[1], x)[0]
+            half = 0.5 * p.clearance
+            return (q - half, q + half, 1.0, 1.0)
+        if p.fidelity == 3:
+            *_, (d_p, _), (d_g, _) = self._joints(u[0], u[1], x[0], x[1], x[5], x[6], x)
+            half, g_half = 0.5 * p.clearance, 0.5 * p.groove_clearance
+            return (d_p - half, d_p + half, d_g - g_half, d_g + g_half)
+        return (1.0, 1.0, 1.0, 1.0)
+
+    def at_event(self, t, x, u):
+        """At a located switch, the contact memory ``advance`` updates there: onset (flag 1, impacts + 1, the
+        approach speed), separation (flag 0)."""
+        x = np.array(x, dtype=float)
+        if self.p.fidelity == 2:
+            self._update_contact(u[1], x, self._kin(u[0]))
+        elif self.p.fidelity == 3:
+            self._update_joints(u[0], u[1], x)
+        return x
 
     def _update_contact(self, w: float, x: np.ndarray, kin) -> None:
         q, qd, _, _ = self._pin(*kin, w, x)
