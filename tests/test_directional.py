@@ -231,6 +231,41 @@ def test_fmpy_plain_slaves_get_directional_derivatives_from_the_binaries(fmu_dir
     _fmpy_case(fmu3_dir / f"{name}.fmu", 3)
 
 
+@pytest.mark.parametrize("version", [2, 3])
+def test_reset_instance_answers_from_its_new_slave(fmu_dir, fmu3_dir, version):
+    """pythonfmu's and pythonfmu3's fmi*Reset construct a new slave for the instance; the loader then answers from
+    that one: SpringInertia with c = 300, reset (c back to its default), answers d drive.tau / d drive.phi = -c of
+    the new slave (fmpy's plain slaves)."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi3 import FMU3Slave
+
+    path = (fmu3_dir if version == 3 else fmu_dir) / "SpringInertia.fmu"
+    md = read_model_description(str(path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    default_c = float(next(v.start for v in md.modelVariables if v.name == "c"))
+    s = (FMU3Slave if version == 3 else FMU2Slave)(guid=md.guid, unzipDirectory=extract(str(path)),
+                                                    modelIdentifier=md.coSimulation.modelIdentifier,
+                                                    instanceName="reset")
+    set_ = s.setFloat64 if version == 3 else s.setReal
+
+    def slope(c=None):
+        if c is not None:
+            set_([vr["c"]], [c])
+        if version == 2:
+            s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        s.exitInitializationMode()
+        return s.getDirectionalDerivative([vr["drive.tau"]], [vr["drive.phi"]], [1.0])[0]
+
+    s.instantiate()
+    assert slope(300.0) == pytest.approx(-300.0, rel=1e-15)
+    s.reset()
+    assert slope() == pytest.approx(-default_c, rel=1e-15)
+    s.terminate()
+    s.freeInstance()
+
+
 def _cosim(fmu: Path) -> ET.Element:
     with zipfile.ZipFile(fmu) as z:
         return ET.fromstring(z.read("modelDescription.xml")).find("CoSimulation")

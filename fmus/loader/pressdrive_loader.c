@@ -387,6 +387,26 @@ static int find_offer(void *instance, Derivatives *out) {
     return found;
 }
 
+/* after the wrapper's Reset, which constructs a new slave for the instance (pythonfmu's and pythonfmu3's
+ * PySlaveInstance::Reset call initialize() again): keep the new slave's offer, or none (never the old slave's) */
+static void renew_offer(void *instance) {
+    Derivatives d;
+    if (!find_offer(instance, &d)) return;
+    int g = api.gil_ensure();
+    PyObject *call = take_offer(d.name), *old = NULL;
+    api.gil_release(g);
+    pthread_mutex_lock(&lock);
+    for (size_t i = 0; i < n_derivatives; i++)
+        if (derivatives[i].instance == instance) {
+            old = derivatives[i].call;
+            if (call) derivatives[i].call = call;
+            else derivatives[i] = derivatives[--n_derivatives];
+            break;
+        }
+    pthread_mutex_unlock(&lock);
+    if (old) { g = api.gil_ensure(); decref(old); api.gil_release(g); }
+}
+
 static void drop_offer(void *instance) {
     PyObject *call = NULL;
     pthread_mutex_lock(&lock);
@@ -479,7 +499,12 @@ FWD(fmi2SetupExperiment, (fmi2Component c, fmi2Boolean tolDef, fmi2Real tol, fmi
 FWD(fmi2EnterInitializationMode, (fmi2Component c), (c))
 FWD(fmi2ExitInitializationMode, (fmi2Component c), (c))
 FWD(fmi2Terminate, (fmi2Component c), (c))
-FWD(fmi2Reset, (fmi2Component c), (c))
+EXPORT fmi2Status fmi2Reset(fmi2Component c) {
+    clear_offer();
+    fmi2Status status = ((fmi2Status (*)(fmi2Component))p_fmi2Reset)(c);
+    renew_offer(c);   /* the wrapper made a new slave */
+    return status;
+}
 FWD(fmi2GetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]), (c, vr, n, v))
 FWD(fmi2GetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]), (c, vr, n, v))
 FWD(fmi2GetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]), (c, vr, n, v))

@@ -117,7 +117,12 @@ FWD3(fmi3EnterInitializationMode, (fmi3Instance c, fmi3Boolean tolDef, fmi3Float
 FWD3(fmi3ExitInitializationMode, (fmi3Instance c), (c))
 FWD3(fmi3EnterEventMode, (fmi3Instance c), (c))
 FWD3(fmi3Terminate, (fmi3Instance c), (c))
-FWD3(fmi3Reset, (fmi3Instance c), (c))
+fmi3Status fmi3Reset(fmi3Instance c) {
+    clear_offer();
+    fmi3Status status = ((fmi3ResetTYPE *)p_fmi3Reset)(c);
+    renew_offer(c);   /* the wrapper made a new slave (pressdrive_loader.c) */
+    return status;
+}
 GETTER(fmi3GetFloat32, fmi3Float32) GETTER(fmi3GetFloat64, fmi3Float64)
 GETTER(fmi3GetInt8, fmi3Int8) GETTER(fmi3GetUInt8, fmi3UInt8) GETTER(fmi3GetInt16, fmi3Int16)
 GETTER(fmi3GetUInt16, fmi3UInt16) GETTER(fmi3GetInt32, fmi3Int32) GETTER(fmi3GetUInt32, fmi3UInt32)
