@@ -3,9 +3,10 @@
 Export (``python -m harness export X OUT.ssp``) writes ``SystemStructure.ssd`` with
 
 * one ``ssd:Component`` per instance (``source="resources/<Model>.fmu"``), its connectors typed and with
-  units (inputs, outputs and the parameters it sets), and its parameter values inline as an
-  ``ssv:ParameterSet`` named ``default`` (Ecos applies it with ``init(parameter_set="default")``; libcosim
-  applies inline values on load);
+  units (the inputs a connection drives, the outputs and the parameters it sets), and its parameter values
+  inline as an ``ssv:ParameterSet`` named ``default`` (Ecos applies it with ``init(parameter_set="default")``;
+  libcosim applies inline values on load), with each connected input's consistent start value
+  (:func:`consistent_inputs`);
 * every connection (power bonds expanded into their member variables: SSP 1.0 has no terminals, an
   ``ssd:Connector`` is one variable, so the FMI 3.0 FMUs' flange terminals are not named in the .ssd; a host
   that reads terminals finds them in the FMUs), with ``ssc:LinearTransformation`` where one is declared and
