@@ -231,6 +231,28 @@ def test_fmpy_plain_slaves_get_directional_derivatives_from_the_binaries(fmu_dir
     _fmpy_case(fmu3_dir / f"{name}.fmu", 3)
 
 
+@pytest.mark.parametrize("path", ["fmi2", "fmi3"])
+def test_binary_answers_on_another_thread(fmu_dir, fmu3_dir, path):
+    """An instance made on one thread and asked on another (the loader takes the GIL on whatever thread calls)."""
+    import threading
+
+    in_process, _ = PATHS[path]
+    inst = open_instance((fmu3_dir if path == "fmi3" else fmu_dir) / "SpringInertia.fmu", "thread",
+                         in_process=in_process)
+    try:
+        inst.setup(0.0)
+        inst.enter_initialization()
+        inst.exit_initialization()
+        phi, tau = inst.reals(["drive.phi"]), inst.reals(["drive.tau"])
+        got = []
+        worker = threading.Thread(target=lambda: got.append(inst.directional_derivative(tau, phi, [1.0])[0]))
+        worker.start()
+        worker.join(60)
+        assert got == [pytest.approx(-inst.get_value("c"), rel=1e-15)]
+    finally:
+        inst.free()
+
+
 @pytest.mark.parametrize("version", [2, 3])
 def test_reset_instance_answers_from_its_new_slave(fmu_dir, fmu3_dir, version):
     """pythonfmu's and pythonfmu3's fmi*Reset construct a new slave for the instance; the loader then answers from
