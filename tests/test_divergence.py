@@ -1,9 +1,10 @@
 """The divergence detector (harness/divergence.py) on the two stability maps and the issue's cases.
 
 Stable points: every (value, master, order) of both maps at the largest step the map judged stable and a little
-below it must run to the end.  Unstable points: clearly beyond the boundary (x1.25 on the two-inertia map, x1.5
-on the bed-drive map) the run must be stopped by the detector, with one line naming the bond and the evidence,
-before any power passes the master's 1e12 blow-up check.  The exceptions are stated and measured below.
+below it must run to the end.  Unstable points: clearly beyond the boundary (x1.25 on both maps; on the bed-drive
+map over four times its window) the run must be stopped by the detector, with one line naming the bond and the
+evidence, before any power passes the master's 1e12 blow-up check.  The exceptions are stated and measured below,
+and the jacobian master's bed-drive bounds, which are deviations without growth, have their own test.
 """
 from __future__ import annotations
 
@@ -84,24 +85,50 @@ def test_bed_drive_map_stable_points_run_to_the_end():
 
 
 def test_bed_drive_map_unstable_points_are_stopped():
+    """Every explicit method's point 1.25 times beyond its map boundary, run over four times the map's window
+    (0.4 s; a run of the drive is 1-2 s), is stopped: by the detector, or by the blow-up check for the most
+    violent.  Over the map's own 0.1 s window the slowest of these (zero-order hold) are still growing when the
+    run ends: with the seed's branch -1 mechanism, 0.5 kg.m2 with jacobi order 0 had its crank torque at 130
+    times the reference's when the 70 steps ended, and was stopped at 0.146 s of the longer run.  (1.5 times
+    the boundary is no longer always unstable: with a zero-order hold the verdicts come in bands, e.g. 0.25
+    kg.m2, jacobi order 0, deviating at 1.0 and 1.25 times and within the criterion at 1.5 times over 0.1 s.)"""
     by_detector = by_blowup = 0
-    for _, r in BD.iterrows():
-        prun = _bd_run(r)
-        df = prun(1.5 * r.h_unstable)
-        assert prun.judge(df)
-        # (the two points at 2.5 with gauss-seidel ran their 27-37 steps, fewer than the 64 the detector's blocks
-        # of 4 needed, to the end with torques of 1e4 N.m: a study's short run now gets blocks of fewer steps)
+    for _, r in BD[BD.master != "jacobian"].iterrows():   # jacobian: the next test
+        ref_key = (r.value, "long")
+        if ref_key not in _REFS:
+            _REFS[ref_key] = st.PressRun("bed_drive", "gauss-seidel", 0, {r.sweep: r.value},
+                                         duration=4 * r.duration).ref
+        prun = st.PressRun("bed_drive", r.master, int(r.order), {r.sweep: r.value}, duration=4 * r.duration,
+                           reference=_REFS[ref_key])
+        df = prun(1.25 * r.h_unstable)
+        assert prun.judge(df), (r.value, r.master, r.order)
         assert not df.attrs["complete"], (r.value, r.master, r.order)
         if df.attrs["diverged"]:
             _one_line_divergence(df)
             by_detector += 1
         else:
-            # the violent blow-ups (power x30 per step) pass 1e12 within the detector's first blocks (at most 34 steps)
+            # the violent blow-ups (power x30 per step) pass 1e12 within the detector's first blocks
             assert "blow-up limit" in df.attrs["error"] and len(df) <= 40, (r.value, r.master, r.order, len(df))
             by_blowup += 1
-    # measured: 28 by the detector, 2 by the blow-up check (29 and 1 before the creation test allowed the one-off
-    # half step of an effort's jump; 12 and 14 with blocks of 4)
+    # measured: 29 of the 30 by the detector, 1 by the blow-up check (jacobi order 2 at 2.5 kg.m2)
     assert by_detector >= 28
+
+
+def test_bed_drive_map_jacobian_bounds_are_bounded_deviations_not_divergences():
+    """The jacobian master's bounds on the bed-drive map are of another kind: at the step the map judged unstable
+    the run completes with every output bounded, and no power bond created power (the implicit coupling
+    dissipates on each bond), so the detector rightly has nothing to stop; the deviation (as large as the
+    signal's own variation over the window's last quarter, the map's criterion) is an accuracy failure, which
+    the accuracy study judges against the drive's declared tolerances.  Its verdicts also come in bands (stable
+    again above the first unstable step), which is why the map's search scans upward by 2^(1/4)."""
+    rows = BD[BD.master == "jacobian"]
+    assert len(rows) == len(BD["value"].unique())
+    for _, r in rows[rows.status == "bracketed"].iterrows():
+        prun = _bd_run(r)
+        df = prun(r.h_unstable)
+        assert prun.judge(df), (r.value, r.h_unstable)
+        assert df.attrs["complete"] and not df.attrs["diverged"], (r.value, df.attrs["error"])
+        assert np.all(np.isfinite(df.to_numpy(dtype=float)))
 
 
 def test_bed_drive_jacobi_sampled_with_hold_at_0p2_ms_is_reported_incomplete_early():
