@@ -1,8 +1,9 @@
 """Directional derivatives of the toolkit's FMUs (issues 29 and 34): d outputs / d inputs at the current time, from
 each component's physics (``Model.output_jacobian``), in process and through the FMUs' binaries (the host loader
 answers fmi2/fmi3GetDirectionalDerivative from the slave), against central differences of the outputs read
-through the same path; the ``jacobian`` master's results with them against its results by perturbation; FMUs
-without them refused in one line and still run."""
+through the same path, in step and in initialisation mode; through fmpy's plain slaves and a C host without
+Python; per instance, after a reset and from another thread; the ``jacobian`` master's results with them against
+its results by perturbation; FMUs without them refused in one line and still run."""
 from __future__ import annotations
 
 import dataclasses
