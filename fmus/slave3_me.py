@@ -18,9 +18,10 @@ What a host integrates is the model's own equations (:mod:`fmus.physics`):
   a stiff belt's or mesh's input (c * w * (t - t_s), the co-simulation FMU's reason for the same rule, issue 35);
 * outputs: ``Model.output(t, x, u)``, as in co-simulation;
 * state events: ``Model.switches`` name the model's event indicators (``Model.event_indicators``: a clearance
-  closing or opening), and at each event the host locates ``Model.at_event`` updates what the co-simulation step
-  keeps as memory there (a contact flag, an impact count, an approach speed); those memory entries are states
-  whose derivative is 0, so their change is reported as ``valuesOfContinuousStatesChanged``.
+  closing or opening), and at an event where an indicator has changed sign since the last one (a host also
+  enters event mode for its inputs: those leave the memory alone) ``Model.at_event`` updates what the
+  co-simulation step keeps as memory there (a contact flag, an impact count, an approach speed); those memory
+  entries are states whose derivative is 0, so their change is reported as ``valuesOfContinuousStatesChanged``.
 
 A component whose equations at the given parameters are not an ODE the host could integrate (a state that is
 a step quantity, e.g. an acceleration from the input history; contact memory) is refused at initialisation in
@@ -163,6 +164,7 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         super().exit_initialization_mode()
         self._pos_time = {ip: self._time for ip in self._pos_time}
         self._fresh = [False] * len(self._u)
+        self._last_sides = self._sides() if type(self).model.switches else ()
 
     def _derivatives(self) -> np.ndarray:
         self._check_inputs()
@@ -173,10 +175,10 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         return dx
 
     def _get_fmu_state(self):
-        return super()._get_fmu_state(), dict(self._pos_time)
+        return super()._get_fmu_state(), dict(self._pos_time), getattr(self, "_last_sides", ())
 
     def _set_fmu_state(self, state):
-        base, pos_time = state
+        base, pos_time, self._last_sides = state
         super()._set_fmu_state(base)
         self._pos_time = dict(pos_time)
 
@@ -211,12 +213,18 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         (module docstring)."""
         result = _UpdateResult()
         if type(self).model.switches and self._initialised:
-            x = np.asarray(self._mdl.at_event(self._time, self._x.copy(), self._inputs_now()), dtype=float)
-            if not np.array_equal(x, self._x):
-                self._x = x
-                self._stale = True
-                result.valuesOfContinuousStatesChanged = True
+            sides = self._sides()
+            if sides != self._last_sides:    # an indicator changed sign since the last event (or initialisation)
+                x = np.asarray(self._mdl.at_event(self._time, self._x.copy(), self._inputs_now()), dtype=float)
+                if not np.array_equal(x, self._x):
+                    self._x = x
+                    self._stale = True
+                    result.valuesOfContinuousStatesChanged = True
+                self._last_sides = self._sides()
         return result
+
+    def _sides(self) -> tuple[bool, ...]:
+        return tuple(z > 0.0 for z in self._indicators())
 
     def do_step(self, current_time, step_size):
         self._fail("a model exchange FMU is integrated by its host (fmi3DoStep is co-simulation)")

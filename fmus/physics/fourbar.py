@@ -250,6 +250,10 @@ class FourBarModel(Model):
               Signal("v_last_onset", "m/s", "approach speed at the last onset (output last_impact_speed)"),
               Signal("v_last_separation", "m/s", "separation speed at the end of the last contact "
                                                  "(output rebound_speed)"))
+    switches = (Signal("clearance_wall_positive", "m", "coupler elongation minus the clearance's positive wall "
+                                                       "(fidelity 2)"),
+                Signal("clearance_wall_negative", "m", "coupler elongation plus the clearance's negative wall "
+                                                       "(fidelity 2)"))
 
     def __init__(self, p: FourBarParams):
         self._a, self._b = p.crank_length, p.coupler_length
@@ -349,13 +353,27 @@ class FourBarModel(Model):
     def derivatives(self, t, x, u, t0):
         return self._rates(t, x, u, t0, True)
 
-    def ode_form(self):
-        """Fidelity 2's contact memory (onsets, approach and rebound speeds) is updated at the contact events
-        ``advance`` locates; no event indicators for a host are written yet."""
-        if self.p.fidelity == 2:
-            return ("fidelity 2's contact memory (onsets, v_impact, v_last_onset, v_last_separation) is updated "
-                    "inside advance only: its switches are not event indicators yet")
-        return None
+    def event_indicators(self, t, x, u):
+        """The walls of the clearance joint (``switches``, fidelity 2): q -+ clearance/2, the coupler's
+        elongation against each wall; a constant 1 at the other levels."""
+        if self.p.fidelity != 2:
+            return (1.0, 1.0)
+        q = self._gap(t, x, u, t)[0]
+        return (q - self._half, q + self._half)
+
+    def at_event(self, t, x, u):
+        """At a located wall crossing, the memory ``_substep_with_events`` updates there: onset on a wall (the
+        approach speed as v_impact and last_impact_speed, impact_count + 1) or separation (rebound_speed)."""
+        x = np.array(x, dtype=float)
+        if self.p.fidelity != 2:
+            return x
+        q, qd = self._gap(t, x, u, t)
+        if self._side(q) != 0.0:
+            x[V_IMPACT] = x[LAST_V] = abs(qd)
+            x[COUNT] += 1.0
+        else:
+            x[REBOUND] = abs(qd)
+        return x
 
     def _acceleration(self, t, psi, w, v_impact, u, t0, contact_on):
         """Rocker angular acceleration [rad/s2] at time t for rocker angle psi and speed w."""
