@@ -17,10 +17,9 @@ Registry (``get_law(name, **params)``):
                double-harmonic law a = [(1 - cos pi k) - (1 - cos 2 pi k)/4]/2 (a sum of harmonics, so
                harmonic group; c(0) = 0, c(1) = -pi^2: no soft impact at the start, one at the end).
   power        eps = C[1 - (2k)^n] on 0 <= k <= 1/2 with point-symmetric completion about k = 1/2 and
-               C = 4(n+1)(n+2)/[n(n+3)] from a(1) = 1 (spec §2.1.3); parameter n > 0 (default 2).
-  1,3 1,4 1,5  seed 001's harmonic-group laws, read as the seed's own formula with the power coefficient n that
-               the name gives: eps = C[1 - (2k)^n], n = 1.3, 1.4, 1.5 (the power family below with that n; see
-               :data:`SEED_HARMONIC`).  The seed gives no other formula for any named law.
+               C = 4(n+1)(n+2)/[n(n+3)] from a(1) = 1 (spec §2.1.3); parameter n > 0 (default 2).  This is also
+               seed 001's power-type form, the type its harmonic slider laws give the rocker (its Fig. 4); it is
+               no law the seed names, and it is not 1,3 or 1,5 (below).
   polydynamic  3-4-5 polynomial a = 10k^3 - 15k^4 + 6k^5 (Savvin group placeholder, spec §2.1.4);
   4567         4-5-6-7 polynomial a = 35k^4 - 84k^5 + 70k^6 - 20k^7 (zero jerk at both ends).
   P6           Stoddart's P6 is only named in the source (no formula).  WE DO NOT HAVE IT: "P6" here is a
@@ -35,9 +34,11 @@ Registry (``get_law(name, **params)``):
   bed004r      seed 004's carrier return law: with the four-bar's idle stroke it returns the bed by the harmonic
                law K0 (fmus.physics.bed_law.carrier_return_law); a law for the return phase (law_return = 9).
 
-Named by seed 001 without anything to build them from (``get_law`` refuses them, saying so): "2,12" and "Ш"
-(Shun's law, "Шуна"), cycloidal group; "3,8" (printed "Pd 3,8"), polydynamic group.  What the seed says of them
-is in :data:`SEED_UNDEFINED`.
+Named by seed 001 without anything to build them from (``get_law`` refuses them, saying so, with no stand-in):
+the catalogue codes "group, number" of Tir & Senyk [10] (group 1 harmonic, 2 cycloidal, 3 polydynamic) that the
+seed uses as law names, "1,3", "1,4", "1,5" (harmonic), "2,12" (cycloidal), "3,8" (printed "Pd 3,8",
+polydynamic), and Shun's law "Ш" ("Шуна", cycloidal).  [10] is not in our copy and the seed prints none of
+their formulas.  What the seed says of each is in :data:`SEED_UNDEFINED`.
 """
 from __future__ import annotations
 
@@ -100,29 +101,38 @@ def _power(n: float) -> Law:
                ((0.5, first), (1.0, second)), (("n", n),))
 
 
-# Seed 001: "Harmonic slider LPMs ("K0", "0000") -- by a dependence in the form of a continuous function of the type
-# eps_k = C[1 - (2k)^n], where C is the constant of the acceleration peak, n the power coefficient (Fig. 4)";
-# Fig. 4's curves are "1 - K0; 2 - 0000; 3 - 1,3; 4 - 1,5", and the text names "K0, 1,4 and similar" as the
-# harmonic group.  The one reading that builds these laws from the seed alone: the name is n (decimal comma).
-# The other reading (catalogue codes "group, number" of Tir & Senyk [10]: 1 harmonic, 2 cycloidal, 3
-# polydynamic) fits the group digits as well but names laws whose formulas the seed does not carry.
-SEED_HARMONIC = {"1,3": 1.3, "1,4": 1.4, "1,5": 1.5}
-
+# Seed 001 names its laws by the catalogue codes "group, number" of Tir & Senyk [10] (1 harmonic, 2 cycloidal,
+# 3 polydynamic; Savvin [11] for the polydynamic group) and gives none of their formulas.  The one formula it
+# prints, "harmonic slider LPMs ("K0", "0000") [are realised] by a [rocker acceleration] of the type
+# eps_k = C[1 - (2k)^n], C the constant of the acceleration peak, n the power coefficient (Fig. 4)", is the
+# type of the rocker's transformed law, n a property of that result: it is the law 'power' (above), never
+# a reading of a law's name.
+_HARMONIC_SAYS = ("the seed: harmonic laws ('K0', 1,4 and similar) give a smooth cam profile, without sharpening "
+                  "for most parameter sets; 1,5 drives its Fig. 7 and 1,3, 1,5 its Fig. 4")
 SEED_UNDEFINED = {
-    "2,12": "cycloidal group (the seed: profiles of the forward stroke like a sine wave with a sharpening at its end)",
-    "Ш": "cycloidal group, 'Шуна' (the seed: would cut the acceleration peaks substantially; its forward profiles "
-         "violate the no-sharpening condition)",
-    "3,8": "polydynamic group, 'Pd 3,8' (the seed: an approximate pause or constant-speed stretches of the "
-           "pushers; its forward profile is undercut)",
+    "1,3": ("harmonic", 3, _HARMONIC_SAYS),
+    "1,4": ("harmonic", 4, _HARMONIC_SAYS),
+    "1,5": ("harmonic", 5, _HARMONIC_SAYS),
+    "2,12": ("cycloidal", 12, "the seed: profiles of the forward stroke like a sine wave with a sharpening at its "
+                              "end"),
+    "3,8": ("polydynamic", 8, "printed 'Pd 3,8'; the seed: an approximate pause or constant-speed stretches of "
+                              "the pushers, its forward profile undercut"),
+    "Ш": ("cycloidal", None, "Shun's law, 'Шуна'; the seed: would cut the acceleration peaks substantially, its "
+                             "forward profiles violate the no-sharpening condition"),
 }
-_UNDEFINED_ALIASES = {"Shuna": "Ш", "Sh": "Ш", "Шуна": "Ш", "Pd 3,8": "3,8", "2.12": "2,12", "3.8": "3,8"}
+"""Laws seed 001 names without a formula: name -> (group, catalogue number in [10] or None, what the seed says)."""
+_UNDEFINED_ALIASES = {"Shuna": "Ш", "Sh": "Ш", "Шуна": "Ш", "Pd 3,8": "3,8", "2.12": "2,12", "3.8": "3,8",
+                      "1.3": "1,3", "1.4": "1,4", "1.5": "1,5"}
 
 
-def _seed_harmonic(name: str) -> Law:
-    n = SEED_HARMONIC[name]
-    law = _power(n)
-    return Law(name, f"seed 001 harmonic-group law {name}: eps = C[1-(2k)^n] with n = {n:g} (the name read as n), "
-               f"C = {power_constant(n):.6g}, point-symmetric about k = 1/2", law.pieces, (("n", n),))
+def _undefined(name: str) -> str:
+    """The one-line refusal of a law seed 001 names but does not define."""
+    group, number, says = SEED_UNDEFINED[name]
+    source = "Tir & Senyk [10] and Savvin [11]" if group == "polydynamic" else "Tir & Senyk [10]"
+    what = (f"catalogue law {number} of the {group} group of {source}" if number is not None
+            else f"a law of the {group} group")
+    return (f"law {name!r} is {what}, which seed 001 names but does not define (not in our copy): no stand-in "
+            f"({says})")
 
 
 def _check_km(name: str, km: float) -> None:
@@ -204,14 +214,12 @@ def _bed004r(k_m: float) -> Law:
 
 
 _FAMILIES["bed004r"] = (_bed004r, {"k_m": 0.2})
-for _name in SEED_HARMONIC:
-    _FIXED[_name] = _seed_harmonic(_name)
 LAW_NAMES: tuple[str, ...] = ("K0", "C0", "0000", "power", "polydynamic", "4567", "P6", "composite", "bed004",
                               "bed004r")
 """The laws the components take; the index in this tuple is their Integer ``law`` parameter (so the FMUs'
 interface does not change when a law is added for the synthesis tools only)."""
-KNOWN_LAWS: tuple[str, ...] = LAW_NAMES + tuple(SEED_HARMONIC)
-"""Every name :func:`get_law` builds: the components' laws and seed 001's harmonic-group laws."""
+KNOWN_LAWS: tuple[str, ...] = LAW_NAMES
+"""Every name :func:`get_law` builds (the components' laws; seed 001's named laws are refused)."""
 
 
 def get_law(name: str, **params: float) -> Law:
@@ -224,8 +232,7 @@ def get_law(name: str, **params: float) -> Law:
         return make(**kw)
     seed = _UNDEFINED_ALIASES.get(name, name)
     if seed in SEED_UNDEFINED:
-        raise ValueError(f"law {name!r} is named by seed 001 without a formula: {SEED_UNDEFINED[seed]}; "
-                         f"known laws: {', '.join(KNOWN_LAWS)}")
+        raise ValueError(f"{_undefined(seed)}; known laws: {', '.join(KNOWN_LAWS)}")
     raise ValueError(f"unknown law of periodic motion {name!r}; known laws: {', '.join(KNOWN_LAWS)}")
 
 

@@ -2,13 +2,19 @@
 
 The seed (Kolomiets & Stetsiv) states, without the numbers behind them:
 * the rocker-slider stage (K1)-(K5) turns a harmonic carriage law into a rocker acceleration "of the type"
-  eps = C[1 - (2k)^n] (its Fig. 4: K0, 0000, 1,3, 1,5);
+  eps = C[1 - (2k)^n], n a power coefficient of the result (its Fig. 4: K0, 0000, 1,3, 1,5);
 * the synthesised LCSM against the base four-bar for law 1,5 (its Fig. 7: kulisa angle and acceleration);
 * the method gives "a cycle pause of up to 80 deg", "dimensions smaller by 14-31 %" and "energy intensity
   smaller by 12-38 %" than existing devices.
 This module computes each from the equations in fmus.physics.groove, draws Figs. 2, 4 and 7, and prints them
 beside the seed's words.  What the seed does not give (the stage's lengths, the compared devices, what "size"
 and "energy intensity" measure) is chosen here and said so in the output.
+
+Laws 1,3 and 1,5 are catalogue laws of Tir & Senyk [10] that the seed names but does not define
+(fmus.physics.laws.SEED_UNDEFINED): they are not drawn or computed.  Where the seed uses them, the laws it does
+define take their place on the charts, named as what they are: K0 (harmonic, as 1,3 and 1,5 are) and C0
+(cycloidal); the power-type form is drawn only as the seed uses it, the type of the rocker's law, with the n
+fitted to that law ('power' in fmus.physics.laws).
 """
 from __future__ import annotations
 
@@ -18,9 +24,18 @@ import math
 import numpy as np
 
 from fmus.physics import groove
-from fmus.physics.laws import SEED_HARMONIC, TWO_PI, get_law
+from fmus.physics.laws import SEED_UNDEFINED, TWO_PI, get_law
 
-HARMONIC = ("K0", "0000", "1,3", "1,5")
+FIG4_SEED = ("K0", "0000", "1,3", "1,5")
+"""The carriage laws of the seed's Fig. 4, curves 1-4; those in SEED_UNDEFINED are named, not drawn."""
+LAWS = ("K0", "C0")
+"""The laws the seed defines that its statements on the combined mechanism are computed for (its Fig. 7 uses
+1,5, which it does not define): K0 of the harmonic group and C0 of the cycloidal one."""
+
+
+def drawable(names) -> tuple[list, list]:
+    """(the laws we can build, the seed's names we cannot: SEED_UNDEFINED)."""
+    return [n for n in names if n not in SEED_UNDEFINED], [n for n in names if n in SEED_UNDEFINED]
 
 
 def fit_power(law) -> tuple[float, float]:
@@ -195,48 +210,69 @@ def fig2(stage: groove.RockerSlider, stem) -> list:
 
 
 def fig4(stage: groove.RockerSlider, stem) -> list:
-    """Seed Fig. 4: the rocker's acceleration invariant against k for the harmonic carriage laws."""
+    """Seed Fig. 4: the rocker's acceleration invariant against k for the harmonic carriage laws we can build,
+    each beside the power-type form C[1 - (2k)^n] with the n fitted to it (the seed's "of the type")."""
     import matplotlib.pyplot as plt
     from harness.charts import save_figure
 
     k = np.linspace(0.0, 1.0, 1001)
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    for i, name in enumerate(HARMONIC, 1):
+    built, missing = drawable(FIG4_SEED)
+    for name in built:
+        i = FIG4_SEED.index(name) + 1
         law = stage.rocker_law(get_law(name))
         c = law(k)[2]
-        fit = f"fitted n = {fit_power(law)[0]:.2f}" if abs(c[0]) > 1e-9 else "c(0) = 0, not of the type"
-        line, = ax.plot(k, c, label=f"{i} - {name} through the stage ({fit})")
-        if name in SEED_HARMONIC:
-            ax.plot(k, get_law(name)(k)[2], ":", color=line.get_color(), label=f"{name} itself (n = {SEED_HARMONIC[name]:g})")
+        our = " (our reading)" if name == "0000" else ""
+        if abs(c[0]) < 1e-9:
+            ax.plot(k, c, label=f"{i} - {name}{our} through the stage: c(0) = 0, not of the type")
+            continue
+        n = fit_power(law)[0]
+        line, = ax.plot(k, c, label=f"{i} - {name}{our} through the stage")
+        ax.plot(k, c[0] / power_peak(n) * get_law("power", n=n)(k)[2], ":", color=line.get_color(),
+                label=f"power-type C[1-(2k)^n], C = its c(0), n = {n:.2f} fitted on k <= 1/2")
     ax.axhline(0.0, color="0.6", lw=0.6)
     ax.set_xlabel("relative time k")
     ax.set_ylabel("rocker acceleration invariant d2(gamma/swing)/dk2")
-    ax.set_title(f"Seed 001 Fig. 4 (ours): rocker of the stage, swing {math.degrees(stage.swing()):.1f} deg",
+    curves = " and ".join(f"{FIG4_SEED.index(m) + 1} ({m})" for m in missing)
+    ax.set_title(f"Seed 001 Fig. 4 (ours): rocker of the stage, swing {math.degrees(stage.swing()):.1f} deg\n"
+                 f"the seed's curves {curves}: laws of Tir & Senyk [10] not defined in our copy, not drawn",
                  fontsize=9)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="lower left")
     return save_figure(fig, stem)
 
 
+def power_peak(n: float) -> float:
+    """c(0) of the power-type law of coefficient n (its C), so that a fitted form can be scaled to a curve."""
+    return float(get_law("power", n=n)(np.array([0.0]))[2][0])
+
+
 def fig7(a, lam2: float, stem) -> list:
-    """Seed Fig. 7: kulisa angle and acceleration invariant of the LCSM (1) and the base four-bar (2), law 1,5."""
+    """Seed Fig. 7: kulisa angle and acceleration invariant of the LCSM (1) and the base four-bar (2).  The seed
+    draws it for law 1,5, which it does not define: ours for K0 and C0 (:data:`LAWS`)."""
     import matplotlib.pyplot as plt
     from harness.charts import save_figure
 
-    lf = get_law("1,5")
-    kl, _ = groove.combined_kulisa_law(a.lambda1, lam2, a.lambda3, lf, lf, math.radians(a.dwell), a.assembly)
-    phi, g, g1, g2 = motion(kl)
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    runs = []
+    for name in LAWS:
+        lf = get_law(name)
+        kl, _ = groove.combined_kulisa_law(a.lambda1, lam2, a.lambda3, lf, lf, math.radians(a.dwell), a.assembly)
+        runs.append((name, motion(kl)))
+    phi = runs[0][1][0]
     bg, _, bg2 = base_motion(a, lam2, phi)
     deg = np.degrees(phi - phi[0])
-    g0 = min(g.min(), bg.min())
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
-    ax1.plot(deg, np.degrees(g - g0), label="1 - LCSM, law 1,5")
-    ax1.plot(deg, np.degrees(bg - g0), "--", label="2 - base four-bar")
+    g0 = min([bg.min()] + [r[1].min() for _, r in runs])
+    for name, (_, g, _, g2) in runs:
+        ax1.plot(deg, np.degrees(g - g0), label=f"1 - LCSM, law {name}")
+        ax2.plot(deg, g2, label=f"1 - LCSM, law {name}")
+    ax1.plot(deg, np.degrees(bg - g0), "k--", label="2 - base four-bar")
+    ax2.plot(deg, bg2, "k--", label="2 - base four-bar")
     ax1.set_ylabel("kulisa angle gamma_b [deg]")
     ax1.legend(fontsize=8)
-    ax2.plot(deg, g2, label="1 - LCSM, law 1,5")
-    ax2.plot(deg, bg2, "--", label="2 - base four-bar")
     ax2.set_ylabel("eps / w1^2 [rad/rad^2]")
     ax2.set_xlabel("crank angle from the forward stroke's start [deg]")
+    ax2.text(0.02, 0.03, "the seed's law 1,5 (Tir & Senyk [10]) is not defined in our copy: not drawn",
+             transform=ax2.transAxes, fontsize=7, va="bottom")
     ax1.set_title(f"Seed 001 Fig. 7 (ours): lambda1 = {a.lambda1:g}, lambda2 = {lam2:.4f}, lambda3 = {a.lambda3:g},"
                   f" dwell {a.dwell:g} deg", fontsize=9)
     return save_figure(fig, stem)
@@ -253,59 +289,75 @@ def report(a, folder, scan) -> str:
     a.scan_lambda2 = scan
     lines = [f"seed 001, combined mechanism: r = {a.crank_radius:g} m, lambda1 = {a.lambda1:g}, "
              f"lambda3 = {a.lambda3:g}; stage: rocker R = 1, tie rod L = 2.5 R (ours: the seed gives none), "
-             f"e from the anti-jamming condition"]
-    iv0 = seed_interval(a, "1,5", a.dwell)
-    if iv0 is None:
-        raise ValueError(f"law 1,5 with the slider stage: no lambda2 meets the seed's criteria at dwell {a.dwell:g} deg")
+             f"e from the anti-jamming condition",
+             f"the seed's laws {', '.join(FIG4_SEED[2:])} (its Figs. 4 and 7) are catalogue laws of Tir & Senyk [10] it "
+             f"does not define (not in our copy): not computed; its statements are computed for {' and '.join(LAWS)}"]
+    ivs = {name: seed_interval(a, name, a.dwell) for name in LAWS}
+    if ivs[LAWS[0]] is None:
+        raise ValueError(f"law {LAWS[0]} with the slider stage: no lambda2 meets the seed's criteria at dwell "
+                         f"{a.dwell:g} deg")
+    iv0 = ivs[LAWS[0]]
     lam2 = 0.5 * (iv0[0] + iv0[1])
     stage = groove.rocker_slider_for_swing(groove.base_design(a.lambda1, lam2, a.lambda3, a.assembly)["swing"])
     th = np.degrees(np.abs(stage.pressure(np.linspace(stage.s0 - stage.S, stage.s0, 2001))))
-    lines.append(f"law 1,5, dwell {a.dwell:g} deg: lambda2 by the seed's criteria [{iv0[0]:.4f}, {iv0[1]:.4f}]; "
-                 f"figures at its middle {lam2:.4f} (swing {math.degrees(stage.swing()):.2f} deg, e = {stage.e:.4f}, "
-                 f"S = {stage.S:.4f}, largest carriage pressure angle (K4) {th.max():.2f} deg)")
+    for name, iv in ivs.items():
+        lines.append(f"law {name}, dwell {a.dwell:g} deg: lambda2 by the seed's criteria "
+                     + (f"[{iv[0]:.4f}, {iv[1]:.4f}]" if iv else "none"))
+    lines.append(f"figures at the middle of {LAWS[0]}'s interval, lambda2 = {lam2:.4f} (swing "
+                 f"{math.degrees(stage.swing()):.2f} deg, e = {stage.e:.4f}, S = {stage.S:.4f}, largest carriage "
+                 f"pressure angle (K4) {th.max():.2f} deg)")
     lines.append("")
-    lines.append("Fig. 4 -- seed: harmonic carriage laws give a rocker acceleration of the type C[1 - (2k)^n]")
-    for name in HARMONIC:
+    lines.append("Fig. 4 -- seed: harmonic carriage laws (K0, 0000, 1,3, 1,5) give a rocker acceleration of the type "
+                 "C[1 - (2k)^n], n a power coefficient of the rocker's law")
+    built, missing = drawable(FIG4_SEED)
+    for name in built:
         law = stage.rocker_law(get_law(name))
         c0 = float(law(np.array([0.0]))[2][0])
+        our = " (our reading of 0000)" if name == "0000" else ""
         if abs(c0) < 1e-9:
-            lines.append(f"  {name:>5}: rocker c(0) = 0: not of that type (C would be 0)")
+            lines.append(f"  {name:>5}: rocker c(0) = 0: not of that type (C would be 0){our}")
             continue
         n, mis = fit_power(law)
-        lines.append(f"  {name:>5}: rocker c(0) = {c0:.4f}, fitted n = {n:.3f}, worst misfit {mis:.4f} of c(0)")
+        lines.append(f"  {name:>5}: rocker c(0) = {c0:.4f}, power-type fit n = {n:.3f}, worst misfit {mis:.4f} of "
+                     f"c(0){our}")
+    for name in missing:
+        lines.append(f"  {name:>5}: not defined in our copy (catalogue law of Tir & Senyk [10])")
     lines.append("")
     lines.append("Sharpening and undercut -- seed: harmonic laws (K0, 1,4 ...) give smooth profiles; cycloidal (C0, Shun, "
                  "2,12) a sharpening at the end of the forward stroke; polydynamic (3,8) undercut")
     lines.append("  largest roller radius [mm] that undercuts no wall, to 0.25 mm, at most 60 (law forward, the base "
-                 "four-bar's return):")
+                 "four-bar's return; 1,4, 2,12, Shun and 3,8 are not defined in our copy, the 3-4-5 polynomial "
+                 "'polydynamic' is the toolkit's placeholder of that group):")
     for l2 in (4.1, 4.5):
-        cells = [f"{name} {1000 * largest_roller(a, name, l2):.2f}" for name in ("K0", "1,3", "1,5", "C0", "polydynamic")]
+        cells = [f"{name} {1000 * largest_roller(a, name, l2):.2f}" for name in ("K0", "C0", "polydynamic")]
         lines.append(f"    lambda2 = {l2:g}: " + ", ".join(cells))
     lines.append("")
     lines.append("Cycle pause -- seed: 'a cycle pause of up to 80 deg'")
-    for name in ("K0", "1,5"):
+    for name in LAWS:
         d, iv = max_dwell(a, name)
         lines.append(f"  {name:>5}: largest dwell with a groove by the seed's criteria: {d:.0f} deg "
                      f"(lambda2 [{iv[0]:.4f}, {iv[1]:.4f}] there)" if iv else f"  {name:>5}: no groove at all")
-    for dwell in (0.0, 80.0):
-        l2, th = least_pressure(a, "1,5", dwell)
-        lines.append(f"  1,5, dwell {dwell:g} deg: the least largest groove pressure angle over lambda2 is "
-                     f"{th:.1f} deg (at lambda2 = {l2:.3f})")
+    for name in LAWS:
+        for dwell in (0.0, 80.0):
+            l2, th = least_pressure(a, name, dwell)
+            lines.append(f"  {name}, dwell {dwell:g} deg: the least largest groove pressure angle over lambda2 is "
+                         f"{th:.1f} deg (at lambda2 = {l2:.3f})")
     lines.append("")
     lines.append("Size and energy -- seed: 'dimensions smaller by 14-31 %, energy intensity smaller by 12-38 %' "
-                 "(against existing devices); ours: law 1,5 against the base four-bar of the same lambdas")
-    for dwell in (0.0, 80.0):
-        iv = iv0 if dwell == a.dwell else seed_interval(a, "1,5", dwell)
-        if iv is None:
-            lines.append(f"  dwell {dwell:g} deg: no groove by the seed's criteria")
-            continue
-        lines.append(f"  dwell {dwell:g} deg (lambda2 [{iv[0]:.4f}, {iv[1]:.4f}]), reductions in %: "
-                     "lambda2, swing [deg], peak acceleration, peak inertia power, inertia work per turn, footprint")
-        for l2 in np.linspace(iv[0] + 0.01, iv[1] - 0.01, 5):
-            r = compare_with_base(a, "1,5", l2, dwell)
-            lines.append(f"    {l2:.3f} {r['swing_deg']:6.1f} {r['peak_eps_reduction_pct']:7.1f} "
-                         f"{r['peak_power_reduction_pct']:7.1f} {r['work_reduction_pct']:7.1f} "
-                         f"{r['footprint_reduction_pct']:7.1f}")
+                 "(against existing devices); ours: each law against the base four-bar of the same lambdas")
+    for name in LAWS:
+        for dwell in (0.0, 80.0):
+            iv = ivs[name] if dwell == a.dwell else seed_interval(a, name, dwell)
+            if iv is None:
+                lines.append(f"  {name}, dwell {dwell:g} deg: no groove by the seed's criteria")
+                continue
+            lines.append(f"  {name}, dwell {dwell:g} deg (lambda2 [{iv[0]:.4f}, {iv[1]:.4f}]), reductions in %: "
+                         "lambda2, swing [deg], peak acceleration, peak inertia power, inertia work per turn, footprint")
+            for l2 in np.linspace(iv[0] + 0.01, iv[1] - 0.01, 5):
+                r = compare_with_base(a, name, l2, dwell)
+                lines.append(f"    {l2:.3f} {r['swing_deg']:6.1f} {r['peak_eps_reduction_pct']:7.1f} "
+                             f"{r['peak_power_reduction_pct']:7.1f} {r['work_reduction_pct']:7.1f} "
+                             f"{r['footprint_reduction_pct']:7.1f}")
     folder.mkdir(parents=True, exist_ok=True)
     paths = fig2(stage, folder / "seed001_fig2") + fig4(stage, folder / "seed001_fig4") + \
         fig7(a, lam2, folder / "seed001_fig7")
