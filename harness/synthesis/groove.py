@@ -42,8 +42,9 @@ def register(subparsers) -> argparse.ArgumentParser:
     ap.add_argument("--lambda2", type=float, default=None,
                     help="conrod length / r of one design (needed for --out; default with --compare-laws: the "
                          "middle of each law's feasible interval)")
-    ap.add_argument("--law", default="K0", help=f"law of the forward phase ({', '.join(KNOWN_LAWS)}; seed 001's "
-                                                "1,3 / 1,5 / 2,12 / 3,8 / Ш are refused: the seed does not define them)")
+    ap.add_argument("--law", default="K0",
+                    help=f"law of the forward phase ({', '.join(KNOWN_LAWS)}; seed 001's 1,3 / 1,5 / 2,12 / 3,8 / Ш "
+                         "are refused: the seed does not define them)")
     ap.add_argument("--law-return", default=None,
                     help="law of the return phase, or 'base': the kulisa returns as the base four-bar does, the "
                          "roller off the groove's law (default: --law)")
@@ -233,7 +234,8 @@ def _compare(a) -> list[dict]:
         rep = groove.assess(p, a.crank_radius, a.roller_radius, math.radians(a.max_pressure_angle))
         lf = get_law(law, n=a.n, k_m=a.k_m)
         cv, ca = lf.coefficients()
-        row.update(law_params=", ".join(f"{k}={v:g}" for k, v in lf.params) or "none", lambda2=lam2, C_v=cv, C_a=ca, peak_eps_per_w2=float(np.max(np.abs(g2))),
+        row.update(law_params=", ".join(f"{k}={v:g}" for k, v in lf.params) or "none")
+        row.update(lambda2=lam2, C_v=cv, C_a=ca, peak_eps_per_w2=float(np.max(np.abs(g2))),
                    rms_eps_per_w2=float(np.sqrt(np.mean(g2 ** 2))),
                    peak_inertia_power_per_Jw3=float(np.max(np.abs(g1 * g2))),
                    dwell_deg=a.dwell, swing_deg=math.degrees(kl.swing),

@@ -290,8 +290,9 @@ def report(a, folder, scan) -> str:
     lines = [f"seed 001, combined mechanism: r = {a.crank_radius:g} m, lambda1 = {a.lambda1:g}, "
              f"lambda3 = {a.lambda3:g}; stage: rocker R = 1, tie rod L = 2.5 R (ours: the seed gives none), "
              f"e from the anti-jamming condition",
-             f"the seed's laws {', '.join(FIG4_SEED[2:])} (its Figs. 4 and 7) are catalogue laws of Tir & Senyk [10] it "
-             f"does not define (not in our copy): not computed; its statements are computed for {' and '.join(LAWS)}"]
+             f"the seed's laws {', '.join(drawable(FIG4_SEED)[1])} (its Figs. 4 and 7) are catalogue laws of Tir & "
+             f"Senyk [10] it does not define (not in our copy): not computed; its statements are computed for "
+             f"{' and '.join(LAWS)}"]
     ivs = {name: seed_interval(a, name, a.dwell) for name in LAWS}
     if ivs[LAWS[0]] is None:
         raise ValueError(f"law {LAWS[0]} with the slider stage: no lambda2 meets the seed's criteria at dwell "
