@@ -56,7 +56,7 @@ def register(subparsers) -> argparse.ArgumentParser:
                          "(default %(default)g)")
     ap.add_argument("--R-B", dest="R_B", type=float, default=None,
                     help="pitch radius of the driven sector [m]: also print the sizes the seed derives from it "
-                         "(e1 = eps1 R_B, e2 = eps2 R_B, R_A = kappa R_B)")
+                         "(e1 = eps1 R_B, e2 = eps2 R_B, R_A = kappa R_B); default: the ratios only")
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     ap.set_defaults(func=run)
     return ap
