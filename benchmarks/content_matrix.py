@@ -105,12 +105,16 @@ SSM = ('<?xml version="1.0" encoding="UTF-8"?>\n<ssm:ParameterMapping version="1
 
 
 def _connectors(connectors: dict) -> str:
-    """Declared connectors (name -> kind), Real-typed: SSP tools other than the harness read a component's
-    variables through these, not through its modelDescription.xml."""
+    """Declared connectors (name -> kind, or "kind:Type" for a type other than Real): SSP tools other than the
+    harness read a component's variables through these, not through its modelDescription.xml."""
     if not connectors:
         return ""
-    return ("<ssd:Connectors>" + "".join(f'<ssd:Connector name="{n}" kind="{k}"><ssc:Real/></ssd:Connector>'
-                                         for n, k in connectors.items()) + "</ssd:Connectors>")
+
+    def one(name, spec):
+        kind, _, typ = spec.partition(":")
+        return f'<ssd:Connector name="{name}" kind="{kind}"><ssc:{typ or "Real"}/></ssd:Connector>'
+
+    return "<ssd:Connectors>" + "".join(one(n, k) for n, k in connectors.items()) + "</ssd:Connectors>"
 
 
 def _component(name: str, fmu: str, bindings: str = "", connectors: dict | None = None) -> str:
@@ -226,11 +230,22 @@ def build(kind: str, work: Path) -> Content:
                     {"BouncingBall": ref["BouncingBall"]}, {}, 1.5, start=0.5)
         return Content(kind, "SSP, DefaultExperiment startTime = 0.5 s", str(path), False, ["ball.h", "ball.v"], 1.5,
                        0.01, start=0.5)
+    if kind == "ssp-int-mapping":
+        entries = "".join(f'<ssc:MapEntry source="{k}" target="{v}"/>' for k, v in ((1, 10), (2, 20), (3, 30)))
+        conn = ('<ssd:Connection startElement="stair" startConnector="counter" endElement="ft" '
+                f'endConnector="Int32_input"><ssc:IntegerMappingTransformation>{entries}'
+                '</ssc:IntegerMappingTransformation></ssd:Connection>')
+        body = _elements(_component("stair", "Stair", connectors={"counter": "output:Integer"})
+                         + _component("ft", "Feedthrough", connectors={"Int32_input": "input:Integer",
+                                                                       "Int32_output": "output:Integer"}), conn)
+        path = _ssp(work, "intmap", body, {"Stair": ref["Stair"], "Feedthrough": ref["Feedthrough"]}, {}, 2.5)
+        return Content(kind, "SSP, IntegerMappingTransformation on a connection (Stair 1, 2, 3 -> 10, 20, 30)",
+                       str(path), False, ["stair.counter", "ft.Int32_output"], 2.5, 0.01)
     raise SystemExit(f"content_matrix: unknown kind {kind!r} (kinds: {', '.join(KINDS)})")
 
 
 KINDS = ("fmi1-cs", "fmi2-cs", "fmi2-pythonfmu", "fmi3-cs", "fmi3-pythonfmu3", "fmi2-me", "fmi3-me", "ssp-units",
-         "ssp-nested", "ssp-ssm", "ssp-folder", "ssp-start")
+         "ssp-nested", "ssp-ssm", "ssp-folder", "ssp-start", "ssp-int-mapping")
 
 
 # ------------------------------------------------------------------------------------------- one tool, one kind
@@ -351,8 +366,8 @@ def _libcosim_collect(execution, targets: dict, c: Content) -> pd.DataFrame:
     if not execution.step(n) or execution.status().error_code != 0:
         raise Refused("run", _libcosim_error("step"))
     data, times = {}, None
-    for o, (index, reference) in targets.items():
-        t_ns, data[o] = _libcosim_samples(observer, index, reference, n + 1)
+    for o, (index, reference, integer) in targets.items():
+        t_ns, data[o] = _libcosim_samples(observer, index, reference, n + 1, integer)
         times = t_ns / 1e9
     return pd.DataFrame(data, index=pd.Index(times, name="time"))
 
@@ -371,8 +386,10 @@ def run_libcosim(c: Content) -> pd.DataFrame:
         else:
             execution = execution_cls.from_ssp_file(c.path, step_nanoseconds(c.step))
             slaves = {info.name.decode(): info.index for info in execution.slave_infos()}
-        reals = {i: {v.name.decode(): v.reference for v in execution.slave_variables(i)
-                     if v.type == enums.CosimVariableType.REAL.value} for i in slaves.values()}
+        kinds = (enums.CosimVariableType.REAL.value, enums.CosimVariableType.INTEGER.value)
+        typed = {i: {v.name.decode(): (v.reference, v.type == kinds[1]) for v in execution.slave_variables(i)
+                     if v.type in kinds} for i in slaves.values()}
+        reals = {i: {k: ref for k, (ref, integer) in vs.items() if not integer} for i, vs in typed.items()}
         for name, value in c.starts.items():
             if not execution.real_initial_value(slaves["m"], reals[slaves["m"]][name], float(value)):
                 raise _libcosim_error("initial value", name)
@@ -380,8 +397,8 @@ def run_libcosim(c: Content) -> pd.DataFrame:
         for o in c.outputs:
             path, var = (["m"], o) if c.fmu else _split(o)
             index = slaves.get(path[-1], slaves.get("/".join(path)))
-            if index is not None and var in reals[index]:
-                targets[o] = (index, reals[index][var])
+            if index is not None and var in typed[index]:
+                targets[o] = (index, *typed[index][var])
         if not targets:
             raise Refused("load", f"none of {', '.join(c.outputs)} among its slaves {', '.join(slaves)}")
     except Refused:
@@ -389,6 +406,14 @@ def run_libcosim(c: Content) -> pd.DataFrame:
     except Exception as e:
         raise Refused("load", e) from e
     return _libcosim_collect(execution, targets, c)
+
+
+def _ecos_value(sim, name: str) -> float:
+    """A Real variable's value, else an Integer's (Ecos has one getter per type)."""
+    try:
+        return sim.get_real(name)
+    except Exception:
+        return float(sim.get_integer(name))
 
 
 def run_ecos(c: Content) -> pd.DataFrame:
@@ -418,7 +443,7 @@ def run_ecos(c: Content) -> pd.DataFrame:
     try:
         for k in range(n + 1):
             times[k] = sim.step(1) if k else sim.get_time()
-            values[k] = [sim.get_real(names[o]) for o in c.outputs]
+            values[k] = [_ecos_value(sim, names[o]) for o in c.outputs]
         sim.terminate()
     except Exception as e:
         raise Refused("run", e) from e

@@ -278,33 +278,38 @@ def _libcosim_set_initial(execution, index: int, var, value) -> None:
         raise _libcosim_error("set initial value", f"{var.name} = {value!r}:")
 
 
-def _libcosim_samples(observer, index: int, reference: int, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """(time points [ns], values) of one Real variable from step 0, read with the C call directly (the
-    libcosimpy wrapper drops a sample, see the module docstring)."""
+def _libcosim_samples(observer, index: int, reference: int, count: int,
+                      integer: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(time points [ns], values) of one Real (``integer``: Integer) variable from step 0, read with the C call
+    directly (the libcosimpy wrapper drops a sample, see the module docstring)."""
     from ctypes import POINTER, c_double, c_int, c_int64, c_size_t, c_uint32
 
     from libcosimpy.CosimObserver import CosimObserver
     from libcosimpy._internal import libcosimc, wrap_function
 
-    get = wrap_function(lib=libcosimc(), funcname="cosim_observer_slave_get_real_samples",
+    c_value = c_int if integer else c_double
+    get = wrap_function(lib=libcosimc(),
+                        funcname=f"cosim_observer_slave_get_{'integer' if integer else 'real'}_samples",
                         argtypes=[POINTER(CosimObserver), c_int, c_uint32, c_int64, c_size_t,
-                                  c_double * count, c_int64 * count, c_int64 * count], restype=c_int64)
-    values, steps, times = (c_double * count)(), (c_int64 * count)(), (c_int64 * count)()
+                                  c_value * count, c_int64 * count, c_int64 * count], restype=c_int64)
+    values, steps, times = (c_value * count)(), (c_int64 * count)(), (c_int64 * count)()
     got = get(observer.ptr(), index, reference, 0, count, values, steps, times)
     if got != count:
         raise _libcosim_error("read samples", f"got {got} of {count} samples of reference {reference}:")
     if list(steps) != list(range(count)):
         raise FMUError("libcosim", "read samples", None, None, detail="step numbers are not 0, 1, 2, ...")
-    return np.frombuffer(times, dtype=np.int64).copy(), np.frombuffer(values, dtype=float).copy()
+    return np.frombuffer(times, dtype=np.int64).copy(), np.array(values[:], dtype=float)
 
 
-def _libcosim_record(execution, observer_cls, enums, targets: list[tuple[int, int]], n: int):
-    """A buffered time-series observer started for each (slave index, value reference)."""
+def _libcosim_record(execution, observer_cls, enums, targets: list[tuple], n: int):
+    """A buffered time-series observer started for each (slave index, value reference[, integer]): Real
+    variables unless the third item is True."""
     observer = observer_cls.create_time_series(buffer_size=n + 1)
     if not execution.add_observer(observer):
         raise _libcosim_error("add observer")
-    for index, reference in targets:
-        if not observer.start_time_series(index, reference, enums.CosimVariableType.REAL):
+    for index, reference, *integer in targets:
+        kind = enums.CosimVariableType.INTEGER if integer and integer[0] else enums.CosimVariableType.REAL
+        if not observer.start_time_series(index, reference, kind):
             raise _libcosim_error("start time series", f"slave {index} reference {reference}:")
     return observer
 
