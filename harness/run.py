@@ -15,7 +15,6 @@ Errors in the system description (:class:`~harness.errors.SystemError_`) are alw
 """
 from __future__ import annotations
 
-import argparse
 import importlib
 import math
 import sys
@@ -29,7 +28,7 @@ import pandas as pd
 from harness.divergence import Diverged, DivergenceOptions, for_master as _detector
 from harness.errors import BlowUp, FMUError, HarnessError, SimulationError, SystemError_
 from harness.extrapolation import extrapolation as make_extrapolation
-from harness.fmi import Instance, open_instance
+from harness.fmi import Instance, open_instance, release
 from harness.masters import NS, ConvergenceError, IterationOptions, master_class
 from harness.model import System, model_description, resolve_fmu
 from harness.results import Recorder
@@ -350,12 +349,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
                     units=column_units(fmus, rec.columns))
         return _run(m, controller, rec, params, (start_ns, stop_ns, step_ns), tolerance, on_error, opts, info)
     finally:
-        if m is not None:
-            m.terminate()
-            m.free()
-        else:
-            for f in fmus.values():
-                f.free()
+        release(m, fmus)
 
 
 def column_units(fmus: dict, columns: list[str]) -> dict[str, str]:

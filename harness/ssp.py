@@ -104,7 +104,7 @@ def consistent_inputs(system: System) -> dict[str, dict]:
     from the input's FMU default, 0: the exported bed drive in FMPy had its bed 0.19 m off at 0.3 s, 2.6 mm
     with these start values (issue 35)."""
     from harness.clock import NS as NS_PER_S
-    from harness.fmi import open_instance
+    from harness.fmi import open_instance, release
     from harness.masters import master_class
 
     paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
@@ -125,12 +125,7 @@ def consistent_inputs(system: System) -> dict[str, dict]:
             out.setdefault(inst, {})[var] = fmus[inst].get_value(var)
         return out
     finally:
-        if m is not None:
-            m.terminate()
-            m.free()
-        else:
-            for f in fmus.values():
-                f.free()
+        release(m, fmus)
 
 
 def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] | None = None) -> ET.Element:

@@ -71,3 +71,14 @@ def open_instance(path: str | Path, name: str, logging_on: bool = True, in_proce
             else:
                 return inprocess.InProcessFMU(path, name, logging_on, cls)
     return FMU(path, name, logging_on)
+
+
+def release(master, fmus: dict) -> None:
+    """End a run's FMUs: the master that took them (any :class:`harness.masters.Master`) terminates and frees them;
+    where none was made (an FMU or the master's constructor failed), each FMU is freed on its own."""
+    if master is not None:
+        master.terminate()
+        master.free()
+    else:
+        for f in fmus.values():
+            f.free()

@@ -249,7 +249,6 @@ def chart(result: SceneResult, out: Path) -> list[Path]:
     full, ch = result.full, result.chosen
     rest = [c for c in result.candidates[1:]]   # the first candidate is the full model itself
     measured = [c for c in rest if c.error is not None]
-    stopped = [c for c in rest if c.error is None]
     unit = f" [{result.scene.unit}]" if result.scene.unit else ""
     tol = result.scene.tolerance * (abs(full.value) if result.scene.relative else 1.0)
     errors = [c.error for c in measured if c.error > 0.0] + [tol]
@@ -312,8 +311,6 @@ def register(subparsers) -> None:
 
 
 def _run_cli(args) -> int:
-    import sys
-
     from harness import load
 
     system = load(args.system)
