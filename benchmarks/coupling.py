@@ -202,7 +202,8 @@ def work_precision_chart(name: str, table, verdicts, stem: Path) -> list[Path]:
     method through its steps) and each peer's run of the exported SSP (one line per tool), the error being the
     worst of the drive's declared requirements as a multiple of its tolerance (below 1: the run meets them
     all).  Runs that did not complete or could not be judged are drawn on the top edge with a cross, runs whose
-    error is beyond :data:`CHART_TOP` times the tolerance there with a triangle."""
+    error is beyond :data:`CHART_TOP` times the tolerance there with a triangle.  The points are also written to
+    ``<stem>.csv`` (NaN: not judged)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -223,6 +224,11 @@ def work_precision_chart(name: str, table, verdicts, stem: Path) -> list[Path]:
         by_host.setdefault(v.run.host, []).append((float(v.run.run_time if math.isfinite(v.run.run_time)
                                                          else v.run.wall_time), worst, float(v.run.step)))
     series += [(f"{host} (its own algorithm)", "s", pts) for host, pts in by_host.items()]
+    with open(Path(stem).with_suffix(".csv"), "w", newline="") as fh:   # the chart's points, to read or redraw
+        w = csv.writer(fh)
+        w.writerow(["method", "step_s", "time_s", "worst_error_over_tolerance"])
+        for label, _, pts in series:
+            w.writerows([label, h, t, x] for t, x, h in pts)
     fig, ax = plt.subplots(figsize=(10.5, 5.5))
     for label, marker, pts in series:
         pts = sorted(pts, key=lambda p: -p[2])
@@ -237,9 +243,10 @@ def work_precision_chart(name: str, table, verdicts, stem: Path) -> list[Path]:
     ax.axhline(1.0, color="k", lw=1.0, ls="--", label="declared accuracy (every requirement at its tolerance)")
     ax.plot([], [], "kx", ms=9, label="stopped, failed or not judged (drawn at the top)")
     ax.plot([], [], "k^", ms=9, label=f"ran to the end, error beyond {CHART_TOP:g} x (drawn at the top)")
-    ax.set_ylim(top=CHART_TOP * 1.6)
     ax.set_xscale("log")
     ax.set_yscale("log")
+    drawn = [min(w, CHART_TOP) for _, _, pts in series for _, w, _ in pts if math.isfinite(w) and w > 0]
+    ax.set_ylim(0.5 * min(drawn + [0.1]), CHART_TOP * 1.6)
     ax.set_xlabel(f"time to run {load(name).accuracy.stop_time:g} s of the drive [s]  (wall time, shared machine)")
     ax.set_ylabel("worst requirement error / its tolerance  [1]")
     ax.set_title(f"{name}: time against the declared accuracy\n(the harness's masters; the peers' own runs of the "

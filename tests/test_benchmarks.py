@@ -313,6 +313,14 @@ def test_work_precision_chart_puts_harness_and_peer_runs_on_one_scale(tmp_path, 
         return real_plot(self, *args, **kwargs)
 
     monkeypatch.setattr(matplotlib.axes.Axes, "plot", spy)
+    limits = []
+    real_ylim = matplotlib.axes.Axes.set_ylim
+
+    def spy_ylim(self, *args, **kwargs):
+        limits.append(args)
+        return real_ylim(self, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.axes.Axes, "set_ylim", spy_ylim)
     paths = coupling.work_precision_chart("bed_drive", pd.DataFrame(rows), [peer], tmp_path / "wp")
     assert {p.suffix for p in paths} == {".png", ".svg"}
     lines = {label: args for args, label in drawn if label}
@@ -321,3 +329,7 @@ def test_work_precision_chart_puts_harness_and_peer_runs_on_one_scale(tmp_path, 
     t, w = lines["libcosim (its own algorithm)"][:2]
     assert list(t) == [5.0] and w == [pytest.approx(3.0)]
     assert any(a[-1] == "x" and a[0] == [0.1] for a, label in drawn if not label)
+    bottom, top = limits[-1]   # the chart's own, last call
+    assert bottom <= 0.5 and top >= 10.0      # every drawn point inside the axes
+    points = pd.read_csv(tmp_path / "wp.csv")
+    assert len(points) == 3 and points["worst_error_over_tolerance"].isna().sum() == 1
