@@ -224,6 +224,7 @@ def work_precision_chart(name: str, table, verdicts, stem: Path) -> list[Path]:
         by_host.setdefault(v.run.host, []).append((float(v.run.run_time if math.isfinite(v.run.run_time)
                                                          else v.run.wall_time), worst, float(v.run.step)))
     series += [(f"{host} (its own algorithm)", "s", pts) for host, pts in by_host.items()]
+    Path(stem).parent.mkdir(parents=True, exist_ok=True)
     with open(Path(stem).with_suffix(".csv"), "w", newline="") as fh:   # the chart's points, to read or redraw
         w = csv.writer(fh)
         w.writerow(["method", "step_s", "time_s", "worst_error_over_tolerance"])

@@ -321,7 +321,7 @@ def test_work_precision_chart_puts_harness_and_peer_runs_on_one_scale(tmp_path, 
         return real_ylim(self, *args, **kwargs)
 
     monkeypatch.setattr(matplotlib.axes.Axes, "set_ylim", spy_ylim)
-    paths = coupling.work_precision_chart("bed_drive", pd.DataFrame(rows), [peer], tmp_path / "wp")
+    paths = coupling.work_precision_chart("bed_drive", pd.DataFrame(rows), [peer], tmp_path / "new" / "wp")
     assert {p.suffix for p in paths} == {".png", ".svg"}
     lines = {label: args for args, label in drawn if label}
     t, w = lines["harness jacobi, order 1"][:2]
@@ -331,5 +331,5 @@ def test_work_precision_chart_puts_harness_and_peer_runs_on_one_scale(tmp_path, 
     assert any(a[-1] == "x" and a[0] == [0.1] for a, label in drawn if not label)
     bottom, top = limits[-1]   # the chart's own, last call
     assert bottom <= 0.5 and top >= 10.0      # every drawn point inside the axes
-    points = pd.read_csv(tmp_path / "wp.csv")
+    points = pd.read_csv(tmp_path / "new" / "wp.csv")   # written into a folder that did not exist
     assert len(points) == 3 and points["worst_error_over_tolerance"].isna().sum() == 1
