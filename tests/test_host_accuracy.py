@@ -174,8 +174,8 @@ def test_every_connected_input_is_bound_to_its_sources_value_at_the_start(fmu_di
 
 def test_fmpy_runs_the_exported_bed_drive_from_its_bound_start_values(exported, references):
     """Without the bound start values FMPy's simulate_ssp started the four-bar, cam and motor from inputs 0 and
-    had the bed 0.19 m off through the printing zone at 0.3 s; with them 2.6 mm on the drive before its seed-004 switch, 3.0 mm after (what is left: its first step's
-    inputs 0.0, the bed drive's strict xfail above)."""
+    had the bed 0.19 m off through the printing zone at 0.3 s; with them 2.6 mm on the drive before its seed-004
+    switch, 3.0 mm after (what is left: its first step's inputs 0.0, the bed drive's strict xfail above)."""
     reason = ha.unavailable("fmpy-ssp")
     if reason:
         pytest.skip(reason)
