@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fmpy import read_model_description, simulate_fmu
+from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
 from fmus import build as build_fmus
@@ -169,26 +169,32 @@ def test_a_level_without_an_ode_form_is_refused_in_one_line(me_dir, capfd):
     assert len(lines) == 1 and "fidelity 0" in lines[0] and "input history" in lines[0], said
 
 
+def _me_cs_reference(name: str, me_dir: Path, master: str, step: float, stop: float):
+    """The drive ``name`` from its FMI 3.0 ME FMUs (CVODE 1e-10 each) and from its CS FMUs under ``master``, and
+    its monolithic reference, on the same grid."""
+    from harness import load, simulate
+    from harness.model import Instance
+    from harness.studies.reference import reference
+
+    system = load(name)
+    me = dataclasses.replace(system, instances=[Instance(i.name, me_dir / f"{i.fmu}.fmu", dict(i.parameters))
+                                                for i in system.instances])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r_me = simulate(me, stop_time=stop, step=step, master=master, tolerance=1e-10)
+        r_cs = simulate(system, stop_time=stop, step=step, master=master)
+    return r_me, r_cs, reference(system, stop_time=stop, step=step)
+
+
 def test_the_master_runs_two_inertia_from_me_fmus_like_the_monolithic_reference(me_dir):
     """harness.fmi.me integrates each ME FMU with CVODE inside the master's steps (tolerance 1e-10 handed to
     it): Gauss-Seidel at 0.25 ms over 0.2 s, against the monolithic reference, deviates as little as the same run
     of the co-simulation FMUs (measured 1.065e-3 against 1.069e-3 of rad/s on a.flange.w; with CVODE's default
     1e-6 it was 3.2e-2: its error per restarted step adds up over 800 steps)."""
-    from harness import load, simulate
     from harness.fmi import open_instance
-    from harness.model import Instance
-    from harness.studies.reference import reference
 
-    system = load("two_inertia")
-    me = dataclasses.replace(system, instances=[Instance(i.name, me_dir / f"{i.fmu}.fmu", dict(i.parameters))
-                                                for i in system.instances])
     assert type(open_instance(me_dir / "Inertia.fmu", "probe")).__name__ == "ModelExchange3"
-    step, stop = 2.5e-4, 0.2
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        r_me = simulate(me, stop_time=stop, step=step, master="gauss-seidel", tolerance=1e-10)
-        r_cs = simulate(system, stop_time=stop, step=step, master="gauss-seidel")
-    ref = reference(system, stop_time=stop, step=step)
+    r_me, r_cs, ref = _me_cs_reference("two_inertia", me_dir, "gauss-seidel", 2.5e-4, 0.2)
     assert r_me.attrs.get("complete", True) and len(r_me) == len(ref)
     for column in ("a.flange.w", "b.drive.tau"):
         e_me = float(np.max(np.abs(r_me[column].to_numpy() - ref[column].to_numpy())))
@@ -243,19 +249,7 @@ def test_the_master_runs_the_bed_drive_from_me_fmus_like_the_monolithic_referenc
     master's 0.25 ms steps over 0.1 s: every column's largest deviation from the monolithic reference, as a share
     of the reference column's range, within 1.05 times the co-simulation FMUs' (measured worst column both ways
     flywheel.potential_energy, 3.348e-3 against 3.342e-3; at 1 ms steps 1.521e-2 against 1.520e-2)."""
-    from harness import load, simulate
-    from harness.model import Instance
-    from harness.studies.reference import reference
-
-    system = load("bed_drive")
-    me = dataclasses.replace(system, instances=[Instance(i.name, me_dir / f"{i.fmu}.fmu", dict(i.parameters))
-                                                for i in system.instances])
-    step, stop = 2.5e-4, 0.1
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        r_me = simulate(me, stop_time=stop, step=step, master="jacobian", tolerance=1e-10)
-        r_cs = simulate(system, stop_time=stop, step=step, master="jacobian")
-    ref = reference(system, stop_time=stop, step=step)
+    r_me, r_cs, ref = _me_cs_reference("bed_drive", me_dir, "jacobian", 2.5e-4, 0.1)
     assert r_me.attrs.get("complete", True) and len(r_me) == len(ref) == len(r_cs)
     columns = [c for c in ref.columns if c in r_me.columns]
     assert len(columns) > 20
