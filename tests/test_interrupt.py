@@ -16,10 +16,18 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _sigint_as_a_terminal_sends_it():
+    """In the child: SIGINT back to its default, which Python turns into KeyboardInterrupt.  A test run started in
+    the background of a non-interactive shell (``pytest &``) inherits SIGINT ignored, and a Python started with it
+    ignored keeps ignoring it: these tests then saw the run finish instead of stop (measured)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start(args, cwd):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     return subprocess.Popen([sys.executable, "-m", "harness", *args], cwd=cwd, env=env, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=_sigint_as_a_terminal_sends_it)
 
 
 def _lines(path: Path) -> int:
