@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from harness.errors import SystemError_
@@ -130,6 +130,14 @@ class System:
                 return inst
         raise SystemError_(f"system {self.name}: unknown instance {name!r} "
                            f"(instances: {', '.join(i.name for i in self.instances)})")
+
+    def on_fmus(self, folder: str | Path) -> "System":
+        """The same system with each instance's FMU, named by its model (the catalog's), taken from ``folder``
+        (``<folder>/<model>.fmu``: a build of another FMI version or kind); an instance that names an .fmu file
+        keeps it."""
+        return replace(self, instances=[
+            Instance(i.name, i.fmu if str(i.fmu).endswith(".fmu") else Path(folder) / f"{i.fmu}.fmu",
+                     dict(i.parameters)) for i in self.instances])
 
     def _bond_is_translational(self, b: Bond, model_descriptions: dict | None) -> bool:
         if b.translational is not None:

@@ -8,7 +8,6 @@ the head stands still.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import warnings
 from pathlib import Path
@@ -17,13 +16,12 @@ import numpy as np
 import pytest
 
 from harness import charts, load, simulate
-from harness.model import Instance, SystemWarning
+from harness.model import SystemWarning
 
 
 def on_fmus(name: str, fmu_dir: Path):
     s = load(name)
-    return dataclasses.replace(s, instances=[Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters))
-                                             for i in s.instances])
+    return s.on_fmus(fmu_dir)
 
 
 def run(system, **kw):

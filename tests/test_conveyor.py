@@ -71,15 +71,12 @@ def test_model_moment_on_the_drive_shaft_and_parameter_errors():
 def test_trimmer_conveyor_moment_is_the_cutting_work_per_pitch(fmu_dir):
     """The co-simulated drive (motor, belt, compliant drive shaft, load) delivers the mean moment of the cutting
     work over whole pitches, 2 w h L_c r/(s eta), to 0.5 %; the speed stays within 5 % of the set 1.8 m/s."""
-    import dataclasses
     import warnings
 
     from harness import load, qoi, simulate
-    from harness.model import Instance
 
     s = load("trimmer_conveyor")
-    s = dataclasses.replace(s, instances=[Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters))
-                                          for i in s.instances])
+    s = s.on_fmus(fmu_dir)
     with warnings.catch_warnings():
         warnings.simplefilter("error")                           # a shipped system runs without a warning
         df = simulate(s, on_error="raise")

@@ -6,7 +6,6 @@ Python; per instance, after a reset and from another thread; the ``jacobian`` ma
 its results by perturbation; FMUs without them refused in one line and still run."""
 from __future__ import annotations
 
-import dataclasses
 import sys
 import types
 import warnings
@@ -23,7 +22,6 @@ from harness import jacobian, load, simulate
 from harness.errors import FMUError
 from harness.fmi import open_instance
 from harness.fmi.inprocess import InProcessFMU
-from harness.model import Instance
 from harness.run import RunOptions
 
 NAMES = sorted(catalog())
@@ -382,8 +380,7 @@ _FEEDTHROUGH = jacobian.feedthrough_block
 def _on_fmus(name: str, folder: Path):
     """System ``name`` with its FMUs taken from ``folder`` (the FMI 3.0 builds)."""
     system = load(name)
-    return dataclasses.replace(system, instances=[Instance(i.name, folder / f"{i.fmu}.fmu", dict(i.parameters))
-                                                  for i in system.instances])
+    return system.on_fmus(folder)
 
 
 @pytest.mark.parametrize("name,stop,path", [("two_inertia", 0.2, "in-process"), ("feeder_gto52", 0.05, "in-process"),

@@ -14,7 +14,6 @@ previous inputs still set, so its ``step_finished`` callback sets ``u_{k+1}`` an
 """
 from __future__ import annotations
 
-import dataclasses
 import importlib
 import json
 import os
@@ -301,11 +300,9 @@ SYSTEMS = ("two_inertia", "feeder_gto52", "bed_drive", "spine_knife", "proof_pre
 
 def _on_fmus(name: str, folder: Path):
     from harness import load
-    from harness.model import Instance
 
     s = load(name)
-    return dataclasses.replace(s, instances=[Instance(i.name, folder / f"{i.fmu}.fmu", dict(i.parameters))
-                                             for i in s.instances])
+    return s.on_fmus(folder)
 
 
 MASTERS = ("jacobi", "jacobi-sampled", "gauss-seidel", "iterative", "jacobian")
@@ -431,10 +428,9 @@ def test_omsimulator_runs_the_ssp_of_a_drive_made_of_fmi3_fmus(name, options, fm
     if reason:
         pytest.skip(reason)
     out = _run_script(f"""
-        import dataclasses, json, warnings
+        import json, warnings
         from pathlib import Path
         from harness import load, simulate
-        from harness.model import Instance
         from harness.ssp import export_ssp
         from OMSimulator import SSP, CRef, capi
 
@@ -442,9 +438,7 @@ def test_omsimulator_runs_the_ssp_of_a_drive_made_of_fmi3_fmus(name, options, fm
             capi.Capi.setCommandLineOption(option)
 
         def on(folder):
-            s = load({name!r})
-            return dataclasses.replace(s, instances=[Instance(i.name, Path(folder) / f"{{i.fmu}}.fmu",
-                                                              dict(i.parameters)) for i in s.instances])
+            return load({name!r}).on_fmus(folder)
 
         s3 = on({str(fmu3_dir)!r})
         ssp = export_ssp(s3, Path({str(tmp_path)!r}) / "drive.ssp")

@@ -30,7 +30,6 @@ checked by hosts nobody here wrote.
 """
 from __future__ import annotations
 
-import dataclasses
 import importlib
 import warnings
 import xml.etree.ElementTree as ET
@@ -173,12 +172,10 @@ def _me_cs_reference(name: str, me_dir: Path, master: str, step: float, stop: fl
     """The drive ``name`` from its FMI 3.0 ME FMUs (CVODE 1e-10 each) and from its CS FMUs under ``master``, and
     its monolithic reference, on the same grid."""
     from harness import load, simulate
-    from harness.model import Instance
     from harness.studies.reference import reference
 
     system = load(name)
-    me = dataclasses.replace(system, instances=[Instance(i.name, me_dir / f"{i.fmu}.fmu", dict(i.parameters))
-                                                for i in system.instances])
+    me = system.on_fmus(me_dir)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         r_me = simulate(me, stop_time=stop, step=step, master=master, tolerance=1e-10)
@@ -268,12 +265,10 @@ def test_the_feeder_from_me_fmus_keeps_its_impacts_as_state_events(me_dir):
     and every continuous column deviates from the reference within 1.05 times the co-simulation FMUs' (measured:
     1.622e-2 against 1.650e-2 of head.flange.tau's range)."""
     from harness import load, simulate
-    from harness.model import Instance
     from harness.studies.reference import reference
 
     system = load("feeder_gto52")
-    me = dataclasses.replace(system, instances=[Instance(i.name, me_dir / f"{i.fmu}.fmu", dict(i.parameters))
-                                                for i in system.instances])
+    me = system.on_fmus(me_dir)
     stop = 0.3
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -19,7 +19,6 @@ A host that is not installed skips, saying why.
 """
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +26,6 @@ import pytest
 
 from benchmarks import host_accuracy as ha
 from harness import load
-from harness.model import Instance
 from harness.ssp import export_ssp, host_step, load_ssp
 from harness.studies.accuracy import accuracy_spec, check
 from harness.studies.reference import reference
@@ -69,8 +67,7 @@ def _case(name: str, host: str):
 
 def _on_fmus(name: str, fmu_dir: Path):
     s = load(name)
-    return dataclasses.replace(s, instances=[Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters))
-                                             for i in s.instances])
+    return s.on_fmus(fmu_dir)
 
 
 @pytest.fixture(scope="module")

@@ -11,8 +11,6 @@ Tests that need OMSimulator, libcosim or Ecos skip, saying why, where the tool i
 """
 from __future__ import annotations
 
-import dataclasses
-import io
 import os
 import shutil
 import subprocess
@@ -27,7 +25,6 @@ import pytest
 
 from benchmarks import peers
 from harness import load
-from harness.model import Instance
 from harness.ssp import export_ssp
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -61,8 +58,7 @@ def fmus_of(fmu_dir: Path) -> list[Path]:
 
 def on_fmus(name: str, fmu_dir: Path):
     s = load(name)
-    return dataclasses.replace(s, instances=[Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters))
-                                             for i in s.instances])
+    return s.on_fmus(fmu_dir)
 
 
 @pytest.fixture(scope="module")
@@ -269,14 +265,11 @@ def test_exported_drive_runs_in_omsimulator_api_like_jacobi(fmu_dir, archives, n
     if reason:
         pytest.skip(reason)
     out = _run_script(f"""
-        import dataclasses, json, os, warnings
-        from pathlib import Path
+        import json, os, warnings
         from harness import load, simulate
-        from harness.model import Instance, model_description
+        from harness.model import model_description
         from OMSimulator import SSP, CRef
-        s = load({name!r})
-        s = dataclasses.replace(s, instances=[Instance(i.name, Path({str(fmu_dir)!r}) / f"{{i.fmu}}.fmu",
-                                                       dict(i.parameters)) for i in s.instances])
+        s = load({name!r}).on_fmus({str(fmu_dir)!r})
         step = s.experiment.step
         stop = 20 * step
         with warnings.catch_warnings():

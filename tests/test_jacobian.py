@@ -26,15 +26,11 @@ def _quiet(*args, **kw):
 
 
 def _two_inertia(fmu_dir, p: th.TwoInertia):
-    from dataclasses import replace
-
     from harness import load
-    from harness.model import Instance
 
     base = load("two_inertia")
-    inst = [Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters)) for i in base.instances]
     params = {f"{i}.{k}": v for i, d in p.instance_parameters().items() for k, v in d.items()}
-    return replace(base, instances=inst), params
+    return base.on_fmus(fmu_dir), params
 
 
 @pytest.mark.parametrize("order", [0, 1, 2])

@@ -292,17 +292,14 @@ def test_spine_knife_at_level_0_twists_like_the_seeds_eq_11(fmu_dir):
     eq. (11) integrated on its own (fmus.physics.knife.response, M_dist from eqs. (6) and (9) in time, J_red and
     C_red from the system): the peak twist over the entry and three cycles agrees to 2 % (the drive end is
     not rigid in the drive: its 0.4 kg.m2 turn with the knife, 1 % of the mode)."""
-    import dataclasses
     import warnings
 
     from harness import load, simulate
-    from harness.model import Instance
 
     cli = _cli()
     system = load("spine_knife")
     rep = kn.design_report(cli.design_from_system(system))
-    system = dataclasses.replace(system, instances=[Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters))
-                                                    for i in system.instances])
+    system = system.on_fmus(fmu_dir)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         df = simulate(system, stop_time=rep["T_entry"] + 3 * rep["T_cycle"], parameters={"shaft.fidelity": 0},

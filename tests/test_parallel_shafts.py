@@ -152,16 +152,14 @@ def test_spine_knife_shaft_energy_balance_closes(fmu_dir):
     """In the shipped knife drive (co-simulated on the built FMUs): the work through the shaft's two bonds (exact
     for held torques) = its energy change + the dissipated energy (output ``dissipation``, trapezoidal rule on
     the communication points, 19 per period of the knife mode) to 1 % of the dissipated energy."""
-    import dataclasses
     import warnings
 
     from harness import load, simulate
-    from harness.model import Instance, SystemWarning
+    from harness.model import SystemWarning
     from harness.studies.energy import bond_power
 
     s = load("spine_knife")
-    s = dataclasses.replace(s, instances=[Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters))
-                                          for i in s.instances])
+    s = s.on_fmus(fmu_dir)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SystemWarning)      # the unconnected aux take-off
         df = simulate(s, stop_time=0.25, on_error="raise")

@@ -16,7 +16,6 @@
 """
 from __future__ import annotations
 
-import dataclasses
 import shutil
 import warnings
 import zipfile
@@ -42,8 +41,7 @@ AVAILABLE = peers.available()
 
 def on_fmus(name: str, fmu_dir: Path):
     s = load(name)
-    return dataclasses.replace(s, instances=[Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters))
-                                             for i in s.instances])
+    return s.on_fmus(fmu_dir)
 
 
 def quiet_simulate(system, **kw):

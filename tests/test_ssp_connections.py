@@ -222,13 +222,11 @@ def pair3(tmp_path_factory) -> Path:
 
 
 def two_inertia_on(folder: Path) -> System:
-    import dataclasses
 
     from harness import load
 
     s = load("two_inertia")
-    return dataclasses.replace(s, instances=[Instance(i.name, folder / f"{i.fmu}.fmu", dict(i.parameters))
-                                             for i in s.instances])
+    return s.on_fmus(folder)
 
 
 def without_annotation(ssp: Path, out: Path) -> Path:
@@ -314,13 +312,11 @@ def test_every_drive_of_fmi3_fmus_keeps_its_bonds_through_an_ssp_without_the_ann
     """Each shipped drive (rotational and translational flanges) exported from its FMI 3.0 FMUs, the pd:
     annotation removed: the import finds every declared bond from the FMUs' terminals, and no plain
     connection is left over (measured: 3, 6, 3, 3 bonds)."""
-    import dataclasses
 
     from harness import load
 
     s = load(name)
-    s3 = dataclasses.replace(s, instances=[Instance(i.name, all3 / f"{i.fmu}.fmu", dict(i.parameters))
-                                           for i in s.instances])
+    s3 = s.on_fmus(all3)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         back = load_ssp(without_annotation(export_ssp(s3, tmp_path / "d.ssp"), tmp_path / "bare.ssp"))

@@ -7,7 +7,6 @@ the systems' FMUs come from the session build (``fmu_dir``), not from build/fmus
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import subprocess
@@ -22,7 +21,7 @@ import pytest
 from fmus.physics import fourbar_synthesis
 from harness import load, simulate
 from harness.studies.energy import bond_power
-from harness.model import Instance, SystemWarning
+from harness.model import SystemWarning
 
 ROOT = Path(__file__).resolve().parents[1]
 SYSTEMS = ("two_inertia", "feeder_gto52", "bed_drive", "spine_knife", "proof_press")
@@ -30,9 +29,7 @@ SYSTEMS = ("two_inertia", "feeder_gto52", "bed_drive", "spine_knife", "proof_pre
 
 def on_fmus(name: str, fmu_dir: Path):
     """System ``name`` with every instance pointing at the session's built FMUs."""
-    s = load(name)
-    insts = [Instance(i.name, fmu_dir / f"{i.fmu}.fmu", dict(i.parameters)) for i in s.instances]
-    return dataclasses.replace(s, instances=insts)
+    return load(name).on_fmus(fmu_dir)
 
 
 def run(name, fmu_dir, **kw):
@@ -272,3 +269,13 @@ def test_flywheel_shaft_energy_balance_closes(request, name, inst, bonds):
     # closes to 1e-3 of the work that crossed the bonds (trapezoidal dissipation at >= 20 points per
     # torsional period is the only approximation)
     assert abs(work - d_energy - dissipated) < 1e-3 * gross, (work, d_energy, dissipated, gross)
+
+
+def test_on_fmus_takes_catalog_models_from_a_folder_and_keeps_named_files(tmp_path):
+    from harness.model import Instance, System
+
+    s = System("pair", [Instance("a", "Inertia", {"J": 2.0}), Instance("b", "/elsewhere/Own.fmu")])
+    moved = s.on_fmus(tmp_path)
+    assert [i.fmu for i in moved.instances] == [tmp_path / "Inertia.fmu", "/elsewhere/Own.fmu"]
+    assert moved.instances[0].parameters == {"J": 2.0} and moved.instances[0].parameters is not s.instances[0].parameters
+    assert [i.fmu for i in s.instances] == ["Inertia", "/elsewhere/Own.fmu"]   # the original is left as it was

@@ -4,7 +4,6 @@ declared in ``systems/<name>.py``)."""
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from pathlib import Path
 from typing import Mapping
 
@@ -133,14 +132,9 @@ def deviation_ratio(df, ref, columns=None) -> float:
 
 def _with_fmu_dir(system, fmu_dir):
     from harness import load
-    from harness.model import Instance
 
     system = load(system)
-    if fmu_dir is None:
-        return system
-    inst = [Instance(i.name, Path(fmu_dir) / f"{i.fmu}.fmu" if not str(i.fmu).endswith(".fmu") else i.fmu,
-                     dict(i.parameters)) for i in system.instances]
-    return replace(system, instances=inst)
+    return system if fmu_dir is None else system.on_fmus(fmu_dir)
 
 
 class PressRun:
