@@ -19,10 +19,6 @@ from harness import charts, load, simulate
 from harness.model import SystemWarning
 
 
-def on_fmus(name: str, fmu_dir: Path):
-    s = load(name)
-    return s.on_fmus(fmu_dir)
-
 
 def run(system, **kw):
     with warnings.catch_warnings():
@@ -34,13 +30,13 @@ def run(system, **kw):
 
 @pytest.fixture(scope="module")
 def bed(fmu_dir):
-    system = on_fmus("bed_drive", fmu_dir)
+    system = load("bed_drive").on_fmus(fmu_dir)
     return system, run(system, stop_time=1.1)   # one complete turn of the main shaft at 60 rpm
 
 
 @pytest.fixture(scope="module")
 def feeder(fmu_dir):
-    system = on_fmus("feeder_gto52", fmu_dir)
+    system = load("feeder_gto52").on_fmus(fmu_dir)
     return system, run(system, stop_time=0.9)
 
 
@@ -138,7 +134,7 @@ def test_feeder_dwell_is_shaded_where_the_head_stands_still(feeder, figures, tmp
 
 
 def test_a_system_that_declares_nothing_gets_its_bonds_titled_by_the_fmus(fmu_dir, figures, tmp_path):
-    system = on_fmus("two_inertia", fmu_dir)
+    system = load("two_inertia").on_fmus(fmu_dir)
     assert system.chart is None
     df = run(system, stop_time=0.01, step=1e-3)
     paths = charts.plot_result(system, df, tmp_path)

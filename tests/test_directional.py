@@ -377,11 +377,6 @@ def _by_differences(fmu, inp, out, point):
 _FEEDTHROUGH = jacobian.feedthrough_block
 
 
-def _on_fmus(name: str, folder: Path):
-    """System ``name`` with its FMUs taken from ``folder`` (the FMI 3.0 builds)."""
-    system = load(name)
-    return system.on_fmus(folder)
-
 
 @pytest.mark.parametrize("name,stop,path", [("two_inertia", 0.2, "in-process"), ("feeder_gto52", 0.05, "in-process"),
                                             ("proof_press", 0.1, "in-process"), ("two_inertia", 0.2, "fmi2"),
@@ -397,7 +392,7 @@ def test_jacobian_master_results_unchanged_with_directional_derivatives(name, st
         used.append((bool(getattr(fmu, "provides_directional_derivative", False)), type(fmu).__name__))
         return _FEEDTHROUGH(fmu, inp, out, point)
 
-    system = _on_fmus(name, fmu3_dir) if path == "fmi3" else load(name)
+    system = load(name).on_fmus(fmu3_dir) if path == "fmi3" else load(name)
     options = RunOptions(in_process=False) if path == "fmi2" else None
     runs = {}
     for label, block in (("provided", spy), ("perturbed", _by_differences)):

@@ -298,12 +298,6 @@ def test_terminals_are_schema_valid_and_are_the_power_bonds(fmu3_dir):
 SYSTEMS = ("two_inertia", "feeder_gto52", "bed_drive", "spine_knife", "proof_press")
 
 
-def _on_fmus(name: str, folder: Path):
-    from harness import load
-
-    s = load(name)
-    return s.on_fmus(folder)
-
 
 MASTERS = ("jacobi", "jacobi-sampled", "gauss-seidel", "iterative", "jacobian")
 
@@ -323,8 +317,8 @@ def test_every_drive_from_its_fmi3_fmus_runs_as_from_its_fmi2_fmus(name, master,
     stop = 50 * load(name).experiment.step
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        a = simulate(_on_fmus(name, fmu_dir), stop_time=stop, master=master)
-        b = simulate(_on_fmus(name, fmu3_dir), stop_time=stop, master=master)
+        a = simulate(load(name).on_fmus(fmu_dir), stop_time=stop, master=master)
+        b = simulate(load(name).on_fmus(fmu3_dir), stop_time=stop, master=master)
     # the same run, to the same end: bed_drive under jacobi-sampled stops incomplete at 16 ms with either version
     assert a.attrs.get("complete", True) == b.attrs.get("complete", True) and len(a) == len(b)
     assert list(a.columns) == list(b.columns)

@@ -65,15 +65,11 @@ def _case(name: str, host: str):
     return pytest.param(name, host, marks=marks, id=f"{name}-{host}")
 
 
-def _on_fmus(name: str, fmu_dir: Path):
-    s = load(name)
-    return s.on_fmus(fmu_dir)
-
 
 @pytest.fixture(scope="module")
 def exported(fmu_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("host_accuracy")
-    return {name: export_ssp(_on_fmus(name, fmu_dir), out / f"{name}.ssp") for name in DRIVES}
+    return {name: export_ssp(load(name).on_fmus(fmu_dir), out / f"{name}.ssp") for name in DRIVES}
 
 
 @pytest.fixture(scope="module")
@@ -155,7 +151,7 @@ def test_every_connected_input_is_bound_to_its_sources_value_at_the_start(fmu_di
     has it (its first row), through the connection's transformation."""
     from harness.run import simulate
 
-    system = _on_fmus(name, fmu_dir)
+    system = load(name).on_fmus(fmu_dir)
     connections = system.all_connections()
     step = system.experiment.step
     first = simulate(system, stop_time=step, step=step, output=sorted({c.source for c in connections})).iloc[0]

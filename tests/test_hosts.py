@@ -56,15 +56,11 @@ def fmus_of(fmu_dir: Path) -> list[Path]:
     return sorted(fmu_dir.glob("*.fmu"))
 
 
-def on_fmus(name: str, fmu_dir: Path):
-    s = load(name)
-    return s.on_fmus(fmu_dir)
-
 
 @pytest.fixture(scope="module")
 def archives(fmu_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("ssp_hosts")
-    return {name: export_ssp(on_fmus(name, fmu_dir), out / f"{name}.ssp") for name in SYSTEMS}
+    return {name: export_ssp(load(name).on_fmus(fmu_dir), out / f"{name}.ssp") for name in SYSTEMS}
 
 
 # ------------------------------------------------------------------------------------------ the host loader

@@ -19,7 +19,6 @@ from __future__ import annotations
 import shutil
 import warnings
 import zipfile
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -39,10 +38,6 @@ RTOL = 1e-9
 AVAILABLE = peers.available()
 
 
-def on_fmus(name: str, fmu_dir: Path):
-    s = load(name)
-    return s.on_fmus(fmu_dir)
-
 
 def quiet_simulate(system, **kw):
     with warnings.catch_warnings():
@@ -55,13 +50,13 @@ def quiet_simulate(system, **kw):
 @pytest.fixture(scope="module")
 def archives(fmu_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("ssp")
-    return {name: export_ssp(on_fmus(name, fmu_dir), out / f"{name}.ssp") for name in SYSTEMS}
+    return {name: export_ssp(load(name).on_fmus(fmu_dir), out / f"{name}.ssp") for name in SYSTEMS}
 
 
 # ------------------------------------------------------------------------------------------------ round trip
 @pytest.mark.parametrize("name", SYSTEMS)
 def test_round_trip_reproduces_the_run_exactly(fmu_dir, archives, name):
-    original = on_fmus(name, fmu_dir)
+    original = load(name).on_fmus(fmu_dir)
     back = load_ssp(archives[name])
     assert [i.name for i in back.instances] == [i.name for i in original.instances]
     assert [i.parameters for i in back.instances] == [i.parameters for i in original.instances]
@@ -97,7 +92,7 @@ def test_exported_ssp_runs_in_peer_like_jacobi_sampled(fmu_dir, archives, peer_o
     if AVAILABLE[tool]:
         pytest.skip(AVAILABLE[tool])
     stop, step = PEER_RUNS[name]
-    system = on_fmus(name, fmu_dir)
+    system = load(name).on_fmus(fmu_dir)
     ref = quiet_simulate(system, stop_time=stop, step=step, master="jacobi-sampled", extrapolation=0)  # peers hold
     cols = list(ref.columns)
     if tool == "libcosim":

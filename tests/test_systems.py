@@ -27,15 +27,11 @@ ROOT = Path(__file__).resolve().parents[1]
 SYSTEMS = ("two_inertia", "feeder_gto52", "bed_drive", "spine_knife", "proof_press")
 
 
-def on_fmus(name: str, fmu_dir: Path):
-    """System ``name`` with every instance pointing at the session's built FMUs."""
-    return load(name).on_fmus(fmu_dir)
-
 
 def run(name, fmu_dir, **kw):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SystemWarning)   # unconnected aux inputs (documented in the systems)
-        df = simulate(on_fmus(name, fmu_dir), on_error="raise", **kw)
+        df = simulate(load(name).on_fmus(fmu_dir), on_error="raise", **kw)
     assert df.attrs["complete"], df.attrs["error"]
     return df
 
