@@ -53,6 +53,15 @@ The Jacobians are refreshed only when they have changed: after each corrector th
 ``G(u1) - u1`` with ``G(u0) - u0``; a Newton step with a good Jacobian contracts it by far more than
 :data:`CONTRACTION` (quadratically), a stale one does not, and the next step estimates them anew (also when the
 step size changes).  A step whose residual grows is taken once more with fresh Jacobians.
+
+Contacts within a step.  A clearance that closes or opens inside a step (the full bed model's stone pin and
+four-bar joint when the load reverses) makes the outputs respond to the inputs through a different law on
+each side of the contact: Jacobians estimated in the step then leave the corrector's residual about as large
+as the predictor's, or larger, and one Newton step lands far from the fixed point (at 1 ms the impact came out
+a hundred times the reference's force and the run diverged).  Such a step (:func:`needs_halving`) is taken again
+as two halves, each by the same scheme, down to 1/16 of it (:data:`MAX_HALVINGS`), so the step stays large
+away from the contacts.  What the scheme does not do: locate an FMU's events (the FMUs do, inside their steps),
+or correct non-Real connections (passed as by ``jacobi``); FMUs without fmi2Get/SetFMUstate are refused.
 """
 from __future__ import annotations
 
@@ -62,12 +71,22 @@ import numpy as np
 
 CONTRACTION = 0.2   # refresh the Jacobians when a corrector leaves more than this share of the predictor's residual
 THETA_SHIFT = 0.1    # largest shift of theta from 1/2 on a bond's effort / motion (module docstring: why and cost)
+MAX_HALVINGS = 4     # a step is halved at most this often (to 1/16 of it) where its correction does not contract
+HALVING_RESIDUAL = 1e-3   # ... and leaves more than this share of the held values (harness.jacobian.needs_halving)
 RELATIVE_PERTURBATION = 1e-6   # forward-difference perturbation, relative to max(1, |input|)
 
 
 def perturbation(values: np.ndarray) -> np.ndarray:
     """Forward-difference perturbation of each input (relative to its magnitude, at least 1e-6)."""
     return RELATIVE_PERTURBATION * np.maximum(1.0, np.abs(values))
+
+
+def motion_held(inst, bond) -> list[int]:
+    """Indices in the held-input vector of the motion (position and speed) held at ``bond``'s motion-input port,
+    an input port of the master's instance ``inst``."""
+    port = bond.motion_in.split(".", 1)[1]
+    return [inst.isl.start + k for v, k in inst.input_pos.items() if v.rsplit(".", 1) in
+            ([port, "phi"], [port, "w"], [port, "s"], [port, "v"])]
 
 
 def feedthrough_block(fmu, inp, out, point: np.ndarray) -> np.ndarray:
@@ -155,3 +174,12 @@ def contraction(r0: np.ndarray, r1: np.ndarray, scale: np.ndarray) -> float:
     if not math.isfinite(b):
         return math.inf
     return b / a if a > 1e-12 else 0.0
+
+
+def needs_halving(rho: float, r1: np.ndarray, scale: np.ndarray) -> bool:
+    """A step whose correction, with Jacobians estimated in this very step, leaves more than
+    :data:`CONTRACTION` of the predictor's residual and more than :data:`HALVING_RESIDUAL` of the held values:
+    the outputs do not respond linearly to the inputs over the step (a clearance closes or opens within it, an
+    impact), so one Newton step cannot find the fixed point; the step is taken again as two halves."""
+    return rho > CONTRACTION and (not math.isfinite(rho) or float(np.max(np.abs(r1) / scale)) > HALVING_RESIDUAL)
+

@@ -480,7 +480,10 @@ class Jacobi(Master):
         self._hold_all(t, h)
         for it in self.insts:
             it.fmu.do_step(t, h, True)
-        self._exchange(t_next)
+        if self.refreshes_discrete:
+            self._exchange(t_next)
+        else:  # jacobi-sampled: the outputs as they are right after the step
+            self._read_all(t_next)
 
 
 class JacobiSampled(Jacobi):
@@ -489,13 +492,7 @@ class JacobiSampled(Jacobi):
     the new inputs at the communication point (``jacobi`` does refresh it, which is more accurate).  Use it
     to compare with those tools step for step."""
     name = "jacobi-sampled"
-    refreshes_discrete = False
-
-    def _step_impl(self, t, h, t_next):
-        self._hold_all(t, h)
-        for it in self.insts:
-            it.fmu.do_step(t, h, True)
-        self._read_all(t_next)
+    refreshes_discrete = False  # nor Real feed-through (Jacobi._step_impl)
 
 
 class GaussSeidel(Master):
@@ -605,29 +602,20 @@ class InterfaceJacobian(Master):
             it.interp = False  # the correction is on the held (midpoint) values; no input derivatives
         self._batched = [it for it in self.insts if it.inp.n]
         self._interp = []
-        # the fixed point's weight of the sample at t+h per held input (harness.jacobian.target_weights)
-        # per power bond: the held effort (motion-output side) and the held motion (motion-input side, not the
-        # positions the FMU advances itself); theta from their loop gains at each estimate (harness.jacobian)
+        # per power bond: the held effort and the held motion (not the positions the FMU advances itself), whose
+        # weights of the sample at t+h follow their loop gains at each estimate (harness.jacobian.target_weights)
         pos = set(self._pos.tolist())
-        self._bond_inputs = [(b[0], [k for k in self._motion_held(bond) if k not in pos])
-                             for b, bond in zip(self._bonds, self.bonds)]
+        held = [jacobian.motion_held(self.insts[self.index[b.motion_in.split(".", 1)[0]]], b) for b in self.bonds]
+        self._bond_inputs = [(b[0], [k for k in m if k not in pos]) for b, m in zip(self._bonds, held)]
         self.theta = jacobian.target_weights(len(self.u), self._bond_inputs, None, self._pos)
         self.jacobian: np.ndarray | None = None  # S of harness.jacobian.assemble, for the step size self._jac_h
-        self._jac_h = 0.0
-        self._stale = True
-        self._step_calls = 0   # _take and _estimate count their own do_step calls
-        self.estimates = 0     # Jacobian estimates (each: one extra FMU step per held input)
-        self.retries = 0       # steps taken once more because the correction did not contract
+        self._jac_h, self._stale, self._step_calls = 0.0, True, 0  # _take and _estimate count their FMU steps
+        # Jacobian estimates (one extra FMU step per held input each), steps taken again with fresh Jacobians
+        # because the correction did not contract, and steps taken again as two halves (jacobian.needs_halving)
+        self.estimates = self.retries = self.halvings = 0
 
     def needs_rollback(self) -> bool:
         return True
-
-    def _motion_held(self, bond) -> list[int]:
-        """Indices in u of the motion (position and speed) held at the motion-input port of ``bond``."""
-        inst, port = bond.motion_in.split(".", 1)
-        it = self.insts[self.index[inst]]
-        return [it.isl.start + k for v, k in it.input_pos.items() if v.rsplit(".", 1)[0] == port
-                and v.rsplit(".", 1)[1] in ("phi", "w", "s", "v")]
 
     def _implicit_inputs(self, t: float, h: float) -> np.ndarray:
         """G: the held inputs recomputed from the history whose newest sample is at t+h: ``(1 - theta) y(t) +
@@ -666,7 +654,10 @@ class InterfaceJacobian(Master):
         self.estimates += 1
         self.fmu_steps += n_u  # one step per held input
 
-    def _step_impl(self, t, h, t_next):
+    def _step_impl(self, t, h, t_next, depth: int = 0):
+        """One step of the scheme; a step whose correction does not contract even with fresh Jacobians (a contact
+        made or lost within it) is taken again as two halves, at most MAX_HALVINGS deep (jacobian.needs_halving)."""
+        t_ns, h_ns = round(t * NS), round(h * NS)
         self._hold_all(t, h)
         u0 = self.u.copy()
         self.snapshot("ij")
@@ -679,8 +670,15 @@ class InterfaceJacobian(Master):
             du = np.linalg.solve(np.eye(len(u0)) - self.theta[:, None] * self.jacobian, r0)
             self.restore("ij")
             r1 = self._take(t, h, t_next, u0 + du)
-            rho = jacobian.contraction(r0, r1, np.abs(u0) + np.abs(r0) + 1e-9)
+            scale = np.abs(u0) + np.abs(r0) + 1e-9
+            rho = jacobian.contraction(r0, r1, scale)
             self._stale = rho > jacobian.CONTRACTION
+            if fresh and depth < jacobian.MAX_HALVINGS and h_ns > 1 and jacobian.needs_halving(rho, r1, scale):
+                self.restore("ij")
+                self.halvings += 1
+                for a, b in ((t_ns, t_ns + h_ns // 2), (t_ns + h_ns // 2, t_ns + h_ns)):
+                    self._step_impl(a / NS, (b - a) / NS, b / NS, depth + 1)
+                return
             if rho <= jacobian.CONTRACTION or fresh or attempt:
                 return
             self.retries += 1
