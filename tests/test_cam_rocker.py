@@ -282,6 +282,27 @@ def test_kelvin_voigt_steps_with_the_jet_match_those_by_differences(monkeypatch)
     assert np.max(np.abs(v_jet - v_dif)) < 1e-6 * np.max(v_dif)
 
 
+def test_a_contact_change_located_at_a_sub_steps_very_end_ends_that_sub_step():
+    """Recorded in the full bed model at 8 ms under the jacobian master (a halved step of 1 ms at 0.536 s): the
+    bisection located a change of contact mode at the very end of an exponential sub-step, and the loop tried
+    the rest of that sub-step, of zero length, again (ZeroDivisionError in the step's 2 / dt^2)."""
+    p = CamRockerParams(mechanism=1, fidelity=2, law=8, law_return=9, law_km=0.24617589310910504, lambda2=4.03,
+                        swing=0.6981317007977318, phase_forward=3.7853767407351455,
+                        phase_return=2.4978085664444403, phi_start=1.6217653617394077,
+                        cam_base_radius=0.12268945277524954, follower_arm=0.14885991460543516,
+                        cam_distance=0.210526, rocker_inertia=0.05, stiffness=2537170.95845,
+                        damping=101.48683833799998, clearance=1e-05, contact_stiffness=1e8, restitution=0.2)
+    m = CamRockerModel(p)
+    x0 = np.array([0.6898989840173047, 0.46758566057467094, 0.13254057460368482, 7.0, 1.0, 0, 0, 0, 0, 0])
+    u = [5.094339883749697, 6.30065558158122, -1488.859417135856]
+    x = m.advance(0.536, 0.001, x0.copy(), u)
+    assert np.isfinite(x).all()
+    assert x[3] >= x0[3]                                    # impacts only counted up
+    ref = m.advance(0.536, 0.0005, x0.copy(), u)              # the same interval in two halves: the same motion
+    ref = m.advance(0.5365, 0.0005, ref, [u[0] + u[1] * 0.0005, u[1], u[2]])
+    assert abs(x[0] - ref[0]) < 1e-3 * abs(x0[0] - ref[0]) + 1e-9, (x[0], ref[0])
+
+
 def test_bad_parameters_name_the_parameter():
     with pytest.raises(ParameterError, match="lambda2"):
         CamRockerModel(CamRockerParams(lambda2=3.0))

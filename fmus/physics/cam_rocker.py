@@ -514,6 +514,9 @@ class CamRockerModel(Model):
         t, i = t0, 0
         while i < n:
             t_end = t0 + (i + 1) * h / n if i < n - 1 else t0 + h
+            if t_end - t <= 1e-3 * EVENT_TOLERANCE:  # a change located at the sub-step's very end: none of it left
+                t, i = t_end, i + 1
+                continue
             side, mode = self._kv_mode(gamma, omega, coefficients(t))
             g1, o1 = step(t, t_end - t, gamma, omega, mode)
             side1, mode1 = self._kv_mode(g1, o1, coefficients(t_end))
