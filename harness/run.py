@@ -609,8 +609,14 @@ def run_cli(args) -> int:
     if a.get("suspect"):
         print(f"warning: {a['suspect']}", file=sys.stderr)
     print(f"{a['system']}: {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s, master {a['master']}, "
-          f"{a['steps']} steps in {a['wall_time']:.3g} s; {where}")
+          f"{a['steps']} steps{_halved(a)} in {a['wall_time']:.3g} s; {where}")
     return 0
+
+
+def _halved(a: dict) -> str:
+    """' (N taken in halves, ...)' where the jacobian master halved steps (harness.jacobian.needs_halving)."""
+    n = a.get("halved_steps") or 0
+    return f" ({n} taken again in halves where the coupling's correction did not converge)" if n else ""
 
 
 __all__ = ["load", "simulate", "RunOptions", "RunWarning", "RunInterrupted", "Terminated", "column_units", "partial_path", "register", "run_cli", "parse_sets", "HarnessError"]

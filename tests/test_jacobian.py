@@ -219,3 +219,18 @@ def test_two_inertia_runs_with_its_defaults_and_prints_nothing_but_its_result():
     tau = np.abs(df["b.drive.tau"].to_numpy())
     n = len(tau)
     assert tau[-n // 10:].max() == pytest.approx(tau[: n // 10].max(), rel=0.01)
+
+
+def test_the_command_line_says_how_many_steps_it_took_in_halves(monkeypatch, capsys):
+    """A run whose steps the master halved says so in its summary line; one that halved none says nothing."""
+    import warnings as w
+
+    from harness.__main__ import main
+
+    monkeypatch.setattr(w, "showwarning", w.showwarning)   # main() sets its own
+    full = [a for k in ("motor", "fourbar", "cam") for a in ("--set", f"{k}.fidelity=2")]
+    assert main(["run", "bed_drive", "--stop-time", "0.5", "--step", "1e-3", "--master", "jacobian", *full]) == 0
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    assert " taken again in halves where the coupling's correction did not converge" in line
+    assert main(["run", "bed_drive", "--stop-time", "0.05", "--step", "1e-3", "--master", "jacobian"]) == 0
+    assert "halves" not in capsys.readouterr().out
