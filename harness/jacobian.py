@@ -182,4 +182,3 @@ def needs_halving(rho: float, r1: np.ndarray, scale: np.ndarray) -> bool:
     the outputs do not respond linearly to the inputs over the step (a clearance closes or opens within it, an
     impact), so one Newton step cannot find the fixed point; the step is taken again as two halves."""
     return rho > CONTRACTION and (not math.isfinite(rho) or float(np.max(np.abs(r1) / scale)) > HALVING_RESIDUAL)
-

@@ -480,10 +480,9 @@ class Jacobi(Master):
         self._hold_all(t, h)
         for it in self.insts:
             it.fmu.do_step(t, h, True)
-        if self.refreshes_discrete:
-            self._exchange(t_next)
-        else:  # jacobi-sampled: the outputs as they are right after the step
-            self._read_all(t_next)
+        self._outputs_at(t_next)
+
+    _outputs_at = Master._exchange  # consistent outputs at t+h: feed-through refreshed with the new inputs
 
 
 class JacobiSampled(Jacobi):
@@ -492,7 +491,8 @@ class JacobiSampled(Jacobi):
     the new inputs at the communication point (``jacobi`` does refresh it, which is more accurate).  Use it
     to compare with those tools step for step."""
     name = "jacobi-sampled"
-    refreshes_discrete = False  # nor Real feed-through (Jacobi._step_impl)
+    refreshes_discrete = False
+    _outputs_at = Master._read_all  # the outputs as they are right after the step, Real feed-through too
 
 
 class GaussSeidel(Master):
