@@ -44,6 +44,20 @@ def test_velocity_and_acceleration_invariants_match_finite_differences(g):
     assert s[2:] == pytest.approx((li[1234], om[1234], ec[1234]))
 
 
+@pytest.mark.parametrize("g", GEOMS)
+def test_sector_jerk_matches_differences_of_the_acceleration_invariant(g):
+    """d eps_C/d sigma against central differences of eps_C over those of sigma (both at beta -+ h)."""
+    delta0, h = 0.4, 1e-5
+    beta = np.linspace(0.02, g[3] - 0.02, 41)
+    jerk = gs.sector_jerk(beta, *g, delta0)
+    lo, hi = (np.array([gs.sector_point(b + s * h, *g, delta0) for b in beta]) for s in (-1, 1))
+    fd = (hi[:, 4] - lo[:, 4]) / (np.unwrap(hi[:, 0] - lo[:, 0]))
+    scale = max(1.0, float(np.max(np.abs(fd))))
+    assert np.max(np.abs(jerk - fd)) < 1e-7 * scale
+    assert np.max(np.abs(jerk)) > 0.1                        # not a test of zeros
+    assert float(gs.sector_jerk(beta[7], *g, delta0)) == pytest.approx(jerk[7], rel=1e-14)
+
+
 def test_concentric_sectors_are_an_ordinary_gear_pair():
     beta = np.linspace(0, 1.0, 11)
     _, _, li, om, ec = gs.sector_arrays(beta, 0.0, 0.0, 1.7, 1.0, 0.3)
@@ -127,6 +141,16 @@ def test_bed_law_closed_form_and_derivatives(lam):
         assert w == pytest.approx((gs.bed_law(f + h, lam)[1] - gs.bed_law(f - h, lam)[1]) / (2 * h), abs=1e-7)
 
 
+@pytest.mark.parametrize("lam", [0.0, 0.25, 0.6])
+def test_bed_law_jerk_matches_differences_of_its_acceleration(lam):
+    h = 1e-5
+    phi = np.linspace(0.0, 2 * math.pi, 97)
+    j = np.array([gs.bed_law_jerk(f, lam) for f in phi])
+    fd = np.array([(gs.bed_law(f + h, lam)[2] - gs.bed_law(f - h, lam)[2]) / (2 * h) for f in phi])
+    assert np.max(np.abs(j - fd)) < 1e-8 * max(1.0, float(np.max(np.abs(fd))))
+    assert np.max(np.abs(j)) > 0.5
+
+
 @pytest.fixture(scope="module")
 def model():
     return gs.GearSectorsModel(gs.GearSectorsParams())
@@ -162,6 +186,62 @@ def test_cycle_law_is_smooth_and_consistent(model):
     assert law.evaluate(p.phi2)[1] == pytest.approx(2 * gs.bed_law(p.phi2, p.lambda_s)[1] / D_Ci, rel=1e-9)
     assert law.evaluate(p.phi3)[1] == pytest.approx(2 * gs.bed_law(p.phi3, p.lambda_s)[1] / D_Ci, rel=1e-9)
     assert [law.evaluate(f)[3] for f in (law.phi1 + 0.01, p.phi2 + 0.01, p.phi3 + 0.01, law.phi1 - 0.01)] == [1, 2, 3, 4]
+
+
+def _phase_points(law, cycles=(-1, 0, 1)):
+    """Crank angles inside each of the four phases of several cycles, the nearest 2e-4 rad from a junction
+    (Model.output_jacobian_by_differences steps at most 6e-6 * 12.6 rad here: it stays in one phase)."""
+    starts = (law.phi1, law.phi2, law.phi3, law.phi3 + law.phi34)
+    lengths = (law.phi12, law.phi23, law.phi34, law.phi41)
+    points = []
+    for k in cycles:
+        for i, (a, n) in enumerate(zip(starts, lengths)):
+            a += 2 * math.pi * k
+            ends = (a + 2e-4, a + 2e-3, a + n - 2e-3, a + n - 2e-4)
+            points += [(f, i + 1) for f in (*ends, *(a + n * np.linspace(0.0, 1.0, 12)[1:-1]))]
+    return points
+
+
+def test_cycle_law_jerk_matches_differences_in_every_phase(model):
+    """CylinderLaw.jerk against central differences of evaluate()'s acceleration invariant, every phase."""
+    law, h = model.law, 1e-6
+    seen, worst, scale = set(), 0.0, 1.0
+    for phi, phase in _phase_points(law):
+        assert law.evaluate(phi)[3] == phase
+        fd = (law.evaluate(phi + h)[2] - law.evaluate(phi - h)[2]) / (2 * h)
+        j = law.jerk(phi)
+        worst, scale = max(worst, abs(j - fd)), max(scale, abs(fd))
+        seen.add(phase)
+        if phase == 4:
+            assert j == 0.0
+    assert seen == {1, 2, 3, 4}
+    assert worst < 1e-7 * scale, (worst, scale)
+
+
+@pytest.mark.parametrize("fidelity", [0, 1])
+def test_output_jacobian_is_closed_form_and_matches_differences(fidelity, monkeypatch):
+    """Every column of output_jacobian, the crank angle's included, against central differences of output() at
+    crank angles in all four phases of three cycles; none of it by differences (the fallback is taken away)."""
+    m = gs.GearSectorsModel(gs.GearSectorsParams(fidelity=fidelity))
+    wk = 7.3
+    cases = []
+    for phi, phase in _phase_points(m.law):
+        u = [phi, wk, -12.0, 150.0]
+        x = np.array(m.kinematic(phi, wk)) + (0.01, -0.3)          # fidelity 1: the spring is loaded
+        cases.append((phase, u, x, m.output_jacobian_by_differences(0.0, x, u)))
+
+    def refused(*args):
+        raise AssertionError("output_jacobian fell back on differences")
+    monkeypatch.setattr(m, "output_jacobian_by_differences", refused)
+    for _, u, x, fd in cases:
+        D = m.output_jacobian(0.0, x, u)
+        # each output to 1e-6 of its own largest slope (the differences' error is ~1e-9 of it): a small row
+        # (bed.s, sync_error) is not hidden behind crank.tau's slopes of some 1e3
+        dev = np.max(np.abs(D - fd), axis=1) / np.maximum(1.0, np.max(np.abs(fd), axis=1))
+        assert np.all(dev < 1e-6), (u, dev, D - fd)
+    # crank.tau's slope in the angle is not zero in any phase (a test of zeros would prove nothing)
+    for phase in (1, 2, 3, 4):
+        assert max(abs(fd[0, 0]) for ph, _, _, fd in cases if ph == phase) > 1.0
 
 
 def _out(m, u, x=None):

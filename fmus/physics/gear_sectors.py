@@ -29,7 +29,9 @@ this law from the synthesis once and evaluates angle, speed and acceleration inv
 
 The GearSectors model drives the cylinder and the bed from the main shaft.  Accelerations used for the
 inertial torques are the analytic second derivatives of the kinematic functions times crank speed squared
-(the crank acceleration is taken as negligible, omega_K = const as in the paper).
+(the crank acceleration is taken as negligible, omega_K = const as in the paper).  The slopes of the outputs
+(output_jacobian, the FMU's directional derivatives) need one derivative more of each law: sector_jerk (eq. 15
+differentiated along the carrier angle), bed_law_jerk, and CylinderLaw.jerk, which takes each phase's own.
 """
 from __future__ import annotations
 
@@ -63,6 +65,33 @@ def _sector_terms(beta, eps1, eps2, kappa, beta0, delta0, cos, sin):
 def _sector_invariants(D, N, Db, Nb, kappa):
     """(omega_C, eps_C): eq. 12 as the magnitude D/N - 1, and eq. 15."""
     return D / N - 1.0, D * (Db * N - D * Nb) / ((kappa + 1.0) * N ** 3)
+
+
+def _sector_second_terms(beta, eps2, kappa, u, w, dl, cos, sin):
+    """(d2D/dbeta2, d2N/dbeta2): the terms of eqs. 3-15 differentiated once more, with du/dbeta = -k1 q and
+    dw/dbeta = k1 p (so dD/dbeta = 2 k1 (w p - u q) and dN/dbeta = u dp/dbeta + w dq/dbeta, as above)."""
+    k1 = kappa + 1.0
+    cd, sd, cb, sb = cos(dl), sin(dl), cos(beta), sin(beta)
+    p, q = eps2 * cd + cb, eps2 * sd + sb
+    pb, qb = -(eps2 * k1 * sd + sb), eps2 * k1 * cd + cb
+    pbb, qbb = -(eps2 * k1 * k1 * cd + cb), -(eps2 * k1 * k1 * sd + sb)
+    return 2.0 * k1 * (k1 * (p * p + q * q) + w * pb - u * qb), k1 * (p * qb - q * pb) + u * pbb + w * qbb
+
+
+def _sector_jerk(D, N, Db, Nb, Dbb, Nbb, kappa):
+    """d eps_C / d sigma: eq. 15 differentiated in beta, divided by d sigma/d beta = k1 N / D."""
+    k1 = kappa + 1.0
+    G = Db * N - D * Nb                       # N^2 d(D/N)/dbeta
+    Gb = Dbb * N - D * Nbb                    # dG/dbeta (the Db Nb terms cancel)
+    deps = (Db * G + D * Gb) / (k1 * N ** 3) - 3.0 * D * G * Nb / (k1 * N ** 4)
+    return deps * D / (k1 * N)
+
+
+def sector_jerk(beta, eps1, eps2, kappa, beta0, delta0):
+    """d eps_C / d sigma = d2 omega_C / d sigma2 at carrier angle beta (scalar or array): the third derivative of
+    the cylinder angle in the crank angle of the inverted frame, which the crank torque's slope needs."""
+    u, w, dl, D, N, Db, Nb = _sector_terms(beta, eps1, eps2, kappa, beta0, delta0, np.cos, np.sin)
+    return _sector_jerk(D, N, Db, Nb, *_sector_second_terms(beta, eps2, kappa, u, w, dl, np.cos, np.sin), kappa)
 
 
 def sector_point(beta: float, eps1: float, eps2: float, kappa: float, beta0: float, delta0: float):
@@ -329,6 +358,17 @@ def bed_law(phi: float, lam: float):
     return S, v, w
 
 
+def bed_law_jerk(phi: float, lam: float) -> float:
+    """d3S_T/dphi3 of :func:`bed_law`'s slider-crank (its w_T differentiated once more, r = sqrt(1 - lam^2 sin^2)):
+    -sin - 4 lam s c / r + 3 lam^3 s c (c^2 - s^2) / r^3 + 3 lam^5 s^3 c^3 / r^5."""
+    s, c = math.sin(phi), math.cos(phi)
+    if lam == 0.0:
+        return -s
+    r = math.sqrt(1.0 - lam * lam * s * s)
+    sc = s * c
+    return -s - 4.0 * lam * sc / r + 3.0 * lam ** 3 * sc * (c * c - s * s) / r ** 3 + 3.0 * lam ** 5 * sc ** 3 / r ** 5
+
+
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
@@ -365,6 +405,10 @@ class _Sector:
         dsig = _wrap(sig - self.sigma0)
         return beta, self.sign * (self.k1 * beta - dsig), om, ec
 
+    def jerk(self, beta: float) -> float:
+        """d eps_C / d sigma at carrier angle beta (from :meth:`at`)."""
+        return float(sector_jerk(beta, self.eps1, self.eps2, self.kappa, self.beta0, self.delta0))
+
 
 class CylinderLaw:
     """Full-cycle cylinder motion law phi_C(phi) of paper A (4 phases), built once from two syntheses.
@@ -397,23 +441,50 @@ class CylinderLaw:
         k = math.floor((phi - self.phi1) / (2.0 * math.pi))
         return k * self.per_cycle + self.C12
 
-    def evaluate(self, phi: float):
+    def _locate(self, phi: float):
+        """(cycle k, phase 1-4, crank angle since the start of that phase); a junction belongs to the phase
+        evaluate() has always given it (point 2 and point 3 to the synchronous phase)."""
         k = math.floor((phi - self.phi1) / (2.0 * math.pi))
         th = phi - self.phi1 - 2.0 * math.pi * k
-        base = k * self.per_cycle
         if th < self.phi12:
-            _, dpsi, om, ec = self.acc.at(self.phi12 - th)
-            return base + self.C12 - dpsi, om, -self.acc.sign * ec, 1
+            return k, 1, th
         th -= self.phi12
         if th <= self.phi23:
-            S, v, w = bed_law(self.phi2 + th, self.lam)
-            return base + self.C12 + 2.0 * (S - self.S2) / self.D_Ci, 2.0 * v / self.D_Ci, 2.0 * w / self.D_Ci, 2
+            return k, 2, th
         th -= self.phi23
         if th < self.phi34:
+            return k, 3, th
+        return k, 4, th - self.phi34
+
+    def evaluate(self, phi: float):
+        k, phase, th = self._locate(phi)
+        base = k * self.per_cycle
+        if phase == 1:
+            _, dpsi, om, ec = self.acc.at(self.phi12 - th)
+            return base + self.C12 - dpsi, om, -self.acc.sign * ec, 1
+        if phase == 2:
+            S, v, w = bed_law(self.phi2 + th, self.lam)
+            return base + self.C12 + 2.0 * (S - self.S2) / self.D_Ci, 2.0 * v / self.D_Ci, 2.0 * w / self.D_Ci, 2
+        if phase == 3:
             _, dpsi, om, ec = self.brk.at(th)
             return base + self.C12 + self.C23 + dpsi, om, self.brk.sign * ec, 3
-        th -= self.phi34
         return base + self.C12 + self.C23 + self.C34 + self.om1 * th, self.om1, 0.0, 4
+
+    def jerk(self, phi: float) -> float:
+        """d3 phi_C / d phi3, the slope of evaluate()'s acceleration invariant, each phase's equation
+        differentiated once more.  Sector phases: d eps_C/d sigma at the same carrier angle; evaluate() gives
+        the acceleration as -/+ sign*eps_C and d sigma/d phi is -/+ sign (acceleration / braking), so the
+        signs cancel in both.  Synchronous phase: the bed law's third derivative scaled like its speed.
+        Uniform phase: 0.  At a junction, the derivative of the phase evaluate() reports there (the law
+        is continuous up to the acceleration there, not beyond)."""
+        _, phase, th = self._locate(phi)
+        if phase == 1:
+            return self.acc.jerk(self.acc.at(self.phi12 - th)[0])
+        if phase == 2:
+            return 2.0 * bed_law_jerk(self.phi2 + th, self.lam) / self.D_Ci
+        if phase == 3:
+            return self.brk.jerk(self.brk.at(th)[0])
+        return 0.0
 
 
 def build_law(lam, D_Ci, phi2, phi3, v1, delta0_acc, delta0_brk, use=("r17", "r18", "r19", "r20")):
@@ -531,22 +602,36 @@ class GearSectorsModel(Model):
         return (crank_tau, phi_cyl, w_cyl, L * S, L * v * wk, sync, float(phase))
 
     def output_jacobian(self, t, x, u):
-        """d outputs / d (crank.phi, crank.w, cylinder.tau, bed.f): the columns of the crank speed and the two loads
-        in closed form from :meth:`output`'s equations; the crank angle's column by central differences of
-        :meth:`output` (Model.output_jacobian_by_differences), because crank.tau's slope in the angle needs the third
-        derivatives of the four-phase sector law and of the slider-crank, which the laws do not evaluate (inside
-        each phase of the law the output is smooth and the differences agree with the slope to ~1e-9)."""
+        """d outputs / d (crank.phi, crank.w, cylinder.tau, bed.f), every column in closed form from :meth:`output`'s
+        equations.  The crank angle's column needs one derivative more of each law than output() evaluates: the
+        inertial terms hold the accelerations (ec, w), so crank.tau's slope holds the third derivatives
+        CylinderLaw.jerk (each phase's equation differentiated: sectors, bed law, uniform) and bed_law_jerk.
+        phase is piecewise constant (slope 0); sync_error's point-2 angle is constant on each cycle and jumps
+        only at point 1, outside the synchronous phase where sync_error uses it, so it adds no slope.  At a
+        phase junction the slopes are those of the phase output() reports there (the law is continuous up to
+        its acceleration, so crank.tau's slope in the angle jumps there)."""
         p, L = self.p, self.L
-        phi, wk = u[0], u[1]
-        _, om, ec, _ = self.law.evaluate(phi)
+        phi, wk, tau_c, f_bed = u
+        phic, om, ec, phase = self.law.evaluate(phi)
+        jc = self.law.jerk(phi)
         _, v, w = bed_law(phi, p.lambda_s)
+        j = bed_law_jerk(phi, p.lambda_s)
         D = np.zeros((len(self.outputs), len(self.inputs)))
-        D[:, 0] = self.output_jacobian_by_differences(t, x, u)[:, 0]
-        d_bed_w = 2.0 * p.m_bed * L * L * w * v * wk        # d bed_term / d wk
+        d_bed_phi = p.m_bed * L * L * wk * wk * (j * v + w * w) - f_bed * L * w   # d bed_term / d phi
+        d_bed_w = 2.0 * p.m_bed * L * L * w * v * wk                           # d bed_term / d wk
         if p.fidelity == 0:
-            D[0, 1:] = (-2.0 * p.J_cyl * ec * wk * om - d_bed_w, om, L * v)
-            D[2, 1] = om                                     # cylinder.w = om * wk
+            D[0] = (-p.J_cyl * jc * wk * wk * om - (p.J_cyl * ec * wk * wk - tau_c) * ec - d_bed_phi,
+                    -2.0 * p.J_cyl * ec * wk * om - d_bed_w, om, L * v)
+            D[1, 0] = om                                     # cylinder.phi = phi_C(phi)
+            D[2, :2] = (ec * wk, om)                         # cylinder.w = om * wk
+            d_cyl_phi = om
         else:
-            D[0, 1:] = (-p.d_cyl * om * om - d_bed_w, 0.0, L * v)
-        D[4, 1] = L * v                                      # bed.v = L v wk
+            m = p.c_cyl * (phic - x[0]) + p.d_cyl * (om * wk - x[1])
+            dm_phi = p.c_cyl * om + p.d_cyl * ec * wk
+            D[0] = (-dm_phi * om - m * ec - d_bed_phi, -p.d_cyl * om * om - d_bed_w, 0.0, L * v)
+            d_cyl_phi = 0.0                                  # cylinder.phi is the state
+        D[3, 0] = L * v                                      # bed.s = L S
+        D[4, :2] = (L * w * wk, L * v)                       # bed.v = L v wk
+        if phase == 2:
+            D[5, 0] = 0.5 * p.D_C * d_cyl_phi - L * v
         return D
