@@ -9,7 +9,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import fsolve
 
 from fmus.physics import contact
-from fmus.physics.base import ParameterError
+from fmus.physics.base import DIFFERENCE_STEP, ParameterError
 from fmus.physics.fourbar import FourBarModel, FourBarParams
 
 P0 = FourBarParams()
@@ -391,3 +391,117 @@ def test_kelvin_voigt_damping_gives_the_no_pull_restitution(e):
     assert no_pull_restitution(zeta) == pytest.approx(e, rel=1e-10)
     c = contact.kelvin_voigt_damping(4.0, 0.25, e)
     assert c == pytest.approx(2 * zeta * math.sqrt(4.0 * 0.25))
+
+
+# -- fidelity 2: the output Jacobian (directional derivatives, issue 29) -------------------------------------------
+FID2_LINKAGES = {
+    "crank-rocker": dict(),
+    "mirrored, coupler mass, friction": dict(branch=-1, coupler_mass=0.3, friction_ratio=0.2),
+    "parallelogram with belt": dict(KNIFE_PARALLELOGRAM, clearance=1e-5, belt_stiffness=500.0, belt_damping=0.75),
+}
+# (phase, wall side, penetration [m] (separated: q / (clearance/2)), penetration rate [m/s]): every phase of the
+# contact laws on both walls; "clipped" recedes so fast that the damping would pull, so the force is held at 0
+FID2_PHASES = [("separated", 0.0, 0.0, 0.02), ("separated", 0.0, 0.4, -0.5), ("separated", 0.0, -0.4, 0.3)] + [
+    (phase, side, 2e-5, rate) for side in (1.0, -1.0)
+    for phase, rate in (("closing", 0.02), ("opening in force", -0.001), ("clipped", -3.0))]
+
+
+def _fid2_state(m, phi, wc, side, pen, rate, v_impact):
+    """Rocker state (psi, w) at which the coupler's elongation and its rate are the phase's (Newton on q(psi))."""
+    psi, w = m.rigid(phi, wc)
+    q_target = side * (m._half + pen) if side else pen * m._half
+    for _ in range(20):
+        q, _, _, _, arm, _ = m._geometry(phi, wc, psi, w)
+        psi += (q_target - q) / arm
+    q, qd0, _, _, arm, _ = m._geometry(phi, wc, psi, 0.0)
+    w = ((side * rate if side else rate) - qd0) / arm
+    return np.array([psi, w, v_impact, 1.0, 0.0, 0.0])
+
+
+def _worst_column_deviation(D, fd):
+    """Largest |D - fd| in each input's column over that column's largest |fd| (0 where the column is 0)."""
+    scale = np.abs(fd).max(axis=0)
+    dev = np.abs(D - fd).max(axis=0)
+    return max(d / s if s > 0.0 else (math.inf if d > 0.0 else 0.0) for d, s in zip(dev, scale))
+
+
+def _closed_form(m, x, u):
+    """m.output_jacobian, checked to be the model's own slopes: it evaluates no output (differences would)."""
+    calls, output = [], m.output
+    m.output = lambda *args: calls.append(args) or output(*args)
+    try:
+        D = m.output_jacobian(0.0, x, u)
+    finally:
+        del m.output
+    assert not calls, "output_jacobian evaluated the outputs: differences, not the closed form"
+    return D
+
+
+def fid2_jacobian_deviation(law, linkage):
+    """Worst column deviation of FourBar 2's closed-form output_jacobian from central differences of its outputs,
+    over crank angles, crank speeds, onset speeds (0: the energy speed sets the Hunt-Crossley family's chi; 1 m/s:
+    the onset does) and FID2_PHASES.  Every point is checked to be what it says, and to keep its phase across the
+    differences' stencil (a kink inside it would make the differences wrong, not the slope)."""
+    m = FourBarModel(FourBarParams(fidelity=2, contact_law=law, **FID2_LINKAGES[linkage]))
+    worst, phases = 0.0, set()
+    for phi in (0.3, 2.5, -1.2):
+        for wc in (12.0, -5.0):
+            for v_impact in (0.0, 1.0):
+                for phase, side, pen, rate in FID2_PHASES:
+                    x = _fid2_state(m, phi, wc, side, pen, rate, v_impact)
+                    u = [phi, wc, -2.0]
+                    y = m.output(0.0, x, u)
+                    assert y[6] == abs(side)
+                    assert (y[5] > 0.0) == (phase in ("closing", "opening in force")), (phase, y[5])
+                    for j in range(3):
+                        for sgn in (1.0, -1.0):
+                            v = list(u)
+                            v[j] += sgn * DIFFERENCE_STEP * max(1.0, abs(u[j]))
+                            yv = m.output(0.0, x, v)
+                            assert (yv[6], yv[5] > 0.0) == (y[6], y[5] > 0.0), (phase, j)
+                    D = _closed_form(m, x, u)
+                    fd = m.output_jacobian_by_differences(0.0, x, u)
+                    worst = max(worst, _worst_column_deviation(D, fd))
+                    phases.add((phase, side))
+    assert len(phases) == 7
+    return worst
+
+
+@pytest.mark.parametrize("linkage", sorted(FID2_LINKAGES))
+@pytest.mark.parametrize("law", sorted(contact.LAWS))
+def test_fidelity2_output_jacobian_is_the_derivative_of_the_outputs(law, linkage):
+    """Fidelity 2's closed-form Jacobian (the contact law's own slopes, contact.contact_force_slopes, through the
+    coupler geometry of fidelity 1) against central differences of the outputs, separated, closing, opening and
+    clipped on each wall, for every contact law: within 1e-6 of each input column's largest entry (the
+    differences' own error, ~1e-10 relative on these smooth pieces: measured worst 6.4e-10; a slope off by 1e-6
+    relative fails).  The closed form must evaluate no output (the former fidelity 2 took differences)."""
+    assert fid2_jacobian_deviation(law, linkage) < 1e-6
+
+
+@pytest.mark.parametrize("law", sorted(contact.LAWS))
+@pytest.mark.parametrize("exponent", [1.0, 1.5])
+def test_contact_force_slopes_are_the_derivatives_of_the_force(law, exponent):
+    """contact.contact_force_slopes in q, q_dot and m_eff against central differences of contact.contact_force, on
+    both walls, for the onset speed and the energy speed setting chi, and zero separated and clipped."""
+    k, m, clearance = (1e6 if exponent == 1.0 else 5e9), 0.05, 1e-5
+    for side in (1.0, -1.0):
+        for pen, rate, v_imp in ((2e-5, 0.02, 0.0), (2e-5, -0.004, 0.0), (3e-5, 0.05, 2.0), (3e-5, -0.1, 2.0)):
+            q, qd = side * (0.5 * clearance + pen), side * rate
+            args = (clearance, k, law, 0.3, v_imp)
+            f, f_q, f_qd, f_m = contact.contact_force_slopes(q, qd, *args, m, exponent)
+            assert f == contact.contact_force(q, qd, *args, m, exponent) and side * f < 0.0
+            hq, hqd, hm = 1e-6 * pen, 1e-6 * abs(rate), 1e-6 * m
+            num_q = (contact.contact_force(q + hq, qd, *args, m, exponent)
+                     - contact.contact_force(q - hq, qd, *args, m, exponent)) / (2 * hq)
+            num_qd = (contact.contact_force(q, qd + hqd, *args, m, exponent)
+                      - contact.contact_force(q, qd - hqd, *args, m, exponent)) / (2 * hqd)
+            num_m = (contact.contact_force(q, qd, *args, m + hm, exponent)
+                     - contact.contact_force(q, qd, *args, m - hm, exponent)) / (2 * hm)
+            assert f_q == pytest.approx(num_q, rel=1e-6)
+            assert f_qd == pytest.approx(num_qd, rel=1e-6)
+            assert f_m == pytest.approx(num_m, rel=1e-6, abs=1e-6 * abs(f) / m)
+        clipped = contact.contact_force_slopes(side * (0.5 * clearance + 1e-6), -side * 5.0, clearance, k, law, 0.3,
+                                               0.0, m, exponent)
+        assert clipped == (0.0, 0.0, 0.0, 0.0)
+    assert contact.contact_force_slopes(0.2 * clearance, 1.0, clearance, k, law, 0.3, 0.0, m, exponent) == \
+        (0.0, 0.0, 0.0, 0.0)

@@ -149,6 +149,45 @@ def contact_force(q: float, q_dot: float, clearance: float, k: float, law: int, 
     return -side * max(f, 0.0)
 
 
+def contact_force_slopes(q: float, q_dot: float, clearance: float, k: float, law: int, e: float,
+                         v_impact: float, m_eff: float, exponent: float = 1.0) -> tuple[float, float, float, float]:
+    """(F, dF/dq, dF/dq_dot, dF/dm_eff): :func:`contact_force` and its partial derivatives, for a component's
+    Jacobian (its directional derivatives, issue 29).  The force is :func:`contact_force`'s own value; the slopes
+    differentiate its law term by term, each the derivative of one equation of this module (no copy of the law):
+
+    * separated, or in contact with the force clipped at zero (a receding contact whose damping would pull):
+      F = 0 in a neighbourhood, all slopes 0;
+    * Kelvin-Voigt f = k pen + c pen_dot, c = 2 zeta sqrt(k m_eff): df/dpen = k, df/dpen_dot = c,
+      df/dm_eff = pen_dot c / (2 m_eff) (the damping follows the reduced mass, which a component's pose sets);
+    * Hunt-Crossley family f = k pen^n (1 + chi pen_dot), chi = C / v0 (C = chi v0 of the law):
+      df/dpen_dot = k pen^n chi and df/dpen = n k pen^(n-1) (1 + chi pen_dot) + k pen^n pen_dot dchi/dpen, where
+      chi moves only while the energy-calibrated v0 = v_E(pen, m_eff) is the larger speed (module docstring;
+      dv_E/dpen = (n + 1) v_E / (2 pen), dv_E/dm_eff = -v_E / (2 m_eff)) and v0 is above V0_FLOOR; with the
+      onset speed v_impact the larger, chi is a constant of the contact (v_impact is a state, not an argument
+      the slopes follow).
+    The signed force is F = -side f with pen = side q - clearance/2, pen_dot = side q_dot, so dF/dq = -df/dpen,
+    dF/dq_dot = -df/dpen_dot, dF/dm_eff = -side df/dm_eff.  On the band edge, where v_E = v_impact, and where the
+    clipped force reaches zero the law has a kink: the slope of the side ``contact_force`` takes is returned."""
+    force = contact_force(q, q_dot, clearance, k, law, e, v_impact, m_eff, exponent)
+    if force == 0.0:                                   # separated, or clipped (cannot pull): flat around here
+        return force, 0.0, 0.0, 0.0
+    pen, pen_dot, side = penetration(q, q_dot, clearance)
+    if law == KELVIN_VOIGT:
+        c = kelvin_voigt_damping(k, m_eff, e)
+        f_pen, f_rate, f_mass = k, c, pen_dot * c / (2.0 * m_eff)
+    else:
+        v_e = energy_speed(pen, k, m_eff, exponent)
+        v0 = max(abs(v_impact), v_e)
+        chi = hysteresis_factor(law, e, v0)
+        elastic = k * pen ** exponent
+        f_pen, f_rate, f_mass = exponent * k * pen ** (exponent - 1.0) * (1.0 + chi * pen_dot), elastic * chi, 0.0
+        if v_e > abs(v_impact) and v0 > V0_FLOOR:      # chi = C / v_E(pen, m_eff): it moves with both
+            dchi = -chi / v0 * elastic * pen_dot       # d f / d v0
+            f_pen += dchi * 0.5 * (exponent + 1.0) * v_e / pen
+            f_mass = -dchi * 0.5 * v_e / m_eff
+    return force, -f_pen, -f_rate, -side * f_mass
+
+
 def contact_frequency(k: float, m_eff: float) -> float:
     """Angular frequency sqrt(k/m) [rad/s] of the linearised contact; sizes the integration sub-step."""
     return math.sqrt(k / m_eff)

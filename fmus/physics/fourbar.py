@@ -332,11 +332,29 @@ class FourBarModel(Model):
         p = self.p
         if p.fidelity == 1:
             return p.coupler_stiffness * q + p.coupler_damping * qd
-        if self.kind == "parallelogram":   # arm -> 0 at the dead points (module docstring)
-            arm = self._r
-        m_eff = self._inertia / (max(arm * arm, 1e-300) * self._keep)
         return -contact.contact_force(q, qd, p.clearance, p.coupler_stiffness, p.contact_law, p.restitution,
-                                      v_impact, m_eff)
+                                      v_impact, self._reduced_mass(arm))
+
+    def _reduced_mass(self, arm) -> float:
+        """m_eff of the clearance joint (fidelity 2): the rocker inertia reduced to the coupler axis, over (1 - chi)
+        (module docstring); a parallelogram's at the full arm r (its arm -> 0 at the dead points)."""
+        if self.kind == "parallelogram":
+            arm = self._r
+        return self._inertia / (max(arm * arm, 1e-300) * self._keep)
+
+    def _tension_slopes(self, q, qd, arm, v_impact) -> tuple[float, float, float, float]:
+        """(:meth:`_tension`, its partial derivatives in q, qdot and the rocker's arm).  Fidelity 1: k, c, 0.
+        Fidelity 2: the contact law's own slopes (contact.contact_force_slopes), signs turned to the tension; the
+        arm enters through m_eff = I / (arm^2 (1 - chi)), dm_eff/darm = -2 m_eff / arm (0 for a parallelogram, whose
+        m_eff is taken at the full arm, and where the 1e-300 floor holds)."""
+        p = self.p
+        if p.fidelity == 1:
+            return self._tension(q, qd, arm, v_impact), p.coupler_stiffness, p.coupler_damping, 0.0
+        m_eff = self._reduced_mass(arm)
+        force, f_q, f_qd, f_m = contact.contact_force_slopes(q, qd, p.clearance, p.coupler_stiffness, p.contact_law,
+                                                             p.restitution, v_impact, m_eff)
+        floored = self.kind == "parallelogram" or arm * arm < 1e-300
+        return -force, -f_q, -f_qd, 0.0 if floored else 2.0 * f_m * m_eff / arm
 
     def _belt(self, phi, wc, psi, w) -> float:
         """Torque [N.m] of the shaft-to-shaft belt on the rocker (parallelogram, fidelity >= 1)."""
@@ -473,14 +491,22 @@ class FourBarModel(Model):
         return (crank_tau, x[0], x[1], mu, force, abs(force), abs(side), x[3], x[4], x[5])
 
     def output_jacobian(self, t, x, u):
-        """d outputs / d (crank.phi, crank.w, rocker.tau) in closed form at fidelities 0 and 1, from the coupler's
-        geometry (:meth:`_geometry_slopes`, the partial derivatives :meth:`_acc_jet_at` integrates with) and, at
-        the rigid level, the loop closure's psi' and psi'' (kinematics_scalar).  Fidelity 2 by central differences
-        of :meth:`output` (Model.output_jacobian_by_differences): its force is the clearance contact law's, with
-        a slope of its own in each law and phase (contact.py), which the law does not give."""
+        """d outputs / d (crank.phi, crank.w, rocker.tau) in closed form at every fidelity.
+
+        Fidelity 0: the loop closure's psi' and psi'' (kinematics_scalar) and the coupler's geometry
+        (:meth:`_geometry_slopes`) at the rigid pose psi(phi).  Fidelities 1 and 2: the rocker's (psi, w) are states,
+        so only the crank pin moves with the inputs; the coupler tension F(q, qdot, arm) moves with phi through
+        q (dq/dphi = -arm_crank), qdot (qd_phi) and the arm (arm_phi), and with crank.w through qdot
+        (dqdot/dw = -arm_crank).  Its partial derivatives in q, qdot and the arm are the force law's own
+        (:meth:`_tension_slopes`): k and c at fidelity 1, the clearance contact law's at fidelity 2 (every law and
+        phase of contact.contact_force_slopes: separated or clipped 0; the arm through the reduced mass, which sets
+        the Kelvin-Voigt damping and the Hunt-Crossley family's energy speed).  crank.tau = F arm_crank - T_belt
+        adds F d arm_crank / dphi and the belt's stiffness and damping; transmission_angle is geometry alone
+        (mu_phi).  contact_force = |F| has the slope sign(F) dF; in_contact (and the counters, which are states) are
+        piecewise constant: slope 0.  rocker.tau drives only the state, so its column is 0 at fidelities 1 and 2.
+        On a kink of the contact law (a wall, the force reaching zero, the onset speed meeting the energy speed)
+        the slope of the side the outputs take is returned."""
         p = self.p
-        if p.fidelity == 2:
-            return self.output_jacobian_by_differences(t, x, u)
         phi, wc, tau = float(u[0]), float(u[1]), float(u[2])
         D = np.zeros((len(self.outputs), len(self.inputs)))
         if p.fidelity == 0:
@@ -500,12 +526,14 @@ class FourBarModel(Model):
                 D[4] = (-tau * (g["arm_phi"] + g["arm_psi"] * v) / (arm * arm), 0.0, 1.0 / arm)
             return D
         g = self._geometry_slopes(phi, wc, float(x[0]), float(x[1]))
-        k, cd = p.coupler_stiffness, p.coupler_damping
-        force = k * g["q"] + cd * g["qd"]
-        d_force = np.array([-k * g["arm_crank"] + cd * g["qd_phi"], -cd * g["arm_crank"], 0.0])
+        force, f_q, f_qd, f_arm = self._tension_slopes(g["q"], g["qd"], g["arm"], float(x[2]))
+        d_force = np.array([-f_q * g["arm_crank"] + f_qd * g["qd_phi"] + f_arm * g["arm_phi"],
+                            -f_qd * g["arm_crank"], 0.0])
         D[0] = d_force * g["arm_crank"] + np.array([force * g["crank_phi"] - p.belt_stiffness, -p.belt_damping, 0.0])
         D[3, 0] = g["mu_phi"]
         D[4] = d_force
+        if p.fidelity == 2:
+            D[5] = math.copysign(1.0, force) * d_force if force != 0.0 else 0.0
         return D
 
     def _geometry_slopes(self, phi, wc, psi, w) -> dict[str, float]:
