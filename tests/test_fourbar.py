@@ -440,7 +440,7 @@ def _closed_form(m, x, u):
 def fid2_jacobian_deviation(law, linkage):
     """Worst column deviation of FourBar 2's closed-form output_jacobian from central differences of its outputs,
     over crank angles, crank speeds, onset speeds (0: the energy speed sets the Hunt-Crossley family's chi; 1 m/s:
-    the onset does) and FID2_PHASES.  Every point is checked to be what it says, and to keep its phase across the
+    the onset does) and FID2_PHASES: 108 points.  Every point is checked to be what it says, and to keep its phase across the
     differences' stencil (a kink inside it would make the differences wrong, not the slope)."""
     m = FourBarModel(FourBarParams(fidelity=2, contact_law=law, **FID2_LINKAGES[linkage]))
     worst, phases = 0.0, set()
