@@ -333,3 +333,182 @@ def test_built_fmu_matches_the_model(fmu_dir):
         s.doStep(k * 1e-3, 1e-3)
     s.terminate()
     s.freeInstance()
+
+
+# -- output_jacobian in closed form (issue 29) ---------------------------------------------------------------
+from fmus.physics import base as _base   # noqa: E402
+from fmus.physics import contact as _contact   # noqa: E402
+from fmus.physics import groove as _groove   # noqa: E402
+
+# (mechanism, law, law_return, law_km, lambda2): every law the component takes on both mechanisms; P6 and the
+# seed-004 carrier laws (bed004 rise with its bed004r return) need a longer conrod for the slotted rocker's groove
+JACOBIAN_CASES = ([(0, law, -1, 0.4, 4.03) for law in (0, 1, 2, 3, 4, 5, 7)] + [(0, 6, -1, 0.4, 4.5), (0, 8, 9, 0.2, 4.5)]
+                  + [(1, law, -1, 0.4, 4.03) for law in range(8)] + [(1, 8, 9, 0.2, 4.03)])
+JACOBIAN_IDS = [f"mech{c[0]}-law{c[1]}" for c in JACOBIAN_CASES]
+
+
+def _model(case, **kw):
+    mech, law, ret, km, l2 = case
+    return CamRockerModel(CamRockerParams(mechanism=mech, law=law, law_return=ret, law_km=km, lambda2=l2, **kw))
+
+
+def _junctions(m):
+    """Crank angles where the rigid law changes segment (its G'' or G''' jumps): the dwell cycle's phase ends and
+    each law's segment ends within its phase."""
+    cyc = m.kulisa.cycle if m.p.mechanism == 0 else m.cycle
+
+    def ends(law):
+        return [e for e, _ in law.pieces] + [v for n, u in law.params if n == "runup" for v in (u, 1.0 - u)]
+    out = [0.0, cyc._t1, cyc._t2, cyc._t3]
+    out += [e * cyc.phase_forward for e in ends(cyc.forward)]
+    out += [cyc._t2 + e * cyc.phase_return for e in ends(cyc.ret)]
+    return [cyc.phi_start + v + s * 2 * math.pi for v in out for s in (-1, 0, 1)]
+
+
+def _reference_jacobian(m, x, u):
+    """output_jacobian_by_differences at 16, 8 and 4 times its step, Richardson-combined (truncation O(h^6)): the
+    larger steps keep the differences' rounding (the law's polynomials near k = 1 give G to a few ulps only, which
+    the contact stiffness turns into pin-force noise) below 1e-7 of the slopes, the combination their truncation
+    (the pressure angle curves fast near the stone's turning points), so the comparison measures the closed form."""
+    step = _base.DIFFERENCE_STEP
+    d = []
+    try:
+        for f in (16.0, 8.0, 4.0):
+            _base.DIFFERENCE_STEP = f * step
+            d.append(_base.Model.output_jacobian_by_differences(m, 0.0, x, u))
+    finally:
+        _base.DIFFERENCE_STEP = step
+    r1, r2 = (4.0 * d[1] - d[0]) / 3.0, (4.0 * d[2] - d[1]) / 3.0
+    return (16.0 * r2 - r1) / 15.0
+
+
+def _pin_state(m, phi, w, x):
+    """(side of the stone-pin play, pin force == 0, energy speed above the approach speed) at one input: the
+    contact phase the outputs are in, and which speed sets the Hunt-Crossley family's chi (a kink between)."""
+    g, g1, R = m._kin(phi)
+    q, qd, k, m_eff = m._pin(g, g1, R, w, x)
+    pen, _, side = _contact.penetration(q, qd, m.p.clearance)
+    v0 = x[2] if x[4] else abs(qd)
+    energy = side != 0.0 and _contact.energy_speed(pen, k, m_eff, m.p.contact_exponent) > v0
+    return side, m.output(0.0, x, [phi, w, 0.0])[5] == 0.0, energy
+
+
+def _jacobian_points(m, rng, n_phi=24):
+    """(x, u, phase) at crank angles away (>= 2e-3 rad) from the law's junctions; at fidelity 2 each angle in the
+    three phases of the play (separated, on the positive wall, on the negative wall, penetration 1-5 clearances),
+    the rate of the play random (some receding contacts clipped to zero force), contact flag 1 with a stored
+    onset speed or 0 (an onset inside the sub-step: the speed is |qdot|).  Angles where the rocker creeps
+    (0 < |G'| < 1e-2 of its largest, near a polynomial law's ends) are left out: there G is a sum of terms ~100
+    times larger, correct to a few ulps only, and the differences of the outputs that amplify it (the pin force,
+    k R (G - gamma)) are rounding at the 1e-6 level of the small slopes.  Angles whose differences would cross a
+    wall, the clipping or the switch of chi between the approach and the energy speed (the state differs at
+    phi or w +- 40 difference steps, well beyond the reference's largest) are left out: there the outputs have a kink
+    and no slope."""
+    p = m.p
+    junctions = _junctions(m)
+    w, half = 15.7, 0.5 * p.clearance
+    turn = np.linspace(0.0, 2 * math.pi, n_phi, endpoint=False) + 0.05
+    g1_max = max(abs(m.kinematics(phi)[1]) for phi in np.linspace(0.0, 2 * math.pi, 720))
+    for phi in turn:
+        if min(abs(phi - j) for j in junctions) < 2e-3:
+            continue
+        u = [phi, w, -0.7]
+        g, g1, _ = m.kinematics(phi)
+        if 0.0 < abs(g1) < 1e-2 * g1_max:
+            continue
+        x = m.initial_state(u)
+        if p.fidelity == 1:
+            x[0], x[1] = g + 1e-3 * rng.normal(), g1 * w * (1.0 + 0.1 * rng.normal())
+            yield x, u, "elastic"
+            continue
+        if p.fidelity == 0:
+            yield x, u, "rigid"
+            continue
+        R = m.lever(phi, g)
+        k, m_eff = m._pin_stiffness(R)
+        c = _contact.kelvin_voigt_damping(k, m_eff, p.restitution)
+        for phase in ("separated", "positive wall", "negative wall"):
+            pen = p.clearance * rng.uniform(1.0, 5.0)
+            q = {"separated": 0.6 * half * rng.uniform(-1, 1), "positive wall": half + pen,
+                 "negative wall": -half - pen}[phase]
+            qd = rng.uniform(-1.5, 1.5) * k * pen / c
+            x = m.initial_state(u)
+            x[0], x[1] = g - q / R, g1 * w - qd / R
+            x[4] = float(rng.integers(0, 2))
+            x[2] = abs(qd) * rng.uniform(0.5, 2.0) if x[4] else 0.0
+            state = _pin_state(m, phi, w, x)
+            step = 40 * _base.DIFFERENCE_STEP
+            near = [_pin_state(m, phi + s * step * max(1.0, phi), w, x) for s in (-1, 1)]
+            near += [_pin_state(m, phi, w + s * step * w, x) for s in (-1, 1)]
+            if any(n != state for n in near):
+                continue
+            yield x, u, phase
+
+
+def _refuse_differences(*args):
+    raise AssertionError("output_jacobian took differences")
+
+
+@pytest.mark.parametrize("fidelity", [0, 1, 2])
+@pytest.mark.parametrize("case", JACOBIAN_CASES, ids=JACOBIAN_IDS)
+def test_output_jacobian_is_the_derivative_of_the_outputs(monkeypatch, case, fidelity):
+    """output_jacobian (closed form at fidelities 0-2) against the differences of output() (Richardson-combined
+    output_jacobian_by_differences) for every law on both mechanisms, at crank angles over a turn away from the
+    law's junctions; at fidelity 2 for each contact law in the three phases of the play (separated, on either
+    wall, incl. clipped receding contacts, onset and stored approach speeds): every entry within 1e-6 of its
+    column's largest, without taking differences (the model's output_jacobian_by_differences refuses; the
+    reference calls Model's).  Fails on the previous code (differences; at their own step they differ by up to
+    2e-4 from the slope of the pressure angle near the stone's turning points)."""
+    rng = np.random.default_rng(29 + fidelity)
+    phases = {}
+    for contact_law in ((0, 1, 2, 3) if fidelity == 2 else (0,)):
+        # a 1 mm play at fidelity 2: wide enough that the differences of a separated play stay inside it
+        m = _model(case, fidelity=fidelity, contact_law=contact_law, clearance=1e-3 if fidelity == 2 else 1e-5)
+        monkeypatch.setattr(m, "output_jacobian_by_differences", _refuse_differences)
+        for x, u, phase in _jacobian_points(m, rng):
+            got = m.output_jacobian(0.0, x, u)
+            ref = _reference_jacobian(m, x, u)
+            scale = np.maximum(np.max(np.abs(ref), axis=0), 1e-6 * np.max(np.abs(ref)))  # a column of rounding only
+            bad = np.abs(got - ref) > 1e-6 * scale
+            assert not bad.any(), (contact_law, phase, u, np.argwhere(bad), got[bad], ref[bad])
+            phases[phase] = phases.get(phase, 0) + 1
+    if fidelity == 2:
+        assert all(phases.get(p, 0) >= 20 for p in ("separated", "positive wall", "negative wall")), phases
+    else:
+        assert sum(phases.values()) >= 18
+
+
+@pytest.mark.parametrize("fidelity", [0, 1, 2])
+@pytest.mark.parametrize("mechanism", [0, 1])
+def test_output_jacobian_takes_no_differences(monkeypatch, mechanism, fidelity):
+    """Fidelities 0-2 give D from their equations: output_jacobian never calls output_jacobian_by_differences
+    (monkeypatched to raise).  Fails on the previous code (differences at every fidelity)."""
+    m = _model((mechanism, 1, -1, 0.4, 4.03), fidelity=fidelity, contact_law=1)
+    monkeypatch.setattr(m, "output_jacobian_by_differences", _refuse_differences)
+    for phi in (0.3, 2.0, 4.1):
+        u = [phi, 15.7, 0.2]
+        x = m.initial_state(u)
+        x[0] += 2e-4
+        assert np.isfinite(m.output_jacobian(0.0, x, u)).all()
+
+
+def test_stone_slopes_are_the_derivatives_of_the_stone_radius_rate_and_pressure_angle():
+    """groove.stone_slopes_scalar (rho'', theta') against central differences of stone_scalar's rho' and theta
+    along the kulisa law (C0 with a dwell, lambda2 4.2) over a turn, away from the law's junctions and from the
+    points where theta is clipped or 0: within 1e-6 of the largest slope."""
+    m = CamRockerModel(CamRockerParams(**FEEDER))
+    p, junctions = m.p, _junctions(m)
+
+    def stone(phi):
+        g, g1, _ = m.kinematics(phi)
+        return _groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, m.branch)
+    h = 1e-6
+    got, ref = [], []
+    for phi in np.linspace(0.0, 2 * math.pi, 720, endpoint=False):
+        if min(abs(phi - j) for j in junctions) < 1e-3 or not 0.0 < stone(phi)[2] < 0.5 * math.pi - 1e-3:
+            continue
+        got.append(_groove.stone_slopes_scalar(phi, *m.kinematics(phi), p.lambda1, p.lambda2, m.branch))
+        ref.append([(stone(phi + h)[i] - stone(phi - h)[i]) / (2 * h) for i in (1, 2)])
+    got, ref = np.array(got), np.array(ref)
+    assert len(got) > 300
+    assert np.all(np.abs(got - ref) <= 1e-6 * np.max(np.abs(ref), axis=0))

@@ -95,6 +95,18 @@ def bed_invariants(k, u, m=np):
     return a, b, c
 
 
+def bed_invariants_jerk(k: float, u: float) -> float:
+    """dc/dk of :func:`bed_invariants` at one k (its c differentiated once more): -C w sin(w k) on the run-up,
+    the mirror's -C w sin(w (1 - k)) on the run-out, 0 on the uniform segment (the same segments)."""
+    w = PI / (2.0 * u)
+    C = 1.0 / (2.0 / (w * w) + (1.0 - 2.0 * u) / w)
+    if k <= u:
+        return -C * w * math.sin(w * k)
+    if k >= 1.0 - u:
+        return -C * w * math.sin(w * (1.0 - k))
+    return 0.0
+
+
 def runup_for_zone(zone_start: float, zone_end: float) -> float:
     """Largest run-up share u whose uniform segment covers the printing zone [zone_start, zone_end] given as
     shares of the bed stroke (0 < zone_start < zone_end < 1): a_alpha(u) = 1 / (2 + (1 - 2u) pi / (2u))
@@ -150,6 +162,23 @@ class FourBarStroke:
                                                 self.branch)
         return ((psi - self.psi0) / self.swing, v * self.span / self.swing, acc * self.span ** 2 / self.swing)
 
+    def jerk(self, k: float) -> float:
+        """dc_delta/dk at one k: the rocker's j = d3psi/dphi3 from the loop closure a e^(i phi) + b e^(i th) =
+        f + r e^(i psi) differentiated three times (real part after multiplying by e^(-i th)):
+        j = v^3 + (3 r v acc cos(th - psi) - a sin(th - phi) - 3 b vc acc_c) / (r sin(th - psi)), with the
+        coupler's vc = a sin(psi - phi) / (b sin(th - psi)) and acc_c = (r acc cos(th - psi) + r v^2 sin(th - psi)
+        - a sin(th - phi)) / b (the imaginary part of the second derivative); psi, v, acc are kinematics_scalar's
+        and th fourbar.position's (fourbar.py gives no third derivative)."""
+        a, b, r = self.a, self.b, self.r
+        phi = self.start + k * self.span
+        psi, v, acc, _ = fourbar.kinematics_scalar(phi, a, b, self.f, r, self.branch)
+        th = float(fourbar.position(phi, a, b, self.f, r, self.branch)[1])
+        s_cr, c_cr, s_ta = math.sin(th - psi), math.cos(th - psi), math.sin(th - phi)
+        vc = a * math.sin(psi - phi) / (b * s_cr)
+        acc_c = (r * acc * c_cr + r * v * v * s_cr - a * s_ta) / b
+        jerk = v ** 3 + (3.0 * r * v * acc * c_cr - a * s_ta - 3.0 * b * vc * acc_c) / (r * s_cr)
+        return jerk * self.span ** 3 / self.swing
+
 
 @lru_cache(maxsize=16)
 def working_stroke(linkage=SEED_LINKAGE, branch: int = SEED_BRANCH) -> FourBarStroke:
@@ -201,8 +230,11 @@ def carrier_law(runup: float, ratio: float = SEED_RATIO, gamma_swing: float = SE
         da, db, dc = st.invariants(k, m)
         return wa * ba - wd * da, wa * bb - wd * db, wa * bc - wd * dc
 
+    def piece_jerk(k, m):
+        return wa * bed_invariants_jerk(k, runup) - wd * st.jerk(k)
+
     law = Law("bed004", f"seed 004 carrier law for a uniform bed (run-up share {runup:g}, K = {K:g})",
-              ((1.0, piece),), (("runup", runup),))
+              ((1.0, piece),), (("runup", runup),), (piece_jerk,))
     k = np.linspace(0.0, 1.0, check_points)
     _, b, _ = law(k)
     if np.min(b) < -1e-12:
@@ -243,7 +275,11 @@ def carrier_return_law(ratio: float = SEED_RATIO, gamma_swing: float = SEED_CARR
         da, db, dc = st.invariants(k, m)
         return wa * ba - wd * da, wa * bb - wd * db, wa * bc - wd * dc
 
-    law = Law("bed004r", f"seed 004 carrier return law for a harmonic bed return (K = {K:g})", ((1.0, piece),))
+    def piece_jerk(k, m):
+        return wa * (-PI ** 3 / 2.0) * math.sin(PI * k) - wd * st.jerk(k)     # bed_idle_invariants' c, differentiated
+
+    law = Law("bed004r", f"seed 004 carrier return law for a harmonic bed return (K = {K:g})", ((1.0, piece),),
+              (), (piece_jerk,))
     k = np.linspace(0.0, 1.0, check_points)
     _, b, _ = law(k)
     if np.min(b) < -1e-9:

@@ -201,6 +201,13 @@ class CamRockerModel(Model):
         sw = self.p.swing
         return sw * s, sw * s1, sw * s2
 
+    def kinematics_jerk(self, phi: float) -> float:
+        """d3G/dphi3 of the rocker: the law's jerk (laws.Law.jerk through the dwell cycle), scaled as
+        :meth:`kinematics` scales its G''."""
+        if self.p.mechanism == 0:
+            return self.kulisa.jerk(phi)
+        return self.p.swing * self.cycle.jerk(phi)
+
     def lever(self, phi: float, g: float) -> float:
         """Radius R [m] at which the clearance acts (stone radius, or follower arm)."""
         if self.p.mechanism == 0:
@@ -223,6 +230,40 @@ class CamRockerModel(Model):
         vn = math.hypot(vx, vy)
         theta = 0.0 if vn == 0.0 else math.acos(min(1.0, abs(vx * ey - vy * ex) / vn))
         return theta, math.hypot(cx, cy)
+
+    def geometry_slopes(self, phi: float, kin) -> tuple[float, float]:
+        """(d pressure angle/dphi, d radius/dphi) of :meth:`geometry` at crank angle phi (``kin`` =
+        ``kinematics(phi)``).  Slotted rocker: groove.stone_slopes_scalar (theta') and the stone radius's rate
+        r rho' (stone_scalar's).  Cam: the follower angle psi = psi0 + G moves at G', so the roller centre C and the
+        direction e turn with it (dC/dphi = l G' e, de/dphi = G' (cos psi, -sin psi)); the relative velocity
+        v = l G' e + (cy, -cx) moves by l G'' e + l G' de/dphi + (dcy, -dcx); theta = arccos(z),
+        z = |v x e| / |v|, has slope -z' / sqrt(1 - z^2) (0 where geometry() clips z at 1 or gives 0)."""
+        p = self.p
+        g, g1, g2 = kin
+        if p.mechanism == 0:
+            _, rho1, _ = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
+            _, theta1 = groove.stone_slopes_scalar(phi, g, g1, g2, p.lambda1, p.lambda2, self.branch)
+            return theta1, rho1 * p.crank_radius
+        a, l = p.cam_distance, p.follower_arm
+        psi = self.psi0 + g
+        cx, cy = a - l * math.cos(psi), l * math.sin(psi)
+        ex, ey = math.sin(psi), math.cos(psi)
+        vx, vy = l * g1 * ex + cy, l * g1 * ey - cx
+        cx1, cy1 = l * ex * g1, l * ey * g1
+        ex1, ey1 = ey * g1, -ex * g1
+        vx1 = l * g2 * ex + l * g1 * ex1 + cy1
+        vy1 = l * g2 * ey + l * g1 * ey1 - cx1
+        radius1 = (cx * cx1 + cy * cy1) / math.hypot(cx, cy)
+        vn = math.hypot(vx, vy)
+        if vn == 0.0:
+            return 0.0, radius1
+        cr = vx * ey - vy * ex
+        z = abs(cr) / vn
+        if z >= 1.0:
+            return 0.0, radius1
+        cr1 = vx1 * ey + vx * ey1 - vy1 * ex - vy * ex1
+        z1 = math.copysign(1.0, cr) * cr1 / vn - abs(cr) * (vx * vx1 + vy * vy1) / vn ** 3
+        return -z1 / math.sqrt(1.0 - z * z), radius1
 
     # -- model interface --------------------------------------------------------------------------------------
     def substep_limit(self) -> float:
@@ -603,9 +644,72 @@ class CamRockerModel(Model):
         return (-g1 * T, x[0], x[1], theta, radius, abs(F), x[4], x[3], 0.0, 0.0, 0.0)
 
     def output_jacobian(self, t, x, u):
-        """By central differences of :meth:`output` (Model.output_jacobian_by_differences).  Why not in closed
-        form: the outputs' slopes in the crank angle need the third derivative of the cam law (the rigid level's
-        torque holds g2), the groove's geometry and, at fidelity 3, the joints' contact laws; the outputs are
-        smooth in the inputs between switches of the law's segments, where the differences agree with the exact
-        slopes to ~1e-9 relative."""
-        return self.output_jacobian_by_differences(t, x, u)
+        """d outputs / d (crank.phi, crank.w, rocker.tau) in closed form at fidelities 0-2, from :meth:`output`'s
+        equations; fidelity 3 by central differences (Model.output_jacobian_by_differences), see below.
+
+        Every level: pressure_angle and stone_radius are geometry of the rigid law alone, their slopes in the crank
+        angle :meth:`geometry_slopes` (the groove's rho'' and theta', or the cam's roller geometry, which need G'').
+        Fidelity 0: crank.tau = -G' (J G'' w^2 - rocker.tau) holds G'', so its slope in the angle needs the law's
+        jerk d3G/dphi3 (:meth:`kinematics_jerk`: each law's c differentiated beside its own equation, laws.Law.jerk);
+        rocker.phi = G and rocker.w = G' w.  Fidelity 1: rocker.phi, rocker.w are the states (slope 0), the torque
+        T = k (G - gamma) + c (G' w - omega) moves with G' and G''.  Fidelity 2: the pin force
+        F(q, qdot, k_pin, m_eff) with q = R (G - gamma), qdot = R (G' w - omega) and the lever R (the stone radius
+        r rho(phi), or the constant arm) setting k_pin = 1/(1/contact_stiffness + R^2/stiffness) and
+        m_eff = J/R^2; its partial derivatives in q, qdot and m_eff are contact.contact_force_slopes' (every law
+        and phase: separated or clipped 0), the one in k_pin follows from the laws being homogeneous of degree 1
+        in (k, m_eff) (Kelvin-Voigt's c = 2 zeta sqrt(k m), the Hunt-Crossley family's energy speed a function
+        of k/m): dF/dk = (F - m dF/dm)/k.  A contact that began inside the present sub-step (flag still 0) takes
+        |qdot| as its approach speed (:meth:`transmitted`); with a Hunt-Crossley-family law that speed, when it
+        governs chi = C/v0, makes the damping term C side sign(qdot) k pen^n constant in qdot: its slope in qdot is
+        0 there.  crank.tau = G' F R, pin_force = |F| (slope sign(F) dF); the contact flag and counters are
+        states (slope 0); rocker.tau drives only the state at fidelities 1 and 2 (column 0).
+        Why fidelity 3 keeps differences: its outputs are the two joints' forces, each through the crank pin, the
+        profile point B_g(phi) and its normal n_g(phi) (which need G'' and the groove's rho''), the conrod
+        direction and two reduced masses depending on the stone's pose; that closed form is not written yet (the
+        outputs are smooth in the inputs between contact switches, where the differences agree with the slopes
+        to ~1e-9 relative).
+        At a junction of the law's segments (G'' or its slope jumps) and on a kink of the contact law the slope of the
+        side output() takes is returned."""
+        p = self.p
+        if p.fidelity == 3:
+            return self.output_jacobian_by_differences(t, x, u)
+        phi, w, tau_load = float(u[0]), float(u[1]), float(u[2])
+        kin = self.kinematics(phi)
+        g, g1, g2 = kin
+        D = np.zeros((len(self.outputs), len(self.inputs)))
+        D[3, 0], radius1 = self.geometry_slopes(phi, kin)
+        D[4, 0] = radius1
+        J = p.rocker_inertia
+        if p.fidelity == 0:
+            g3 = self.kinematics_jerk(phi)
+            T = J * g2 * w * w - tau_load
+            D[0] = (-g2 * T - g1 * J * g3 * w * w, -2.0 * g1 * J * g2 * w, g1)
+            D[1, 0] = g1
+            D[2, :2] = (g2 * w, g1)
+            return D
+        gamma, omega = float(x[0]), float(x[1])
+        if p.fidelity == 1:
+            k, c = p.stiffness, p.damping
+            T = k * (g - gamma) + c * (g1 * w - omega)
+            D[0, :2] = (-g2 * T - g1 * (k * g1 + c * g2 * w), -g1 * c * g1)
+            return D
+        R, R1 = (self.geometry(phi, kin)[1], radius1) if p.mechanism == 0 else (p.follower_arm, 0.0)
+        q, qd, k, m = self._pin(g, g1, R, w, x)
+        onset = x[4] == 0.0
+        v0 = abs(qd) if onset else x[2]
+        F, F_q, F_qd, F_m = contact.contact_force_slopes(q, qd, p.clearance, k, p.contact_law, p.restitution, v0, m,
+                                                         p.contact_exponent)
+        if onset and F != 0.0 and p.contact_law != contact.KELVIN_VOIGT and v0 > contact.V0_FLOOR:
+            pen = contact.penetration(q, qd, p.clearance)[0]
+            if contact.energy_speed(pen, k, m, p.contact_exponent) <= v0:    # the onset speed |qdot| governs chi
+                F_qd = 0.0
+        F_k = (F - m * F_m) / k
+        F_R = F_k * (-2.0 * k * k * R / p.stiffness) + F_m * (-2.0 * m / R)
+        q_phi = R1 * (g - gamma) + R * g1
+        qd_phi = R1 * (g1 * w - omega) + R * g2 * w
+        dF = np.array([F_q * q_phi + F_qd * qd_phi + F_R * R1, F_qd * R * g1, 0.0])
+        D[0] = g1 * R * dF
+        D[0, 0] += (g2 * R + g1 * R1) * F
+        if F != 0.0:
+            D[5] = math.copysign(1.0, F) * dF
+        return D

@@ -101,6 +101,10 @@ class KulisaLaw:
         k = self.direction * self.swing
         return self.gamma_start + k * s, k * s1, k * s2
 
+    def jerk(self, phi: float) -> float:
+        """d3gamma_b/dphi3 at one crank angle (the cycle's DwellCycle.jerk, scaled as the law)."""
+        return self.direction * self.swing * self.cycle.jerk(phi)
+
 
 def base_design(lam1: float, lam2: float, lam3: float, assembly: int = 1) -> dict:
     """The base four-bar (same lambda1, lambda2, lambda3) whose extremes fix the kulisa law (module doc)."""
@@ -284,6 +288,39 @@ def stone_scalar(phi: float, g: float, g1: float, lam1: float, lam2: float, bran
     if nt == 0.0:
         return rho, r1, 0.0
     return rho, r1, math.acos(min(1.0, abs(r1 * cm - nt * sm) / abs(nt)))
+
+
+def stone_slopes_scalar(phi: float, g: float, g1: float, g2: float, lam1: float, lam2: float,
+                        branch: int = 1) -> tuple[float, float]:
+    """(d2rho_i/dphi2, d theta/dphi) at one point (g2 = d2G/dphi2): the slopes of :func:`stone_scalar`'s rate and
+    pressure angle, for a component's directional derivatives.  rho'' is :func:`synthesize`'s r2 (Q'' from N''),
+    and theta = arccos(z), z = |rho' cos mu - nt sin mu| / |nt| (nt = rho g', sin mu = N / lambda2,
+    cos mu = Q / lambda2) differentiated: theta' = -z' / sqrt(1 - z^2), 0 where stone_scalar clips z to 1 or
+    gives theta = 0 (nt = 0, a stone at rest or at its groove's reach)."""
+    sg, cg = math.sin(g), math.cos(g)
+    sd, cd = math.sin(phi - g), math.cos(phi - g)
+    N = lam1 * sg + sd
+    Q = branch * math.sqrt(max(lam2 * lam2 - N * N, 0.0))
+    one = 1.0 - g1
+    N1 = lam1 * cg * g1 + cd * one
+    if Q == 0.0:
+        return math.nan, 0.0
+    N2 = -lam1 * sg * g1 ** 2 + lam1 * cg * g2 - sd * one ** 2 - cd * g2
+    Q1 = -N * N1 / Q
+    Q2 = -(N1 ** 2 + N * N2) / Q - N ** 2 * N1 ** 2 / Q ** 3
+    rho = cd - lam1 * cg + Q
+    r1 = -sd * one + lam1 * sg * g1 + Q1
+    r2 = -cd * one ** 2 + sd * g2 + lam1 * cg * g1 ** 2 + lam1 * sg * g2 + Q2
+    nt, nt1 = rho * g1, r1 * g1 + rho * g2
+    if nt == 0.0:
+        return r2, 0.0
+    a = (r1 * Q - nt * N) / lam2
+    a1 = (r2 * Q + r1 * Q1 - nt1 * N - nt * N1) / lam2
+    z = abs(a) / abs(nt)
+    if z >= 1.0:
+        return r2, 0.0
+    z1 = math.copysign(1.0, a) * a1 / abs(nt) - abs(a) * math.copysign(1.0, nt) * nt1 / (nt * nt)
+    return r2, -z1 / math.sqrt(1.0 - z * z)
 
 
 # -- checks --------------------------------------------------------------------------------------------------

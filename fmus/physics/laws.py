@@ -57,8 +57,16 @@ def _k0(k, m):
     return (1.0 - m.cos(PI * k)) / 2.0, (PI / 2.0) * m.sin(PI * k), (PI ** 2 / 2.0) * m.cos(PI * k)
 
 
+def _k0_jerk(k, m):
+    return -(PI ** 3 / 2.0) * m.sin(PI * k)
+
+
 def _c0(k, m):
     return (k - m.sin(2 * PI * k) / (2 * PI), 1.0 - m.cos(2 * PI * k), 2 * PI * m.sin(2 * PI * k))
+
+
+def _c0_jerk(k, m):
+    return 4 * PI ** 2 * m.cos(2 * PI * k)
 
 
 def _double_harmonic(k, m):
@@ -67,15 +75,27 @@ def _double_harmonic(k, m):
             0.5 * PI ** 2 * (m.cos(PI * k) - m.cos(2 * PI * k)))
 
 
+def _double_harmonic_jerk(k, m):
+    return 0.5 * PI ** 3 * (2.0 * m.sin(2 * PI * k) - m.sin(PI * k))
+
+
 def _p345(k, m):
     return (10 * k ** 3 - 15 * k ** 4 + 6 * k ** 5, 30 * k ** 2 - 60 * k ** 3 + 30 * k ** 4,
             60 * k - 180 * k ** 2 + 120 * k ** 3)
+
+
+def _p345_jerk(k, m):
+    return 60 - 360 * k + 360 * k ** 2
 
 
 def _p4567(k, m):
     return (35 * k ** 4 - 84 * k ** 5 + 70 * k ** 6 - 20 * k ** 7,
             140 * k ** 3 - 420 * k ** 4 + 420 * k ** 5 - 140 * k ** 6,
             420 * k ** 2 - 1680 * k ** 3 + 2100 * k ** 4 - 840 * k ** 5)
+
+
+def _p4567_jerk(k, m):
+    return 840 * k - 5040 * k ** 2 + 8400 * k ** 3 - 4200 * k ** 4
 
 
 def power_constant(n: float) -> float:
@@ -93,12 +113,19 @@ def _power(n: float) -> Law:
         return (C * (k * k / 2.0 - t ** (n + 2) / (4.0 * (n + 1) * (n + 2))),
                 C * (k - t ** (n + 1) / (2.0 * (n + 1))), C * (1.0 - t ** n))
 
+    def first_jerk(k, m):
+        t = 2.0 * k
+        return -2.0 * n * C * (t ** (n - 1.0) if t > 0.0 or n >= 1.0 else math.inf)   # n < 1: infinite at k = 0
+
     def second(k, m):
         a, b, c = first(1.0 - k, m)
         return 1.0 - a, b, -c
 
+    def second_jerk(k, m):
+        return first_jerk(1.0 - k, m)
+
     return Law("power", f"power family eps = C[1-(2k)^n], n = {n:g}, C = {C:.6g}, point-symmetric completion",
-               ((0.5, first), (1.0, second)), (("n", n),))
+               ((0.5, first), (1.0, second)), (("n", n),), (first_jerk, second_jerk))
 
 
 # Seed 001 names its laws by the catalogue codes "group, number" of Tir & Senyk [10] (1 harmonic, 2 cycloidal,
@@ -149,6 +176,9 @@ def _p6(k_m: float) -> Law:
         x = PI * k / k_m
         return A * k_m / PI * (k - k_m / PI * m.sin(x)), A * k_m / PI * (1.0 - m.cos(x)), A * m.sin(x)
 
+    def up_jerk(k, m):
+        return A * PI / k_m * m.cos(PI * k / k_m)
+
     def down(k, m):
         L = 1.0 - k_m
         u = (k - k_m) / L
@@ -156,8 +186,12 @@ def _p6(k_m: float) -> Law:
         return (k_m + V * L * u - B * L * L / PI * (u - m.sin(PI * u) / PI),
                 V - B * L / PI * (1.0 - m.cos(PI * u)), -B * m.sin(PI * u))
 
+    def down_jerk(k, m):
+        L = 1.0 - k_m
+        return -B * PI / L * m.cos(PI * (k - k_m) / L)
+
     return Law("P6", f"stand-in for Stoddart P6 (no formula in the source): asymmetric cycloidal, k_m = {k_m:g}",
-               ((k_m, up), (1.0, down)), (("k_m", k_m),))
+               ((k_m, up), (1.0, down)), (("k_m", k_m),), (up_jerk, down_jerk))
 
 
 def _composite(k_m: float) -> Law:
@@ -171,22 +205,30 @@ def _composite(k_m: float) -> Law:
         return (2.0 * H1 * (u - m.sin(2 * PI * u) / (2 * PI)), H1 * (1.0 - m.cos(2 * PI * u)) / k_m,
                 H1 * PI * m.sin(2 * PI * u) / k_m ** 2)
 
+    def up_jerk(k, m):
+        return H1 * PI ** 2 * m.cos(PI * k / k_m) / k_m ** 3      # du/dk = 1 / (2 k_m)
+
     def down(k, m):
         u = 0.5 + (k - k_m) / (2.0 * L)
         return (H1 + 2.0 * H2 * ((1.0 - m.cos(PI * u)) / 2.0 - 0.5), H2 * (PI / 2.0) * m.sin(PI * u) / L,
                 H2 * (PI ** 2 / 4.0) * m.cos(PI * u) / L ** 2)
 
+    def down_jerk(k, m):
+        u = 0.5 + (k - k_m) / (2.0 * L)
+        return -H2 * (PI ** 3 / 8.0) * m.sin(PI * u) / L ** 3      # du/dk = 1 / (2 L)
+
     return Law("composite", f"cycloidal run-up + harmonic run-out, k_m = {k_m:g} (spec 2.1.5)",
-               ((k_m, up), (1.0, down)), (("k_m", k_m),))
+               ((k_m, up), (1.0, down)), (("k_m", k_m),), (up_jerk, down_jerk))
 
 
 _FIXED = {
-    "K0": Law("K0", "harmonic (cosine acceleration)", ((1.0, _k0),)),
-    "C0": Law("C0", "cycloidal (sine acceleration)", ((1.0, _c0),)),
+    "K0": Law("K0", "harmonic (cosine acceleration)", ((1.0, _k0),), (), (_k0_jerk,)),
+    "C0": Law("C0", "cycloidal (sine acceleration)", ((1.0, _c0),), (), (_c0_jerk,)),
     "0000": Law("0000", "our reading of the undefined harmonic-group law '0000': double-harmonic law",
-                ((1.0, _double_harmonic),)),
-    "polydynamic": Law("polydynamic", "3-4-5 polynomial (polydynamic placeholder)", ((1.0, _p345),)),
-    "4567": Law("4567", "4-5-6-7 polynomial (zero jerk at the ends)", ((1.0, _p4567),)),
+                ((1.0, _double_harmonic),), (), (_double_harmonic_jerk,)),
+    "polydynamic": Law("polydynamic", "3-4-5 polynomial (polydynamic placeholder)", ((1.0, _p345),), (),
+                       (_p345_jerk,)),
+    "4567": Law("4567", "4-5-6-7 polynomial (zero jerk at the ends)", ((1.0, _p4567),), (), (_p4567_jerk,)),
 }
 _FAMILIES: dict[str, tuple[Callable[..., Law], dict[str, float]]] = {
     "power": (_power, {"n": 2.0}),
@@ -293,6 +335,19 @@ class DwellCycle:
             a, b, c = self.ret.scalar((th - self._t2) / P)
             return 1.0 - a, -b / P, -c / (P * P)
         return 0.0, 0.0, 0.0
+
+    def jerk(self, phi: float) -> float:
+        """d3s/dphi3 at one crank angle: the phase :meth:`scalar` takes there, its law's jerk (Law.jerk) scaled
+        like its acceleration by one more 1/phase; 0 in the dwells."""
+        th = (phi - self.phi_start) % TWO_PI
+        if th < self._t1:
+            return self.forward.jerk(th / self.phase_forward) / self.phase_forward ** 3
+        if th < self._t2:
+            return 0.0
+        if th < self._t3:
+            P = self.phase_return
+            return -self.ret.jerk((th - self._t2) / P) / (P * P * P)
+        return 0.0
 
 
 def follower_motion(cycle: DwellCycle, phi, w: float, H: float):

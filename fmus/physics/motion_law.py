@@ -17,11 +17,16 @@ PieceFn = Callable[[object, object], tuple]
 
 @dataclass(frozen=True)
 class Law:
-    """A law of periodic motion: pieces ``(k_end, f)`` with ``f(k, m) -> (a, b, c)`` on [k_start, k_end]."""
+    """A law of periodic motion: pieces ``(k_end, f)`` with ``f(k, m) -> (a, b, c)`` on [k_start, k_end].
+
+    ``jerks``, when given, holds one function ``j(k, m) -> dc/dk`` per piece, written beside the piece's own
+    equation (its acceleration invariant differentiated once more): the slopes of a component's outputs in the
+    crank angle (its directional derivatives) need it where an output holds c."""
     name: str
     doc: str
     pieces: tuple[tuple[float, PieceFn], ...]
     params: tuple[tuple[str, float], ...] = ()
+    jerks: tuple[Callable[[object, object], object], ...] = ()
 
     def __call__(self, k) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(a, b, c) for an array of k (values outside [0, 1] are clipped)."""
@@ -49,6 +54,18 @@ class Law:
             if k < end:
                 return f(k, math)
         return self.pieces[-1][1](k, math)
+
+    def jerk(self, k: float) -> float:
+        """dc/dk at one k, from the piece :meth:`scalar` takes there (at a junction, the piece on its right, as
+        scalar's); 0 outside [0, 1], where scalar clips k (a, b, c held constant)."""
+        if not self.jerks:
+            raise ValueError(f"law {self.name!r} gives no jerk (dc/dk): its pieces have no derivative of c")
+        if k < 0.0 or k > 1.0:
+            return 0.0
+        for (end, _), j in zip(self.pieces, self.jerks):
+            if k < end:
+                return j(k, math)
+        return self.jerks[-1](k, math)
 
     def coefficients(self, n: int = 20001) -> tuple[float, float]:
         """(C_v, C_a) = (max|b|, max|c|) on a grid of n points."""
