@@ -382,6 +382,15 @@ def _reference_jacobian(m, x, u):
     return (16.0 * r2 - r1) / 15.0
 
 
+def _tolerance(m, x, u, ref):
+    """1e-6 of each column's largest entry, and not below the reference's own rounding: the outputs hold the plays
+    as differences of lengths ~1e3 times larger (|B - A| - L, (B - B_g).n_g, R (G - gamma)), so they are known to
+    ~1e-13 of their size, which the differences divide by their step (a small slope of a large force)."""
+    y = np.abs(np.asarray(m.output(0.0, x, u), dtype=float))
+    steps = _base.DIFFERENCE_STEP * np.maximum(1.0, np.abs(np.asarray(u, dtype=float)))
+    return np.maximum(1e-6 * np.max(np.abs(ref), axis=0)[None, :], 1e-13 * y[:, None] / steps[None, :])
+
+
 def _pin_state(m, phi, w, x):
     """(side of the stone-pin play, pin force == 0, energy speed above the approach speed) at one input: the
     contact phase the outputs are in, and which speed sets the Hunt-Crossley family's chi (a kink between)."""
@@ -468,8 +477,7 @@ def test_output_jacobian_is_the_derivative_of_the_outputs(monkeypatch, case, fid
         for x, u, phase in _jacobian_points(m, rng):
             got = m.output_jacobian(0.0, x, u)
             ref = _reference_jacobian(m, x, u)
-            scale = np.maximum(np.max(np.abs(ref), axis=0), 1e-6 * np.max(np.abs(ref)))  # a column of rounding only
-            bad = np.abs(got - ref) > 1e-6 * scale
+            bad = np.abs(got - ref) > _tolerance(m, x, u, ref)
             assert not bad.any(), (contact_law, phase, u, np.argwhere(bad), got[bad], ref[bad])
             phases[phase] = phases.get(phase, 0) + 1
     if fidelity == 2:
@@ -478,10 +486,9 @@ def test_output_jacobian_is_the_derivative_of_the_outputs(monkeypatch, case, fid
         assert sum(phases.values()) >= 18
 
 
-@pytest.mark.parametrize("fidelity", [0, 1, 2])
-@pytest.mark.parametrize("mechanism", [0, 1])
+@pytest.mark.parametrize("mechanism, fidelity", [(0, 0), (0, 1), (0, 2), (0, 3), (1, 0), (1, 1), (1, 2)])
 def test_output_jacobian_takes_no_differences(monkeypatch, mechanism, fidelity):
-    """Fidelities 0-2 give D from their equations: output_jacobian never calls output_jacobian_by_differences
+    """Every fidelity gives D from its equations: output_jacobian never calls output_jacobian_by_differences
     (monkeypatched to raise).  Fails on the previous code (differences at every fidelity)."""
     m = _model((mechanism, 1, -1, 0.4, 4.03), fidelity=fidelity, contact_law=1)
     monkeypatch.setattr(m, "output_jacobian_by_differences", _refuse_differences)
@@ -490,6 +497,83 @@ def test_output_jacobian_takes_no_differences(monkeypatch, mechanism, fidelity):
         x = m.initial_state(u)
         x[0] += 2e-4
         assert np.isfinite(m.output_jacobian(0.0, x, u)).all()
+
+
+def _joints_state(m, phi, w, x):
+    """Level 3: per joint (side of its play, force == 0, energy speed above the approach speed) at one input."""
+    p = m.p
+    gamma, rho = x[0], x[5]
+    f_p, f_g, _, (ex, ey), (d_p, r_p), (d_g, r_g) = m._joints(phi, w, gamma, x[1], rho, x[6], x)
+    nx, ny = m._frame(phi, w)[6:]
+    j_t = p.rocker_inertia + p.stone_mass * rho * rho
+
+    def reduced_mass(vx, vy):      # the stone's mobility along (vx, vy), as the module docstring states it
+        eu, en = vx * math.cos(gamma) + vy * math.sin(gamma), -vx * math.sin(gamma) + vy * math.cos(gamma)
+        return 1.0 / (eu * eu / p.stone_mass + en * en * rho * rho / j_t)
+    k_p = 1.0 / (1.0 / p.contact_stiffness + rho * rho / p.stiffness)
+    out = []
+    for d, rate, play, k, m_eff, force, v, flag in (
+            (d_p, r_p, p.clearance, k_p, reduced_mass(ex, ey), f_p, x[2], x[4]),
+            (d_g, r_g, p.groove_clearance, p.groove_stiffness, reduced_mass(nx, ny), f_g, x[7], x[9])):
+        pen, _, side = _contact.penetration(d, rate, play)
+        v0 = v if flag else abs(rate)
+        out.append((side, force == 0.0,
+                    side != 0.0 and _contact.energy_speed(pen, k, m_eff, p.contact_exponent) > v0))
+    return tuple(out)
+
+
+def _two_clearance_points(m, rng, n_phi=24):
+    """(x, u, (phase of the conrod eye, phase of the groove)) for level 3 at crank angles away from the law's
+    junctions and the creeping ends: the stone's pose (gamma, rho_s) and rates moved off the rigid law by a few
+    plays (1 mm each), contact flags 0 or 1 with stored approach speeds; points whose differences would cross a
+    wall, the clipping or chi's switch between approach and energy speed of either joint (the joints' states at
+    phi or w +- 40 difference steps) are left out."""
+    junctions = _junctions(m)
+    w = 15.7
+    g1_max = max(abs(m.kinematics(phi)[1]) for phi in np.linspace(0.0, 2 * math.pi, 720))
+    for phi in np.linspace(0.0, 2 * math.pi, n_phi, endpoint=False) + 0.05:
+        g1 = m.kinematics(phi)[1]
+        if min(abs(phi - j) for j in junctions) < 2e-3 or 0.0 < abs(g1) < 1e-2 * g1_max:
+            continue
+        u = [phi, w, -0.7]
+        for _ in range(6):
+            x = m.initial_state(u)
+            x[0] += 2e-3 / x[5] * rng.normal()
+            x[5] += 2e-3 * rng.normal()
+            x[1] += 0.05 * abs(x[1]) * rng.normal()
+            x[6] += 0.05 * abs(x[6]) * rng.normal()
+            x[4], x[9] = float(rng.integers(0, 2)), float(rng.integers(0, 2))
+            x[2], x[7] = rng.uniform(0.01, 1.0), rng.uniform(0.01, 1.0)
+            state = _joints_state(m, phi, w, x)
+            step = 40 * _base.DIFFERENCE_STEP
+            near = [_joints_state(m, phi + s * step * max(1.0, phi), w, x) for s in (-1, 1)]
+            near += [_joints_state(m, phi, w + s * step * w, x) for s in (-1, 1)]
+            if any(n != state for n in near):
+                continue
+            names = {0.0: "separated", 1.0: "positive wall", -1.0: "negative wall"}
+            yield x, u, (names[state[0][0]], names[state[1][0]])
+
+
+@pytest.mark.parametrize("case", JACOBIAN_CASES[:9], ids=JACOBIAN_IDS[:9])
+def test_two_clearance_output_jacobian_is_the_derivative_of_the_outputs(monkeypatch, case):
+    """Level 3 (seed 000's two clearances, slotted rocker): output_jacobian in closed form against the
+    Richardson-combined differences of output() for every law, each contact law, with the conrod eye and the
+    roller each separated or on either wall: every entry within 1e-6 of its column's largest, without taking
+    differences.  Fails on the previous code (differences)."""
+    rng = np.random.default_rng(2900)
+    phases = {}
+    for contact_law in (0, 1, 2, 3):
+        m = _model(case, fidelity=3, contact_law=contact_law, clearance=1e-3, groove_clearance=1e-3)
+        monkeypatch.setattr(m, "output_jacobian_by_differences", _refuse_differences)
+        for x, u, phase in _two_clearance_points(m, rng):
+            got = m.output_jacobian(0.0, x, u)
+            ref = _reference_jacobian(m, x, u)
+            bad = np.abs(got - ref) > _tolerance(m, x, u, ref)
+            assert not bad.any(), (contact_law, phase, u, np.argwhere(bad), got[bad], ref[bad])
+            for joint, ph in zip(("eye", "groove"), phase):
+                phases[joint, ph] = phases.get((joint, ph), 0) + 1
+    for joint in ("eye", "groove"):
+        assert all(phases.get((joint, ph), 0) >= 10 for ph in ("separated", "positive wall", "negative wall")), phases
 
 
 def test_stone_slopes_are_the_derivatives_of_the_stone_radius_rate_and_pressure_angle():

@@ -643,9 +643,102 @@ class CamRockerModel(Model):
         T, F = self.transmitted(phi, w, x, (g, g1, lever))
         return (-g1 * T, x[0], x[1], theta, radius, abs(F), x[4], x[3], 0.0, 0.0, 0.0)
 
+    def _force_slopes(self, d, rate, play, k, m_eff, v_stored, flag) -> tuple[float, float, float, float]:
+        """(F, dF/dd, dF/d rate, dF/dm_eff) of one clearance joint as :meth:`transmitted` / :meth:`_joints` use its
+        law: contact.contact_force_slopes with the stored approach speed, or (flag 0, a contact begun inside the
+        sub-step) |rate|; when that onset speed governs the Hunt-Crossley family's chi = C/|rate|, the damping
+        term C side sign(rate) k pen^n does not move with the rate: slope 0 in the rate."""
+        p = self.p
+        onset = flag == 0.0
+        v0 = abs(rate) if onset else v_stored
+        F, F_d, F_rate, F_m = contact.contact_force_slopes(d, rate, play, k, p.contact_law, p.restitution, v0, m_eff,
+                                                           p.contact_exponent)
+        if onset and F != 0.0 and p.contact_law != contact.KELVIN_VOIGT and v0 > contact.V0_FLOOR:
+            pen = contact.penetration(d, rate, play)[0]
+            if contact.energy_speed(pen, k, m_eff, p.contact_exponent) <= v0:
+                F_rate = 0.0
+        return F, F_d, F_rate, F_m
+
+    def _two_clearance_jacobian(self, x, u, D) -> None:
+        """Rows crank.tau, pin_force and groove_force of level 3's D (the states' outputs have slope 0, the
+        pressure angle's row is set by the caller).  With the stone's pose (gamma, omega, rho_s, its rate) held:
+        * the conrod eye: A = r (cos phi - lambda1, sin phi) moves at A' = r (-sin, cos), so d_p' = -e.A' and
+          e' = -(A' - (e.A') e)/|B - A|; the eye's rate e.(v_B - v_A) moves with e' and v_A' = -w A, and with
+          crank.w through -e.A'; the reduced mass 1/((e.u)^2/m_s + (rho_s e.n)^2/J_t) with e;
+        * the groove: B_g moves along its own tangent, so d_g' = (B - B_g).n_g' and (d_g rate)' = v_B.n_g'
+          (no crank.w in either); n_g = (-t_y, t_x)/|t| turns with the profile tangent
+          t = rho' u + rho G' n, t' = (rho'' - rho G'^2) u + (2 rho' G' + rho G'') n (groove.stone_slopes_scalar's
+          rho''), n_g' = (I - n_g n_g^T)(-t'_y, t'_x)/|t|; its reduced mass with n_g;
+        * each force's slopes in its play, rate and reduced mass: :meth:`_force_slopes`;
+        * crank.tau = -F_p r (cos(phi) e_y - sin(phi) e_x)."""
+        p = self.p
+        phi, w = float(u[0]), float(u[1])
+        r, ms = p.crank_radius, p.stone_mass
+        gamma, omega, rho, rho_rate = float(x[0]), float(x[1]), float(x[5]), float(x[6])
+        frame = self._frame(phi, w)
+        ax, ay, rws, rwc, gx, gy, nx, ny = frame
+        c, s_ = math.cos(gamma), math.sin(gamma)
+        bx, by = rho * c, rho * s_
+        vbx, vby = rho_rate * c - rho * omega * s_, rho_rate * s_ + rho * omega * c
+        jt = p.rocker_inertia + ms * rho * rho
+
+        def mass_and_slope(ex, ey, ex1, ey1):
+            eu, en = ex * c + ey * s_, -ex * s_ + ey * c
+            eu1, en1 = ex1 * c + ey1 * s_, -ex1 * s_ + ey1 * c
+            m = 1.0 / (eu * eu / ms + en * en * rho * rho / jt)
+            return m, -m * m * (2.0 * eu * eu1 / ms + 2.0 * en * en1 * rho * rho / jt)
+
+        # the conrod eye
+        cp, sp = math.cos(phi), math.sin(phi)
+        dx, dy = bx - ax, by - ay
+        dist = math.hypot(dx, dy)
+        ex, ey = dx / dist, dy / dist
+        a1x, a1y = -r * sp, r * cp                     # dA/dphi
+        ea1 = ex * a1x + ey * a1y
+        ex1, ey1 = -(a1x - ea1 * ex) / dist, -(a1y - ea1 * ey) / dist
+        rvx, rvy = vbx + rws, vby - rwc                # v_B - v_A
+        d_p = dist - p.lambda2 * r
+        rate_p = ex * rvx + ey * rvy
+        rate_p_phi = ex1 * rvx + ey1 * rvy + ex * (r * w * cp) + ey * (r * w * sp)   # -e.v_A', v_A' = -w A_rel
+        rate_p_w = -ea1
+        k_p = 1.0 / (1.0 / p.contact_stiffness + rho * rho / p.stiffness)
+        m_p, m_p_phi = mass_and_slope(ex, ey, ex1, ey1)
+        F_p, Fp_d, Fp_rate, Fp_m = self._force_slopes(d_p, rate_p, p.clearance, k_p, m_p, x[2], x[4])
+        dF_p = (Fp_d * (-ea1) + Fp_rate * rate_p_phi + Fp_m * m_p_phi, Fp_rate * rate_p_w)
+        lever = r * (cp * ey - sp * ex)
+        lever_phi = r * (-sp * ey - cp * ex + cp * ey1 - sp * ex1)
+        D[0, :2] = (-(dF_p[0] * lever + F_p * lever_phi), -dF_p[1] * lever)
+        if F_p != 0.0:
+            D[5, :2] = (math.copysign(1.0, F_p) * dF_p[0], math.copysign(1.0, F_p) * dF_p[1])
+        # the roller in the groove
+        g, g1, g2 = self.kinematics(phi)
+        rk, rk1, _ = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
+        rk2, _ = groove.stone_slopes_scalar(phi, g, g1, g2, p.lambda1, p.lambda2, self.branch)
+        cg, sg = math.cos(g), math.sin(g)
+        tx, ty = rk1 * cg - rk * g1 * sg, rk1 * sg + rk * g1 * cg
+        tn = math.hypot(tx, ty)
+        if tn > 0.0:
+            tu, tnn = rk2 - rk * g1 * g1, 2.0 * rk1 * g1 + rk * g2          # t' in the slot's (u, n) basis
+            t1x, t1y = tu * cg - tnn * sg, tu * sg + tnn * cg
+            wx, wy = -t1y / tn, t1x / tn
+            wn = wx * nx + wy * ny
+            nx1, ny1 = wx - wn * nx, wy - wn * ny
+        else:                                          # the fallback normal (-sin G, cos G) turns with G
+            nx1, ny1 = -cg * g1, -sg * g1
+        d_g = (bx - gx) * nx + (by - gy) * ny
+        rate_g = vbx * nx + vby * ny
+        m_g, m_g_phi = mass_and_slope(nx, ny, nx1, ny1)
+        F_g, Fg_d, Fg_rate, Fg_m = self._force_slopes(d_g, rate_g, p.groove_clearance, p.groove_stiffness, m_g,
+                                                      x[7], x[9])
+        dF_g = (Fg_d * ((bx - gx) * nx1 + (by - gy) * ny1) + Fg_rate * (vbx * nx1 + vby * ny1)
+                + Fg_m * m_g_phi)
+        if F_g != 0.0:
+            D[8, 0] = math.copysign(1.0, F_g) * dF_g
+
     def output_jacobian(self, t, x, u):
-        """d outputs / d (crank.phi, crank.w, rocker.tau) in closed form at fidelities 0-2, from :meth:`output`'s
-        equations; fidelity 3 by central differences (Model.output_jacobian_by_differences), see below.
+        """d outputs / d (crank.phi, crank.w, rocker.tau) in closed form at every fidelity, from :meth:`output`'s
+        equations (no differences: the outputs' slopes in the crank angle need one derivative more of the law and
+        the groove than output() evaluates, which the laws and groove.py now give).
 
         Every level: pressure_angle and stone_radius are geometry of the rigid law alone, their slopes in the crank
         angle :meth:`geometry_slopes` (the groove's rho'' and theta', or the cam's roller geometry, which need G'').
@@ -662,22 +755,21 @@ class CamRockerModel(Model):
         |qdot| as its approach speed (:meth:`transmitted`); with a Hunt-Crossley-family law that speed, when it
         governs chi = C/v0, makes the damping term C side sign(qdot) k pen^n constant in qdot: its slope in qdot is
         0 there.  crank.tau = G' F R, pin_force = |F| (slope sign(F) dF); the contact flag and counters are
-        states (slope 0); rocker.tau drives only the state at fidelities 1 and 2 (column 0).
-        Why fidelity 3 keeps differences: its outputs are the two joints' forces, each through the crank pin, the
-        profile point B_g(phi) and its normal n_g(phi) (which need G'' and the groove's rho''), the conrod
-        direction and two reduced masses depending on the stone's pose; that closed form is not written yet (the
-        outputs are smooth in the inputs between contact switches, where the differences agree with the slopes
-        to ~1e-9 relative).
+        states (slope 0); rocker.tau drives only the state at fidelities 1-3 (column 0).
+        Fidelity 3: the two joints' forces with the stone's pose held (:meth:`_two_clearance_jacobian`: the crank
+        pin and the profile point B_g with its normal n_g move with the angle, the conrod eye's rate with crank.w);
+        stone_radius is the state rho_s there (slope 0).
         At a junction of the law's segments (G'' or its slope jumps) and on a kink of the contact law the slope of the
         side output() takes is returned."""
         p = self.p
-        if p.fidelity == 3:
-            return self.output_jacobian_by_differences(t, x, u)
         phi, w, tau_load = float(u[0]), float(u[1]), float(u[2])
         kin = self.kinematics(phi)
         g, g1, g2 = kin
         D = np.zeros((len(self.outputs), len(self.inputs)))
         D[3, 0], radius1 = self.geometry_slopes(phi, kin)
+        if p.fidelity == 3:
+            self._two_clearance_jacobian(x, u, D)
+            return D
         D[4, 0] = radius1
         J = p.rocker_inertia
         if p.fidelity == 0:
@@ -695,14 +787,7 @@ class CamRockerModel(Model):
             return D
         R, R1 = (self.geometry(phi, kin)[1], radius1) if p.mechanism == 0 else (p.follower_arm, 0.0)
         q, qd, k, m = self._pin(g, g1, R, w, x)
-        onset = x[4] == 0.0
-        v0 = abs(qd) if onset else x[2]
-        F, F_q, F_qd, F_m = contact.contact_force_slopes(q, qd, p.clearance, k, p.contact_law, p.restitution, v0, m,
-                                                         p.contact_exponent)
-        if onset and F != 0.0 and p.contact_law != contact.KELVIN_VOIGT and v0 > contact.V0_FLOOR:
-            pen = contact.penetration(q, qd, p.clearance)[0]
-            if contact.energy_speed(pen, k, m, p.contact_exponent) <= v0:    # the onset speed |qdot| governs chi
-                F_qd = 0.0
+        F, F_q, F_qd, F_m = self._force_slopes(q, qd, p.clearance, k, m, x[2], x[4])
         F_k = (F - m * F_m) / k
         F_R = F_k * (-2.0 * k * k * R / p.stiffness) + F_m * (-2.0 * m / R)
         q_phi = R1 * (g - gamma) + R * g1
