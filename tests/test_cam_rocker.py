@@ -391,6 +391,27 @@ def _tolerance(m, x, u, ref):
     return np.maximum(1e-6 * np.max(np.abs(ref), axis=0)[None, :], 1e-13 * y[:, None] / steps[None, :])
 
 
+def _checked_phases(m, points, contact_law):
+    """output_jacobian against the Richardson-combined differences at each of ``points`` ((x, u, phase)), every
+    entry within its tolerance; yields each point's phase for the caller's count."""
+    for x, u, phase in points:
+        got = m.output_jacobian(0.0, x, u)
+        ref = _reference_jacobian(m, x, u)
+        bad = np.abs(got - ref) > _tolerance(m, x, u, ref)
+        assert not bad.any(), (contact_law, phase, u, np.argwhere(bad), got[bad], ref[bad])
+        yield phase
+
+
+def _steady(state_of, m, phi, w, x):
+    """``state_of(m, phi, w, x)`` (a contact phase), or None where it changes within the differences' step (40
+    times Model's, in the crank angle or speed, either way): the comparison would straddle a kink there."""
+    state = state_of(m, phi, w, x)
+    step = 40 * _base.DIFFERENCE_STEP
+    near = [state_of(m, phi + s * step * max(1.0, phi), w, x) for s in (-1, 1)]
+    near += [state_of(m, phi, w + s * step * w, x) for s in (-1, 1)]
+    return None if any(n != state for n in near) else state
+
+
 def _pin_state(m, phi, w, x):
     """(side of the stone-pin play, pin force == 0, energy speed above the approach speed) at one input: the
     contact phase the outputs are in, and which speed sets the Hunt-Crossley family's chi (a kink between)."""
@@ -445,11 +466,8 @@ def _jacobian_points(m, rng, n_phi=24):
             x[0], x[1] = g - q / R, g1 * w - qd / R
             x[4] = float(rng.integers(0, 2))
             x[2] = abs(qd) * rng.uniform(0.5, 2.0) if x[4] else 0.0
-            state = _pin_state(m, phi, w, x)
-            step = 40 * _base.DIFFERENCE_STEP
-            near = [_pin_state(m, phi + s * step * max(1.0, phi), w, x) for s in (-1, 1)]
-            near += [_pin_state(m, phi, w + s * step * w, x) for s in (-1, 1)]
-            if any(n != state for n in near):
+            state = _steady(_pin_state, m, phi, w, x)
+            if state is None:
                 continue
             yield x, u, phase
 
@@ -474,11 +492,7 @@ def test_output_jacobian_is_the_derivative_of_the_outputs(monkeypatch, case, fid
         # a 1 mm play at fidelity 2: wide enough that the differences of a separated play stay inside it
         m = _model(case, fidelity=fidelity, contact_law=contact_law, clearance=1e-3 if fidelity == 2 else 1e-5)
         monkeypatch.setattr(m, "output_jacobian_by_differences", _refuse_differences)
-        for x, u, phase in _jacobian_points(m, rng):
-            got = m.output_jacobian(0.0, x, u)
-            ref = _reference_jacobian(m, x, u)
-            bad = np.abs(got - ref) > _tolerance(m, x, u, ref)
-            assert not bad.any(), (contact_law, phase, u, np.argwhere(bad), got[bad], ref[bad])
+        for phase in _checked_phases(m, _jacobian_points(m, rng), contact_law):
             phases[phase] = phases.get(phase, 0) + 1
     if fidelity == 2:
         assert all(phases.get(p, 0) >= 20 for p in ("separated", "positive wall", "negative wall")), phases
@@ -544,11 +558,8 @@ def _two_clearance_points(m, rng, n_phi=24):
             x[6] += 0.05 * abs(x[6]) * rng.normal()
             x[4], x[9] = float(rng.integers(0, 2)), float(rng.integers(0, 2))
             x[2], x[7] = rng.uniform(0.01, 1.0), rng.uniform(0.01, 1.0)
-            state = _joints_state(m, phi, w, x)
-            step = 40 * _base.DIFFERENCE_STEP
-            near = [_joints_state(m, phi + s * step * max(1.0, phi), w, x) for s in (-1, 1)]
-            near += [_joints_state(m, phi, w + s * step * w, x) for s in (-1, 1)]
-            if any(n != state for n in near):
+            state = _steady(_joints_state, m, phi, w, x)
+            if state is None:
                 continue
             names = {0.0: "separated", 1.0: "positive wall", -1.0: "negative wall"}
             yield x, u, (names[state[0][0]], names[state[1][0]])
@@ -565,11 +576,7 @@ def test_two_clearance_output_jacobian_is_the_derivative_of_the_outputs(monkeypa
     for contact_law in (0, 1, 2, 3):
         m = _model(case, fidelity=3, contact_law=contact_law, clearance=1e-3, groove_clearance=1e-3)
         monkeypatch.setattr(m, "output_jacobian_by_differences", _refuse_differences)
-        for x, u, phase in _two_clearance_points(m, rng):
-            got = m.output_jacobian(0.0, x, u)
-            ref = _reference_jacobian(m, x, u)
-            bad = np.abs(got - ref) > _tolerance(m, x, u, ref)
-            assert not bad.any(), (contact_law, phase, u, np.argwhere(bad), got[bad], ref[bad])
+        for phase in _checked_phases(m, _two_clearance_points(m, rng), contact_law):
             for joint, ph in zip(("eye", "groove"), phase):
                 phases[joint, ph] = phases.get((joint, ph), 0) + 1
     for joint in ("eye", "groove"):

@@ -189,9 +189,8 @@ class Model:
 
     def output_jacobian_by_differences(self, t: float, x: np.ndarray, u: Sequence[float]) -> np.ndarray:
         """:meth:`output_jacobian` by central differences of :meth:`output` in each input (step
-        ``DIFFERENCE_STEP * max(1, |u_j|)``, truncation and rounding both ~1e-10 relative).  Only for a component
-        that says why it has no closed form (kinematic chains solved by branches, contact laws); the others
-        differentiate their equations."""
+        ``DIFFERENCE_STEP * max(1, |u_j|)``, truncation and rounding both ~1e-10 relative).  No component answers
+        with it: each differentiates its own equations; the tests check those closed forms against it."""
         u = [float(v) for v in u]
         D = np.zeros((len(self.outputs), len(u)))
         for j, uj in enumerate(u):

@@ -268,14 +268,20 @@ def stone_radius_rate_scalar(phi: float, g: float, g1: float, lam1: float, lam2:
     return cd - lam1 * cg + Q, -sd * (1.0 - g1) + lam1 * sg * g1 + Q1
 
 
-def stone_scalar(phi: float, g: float, g1: float, lam1: float, lam2: float, branch: int = 1) -> tuple[float, float, float]:
-    """(rho_i, drho_i/dphi, pressure angle theta) at one point, with math (per-step outputs)."""
+def _stone_terms(phi: float, g: float, g1: float, lam1: float, lam2: float, branch: int) -> tuple:
+    """The terms :func:`stone_scalar` and :func:`stone_slopes_scalar` share: sin and cos of G and of phi - G,
+    N = lambda1 sin G + sin(phi - G), Q = +-sqrt(lambda2^2 - N^2) (0 at the groove's reach), 1 - G', N'."""
     sg, cg = math.sin(g), math.cos(g)
     sd, cd = math.sin(phi - g), math.cos(phi - g)
     N = lam1 * sg + sd
     Q = branch * math.sqrt(max(lam2 * lam2 - N * N, 0.0))
     one = 1.0 - g1
-    N1 = lam1 * cg * g1 + cd * one
+    return sg, cg, sd, cd, N, Q, one, lam1 * cg * g1 + cd * one
+
+
+def stone_scalar(phi: float, g: float, g1: float, lam1: float, lam2: float, branch: int = 1) -> tuple[float, float, float]:
+    """(rho_i, drho_i/dphi, pressure angle theta) at one point, with math (per-step outputs)."""
+    sg, cg, sd, cd, N, Q, one, N1 = _stone_terms(phi, g, g1, lam1, lam2, branch)
     Q1 = -N * N1 / Q if Q != 0.0 else math.copysign(math.inf, -N * N1)
     rho = cd - lam1 * cg + Q
     r1 = -sd * one + lam1 * sg * g1 + Q1
@@ -297,12 +303,7 @@ def stone_slopes_scalar(phi: float, g: float, g1: float, g2: float, lam1: float,
     and theta = arccos(z), z = |rho' cos mu - nt sin mu| / |nt| (nt = rho g', sin mu = N / lambda2,
     cos mu = Q / lambda2) differentiated: theta' = -z' / sqrt(1 - z^2), 0 where stone_scalar clips z to 1 or
     gives theta = 0 (nt = 0, a stone at rest or at its groove's reach)."""
-    sg, cg = math.sin(g), math.cos(g)
-    sd, cd = math.sin(phi - g), math.cos(phi - g)
-    N = lam1 * sg + sd
-    Q = branch * math.sqrt(max(lam2 * lam2 - N * N, 0.0))
-    one = 1.0 - g1
-    N1 = lam1 * cg * g1 + cd * one
+    sg, cg, sd, cd, N, Q, one, N1 = _stone_terms(phi, g, g1, lam1, lam2, branch)
     if Q == 0.0:
         return math.nan, 0.0
     N2 = -lam1 * sg * g1 ** 2 + lam1 * cg * g2 - sd * one ** 2 - cd * g2
