@@ -222,14 +222,20 @@ class CamRockerModel(Model):
         if p.mechanism == 0:
             rho, _, theta = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
             return theta, rho * p.crank_radius
-        a, l = p.cam_distance, p.follower_arm
-        psi = self.psi0 + g
-        cx, cy = a - l * math.cos(psi), l * math.sin(psi)
-        ex, ey = math.sin(psi), math.cos(psi)            # direction of the roller-centre velocity (psi increasing)
-        vx, vy = l * g1 * ex + cy, l * g1 * ey - cx      # velocity relative to the cam / crank speed
+        cx, cy, ex, ey, vx, vy = self._roller(g, g1)
         vn = math.hypot(vx, vy)
         theta = 0.0 if vn == 0.0 else math.acos(min(1.0, abs(vx * ey - vy * ex) / vn))
         return theta, math.hypot(cx, cy)
+
+    def _roller(self, g: float, g1: float) -> tuple[float, float, float, float, float, float]:
+        """Cam mechanism at follower angle psi = psi0 + G: the roller centre C (cam frame), the direction e of its
+        velocity (psi increasing) and its velocity v relative to the cam per unit crank speed (geometry() and
+        geometry_slopes())."""
+        a, l = self.p.cam_distance, self.p.follower_arm
+        psi = self.psi0 + g
+        cx, cy = a - l * math.cos(psi), l * math.sin(psi)
+        ex, ey = math.sin(psi), math.cos(psi)
+        return cx, cy, ex, ey, l * g1 * ex + cy, l * g1 * ey - cx
 
     def geometry_slopes(self, phi: float, kin) -> tuple[float, float]:
         """(d pressure angle/dphi, d radius/dphi) of :meth:`geometry` at crank angle phi (``kin`` =
@@ -244,11 +250,8 @@ class CamRockerModel(Model):
             _, rho1, _ = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
             _, theta1 = groove.stone_slopes_scalar(phi, g, g1, g2, p.lambda1, p.lambda2, self.branch)
             return theta1, rho1 * p.crank_radius
-        a, l = p.cam_distance, p.follower_arm
-        psi = self.psi0 + g
-        cx, cy = a - l * math.cos(psi), l * math.sin(psi)
-        ex, ey = math.sin(psi), math.cos(psi)
-        vx, vy = l * g1 * ex + cy, l * g1 * ey - cx
+        l = p.follower_arm
+        cx, cy, ex, ey, vx, vy = self._roller(g, g1)
         cx1, cy1 = l * ex * g1, l * ey * g1
         ex1, ey1 = ey * g1, -ex * g1
         vx1 = l * g2 * ex + l * g1 * ex1 + cy1
