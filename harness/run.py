@@ -29,7 +29,7 @@ from harness.divergence import Diverged, DivergenceOptions, for_master as _detec
 from harness.errors import BlowUp, FMUError, HarnessError, SimulationError, SystemError_
 from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import Instance, open_instance, release
-from harness.masters import NS, ConvergenceError, IterationOptions, master_class
+from harness.masters import MASTERS, NS, ConvergenceError, IterationOptions, master_class
 from harness.model import System, model_description, resolve_fmu
 from harness.results import Recorder
 from harness.stepcontrol import StepOptions, step_control as make_step_control
@@ -492,7 +492,7 @@ def register(subparsers) -> None:
     p.add_argument("--step", type=float, default=None, metavar="SECONDS",
                    help="communication step [s] (default: the system's default experiment)")
     p.add_argument("--master", default=None, metavar="NAME",
-                   help="jacobi, jacobi-sampled, gauss-seidel or iterative (default: the system's, else jacobi)")
+                   help=f"{', '.join(MASTERS)} (default: the system's, else jacobi)")
     p.add_argument("--extrapolation", type=int, default=None, choices=(0, 1, 2),
                    help="input extrapolation order (default: the system's, else 0 = hold)")
     p.add_argument("--step-control", default=None, choices=("none", "richardson", "ecco"),
