@@ -242,10 +242,11 @@ def test_omsimulator_3_0_refuses_fmi3_model_exchange(me_dir):
 
 def test_the_master_runs_the_bed_drive_from_me_fmus_like_the_monolithic_reference(me_dir):
     """The whole bed drive (MotorBelt, FlywheelShaft, FourBar, CamRocker, JamesDifferential, RackBed at the drive's
-    levels) from its model exchange FMUs, each integrated by CVODE (its default tolerance, 1e-10) inside the interface-Jacobian
-    master's 0.25 ms steps over 0.1 s: every column's largest deviation from the monolithic reference, as a share
-    of the reference column's range, within 1.05 times the co-simulation FMUs' (measured worst column both ways
-    flywheel.potential_energy, 3.348e-3 against 3.342e-3; at 1 ms steps 1.521e-2 against 1.520e-2)."""
+    levels) from its model exchange FMUs, each integrated by CVODE (its default tolerance, 1e-10) inside the
+    interface-Jacobian master's 0.25 ms steps over 0.1 s: every column's largest deviation from the monolithic
+    reference, as a share of the reference column's range, within 1.05 times the co-simulation FMUs' (measured
+    worst column both ways flywheel.potential_energy, 3.348e-3 against 3.342e-3; at 1 ms steps 1.521e-2 against
+    1.520e-2)."""
     r_me, r_cs, ref = _me_cs_reference("bed_drive", me_dir, "jacobian", 2.5e-4, 0.1)
     assert r_me.attrs.get("complete", True) and len(r_me) == len(ref) == len(r_cs)
     columns = [c for c in ref.columns if c in r_me.columns]
