@@ -116,6 +116,7 @@ class Master:
         self.t_ns = 0
         self._step_calls = len(self.insts)  # do_step calls of one communication step (methods that vary: 0)
         self.iterations = 0  # total iterations (iterative master)
+        self.halvings = 0    # steps taken again as two halves (jacobian master: harness.jacobian.needs_halving)
         self.fmu_steps = 0   # fmi2DoStep calls made, summed over the FMUs (the cost a step size cannot hide)
 
     def _assume_sampled(self, mds: dict, loops: list) -> tuple[dict, list]:
@@ -610,9 +611,9 @@ class InterfaceJacobian(Master):
         self.theta = jacobian.target_weights(len(self.u), self._bond_inputs, None, self._pos)
         self.jacobian: np.ndarray | None = None  # S of harness.jacobian.assemble, for the step size self._jac_h
         self._jac_h, self._stale, self._step_calls = 0.0, True, 0  # _take and _estimate count their FMU steps
-        # Jacobian estimates (one extra FMU step per held input each), steps taken again with fresh Jacobians
-        # because the correction did not contract, and steps taken again as two halves (jacobian.needs_halving)
-        self.estimates = self.retries = self.halvings = 0
+        # Jacobian estimates (one extra FMU step per held input each) and steps taken again with fresh Jacobians
+        # because the correction did not contract (the halved steps: Master.halvings)
+        self.estimates = self.retries = 0
 
     def needs_rollback(self) -> bool:
         return True
@@ -657,7 +658,6 @@ class InterfaceJacobian(Master):
     def _step_impl(self, t, h, t_next, depth: int = 0):
         """One step of the scheme; a step whose correction does not contract even with fresh Jacobians (a contact
         made or lost within it) is taken again as two halves, at most MAX_HALVINGS deep (jacobian.needs_halving)."""
-        t_ns, h_ns = round(t * NS), round(h * NS)
         self._hold_all(t, h)
         u0 = self.u.copy()
         self.snapshot("ij")
@@ -673,9 +673,10 @@ class InterfaceJacobian(Master):
             scale = np.abs(u0) + np.abs(r0) + 1e-9
             rho = jacobian.contraction(r0, r1, scale)
             self._stale = rho > jacobian.CONTRACTION
-            if fresh and depth < jacobian.MAX_HALVINGS and h_ns > 1 and jacobian.needs_halving(rho, r1, scale):
+            if fresh and depth < jacobian.MAX_HALVINGS and h * NS >= 1.5 and jacobian.needs_halving(rho, r1, scale):
                 self.restore("ij")
                 self.halvings += 1
+                t_ns, h_ns = round(t * NS), round(h * NS)
                 for a, b in ((t_ns, t_ns + h_ns // 2), (t_ns + h_ns // 2, t_ns + h_ns)):
                     self._step_impl(a / NS, (b - a) / NS, b / NS, depth + 1)
                 return

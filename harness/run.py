@@ -427,7 +427,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
         if bar is not None:
             bar.close()
     info.update(steps=steps, wall_time=_time.perf_counter() - wall, iterations=m.iterations,
-                fmu_steps=m.fmu_steps, halved_steps=getattr(m, "halvings", 0),  # jacobian: harness.jacobian
+                fmu_steps=m.fmu_steps, halved_steps=m.halvings,
                 rejected=controller.rejected, max_error_estimate=controller.max_accepted_error)
     df = rec.frame(complete=not error, error=error, **info)
     df.attrs["diverged"] = isinstance(err_obj, Diverged)
