@@ -51,7 +51,6 @@ from functools import lru_cache
 import numpy as np
 
 from . import fourbar, fourbar_synthesis
-from .laws import get_law
 from .motion_law import Law
 
 SEED_LINKAGE = (1.0, 1.91579, 2.10526, 2.25263)   # seed 004: O2A : AD : O2O5 : DO5
@@ -276,10 +275,8 @@ def carrier_return_law(ratio: float = SEED_RATIO, gamma_swing: float = SEED_CARR
         da, db, dc = st.invariants(k, m)
         return wa * ba - wd * da, wa * bb - wd * db, wa * bc - wd * dc
 
-    idle = get_law("K0")   # bed_idle_invariants is the harmonic law K0
-
     def piece_jerk(k, m):
-        return wa * idle.jerk(k) - wd * st.jerk(k)
+        return wa * (-PI ** 3 / 2.0) * math.sin(PI * k) - wd * st.jerk(k)     # bed_idle_invariants' c, differentiated
 
     law = Law("bed004r", f"seed 004 carrier return law for a harmonic bed return (K = {K:g})", ((1.0, piece),),
               (), (piece_jerk,))
