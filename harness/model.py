@@ -123,6 +123,7 @@ class System:
     # inputs left unconnected on purpose, "Instance.input" -> why its start value is right; any other
     # unconnected input is warned about (validate), so a forgotten connection is never silent
     free_inputs: dict[str, str] = field(default_factory=dict)
+    scenarios: list[Scenario] = field(default_factory=list)  # its transients (harness.scenarios)
 
     def instance(self, name: str) -> Instance:
         for inst in self.instances:

@@ -137,3 +137,30 @@ class AccuracySpec:
     stop_time: float
     reference_step: float = 1e-4
     sampled_host_step: float | None = None
+
+
+@dataclass(frozen=True)
+class Change:
+    """A time event of a :class:`Scenario`: at ``time`` [s] the free input ``variable`` (``Instance.input``)
+    steps to ``value``, or, with ``ramp`` > 0 [s], moves to it linearly over [time, time + ramp]."""
+    time: float
+    variable: str
+    value: float
+    ramp: float = 0.0
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A transient a drive is sized by (start-up, speed change, emergency stop, jam), run by
+    :mod:`harness.scenarios`: ``parameters`` (``Instance.parameter`` -> value) set the drive up for it (from
+    rest, a brake's torque), ``changes`` drive its free inputs over time, ``stop_time`` [s] is its run.
+    ``kind`` names what the transient quantities measure: ``startup`` (from rest to speed), ``speed_change``,
+    ``stop`` (an emergency stop from the first change on) or ``load`` (a load step, e.g. a jam)."""
+    name: str
+    question: str
+    kind: str
+    stop_time: float
+    changes: tuple[Change, ...] = ()
+    parameters: tuple[tuple[str, float], ...] = ()
+
+    KINDS = ("startup", "speed_change", "stop", "load")

@@ -52,6 +52,7 @@ import math
 from fmus.physics import bed_law, fourbar, fourbar_synthesis
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import AccuracySpec, ChartSpec, Panel, PrecisionSpec, Requirement, Scene, StabilitySpec, Zone
+from systems import motor_inputs
 
 RPM = 2 * math.pi / 60
 CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m
@@ -124,6 +125,7 @@ SYSTEM = System(
     # 1 s) every compared column is closer than with the zero-order hold at 0.2 ms declared before, the run
     # takes 2.5 times fewer steps, and the step is half the coupling's stability limit at order 1 (1 ms)
     experiment=Experiment(stop_time=2.0, step=5e-4, master="jacobi", extrapolation=1),
+    free_inputs=motor_inputs(),
     # The scenes' full model (every component at its highest level: the four-bar's and the cam's clearances, the
     # differential's mesh) keeps the 0.2 ms step: at 0.25 ms with linear extrapolation it diverges at 8 ms
     scenes=[

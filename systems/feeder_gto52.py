@@ -22,6 +22,7 @@ import math
 from fmus.physics import groove
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import AccuracySpec, ChartSpec, Panel, PrecisionSpec, Requirement, Scene, StabilitySpec, Zone
+from systems import motor_inputs
 
 RPM = 2 * math.pi / 60
 N_CRANK = 960.0 / 6.4  # rpm, motor rated speed over the belt ratio
@@ -62,8 +63,9 @@ SYSTEM = System(
     # the zero-order hold at 0.1 ms declared before (precision study, 0.2 s and 0.6 s); at 0.4 ms the crank
     # torque is not (tests/test_precision.py)
     experiment=Experiment(stop_time=1.0, step=2e-4, master="jacobi", extrapolation=1),
-    free_inputs={"flywheel.aux.tau": "the shaft's second take-off (e.g. for cams) drives nothing in this "
-                                     "drive: no torque on it"},
+    free_inputs={**motor_inputs(),
+                 "flywheel.aux.tau": "the shaft's second take-off (e.g. for cams) drives nothing in this drive: no "
+                                     "torque on it"},
     scenes=[
         Scene("rocker_swing", "What is the swing of the feeder rocker at running speed?",
               'ptp(window(r["feeder.rocker.phi"], 0.2, 0.6))', tolerance=0.01, unit="rad", stop_time=0.6),

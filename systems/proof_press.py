@@ -14,6 +14,7 @@ import math
 
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene, StabilitySpec
+from systems import motor_inputs
 
 RPM = 2 * math.pi / 60
 
@@ -42,6 +43,7 @@ SYSTEM = System(
     ],
     experiment=Experiment(stop_time=4.0, step=2e-4, master="jacobi"),
     free_inputs={
+        **motor_inputs(),
         "flywheel.aux.tau": "the shaft's second take-off (e.g. for cams) drives nothing in this press: no torque "
                             "on it",
         "press.bed.f": "no external force on the bed: the seed gives no bed friction or load, the printing "

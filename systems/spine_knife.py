@@ -34,6 +34,7 @@ import math
 from fmus.physics import knife as kn
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene, StabilitySpec
+from systems import motor_inputs
 
 RPM = 2 * math.pi / 60
 W_CRANK = 600.0 * RPM                         # rad/s
@@ -77,7 +78,8 @@ SYSTEM = System(
         bond("linkage.rocker", "knife.knife"),
     ],
     experiment=Experiment(stop_time=0.5, step=5e-5, master="jacobi"),
-    free_inputs={"shaft.aux.tau": "the second take-off on the knife node drives nothing here: no torque on it"},
+    free_inputs={**motor_inputs(),
+                 "shaft.aux.tau": "the second take-off on the knife node drives nothing here: no torque on it"},
     scenes=[
         Scene("shaft_twist", "How large is the torsional deformation of the knife shaft?",
               'peak(window(r["shaft.shaft_twist"], 0.1, 0.3))', tolerance=0.05, unit="rad", stop_time=0.3),

@@ -19,6 +19,7 @@ import math
 
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene
+from systems import motor_inputs
 
 RPM = 2 * math.pi / 60
 SPEED = 1.8                                   # m/s, transport speed
@@ -56,7 +57,8 @@ SYSTEM = System(
         bond("drive.crank", "trim.shaft"),
     ],
     experiment=Experiment(stop_time=WINDOW[1], step=2e-4, master="jacobi"),
-    free_inputs={"drive.aux.tau": "the drive shaft's second take-off drives nothing here: no torque on it"},
+    free_inputs={**motor_inputs(),
+                 "drive.aux.tau": "the drive shaft's second take-off drives nothing here: no torque on it"},
     scenes=[
         Scene("mean_moment", "What mean moment does trimming put on the conveyors' drive shaft?",
               'mean(window(r["trim.shaft.tau"], %g, %g))' % WINDOW, tolerance=0.01, unit="N.m"),

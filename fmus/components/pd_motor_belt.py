@@ -1,6 +1,6 @@
 """MotorBelt FMU: asynchronous motor driving the flywheel pulley through a V-belt."""
 from fmus.physics.motor_belt import MotorBeltModel
-from fmus.slave import Output, PressSlave, Rotational
+from fmus.slave import Input, Output, PressSlave, Rotational
 
 class MotorBelt(PressSlave):
     model = MotorBeltModel
@@ -8,12 +8,19 @@ class MotorBelt(PressSlave):
                    "1: Kloss characteristic with rotor inertia + elastic belt, 2: level 1 + belt creep.\n"
                    "pulley.tau = belt force * driven pulley radius, > 0 when the belt drives the pulley.")
     ports = (Rotational("pulley", motion="in", doc="driven pulley (on the flywheel shaft)"),)
-    signals = (Output("motor_speed", "rad/s", "rotor angular velocity"),
+    signals = (Input("supply", "1", "supply frequency over its rated value (1: rated; 0: the motor is off)", start=1.0),
+               Input("brake", "1", "brake command: >= 0.5 applies the rotor brake (after brake_delay)", start=0.0),
+               Output("motor_speed", "rad/s", "rotor angular velocity"),
                Output("motor_torque", "N.m", "electromagnetic torque of the motor (fidelity 0: torque the ideal source delivers)"),
                Output("power_electrical", "W", "electrical input power (air-gap power / efficiency)"),
                Output("power_mechanical", "W", "mechanical power motor_torque * motor_speed"),
-               Output("belt_torque", "N.m", "torque with which the belt loads the motor shaft (belt force * motor pulley radius)"))
-    # fidelity 0: the ideal source delivers the belt torque, so motor torque and powers follow the inputs too
+               Output("belt_torque", "N.m", "torque with which the belt loads the motor shaft (belt force * motor pulley radius)"),
+               Output("brake_torque", "N.m", "torque of the rotor brake on the rotor (sliding friction, or the holding reaction at rest)"))
+    # fidelity 0: the ideal source delivers the belt torque, so motor torque and powers follow the pulley's motion;
+    # at fidelities 1, 2 they follow the supply at once (its slip speed); the brake's torque follows its command
+    # and, holding at rest, the belt
     feedthrough = {"pulley.tau": ("pulley.phi", "pulley.w"), "belt_torque": ("pulley.phi", "pulley.w"),
-                   "motor_torque": ("pulley.phi", "pulley.w"), "power_electrical": ("pulley.phi", "pulley.w"),
-                   "power_mechanical": ("pulley.phi", "pulley.w")}
+                   "motor_torque": ("pulley.phi", "pulley.w", "supply"),
+                   "power_electrical": ("pulley.phi", "pulley.w", "supply"),
+                   "power_mechanical": ("pulley.phi", "pulley.w", "supply"),
+                   "brake_torque": ("pulley.phi", "pulley.w", "supply", "brake")}

@@ -134,6 +134,9 @@ class Model:
     # derivatives() itself (FMI 3.0 model exchange, fmus.slave3_me): event_indicators gives their values (a switch
     # is a sign change), at_event the memory update at a located one
     switches: ClassVar[tuple[Signal, ...]] = ()
+    # whether the inputs set memory at once, so that a host that integrates derivatives() must call
+    # advance(t, 0.0, x, u) when an input changes (a brake's timer restarted by a released command)
+    input_memory: ClassVar[bool] = False
 
     def __init__(self, p: Params):
         p.validate()

@@ -31,6 +31,21 @@ Fidelity levels
      elastic force only (no algebraic loop through the damper); |w_m| makes the creep dissipative in
      both directions of rotation.
 
+Supply and brake (inputs ``supply`` and ``brake``; transients: start-up, speed change, emergency stop)
+  ``supply`` is the supply frequency over its rated value (1: the nameplate's 50 Hz; 0: switched off).  A
+  frequency converter keeps the flux (V/f constant), so the Kloss curve keeps its breakdown torque M_k and
+  its breakdown slip SPEED s_k*w_sync, and moves with the synchronous speed supply*w_sync:
+  M = 2*M_k*W*W_k/(W**2 + W_k**2) with the slip speed W = supply*w_sync - w_m and W_k = s_k*w_sync (at
+  supply = 1 this is the Kloss law above).  supply <= 0: no torque (the motor is off).  Fidelity 0 (the
+  ideal source) turns at supply*w_rated.
+  ``brake`` >= 0.5 commands a spring-applied brake on the rotor (motor side: it holds the whole drive
+  through the belt).  It engages ``brake_delay`` seconds after the command (its timer, the state
+  ``brake_timer``, restarts when the command is released) with the holding torque ``holding_torque``: Coulomb
+  friction, -holding_torque*sign(w_m) while the rotor turns; at rest it holds while the other torques on the
+  rotor stay within holding_torque.  Inside a sub-step the rotor's stop is located (the speed's zero by linear
+  interpolation, exact for a constant deceleration) and the rotor is held from there.  A brake needs the
+  rotor's own dynamics (fidelity 1 or 2); at fidelity 0 a holding_torque is refused.
+
 Electric power (all levels): power_electrical = air-gap power / efficiency = M*w_sync/efficiency while
 motoring (M >= 0) and M*w_sync*efficiency while braking (M < 0: the machine returns power to the grid).
 power_mechanical = M*w_m.
@@ -78,21 +93,31 @@ class MotorBeltParams(Params):
     creep: float = param(0.015, "1", "elastic slip ratio of the belt at rated belt force (fidelity 2)",
                          low=0.0, high=0.2)
     w_start: float = param(-1.0, "rad/s", "initial motor speed (fidelity 1, 2); negative: w_rated")
+    holding_torque: float = param(0.0, "N.m", "holding torque of the rotor brake (0: no brake; fidelity 1, 2)",
+                                low=0.0)
+    brake_delay: float = param(0.0, "s", "time from the brake command (input brake >= 0.5) to full torque",
+                               low=0.0)
 
     def check(self):
         if not self.w_rated < self.w_sync:
             raise ParameterError("w_rated", self.w_rated, f"must be < w_sync = {self.w_sync:g} rad/s")
+        if self.fidelity == 0 and self.holding_torque > 0.0:
+            raise ParameterError("holding_torque", self.holding_torque,
+                                 "must be 0 at fidelity 0 (the ideal speed source sets the rotor speed): use "
+                                 "fidelity 1 or 2 for a brake")
 
 
 class MotorBeltModel(Model):
     """Induction motor + V-belt; see the module docstring for the equations of each fidelity level."""
     Params = MotorBeltParams
-    inputs = ("pulley.phi", "pulley.w")
+    inputs = ("pulley.phi", "pulley.w", "supply", "brake")
     outputs = ("pulley.tau", "motor_speed", "motor_torque", "power_electrical", "power_mechanical",
-               "belt_torque")
+               "belt_torque", "brake_torque")
     states = (Signal("phi_motor", "rad", "rotor angle"),
               Signal("w_motor", "rad/s", "rotor angular velocity"),
-              Signal("theta_creep", "rad", "accumulated creep of the belt over the driven pulley"))
+              Signal("theta_creep", "rad", "accumulated creep of the belt over the driven pulley"),
+              Signal("brake_timer", "s", "time since the brake was commanded (0 while released)"))
+    input_memory = True  # advance(t, 0.0, x, u) restarts the brake's timer when its command is released
 
     def __init__(self, p: MotorBeltParams):
         p.validate()
@@ -109,10 +134,22 @@ class MotorBeltModel(Model):
         super().__init__(p)
 
     # -- laws ----------------------------------------------------------------------------------------------
-    def kloss_torque(self, w_m: float) -> float:
-        """Kloss static characteristic M(s) = 2*M_k*s*s_k/(s**2 + s_k**2) [N.m] at rotor speed w_m."""
-        s = (self.p.w_sync - w_m) / self.p.w_sync
-        return 2.0 * self.M_k * s * self.s_k / (s * s + self.s_k * self.s_k)
+    def kloss_torque(self, w_m: float, supply: float = 1.0) -> float:
+        """Kloss static characteristic M(s) = 2*M_k*s*s_k/(s**2 + s_k**2) [N.m] at rotor speed w_m; at another
+        supply frequency (``supply`` times the rated one, flux kept) the same curve in the slip speed
+        (module docstring); 0 when the supply is off."""
+        if supply == 1.0:
+            s = (self.p.w_sync - w_m) / self.p.w_sync
+            return 2.0 * self.M_k * s * self.s_k / (s * s + self.s_k * self.s_k)
+        if supply <= 0.0:
+            return 0.0
+        slip = supply * self.p.w_sync - w_m
+        slip_k = self.s_k * self.p.w_sync
+        return 2.0 * self.M_k * slip * slip_k / (slip * slip + slip_k * slip_k)
+
+    def brake_engaged(self, x, u) -> bool:
+        """Whether the brake acts at the state x under the held inputs u."""
+        return self.p.holding_torque > 0.0 and u[3] >= 0.5 and x[3] >= self.p.brake_delay
 
     def _belt(self, x, phi_d: float, w_d: float):
         """(belt force F, elastic part F_el, creep rate) for rotor state x and driven pulley motion."""
@@ -136,26 +173,64 @@ class MotorBeltModel(Model):
 
     def initial_state(self, u):
         p = self.p
-        w0 = p.w_rated if (p.fidelity == 0 or p.w_start < 0.0) else p.w_start
-        return np.array([self.ratio * u[0], w0, 0.0])
+        w0 = p.w_rated * u[2] if p.fidelity == 0 else (p.w_rated if p.w_start < 0.0 else p.w_start)
+        return np.array([self.ratio * u[0], w0, 0.0, 0.0])
 
-    def _rates(self, t, x, u, t0) -> tuple[float, float]:
-        """(rotor acceleration [rad/s2], creep rate [rad/s]) at levels 1, 2 for the rotor state x."""
+    def _rates(self, t, x, u, t0, friction: float = 0.0) -> tuple[float, float]:
+        """(rotor acceleration [rad/s2], creep rate [rad/s]) at levels 1, 2 for the rotor state x, with a
+        friction torque ``friction`` [N.m] acting on the rotor."""
         force, creep_rate = self._belt(x, u[0] + u[1] * (t - t0), u[1])
-        return (self.kloss_torque(x[1]) - force * self.r_m) / self.p.J_motor, creep_rate
+        return (self.kloss_torque(x[1], u[2]) - force * self.r_m + friction) / self.p.J_motor, creep_rate
 
     def derivatives(self, t, x, u, t0):
         p = self.p
-        if p.fidelity == 0:
-            return np.array([p.w_rated, 0.0, 0.0])
-        return np.array([x[1], *self._rates(t, x, u, t0)])
+        friction = 0.0
+        if self.brake_engaged(x, u) and x[1] != 0.0:
+            friction = -p.holding_torque * math.copysign(1.0, x[1])
+        return self._derivatives(t, x, u, t0, friction)
+
+    def _derivatives(self, t, x, u, t0, friction: float = 0.0):
+        """dx/dt with a given friction torque on the rotor (the brake's, as the caller decides)."""
+        timer_rate = 1.0 if u[3] >= 0.5 else 0.0
+        if self.p.fidelity == 0:
+            return np.array([self.p.w_rated * u[2], 0.0, 0.0, timer_rate])
+        return np.array([x[1], *self._rates(t, x, u, t0, friction), timer_rate])
+
+    def ode_form(self):
+        if self.p.holding_torque > 0.0:
+            return ("MotorBelt with a brake: its timer restarts when the brake command is released, a memory "
+                    "the inputs set (advance(t, 0.0, x, u)), not an ODE")
+        return None
 
     def advance(self, t0, h, x, u):
+        p = self.p
+        x = np.array(x, dtype=float)
+        if h == 0.0:  # the memory the inputs set at once: a released brake restarts its timer
+            x[3] = x[3] if u[3] >= 0.5 else 0.0
+            return x
+        if p.fidelity == 0:
+            x = integrate.rk4(self._derivatives, t0, h, x, u, self.max_substep)
+            x[3] = x[3] if u[3] >= 0.5 else 0.0
+            return x
+        if p.holding_torque == 0.0 or u[3] < 0.5:
+            x[3] = 0.0
+            return self._advance_free(t0, h, x, u)
+        t_engage = min(h, max(0.0, p.brake_delay - x[3]))  # from t0: when the brake takes hold in this step
+        timer = x[3] + h
+        if t_engage > 0.0:
+            x = self._advance_free(t0, t_engage, x, u)
+        if t_engage < h:
+            x[3] = p.brake_delay
+            x = self._advance_braked(t0, t0 + t_engage, h - t_engage, x, u)
+        x[3] = timer
+        return x
+
+    def _advance_free(self, t0, h, x, u):
+        """The rotor without the brake over [t0, t0 + h] (t0: the time the inputs were given)."""
         if self.p.fidelity != 1:
-            return super().advance(t0, h, x, u)
+            return integrate.rk4(self._derivatives, t0, h, x, u, self.max_substep)
         # level 1 has no creep (its rate is 0): RK4 on (phi_motor, w_motor) in plain floats, the base class's
         # numbers without an array per stage
-        x = np.array(x, dtype=float)
         theta = x[2]
 
         def acc(t, phi, w):
@@ -164,27 +239,87 @@ class MotorBeltModel(Model):
         x[0], x[1] = integrate.rk4_pairs(acc, t0, h, self.max_substep, float(x[0]), float(x[1]))
         return x
 
+    def _advance_braked(self, t0, ts, h, x, u):
+        """The rotor with the brake engaged over [ts, ts + h] (inputs given at t0): RK4 sub-steps with the
+        friction's sign fixed to the sliding direction; a sub-step in which the speed would change sign ends
+        the slide at the speed's zero (linear interpolation) and the rotor sticks while the brake holds."""
+        p = self.p
+        n = integrate.substeps(h, self.max_substep)
+        dt = h / n
+        for i in range(n):
+            t = ts + i * dt
+            direction = math.copysign(1.0, x[1]) if x[1] != 0.0 else 0.0
+            if direction == 0.0:
+                drive = self.rotor_torque_at_rest(t, x, u, t0)
+                if abs(drive) <= p.holding_torque:
+                    continue  # held (the belt's creep follows |w_m| = 0: none)
+                direction = math.copysign(1.0, drive)
+            friction = -p.holding_torque * direction
+
+            def f(tt, xx, uu, tt0, friction=friction):
+                return self._derivatives(tt, xx, uu, tt0, friction)
+
+            x_new = integrate.rk4(f, t, dt, x, u, math.inf)
+            if x_new[1] * direction < 0.0:  # the slide ends inside the sub-step: stop there and hold
+                share = x[1] / (x[1] - x_new[1])
+                x_new[0] = x[0] + 0.5 * x[1] * share * dt
+                x_new[1] = 0.0
+            x = x_new
+        return x
+
+    def rotor_torque_at_rest(self, t, x, u, t0) -> float:
+        """Motor plus belt torque on the rotor at its state x, the brake excepted [N.m]."""
+        return self._rates(t, x, u, t0)[0] * self.p.J_motor
+
+    def _brake_torque(self, x, u, motor_torque: float, belt_torque: float) -> float:
+        """Torque of the brake on the rotor [N.m]: the sliding friction, or at rest the reaction that holds."""
+        if not self.brake_engaged(x, u):
+            return 0.0
+        if x[1] != 0.0:
+            return -self.p.holding_torque * math.copysign(1.0, x[1])
+        drive = motor_torque - belt_torque
+        return -drive if abs(drive) <= self.p.holding_torque else -self.p.holding_torque * math.copysign(1.0, drive)
+
     def output(self, t, x, u):
         p = self.p
         force, _ = self._belt(x, u[0], u[1])
         belt_torque = force * self.r_m
-        motor_torque = belt_torque if p.fidelity == 0 else self.kloss_torque(x[1])
-        air_gap = motor_torque * p.w_sync
+        motor_torque = belt_torque if p.fidelity == 0 else self.kloss_torque(x[1], u[2])
+        air_gap = motor_torque * p.w_sync * u[2]
         p_el = air_gap / p.efficiency if air_gap >= 0.0 else air_gap * p.efficiency
-        return (force * self.r_d, x[1], motor_torque, p_el, motor_torque * x[1], belt_torque)
+        return (force * self.r_d, x[1], motor_torque, p_el, motor_torque * x[1], belt_torque,
+                self._brake_torque(x, u, motor_torque, belt_torque))
+
+    def kloss_supply_slope(self, w_m: float, supply: float) -> float:
+        """d kloss_torque / d supply [N.m] at rotor speed w_m (0 while the supply is off)."""
+        if supply <= 0.0:
+            return 0.0
+        slip = supply * self.p.w_sync - w_m
+        slip_k = self.s_k * self.p.w_sync
+        denominator = slip * slip + slip_k * slip_k
+        return 2.0 * self.M_k * slip_k * (slip_k * slip_k - slip * slip) / (denominator * denominator) * self.p.w_sync
 
     def output_jacobian(self, t, x, u):
-        """The belt force's slopes in the driven pulley's motion (the creep rate follows the elastic force), and
-        at fidelity 0, where the motor torque is the belt's, the powers that follow it."""
+        """The belt force's slopes in the driven pulley's motion (the creep rate follows the elastic force); the
+        motor torque's in the supply (at fidelity 0, where the motor torque is the belt's, in the pulley's
+        motion), the powers that follow it, and the holding brake's reaction at rest."""
         p = self.p
         force, _ = self._belt(x, u[0], u[1])
         d_force = np.array([-p.c_belt * self.r_d * (1.0 - p.d_belt * self.r_d * self.creep_gain * abs(x[1])),
-                            -p.d_belt * self.r_d])
+                            -p.d_belt * self.r_d, 0.0, 0.0])
         d_belt = d_force * self.r_m
-        d_motor = d_belt if p.fidelity == 0 else np.zeros(2)
-        air_gap = (force * self.r_m if p.fidelity == 0 else self.kloss_torque(x[1])) * p.w_sync
-        d_el = d_motor * p.w_sync * (1.0 / p.efficiency if air_gap >= 0.0 else p.efficiency)
-        return np.array([d_force * self.r_d, np.zeros(2), d_motor, d_el, d_motor * x[1], d_belt])
+        if p.fidelity == 0:
+            motor_torque, d_motor = force * self.r_m, d_belt
+        else:
+            motor_torque = self.kloss_torque(x[1], u[2])
+            d_motor = np.array([0.0, 0.0, self.kloss_supply_slope(x[1], u[2]), 0.0])
+        air_gap = motor_torque * p.w_sync * u[2]
+        gain = p.w_sync * (1.0 / p.efficiency if air_gap >= 0.0 else p.efficiency)
+        d_el = gain * (d_motor * u[2] + np.array([0.0, 0.0, motor_torque, 0.0]))
+        brake = self._brake_torque(x, u, motor_torque, force * self.r_m)
+        holding = self.brake_engaged(x, u) and x[1] == 0.0 and abs(brake) < p.holding_torque
+        d_brake = -(d_motor - d_belt) if holding else np.zeros(4)
+        return np.array([d_force * self.r_d, np.zeros(4), d_motor, d_el, d_motor * x[1], d_belt, d_brake])
 
     def belt_energy(self, x, phi_d: float) -> float:
         """Elastic energy of the belt [J]."""
