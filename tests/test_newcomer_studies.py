@@ -277,7 +277,9 @@ def test_an_undeclared_unconnected_input_still_warns_with_the_way_out():
 
     mine = dataclasses.replace(load("proof_press"), free_inputs={})     # a user's copy that declares nothing
     seen = _validate(mine)
-    assert len(seen) == 2 and any("input press.bed.f is not connected" in w for w in seen)
+    # flywheel.aux.tau, press.bed.f and the motor's supply and brake
+    assert len(seen) == 4 and any("input press.bed.f is not connected" in w for w in seen)
+    assert any("input motor.brake is not connected" in w for w in seen)
     assert all("free_inputs" in w for w in seen)
 
 

@@ -183,11 +183,19 @@ class MotorBeltModel(Model):
         return (self.kloss_torque(x[1], u[2]) - force * self.r_m + friction) / self.p.J_motor, creep_rate
 
     def derivatives(self, t, x, u, t0):
-        p = self.p
         friction = 0.0
-        if self.brake_engaged(x, u) and x[1] != 0.0:
-            friction = -p.holding_torque * math.copysign(1.0, x[1])
+        if self.brake_engaged(x, u):
+            drive = self.rotor_torque_at_rest(t, x, u, t0) if x[1] == 0.0 else 0.0
+            friction = self.friction(x[1], drive)
         return self._derivatives(t, x, u, t0, friction)
+
+    def friction(self, w_m: float, drive: float) -> float:
+        """The engaged brake's torque on the rotor [N.m]: sliding, -holding_torque*sign(w_m); at rest, the reaction
+        to the rotor's other torques ``drive`` while they stay within the holding torque, else the sliding one."""
+        t_b = self.p.holding_torque
+        if w_m != 0.0:
+            return -t_b * math.copysign(1.0, w_m)
+        return -drive if abs(drive) <= t_b else -t_b * math.copysign(1.0, drive)
 
     def _derivatives(self, t, x, u, t0, friction: float = 0.0):
         """dx/dt with a given friction torque on the rotor (the brake's, as the caller decides)."""
@@ -248,12 +256,13 @@ class MotorBeltModel(Model):
         dt = h / n
         for i in range(n):
             t = ts + i * dt
-            direction = math.copysign(1.0, x[1]) if x[1] != 0.0 else 0.0
-            if direction == 0.0:
+            if x[1] == 0.0:
                 drive = self.rotor_torque_at_rest(t, x, u, t0)
                 if abs(drive) <= p.holding_torque:
-                    continue  # held (the belt's creep follows |w_m| = 0: none)
+                    continue  # held: the brake's reaction balances the rotor (the belt's creep follows |w_m| = 0)
                 direction = math.copysign(1.0, drive)
+            else:
+                direction = math.copysign(1.0, x[1])
             friction = -p.holding_torque * direction
 
             def f(tt, xx, uu, tt0, friction=friction):
@@ -273,12 +282,7 @@ class MotorBeltModel(Model):
 
     def _brake_torque(self, x, u, motor_torque: float, belt_torque: float) -> float:
         """Torque of the brake on the rotor [N.m]: the sliding friction, or at rest the reaction that holds."""
-        if not self.brake_engaged(x, u):
-            return 0.0
-        if x[1] != 0.0:
-            return -self.p.holding_torque * math.copysign(1.0, x[1])
-        drive = motor_torque - belt_torque
-        return -drive if abs(drive) <= self.p.holding_torque else -self.p.holding_torque * math.copysign(1.0, drive)
+        return self.friction(x[1], motor_torque - belt_torque) if self.brake_engaged(x, u) else 0.0
 
     def output(self, t, x, u):
         p = self.p

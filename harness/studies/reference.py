@@ -24,9 +24,17 @@ keyed by model class and fidelity, is the only place that knows about them):
   iteration may fail to take any step ("required step size is less than spacing between numbers"): that
   segment is then integrated with ``BDF``, the other stiff method, at the same tolerances (counted in
   ``attrs["fallbacks"]``);
+* *a brake* (MotorBelt with a holding torque): its taking hold (the timer reaching the delay), a sliding
+  rotor's stop and a held rotor's breaking loose are events too; while it holds, the rotor's angle and speed
+  are frozen;
 * *step memory*: RackBed at fidelity 0 estimates the bed acceleration from the inputs of successive
   communication steps; a monolithic model has no steps, so that level is refused with a one-line error
   (use fidelity 1).
+
+Input signals (:class:`harness.signals.Signals`, a scenario's steps and ramps) are the free inputs' values
+over time; every row of their table ends an integration stretch (inside one the inputs are continuous; at a
+step the stretch's end sees the value before it), and at its end the models whose inputs set memory at once
+(``Model.input_memory``: a released brake restarts its timer) are updated as their FMUs are.
 
 The result has the co-simulation's shape: a DataFrame on the given time grid with ``Instance.variable``
 columns for every input and output.
@@ -34,6 +42,7 @@ columns for every input and output.
 from __future__ import annotations
 
 import importlib
+import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,6 +52,7 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
+from harness.clock import NS
 from harness.model import model_name
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -69,13 +79,53 @@ class _Wire:
 
 
 
-class _Contact:
-    """A clearance joint of instance ``i`` seen by the reference: its gap and its memory update."""
+class _Switch:
+    """A switch of instance ``i`` seen by the reference: armed in its current mode (:meth:`arm`), its event
+    function's ``value`` crosses zero in ``direction`` when the mode ends, and :meth:`switch` updates the
+    instance's state there; the integration then restarts with every switch armed again."""
 
     def __init__(self, i: int, model):
         self.i, self.model = i, model
+
+    @classmethod
+    def applies(cls, model) -> bool:
+        return True
+
+    def arm(self, t, x, u) -> None:
+        pass
+
+    direction = 0.0
+
+    def value(self, t, x, u) -> float:
+        raise NotImplementedError
+
+    def switch(self, t, x, u) -> np.ndarray:
+        raise NotImplementedError
+
+    def held(self) -> bool:
+        """Whether the instance's motion states are frozen in this mode (a brake holding its rotor)."""
+        return False
+
+
+class _Contact(_Switch):
+    """A clearance joint: its gap against half the clearance, and its memory update."""
+
+    def __init__(self, i: int, model):
+        super().__init__(i, model)
         self.half = 0.5 * model.p.clearance
-        self.in_contact = False
+        self.in_contact = None
+
+    @classmethod
+    def applies(cls, model) -> bool:
+        return model.p.clearance > 0.0
+
+    def arm(self, t, x, u) -> None:
+        if self.in_contact is None:  # the start; afterwards the mode changes only at its own events
+            self.in_contact = abs(self.gap(t, x, u)[0]) > self.half
+        self.direction = -1.0 if self.in_contact else 1.0
+
+    def value(self, t, x, u) -> float:
+        return abs(self.gap(t, x, u)[0]) - self.half
 
     def gap(self, t, x, u) -> tuple[float, float]:
         raise NotImplementedError
@@ -118,6 +168,51 @@ class _CamRockerContact(_Contact):
         return x
 
 
+class _Brake(_Switch):
+    """MotorBelt's rotor brake: commanded, it takes hold when its timer reaches the delay; sliding, the rotor's
+    speed reaching zero stops it; held, the rotor's other torques reaching the holding torque set it sliding.
+    While it holds, the rotor's angle and speed are frozen (the rest of the drive moves on)."""
+
+    @classmethod
+    def applies(cls, model) -> bool:
+        return model.p.holding_torque > 0.0
+
+    def arm(self, t, x, u) -> None:
+        m = self.model
+        if u[3] < 0.5:
+            self.mode = "released"
+        elif x[3] < m.p.brake_delay:
+            self.mode, self.direction = "engaging", 1.0
+        elif x[1] != 0.0:
+            self.mode, self.direction, self.sense = "sliding", -1.0, math.copysign(1.0, x[1])
+        elif abs(m.rotor_torque_at_rest(t, x, u, t)) <= m.p.holding_torque:
+            self.mode, self.direction = "held", -1.0
+        else:
+            self.mode, self.direction = "sliding", -1.0
+            self.sense = math.copysign(1.0, m.rotor_torque_at_rest(t, x, u, t))
+
+    def value(self, t, x, u) -> float:
+        m = self.model
+        if self.mode == "engaging":
+            return x[3] - m.p.brake_delay
+        if self.mode == "sliding":
+            return self.sense * x[1]
+        if self.mode == "held":
+            return m.p.holding_torque - abs(m.rotor_torque_at_rest(t, x, u, t))
+        return 1.0
+
+    def switch(self, t, x, u) -> np.ndarray:
+        x = np.array(x, dtype=float)
+        if self.mode == "engaging":
+            x[3] = max(x[3], self.model.p.brake_delay)
+        elif self.mode == "sliding":
+            x[1] = 0.0
+        return x
+
+    def held(self) -> bool:
+        return self.mode == "held"
+
+
 # (model class name, fidelity) -> kind of the non-ODE state (see the module docstring)
 _KINDS: dict[tuple[str, int], object] = {
     ("FourBarModel", 0): "algebraic",
@@ -126,6 +221,8 @@ _KINDS: dict[tuple[str, int], object] = {
     ("FlywheelShaftModel", 0): "algebraic",
     ("FourBarModel", 2): _FourBarContact,
     ("CamRockerModel", 2): _CamRockerContact,
+    ("MotorBeltModel", 1): _Brake,
+    ("MotorBeltModel", 2): _Brake,
     ("RackBedModel", 0): "RackBed fidelity 0 estimates the bed acceleration from the inputs of successive "
                          "communication steps, which a monolithic model does not have; use fidelity 1",
 }
@@ -134,7 +231,9 @@ _KINDS: dict[tuple[str, int], object] = {
 class Monolithic:
     """The assembled ODE of a system: ``rhs(t, X)``, ``signals(t, X)`` and ``simulate(...)``."""
 
-    def __init__(self, system, parameters: dict | None = None):
+    def __init__(self, system, parameters: dict | None = None, inputs=None):
+        """``inputs``: the run's input signals (:class:`harness.signals.Signals`), or None: every free input at
+        its start value."""
         classes = component_classes()
         parameters = dict(parameters or {})
         self.names, self.models, self.slices, self.classes = [], [], [], []
@@ -157,15 +256,15 @@ class Monolithic:
             n += len(cls.model.states)
         self.n_states = n
         self.project = [False] * len(self.models)
-        self.contacts: list[_Contact] = []
+        self.switches: list[_Switch] = []
         for i, m in enumerate(self.models):
             kind = _KINDS.get((type(m).__name__, getattr(m.p, "fidelity", None)))
             if kind == "algebraic":
                 self.project[i] = True
             elif isinstance(kind, str):
                 raise ReferenceError_(f"instance {self.names[i]}: no monolithic reference: {kind}")
-            elif kind is not None and m.p.clearance > 0.0:
-                self.contacts.append(kind(i, m))
+            elif kind is not None and kind.applies(m):
+                self.switches.append(kind(i, m))
         index = {name: i for i, name in enumerate(self.names)}
         self.wires: list[list[_Wire | None]] = [[None] * len(m.inputs) for m in self.models]
         for c in system.all_connections():
@@ -181,6 +280,11 @@ class Monolithic:
             starts = {v.name: v.start for v in cls.interface() if v.causality == "input"}
             self.start_inputs.append([starts[name] for name in cls.model.inputs])
         self.sweeps = self._evaluation_order()
+        self.inputs = inputs
+        # (instance, input) index of each signal, in the order of inputs.values()
+        self.driven = [] if inputs is None else [
+            (index[inst], self.models[index[inst]].inputs.index(var)) for inst, var, *_ in inputs.columns]
+        self._segment_end = None  # ns: the end of the stretch being integrated (its inputs before any step there)
 
     def _evaluation_order(self) -> list[int]:
         """Instance indices in the order their outputs must be evaluated (SCCs repeated len(SCC) times)."""
@@ -221,6 +325,11 @@ class Monolithic:
     def signals(self, t: float, x: np.ndarray):
         """(inputs, outputs) of every instance at time t for the global state x."""
         u = [list(s) for s in self.start_inputs]
+        if self.driven:
+            t_ns = round(t * NS)
+            after = self._segment_end is None or t_ns < self._segment_end
+            for (i, j), value in zip(self.driven, self.inputs.values(t_ns, after_event=after)):
+                u[i][j] = float(value)
         y: list = [None] * len(self.models)
         for i in self.sweeps:
             for j, w in enumerate(self.wires[i]):
@@ -241,18 +350,24 @@ class Monolithic:
         dx = np.empty_like(x)
         for i, m in enumerate(self.models):
             dx[self.slices[i]] = 0.0 if self.project[i] else m.derivatives(t, x[self.slices[i]], u[i], t)
+        for c in self.switches:
+            if c.held():  # a brake holding its rotor: angle and speed frozen
+                start = self.slices[c.i].start
+                dx[start:start + 2] = 0.0
         return dx
 
-    def _event_functions(self):
-        """(contact adapter, event function) for every clearance joint, with the direction of its mode."""
+    def _event_functions(self, t: float, x: np.ndarray):
+        """(switch, event function) for every switch, armed at (t, x) in its current mode."""
+        u, _ = self.signals(t, x)
         funcs = []
-        for c in self.contacts:
+        for c in self.switches:
+            c.arm(t, x[self.slices[c.i]], u[c.i])
+
             def f(t, x, c=c):
                 u, _ = self.signals(t, x)
-                q, _qd = c.gap(t, x[self.slices[c.i]], u[c.i])
-                return abs(q) - c.half
+                return c.value(t, x[self.slices[c.i]], u[c.i])
             f.terminal = True
-            f.direction = -1.0 if c.in_contact else 1.0
+            f.direction = c.direction
             funcs.append((c, f))
         return funcs
 
@@ -261,10 +376,7 @@ class Monolithic:
         n_steps = int(round(stop_time / step))
         grid = np.arange(n_steps + 1) * step
         x = self.initial_state()
-        u0, _ = self.signals(0.0, x)
-        for c in self.contacts:
-            c.in_contact = abs(c.gap(0.0, x[self.slices[c.i]], u0[c.i])[0]) > c.half
-        events = self._event_functions()
+        events = self._event_functions(0.0, x)
         self.n_events = 0
         t = 0.0
         states = np.empty((len(grid), self.n_states))
@@ -274,12 +386,19 @@ class Monolithic:
         limit = limit if np.isfinite(limit) else step
         t_wall = time.perf_counter()
         self.fallbacks = 0
+        # the input signals' rows inside the run: each ends a stretch (a step or a ramp's kink), where the
+        # integration restarts with the inputs after it
+        rows = [] if self.inputs is None else sorted({int(r) for r in self.inputs.t_ns if 0 < r < round(grid[-1] * NS)})
         while k_next <= n_steps:
-            sol = solve_ivp(self.rhs, (t, grid[-1]), x, method=method, rtol=rtol, atol=atol, max_step=limit,
+            while rows and rows[0] <= round(t * NS):
+                rows.pop(0)
+            t_stop = rows[0] / NS if rows else grid[-1]
+            self._segment_end = rows[0] if rows else None
+            sol = solve_ivp(self.rhs, (t, t_stop), x, method=method, rtol=rtol, atol=atol, max_step=limit,
                             dense_output=True, events=[f for _, f in events] or None, t_eval=None)
             if sol.status < 0 and sol.t[-1] == t and method != "BDF":  # stuck on a kink at the restart
                 self.fallbacks += 1
-                sol = solve_ivp(self.rhs, (t, grid[-1]), x, method="BDF", rtol=rtol, atol=atol, max_step=limit,
+                sol = solve_ivp(self.rhs, (t, t_stop), x, method="BDF", rtol=rtol, atol=atol, max_step=limit,
                                 dense_output=True, events=[f for _, f in events] or None, t_eval=None)
             if sol.status < 0:
                 raise ReferenceError_(f"reference integration failed at t = {sol.t[-1]:.6g} s: {sol.message}")
@@ -289,13 +408,21 @@ class Monolithic:
                 k_next += 1
             x = sol.y[:, -1].copy()
             t = t_end
-            if sol.status == 1:  # contact onset or separation: update the joint's memory and restart
+            if sol.status == 1:  # a switch (contact onset or separation, a brake): update the state, restart
                 u, _ = self.signals(t, x)
                 for (c, _f), te in zip(events, sol.t_events):
                     if len(te):
                         x[self.slices[c.i]] = c.switch(t, x[self.slices[c.i]], u[c.i])
                         self.n_events += 1
-                events = self._event_functions()
+                events = self._event_functions(t, x)
+            elif rows and t == t_stop:  # an input row: the memory the new inputs set (a brake's timer), re-arm
+                self._segment_end = None
+                u, _ = self.signals(t, x)
+                for i, m in enumerate(self.models):
+                    if m.input_memory:
+                        x[self.slices[i]] = m.advance(t, 0.0, x[self.slices[i]], u[i])
+                events = self._event_functions(t, x)
+        self._segment_end = None
         self.wall_time = time.perf_counter() - t_wall
         df = self.frame(grid, states)
         df.attrs["fallbacks"] = self.fallbacks
@@ -316,9 +443,10 @@ class Monolithic:
 
 
 def reference(system, stop_time: float | None = None, step: float | None = None, parameters: dict | None = None,
-              **options) -> pd.DataFrame:
-    """The monolithic reference of ``system`` sampled on the co-simulation grid ``k*step``."""
+              inputs=None, **options) -> pd.DataFrame:
+    """The monolithic reference of ``system`` sampled on the co-simulation grid ``k*step``; ``inputs``: its input
+    signals (:class:`harness.signals.Signals`)."""
     exp = system.experiment
     stop_time = stop_time if stop_time is not None else exp.stop_time
     step = step if step is not None else exp.step
-    return Monolithic(system, parameters).simulate(stop_time, step, **options)
+    return Monolithic(system, parameters, inputs).simulate(stop_time, step, **options)
