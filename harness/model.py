@@ -20,7 +20,7 @@ from pathlib import Path
 
 from harness.errors import SystemError_
 from harness.fmi.cache import model_description  # noqa: F401 (the one modelDescription cache, re-exported)
-from harness.specs import AccuracySpec, ChartSpec, PrecisionSpec, Scene, StabilitySpec
+from harness.specs import AccuracySpec, ChartSpec, PrecisionSpec, Scenario, Scene, StabilitySpec
 
 ROOT = Path(__file__).resolve().parents[1]
 FMU_DIR_ENV = "PRESSDRIVE_FMU_DIR"
@@ -96,6 +96,16 @@ def bond(a: str, b: str, translational: bool | None = None) -> Bond:
 
 
 @dataclass
+class Refusal:
+    """A combination of parameter values a system refuses at load: ``when`` maps ``"Instance.param"`` to the
+    value each takes in it (a parameter the system and the run leave unset counts with its FMU's start
+    value); ``why`` says what the run would compute, ``instead`` what to set instead."""
+    when: dict
+    why: str
+    instead: str
+
+
+@dataclass
 class Experiment:
     stop_time: float
     step: float
@@ -124,6 +134,9 @@ class System:
     # unconnected input is warned about (validate), so a forgotten connection is never silent
     free_inputs: dict[str, str] = field(default_factory=dict)
     scenarios: list[Scenario] = field(default_factory=list)  # its transients (harness.scenarios)
+    # combinations of parameter values that give no answer (e.g. a level that diverges with another's),
+    # refused in one line by validate (harness.model.Refusal)
+    refused: tuple = ()
 
     def instance(self, name: str) -> Instance:
         for inst in self.instances:
@@ -187,6 +200,7 @@ class System:
                 _check_parameter(lookup(f"{inst.name}.{p}", "parameter"), f"{inst.name}.{p}", value)
         for ref, value in (parameters or {}).items():
             _check_parameter(lookup(ref, "parameter"), ref, value)
+        self._refuse(lookup, parameters)
         for b in self.bonds:
             for port in (b.motion_out, b.motion_in):
                 _split(port, "bond port")
@@ -250,6 +264,27 @@ class System:
         for w in warns:
             warnings.warn(w, SystemWarning, stacklevel=3)
         return warns
+
+
+    def _refuse(self, lookup, parameters: dict | None) -> None:
+        """Raise SystemError_ in one line when the parameter values (the system's, overridden by
+        ``parameters``) make one of the system's :class:`Refusal` combinations."""
+        values = {f"{i.name}.{p}": v for i in self.instances for p, v in i.parameters.items()}
+        values.update(parameters or {})
+        for r in self.refused:
+            taken = {}
+            for ref, want in r.when.items():
+                have = values[ref] if ref in values else lookup(ref, "refused parameter").start
+                try:
+                    same = float(have) == float(want)
+                except (TypeError, ValueError):
+                    same = str(have) == str(want)
+                if not same:
+                    break
+                taken[ref] = have
+            else:
+                given = " with ".join(f"{ref} = {v!r}" for ref, v in taken.items())
+                raise SystemError_(f"system {self.name}: {given} is refused: {r.why}; use {r.instead}")
 
 
 def _unit(v) -> str:

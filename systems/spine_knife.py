@@ -6,7 +6,10 @@
 
 Built from the seed's design (Fig. 3, eqs. (10)-(12) and its recommendations), so that its rules hold:
 
-* The seed's motor is "absolutely rigid": MotorBelt at fidelity 0 (ideal speed source) with the V-belt.
+* The drive end: MotorBelt at fidelity 0 (ideal speed source) turns the 0.2 kg.m2 drive-end flywheel through
+  an elastic belt (2e5 N/m on the 0.2375 m pulley: 2820 N.m/rad at the shaft).  The seed's motor is
+  "absolutely rigid" at the drive end itself: that drive is systems/spine_knife_rigid.py (its eq. (10)
+  modes 72.7 and 1029 Hz; here the belt and flywheel give 13.2, 103.9 and 1031.6 Hz and 23 % less twist).
 * The cut: feed-force samples 150/260/280/120 N (assumed: the seed prints none) over crank angles
   [pi/2, pi], one plunge per turn at 600 rpm, so T_cut = (pi - phi_s)/omega = 25 ms (spec 2.13) and
   T_pause/T_cut = 3 > 2.5 (the seed's rule 1).

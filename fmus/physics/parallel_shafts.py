@@ -28,6 +28,11 @@ torque on the knife (c1*dphi2 + b1*dphi2'), which is kept here (spec A2) -- with
 not be in parallel and C_red would not be 2*c1.  ``eq10_frequencies`` gives the two natural frequencies of
 that rigid-motor system in closed form.
 
+Drive end.  ``rigid_drive = 0``: the inertia J_drive, turned by the torque on port ``pulley`` (a motor and
+belt, MotorBelt).  ``rigid_drive = 1``: the seed's motor D, "absolutely rigid": the drive end turns at w0 from
+phi0, whatever the torque on ``pulley`` (its row of the equations is phi0'' = 0, the limit J_drive -> infinity);
+leave ``pulley`` unconnected.  With it, fidelity 1 is the seed's eq. (10) exactly.
+
 Fidelity levels
   0  the seed's reduction to eq. (11): the cranks drive each other through the coupler, so both shaft ends
      turn alike, phi2 = phi0 (the belt and J1 follow the drive end rigidly): J_red*dphi'' + b_red*dphi' +
@@ -94,6 +99,9 @@ class ParallelShaftsParams(Params):
     belt_stiffness: float = param(500.0, "N.m/rad", "torsional stiffness c2 of the V-belt between the flywheels",
                                   low=0.0, low_open=True)
     belt_damping: float = param(0.75, "N.m.s/rad", "torsional damping b2 of the V-belt", low=0.0)
+    rigid_drive: int = param(0, "", "0: the drive end is an inertia J_drive turned by the torque on port pulley; 1: the "
+                             "drive end turns at w0 whatever that torque (the seed's absolutely rigid motor D)",
+                             choices=(0, 1))
     w0: float = param(2.0 * math.pi * 600.0 / 60.0, "rad/s", "initial angular velocity of every part (600 rpm)")
     phi0: float = param(0.0, "rad", "initial angle of every part")
 
@@ -146,6 +154,9 @@ class ParallelShaftsModel(Model):
             A[2 * i + 1, 1::2] = -D[i] / inertia[i]
         B[1, 0] = 1.0 / inertia[0]
         B[3, 1] = 1.0 / p.J_red
+        if p.rigid_drive:                # phi0'' = 0: the drive end is held at w0, pulley.tau moves nothing
+            A[1] = 0.0
+            B[1] = 0.0
         if p.fidelity == 0:              # the flywheel row repeats the drive end's
             A[4:6] = A[0:2]
             B[4:6] = B[0:2]
