@@ -115,6 +115,10 @@ def _typed(values: np.ndarray, v, ref: str, times: np.ndarray) -> list:
         hi = math.inf if hi in (None, "") else float(hi)
         if v.type != "Boolean" and not lo <= float(x) <= hi:
             raise SystemError_(f"{where}: outside the range [{lo:g}, {hi:g}] that its FMU declares")
+        items = getattr(getattr(v, "declaredType", None), "items", None) if v.type == "Enumeration" else None
+        if items and x not in {int(i.value) for i in items}:
+            raise SystemError_(f"{where}: not one of the values of its enumeration ("
+                               f"{', '.join(f'{i.value} = {i.name}' for i in items)})")
         out.append(x)
     return out
 
