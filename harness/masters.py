@@ -358,6 +358,13 @@ class Master:
     def needs_rollback(self) -> bool:
         return False
 
+    def refresh(self, t: float) -> None:
+        """Consistent outputs at communication point t again, after inputs were set from outside the coupling
+        (input signals, :mod:`harness.signals`): an output that depends directly on such an input passes its
+        new value on in this step, not one step late."""
+        self._exchange(t)
+        self._y_list = None
+
     def coupling_signals(self) -> np.ndarray:
         """Indices into ``y`` of the outputs that feed a connection (all outputs when none does)."""
         idx = sorted({int(s) for s in self.src})

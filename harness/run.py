@@ -1,10 +1,14 @@
 """Running a system: :func:`load`, :func:`simulate` and the CLI command ``python -m harness run``.
 
 ``simulate(system, stop_time=None, step=None, master=None, extrapolation=None, step_control=None,
-tolerance=None, start_values=None, output=None, *, start_time=None, on_error="return", options=None)`` returns
-the result DataFrame (see :mod:`harness.results`).  Arguments left at None come from the system's default experiment
-(then: master ``jacobi``, extrapolation 0, fixed step).  Further options live in :class:`RunOptions`
+tolerance=None, start_values=None, output=None, *, start_time=None, output_interval=None, input=None,
+on_error="return", options=None)`` returns the result DataFrame (see :mod:`harness.results`); FMPy's names
+``step_size`` and ``relative_tolerance`` work too.  Arguments left at None come from the system's default
+experiment (then: master ``jacobi``, extrapolation 0, fixed step).  Further options live in :class:`RunOptions`
 (iteration of the ``iterative`` master, step-control limits, blow-up limit, progress bar, FMU logging).
+
+(About 700 lines: loading a system, simulate's argument checks, its stepping loop and the ``run`` command that
+exposes the same arguments read together; input signals live in :mod:`harness.signals`.)
 
 Failures during the run (an FMU error, a non-finite output, an output beyond the blow-up limit, an iteration
 that does not converge) stop it with a one-line message naming the time, the instance and the variable or
@@ -32,6 +36,7 @@ from harness.fmi import Instance, open_instance, release
 from harness.masters import MASTERS, NS, ConvergenceError, IterationOptions, master_class
 from harness.model import System, model_description, resolve_fmu
 from harness.results import Recorder
+from harness.signals import Signals, full_name
 from harness.stepcontrol import StepOptions, step_control as make_step_control
 
 
@@ -203,10 +208,11 @@ def _positive(name: str, value, unit: str = "s") -> float:
 
 
 def split_parameters(system: System, parameters: dict | None) -> dict[str, dict]:
-    """Instance name -> {parameter: value}: the system's values overridden by ``{"Instance.param": value}``."""
+    """Instance name -> {parameter: value}: the system's values overridden by ``{"Instance.param": value}`` (in
+    a system of one FMU also by the FMU's own names, as FMPy takes them: :func:`harness.signals.full_name`)."""
     out = {inst.name: dict(inst.parameters) for inst in system.instances}
     for ref, value in (parameters or {}).items():
-        inst, dot, var = str(ref).partition(".")
+        inst, dot, var = full_name(system, ref).partition(".")
         if not dot or not var:
             raise SystemError_(f"parameter {ref!r} must be written 'Instance.parameter'")
         if inst not in out:
@@ -215,57 +221,99 @@ def split_parameters(system: System, parameters: dict | None) -> dict[str, dict]
     return out
 
 
-# FMPy's names (fmpy.simulate_fmu) and the older names of this function, each mapped to its one spelling here
+# FMPy's names (fmpy.simulate_fmu) and this function's older ones, each mapped to its one spelling here
+_ALIASES = {"step_size": "step", "relative_tolerance": "tolerance"}  # FMPy's, the same meaning (docs/fmpy.md)
 _DEPRECATED = {"parameters": "start_values", "outputs": "output"}    # still accepted, with a DeprecationWarning
-_OTHER_NAMES = {"step_size": "step", "output_interval": "step", "start": "start_time", "stop": "stop_time"}
+# FMPy's other arguments: what takes their place here (one line each, raised as a TypeError)
+_FMPY_ONLY = {
+    "solver": "a model exchange FMU is integrated by CVODE inside the master (harness.fmi.me)",
+    "fmi_type": "a co-simulation FMU runs as one; a model exchange-only FMU is integrated by CVODE",
+    "validate": "the system is always validated against the FMUs before the run",
+    "record_events": "results hold the communication points (or every output_interval)",
+    "apply_default_start_values": "an FMU keeps its declared start values unless start_values sets them",
+    "timeout": "Ctrl-C or SIGTERM ends a run and keeps what it computed (RunInterrupted.partial)",
+    "debug_logging": "use options=RunOptions(logging=...)",
+    "logger": "an FMU's log goes into the one-line error of a failed call",
+    "fmi_call_logger": "an FMU's log goes into the one-line error of a failed call",
+    "step_finished": "the result is returned whole; a stopped run returns what it computed",
+    "set_input_derivatives": "input derivatives are set from extrapolation >= 1 for FMUs that can interpolate",
+    "visible": "FMUs run in batch mode", "remote_platform": "FMUs run on this platform",
+    "model_description": "the modelDescription is read once and cached (harness.fmi.cache)",
+    "fmu_instance": "the master instantiates every FMU itself", "fmu_state": "runs start from initialization",
+    "initialize": "runs start from initialization", "terminate": "every run ends with fmi2Terminate",
+    "early_return_allowed": "FMI 3.0 early return is not used", "use_event_mode": "FMI 3.0 event mode is not used",
+    "set_stop_time": "the stop time is always passed to the FMUs",
+}
 
 
-def _renamed(given: dict) -> dict:
-    """The keyword arguments of :func:`simulate` given under an old name, under their current one (with a
-    DeprecationWarning); a name from another tool is a TypeError naming the spelling used here."""
+def _renamed(given: dict, canonical: dict) -> dict:
+    """The keyword arguments of :func:`simulate` given under FMPy's name or an old one (``given``), under
+    their name here; ``canonical`` holds the values given under that name.  The same argument given twice
+    (``step`` and ``step_size``), an FMPy argument without a counterpart or an unknown name is a TypeError
+    in one line."""
     out = {}
     for name, value in given.items():
         if name in _DEPRECATED:
             warnings.warn(f"simulate(): {name}= is now {_DEPRECATED[name]}= (the name fmpy.simulate_fmu uses)",
                           DeprecationWarning, stacklevel=3)
-            out[_DEPRECATED[name]] = value
-        elif name in _OTHER_NAMES:
-            raise TypeError(f"simulate() has no argument {name!r}: write {_OTHER_NAMES[name]}= "
-                            f"(one name per concept: start_time, stop_time, step, start_values, output)")
+            here = _DEPRECATED[name]
+        elif name in _ALIASES:
+            here = _ALIASES[name]
+        elif name in _FMPY_ONLY:
+            raise TypeError(f"simulate() has no argument {name!r} (fmpy.simulate_fmu's): {_FMPY_ONLY[name]}")
         else:
             raise TypeError(f"simulate() got an unexpected keyword argument {name!r}")
+        if value is None:
+            continue
+        if canonical.get(here) is not None or here in out:
+            raise TypeError(f"simulate(): {name}= and {here}= are the same argument ({name} is FMPy's or the "
+                            f"former name of {here}): give one")
+        out[here] = value
     return out
 
 
 def simulate(system, stop_time: float | None = None, step: float | None = None, master: str | None = None,
              extrapolation=None, step_control: str | None = None, tolerance: float | None = None,
              start_values: dict | None = None, output: list[str] | None = None, *, start_time: float | None = None,
-             on_error: str = "return", options: RunOptions | None = None, **old_names) -> pd.DataFrame:
+             output_interval: float | None = None, input=None, on_error: str = "return",
+             options: RunOptions | None = None, **other_names) -> pd.DataFrame:
     """Co-simulate ``system`` and return its result: a DataFrame indexed by time [s], one column per
     ``Instance.variable`` (in the FMU's declared unit, ``df.attrs["units"]``).
 
-    The names are FMPy's (``fmpy.simulate_fmu``) where it has one: ``start_time``, ``stop_time``,
-    ``start_values``, ``output``; the communication step is ``step`` (FMPy: ``step_size``), as in the command
-    line's ``--step``.  The older ``parameters=`` and ``outputs=`` still work, with a DeprecationWarning.
+    The arguments of ``fmpy.simulate_fmu`` work here with the same meaning: ``start_time``, ``stop_time``,
+    ``step_size`` (the communication step, also written ``step`` as on the command line), ``relative_tolerance``
+    (also ``tolerance``), ``output_interval``, ``start_values``, ``output``, ``input``.  A system of one FMU (a
+    bare .fmu) takes the FMU's own variable names as FMPy does; the columns stay ``Instance.variable``.
+    FMPy's other arguments are a TypeError saying what takes their place (docs/fmpy.md).
 
     Arguments (None: the system's default experiment, then the fallback named):
 
     * ``system``: a module name in ``systems/`` (``"bed_drive"``), a .py file defining ``SYSTEM``, an
-      .ssp/.ssd file, or a :class:`System`.
+      .ssp/.ssd file, an .fmu file (run alone), or a :class:`System`.
     * ``start_time`` [s]: start of the run (default: the default experiment's, else 0; finite, before
       ``stop_time``).
-    * ``stop_time`` [s]: end of the run (positive).  ``step`` [s]: communication step (positive, >= 1 ns, at
-      most ``stop_time - start_time``; the first step of a variable-step run).
-    * ``master``: ``"jacobi"`` (fallback), ``"jacobi-sampled"``, ``"gauss-seidel"`` or ``"iterative"``.
+    * ``stop_time`` [s]: end of the run (positive).
+    * ``step`` or ``step_size`` [s]: communication step (positive, >= 1 ns, at most ``stop_time -
+      start_time``; the first step of a variable-step run; default: the default experiment's, else
+      ``output_interval``, as FMPy steps a co-simulation FMU).
+    * ``output_interval`` [s]: record every this often (a whole multiple of the step, fixed step only;
+      default: every communication point); the end of the run is always recorded.
+    * ``master``: ``"jacobi"`` (fallback), ``"jacobi-sampled"``, ``"gauss-seidel"``, ``"iterative"`` or
+      ``"jacobian"`` (:data:`harness.masters.MASTERS`).
     * ``extrapolation``: order of the held inputs, 0 (hold, fallback), 1 or 2 (polynomial at the step midpoint).
     * ``step_control``: None/``"none"`` (fixed step, fallback), ``"richardson"`` or ``"ecco"``.
-    * ``tolerance`` [-]: relative tolerance of step control and of the iterative master (positive; fallback
-      none, the iteration then uses 1e-10).
+    * ``tolerance`` or ``relative_tolerance`` [-]: passed to the FMUs (fmi2SetupExperiment), and the
+      tolerance of step control and of the iterative master (positive; fallback none, the iteration then
+      uses 1e-10).
     * ``start_values``: ``{"Instance.parameter": value}`` in the parameter's declared unit, over the system's
       values (default: none; the command line's ``--set``).  A value the FMU refuses returns an empty result,
       ``attrs["bad_input"]`` True, with a one-line error naming the instance, parameter, value, unit and
       admissible range.
     * ``output``: ``["Instance.variable", ...]`` to record (default: every Real output; ``--output``).
+    * ``input``: signals for free inputs: a structured numpy array (FMPy's ``input``), a DataFrame or a CSV
+      file with a ``time`` column and one column per ``Instance.variable`` input, interpolated as FMPy does
+      (continuous Real linearly, the others held; two rows at one time are a step), set at each
+      communication point before the step (:mod:`harness.signals`; ``--input``).
     * ``on_error``: ``"return"`` (default): a run that stops early (divergence, FMU failure, non-finite
       output) returns what it computed with ``attrs["complete"] = False`` and a one-line ``attrs["error"]``
       (``attrs["diverged"]`` if the divergence detector stopped it) and warns :class:`RunWarning`; a run
@@ -274,17 +322,17 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
       ``"raise"``: raises :class:`~harness.errors.SimulationError` whose ``partial`` is that result.
     * ``options``: :class:`RunOptions` (iteration, step-control limits, blow-up limit, divergence detector,
       progress bar, FMU logging, in-process calls); default ``RunOptions()``.
-    * ``old_names``: ``parameters=`` and ``outputs=``, this function's former names of ``start_values`` and
-      ``output``, still accepted with a DeprecationWarning; FMPy's ``step_size`` or ``output_interval`` is a
-      TypeError naming ``step``.
+    * ``other_names``: FMPy's ``step_size`` and ``relative_tolerance``; ``parameters=`` and ``outputs=``, this
+      function's former names of ``start_values`` and ``output``, still accepted with a DeprecationWarning.
 
     Ctrl-C raises :class:`RunInterrupted` (a KeyboardInterrupt) whose ``partial`` is the result so far,
     marked ``attrs["complete"] = False``, ``attrs["interrupted"] = True``.  Errors in the description or the
     arguments raise :class:`~harness.errors.SystemError_` before the run."""
-    if old_names:
-        moved = _renamed(old_names)
-        start_values = moved.get("start_values", start_values)
-        output = moved.get("output", output)
+    if other_names:
+        moved = _renamed(other_names, dict(step=step, tolerance=tolerance, start_values=start_values,
+                                           output=output))
+        step, tolerance = moved.get("step", step), moved.get("tolerance", tolerance)
+        start_values, output = moved.get("start_values", start_values), moved.get("output", output)
     system = load(system)
     opts = options or RunOptions()
     if on_error not in ("return", "raise"):
@@ -294,6 +342,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         if exp is None:
             raise SystemError_(f"system {system.name} has no default experiment: give stop_time")
         stop_time = exp.stop_time
+    if step is None and (exp is None or exp.step is None) and output_interval is not None:
+        step = output_interval  # as fmpy.simulate_fmu steps a co-simulation FMU: one step per output interval
     if step is None:
         if exp is None:
             raise SystemError_(f"system {system.name} has no default experiment: give step")
@@ -320,12 +370,19 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         raise SystemError_(f"step = {step!r} s is longer than the run from start_time = {start_time!r} s to "
                            f"stop_time = {stop_time!r} s" if start_ns else
                            f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
+    sample_ns = _output_interval(output_interval, step, step_ns, step_control)
     cls = master_class(master)
     extra = make_extrapolation(extrapolation)
     params = split_parameters(system, start_values)
+    output = None if output is None else [full_name(system, c) for c in output]
 
     paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
     mds = {name: model_description(p) for name, p in paths.items()}
+    signals = None
+    if input is not None:
+        signals = Signals(system, mds, system.all_connections(mds), input)
+        for inst, values in signals.start_values(start_ns).items():  # set before the FMUs initialize
+            params[inst].update(values)
     system.validate(mds, {f"{i}.{k}": v for i, d in params.items() for k, v in d.items()})
     connections = system.all_connections(mds)
 
@@ -341,13 +398,16 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
                 if not f.can_vary_step:
                     raise SystemError_(f"stop_time = {stop_time!r} s is not a multiple of step = {step!r} s and "
                                        f"instance {name} cannot take a shorter last step")
-        n_rows = -(-(stop_ns - start_ns) // step_ns) + 1 if not controller.variable else 1024
+        n_rows = -(-(stop_ns - start_ns) // sample_ns) + 1 if not controller.variable else 1024
         rec = Recorder(m, output, n_rows)
+        if signals is not None:
+            signals.bind(fmus)
         info = dict(system=system.name, master=cls.name, extrapolation=extra.order,
                     step_control=controller.name, step=step, start_time=start_time, stop_time=stop_time,
-                    tolerance=tolerance,
+                    tolerance=tolerance, output_interval=sample_ns / NS, inputs=signals.names if signals else [],
                     units=column_units(fmus, rec.columns))
-        return _run(m, controller, rec, params, (start_ns, stop_ns, step_ns), tolerance, on_error, opts, info)
+        return _run(m, controller, rec, params, (start_ns, stop_ns, step_ns, sample_ns), tolerance, on_error, opts,
+                    info, signals)
     finally:
         release(m, fmus)
 
@@ -379,10 +439,33 @@ def _progress(total_ns: int, enabled: bool | None):
                 bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
 
 
-def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info):
-    """The stepping loop over ``span`` = (start, stop, step) [ns]; the result, marked as it ended."""
+def _output_interval(output_interval, step: float, step_ns: int, step_control) -> int:
+    """The recording interval [ns]: ``output_interval``, a whole multiple of the step (fixed step only), or
+    the step itself (every communication point)."""
+    if output_interval is None:
+        return step_ns
+    interval = _positive("output_interval", output_interval)
+    if step_control not in (None, "none"):
+        raise SystemError_(f"output_interval = {interval!r} s needs a fixed step: under step_control = "
+                           f"{step_control!r} the communication points are the controller's; leave "
+                           f"output_interval out (every accepted point is recorded)")
+    sample_ns = int(round(interval * NS))
+    if sample_ns < step_ns or sample_ns % step_ns:
+        raise SystemError_(f"output_interval = {interval!r} s is not a whole multiple of step = {step!r} s: the "
+                           f"result holds communication points (values between them are not computed); give "
+                           f"a multiple of the step, or a step that divides it")
+    return sample_ns
+
+
+def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info, signals=None):
+    """The stepping loop over ``span`` = (start, stop, step, recording interval) [ns]; ``signals`` (a
+    :class:`~harness.signals.Signals`) set at each communication point before the step; the result, marked as
+    it ended."""
     wall = _time.perf_counter()
-    start_ns, stop_ns, step_ns = span
+    start_ns, stop_ns, step_ns, sample_ns = span
+    # a signal into an instance that feeds others: the point's outputs again, so no connection lags a step
+    # (the row at t keeps the values recorded at the end of the step, as FMPy records them)
+    refresh = signals is not None and any(c.source.split(".", 1)[0] in signals.instances for c in m.connections)
     steps = 0
     t_ns = start_ns
     bar = _progress(stop_ns - start_ns, opts.progress)
@@ -401,9 +484,14 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
         shown = start_ns
         while t_ns < stop_ns:
             t_prev = t_ns
+            if signals is not None:
+                signals.apply(t_ns)
+                if refresh:
+                    m.refresh(t_ns / NS)
             t_ns, h_ns = controller.advance(m, t_ns, h_ns, stop_ns)
             steps += 1
-            rec.record(t_ns / NS)
+            if sample_ns == step_ns or (t_ns - start_ns) % sample_ns == 0 or t_ns >= stop_ns:
+                rec.record(t_ns / NS)
             if detector is not None:
                 detector.update(t_ns / NS, m.bond_log, (t_ns - t_prev) / NS)
             if bar is not None and (steps & 63) == 0:
@@ -482,15 +570,19 @@ def register(subparsers) -> None:
                     "its chart to DIR/<system>.partial.png instead, never over a complete result, says so on "
                     "stderr in one line and exits 1 (130 after Ctrl-C, 143 after SIGTERM). The options are "
                     "those of harness.simulate(): --start-time is start_time, --set fills start_values, "
-                    "--output is output.")
+                    "--output is output, --input is input.")
     p.add_argument("system", help="system name in systems/ (e.g. bed_drive; `list` shows them), a .py file "
                                   "defining SYSTEM, or an .ssp/.ssd file")
     p.add_argument("--start-time", type=float, default=None, metavar="SECONDS",
                    help="start time [s] (default: the system's default experiment, else 0)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
                    help="stop time [s] (default: the system's default experiment)")
-    p.add_argument("--step", type=float, default=None, metavar="SECONDS",
-                   help="communication step [s] (default: the system's default experiment)")
+    p.add_argument("--step", "--step-size", type=float, default=None, metavar="SECONDS",
+                   help="communication step [s] (default: the system's default experiment, else "
+                        "--output-interval)")
+    p.add_argument("--output-interval", type=float, default=None, metavar="SECONDS",
+                   help="record the result every this often, a whole multiple of the step (default: every "
+                        "communication step)")
     p.add_argument("--master", default=None, metavar="NAME",
                    help=f"{', '.join(MASTERS)} (default: the system's, else jacobi)")
     p.add_argument("--extrapolation", type=int, default=None, choices=(0, 1, 2),
@@ -504,6 +596,11 @@ def register(subparsers) -> None:
                         "them; default: the system's values)")
     p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
                    help="record only these variables (repeatable; default: every output)")
+    p.add_argument("--input", "--input-file", type=Path, default=None, metavar="FILE.csv",
+                   help="input signals: a CSV file with a 'time' column [s] and one column per free input "
+                        "Instance.variable, interpolated as FMPy does (continuous Real inputs linearly, others "
+                        "held; two rows at one time are a step); checked before the run (default: none, free "
+                        "inputs keep their start values)")
     p.add_argument("--out", type=Path, default=None, metavar="FILE",
                    help="write the result to this file: .csv, or .parquet when pyarrow or fastparquet is "
                         "installed; its folder is made if missing, and checked before the run "
@@ -580,7 +677,8 @@ def run_cli(args) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RunWarning)  # the CLI reports a stop itself, in one line
             df = simulate(system, start_time=args.start_time, stop_time=args.stop_time, step=args.step,
-                          master=args.master,
+                          output_interval=getattr(args, "output_interval", None),
+                          input=getattr(args, "input", None), master=args.master,
                           extrapolation=args.extrapolation, step_control=args.step_control,
                           tolerance=args.tolerance, start_values=parse_sets(args.set), output=args.output,
                           options=RunOptions(progress=None, in_process=False if args.fmi_only else None),

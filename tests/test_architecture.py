@@ -19,7 +19,7 @@ LAYERS = [
     (3, ("harness.specs", "harness.model", "harness.graph", "harness.extrapolation", "harness.stepcontrol",
          "harness.coupling", "harness.iteration", "harness.jacobian", "harness.masters", "harness.results",
          "harness.qoi")),                                         # system model and masters
-    (4, ("harness", "harness.run", "harness.ssp", "harness.charts",   # run / ssp (and the package's lazy API)
+    (4, ("harness", "harness.run", "harness.signals", "harness.ssp", "harness.charts",   # run / ssp (lazy API)
          "systems")),                                             # the drives as data, loaded by run.load
     (5, ("harness.studies", "harness.synthesis", "harness.__main__")),  # studies, synthesis, CLI
 ]

@@ -276,8 +276,8 @@ def test_simulate_takes_start_values_and_output():
     with pytest.warns(DeprecationWarning, match="parameters= is now start_values="):
         old = simulate("two_inertia", stop_time=0.01, step=1e-3, parameters={"a.w0": 2.0}, outputs=["a.flange.w"])
     assert old.equals(df)
-    with pytest.raises(TypeError, match="write step="):
-        simulate("two_inertia", stop_time=0.01, step_size=1e-3)
+    assert simulate("two_inertia", stop_time=0.01, step_size=1e-3, start_values={"a.w0": 2.0},
+                    output=["a.flange.w"]).equals(df)  # FMPy's name of the step (tests/test_fmpy_names.py)
 
 
 def test_start_time_shifts_the_run_of_an_autonomous_system():
