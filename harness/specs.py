@@ -155,12 +155,14 @@ class Scenario:
     :mod:`harness.scenarios`: ``parameters`` (``Instance.parameter`` -> value) set the drive up for it (from
     rest, a brake's torque), ``changes`` drive its free inputs over time, ``stop_time`` [s] is its run.
     ``kind`` names what the transient quantities measure: ``startup`` (from rest to speed), ``speed_change``,
-    ``stop`` (an emergency stop from the first change on) or ``load`` (a load step, e.g. a jam)."""
+    ``stop`` (an emergency stop from the first change on) or ``load`` (a load step, e.g. a jam); ``watch``: the
+    tool's position column (the bed, the knife) whose overrun a stop reports."""
     name: str
     question: str
     kind: str
     stop_time: float
     changes: tuple[Change, ...] = ()
     parameters: tuple[tuple[str, float], ...] = ()
+    watch: str | None = None
 
     KINDS = ("startup", "speed_change", "stop", "load")

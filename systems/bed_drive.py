@@ -52,7 +52,7 @@ import math
 from fmus.physics import bed_law, fourbar, fourbar_synthesis
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import AccuracySpec, ChartSpec, Panel, PrecisionSpec, Requirement, Scene, StabilitySpec, Zone
-from systems import motor_inputs
+from systems import motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
 CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m
@@ -182,3 +182,7 @@ SYSTEM = System(
         zones=(Zone(f"printing zone: bed at {PRINT_ZONE[0]:g} to {PRINT_ZONE[1]:g} m on the working stroke", IN_ZONE),),
         crank_angle="flywheel.crank.phi", cycle_origin=PHI_START, origin_name="start of the working stroke"),
 )
+
+# The transients the drive is sized by (harness.scenarios): start-up from rest, a speed change through the supply
+# frequency, an emergency stop with the rotor brake (the bed's overrun reported)
+SYSTEM.scenarios = motor_scenarios(SYSTEM, {"flywheel.w0": 0.0}, watch="bed.bed.s")

@@ -22,7 +22,7 @@ import math
 from fmus.physics import groove
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import AccuracySpec, ChartSpec, Panel, PrecisionSpec, Requirement, Scene, StabilitySpec, Zone
-from systems import motor_inputs
+from systems import jam, motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
 N_CRANK = 960.0 / 6.4  # rpm, motor rated speed over the belt ratio
@@ -118,3 +118,9 @@ SYSTEM.chart = ChartSpec(
     zones=(Zone(f"head dwell at the feed table: {math.degrees(_feeder['dwell']):g} deg of crank angle",
                 f'between((r["flywheel.crank.phi"] - {DWELL_START!r}) % {2 * math.pi!r}, 0.0, {_feeder["dwell"]!r})'),),
     crank_angle="flywheel.crank.phi", cycle_origin=_base["phi_start"], origin_name="start of the forward stroke")
+
+# The transients the drive is sized by (harness.scenarios): start-up, speed change, emergency stop (the feeder
+# rocker's overrun reported) and a jam: twice the motor's rated torque, reduced to the main shaft through the belt
+# (750 W at 960 rpm times 6.4: 47.7 N.m), stepped onto the shaft's second take-off
+SYSTEM.scenarios = [*motor_scenarios(SYSTEM, {"flywheel.w0": 0.0}, watch="feeder.rocker.phi"),
+                    jam(SYSTEM, "flywheel.aux.tau", -2.0 * 750.0 / (960.0 * RPM) * 0.64 / 0.1)]

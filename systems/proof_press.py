@@ -14,7 +14,7 @@ import math
 
 from harness.model import Experiment, Instance, Refusal, System, bond
 from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene, StabilitySpec
-from systems import motor_inputs
+from systems import motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
 
@@ -89,3 +89,8 @@ SYSTEM = System(
         "torsional stiffness sectors -> cylinder c_cyl [N.m/rad] of GearSectors, whose crank torque couples "
         "it to the flywheel shaft; omega ~ sqrt(c_cyl / J_cyl)"),
 )
+
+# The transients the press is sized by (harness.scenarios): start-up, speed change, emergency stop (the bed's
+# overrun reported)
+SYSTEM.scenarios = motor_scenarios(SYSTEM, {"flywheel.w0": 0.0}, watch="press.bed.s", change_at=2.0,
+                                   stop_time=4.0)

@@ -37,7 +37,7 @@ import math
 from fmus.physics import knife as kn
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene, StabilitySpec
-from systems import motor_inputs
+from systems import jam, motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
 W_CRANK = 600.0 * RPM                         # rad/s
@@ -116,3 +116,10 @@ SYSTEM = System(
         "diameter d [m] of the two parallel shafts (together G pi d^4 / (16 l)) of the ParallelShafts that drive "
         "the linkage; omega ~ sqrt(C_red (1/J_red + 1/(J_drive + J_flywheel))), the seed's eq. (11) mode"),
 )
+
+# The transients the drive is sized by (harness.scenarios), with the motor at fidelity 1: start-up, speed change,
+# emergency stop (the knife's overrun reported) and a jam at the knife: twice the motor's rated torque reduced to
+# the shaft through the belt (2200 W at 1425 rpm times 2.375: 35.0 N.m), stepped onto the knife node's take-off
+SYSTEM.scenarios = [*motor_scenarios(SYSTEM, {"shaft.w0": 0.0}, watch="linkage.rocker.phi", change_at=0.5,
+                                     stop_time=1.0),
+                    jam(SYSTEM, "shaft.aux.tau", -2.0 * 2200.0 / (1425.0 * RPM) * 2.375, at=0.3, stop_time=0.6)]

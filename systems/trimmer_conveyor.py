@@ -19,7 +19,7 @@ import math
 
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene
-from systems import motor_inputs
+from systems import motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
 SPEED = 1.8                                   # m/s, transport speed
@@ -82,3 +82,7 @@ SYSTEM = System(
     precision=PrecisionSpec("trim.shaft.tau", "moment on the drive shaft", "N.m", stop_time=0.6,
                             steps=(2e-4, 4e-4, 8e-4, 1.6e-3), columns=("drive.crank.w", "drive.shaft_twist")),
 )
+
+# The transients the conveyors' drive is sized by (harness.scenarios), with the motor at fidelity 1: start-up,
+# speed change, emergency stop
+SYSTEM.scenarios = motor_scenarios(SYSTEM, {"drive.w0": 0.0})
