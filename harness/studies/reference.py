@@ -177,15 +177,18 @@ class _Brake(_Switch):
     def applies(cls, model) -> bool:
         return model.p.holding_torque > 0.0
 
+    loose = False  # the held rotor has just broken loose: arm it sliding (its torques sit at the holding torque)
+
     def arm(self, t, x, u) -> None:
         m = self.model
+        loose, self.loose = self.loose, False
         if u[3] < 0.5:
             self.mode = "released"
         elif x[3] < m.p.brake_delay:
             self.mode, self.direction = "engaging", 1.0
         elif x[1] != 0.0:
             self.mode, self.direction, self.sense = "sliding", -1.0, math.copysign(1.0, x[1])
-        elif abs(m.rotor_torque_at_rest(t, x, u, t)) <= m.p.holding_torque:
+        elif not loose and abs(m.rotor_torque_at_rest(t, x, u, t)) <= m.p.holding_torque:
             self.mode, self.direction = "held", -1.0
         else:
             self.mode, self.direction = "sliding", -1.0
@@ -207,6 +210,8 @@ class _Brake(_Switch):
             x[3] = max(x[3], self.model.p.brake_delay)
         elif self.mode == "sliding":
             x[1] = 0.0
+        elif self.mode == "held":
+            self.loose = True
         return x
 
     def held(self) -> bool:
@@ -450,3 +455,20 @@ def reference(system, stop_time: float | None = None, step: float | None = None,
     stop_time = stop_time if stop_time is not None else exp.stop_time
     step = step if step is not None else exp.step
     return Monolithic(system, parameters, inputs).simulate(stop_time, step, **options)
+
+
+def scenario_reference(system, scenario, step: float | None = None, stop_time: float | None = None,
+                       **options) -> pd.DataFrame:
+    """The monolithic reference of ``system`` through ``scenario`` (:mod:`harness.scenarios`: its parameters and
+    its changes as input signals), sampled on ``k*step`` (default: the system's step) to the scenario's end."""
+    from harness.fmi.cache import model_description
+    from harness.model import resolve_fmu
+    from harness.scenarios import find, input_starts, table
+    from harness.signals import Signals
+
+    sc = find(system, scenario)
+    inputs = None
+    if sc.changes:
+        mds = {inst.name: model_description(resolve_fmu(inst.fmu)) for inst in system.instances}
+        inputs = Signals(system, mds, system.all_connections(mds), table(sc, input_starts(system, sc)))
+    return reference(system, stop_time or sc.stop_time, step, dict(sc.parameters), inputs, **options)
