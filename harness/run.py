@@ -31,6 +31,7 @@ from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import Instance, open_instance, release
 from harness.masters import MASTERS, NS, ConvergenceError, IterationOptions, master_class
 from harness.model import System, model_description, resolve_fmu
+from harness.quantities import json_path, quantities
 from harness.results import Recorder
 from harness.stepcontrol import StepOptions, step_control as make_step_control
 
@@ -347,7 +348,9 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
                     step_control=controller.name, step=step, start_time=start_time, stop_time=stop_time,
                     tolerance=tolerance,
                     units=column_units(fmus, rec.columns))
-        return _run(m, controller, rec, params, (start_ns, stop_ns, step_ns), tolerance, on_error, opts, info)
+        info["start_values"] = dict(start_values or {})
+        return _run(m, controller, rec, params, (start_ns, stop_ns, step_ns), tolerance, on_error, opts, info,
+                    system)
     finally:
         release(m, fmus)
 
@@ -379,7 +382,7 @@ def _progress(total_ns: int, enabled: bool | None):
                 bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
 
 
-def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info):
+def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info, system):
     """The stepping loop over ``span`` = (start, stop, step) [ns]; the result, marked as it ended."""
     wall = _time.perf_counter()
     start_ns, stop_ns, step_ns = span
@@ -435,6 +438,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
     df.attrs["interrupted"] = bool(interrupted)
     df.attrs["bad_input"] = bad_input
     df.attrs["suspect"] = suspect
+    df.attrs["quantities"] = quantities(system, df)  # the engineering quantities, also of a partial result
     if interrupted:
         raise RunInterrupted(error, partial=df, status=interrupted)
     if error:
@@ -506,7 +510,8 @@ def register(subparsers) -> None:
                    help="record only these variables (repeatable; default: every output)")
     p.add_argument("--out", type=Path, default=None, metavar="FILE",
                    help="write the result to this file: .csv, or .parquet when pyarrow or fastparquet is "
-                        "installed; its folder is made if missing, and checked before the run "
+                        "installed, and the drive's engineering quantities beside it (FILE.quantities.json, "
+                        "x.csv -> x.quantities.json); its folder is made if missing, and checked before the run "
                         "(default: not written)")
     p.add_argument("--units", action="store_true",
                    help="CSV: write a second header row with each column's unit (read it with "
@@ -517,6 +522,10 @@ def register(subparsers) -> None:
                         "where the system declares its crank angle, DIR/<system>_cycle.png/.svg (over the last "
                         "complete crank revolution); <name>.partial.png/.svg for a run that stopped early "
                         "(default: no chart)")
+    p.add_argument("--quiet-quantities", action="store_true",
+                   help="do not print the table of the drive's engineering quantities after the run (default: "
+                        "printed; with --out they are written beside the result as FILE.quantities.json "
+                        "either way)")
     p.add_argument("--fmi-only", action="store_true",
                    help="call every FMU through its FMI library (default: pythonfmu FMUs, the toolkit's and "
                         "others', are called in this process: the same results bit for bit, faster)")
@@ -598,6 +607,8 @@ def run_cli(args) -> int:
         from harness.results import write_result
 
         write_result(df, out, units=getattr(args, "units", False))
+        if a["quantities"].rows:
+            a["quantities"].write_json(json_path(out))
     where = f"wrote {out}" if out is not None else "no --out given, result not written"
     if args.plot is not None and len(df):
         where += "; chart " + ", ".join(str(p) for p in _plot(system, df, args.plot))
@@ -610,6 +621,8 @@ def run_cli(args) -> int:
         print(f"warning: {a['suspect']}", file=sys.stderr)
     print(f"{a['system']}: {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s, master {a['master']}, "
           f"{a['steps']} steps{_halved(a)} in {a['wall_time']:.3g} s; {where}")
+    if not getattr(args, "quiet_quantities", False) and a["quantities"].rows:
+        print(a["quantities"].table())
     return 0
 
 

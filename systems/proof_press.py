@@ -13,7 +13,7 @@
 import math
 
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene, StabilitySpec
+from harness.specs import AccuracySpec, Answer, Load, PrecisionSpec, QuantitySpec, Requirement, Scene, StabilitySpec
 
 RPM = 2 * math.pi / 60
 
@@ -77,4 +77,25 @@ SYSTEM = System(
         lambda p: math.sqrt(p("press.c_cyl") / p("press.J_cyl")),
         "torsional stiffness sectors -> cylinder c_cyl [N.m/rad] of GearSectors, whose crank torque couples "
         "it to the flywheel shaft; omega ~ sqrt(c_cyl / J_cyl)"),
+)
+
+# The engineering quantities printed after a run (harness.quantities): over the steady turns of the main shaft;
+# the seed's aim, the cylinder rolling on the bed without slip while printing
+SYSTEM.quantities = QuantitySpec(
+    shaft_angle="flywheel.crank.phi", shaft_speed="flywheel.crank.w",
+    shaft_name="main shaft, crank side of the flywheel shaft (flywheel.crank.w)",
+    cycle_name="revolution of the main shaft", motor="motor",
+    loads=(
+        Load("shaft_torque", "flywheel.shaft_torque", "torque the main shaft transmits from the flywheel"),
+        Load("belt_torque", "motor.pulley.tau", "belt torque on the flywheel pulley"),
+        Load("crank_torque", "press.crank.tau", "torque the slider-crank and sectors take from the main shaft"),
+    ),
+    answers=(
+        Answer("cylinder_slip", "peak", ("press.sync_error",), "um",
+               "largest |slip| of the cylinder surface against the bed while printing (synchronous phase)",
+               where='r["press.phase"] == 2', scale=1e6),
+        Answer("speed_fluctuation_flywheel", "fluctuation", ("flywheel.pulley.w",), "%",
+               "delta on the flywheel side of the main shaft (flywheel.pulley.w), w_mean the cycle's time mean",
+               scale=100.0),
+    ),
 )

@@ -33,7 +33,7 @@ import math
 
 from fmus.physics import knife as kn
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene, StabilitySpec
+from harness.specs import AccuracySpec, Answer, Load, PrecisionSpec, QuantitySpec, Requirement, Scene, StabilitySpec
 
 RPM = 2 * math.pi / 60
 W_CRANK = 600.0 * RPM                         # rad/s
@@ -110,4 +110,30 @@ SYSTEM = System(
                             * (1.0 / p("shaft.J_red") + 1.0 / (p("shaft.J_drive") + p("shaft.J_flywheel")))),
         "diameter d [m] of the two parallel shafts (together G pi d^4 / (16 l)) of the ParallelShafts that drive "
         "the linkage; omega ~ sqrt(C_red (1/J_red + 1/(J_drive + J_flywheel))), the seed's eq. (11) mode"),
+)
+
+# The engineering quantities printed after a run (harness.quantities): over the steady turns of the knife's
+# crank (one plunge each) from crank angle 0; the seed's questions, the knife shaft's twist and the cutting torque
+SYSTEM.quantities = QuantitySpec(
+    shaft_angle="shaft.crank.phi", shaft_speed="shaft.crank.w",
+    shaft_name="knife-side end of the driving shaft S1 (shaft.crank.w), the linkage's crank",
+    cycle_name="revolution of the crank: one plunge", motor="motor",
+    loads=(
+        Load("shaft_torque", "shaft.shaft_torque", "torque both shafts deliver to the knife"),
+        Load("belt_torque", "motor.pulley.tau", "belt torque on the drive-end pulley"),
+        Load("coupler_force", "linkage.joint_force", "coupler force of the parallelogram linkage"),
+        Load("linkage_clearance_force", "linkage.contact_force", "contact force in the linkage's clearance joint"),
+    ),
+    answers=(
+        Answer("knife_shaft_twist", "peak", ("shaft.shaft_twist",), "mrad",
+               "largest torsional deformation of the driving shaft (phi0 - phi1)", scale=1e3),
+        Answer("cutting_torque_peak", "peak", ("knife.knife.tau",), "N.m",
+               "largest |torque| the cut puts on the knife's crank", where='r["knife.cutting"] > 0'),
+        Answer("cutting_torque_mean", "mean", ("knife.knife.tau",), "N.m",
+               "time mean of the knife's torque while cutting (negative: it brakes the drive)",
+               where='r["knife.cutting"] > 0'),
+        Answer("speed_fluctuation_flywheel", "fluctuation", ("shaft.pulley.w",), "%",
+               "delta at the drive end (shaft.pulley.w, the V-belt's pulley), w_mean the cycle's time mean",
+               scale=100.0),
+    ),
 )

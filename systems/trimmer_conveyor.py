@@ -18,7 +18,7 @@
 import math
 
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene
+from harness.specs import AccuracySpec, Answer, Load, PrecisionSpec, QuantitySpec, Requirement, Scene
 
 RPM = 2 * math.pi / 60
 SPEED = 1.8                                   # m/s, transport speed
@@ -79,4 +79,24 @@ SYSTEM = System(
     default_scene="mean_moment",  # the article's quantity: the moment on the drive shaft (its Fig. 1)
     precision=PrecisionSpec("trim.shaft.tau", "moment on the drive shaft", "N.m", stop_time=0.6,
                             steps=(2e-4, 4e-4, 8e-4, 1.6e-3), columns=("drive.crank.w", "drive.shaft_twist")),
+)
+
+# The engineering quantities printed after a run (harness.quantities): one machine cycle is one block pitch of
+# the conveyors (PITCH / R_PULLEY of the drive shaft's angle); the article's quantity, the trimming moment
+SYSTEM.quantities = QuantitySpec(
+    shaft_angle="drive.crank.phi", shaft_speed="drive.crank.w",
+    shaft_name="conveyors' drive shaft, conveyor side (drive.crank.w)",
+    cycle_angle=PITCH / R_PULLEY, cycle_name=f"one block pitch ({PITCH:g} m of belt travel)", motor="motor",
+    loads=(
+        Load("shaft_torque", "drive.shaft_torque", "torque the drive shaft transmits to the conveyors"),
+        Load("belt_torque", "motor.pulley.tau", "belt torque on the drive pulley"),
+    ),
+    answers=(
+        Answer("trimming_moment_mean", "mean", ("trim.shaft.tau",), "N.m",
+               "time mean of the moment trimming and transport put on the drive shaft (negative: a load)"),
+        Answer("trimming_moment_peak", "peak", ("trim.shaft.tau",), "N.m",
+               "largest |moment| trimming and transport put on the drive shaft"),
+        Answer("transport_force_peak", "peak", ("trim.transport_force",), "N",
+               "largest transport force of the blocks through the trimming section"),
+    ),
 )

@@ -20,6 +20,7 @@ LAYERS = [
          "harness.coupling", "harness.iteration", "harness.jacobian", "harness.masters", "harness.results",
          "harness.qoi")),                                         # system model and masters
     (4, ("harness", "harness.run", "harness.ssp", "harness.charts",   # run / ssp (and the package's lazy API)
+         "harness.quantities",                                    # a drive's engineering quantities
          "systems")),                                             # the drives as data, loaded by run.load
     (5, ("harness.studies", "harness.synthesis", "harness.__main__")),  # studies, synthesis, CLI
 ]
