@@ -131,32 +131,50 @@ def detect_cycles(t, angle, origin: float = 0.0, cycle_angle: float = 2 * math.p
                       f"no steady cycle: the mean main-shaft speed still changes by "
                       f"{100 * abs(means[-1] - means[-2]) / abs(means[-1]):.3g} % from cycle {n - 1} to {n} "
                       f"(settled: within {100 * settle:g} %); run longer", settle)
-    k = n - 1
+    k = n - 1                       # walk back while cycle k is settled against cycle k - 1
     while k >= 1 and settled[k - 1]:
         k -= 1
-    return Cycles(bounds, means, max(k, 1), "", settle)
+    return Cycles(bounds, means, k + 1, "", settle)      # cycle k is not settled (or k = 0): the next one is
 
 
-# -- reductions over a window ------------------------------------------------------------------------------
-def _time_mean(t: np.ndarray, x: np.ndarray) -> float:
-    if t.size < 2 or t[-1] == t[0]:
-        return float(np.mean(x))
-    return float(np.sum(0.5 * (x[1:] + x[:-1]) * np.diff(t)) / (t[-1] - t[0]))
+# -- reductions over the samples where a mask holds -------------------------------------------------------
+def _weights(t: np.ndarray, on: np.ndarray) -> np.ndarray:
+    """Trapezoidal quadrature weights [s] of the samples where ``on`` holds, over each stretch of consecutive
+    such samples (an interval between two samples counts when both hold: a gap between stretches does not)."""
+    inside = on[1:] & on[:-1]
+    half = 0.5 * np.diff(t) * inside
+    w = np.zeros(t.size)
+    w[1:] += half
+    w[:-1] += half
+    return w
 
 
-def _integral(t: np.ndarray, x: np.ndarray) -> float:
-    return float(np.sum(0.5 * (x[1:] + x[:-1]) * np.diff(t))) if t.size >= 2 else 0.0
+def _time_mean(t: np.ndarray, x: np.ndarray, on: np.ndarray) -> float:
+    w = _weights(t, on)
+    total = float(np.sum(w))
+    if not total > 0.0:  # single samples only: their plain mean
+        return float(np.mean(x[on]))
+    return float(np.sum(w * x) / total)
+
+
+def _integral(t: np.ndarray, x: np.ndarray, on: np.ndarray) -> float:
+    return float(np.sum(_weights(t, on) * x))
 
 
 class _Window:
-    """The samples of ``df`` inside [a, b] (and where ``mask`` holds)."""
+    """The samples of a result inside [a, b]: ``rows`` a mask over all of them."""
 
     def __init__(self, t: np.ndarray, a: float, b: float):
         self.rows = (t >= a) & (t <= b)
-        self.t = t[self.rows]
 
 
-def _reduce(kind: str, t: np.ndarray, x: np.ndarray) -> float:
+def _reduce(kind: str, t: np.ndarray, x: np.ndarray, on: np.ndarray) -> float:
+    """``kind`` of ``x`` over the samples where ``on`` holds (time means trapezoidal, per stretch)."""
+    if kind == "mean":
+        return _time_mean(t, x, on)
+    if kind == "rms":
+        return math.sqrt(_time_mean(t, x * x, on))
+    x = x[on]
     if kind == "peak":
         return float(np.max(np.abs(x)))
     if kind == "max":
@@ -165,10 +183,6 @@ def _reduce(kind: str, t: np.ndarray, x: np.ndarray) -> float:
         return float(np.min(x))
     if kind == "range":
         return float(np.ptp(x))
-    if kind == "mean":
-        return _time_mean(t, x)
-    if kind == "rms":
-        return math.sqrt(_time_mean(t, x * x))
     raise ValueError(kind)
 
 
@@ -382,10 +396,11 @@ class _Computer:
     def col(self, c: str) -> np.ndarray:
         return self.df[c].to_numpy(dtype=float)
 
-    def on(self, w: _Window, c: str) -> tuple[np.ndarray, np.ndarray]:
+    def on(self, w: _Window, c: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(time, column, mask) of the window's samples, for :func:`_reduce` and :func:`_integral`."""
         if not w.rows.any():
             raise _NoValue("no samples in the window")
-        return w.t, self.col(c)[w.rows]
+        return self.t, self.col(c), w.rows
 
     def per_cycle(self):
         """(start, end) [s] of each steady cycle."""
@@ -470,7 +485,7 @@ class _Computer:
             rows = (self.t >= a) & (self.t <= b) & on
             if rows.sum() < 2:
                 continue
-            d = float(np.ptp(x[rows])) / abs(_time_mean(self.t[rows], x[rows]))
+            d = float(np.ptp(x[rows])) / abs(_time_mean(self.t, x, rows))
             worst = d if worst is None else max(worst, d)
         if worst is None:
             raise _NoValue("the zone is not met in any steady cycle")
@@ -524,7 +539,7 @@ class _Computer:
                 on = self._mask(ans.where) & self.steady.rows
                 if not on.any():
                     raise _NoValue("the condition holds in no steady sample")
-                return ans.scale * _reduce(k, self.t[on], self.col(c0)[on])
+                return ans.scale * _reduce(k, self.t, self.col(c0), on)
         elif k == "fluctuation":
             compute = lambda: ans.scale * self._fluctuation(c0, ans.where)  # noqa: E731
         elif k == "register":
