@@ -612,6 +612,11 @@ def run_cli(args) -> int:
     where = f"wrote {out}" if out is not None else "no --out given, result not written"
     if args.plot is not None and len(df):
         where += "; chart " + ", ".join(str(p) for p in _plot(system, df, args.plot))
+        from harness.charts import cycle_chart_missing
+
+        missing = cycle_chart_missing(system, df) if system.chart is not None else ""
+        if missing:  # a drive that has a cycle chart says why this run has none
+            where += f"; no cycle chart: {missing}"
     if not a["complete"]:
         hint = f"; {_divergence_hint(a)}" if a.get("diverged") or a.get("blew_up") else ""
         print(f"error: {a['error']}; {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s kept, "

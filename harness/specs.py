@@ -99,13 +99,15 @@ class ChartSpec:
     """What the run chart of a system shows (``run ... --plot DIR``).  ``crank_angle``: the result column of
     the main shaft's angle [rad], cumulative; with it a second chart draws the ``cycle`` panels over the
     last complete revolution against the crank angle in degrees, counted from ``cycle_origin`` [rad] (what
-    that angle is: ``origin_name``, e.g. "start of the working stroke"), as the seeds draw them.  Without
+    that angle is: ``origin_name``, e.g. "start of the working stroke"), as the seeds draw them; a machine
+    cycle other than one revolution (``cycle_angle`` [rad]) is drawn in machine degrees, 360 per cycle.  Without
     panels the chart falls back to the speed and effort of every power bond."""
     panels: tuple[Panel, ...] = ()
     zones: tuple[Zone, ...] = ()
     crank_angle: str | None = None
     cycle_origin: float = 0.0
     origin_name: str = ""
+    cycle_angle: float = 2 * math.pi   # rad of crank_angle per machine cycle (the trimmer: one block pitch)
 
 
 @dataclass(frozen=True)

@@ -177,6 +177,7 @@ SYSTEM = System(
                   ("transmitted by the shaft", "four-bar crank", "disc cam")),
             Panel("Rack mesh force on the bed", ("bed.mesh_force",)),
             Panel("Motor torque", ("motor.motor_torque",), cycle=False),
+            Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
         ),
         zones=(Zone(f"printing zone: bed at {PRINT_ZONE[0]:g} to {PRINT_ZONE[1]:g} m on the working stroke", IN_ZONE),),
         crank_angle="flywheel.crank.phi", cycle_origin=PHI_START, origin_name="start of the working stroke"),

@@ -112,7 +112,7 @@ SYSTEM.chart = ChartSpec(
         Panel("Main shaft speed (crank side)", ("flywheel.crank.w",)),
         Panel("Torques on the main shaft", ("flywheel.shaft_torque", "feeder.crank.tau"),
               ("transmitted by the shaft", "feeder crank")),
-        Panel("Motor electrical power", ("motor.power_electrical",), cycle=False),
+        Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
     ),
     zones=(Zone(f"head dwell at the feed table: {math.degrees(_feeder['dwell']):g} deg of crank angle",
                 f'between((r["flywheel.crank.phi"] - {DWELL_START!r}) % {2 * math.pi!r}, 0.0, {_feeder["dwell"]!r})'),),

@@ -13,7 +13,8 @@
 import math
 
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import AccuracySpec, Answer, Load, PrecisionSpec, QuantitySpec, Requirement, Scene, StabilitySpec
+from harness.specs import (AccuracySpec, Answer, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement, Scene,
+                           StabilitySpec, Zone)
 
 RPM = 2 * math.pi / 60
 
@@ -99,3 +100,19 @@ SYSTEM.quantities = QuantitySpec(
                scale=100.0),
     ),
 )
+
+# The run chart (harness.charts): over one turn of the main shaft, the printing (synchronous) phase shaded
+SYSTEM.chart = ChartSpec(
+    panels=(
+        Panel("Bed position s", ("press.bed.s",)),
+        Panel("Printing cylinder speed (+: the sense it prints in)", ("press.cylinder.w",)),
+        Panel("Slip of the cylinder surface against the bed while printing (+: cylinder ahead)",
+              ("press.sync_error",)),
+        Panel("Main shaft speed (crank side)", ("flywheel.crank.w",)),
+        Panel("Torques on the main shaft (shaft: + drives the crank; crank: reaction of the press, - while it "
+              "takes power)", ("flywheel.shaft_torque", "press.crank.tau"),
+              ("transmitted by the shaft", "slider-crank and sectors")),
+        Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
+    ),
+    zones=(Zone("printing: cylinder synchronous with the bed (phase 2-3)", 'r["press.phase"] == 2'),),
+    crank_angle="flywheel.crank.phi", origin_name="crank's starting position")

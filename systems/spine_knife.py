@@ -33,7 +33,8 @@ import math
 
 from fmus.physics import knife as kn
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import AccuracySpec, Answer, Load, PrecisionSpec, QuantitySpec, Requirement, Scene, StabilitySpec
+from harness.specs import (AccuracySpec, Answer, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement, Scene,
+                           StabilitySpec, Zone)
 
 RPM = 2 * math.pi / 60
 W_CRANK = 600.0 * RPM                         # rad/s
@@ -137,3 +138,17 @@ SYSTEM.quantities = QuantitySpec(
                scale=100.0),
     ),
 )
+
+# The run chart (harness.charts): over one plunge (a turn of the crank from crank angle 0), the cut shaded
+SYSTEM.chart = ChartSpec(
+    panels=(
+        Panel("Knife crank (rocker) speed", ("linkage.rocker.w",)),
+        Panel("Knife-shaft twist phi0 - phi1 (+: the drive end leads)", ("shaft.shaft_twist",)),
+        Panel("Torques at the knife (shaft: + drives the knife; knife: - while cutting brakes it)",
+              ("shaft.shaft_torque", "knife.knife.tau"), ("delivered by both shafts", "cutting load on the knife")),
+        Panel("Feed force of the book block F_T", ("knife.feed_force",)),
+        Panel("Crank speed (knife side of the driving shaft)", ("shaft.crank.w",)),
+        Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
+    ),
+    zones=(Zone(f"cut: crank angle {math.degrees(PHI_S):g} to 180 deg", 'r["knife.cutting"] > 0'),),
+    crank_angle="shaft.crank.phi", origin_name="crank angle 0")

@@ -18,7 +18,7 @@
 import math
 
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import AccuracySpec, Answer, Load, PrecisionSpec, QuantitySpec, Requirement, Scene
+from harness.specs import AccuracySpec, Answer, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement, Scene, Zone
 
 RPM = 2 * math.pi / 60
 SPEED = 1.8                                   # m/s, transport speed
@@ -100,3 +100,16 @@ SYSTEM.quantities = QuantitySpec(
                "largest transport force of the blocks through the trimming section"),
     ),
 )
+
+# The run chart (harness.charts): over one block pitch in machine degrees (360 per pitch), shaded where a fourth
+# block's edge is in the cutting zone with the other three
+SYSTEM.chart = ChartSpec(
+    panels=(
+        Panel("Trimming moment on the drive shaft (- : a load)", ("trim.shaft.tau",)),
+        Panel("Transport force of the blocks", ("trim.transport_force",)),
+        Panel("Drive-shaft torque (+: drives the conveyors)", ("drive.shaft_torque",)),
+        Panel("Drive-shaft speed (conveyor side)", ("drive.crank.w",)),
+        Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
+    ),
+    zones=(Zone("trimming four blocks at once", 'r["trim.blocks_cut"] >= 4'),),
+    crank_angle="drive.crank.phi", cycle_angle=PITCH / R_PULLEY, origin_name="start of the run")
