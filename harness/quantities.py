@@ -432,8 +432,11 @@ class _Computer:
     def _motor(self, m: str):
         torque, power = f"{m}.motor_torque", f"{m}.power_electrical"
         p = lambda name: parameter(self.system, self.df, m, name)  # noqa: E731
-        rated = p("P_rated") / p("w_rated")
-        breakdown = rated * p("breakdown_ratio")
+        try:
+            rated = float(p("P_rated")) / float(p("w_rated"))
+            breakdown = rated * float(p("breakdown_ratio"))
+        except (TypeError, ValueError, ZeroDivisionError):   # a value the FMU refuses: the run said so already
+            rated = breakdown = math.nan
         ideal = p("fidelity") == 0
         rating = (f"T_rated = P_rated / w_rated = {rated:.4g} N.m"
                   + (" (ideal speed source at fidelity 0: the instance's nominal rating)" if ideal else ""))
