@@ -391,6 +391,9 @@ class _Computer:
             return
         if isinstance(value, (np.floating, np.integer)):
             value = value.item()
+        if isinstance(value, float) and not math.isfinite(value):
+            self.out.append(Row(name, None, unit, over, what, f"not a finite number ({value})"))
+            return
         self.out.append(Row(name, value, unit, over, what))
 
     def col(self, c: str) -> np.ndarray:
