@@ -246,10 +246,10 @@ def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[
     startup = _startup(df)
     if startup is not None:
         for ax in list(axes.flat)[:len(panels)]:
-            ax.axvspan(t[0], startup, facecolor="none", edgecolor="0.55", hatch="///", lw=0)
+            ax.axvspan(t[0], startup, facecolor="none", edgecolor="0.8", hatch="//", lw=0)
             ax.axvline(startup, color="0.4", lw=0.8, ls="--")
         key.append((f"start-up: until the main shaft's cycle mean speed settles (t = {startup:.3g} s)",
-                    dict(facecolor="none", edgecolor="0.55", hatch="///")))
+                    dict(facecolor="none", edgecolor="0.6", hatch="//")))
     if barred:
         key.append(("time window a scene reads (bar at the top)", dict(color="0.3")))
     _key(fig, key)
