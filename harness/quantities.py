@@ -381,7 +381,7 @@ class _Computer:
             if why:
                 self.out.append(Row(name, None, unit, over, what, why))
                 return
-        if over == "steady" and self.steady is None:
+        if over in ("steady", "start-up") and self.steady is None:
             self.out.append(Row(name, None, unit, over, what, self.c.reason))
             return
         try:
@@ -420,6 +420,8 @@ class _Computer:
                  lambda: mean_w / RPM)
         self.add("machine_rate", "cycles/h", "steady", "machine cycles per hour",
                  lambda: 3600.0 * n / (b - a))
+        self.add("startup_time", "s", "start-up", "time from the start of the run to the first steady cycle",
+                 lambda: a - float(self.t[0]))
         self.add("speed_fluctuation", "%", "steady",
                  "delta = (w_max - w_min) / w_mean of the main shaft, w_mean the cycle's time mean; the "
                  "largest over the steady cycles", lambda: 100 * self._fluctuation(s.shaft_speed, None),

@@ -348,7 +348,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
                     step_control=controller.name, step=step, start_time=start_time, stop_time=stop_time,
                     tolerance=tolerance,
                     units=column_units(fmus, rec.columns))
-        info["start_values"] = dict(start_values or {})
+        info["start_values"] = {k: (v.item() if hasattr(v, "item") else v) for k, v in (start_values or {}).items()}
         return _run(m, controller, rec, params, (start_ns, stop_ns, step_ns), tolerance, on_error, opts, info,
                     system)
     finally:

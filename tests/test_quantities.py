@@ -109,6 +109,7 @@ def test_quantities_of_every_drive_match_numpy(run):
 
     _rel(q["shaft_speed_mean"], np.trapezoid(col(spec.shaft_speed)[steady], t[steady]) / (tb - ta) / RPM, 2e-3)
     _rel(q["machine_rate"], n / (tb - ta) * 3600, 1e-12)
+    assert q["startup_time"] == pytest.approx(ta - t[0], abs=1e-12)
     deltas = []
     for k in range(first, n_cycles):
         w = col(spec.shaft_speed)[(t >= b[k]) & (t <= b[k + 1])]
