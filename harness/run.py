@@ -12,6 +12,9 @@ FMI call.  With ``on_error="return"`` (default) the result up to the last good c
 returned with ``attrs["complete"] = False`` and ``attrs["error"]`` (and a :class:`RunWarning` is issued);
 ``on_error="raise"`` raises :class:`~harness.errors.SimulationError` whose ``partial`` is that DataFrame.
 Errors in the system description (:class:`~harness.errors.SystemError_`) are always raised before the run.
+
+(About 640 lines: loading, simulate's argument checks, the stepping loop and the ``run`` command share their
+checks and messages; split, each would import the others' private helpers.)
 """
 from __future__ import annotations
 
