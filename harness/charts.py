@@ -66,8 +66,8 @@ def _meaning(column: str, descriptions: dict[str, str]) -> str:
     pulley: torque"), and the column, so the reader sees both what it is and where it comes from."""
     text = descriptions.get(column, "").replace("(motion out)", "").strip()
     port, colon, what = text.partition(": ")
-    if colon:
-        text = f"{port}: {what.split(', ')[0]}"
+    if colon:  # the port's name without how its angle is measured ("Crank O2A, angle from ..., CCW" -> "Crank O2A")
+        text = f"{port.split(', ')[0]}: {what.split(', ')[0]}"
     if not text:
         return column
     return f"{text[0].upper()}{text[1:]} ({column})"
@@ -146,10 +146,12 @@ def _zones(system, df: pd.DataFrame) -> list[tuple[str, np.ndarray]]:
 
 # -- drawing --------------------------------------------------------------------------------------------------
 def _values(df: pd.DataFrame, column: str, units: dict) -> tuple[np.ndarray, str]:
-    """The column and its unit as drawn: angles in degrees."""
+    """The column and its unit as drawn: angles in degrees, shaft speeds in rpm."""
     y, unit = df[column].to_numpy(dtype=float), units.get(column) or "-"
     if unit == "rad":
         return np.degrees(y), "deg"
+    if unit == "rad/s":
+        return y * (60.0 / (2 * math.pi)), "rpm"
     return y, unit
 
 
@@ -241,6 +243,13 @@ def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[
         ax.set_xlabel("time [s]", fontsize=7, labelpad=1)
         ax.set_xlim(t[0], t[-1])
     key = _zone_key(zone_spans)
+    startup = _startup(df)
+    if startup is not None:
+        for ax in list(axes.flat)[:len(panels)]:
+            ax.axvspan(t[0], startup, facecolor="none", edgecolor="0.8", hatch="//", lw=0)
+            ax.axvline(startup, color="0.4", lw=0.8, ls="--")
+        key.append((f"start-up: until the main shaft's cycle mean speed settles (t = {startup:.3g} s)",
+                    dict(facecolor="none", edgecolor="0.6", hatch="//")))
     if barred:
         key.append(("time window a scene reads (bar at the top)", dict(color="0.3")))
     _key(fig, key)
@@ -249,20 +258,44 @@ def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[
     return save_figure(fig, out_dir / system.name, dpi=110)
 
 
-def last_revolution(angle: np.ndarray, origin: float = 0.0) -> tuple[np.ndarray, int, np.ndarray] | None:
-    """The samples of the last complete revolution of a cumulative shaft angle [rad], counted in whole turns
-    from ``origin`` in the sense the shaft turns: (a boolean mask, the revolution's number from 0, the angle
-    within that revolution in degrees, 0 to 360, of the masked samples), or None when the run did not
-    complete one."""
+def _startup(df: pd.DataFrame) -> float | None:
+    """The end of the start-up [s] (:mod:`harness.quantities`: the first steady cycle's start), None without
+    one."""
+    q = df.attrs.get("quantities")
+    steady = getattr(getattr(q, "cycles", None), "steady", None)
+    t0 = float(df.index[0]) if len(df) else 0.0
+    return steady[0] if steady is not None and steady[0] > t0 else None
+
+
+def last_revolution(angle: np.ndarray, origin: float = 0.0,
+                    period: float = 2 * math.pi) -> tuple[np.ndarray, int, np.ndarray] | None:
+    """The samples of the last complete revolution (or machine cycle of ``period`` [rad]) of a cumulative
+    shaft angle [rad], counted in whole cycles from ``origin`` in the sense the shaft turns: (a boolean mask,
+    the cycle's number from 0, the angle within that cycle in degrees, 0 to 360 -- machine degrees for a
+    ``period`` other than a turn -- of the masked samples), or None when the run did not complete one."""
     angle = np.asarray(angle, dtype=float)
     if angle.size < 2 or not np.all(np.isfinite(angle)) or angle[-1] == angle[0]:
         return None
     theta = (angle - origin) * math.copysign(1.0, angle[-1] - angle[0])
-    k = math.floor(theta[-1] / (2 * math.pi)) - 1          # the turn [k, k + 1] that ends inside the run
-    if k * 2 * math.pi < theta[0]:
+    k = math.floor(theta[-1] / period) - 1          # the cycle [k, k + 1] that ends inside the run
+    if k * period < theta[0]:
         return None
-    rows = (theta >= k * 2 * math.pi) & (theta <= (k + 1) * 2 * math.pi)
-    return rows, k, np.degrees(theta[rows] - k * 2 * math.pi)
+    rows = (theta >= k * period) & (theta <= (k + 1) * period)
+    return rows, k, 360.0 * (theta[rows] - k * period) / period
+
+
+def cycle_chart_missing(system, df: pd.DataFrame) -> str:
+    """Why :func:`plot_result` draws no chart over one machine cycle for this result ('' when it draws one)."""
+    spec = getattr(system, "chart", None)
+    if spec is None or spec.crank_angle is None:
+        return f"system {system.name} declares no crank angle (ChartSpec.crank_angle)"
+    if spec.crank_angle not in df.columns:
+        return f"the crank angle {spec.crank_angle} was not recorded (add --output {spec.crank_angle})"
+    if not any(p.cycle for p in _panels(system, df)):
+        return "none of the recorded columns is drawn over a cycle"
+    if last_revolution(df[spec.crank_angle].to_numpy(dtype=float), spec.cycle_origin, spec.cycle_angle) is None:
+        return "the run did not complete one machine cycle"
+    return ""
 
 
 def _zone_key(zone_spans) -> list:
@@ -277,7 +310,7 @@ def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list
     if spec is None or spec.crank_angle not in df.columns or not panels:
         return []
     angle = df[spec.crank_angle].to_numpy(dtype=float)
-    found = last_revolution(angle, spec.cycle_origin)
+    found = last_revolution(angle, spec.cycle_origin, spec.cycle_angle)
     if found is None:
         return []
     rows, k, x = found
@@ -290,11 +323,12 @@ def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list
         _shade(ax, zone_spans)
         ax.set_xlim(0.0, 360.0)
         ax.set_xticks(np.arange(0.0, 361.0, 45.0))
-        ax.set_xlabel("crank angle [deg]" + (f" from the {spec.origin_name}" if spec.origin_name else ""),
-                      fontsize=7, labelpad=1)
+        what = ("crank angle [deg]" if math.isclose(spec.cycle_angle, 2 * math.pi)
+                else "machine cycle [deg, 360 per cycle]")
+        ax.set_xlabel(what + (f" from the {spec.origin_name}" if spec.origin_name else ""), fontsize=7, labelpad=1)
     key = _zone_key(zone_spans)
     _key(fig, key)
-    fig.suptitle(f"{system.name}, one machine cycle: crank revolution {k + 1} (t = {t[0]:.3g} to {t[-1]:.3g} s), "
+    fig.suptitle(f"{system.name}, one machine cycle: cycle {k + 1} (t = {t[0]:.3g} to {t[-1]:.3g} s), "
                  f"{_status(df)}", fontsize=9)
     _finish(fig, -(-len(key) // 3))
     return save_figure(fig, out_dir / f"{system.name}_cycle", dpi=110)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from harness.errors import SystemError_
 from harness.fmi.cache import model_description  # noqa: F401 (the one modelDescription cache, re-exported)
-from harness.specs import AccuracySpec, ChartSpec, PrecisionSpec, Scenario, Scene, StabilitySpec
+from harness.specs import AccuracySpec, ChartSpec, PrecisionSpec, QuantitySpec, Scenario, Scene, StabilitySpec
 
 ROOT = Path(__file__).resolve().parents[1]
 FMU_DIR_ENV = "PRESSDRIVE_FMU_DIR"
@@ -130,6 +130,7 @@ class System:
     stability: StabilitySpec | None = None    # the stability map's coupling parameter (harness.specs)
     accuracy: AccuracySpec | None = None      # the accuracy it must meet, in engineering terms (harness.specs)
     chart: ChartSpec | None = None    # the run chart's signals, shaded zones and crank angle (harness.charts)
+    quantities: QuantitySpec | None = None   # the engineering quantities printed after a run (harness.quantities)
     # inputs left unconnected on purpose, "Instance.input" -> why its start value is right; any other
     # unconnected input is warned about (validate), so a forgotten connection is never silent
     free_inputs: dict[str, str] = field(default_factory=dict)

@@ -16,6 +16,9 @@ FMI call.  With ``on_error="return"`` (default) the result up to the last good c
 returned with ``attrs["complete"] = False`` and ``attrs["error"]`` (and a :class:`RunWarning` is issued);
 ``on_error="raise"`` raises :class:`~harness.errors.SimulationError` whose ``partial`` is that DataFrame.
 Errors in the system description (:class:`~harness.errors.SystemError_`) are always raised before the run.
+
+(About 640 lines: loading, simulate's argument checks, the stepping loop and the ``run`` command share their
+checks and messages; split, each would import the others' private helpers.)
 """
 from __future__ import annotations
 
@@ -35,6 +38,7 @@ from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import Instance, open_instance, release
 from harness.masters import MASTERS, NS, ConvergenceError, IterationOptions, master_class
 from harness.model import System, model_description, resolve_fmu
+from harness.quantities import json_path, quantities
 from harness.results import Recorder
 from harness.signals import Signals, full_name
 from harness.stepcontrol import StepOptions, step_control as make_step_control
@@ -406,8 +410,9 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
                     step_control=controller.name, step=step, start_time=start_time, stop_time=stop_time,
                     tolerance=tolerance, output_interval=sample_ns / NS, inputs=signals.names if signals else [],
                     units=column_units(fmus, rec.columns))
+        info["start_values"] = {k: (v.item() if hasattr(v, "item") else v) for k, v in (start_values or {}).items()}
         return _run(m, controller, rec, params, (start_ns, stop_ns, step_ns, sample_ns), tolerance, on_error, opts,
-                    info, signals)
+                    info, system, signals)
     finally:
         release(m, fmus)
 
@@ -457,10 +462,10 @@ def _output_interval(output_interval, step: float, step_ns: int, step_control) -
     return sample_ns
 
 
-def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info, signals=None):
+def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info, system, signals=None):
     """The stepping loop over ``span`` = (start, stop, step, recording interval) [ns]; ``signals`` (a
     :class:`~harness.signals.Signals`) set at each communication point before the step; the result, marked as
-    it ended."""
+    it ended, with the ``system``'s engineering quantities."""
     wall = _time.perf_counter()
     start_ns, stop_ns, step_ns, sample_ns = span
     # a signal into an instance that feeds others: the point's outputs again, so no connection lags a step
@@ -523,6 +528,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
     df.attrs["interrupted"] = bool(interrupted)
     df.attrs["bad_input"] = bad_input
     df.attrs["suspect"] = suspect
+    df.attrs["quantities"] = quantities(system, df)  # the engineering quantities, also of a partial result
     if interrupted:
         raise RunInterrupted(error, partial=df, status=interrupted)
     if error:
@@ -603,7 +609,8 @@ def register(subparsers) -> None:
                         "inputs keep their start values)")
     p.add_argument("--out", type=Path, default=None, metavar="FILE",
                    help="write the result to this file: .csv, or .parquet when pyarrow or fastparquet is "
-                        "installed; its folder is made if missing, and checked before the run "
+                        "installed, and the drive's engineering quantities beside it (FILE.quantities.json, "
+                        "x.csv -> x.quantities.json); its folder is made if missing, and checked before the run "
                         "(default: not written)")
     p.add_argument("--units", action="store_true",
                    help="CSV: write a second header row with each column's unit (read it with "
@@ -614,6 +621,10 @@ def register(subparsers) -> None:
                         "where the system declares its crank angle, DIR/<system>_cycle.png/.svg (over the last "
                         "complete crank revolution); <name>.partial.png/.svg for a run that stopped early "
                         "(default: no chart)")
+    p.add_argument("--quiet-quantities", action="store_true",
+                   help="do not print the table of the drive's engineering quantities after the run (default: "
+                        "printed; with --out they are written beside the result as FILE.quantities.json "
+                        "either way)")
     p.add_argument("--fmi-only", action="store_true",
                    help="call every FMU through its FMI library (default: pythonfmu FMUs, the toolkit's and "
                         "others', are called in this process: the same results bit for bit, faster)")
@@ -696,9 +707,16 @@ def run_cli(args) -> int:
         from harness.results import write_result
 
         write_result(df, out, units=getattr(args, "units", False))
+        if a["quantities"].rows:
+            a["quantities"].write_json(json_path(out))
     where = f"wrote {out}" if out is not None else "no --out given, result not written"
     if args.plot is not None and len(df):
         where += "; chart " + ", ".join(str(p) for p in _plot(system, df, args.plot))
+        from harness.charts import cycle_chart_missing
+
+        missing = cycle_chart_missing(system, df) if system.chart is not None else ""
+        if missing:  # a drive that has a cycle chart says why this run has none
+            where += f"; no cycle chart: {missing}"
     if not a["complete"]:
         hint = f"; {_divergence_hint(a)}" if a.get("diverged") or a.get("blew_up") else ""
         print(f"error: {a['error']}; {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s kept, "
@@ -708,6 +726,8 @@ def run_cli(args) -> int:
         print(f"warning: {a['suspect']}", file=sys.stderr)
     print(f"{a['system']}: {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s, master {a['master']}, "
           f"{a['steps']} steps{_halved(a)} in {a['wall_time']:.3g} s; {where}")
+    if not getattr(args, "quiet_quantities", False) and a["quantities"].rows:
+        print(a["quantities"].table())
     return 0
 
 

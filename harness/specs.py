@@ -8,13 +8,17 @@
   (:mod:`harness.studies.stability`);
 * :class:`ChartSpec`: what the run chart shows -- the signals with their meaning, the parts of the machine
   cycle to shade (:class:`Zone`) and the main shaft's angle for the chart over one cycle
-  (:mod:`harness.charts`).
+  (:mod:`harness.charts`);
+* :class:`QuantitySpec`: the engineering quantities of the drive over its steady machine cycles -- its main
+  shaft, its motor, the loads of its parts (:class:`Load`) and its own questions (:class:`Answer`)
+  (:mod:`harness.quantities`).
 
-They are fields of :class:`harness.model.System` (``scenes``, ``precision``, ``stability``, ``chart``), so
-adding a drive touches one file.
+They are fields of :class:`harness.model.System` (``scenes``, ``precision``, ``stability``, ``chart``,
+``quantities``), so adding a drive touches one file.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -95,13 +99,15 @@ class ChartSpec:
     """What the run chart of a system shows (``run ... --plot DIR``).  ``crank_angle``: the result column of
     the main shaft's angle [rad], cumulative; with it a second chart draws the ``cycle`` panels over the
     last complete revolution against the crank angle in degrees, counted from ``cycle_origin`` [rad] (what
-    that angle is: ``origin_name``, e.g. "start of the working stroke"), as the seeds draw them.  Without
+    that angle is: ``origin_name``, e.g. "start of the working stroke"), as the seeds draw them; a machine
+    cycle other than one revolution (``cycle_angle`` [rad]) is drawn in machine degrees, 360 per cycle.  Without
     panels the chart falls back to the speed and effort of every power bond."""
     panels: tuple[Panel, ...] = ()
     zones: tuple[Zone, ...] = ()
     crank_angle: str | None = None
     cycle_origin: float = 0.0
     origin_name: str = ""
+    cycle_angle: float = 2 * math.pi   # rad of crank_angle per machine cycle (the trimmer: one block pitch)
 
 
 @dataclass(frozen=True)
@@ -137,6 +143,69 @@ class AccuracySpec:
     stop_time: float
     reference_step: float = 1e-4
     sampled_host_step: float | None = None
+
+
+@dataclass(frozen=True)
+class Load:
+    """A load one part of the drive carries (a joint, contact, mesh, rack or shaft): ``column`` is its result
+    column, ``what`` says what it is in the press's words.  Reported as ``<name>_peak`` (max |x|, static
+    sizing) and ``<name>_range`` (max - min, fatigue) over the steady cycles and ``<name>_startup_peak`` over
+    the start-up (:mod:`harness.quantities`)."""
+    name: str
+    column: str
+    what: str
+
+
+@dataclass(frozen=True)
+class Answer:
+    """A drive's own question, answered over its steady cycles (:mod:`harness.quantities`).  ``kind``:
+
+    * ``peak`` (max |x|), ``max``, ``min``, ``mean`` (time mean), ``rms``, ``range`` (max - min) of
+      ``columns[0]`` over the steady samples where ``where`` holds (a :mod:`harness.qoi` expression with
+      one truth value per sample; None: all);
+    * ``fluctuation``: per steady cycle (max - min) / (time mean) of the speed ``columns[0]`` where
+      ``where`` holds (the spread of a speed through a zone), the largest over the cycles;
+    * ``register``: per steady cycle, over the stretch where ``where`` holds, the largest |x - x_u| of the
+      position ``columns[0]`` against uniform motion x_u (the straight line through the stretch's first and
+      last samples: the stretch's mean speed), the largest over the cycles;
+    * ``angles``: the crank angles [deg from the cycle origin] at which the counter ``columns[0]`` rises, in
+      the last steady cycle;
+    * ``impacts``: for each rise of the counter ``columns[0]`` in the last steady cycle, the peak |force| of
+      ``columns[1]`` until the contact flag ``columns[2]`` drops to 0 (or the next rise, or the cycle's end).
+
+    The value is shown in ``unit``: the column's value times ``scale`` (1e6 for m -> um; 100 for a ratio in
+    %)."""
+    name: str
+    kind: str
+    columns: tuple[str, ...]
+    unit: str
+    what: str
+    where: str | None = None
+    scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class QuantitySpec:
+    """The engineering quantities of a drive, printed after every run (:mod:`harness.quantities`).
+
+    The machine cycle is ``cycle_angle`` [rad] of the main shaft's cumulative angle ``shaft_angle``, counted
+    from ``cycle_origin`` [rad] (``cycle_name`` says what one cycle is: "revolution of the main shaft", "block
+    pitch"); ``shaft_speed`` is the main shaft's speed column [rad/s] and ``shaft_name`` says which shaft and
+    which side of its compliance that is.  A cycle is steady when its mean speed is within ``settle``
+    (relative) of the cycle before's and every later cycle's is too; what comes before is the start-up.
+
+    ``motor``: the MotorBelt instance whose torque, electrical power and rating are reported (None: none);
+    ``loads``: every joint, contact, mesh, rack and shaft load; ``answers``: the drive's own questions."""
+    shaft_angle: str
+    shaft_speed: str
+    shaft_name: str
+    cycle_origin: float = 0.0
+    cycle_angle: float = 2 * math.pi
+    cycle_name: str = "revolution of the main shaft"
+    motor: str | None = None
+    loads: tuple[Load, ...] = ()
+    answers: tuple[Answer, ...] = ()
+    settle: float = 1e-3
 
 
 @dataclass(frozen=True)

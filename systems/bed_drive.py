@@ -51,7 +51,8 @@ import math
 
 from fmus.physics import bed_law, fourbar, fourbar_synthesis
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import AccuracySpec, ChartSpec, Panel, PrecisionSpec, Requirement, Scene, StabilitySpec, Zone
+from harness.specs import (AccuracySpec, Answer, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement, Scene,
+                           StabilitySpec, Zone)
 from systems import motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
@@ -178,9 +179,43 @@ SYSTEM = System(
                   ("transmitted by the shaft", "four-bar crank", "disc cam")),
             Panel("Rack mesh force on the bed", ("bed.mesh_force",)),
             Panel("Motor torque", ("motor.motor_torque",), cycle=False),
+            Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
         ),
         zones=(Zone(f"printing zone: bed at {PRINT_ZONE[0]:g} to {PRINT_ZONE[1]:g} m on the working stroke", IN_ZONE),),
         crank_angle="flywheel.crank.phi", cycle_origin=PHI_START, origin_name="start of the working stroke"),
+)
+
+# The engineering quantities printed after a run (harness.quantities): over the steady turns of the main shaft
+# from the start of the working stroke; the speed fluctuation on the crank side of the main shaft (the four-bar
+# and the cam sit there), and on the flywheel and the motor for comparison (the belt and the shaft between them)
+SYSTEM.quantities = QuantitySpec(
+    shaft_angle="flywheel.crank.phi", shaft_speed="flywheel.crank.w",
+    shaft_name="main shaft, crank side of the flywheel shaft (flywheel.crank.w)",
+    cycle_origin=PHI_START, cycle_name="revolution of the main shaft from the start of the working stroke",
+    motor="motor",
+    loads=(
+        Load("shaft_torque", "flywheel.shaft_torque", "torque the main shaft transmits from the flywheel"),
+        Load("belt_torque", "motor.pulley.tau", "belt torque on the flywheel pulley"),
+        Load("coupler_force", "fourbar.joint_force", "four-bar coupler force (joints A and D)"),
+        Load("fourbar_clearance_force", "fourbar.contact_force", "contact force in the four-bar's clearance joint"),
+        Load("cam_roller_force", "cam.pin_force", "cam roller contact force"),
+        Load("cam_groove_force", "cam.groove_force", "cam roller force on the groove wall"),
+        Load("differential_mesh_torque", "diff.mesh_torque", "differential's mesh torque on the sun shaft"),
+        Load("rack_force", "bed.mesh_force", "pinion force on the bed's rack"),
+    ),
+    answers=(
+        Answer("bed_speed_spread", "fluctuation", ("bed.bed.v",), "%",
+               "(v_max - v_min) / v_mean of the bed through the printing zone, v_mean its time mean there; the "
+               "largest over the steady cycles", where=IN_ZONE, scale=100.0),
+        Answer("register_error", "register", ("bed.bed.s",), "um",
+               "largest |s - s_uniform| of the bed through the printing zone, s_uniform the uniform motion "
+               "through the zone's entry and exit", where=IN_ZONE, scale=1e6),
+        Answer("speed_fluctuation_flywheel", "fluctuation", ("flywheel.pulley.w",), "%",
+               "delta on the flywheel side of the main shaft (flywheel.pulley.w), w_mean the cycle's time mean",
+               scale=100.0),
+        Answer("speed_fluctuation_motor", "fluctuation", ("motor.motor_speed",), "%",
+               "delta of the motor rotor (motor.motor_speed), w_mean the cycle's time mean", scale=100.0),
+    ),
 )
 
 # The transients the drive is sized by (harness.scenarios): start-up from rest, a speed change through the supply

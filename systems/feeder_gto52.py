@@ -21,7 +21,8 @@ import math
 
 from fmus.physics import groove
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import AccuracySpec, ChartSpec, Panel, PrecisionSpec, Requirement, Scene, StabilitySpec, Zone
+from harness.specs import (AccuracySpec, Answer, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement, Scene,
+                           StabilitySpec, Zone)
 from systems import jam, motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
@@ -113,11 +114,38 @@ SYSTEM.chart = ChartSpec(
         Panel("Main shaft speed (crank side)", ("flywheel.crank.w",)),
         Panel("Torques on the main shaft", ("flywheel.shaft_torque", "feeder.crank.tau"),
               ("transmitted by the shaft", "feeder crank")),
-        Panel("Motor electrical power", ("motor.power_electrical",), cycle=False),
+        Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
     ),
     zones=(Zone(f"head dwell at the feed table: {math.degrees(_feeder['dwell']):g} deg of crank angle",
                 f'between((r["flywheel.crank.phi"] - {DWELL_START!r}) % {2 * math.pi!r}, 0.0, {_feeder["dwell"]!r})'),),
     crank_angle="flywheel.crank.phi", cycle_origin=_base["phi_start"], origin_name="start of the forward stroke")
+
+# The engineering quantities printed after a run (harness.quantities): over the steady turns of the crank from
+# the start of the head's forward stroke; the take-ups of the stone-pin clearance, as the seed asks
+SYSTEM.quantities = QuantitySpec(
+    shaft_angle="flywheel.crank.phi", shaft_speed="flywheel.crank.w",
+    shaft_name="main shaft, crank side of the flywheel shaft (flywheel.crank.w)",
+    cycle_origin=_base["phi_start"], cycle_name="revolution of the crank from the start of the forward stroke",
+    motor="motor",
+    loads=(
+        Load("shaft_torque", "flywheel.shaft_torque", "torque the main shaft transmits from the flywheel"),
+        Load("belt_torque", "motor.pulley.tau", "belt torque on the flywheel pulley"),
+        Load("crank_torque", "feeder.crank.tau", "torque the feeder mechanism takes from the crank"),
+        Load("pin_force", "feeder.pin_force", "stone-pin contact force in the clearance"),
+        Load("groove_force", "feeder.groove_force", "stone (roller) force on the correcting groove's wall"),
+    ),
+    answers=(
+        Answer("take_up_angles", "angles", ("feeder.impact_count",), "deg",
+               "crank angles at which the stone-pin clearance is taken up (each impact), in the last steady cycle"),
+        Answer("impact_forces", "impacts", ("feeder.impact_count", "feeder.pin_force", "feeder.in_contact"), "N",
+               "peak stone-pin force of each take-up, until the contact opens again, in the last steady cycle"),
+        Answer("head_swing", "range", ("feeder.rocker.phi",), "deg", "swing of the feeder head (rocker angle)",
+               scale=180.0 / math.pi),
+        Answer("speed_fluctuation_flywheel", "fluctuation", ("flywheel.pulley.w",), "%",
+               "delta on the flywheel side of the main shaft (flywheel.pulley.w), w_mean the cycle's time mean",
+               scale=100.0),
+    ),
+)
 
 # The transients the drive is sized by (harness.scenarios): start-up, speed change, emergency stop (the feeder
 # rocker's overrun reported) and a jam: twice the motor's rated torque, reduced to the main shaft through the belt

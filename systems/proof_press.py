@@ -13,7 +13,8 @@
 import math
 
 from harness.model import Experiment, Instance, Refusal, System, bond
-from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene, StabilitySpec
+from harness.specs import (AccuracySpec, Answer, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement, Scene,
+                           StabilitySpec, Zone)
 from systems import motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
@@ -89,6 +90,43 @@ SYSTEM = System(
         "torsional stiffness sectors -> cylinder c_cyl [N.m/rad] of GearSectors, whose crank torque couples "
         "it to the flywheel shaft; omega ~ sqrt(c_cyl / J_cyl)"),
 )
+
+# The engineering quantities printed after a run (harness.quantities): over the steady turns of the main shaft;
+# the seed's aim, the cylinder rolling on the bed without slip while printing
+SYSTEM.quantities = QuantitySpec(
+    shaft_angle="flywheel.crank.phi", shaft_speed="flywheel.crank.w",
+    shaft_name="main shaft, crank side of the flywheel shaft (flywheel.crank.w)",
+    cycle_name="revolution of the main shaft", motor="motor",
+    loads=(
+        Load("shaft_torque", "flywheel.shaft_torque", "torque the main shaft transmits from the flywheel"),
+        Load("belt_torque", "motor.pulley.tau", "belt torque on the flywheel pulley"),
+        Load("crank_torque", "press.crank.tau", "torque the slider-crank and sectors take from the main shaft"),
+    ),
+    answers=(
+        Answer("cylinder_slip", "peak", ("press.sync_error",), "um",
+               "largest |slip| of the cylinder surface against the bed while printing (synchronous phase)",
+               where='r["press.phase"] == 2', scale=1e6),
+        Answer("speed_fluctuation_flywheel", "fluctuation", ("flywheel.pulley.w",), "%",
+               "delta on the flywheel side of the main shaft (flywheel.pulley.w), w_mean the cycle's time mean",
+               scale=100.0),
+    ),
+)
+
+# The run chart (harness.charts): over one turn of the main shaft, the printing (synchronous) phase shaded
+SYSTEM.chart = ChartSpec(
+    panels=(
+        Panel("Bed position s", ("press.bed.s",)),
+        Panel("Printing cylinder speed (+: the sense it prints in)", ("press.cylinder.w",)),
+        Panel("Slip of the cylinder surface against the bed while printing (+: cylinder ahead)",
+              ("press.sync_error",)),
+        Panel("Main shaft speed (crank side)", ("flywheel.crank.w",)),
+        Panel("Torques on the main shaft (shaft: + drives the crank; crank: reaction of the press, - while it "
+              "takes power)", ("flywheel.shaft_torque", "press.crank.tau"),
+              ("transmitted by the shaft", "slider-crank and sectors")),
+        Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
+    ),
+    zones=(Zone("printing: cylinder synchronous with the bed (phase 2-3)", 'r["press.phase"] == 2'),),
+    crank_angle="flywheel.crank.phi", origin_name="crank's starting position")
 
 # The transients the press is sized by (harness.scenarios): start-up, speed change, emergency stop (the bed's
 # overrun reported)

@@ -36,7 +36,8 @@ import math
 
 from fmus.physics import knife as kn
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene, StabilitySpec
+from harness.specs import (AccuracySpec, Answer, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement, Scene,
+                           StabilitySpec, Zone)
 from systems import jam, motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
@@ -116,6 +117,49 @@ SYSTEM = System(
         "diameter d [m] of the two parallel shafts (together G pi d^4 / (16 l)) of the ParallelShafts that drive "
         "the linkage; omega ~ sqrt(C_red (1/J_red + 1/(J_drive + J_flywheel))), the seed's eq. (11) mode"),
 )
+
+# The engineering quantities printed after a run (harness.quantities): over the steady turns of the knife's
+# crank (one plunge each) from crank angle 0; the seed's questions, the knife shaft's twist and the cutting torque
+SYSTEM.quantities = QuantitySpec(
+    shaft_angle="shaft.crank.phi", shaft_speed="shaft.crank.w",
+    shaft_name="knife-side end of the driving shaft S1 (shaft.crank.w), the linkage's crank",
+    cycle_name="revolution of the crank: one plunge", motor="motor",
+    loads=(
+        Load("shaft_torque", "shaft.shaft_torque", "torque both shafts deliver to the knife"),
+        Load("belt_torque", "motor.pulley.tau", "belt torque on the drive-end pulley"),
+        # rigid at fidelity 0: its coupler force grows without bound at the dead point (crank angle 180 deg, where
+        # the cut ends: 26 kN in a 5e-5 s run); the elastic levels 1, 2 bound it
+        Load("coupler_force", "linkage.joint_force", "coupler force of the parallelogram linkage (rigid at "
+             "fidelity 0: unbounded at the dead point, crank angle 180 deg, where the cut ends)"),
+        Load("linkage_clearance_force", "linkage.contact_force", "contact force in the linkage's clearance joint"),
+    ),
+    answers=(
+        Answer("knife_shaft_twist", "peak", ("shaft.shaft_twist",), "mrad",
+               "largest torsional deformation of the driving shaft (phi0 - phi1)", scale=1e3),
+        Answer("cutting_torque_peak", "peak", ("knife.knife.tau",), "N.m",
+               "largest |torque| the cut puts on the knife's crank", where='r["knife.cutting"] > 0'),
+        Answer("cutting_torque_mean", "mean", ("knife.knife.tau",), "N.m",
+               "time mean of the knife's torque while cutting (negative: it brakes the drive)",
+               where='r["knife.cutting"] > 0'),
+        Answer("speed_fluctuation_flywheel", "fluctuation", ("shaft.pulley.w",), "%",
+               "delta at the drive end (shaft.pulley.w, the V-belt's pulley), w_mean the cycle's time mean",
+               scale=100.0),
+    ),
+)
+
+# The run chart (harness.charts): over one plunge (a turn of the crank from crank angle 0), the cut shaded
+SYSTEM.chart = ChartSpec(
+    panels=(
+        Panel("Knife crank (rocker) speed", ("linkage.rocker.w",)),
+        Panel("Knife-shaft twist phi0 - phi1 (+: the drive end leads)", ("shaft.shaft_twist",)),
+        Panel("Torques at the knife (shaft: + drives the knife; knife: - while cutting brakes it)",
+              ("shaft.shaft_torque", "knife.knife.tau"), ("delivered by both shafts", "cutting load on the knife")),
+        Panel("Feed force of the book block F_T", ("knife.feed_force",)),
+        Panel("Crank speed (knife side of the driving shaft)", ("shaft.crank.w",)),
+        Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
+    ),
+    zones=(Zone(f"cut: crank angle {math.degrees(PHI_S):g} to 180 deg", 'r["knife.cutting"] > 0'),),
+    crank_angle="shaft.crank.phi", origin_name="crank angle 0")
 
 # The transients the drive is sized by (harness.scenarios), with the motor at fidelity 1: start-up, speed change,
 # emergency stop (the knife's overrun reported) and a jam at the knife: twice the motor's rated torque reduced to

@@ -18,7 +18,7 @@
 import math
 
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import AccuracySpec, PrecisionSpec, Requirement, Scene
+from harness.specs import AccuracySpec, Answer, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement, Scene, Zone
 from systems import motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
@@ -82,6 +82,39 @@ SYSTEM = System(
     precision=PrecisionSpec("trim.shaft.tau", "moment on the drive shaft", "N.m", stop_time=0.6,
                             steps=(2e-4, 4e-4, 8e-4, 1.6e-3), columns=("drive.crank.w", "drive.shaft_twist")),
 )
+
+# The engineering quantities printed after a run (harness.quantities): one machine cycle is one block pitch of
+# the conveyors (PITCH / R_PULLEY of the drive shaft's angle); the article's quantity, the trimming moment
+SYSTEM.quantities = QuantitySpec(
+    shaft_angle="drive.crank.phi", shaft_speed="drive.crank.w",
+    shaft_name="conveyors' drive shaft, conveyor side (drive.crank.w)",
+    cycle_angle=PITCH / R_PULLEY, cycle_name=f"one block pitch ({PITCH:g} m of belt travel)", motor="motor",
+    loads=(
+        Load("shaft_torque", "drive.shaft_torque", "torque the drive shaft transmits to the conveyors"),
+        Load("belt_torque", "motor.pulley.tau", "belt torque on the drive pulley"),
+    ),
+    answers=(
+        Answer("trimming_moment_mean", "mean", ("trim.shaft.tau",), "N.m",
+               "time mean of the moment trimming and transport put on the drive shaft (negative: a load)"),
+        Answer("trimming_moment_peak", "peak", ("trim.shaft.tau",), "N.m",
+               "largest |moment| trimming and transport put on the drive shaft"),
+        Answer("transport_force_peak", "peak", ("trim.transport_force",), "N",
+               "largest transport force of the blocks through the trimming section"),
+    ),
+)
+
+# The run chart (harness.charts): over one block pitch in machine degrees (360 per pitch), shaded where a fourth
+# block's edge is in the cutting zone with the other three
+SYSTEM.chart = ChartSpec(
+    panels=(
+        Panel("Trimming moment on the drive shaft (- : a load)", ("trim.shaft.tau",)),
+        Panel("Transport force of the blocks", ("trim.transport_force",)),
+        Panel("Drive-shaft torque (+: drives the conveyors)", ("drive.shaft_torque",)),
+        Panel("Drive-shaft speed (conveyor side)", ("drive.crank.w",)),
+        Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
+    ),
+    zones=(Zone("trimming four blocks at once", 'r["trim.blocks_cut"] >= 4'),),
+    crank_angle="drive.crank.phi", cycle_angle=PITCH / R_PULLEY, origin_name="start of the run")
 
 # The transients the conveyors' drive is sized by (harness.scenarios), with the motor at fidelity 1: start-up,
 # speed change, emergency stop

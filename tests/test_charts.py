@@ -177,3 +177,70 @@ def test_a_tiny_signal_carries_its_power_of_ten_in_the_unit_and_ports_are_titled
     title = charts._meaning("motor.pulley.tau", {"motor.pulley.tau": "driven pulley (on the flywheel shaft): "
                                                  "torque, reaction this component exerts on the driving flange"})
     assert title == "Driven pulley (on the flywheel shaft): torque (motor.pulley.tau)"
+
+
+# -- every drive against its machine cycle --------------------------------------------------------------------
+def test_every_press_drive_declares_a_cycle_chart_with_a_work_zone_and_a_power_panel():
+    from harness.run import system_names
+
+    for name in system_names():
+        system = load(name)
+        if name == "two_inertia":
+            assert system.chart is None
+            continue
+        spec = system.chart
+        assert spec is not None and spec.crank_angle and spec.zones, name
+        assert any(c.endswith("power_electrical") for p in spec.panels if p.cycle for c in p.columns), name
+        assert all("angle from" not in p.title for p in spec.panels), name
+
+
+@pytest.mark.parametrize("name, stop, zone_column", [("spine_knife", 0.25, "knife.cutting"),
+                                                     ("trimmer_conveyor", 0.6, "trim.blocks_cut")])
+def test_cycle_chart_of_the_knife_and_the_trimmer(fmu_dir, figures, tmp_path, name, stop, zone_column):
+    system = load(name).on_fmus(fmu_dir)
+    df = run(system, stop_time=stop)
+    paths = charts.plot_result(system, df, tmp_path)
+    assert f"{name}_cycle.png" in [p.name for p in paths]
+    axes = visible_axes(figures[f"{name}_cycle"])
+    for ax in axes:
+        assert ax.get_xlim() == (0.0, 360.0)
+        assert ax.patches, f"{ax.get_title(loc='left')}: the work zone is not shaded"
+    label = axes[0].get_xlabel()
+    # the trimmer's machine cycle is a block pitch, not a turn of its shaft: machine degrees
+    assert ("machine cycle" in label) == (name == "trimmer_conveyor"), label
+    (zone_label, on), = charts._zones(system, df)
+    assert on.any() and not on.all()
+    assert np.all(df[zone_column].to_numpy()[on] > (0 if name == "spine_knife" else 3))
+    # speeds in rpm: the crank / drive shaft panel reads its speed in rpm
+    speed = next(ax for ax in axes if "speed" in ax.get_title(loc="left").lower() and "[rpm]" in ax.get_title(loc="left"))
+    y = speed.get_lines()[0].get_ydata()
+    w = df[system.quantities.shaft_speed].to_numpy() * 60 / (2 * math.pi)
+    assert w.min() - 1e-9 <= np.median(y) <= w.max() + 1e-9
+
+
+def test_start_up_is_marked_on_the_time_chart(fmu_dir, figures, tmp_path):
+    system = load("spine_knife").on_fmus(fmu_dir)
+    df = run(system, stop_time=0.25)
+    end = df.attrs["quantities"].cycles.steady[0]
+    charts.plot_result(system, df, tmp_path)
+    ax = visible_axes(figures["spine_knife"])[0]
+    hatched = [p for p in ax.patches if p.get_hatch()]
+    assert hatched and max(p.get_x() + p.get_width() for p in hatched) == pytest.approx(end)
+    assert any("start-up" in t.get_text() for leg in figures["spine_knife"].legends for t in leg.get_texts())
+
+
+def test_a_port_described_with_its_angle_convention_is_titled_by_its_name():
+    title = charts._meaning("linkage.crank.tau", {"linkage.crank.tau": "Crank O2A, angle from the frame line "
+                                                  "O2->O5, CCW: torque, reaction on the driving flange"})
+    assert title == "Crank O2A: torque (linkage.crank.tau)"
+
+
+def test_run_plot_says_why_there_is_no_cycle_chart(fmu_dir, tmp_path, monkeypatch, capsys):
+    from harness.__main__ import main
+
+    monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
+    assert main(["run", "spine_knife", "--stop-time", "0.05", "--output", "knife.knife.tau", "--plot",
+                 str(tmp_path), "--out", str(tmp_path / "k.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "no cycle chart: the crank angle shaft.crank.phi was not recorded (add --output shaft.crank.phi)" in out
+    assert not (tmp_path / "spine_knife_cycle.png").exists()
