@@ -11,6 +11,8 @@ Everything else -- the cut, J_red by eq. (12), the shafts, J1, the flywheels' be
 is systems/spine_knife.py's.  systems/spine_knife.py is the variant with a motor on an elastic belt
 (MotorBelt) turning a 0.2 kg.m2 flywheel at the drive end.
 """
+import dataclasses
+
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import Scene
 from systems import spine_knife as base
@@ -42,3 +44,10 @@ SYSTEM = System(
     ],
     default_scene="shaft_twist",  # seed 003's question: torsional deformation and resonance of the knife shaft
 )
+
+# The engineering quantities and the run chart are the belt variant's, without its motor (no motor instance here)
+SYSTEM.quantities = dataclasses.replace(
+    base.SYSTEM.quantities, motor=None,
+    loads=tuple(load for load in base.SYSTEM.quantities.loads if not load.column.startswith("motor.")))
+SYSTEM.chart = dataclasses.replace(
+    base.SYSTEM.chart, panels=tuple(p for p in base.SYSTEM.chart.panels if not p.columns[0].startswith("motor.")))
