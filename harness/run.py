@@ -607,6 +607,11 @@ def register(subparsers) -> None:
                         "Instance.variable, interpolated as FMPy does (continuous Real inputs linearly, others "
                         "held; two rows at one time are a step); checked before the run (default: none, free "
                         "inputs keep their start values)")
+    p.add_argument("--scenario", default=None, metavar="NAME|FILE",
+                   help="run a transient: one of the drive's scenarios (`show SYSTEM` lists them: startup, "
+                        "speed_change, estop, jam) or a .yaml/.json scenario file; its parameters, input changes "
+                        "and stop time apply (--set and --stop-time override them) and its transient quantities "
+                        "are printed and written beside the result as FILE.transient.json (default: none)")
     p.add_argument("--out", type=Path, default=None, metavar="FILE",
                    help="write the result to this file: .csv, or .parquet when pyarrow or fastparquet is "
                         "installed, and the drive's engineering quantities beside it (FILE.quantities.json, "
@@ -687,13 +692,19 @@ def run_cli(args) -> int:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RunWarning)  # the CLI reports a stop itself, in one line
-            df = simulate(system, start_time=args.start_time, stop_time=args.stop_time, step=args.step,
-                          output_interval=getattr(args, "output_interval", None),
-                          input=getattr(args, "input", None), master=args.master,
-                          extrapolation=args.extrapolation, step_control=args.step_control,
-                          tolerance=args.tolerance, start_values=parse_sets(args.set), output=args.output,
-                          options=RunOptions(progress=None, in_process=False if args.fmi_only else None),
-                          on_error="return")
+            settings = dict(start_time=args.start_time, stop_time=args.stop_time, step=args.step,
+                            output_interval=getattr(args, "output_interval", None),
+                            input=getattr(args, "input", None), master=args.master,
+                            extrapolation=args.extrapolation, step_control=args.step_control,
+                            tolerance=args.tolerance, start_values=parse_sets(args.set), output=args.output,
+                            options=RunOptions(progress=None, in_process=False if args.fmi_only else None),
+                            on_error="return")
+            if getattr(args, "scenario", None):
+                from harness.scenarios import run as run_scenario
+
+                df = run_scenario(system, args.scenario, **settings)
+            else:
+                df = simulate(system, **settings)
     except RunInterrupted as e:
         df, status = e.partial, e.status
     a = df.attrs
@@ -709,6 +720,8 @@ def run_cli(args) -> int:
         write_result(df, out, units=getattr(args, "units", False))
         if a["quantities"].rows:
             a["quantities"].write_json(json_path(out))
+        if a.get("transient") is not None and a["transient"].rows:
+            a["transient"].write_json(out.with_name(f"{out.stem}.transient.json"))
     where = f"wrote {out}" if out is not None else "no --out given, result not written"
     if args.plot is not None and len(df):
         where += "; chart " + ", ".join(str(p) for p in _plot(system, df, args.plot))
@@ -728,6 +741,8 @@ def run_cli(args) -> int:
           f"{a['steps']} steps{_halved(a)} in {a['wall_time']:.3g} s; {where}")
     if not getattr(args, "quiet_quantities", False) and a["quantities"].rows:
         print(a["quantities"].table())
+    if a.get("transient") is not None:
+        print(a["transient"].table())
     return 0
 
 

@@ -198,7 +198,7 @@ def run(system, scenario, **options) -> pd.DataFrame:
 
     system = load(system)
     sc = find(system, scenario)
-    if options.get("input") is not None:
+    if options.pop("input", None) is not None:
         raise SystemError_(f"scenario {sc.name} drives the inputs itself: give input signals or a scenario, not both")
     stop_time = options.pop("stop_time", None) or sc.stop_time
     step = options.get("step") or options.get("step_size") or system.experiment.step
@@ -219,8 +219,15 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
 
     spec = system.quantities
     over = scenario.kind
+
+    class Transient(Quantities):
+        def heading(self) -> str:
+            return (f"{system.name}, scenario {scenario.name} ({scenario.kind}): {scenario.question}\n"
+                    f"  main-shaft speed on the {spec.shaft_name}" if spec is not None else
+                    f"{system.name}, scenario {scenario.name}: no engineering quantities declared")
+
     if spec is None or df.empty:
-        return Quantities(system.name, [], None)
+        return Transient(system.name, [], None)
     t = df.index.to_numpy(dtype=float)
     w = df[spec.shaft_speed].to_numpy(dtype=float)
     angle = df[spec.shaft_angle].to_numpy(dtype=float)
@@ -243,7 +250,8 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
                 columns.append((f"{spec.motor}.brake_torque", "brake_torque", "brake torque on the rotor"))
         columns += [(load.column, load.name, load.what) for load in spec.loads]
         for column, name, what in columns:
-            if column in df and on.any():
+            # a load not modelled at the instance's fidelity (zero throughout) or not recorded: no row
+            if column in df and on.any() and df[column].any():
                 x = df[column].to_numpy(dtype=float)[on]
                 unit = df.attrs.get("units", {}).get(column, "")
                 row(f"{name}_peak", np.max(np.abs(x)), unit, f"{what}: largest |value| {during}")
@@ -253,13 +261,13 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
         during = "on the way up to speed"
         if last_mean is None:
             row("time_to_speed", None, "s", "time to 95 % of the final speed", cycles.reason)
-            return Quantities(system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
+            return Transient(system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
         target = REACHED * last_mean
         up = np.flatnonzero(w * math.copysign(1.0, last_mean) >= abs(target))
         row("final_speed", last_mean / RPM, "rpm", "main-shaft speed the run ends at: the mean of its last cycle")
         if up.size == 0:
             row("time_to_speed", None, "s", "time to 95 % of the final speed", "the run does not reach it")
-            return Quantities(system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
+            return Transient(system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
         k = int(up[0])
         t95 = t[k] if k == 0 else t[k - 1] + (target - w[k - 1]) / (w[k] - w[k - 1]) * (t[k] - t[k - 1])
         row("time_to_speed", t95, "s", f"time from rest to {100 * REACHED:g} % of the final speed")
@@ -319,5 +327,5 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
         row("speed_drop", 100 * (1 - np.min(np.abs(w[later])) / abs(w_e)) if w_e else None, "%",
             "largest drop of the main-shaft speed after the load step, of its speed then")
         loads(t_e)
-    return Quantities(system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
+    return Transient(system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
 

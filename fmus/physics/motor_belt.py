@@ -187,7 +187,7 @@ class MotorBeltModel(Model):
         if self.brake_engaged(x, u):
             drive = self.rotor_torque_at_rest(t, x, u, t0) if x[1] == 0.0 else 0.0
             friction = self.friction(x[1], drive)
-        return self._derivatives(t, x, u, t0, friction)
+        return self.derivatives_with(t, x, u, t0, friction)
 
     def friction(self, w_m: float, drive: float) -> float:
         """The engaged brake's torque on the rotor [N.m]: sliding, -holding_torque*sign(w_m); at rest, the reaction
@@ -197,7 +197,7 @@ class MotorBeltModel(Model):
             return -t_b * math.copysign(1.0, w_m)
         return -drive if abs(drive) <= t_b else -t_b * math.copysign(1.0, drive)
 
-    def _derivatives(self, t, x, u, t0, friction: float = 0.0):
+    def derivatives_with(self, t, x, u, t0, friction: float = 0.0):
         """dx/dt with a given friction torque on the rotor (the brake's, as the caller decides)."""
         timer_rate = 1.0 if u[3] >= 0.5 else 0.0
         if self.p.fidelity == 0:
@@ -217,7 +217,7 @@ class MotorBeltModel(Model):
             x[3] = x[3] if u[3] >= 0.5 else 0.0
             return x
         if p.fidelity == 0:
-            x = integrate.rk4(self._derivatives, t0, h, x, u, self.max_substep)
+            x = integrate.rk4(self.derivatives_with, t0, h, x, u, self.max_substep)
             x[3] = x[3] if u[3] >= 0.5 else 0.0
             return x
         if p.holding_torque == 0.0 or u[3] < 0.5:
@@ -236,7 +236,7 @@ class MotorBeltModel(Model):
     def _advance_free(self, t0, h, x, u):
         """The rotor without the brake over [t0, t0 + h] (t0: the time the inputs were given)."""
         if self.p.fidelity != 1:
-            return integrate.rk4(self._derivatives, t0, h, x, u, self.max_substep)
+            return integrate.rk4(self.derivatives_with, t0, h, x, u, self.max_substep)
         # level 1 has no creep (its rate is 0): RK4 on (phi_motor, w_motor) in plain floats, the base class's
         # numbers without an array per stage
         theta = x[2]
@@ -266,7 +266,7 @@ class MotorBeltModel(Model):
             friction = -p.holding_torque * direction
 
             def f(tt, xx, uu, tt0, friction=friction):
-                return self._derivatives(tt, xx, uu, tt0, friction)
+                return self.derivatives_with(tt, xx, uu, tt0, friction)
 
             x_new = integrate.rk4(f, t, dt, x, u, math.inf)
             if x_new[1] * direction < 0.0:  # the slide ends inside the sub-step: stop there and hold

@@ -25,8 +25,9 @@ keyed by model class and fidelity, is the only place that knows about them):
   segment is then integrated with ``BDF``, the other stiff method, at the same tolerances (counted in
   ``attrs["fallbacks"]``);
 * *a brake* (MotorBelt with a holding torque): its taking hold (the timer reaching the delay), a sliding
-  rotor's stop and a held rotor's breaking loose are events too; while it holds, the rotor's angle and speed
-  are frozen;
+  rotor's stop and a held rotor's breaking loose are events too; while it slides, the friction keeps the
+  slide's sense (also where a stage of the integrator overshoots zero), while it holds, the rotor's angle and
+  speed are frozen;
 * *step memory*: RackBed at fidelity 0 estimates the bed acceleration from the inputs of successive
   communication steps; a monolithic model has no steps, so that level is refused with a one-line error
   (use fidelity 1).
@@ -102,9 +103,10 @@ class _Switch:
     def switch(self, t, x, u) -> np.ndarray:
         raise NotImplementedError
 
-    def held(self) -> bool:
-        """Whether the instance's motion states are frozen in this mode (a brake holding its rotor)."""
-        return False
+    def derivatives(self, t, x, u):
+        """The instance's state derivatives in this mode, or None: the model's own (a mode that fixes a law the
+        state alone would switch, e.g. the sense of a sliding friction, keeps it fixed until its event)."""
+        return None
 
 
 class _Contact(_Switch):
@@ -171,7 +173,8 @@ class _CamRockerContact(_Contact):
 class _Brake(_Switch):
     """MotorBelt's rotor brake: commanded, it takes hold when its timer reaches the delay; sliding, the rotor's
     speed reaching zero stops it; held, the rotor's other torques reaching the holding torque set it sliding.
-    While it holds, the rotor's angle and speed are frozen (the rest of the drive moves on)."""
+    While it slides, its friction keeps the slide's sense; while it holds, the rotor's angle and speed are frozen
+    (the rest of the drive moves on)."""
 
     @classmethod
     def applies(cls, model) -> bool:
@@ -214,8 +217,15 @@ class _Brake(_Switch):
             self.loose = True
         return x
 
-    def held(self) -> bool:
-        return self.mode == "held"
+    def derivatives(self, t, x, u):
+        m = self.model
+        if self.mode == "sliding":   # the friction's sense is the slide's, also where a stage overshoots zero
+            return m.derivatives_with(t, x, u, t, -m.p.holding_torque * self.sense)
+        if self.mode == "held":      # the rotor frozen; the brake's reaction holds it
+            dx = m.derivatives_with(t, x, u, t)
+            dx[0] = dx[1] = 0.0
+            return dx
+        return None
 
 
 # (model class name, fidelity) -> kind of the non-ODE state (see the module docstring)
@@ -356,9 +366,9 @@ class Monolithic:
         for i, m in enumerate(self.models):
             dx[self.slices[i]] = 0.0 if self.project[i] else m.derivatives(t, x[self.slices[i]], u[i], t)
         for c in self.switches:
-            if c.held():  # a brake holding its rotor: angle and speed frozen
-                start = self.slices[c.i].start
-                dx[start:start + 2] = 0.0
+            d = c.derivatives(t, x[self.slices[c.i]], u[c.i])
+            if d is not None:
+                dx[self.slices[c.i]] = d
         return dx
 
     def _event_functions(self, t: float, x: np.ndarray):
