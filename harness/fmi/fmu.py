@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2FMUstate)
-from fmpy.fmi1 import calloc, free
+from fmpy.fmi1 import FMICallException, calloc, free
 
 from harness.errors import FMUError, StepDiscarded
 from harness.fmi.cache import cache_dir, model_description, unzipped  # noqa: F401 (cache_dir: public here too)
@@ -305,37 +305,45 @@ class FMU(Instance):
         else:
             self._slave = FMU2Slave(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
                                     modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
-        f = self._slave._functions
-        self._f = f
-        self._do_step = f.get("fmi2DoStep")  # None for Model Exchange
-        self._get_real = f["fmi2GetReal"]
-        self._set_real = f["fmi2SetReal"]
+        # FMPy's public FMI 2.0 functions of the loaded library (each logs through FMPy's call logger and raises
+        # FMICallException on a status worse than warning: :meth:`_fmi`); the hot ones bound once
+        self._get_real = self._slave.fmi2GetReal
+        self._set_real = self._slave.fmi2SetReal
+        self._do_step = None if model_exchange else self._slave.fmi2DoStep
         self._key = name.encode("utf-8")
         _BY_NAME[self._key] = self
         _install_proxy()
         resource = (self.unzip_dir / "resources").as_uri().encode("utf-8")
-        self.c = f["fmi2Instantiate"](self._key, 0 if model_exchange else 1, self.md.guid.encode("utf-8"),
-                                      resource, byref(_CALLBACKS), 0, 1 if logging_on else 0)
+        self.c = self._slave.fmi2Instantiate(self._key, 0 if model_exchange else 1, self.md.guid.encode("utf-8"),
+                                             resource, byref(_CALLBACKS), 0, 1 if logging_on else 0)
         if not self.c:
             raise FMUError(name, "fmi2Instantiate", None, None, self.last_error)
+
+    def _fmi(self, function: str, *args):
+        """The one checked FMI 2.0 call: FMPy's public function ``function`` of the instance's library (which logs
+        the call through FMPy's call logger when one is set and raises ``FMICallException`` on a status worse than
+        fmi2Warning), its status turned into this package's errors by :meth:`_check`.  The hot calls (get, set,
+        do_step) do the same inline on functions bound once."""
+        try:
+            return getattr(self._slave, function)(*args)
+        except FMICallException as e:
+            self._check(e.status, function)
 
     # -- life cycle --------------------------------------------------------------------------------------------
     def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
         self.time = start_time
-        self._check(self._f["fmi2SetupExperiment"](self.c, tolerance is not None, tolerance or 0.0, start_time,
-                                                   stop_time is not None, stop_time or 0.0),
-                    "fmi2SetupExperiment")
+        self._fmi("fmi2SetupExperiment", self.c, tolerance is not None, tolerance or 0.0, start_time, stop_time is not None, stop_time or 0.0)
 
     def enter_initialization(self) -> None:
-        self._check(self._f["fmi2EnterInitializationMode"](self.c), "fmi2EnterInitializationMode")
+        self._fmi("fmi2EnterInitializationMode", self.c)
 
     def exit_initialization(self) -> None:
-        self._check(self._f["fmi2ExitInitializationMode"](self.c), "fmi2ExitInitializationMode")
+        self._fmi("fmi2ExitInitializationMode", self.c)
 
     def terminate(self) -> None:
         if self.failed or not self.c:  # no further calls into an instance that failed
             return
-        self._check(self._f["fmi2Terminate"](self.c), "fmi2Terminate")
+        self._fmi("fmi2Terminate", self.c)
 
     def free(self) -> None:
         """Free the instance and its saved states (the shared library stays loaded).
@@ -348,9 +356,12 @@ class FMU(Instance):
             return
         if self.c:
             for s in self._states:
-                self._f["fmi2FreeFMUstate"](self.c, byref(s))
+                try:   # the instance goes anyway: a state it cannot free is not an error of the run
+                    self._slave.fmi2FreeFMUstate(self.c, byref(s))
+                except FMICallException:
+                    pass
             self._states.clear()
-            self._f["fmi2FreeInstance"](self.c)
+            self._slave.fmi2FreeInstance(self.c)
             self.c = None
             if _BY_NAME.get(self._key) is self:
                 del _BY_NAME[self._key]
@@ -359,9 +370,10 @@ class FMU(Instance):
     def get(self, block: RealBlock) -> np.ndarray:
         """Read the block's variables into its buffer and return the numpy view."""
         if block.n:
-            status = self._get_real(self.c, block.vr, block.n, block.buf)
-            if status > WARNING:
-                self._check(status, "fmi2GetReal")
+            try:
+                self._get_real(self.c, block.vr, block.n, block.buf)
+            except FMICallException as e:
+                self._check(e.status, "fmi2GetReal")
         return block.values
 
     def set(self, block: RealBlock, values=None) -> None:
@@ -369,17 +381,19 @@ class FMU(Instance):
         if values is not None:
             block.values[:] = values
         if block.n:
-            status = self._set_real(self.c, block.vr, block.n, block.buf)
-            if status > WARNING:
-                self._check(status, "fmi2SetReal")
+            try:
+                self._set_real(self.c, block.vr, block.n, block.buf)
+            except FMICallException as e:
+                self._check(e.status, "fmi2SetReal")
 
     def get_list(self, block: RealBlock) -> list:
         """The block's variables as a list of floats (same values as :meth:`get`)."""
         if not block.n:
             return []
-        status = self._get_real(self.c, block.vr, block.n, block.buf)
-        if status > WARNING:
-            self._check(status, "fmi2GetReal")
+        try:
+            self._get_real(self.c, block.vr, block.n, block.buf)
+        except FMICallException as e:
+            self._check(e.status, "fmi2GetReal")
         return block.buf[:block.n]
 
     def set_list(self, block: RealBlock, values: list) -> None:
@@ -387,9 +401,10 @@ class FMU(Instance):
         n = block.n
         if n:
             block.buf[:n] = values
-            status = self._set_real(self.c, block.vr, n, block.buf)
-            if status > WARNING:
-                self._check(status, "fmi2SetReal")
+            try:
+                self._set_real(self.c, block.vr, n, block.buf)
+            except FMICallException as e:
+                self._check(e.status, "fmi2SetReal")
 
     def set_input_derivatives(self, block: RealBlock, order: int, values) -> None:
         """fmi2SetRealInputDerivatives of one derivative order for the block's variables."""
@@ -398,21 +413,20 @@ class FMU(Instance):
             return
         orders = (c_int * n)(*([order] * n))
         vals = (c_double * n)(*values)
-        self._check(self._f["fmi2SetRealInputDerivatives"](self.c, block.vr, n, orders, vals),
-                    "fmi2SetRealInputDerivatives")
+        self._fmi("fmi2SetRealInputDerivatives", self.c, block.vr, n, orders, vals)
 
     def set_value(self, name: str, value) -> None:
         """Set one variable of any type (parameters, start values); ``value`` is converted to its type."""
         v, value = self._typed(name, value)
         vr = (c_uint * 1)(v.valueReference)
         if v.type == "Real":
-            self._check(self._f["fmi2SetReal"](self.c, vr, 1, (c_double * 1)(value)), "fmi2SetReal")
+            self._fmi("fmi2SetReal", self.c, vr, 1, (c_double * 1)(value))
         elif v.type in ("Integer", "Enumeration"):
-            self._check(self._f["fmi2SetInteger"](self.c, vr, 1, (c_int * 1)(value)), "fmi2SetInteger")
+            self._fmi("fmi2SetInteger", self.c, vr, 1, (c_int * 1)(value))
         elif v.type == "Boolean":
-            self._check(self._f["fmi2SetBoolean"](self.c, vr, 1, (c_int * 1)(1 if value else 0)), "fmi2SetBoolean")
+            self._fmi("fmi2SetBoolean", self.c, vr, 1, (c_int * 1)(1 if value else 0))
         else:
-            self._check(self._f["fmi2SetString"](self.c, vr, 1, (c_char_p * 1)(value.encode())), "fmi2SetString")
+            self._fmi("fmi2SetString", self.c, vr, 1, (c_char_p * 1)(value.encode()))
 
     def get_value(self, name: str):
         """Read one variable of any type: float (Real), int (Integer, Enumeration), bool, str."""
@@ -420,15 +434,15 @@ class FMU(Instance):
         vr = (c_uint * 1)(v.valueReference)
         if v.type == "Real":
             buf = (c_double * 1)()
-            self._check(self._f["fmi2GetReal"](self.c, vr, 1, buf), "fmi2GetReal")
+            self._fmi("fmi2GetReal", self.c, vr, 1, buf)
             return float(buf[0])
         if v.type in ("Integer", "Enumeration", "Boolean"):
             function = "fmi2GetBoolean" if v.type == "Boolean" else "fmi2GetInteger"
             buf = (c_int * 1)()
-            self._check(self._f[function](self.c, vr, 1, buf), function)
+            self._fmi(function, self.c, vr, 1, buf)
             return bool(buf[0]) if v.type == "Boolean" else int(buf[0])
         buf = (c_char_p * 1)()
-        self._check(self._f["fmi2GetString"](self.c, vr, 1, buf), "fmi2GetString")
+        self._fmi("fmi2GetString", self.c, vr, 1, buf)
         return (buf[0] or b"").decode("utf-8")
 
     def directional_derivative(self, unknowns: RealBlock, knowns: RealBlock, seed) -> np.ndarray:
@@ -437,16 +451,16 @@ class FMU(Instance):
         self._directional_refused("fmi2GetDirectionalDerivative")
         seed_buf = (c_double * max(1, knowns.n))(*[float(s) for s in seed])
         out = (c_double * max(1, unknowns.n))()
-        self._check(self._f["fmi2GetDirectionalDerivative"](self.c, unknowns.vr, unknowns.n, knowns.vr, knowns.n,
-                                                             seed_buf, out), "fmi2GetDirectionalDerivative")
+        self._fmi("fmi2GetDirectionalDerivative", self.c, unknowns.vr, unknowns.n, knowns.vr, knowns.n, seed_buf, out)
         return np.array(out[:unknowns.n], dtype=float)
 
     # -- stepping ----------------------------------------------------------------------------------------------
     def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
         self.time = t
-        status = self._do_step(self.c, t, h, 1 if no_prior_state else 0)
-        if status > WARNING:
-            self._check(status, f"fmi2DoStep(h = {h:.6g} s)")
+        try:
+            self._do_step(self.c, t, h, 1 if no_prior_state else 0)
+        except FMICallException as e:
+            self._check(e.status, f"fmi2DoStep(h = {h:.6g} s)")
         self.time = t + h
 
     # -- FMU state (rollback) ----------------------------------------------------------------------------------
@@ -455,12 +469,12 @@ class FMU(Instance):
         if state is None:
             state = fmi2FMUstate()
             self._states.append(state)
-        self._check(self._f["fmi2GetFMUstate"](self.c, byref(state)), "fmi2GetFMUstate")
+        self._fmi("fmi2GetFMUstate", self.c, byref(state))
         return state
 
     def set_state(self, state) -> None:
-        self._check(self._f["fmi2SetFMUstate"](self.c, state), "fmi2SetFMUstate")
+        self._fmi("fmi2SetFMUstate", self.c, state)
 
     def free_state(self, state) -> None:
-        self._check(self._f["fmi2FreeFMUstate"](self.c, byref(state)), "fmi2FreeFMUstate")
+        self._fmi("fmi2FreeFMUstate", self.c, byref(state))
         self._states = [s for s in self._states if s is not state]

@@ -34,8 +34,10 @@ from ctypes import POINTER, byref, c_double, c_int, c_size_t, cast
 from dataclasses import dataclass
 from pathlib import Path
 
+from fmpy.fmi1 import FMICallException
+
 from harness.errors import FMUError
-from harness.fmi.fmu import FMU, WARNING, RealBlock
+from harness.fmi.fmu import FMU, RealBlock
 from harness.fmi.fmu3 import FMU3
 
 
@@ -434,36 +436,36 @@ class ModelExchange2(_Integrated, FMU):
                                self.md.modelExchange.needsCompletedIntegratorStep)
 
     def _fmi_set_time(self, t: float) -> None:
-        self._check(self._f["fmi2SetTime"](self.c, t), "fmi2SetTime")
+        self._fmi("fmi2SetTime", self.c, t)
 
     def _fmi_enter_event_mode(self) -> None:
-        self._check(self._f["fmi2EnterEventMode"](self.c), "fmi2EnterEventMode")
+        self._fmi("fmi2EnterEventMode", self.c)
 
     def _fmi_enter_continuous(self) -> None:
-        self._check(self._f["fmi2EnterContinuousTimeMode"](self.c), "fmi2EnterContinuousTimeMode")
+        self._fmi("fmi2EnterContinuousTimeMode", self.c)
 
     def _fmi_update_discrete(self):
         from fmpy.fmi2 import fmi2EventInfo
 
         info = fmi2EventInfo()
-        self._check(self._f["fmi2NewDiscreteStates"](self.c, byref(info)), "fmi2NewDiscreteStates")
+        self._fmi("fmi2NewDiscreteStates", self.c, byref(info))
         return (bool(info.newDiscreteStatesNeeded), bool(info.terminateSimulation),
                 float(info.nextEventTime) if info.nextEventTimeDefined else None)
 
     def _fmi_completed_step(self):
         enter, terminate = c_int(0), c_int(0)
-        self._check(self._f["fmi2CompletedIntegratorStep"](self.c, 1, byref(enter), byref(terminate)),
-                    "fmi2CompletedIntegratorStep")
+        self._fmi("fmi2CompletedIntegratorStep", self.c, 1, byref(enter), byref(terminate))
         return bool(enter.value), bool(terminate.value)
 
     def _fmi_vectors(self):
         def vector(function: str):
-            fn = self._f[function]
+            fn = getattr(self._slave, function)   # FMPy's public function (FMU._fmi), bound once
 
             def call(pointer, n):
-                status = fn(self.c, cast(pointer, POINTER(c_double)), n)
-                if status > WARNING:
-                    self._check(status, function)
+                try:
+                    fn(self.c, cast(pointer, POINTER(c_double)), n)
+                except FMICallException as e:
+                    self._check(e.status, function)
             return call
         return tuple(vector(f) for f in ("fmi2GetContinuousStates", "fmi2SetContinuousStates", "fmi2GetDerivatives",
                                          "fmi2GetEventIndicators", "fmi2GetNominalsOfContinuousStates"))
