@@ -45,6 +45,8 @@ from pythonfmu.enums import Fmi2Status
 
 from .slave_core import (Input, Output, Port, PressBehaviour, Rotational, Translational, Variable,  # noqa: F401
                          unit_definitions)
+from .refusal import CATEGORY as REFUSAL_CATEGORY
+from .refusal import DESCRIPTION as REFUSAL_DESCRIPTION
 
 
 class PressSlave(PressBehaviour, Fmi2Slave):
@@ -52,6 +54,9 @@ class PressSlave(PressBehaviour, Fmi2Slave):
     :class:`~fmus.slave_core.PressBehaviour`."""
 
     _ERROR = Fmi2Status.error
+    _OK = Fmi2Status.ok
+    # the exporter's categories and the one of a refused parameter value (fmus.refusal)
+    log_categories = {**Fmi2Slave.log_categories, REFUSAL_CATEGORY: REFUSAL_DESCRIPTION}
 
     def _register(self) -> None:
         for s in self._param_specs:

@@ -36,6 +36,8 @@ from pythonfmu3 import Fmi3Causality, Fmi3Slave, Fmi3Status, Fmi3Variability, Fl
 
 from .slave_core import (Input, Output, Port, PressBehaviour, Rotational, Translational, Variable,  # noqa: F401
                          unit_definitions)
+from .refusal import CATEGORY as REFUSAL_CATEGORY
+from .refusal import DESCRIPTION as REFUSAL_DESCRIPTION
 
 # terminalKind of a power bond: a host connects two terminals of one kind (a motion-out flange to a motion-in one)
 TERMINAL_KIND = {False: "org.pressdrive.RotationalFlange", True: "org.pressdrive.TranslationalFlange"}
@@ -50,6 +52,9 @@ class PressSlave(PressBehaviour, Fmi3Slave):
     """Base class of the FMI 3.0 co-simulation FMUs (module docstring)."""
 
     _ERROR = Fmi3Status.error
+    _OK = Fmi3Status.ok
+    # the exporter's categories and the one of a refused parameter value (fmus.refusal)
+    log_categories = {**Fmi3Slave.log_categories, REFUSAL_CATEGORY: REFUSAL_DESCRIPTION}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)

@@ -21,6 +21,8 @@ from xml.etree.ElementTree import Element, SubElement
 import numpy as np
 
 from .physics.base import DIFFERENCE_STEP, Model, ParameterError
+from .refusal import CATEGORY as REFUSAL_CATEGORY
+from .refusal import Refusal
 from .units import BASE_UNITS, check_unit
 
 _ROT = (("phi", "rad", "angle"), ("w", "rad/s", "angular velocity"), ("tau", "N.m", "torque"))
@@ -273,8 +275,10 @@ class PressBehaviour:
             try:
                 self._mdl = cls(cls.Params.from_mapping(self._par))
             except ParameterError as e:
-                unit = next((s.unit for s in self._param_specs if s.name == e.name), "")
-                self._fail(f"parameter {e.name} = {e.value!r} {unit}".rstrip() + f" is not admissible: {e.requirement}")
+                # the refusal for programs (fmus.refusal: its own log category), then the line for people
+                refusal = Refusal.of(e, next((s.unit for s in self._param_specs if s.name == e.name), ""))
+                self.log(refusal.to_message(), self._OK, category=REFUSAL_CATEGORY)
+                self._fail(refusal.sentence())
         return self._mdl
 
     def _refresh(self) -> None:

@@ -27,7 +27,9 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2FMUstate)
 from fmpy.fmi1 import FMICallException, calloc, free
 
-from harness.errors import FMUError, StepDiscarded
+from fmus.refusal import CATEGORY as REFUSAL_CATEGORY
+from fmus.refusal import Refusal
+from harness.errors import FMUError, ParameterRefused, StepDiscarded
 from harness.fmi.cache import cache_dir, model_description, unzipped  # noqa: F401 (cache_dir: public here too)
 
 OK, WARNING, DISCARD, ERROR, FATAL, PENDING = range(6)
@@ -68,10 +70,7 @@ def _log(env, instance_name, status, category, message):
     if fmu is None:  # fmpy's native proxy keeps ONE Python logger for all FMUs: behave like fmpy's for others
         print(f"[{_LABELS[status].upper() if 0 <= status < 6 else status}] {text}")
         return
-    if fmu is not None:
-        fmu.log.append((status, text))
-        if status >= ERROR:
-            fmu.errors.append(" ".join(text.split()))
+    fmu._logged(status, category.decode("utf-8", "replace") if category else "", text)
 
 
 _CALLBACKS = fmi2CallbackFunctions()
@@ -190,6 +189,7 @@ class Instance:
         self.log: deque = deque(maxlen=200)
         self.errors: list[str] = []   # error messages logged by the FMU
         self._reported = 0
+        self.refusal: Refusal | None = None   # a parameter value the FMU refused, not yet raised (fmus.refusal)
         self.failed = False
         self.time: float | None = None
 
@@ -202,34 +202,51 @@ class Instance:
         specific = [m for m in msgs if not m.startswith("Fatal py exception")]
         return "; ".join(specific or msgs[-1:])
 
+    def _logged(self, status: int, category: str, text: str) -> None:
+        """One message the FMU logged (every version's logger and the in-process queue end here): a refusal
+        (category :data:`fmus.refusal.CATEGORY`) is kept as data for the error of the failing call; any other
+        message goes to ``log``, and to ``errors`` from status error on."""
+        if category == REFUSAL_CATEGORY:
+            refusal = Refusal.from_message(text)
+            if refusal is not None:
+                self.refusal = refusal
+                return
+        self.log.append((status, text))
+        if status >= ERROR:
+            self.errors.append(" ".join(text.split()))
+
+    def _error(self, function: str, status: int, detail: str = "") -> FMUError:
+        """The error of a failed call (the messages logged since the last one): :class:`StepDiscarded` for
+        discard, :class:`ParameterRefused` when the FMU refused a parameter value, else :class:`FMUError`."""
+        log = self.last_error
+        self._reported = len(self.errors)
+        if status == DISCARD:
+            return StepDiscarded(self.name, function, self.time, status, log, detail)
+        refusal, self.refusal = self.refusal, None
+        if refusal is not None:
+            return ParameterRefused(self.name, function, self.time, status, log, detail, refusal=refusal)
+        return FMUError(self.name, function, self.time, status, log, detail)
+
     def _check(self, status: int, function: str) -> None:
         if status > WARNING:
             if status >= ERROR:
                 self.failed = True
-            cls = StepDiscarded if status == DISCARD else FMUError
-            log = self.last_error
-            self._reported = len(self.errors)
-            raise cls(self.name, function, self.time, status, log)
+            raise self._error(function, status)
 
     def _call(self, function: str, method, *args, **kwargs):
         """``method(*args, **kwargs)`` of an FMPy slave that raises on a bad status (FMI 1.0 and 3.0): the
         status becomes :class:`StepDiscarded` (discard) or :class:`FMUError` with the FMU's logged error; a
         library that cannot be called at all, an FMUError naming the Python error; an instance that failed
         before is not called again."""
-        from fmpy.fmi1 import FMICallException  # the one exception class FMPy raises for every FMI version
-
         if self.failed:
             raise FMUError(self.name, function, self.time, ERROR, detail="the instance failed before")
         try:
             return method(*args, **kwargs)
         except FMICallException as e:
             status = int(getattr(e, "status", ERROR))
-            log = self.last_error
-            self._reported = len(self.errors)
-            if status == DISCARD:
-                raise StepDiscarded(self.name, function, self.time, status, log) from None
-            self.failed = True
-            raise FMUError(self.name, function, self.time, status, log) from None
+            if status != DISCARD:
+                self.failed = True
+            raise self._error(function, status) from None
         except Exception as e:  # the library could not be called at all
             self.failed = True
             raise FMUError(self.name, function, self.time, ERROR, detail=f"{type(e).__name__}: {e}") from None
