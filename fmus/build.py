@@ -42,7 +42,7 @@ COMPONENTS = ROOT / "fmus" / "components"
 DOCS = ROOT / "fmus" / "docs"
 # the runtime part of the fmus package, for either FMI version; each FMU bundles all but the other version's slave
 RUNTIME = ("__init__.py", "slave_core.py", "slave.py", "slave3.py", "slave3_me.py", "units.py", "refusal.py",
-           "physics")
+           "wrapper_glue.py", "physics")
 SLAVE_MODULE = {2: "slave.py", 3: "slave3.py"}
 VERSIONS = tuple(SLAVE_MODULE)
 # FMI 3.0 model exchange (--model-exchange): the declaration's names come from this module, which extends slave3

@@ -42,6 +42,7 @@ from pythonfmu3.modelexchange import ModelExchange
 
 from . import slave3
 from .slave3 import Input, Output, Port, Rotational, Translational, Variable  # noqa: F401
+from .slave_core import SlaveState
 from .units import BASE_UNITS
 
 # what the toolkit's FMI 3.0 model exchange FMUs can do
@@ -67,6 +68,13 @@ class _UpdateResult:
     valuesOfContinuousStatesChanged: bool = False
     nextEventTimeDefined: bool = False
     nextEventTime: float = 0.0
+
+
+@dataclass(frozen=True)
+class ModelExchangeState(SlaveState):
+    """The co-simulation slave's state and what a model exchange slave keeps besides (rollback, the cache key)."""
+    pos_time: dict               # per advanced position input, the time it was last set
+    last_sides: tuple            # the event indicators' signs at the last event
 
 
 class PressSlave(slave3.PressSlave, ModelExchange):
@@ -126,9 +134,12 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         mdl = self._mdl if self._initialised else self._build_model()
         return [float(z) for z in mdl.event_indicators(self._time, self._x, self._inputs_now())]
 
+    _state_type = ModelExchangeState
+
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self._pos_time = {ip: 0.0 for ip, _ in self._advanced}   # time each advanced position was last set
+        self._last_sides: tuple[bool, ...] = ()   # the indicators' signs at the last event (or initialisation)
 
     def set_float64(self, vrs, values):
         super().set_float64(vrs, values)
@@ -173,14 +184,6 @@ class PressSlave(slave3.PressSlave, ModelExchange):
             bad = type(self).model.states[int(np.argmin(np.isfinite(dx)))].name
             self._fail(f"derivative of state {bad} is not finite at t = {self._time:.9g} s")
         return dx
-
-    def _get_fmu_state(self):
-        return super()._get_fmu_state(), dict(self._pos_time), getattr(self, "_last_sides", ())
-
-    def _set_fmu_state(self, state):
-        base, pos_time, self._last_sides = state
-        super()._set_fmu_state(base)
-        self._pos_time = dict(pos_time)
 
     # -- the ModelExchange calls pythonfmu3's wrapper makes ------------------------------------------------
     def get_continuous_states(self):

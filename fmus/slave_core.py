@@ -10,11 +10,7 @@ The port convention and the declaration syntax are described in ``fmus.slave``.
 from __future__ import annotations
 
 import math
-import sys
-import threading
-import types
-import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import ClassVar
 from xml.etree.ElementTree import Element, SubElement
 
@@ -24,6 +20,7 @@ from .physics.base import DIFFERENCE_STEP, Model, ParameterError
 from .refusal import CATEGORY as REFUSAL_CATEGORY
 from .refusal import Refusal
 from .units import BASE_UNITS, check_unit
+from .wrapper_glue import hold_module_dict, offer_to_loader
 
 _ROT = (("phi", "rad", "angle"), ("w", "rad/s", "angular velocity"), ("tau", "N.m", "torque"))
 _TRA = (("s", "m", "position"), ("v", "m/s", "velocity"), ("f", "N", "force"))
@@ -76,52 +73,65 @@ def Output(name: str, unit: str, doc: str) -> Variable:
     return Variable(name, "output", unit, doc)
 
 
-_MODULE_DICT_REFS: list = []
+def _copied(value):
+    """A copy of a state attribute that no later change of the slave reaches (arrays, lists and dicts are
+    copied; numbers, flags, tuples and the model, immutable once built, are kept by reference)."""
+    if isinstance(value, np.ndarray):
+        return value.copy()
+    if isinstance(value, list):
+        return list(value)
+    if isinstance(value, dict):
+        return dict(value)
+    return value
 
 
-def _hold_module_dict(cls: type) -> None:
-    """Work around a reference-count bug of the pythonfmu 0.7 C wrapper.
-
-    On every ``fmi2Instantiate`` its ``findClass`` re-executes the FMU's module source (with the module's
-    ``__dict__`` as globals) and then releases that *borrowed* ``__dict__`` once.  A component module that
-    defines no functions holds its dict only through the module object, so the first instantiation frees
-    it and the second crashes.  Every class statement that derives from PressSlave runs this hook, on
-    import and again on each re-execution by the wrapper, so each release is matched by one reference
-    taken just before it (tests/test_fmus_built.py::test_many_instances_in_one_process).  Module dicts
-    live as long as the process anyway, so the extra references cost nothing elsewhere.
-    """
-    module = sys.modules.get(cls.__module__)
-    if module is not None:
-        _MODULE_DICT_REFS.append(vars(module))
+def _key_part(value):
+    """A state attribute as part of a hashable, comparable key."""
+    if isinstance(value, np.ndarray):
+        return value.tobytes()
+    if isinstance(value, list):
+        return tuple(value)
+    if isinstance(value, dict):
+        return tuple(value.items())
+    return value
 
 
-# The module through which a slave offers its directional derivatives to the host loader
-# (fmus/loader/pressdrive_loader.c): pythonfmu's wrappers answer fmi2/fmi3GetDirectionalDerivative "not supported"
-# and give the loader no way to reach the slave object, so each slave, while the wrapper constructs it inside
-# fmi*Instantiate, leaves its ``directional_derivative`` here under the constructing thread's id; the loader, on
-# the same thread right after the wrapper returns the instance, takes it (``take()``) and keeps it by instance.
-# A fixed name in ``sys.modules``, not a module of this package: every FMU packs its own copy of this package
-# under its own name, and one loader serves them all.
-LOADER_BRIDGE = "_pressdrive_directional_derivatives"
+@dataclass(frozen=True)
+class SlaveState:
+    """The complete internal state of a slave (fmi2GetFMUstate / fmi3GetFMUState): each field ``f`` is the
+    slave's attribute ``_f``.  The model object (``mdl``) is immutable once built (fmus.physics.base.Model:
+    everything that evolves lives in ``x``), so it is kept by reference; the containers are copied both ways, so
+    a saved state can be restored any number of times.  A base slave with more state extends this class and
+    names it in its ``_state_type`` (tests/test_slave_state.py checks that every attribute a step changes is a
+    field).
 
+    The fields but :attr:`DERIVED` also key what the slave caches from its state (:meth:`PressBehaviour._feedthrough`)."""
+    x: np.ndarray            # the model's state
+    u: list                  # the inputs as set
+    y: list                  # the outputs last computed
+    time: float
+    stale: bool              # the outputs must be recomputed before the next get
+    initialised: bool
+    par: dict                # the parameters as set
+    mdl: Model | None        # the model built from them (None: to be built)
+    fresh: list              # per input: set since the last step (else held over it)
+    last_step: float         # size of the last step taken
 
-def _offer_to_loader(instance_name: str, directional_derivative) -> None:
-    """Offer a slave's bound method (weakly: a slave made outside the loader, in process, is not kept alive by an
-    offer nobody takes; the next construction on the thread replaces it)."""
-    bridge = sys.modules.get(LOADER_BRIDGE)
-    if bridge is None:
-        bridge = types.ModuleType(LOADER_BRIDGE, "directional derivatives offered to the host loader (fmus.slave_core)")
-        bridge.offered = {}
-        bridge.take = _take_offer
-        sys.modules[LOADER_BRIDGE] = bridge
-    bridge.offered[threading.get_ident()] = (instance_name, weakref.WeakMethod(directional_derivative))
+    # computed from the other fields (the outputs and whether they are up to date): not part of a cache key
+    DERIVED: ClassVar[frozenset] = frozenset({"y", "stale"})
 
+    @classmethod
+    def of(cls, slave) -> "SlaveState":
+        return cls(**{f.name: _copied(getattr(slave, f"_{f.name}")) for f in fields(cls)})
 
-def _take_offer():
-    """(instance name, directional_derivative) offered on this thread, removed from the bridge, or None."""
-    entry = sys.modules[LOADER_BRIDGE].offered.pop(threading.get_ident(), None)
-    method = entry[1]() if entry is not None else None
-    return None if method is None else (entry[0], method)
+    def restore(self, slave) -> None:
+        for f in fields(self):
+            setattr(slave, f"_{f.name}", _copied(getattr(self, f.name)))
+
+    @classmethod
+    def key(cls, slave) -> tuple:
+        """The slave's present state but the derived fields, as a key (compared with ``==``)."""
+        return tuple(_key_part(getattr(slave, f"_{f.name}")) for f in fields(cls) if f.name not in cls.DERIVED)
 
 
 class PressBehaviour:
@@ -143,9 +153,11 @@ class PressBehaviour:
     license = "MIT"
     version = "0.1.0"
 
+    _state_type: ClassVar[type[SlaveState]] = SlaveState   # what _get_fmu_state saves
+
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        _hold_module_dict(cls)
+        hold_module_dict(cls)
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -176,7 +188,7 @@ class PressBehaviour:
                           if io.causality == "input" and v.name == io.name}
         self._D = (None, None)  # (key, feed-through block) of the last directional derivative
         if cls.model.provides_output_jacobian():
-            _offer_to_loader(self.instance_name, self.directional_derivative)
+            offer_to_loader(self.instance_name, self.directional_derivative)
 
     # -- declaration -----------------------------------------------------------------------------------
     @classmethod
@@ -340,8 +352,7 @@ class PressBehaviour:
         model, mode, time, state and inputs stay the same (a master asks for it one seed at a time)."""
         u = self._inputs_now()
         mdl = self._build_model()    # a new object after a parameter changed
-        key = (mdl, self._initialised, self._time, self._last_step, tuple(self._u), tuple(self._fresh),
-               self._x.tobytes())
+        key = self._state_type.key(self)
         if self._D[0] == key:
             return self._D[1]
         if not self._initialised:
@@ -408,16 +419,12 @@ class PressBehaviour:
         self._stale = True
         return True
 
-    # The complete internal state.  The model object (self._mdl) is immutable once built (fmus.physics.base.Model:
-    # everything that evolves lives in x), so it is kept by reference; the containers are copied both ways, so
-    # a saved state can be restored any number of times.
-    def _get_fmu_state(self):
-        return (self._x.copy(), list(self._u), list(self._y), self._time, self._stale, self._initialised,
-                dict(self._par), self._mdl, list(self._fresh), self._last_step)
+    # -- FMU state (rollback): SlaveState ----------------------------------------------------------------------
+    def _get_fmu_state(self) -> SlaveState:
+        return self._state_type.of(self)
 
-    def _set_fmu_state(self, state):
-        x, u, y, self._time, self._stale, self._initialised, par, self._mdl, fresh, self._last_step = state
-        self._x, self._u, self._y, self._par, self._fresh = x.copy(), list(u), list(y), dict(par), list(fresh)
+    def _set_fmu_state(self, state: SlaveState) -> None:
+        state.restore(self)
 
     # -- what the modelDescription says, in names (each version writes it in its own XML) ---------------------
     def _units_by_name(self) -> dict[str, str]:
