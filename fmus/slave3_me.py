@@ -1,8 +1,8 @@
 """The base slave of the FMI 3.0 MODEL EXCHANGE FMUs: the same declarations, the model's own ODE.
 
-``build_fmus.py --fmi-version 3 --model-exchange`` builds every declaration ``fmus/components/pd_<name>.py`` with
-its names taken from this module (:func:`fmus.build.stage_isolated`), so the one class statement becomes a model
-exchange FMU: no second copy of any port, signal or parameter, and the variables, units, terminals and value
+``build_fmus.py --fmi-version 3 --model-exchange`` builds every declaration ``fmus/components/pd_<name>.py`` on this
+module's ``PressSlave`` (:func:`fmus.build.fmu_module`; :func:`fmu_class` in process), so the one declaration
+becomes a model exchange FMU: no second copy of any port, signal or parameter, and the variables, units, terminals and value
 references of the FMI 3.0 co-simulation FMU (:mod:`fmus.slave3`, whose registration this class extends).
 
 What a host integrates is the model's own equations (:mod:`fmus.physics`):
@@ -32,6 +32,8 @@ pythonfmu3 0.3.4's wrapper reads fmi3UpdateDiscreteStates' results under the C n
 :meth:`PressSlave.update_discrete_states` returns an object with the C names (else a host's flags stay unset).
 """
 from __future__ import annotations
+
+import functools
 
 from dataclasses import dataclass
 from xml.etree.ElementTree import Element, SubElement
@@ -268,3 +270,10 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         root.remove(old)
         return root
 
+
+@functools.lru_cache(maxsize=None)
+def fmu_class(declaration: type) -> type:
+    """The FMI 3.0 model exchange slave class of a declaration (:class:`fmus.declaration.Component`), as the FMU's module defines
+    it (:func:`fmus.build.fmu_module`): ``class <Name>(<declaration>, PressSlave)``, made in this process."""
+    return type(declaration.__name__, (declaration, PressSlave), {"__module__": declaration.__module__,
+                                                                  "__qualname__": declaration.__qualname__})

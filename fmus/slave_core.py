@@ -1,11 +1,12 @@
-"""The FMI-version-neutral part of the one base slave: the declarations and the behaviour of every FMU.
+"""The FMI-version-neutral part of the one base slave: the behaviour of every FMU and its saved state.
 
 ``fmus.slave`` puts :class:`PressBehaviour` on pythonfmu's ``Fmi2Slave`` (FMI 2.0) and ``fmus.slave3`` on
 pythonfmu3's ``Fmi3Slave`` (FMI 3.0); what differs between the versions is only how variables are
 registered, the names of the value-access calls and how the modelDescription is written.  So an FMU of
 either version is the same declaration (``fmus/components/pd_*.py``) run by the same code, and this module
 imports neither pythonfmu: an FMI 3.0 FMU does not need the FMI 2.0 exporter at run time, nor the reverse.
-The port convention and the declaration syntax are described in ``fmus.slave``.
+The declarations are :mod:`fmus.declaration`; the port convention is described in ``fmus.slave``; what the
+exporters' C wrappers need besides is :mod:`fmus.wrapper_glue`.
 """
 from __future__ import annotations
 
@@ -16,61 +17,12 @@ from xml.etree.ElementTree import Element, SubElement
 
 import numpy as np
 
+from .declaration import Component, Input, Output, Port, Rotational, Translational, Variable  # noqa: F401
 from .physics.base import DIFFERENCE_STEP, Model, ParameterError
 from .refusal import CATEGORY as REFUSAL_CATEGORY
 from .refusal import Refusal
-from .units import BASE_UNITS, check_unit
+from .units import BASE_UNITS
 from .wrapper_glue import hold_module_dict, offer_to_loader
-
-_ROT = (("phi", "rad", "angle"), ("w", "rad/s", "angular velocity"), ("tau", "N.m", "torque"))
-_TRA = (("s", "m", "position"), ("v", "m/s", "velocity"), ("f", "N", "force"))
-
-
-@dataclass(frozen=True)
-class Port:
-    """A mechanical power port: motion one way, effort the other."""
-    name: str
-    motion: str  # "in": motion variables are inputs, effort is an output; "out": the reverse
-    doc: str
-    translational: bool = False
-
-    def __post_init__(self):
-        if self.motion not in ("in", "out"):
-            raise ValueError(f"port {self.name}: motion must be 'in' or 'out', got {self.motion!r}")
-
-    def variables(self) -> list["Variable"]:
-        (p, pu, pd), (v, vu, vd), (e, eu, ed) = _TRA if self.translational else _ROT
-        motion_c, effort_c = ("input", "output") if self.motion == "in" else ("output", "input")
-        effort_doc = ("reaction this component exerts on the driving flange" if self.motion == "in"
-                      else "torque/force the connected part exerts on this flange")
-        return [Variable(f"{self.name}.{p}", motion_c, pu, f"{self.doc}: {pd} (motion {self.motion})"),
-                Variable(f"{self.name}.{v}", motion_c, vu, f"{self.doc}: {vd} (motion {self.motion})"),
-                Variable(f"{self.name}.{e}", effort_c, eu, f"{self.doc}: {ed}, {effort_doc}")]
-
-
-def Rotational(name: str, motion: str, doc: str) -> Port:
-    return Port(name, motion, doc, translational=False)
-
-
-def Translational(name: str, motion: str, doc: str) -> Port:
-    return Port(name, motion, doc, translational=True)
-
-
-@dataclass(frozen=True)
-class Variable:
-    name: str
-    causality: str  # "input" | "output"
-    unit: str
-    doc: str
-    start: float = 0.0
-
-
-def Input(name: str, unit: str, doc: str, start: float = 0.0) -> Variable:
-    return Variable(name, "input", unit, doc, start)
-
-
-def Output(name: str, unit: str, doc: str) -> Variable:
-    return Variable(name, "output", unit, doc)
 
 
 def _copied(value):
@@ -134,24 +86,11 @@ class SlaveState:
         return tuple(_key_part(getattr(slave, f"_{f.name}")) for f in fields(cls) if f.name not in cls.DERIVED)
 
 
-class PressBehaviour:
+class PressBehaviour(Component):
     """What every press-drive slave does, whatever its FMI version (module docstring).  A version's base class
     derives from this and its exporter's slave class and adds ``_register``, the value-access calls and
-    ``to_xml``; a declaration sets the class attributes below."""
-
-    model: ClassVar[type[Model]]
-    description: ClassVar[str] = ""
-    ports: ClassVar[tuple[Port, ...]] = ()
-    signals: ClassVar[tuple[Variable, ...]] = ()
-    feedthrough: ClassVar[dict[str, tuple[str, ...]]] = {}
-    # motion-input ports whose position the model advances over a step with the held velocity input
-    # (phi(t) = port.phi + port.w*(t - t0)); declared in the modelDescription (tool "org.pressdrive": FMI 2.0's
-    # VendorAnnotations, FMI 3.0's Annotations) so a master hands these positions over at the step start, not
-    # extrapolated
-    advances_position: ClassVar[bool] = True
-    author = "press-drive toolkit"
-    license = "MIT"
-    version = "0.1.0"
+    ``to_xml``; the FMU's class derives from its declaration (:class:`fmus.declaration.Component`) and that base.
+    """
 
     _state_type: ClassVar[type[SlaveState]] = SlaveState   # what _get_fmu_state saves
 
@@ -189,25 +128,6 @@ class PressBehaviour:
         self._D = (None, None)  # (key, feed-through block) of the last directional derivative
         if cls.model.provides_output_jacobian():
             offer_to_loader(self.instance_name, self.directional_derivative)
-
-    # -- declaration -----------------------------------------------------------------------------------
-    @classmethod
-    def interface(cls) -> list[Variable]:
-        """All inputs and outputs, checked against the model's own names."""
-        io = [v for port in cls.ports for v in port.variables()] + list(cls.signals)
-        for v in io:
-            check_unit(v.unit)
-        ins = {v.name for v in io if v.causality == "input"}
-        outs = {v.name for v in io if v.causality == "output"}
-        if ins != set(cls.model.inputs) or outs != set(cls.model.outputs):
-            raise TypeError(f"{cls.__name__}: declared inputs/outputs {sorted(ins)} / {sorted(outs)} differ "
-                            f"from model {cls.model.__name__}: {sorted(cls.model.inputs)} / {sorted(cls.model.outputs)}")
-        for out, deps in cls.feedthrough.items():
-            if out not in outs or not set(deps) <= ins:
-                raise TypeError(f"{cls.__name__}: feedthrough entry {out}: {deps} names unknown variables")
-        # order inputs and outputs as the model expects them
-        order = {n: i for i, n in enumerate(cls.model.inputs + cls.model.outputs)}
-        return sorted(io, key=lambda v: (v.causality != "input", order[v.name]))
 
     def _par_getter(self, name):
         return lambda: self._par[name]
@@ -437,12 +357,6 @@ class PressBehaviour:
     def _advanced_positions(self) -> list[str]:
         """The motion-input positions this slave advances itself over a step (``advances_position``)."""
         return [pos for pos in type(self)._port_positions() if pos is not None]
-
-    @classmethod
-    def _port_positions(cls) -> list[str | None]:
-        """Per port, the name of its position input if the model advances it over a step, else None."""
-        return [f"{port.name}.{'s' if port.translational else 'phi'}"
-                if port.motion == "in" and cls.advances_position else None for port in cls.ports]
 
     def _output_dependencies(self) -> list[tuple[str, tuple[str, ...], tuple[str, ...]]]:
         """(output, its direct input dependencies in continuous time, its dependencies at initialisation) for
