@@ -15,7 +15,7 @@ What a host integrates is the model's own equations (:mod:`fmus.physics`):
   A host that sets the inputs at every time it evaluates (the FMI ideal) sees them as set; a host that holds
   them between its communication points (fmpy's CVODE right-hand side sets the time and the states, not the
   inputs; the toolkit's master holds them over a step) gets the position its speed implies, not a staircase of
-  a stiff belt's or mesh's input (c * w * (t - t_s), the co-simulation FMU's reason for the same rule, issue 35);
+  a stiff belt's or mesh's input (c * w * (t - t_s), the co-simulation FMU's reason for the same rule);
 * outputs: ``Model.output(t, x, u)``, as in co-simulation;
 * state events: ``Model.switches`` name the model's event indicators (``Model.event_indicators``: a clearance
   closing or opening), and at an event where an indicator has changed sign since the last one (a host also

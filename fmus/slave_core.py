@@ -226,10 +226,9 @@ class PressBehaviour(Component):
 
         Why: libcosim, Ecos and FMPy's ``simulate_ssp`` read the outputs right after ``fmi2DoStep``, before any new
         input.  An output computed from the state at t+h and the position held from t (a stiff mesh or coupler
-        spring: c * (phi_in - phi)) is then wrong by c * w * h, a first-order error with a large constant that made
-        the exported bed drive 1.4 cm off in those hosts at 0.1 ms (issue 35).  A position set at t+h (a master
-        that refreshes feed-through: the harness's ``jacobi``, OMSimulator) is used as set, so their results do
-        not change."""
+        spring: c * (phi_in - phi)) is then wrong by c * w * h, a first-order error with a large constant.  A
+        position set at t+h (a master that refreshes feed-through: the harness's ``jacobi``, OMSimulator) is used
+        as set."""
         u = self._u
         if not (self._initialised and self._advanced):
             return u
