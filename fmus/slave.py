@@ -129,7 +129,8 @@ class PressSlave(PressBehaviour, Fmi2Slave):
 
 @functools.lru_cache(maxsize=None)
 def fmu_class(declaration: type) -> type:
-    """The FMI 2.0 co-simulation slave class of a declaration (:class:`fmus.declaration.Component`), as the FMU's module defines
-    it (:func:`fmus.build.fmu_module`): ``class <Name>(<declaration>, PressSlave)``, made in this process."""
+    """The FMI 2.0 co-simulation slave class of a declaration (:class:`fmus.declaration.Component`), as
+    the FMU's module defines it (:func:`fmus.build.fmu_module`): ``class <Name>(<declaration>, PressSlave)``, made
+    in this process."""
     return type(declaration.__name__, (declaration, PressSlave), {"__module__": declaration.__module__,
                                                                   "__qualname__": declaration.__qualname__})

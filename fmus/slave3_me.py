@@ -2,8 +2,8 @@
 
 ``build_fmus.py --fmi-version 3 --model-exchange`` builds every declaration ``fmus/components/pd_<name>.py`` on this
 module's ``PressSlave`` (:func:`fmus.build.fmu_module`; :func:`fmu_class` in process), so the one declaration
-becomes a model exchange FMU: no second copy of any port, signal or parameter, and the variables, units, terminals and value
-references of the FMI 3.0 co-simulation FMU (:mod:`fmus.slave3`, whose registration this class extends).
+becomes a model exchange FMU: no second copy of any port, signal or parameter, and the variables, units, terminals
+and value references of the FMI 3.0 co-simulation FMU (:mod:`fmus.slave3`, whose registration this class extends).
 
 What a host integrates is the model's own equations (:mod:`fmus.physics`):
 
@@ -273,7 +273,8 @@ class PressSlave(slave3.PressSlave, ModelExchange):
 
 @functools.lru_cache(maxsize=None)
 def fmu_class(declaration: type) -> type:
-    """The FMI 3.0 model exchange slave class of a declaration (:class:`fmus.declaration.Component`), as the FMU's module defines
-    it (:func:`fmus.build.fmu_module`): ``class <Name>(<declaration>, PressSlave)``, made in this process."""
+    """The FMI 3.0 model exchange slave class of a declaration (:class:`fmus.declaration.Component`), as
+    the FMU's module defines it (:func:`fmus.build.fmu_module`): ``class <Name>(<declaration>, PressSlave)``, made
+    in this process."""
     return type(declaration.__name__, (declaration, PressSlave), {"__module__": declaration.__module__,
                                                                   "__qualname__": declaration.__qualname__})

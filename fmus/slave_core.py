@@ -57,7 +57,8 @@ class SlaveState:
     names it in its ``_state_type`` (tests/test_slave_state.py checks that every attribute a step changes is a
     field).
 
-    The fields but :attr:`DERIVED` also key what the slave caches from its state (:meth:`PressBehaviour._feedthrough`)."""
+    The fields but :attr:`DERIVED` also key what the slave caches from its state
+    (:meth:`PressBehaviour._feedthrough`)."""
     x: np.ndarray            # the model's state
     u: list                  # the inputs as set
     y: list                  # the outputs last computed

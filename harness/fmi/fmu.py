@@ -163,6 +163,7 @@ class Instance:
     ``path`` is the .fmu file; ``name`` the instance name (used in every error message).  Attributes:
     ``md`` (fmpy model description), ``variables`` (name -> fmpy ModelVariable), ``time`` (the current
     communication point, for messages), ``log`` (the last 200 log messages as (status, text)), ``last_error``,
+    ``refusal`` (a parameter value the FMU refused, :mod:`fmus.refusal`, until the failing call raises it),
     ``failed`` (True once the instance returned fmi2Error or fmi2Fatal)."""
 
     path_kind = "fmi"  # how the instance is called: "fmi" (the FMU's shared library) or "in-process"
@@ -349,7 +350,8 @@ class FMU(Instance):
     # -- life cycle --------------------------------------------------------------------------------------------
     def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
         self.time = start_time
-        self._fmi("fmi2SetupExperiment", self.c, tolerance is not None, tolerance or 0.0, start_time, stop_time is not None, stop_time or 0.0)
+        self._fmi("fmi2SetupExperiment", self.c, tolerance is not None, tolerance or 0.0, start_time,
+                  stop_time is not None, stop_time or 0.0)
 
     def enter_initialization(self) -> None:
         self._fmi("fmi2EnterInitializationMode", self.c)
