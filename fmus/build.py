@@ -45,7 +45,7 @@ RUNTIME = ("__init__.py", "declaration.py", "slave_core.py", "slave.py", "slave3
            "refusal.py", "wrapper_glue.py", "physics", "components/__init__.py")
 SLAVE_MODULE = {2: "slave.py", 3: "slave3.py"}
 VERSIONS = tuple(SLAVE_MODULE)
-# FMI 3.0 model exchange (--model-exchange): the declaration's names come from this module, which extends slave3
+# FMI 3.0 model exchange (--model-exchange): the base slave of its FMUs, which extends slave3
 ME_MODULE = "slave3_me.py"
 
 
