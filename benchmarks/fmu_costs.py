@@ -17,8 +17,10 @@ import warnings
 SYSTEMS = ("feeder_gto52", "bed_drive", "spine_knife", "proof_press", "two_inertia")
 
 
-def _slave(cls, name: str, parameters: dict):
-    slave = cls(instance_name=name, resources=None, visible=0, logger=0)
+def _slave(declaration, name: str, parameters: dict):
+    from fmus.slave import fmu_class
+
+    slave = fmu_class(declaration)(instance_name=name, resources=None, visible=0, logger=0)
     by_name = {v.name: v for v in slave.vars.values()}
     for key, value in parameters.items():
         v = by_name[key]

@@ -165,8 +165,8 @@ def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str, 
     else:
         prep = []
         for it in insts:
-            f = it.fmu._f
-            prep.append((f["fmi2SetReal"], f["fmi2DoStep"], f["fmi2GetReal"], it.fmu.c, it.inp, it.src, it.fac,
+            dll = it.fmu._slave.dll   # the library's own ctypes functions (argument types set by FMPy)
+            prep.append((dll.fmi2SetReal, dll.fmi2DoStep, dll.fmi2GetReal, it.fmu.c, it.inp, it.src, it.fac,
                          it.off, it.out, it.sl))
         for t, h in zip(times, steps):
             for set_real, _ds, _gr, c, inp, src, fac, off, _out, _sl in prep:

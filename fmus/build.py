@@ -3,13 +3,14 @@
     python build_fmus.py [--fmi-version 2|3] [--model-exchange] [--out DIR] [--only NAME ...] [--no-validate]
 
 Both FMI versions are built from the same declarations by the same command: FMI 2.0 (the default, pythonfmu,
-into build/fmus) or FMI 3.0 co-simulation (``--fmi-version 3``, pythonfmu3, into build/fmus3; the declaration's
-names come from ``fmus.slave3`` instead of ``fmus.slave``, :func:`stage_isolated`), or FMI 3.0 model exchange
-(``--fmi-version 3 --model-exchange``, into build/fmus3me; names from ``fmus.slave3_me``: the host integrates the
+into build/fmus) or FMI 3.0 co-simulation (``--fmi-version 3``, pythonfmu3, into build/fmus3; the declaration on
+``fmus.slave3``'s base slave instead of ``fmus.slave``'s, :func:`fmu_module`), or FMI 3.0 model exchange
+(``--fmi-version 3 --model-exchange``, into build/fmus3me; on ``fmus.slave3_me``'s: the host integrates the
 model's derivatives).
 
 Each FMU is built from its declaration ``fmus/components/pd_<name>.py`` plus the runtime part of the
-``fmus`` package (the base slave, units and the pure equations in ``fmus/physics``), both bundled under
+``fmus`` package (the base slave, units and the pure equations in ``fmus/physics``), the FMU's module written
+from the declaration's class name (:func:`fmu_module`: the declaration's source is copied, never edited), bundled under
 names unique to the FMU's code (``pd_<name>_<hash>``, ``fmus_<hash>``: :func:`stage_isolated`), so FMUs
 of any toolkit version load, unload and reload side by side in one process.  On Linux the host loader
 (``fmus/loader/pressdrive_loader.c``, for FMI 3.0 ``pressdrive_loader3.c``, compiled here) goes in front of
@@ -21,13 +22,12 @@ checks each FMU with ``fmpy.validation`` and exits non-zero, naming the FMU, if 
 from __future__ import annotations
 
 import argparse
+import ast
 import contextlib
 import hashlib
 import importlib
-import importlib.util
 import io
 import os
-import re
 import shutil
 import site
 import subprocess
@@ -41,10 +41,11 @@ ROOT = Path(__file__).resolve().parents[1]
 COMPONENTS = ROOT / "fmus" / "components"
 DOCS = ROOT / "fmus" / "docs"
 # the runtime part of the fmus package, for either FMI version; each FMU bundles all but the other version's slave
-RUNTIME = ("__init__.py", "slave_core.py", "slave.py", "slave3.py", "slave3_me.py", "units.py", "physics")
+RUNTIME = ("__init__.py", "declaration.py", "slave_core.py", "slave.py", "slave3.py", "slave3_me.py", "units.py",
+           "refusal.py", "wrapper_glue.py", "physics", "components/__init__.py")
 SLAVE_MODULE = {2: "slave.py", 3: "slave3.py"}
 VERSIONS = tuple(SLAVE_MODULE)
-# FMI 3.0 model exchange (--model-exchange): the declaration's names come from this module, which extends slave3
+# FMI 3.0 model exchange (--model-exchange): the base slave of its FMUs, which extends slave3
 ME_MODULE = "slave3_me.py"
 
 
@@ -57,16 +58,25 @@ OUT = {2: ROOT / "build" / "fmus", 3: ROOT / "build" / "fmus3"}   # default outp
 OUT_ME = ROOT / "build" / "fmus3me"                                 # ... of the FMI 3.0 model exchange FMUs
 
 
-_DECLARATION = re.compile(r"^class\s+(\w+)\s*\(\s*PressSlave\s*\)", re.M)
+DECLARATION_BASE = "Component"   # fmus.declaration.Component: the base of every declaration
+
+
+def declared_classes(script: Path) -> list[str]:
+    """The names of the classes a declaration file derives from :class:`fmus.declaration.Component`, read from its
+    syntax tree (no import, so it needs neither pythonfmu nor the physics)."""
+    tree = ast.parse(script.read_text(encoding="utf-8"), filename=str(script))
+    return [node.name for node in tree.body if isinstance(node, ast.ClassDef)
+            and any((b.id if isinstance(b, ast.Name) else getattr(b, "attr", None)) == DECLARATION_BASE
+                    for b in node.bases)]
 
 
 def catalog() -> dict[str, Path]:
     """The FMU catalog: model (class) name -> its declaration ``fmus/components/pd_*.py``, for every FMU of the
-    toolkit.  Read from the sources (no import, so it needs no pythonfmu); the one list that the build, the
-    harness's name resolution, the reference and the studies use."""
+    toolkit (:func:`declared_classes`); the one list that the build, the harness's name resolution, the reference
+    and the studies use."""
     out: dict[str, Path] = {}
     for script in sorted(COMPONENTS.glob("pd_*.py")):
-        for name in _DECLARATION.findall(script.read_text(encoding="utf-8")):
+        for name in declared_classes(script):
             out[name] = script
     return out
 
@@ -97,6 +107,7 @@ def stage_runtime(dest: Path, package: str = "fmus", fmi_version: int = 2, model
         if src.is_dir():
             shutil.copytree(src, pkg / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
         else:
+            (pkg / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(src, pkg / name)
     return pkg
 
@@ -124,31 +135,23 @@ def code_hash(script: Path, fmi_version: int = 2, model_exchange: bool = False) 
 
 
 def stage_isolated(script: Path, dest: Path, fmi_version: int = 2, model_exchange: bool = False) -> tuple[Path, Path]:
-    """The FMU's code under names unique to this build: ``fmus_<hash>`` and ``<script>_<hash>``.
+    """The FMU's code under names unique to this build: the package ``fmus_<hash>`` (the runtime and the
+    declaration, ``components/pd_<name>.py``) and the FMU's module ``<script>_<hash>`` (:func:`fmu_module`).
 
     Every FMU bundles the runtime package; under one shared name a host process would keep the first copy
     it imported (from a folder the host may have deleted since) for every later FMU, and two toolkit versions
-    would silently share it.  The runtime package imports itself relatively; only the declaration names it.
-    The staged declaration ends by importing every module of the package, so nothing is imported lazily later
-    (a function's own ``from .x import y`` then finds ``x`` in ``sys.modules`` even after the host deleted
-    the folder it came from).
-
-    For FMI 3.0 the declaration imports its names from ``fmus.slave3`` instead of ``fmus.slave`` (the same
-    names: the base class is the FMI 3.0 one), and its class statement also names pythonfmu3's ``Fmi3Slave``,
-    already a base of that class: pythonfmu3's builder and C wrapper find the FMU class by that word.  A model
-    exchange build (``model_exchange``) takes them from ``fmus.slave3_me``."""
+    would silently share it.  The package, the declaration included, imports itself relatively; only the FMU's
+    module names it.  That module ends by importing every module of the package, so nothing is imported lazily
+    later (a function's own ``from .x import y`` then finds ``x`` in ``sys.modules`` even after the host deleted
+    the folder it came from)."""
     digest = code_hash(script, fmi_version, model_exchange)
-    pkg = stage_runtime(dest, f"fmus_{digest}", fmi_version, model_exchange)
-    text = script.read_text(encoding="utf-8")
-    text = re.sub(r"^(\s*)(from|import)\s+fmus(?=[.\s])", rf"\1\2 fmus_{digest}", text, flags=re.M)
-    if fmi_version == 3:
-        slave = "3_me" if model_exchange else "3"
-        text, n = re.subn(rf"^(\s*from\s+fmus_{digest}\.slave)(\s+import)", rf"\g<1>{slave}\2", text, flags=re.M)
-        text, m = _DECLARATION.subn(r"from pythonfmu3 import Fmi3Slave  # noqa: E402\nclass \1(PressSlave, Fmi3Slave)",
-                                    text)
-        if n != 1 or m != 1:
-            raise RuntimeError(f"{script.name}: an FMI 3.0 build needs one 'from fmus.slave import ...' and one "
-                               f"'class X(PressSlave)' (found {n} and {m})")
+    package = f"fmus_{digest}"
+    pkg = stage_runtime(dest, package, fmi_version, model_exchange)
+    shutil.copy2(script, pkg / "components" / script.name)
+    names = declared_classes(script)
+    if len(names) != 1:
+        raise RuntimeError(f"{script.name}: expected one class deriving from {DECLARATION_BASE}, found {len(names)}")
+    text = fmu_module(package, script.stem, names[0], fmi_version, model_exchange)
     modules = sorted(".".join(f.relative_to(dest).with_suffix("").parts).removesuffix(".__init__")
                      for f in pkg.rglob("*.py"))
     text += ("\n\n# every module of the bundled package, imported now (fmus/build.py: stage_isolated)\n"
@@ -156,6 +159,24 @@ def stage_isolated(script: Path, dest: Path, fmi_version: int = 2, model_exchang
     staged = dest / f"{script.stem}_{digest}.py"
     staged.write_text(text, encoding="utf-8")
     return staged, pkg
+
+
+def fmu_module(package: str, module: str, name: str, fmi_version: int = 2, model_exchange: bool = False) -> str:
+    """The source of an FMU's module: the FMU class ``name`` as the declaration ``<package>.components.<module>``
+    on the base slave of the variant (:mod:`fmus.slave`, :mod:`fmus.slave3` or :mod:`fmus.slave3_me`), the class
+    each of those modules' ``fmu_class`` makes in process.  An FMI 3.0 class statement also names pythonfmu3's
+    ``Fmi3Slave``, already a base of the FMI 3.0 slave: pythonfmu3's builder finds the FMU class by that word."""
+    base = "slave3_me" if model_exchange else Path(SLAVE_MODULE[fmi_version]).stem
+    variant = ("FMI 3.0 model exchange" if model_exchange else f"FMI {fmi_version}.0 co-simulation")
+    lines = [f'"""{name} (fmus/components/{module}.py) as an {variant} FMU; written by fmus/build.py."""',
+             f"from {package}.components.{module} import {name} as _Declaration",
+             f"from {package}.{base} import PressSlave"]
+    bases = "_Declaration, PressSlave"
+    if fmi_version == 3:
+        lines.append("from pythonfmu3 import Fmi3Slave")
+        bases += ", Fmi3Slave"
+    lines += ["", "", f"class {name}({bases}):", f'    """{name}: the declaration on the {variant} base slave."""']
+    return "\n".join(lines) + "\n"
 
 
 def python_environment() -> str:
@@ -243,15 +264,12 @@ def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path
 
 
 def declaration(script: Path) -> type:
-    """The FMU class a declaration ``pd_<name>.py`` defines, imported from the file under a private name
-    (for what the build writes beside the modelDescription)."""
-    names = _DECLARATION.findall(script.read_text(encoding="utf-8"))
+    """The declaration class of ``fmus/components/pd_<name>.py`` (for what the build writes beside the
+    modelDescription)."""
+    names = declared_classes(script)
     if len(names) != 1:
-        raise RuntimeError(f"{script.name}: expected one 'class X(PressSlave)', found {len(names)}")
-    spec = importlib.util.spec_from_file_location(f"_pressdrive_declaration_{script.stem}", script)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return getattr(module, names[0])
+        raise RuntimeError(f"{script.name}: expected one class deriving from {DECLARATION_BASE}, found {len(names)}")
+    return getattr(importlib.import_module(f"fmus.components.{script.stem}"), names[0])
 
 
 def add_terminals(fmu: Path, script: Path) -> None:

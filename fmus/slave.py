@@ -1,8 +1,8 @@
 """The one base slave every press-drive FMU is built on (pythonfmu ``Fmi2Slave``; FMI 3.0: ``fmus.slave3``).
 
-An FMU class only declares what it is::
+A declaration (:class:`fmus.declaration.Component`, ``fmus/components/pd_<name>.py``) only says what the FMU is::
 
-    class FourBar(PressSlave):
+    class FourBar(Component):
         model = fourbar.FourBarModel                       # equations (fmus.physics)
         description = "..."
         ports = (Rotational("crank", motion="in", doc=...),
@@ -10,8 +10,10 @@ An FMU class only declares what it is::
         signals = (Output("transmission_angle", "rad", "..."),)
         feedthrough = {"crank.tau": ("crank.phi", "crank.w", "rocker.tau")}
 
-and this class does the rest (the behaviour itself is version-neutral, :class:`fmus.slave_core.PressBehaviour`;
-the same declaration builds an FMI 3.0 FMU on ``fmus.slave3.PressSlave``, ``build_fmus.py --fmi-version 3``):
+and the FMU's class, ``class FourBar(<declaration>, PressSlave)`` (written by the build, :func:`fmu_class` in
+process), gets the rest from this class (the behaviour itself is version-neutral,
+:class:`fmus.slave_core.PressBehaviour`; the same declaration builds an FMI 3.0 FMU on ``fmus.slave3.PressSlave``,
+``build_fmus.py --fmi-version 3``):
 
 * registers the parameters of ``model.Params`` (Real with unit, Integer for integer fields), the port and
   signal inputs/outputs, and the model states as ``local`` variables;
@@ -38,11 +40,15 @@ the motion-output component across the bond.
 """
 from __future__ import annotations
 
+import functools
+
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Status
 
+from .refusal import CATEGORY as REFUSAL_CATEGORY
+from .refusal import DESCRIPTION as REFUSAL_DESCRIPTION
 from .slave_core import (Input, Output, Port, PressBehaviour, Rotational, Translational, Variable,  # noqa: F401
                          unit_definitions)
 
@@ -52,6 +58,9 @@ class PressSlave(PressBehaviour, Fmi2Slave):
     :class:`~fmus.slave_core.PressBehaviour`."""
 
     _ERROR = Fmi2Status.error
+    _OK = Fmi2Status.ok
+    # the exporter's categories and the one of a refused parameter value (fmus.refusal)
+    log_categories = {**Fmi2Slave.log_categories, REFUSAL_CATEGORY: REFUSAL_DESCRIPTION}
 
     def _register(self) -> None:
         for s in self._param_specs:
@@ -116,3 +125,12 @@ class PressSlave(PressBehaviour, Fmi2Slave):
                 SubElement(init_el, "Unknown", index=str(index[name]),
                            dependencies=" ".join(map(str, sorted(index[d] for d in init_deps))))
         return root
+
+
+@functools.lru_cache(maxsize=None)
+def fmu_class(declaration: type) -> type:
+    """The FMI 2.0 co-simulation slave class of a declaration (:class:`fmus.declaration.Component`), as
+    the FMU's module defines it (:func:`fmus.build.fmu_module`): ``class <Name>(<declaration>, PressSlave)``, made
+    in this process."""
+    return type(declaration.__name__, (declaration, PressSlave), {"__module__": declaration.__module__,
+                                                                  "__qualname__": declaration.__qualname__})

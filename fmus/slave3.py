@@ -1,8 +1,8 @@
 """The base slave of the FMI 3.0 FMUs (pythonfmu3 ``Fmi3Slave``): the same declarations, the same behaviour.
 
-A declaration ``fmus/components/pd_<name>.py`` derives from ``fmus.slave.PressSlave``; for an FMI 3.0 build
-(``build_fmus.py --fmi-version 3``) :func:`fmus.build.stage_isolated` imports the declaration's names from
-this module instead, so the one class statement becomes an FMI 3.0 slave with no second copy of any port,
+A declaration ``fmus/components/pd_<name>.py`` (:class:`fmus.declaration.Component`) becomes an FMI 3.0 slave
+(``build_fmus.py --fmi-version 3``) as ``class <Name>(<declaration>, PressSlave, Fmi3Slave)`` with this module's
+``PressSlave`` (:func:`fmus.build.fmu_module`; :func:`fmu_class` in process), with no second copy of any port,
 signal or parameter.  The behaviour (parameter and input checks, lazy outputs, the step, the saved state) is
 :class:`fmus.slave_core.PressBehaviour`, shared with FMI 2.0; this class adds what FMI 3.0 names
 differently:
@@ -30,10 +30,14 @@ The power bonds are FMI 3.0 terminals too (:func:`terminals_and_icons`, packed b
 """
 from __future__ import annotations
 
+import functools
+
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu3 import Fmi3Causality, Fmi3Slave, Fmi3Status, Fmi3Variability, Float64, Int32
 
+from .refusal import CATEGORY as REFUSAL_CATEGORY
+from .refusal import DESCRIPTION as REFUSAL_DESCRIPTION
 from .slave_core import (Input, Output, Port, PressBehaviour, Rotational, Translational, Variable,  # noqa: F401
                          unit_definitions)
 
@@ -50,6 +54,9 @@ class PressSlave(PressBehaviour, Fmi3Slave):
     """Base class of the FMI 3.0 co-simulation FMUs (module docstring)."""
 
     _ERROR = Fmi3Status.error
+    _OK = Fmi3Status.ok
+    # the exporter's categories and the one of a refused parameter value (fmus.refusal)
+    log_categories = {**Fmi3Slave.log_categories, REFUSAL_CATEGORY: REFUSAL_DESCRIPTION}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -121,6 +128,15 @@ class PressSlave(PressBehaviour, Fmi3Slave):
         SubElement(tool, "Slave", {"module": type(self).__module__, "class": type(self).__name__,
                                    "advancedPositions": " ".join(self._advanced_positions())})
         return root
+
+
+@functools.lru_cache(maxsize=None)
+def fmu_class(declaration: type) -> type:
+    """The FMI 3.0 co-simulation slave class of a declaration (:class:`fmus.declaration.Component`), as
+    the FMU's module defines it (:func:`fmus.build.fmu_module`): ``class <Name>(<declaration>, PressSlave)``, made
+    in this process."""
+    return type(declaration.__name__, (declaration, PressSlave), {"__module__": declaration.__module__,
+                                                                  "__qualname__": declaration.__qualname__})
 
 
 def terminals_and_icons(ports: tuple[Port, ...]) -> Element | None:

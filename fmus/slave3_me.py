@@ -1,9 +1,9 @@
 """The base slave of the FMI 3.0 MODEL EXCHANGE FMUs: the same declarations, the model's own ODE.
 
-``build_fmus.py --fmi-version 3 --model-exchange`` builds every declaration ``fmus/components/pd_<name>.py`` with
-its names taken from this module (:func:`fmus.build.stage_isolated`), so the one class statement becomes a model
-exchange FMU: no second copy of any port, signal or parameter, and the variables, units, terminals and value
-references of the FMI 3.0 co-simulation FMU (:mod:`fmus.slave3`, whose registration this class extends).
+``build_fmus.py --fmi-version 3 --model-exchange`` builds every declaration ``fmus/components/pd_<name>.py`` on this
+module's ``PressSlave`` (:func:`fmus.build.fmu_module`; :func:`fmu_class` in process), so the one declaration
+becomes a model exchange FMU: no second copy of any port, signal or parameter, and the variables, units, terminals
+and value references of the FMI 3.0 co-simulation FMU (:mod:`fmus.slave3`, whose registration this class extends).
 
 What a host integrates is the model's own equations (:mod:`fmus.physics`):
 
@@ -15,7 +15,7 @@ What a host integrates is the model's own equations (:mod:`fmus.physics`):
   A host that sets the inputs at every time it evaluates (the FMI ideal) sees them as set; a host that holds
   them between its communication points (fmpy's CVODE right-hand side sets the time and the states, not the
   inputs; the toolkit's master holds them over a step) gets the position its speed implies, not a staircase of
-  a stiff belt's or mesh's input (c * w * (t - t_s), the co-simulation FMU's reason for the same rule, issue 35);
+  a stiff belt's or mesh's input (c * w * (t - t_s), the co-simulation FMU's reason for the same rule);
 * outputs: ``Model.output(t, x, u)``, as in co-simulation;
 * state events: ``Model.switches`` name the model's event indicators (``Model.event_indicators``: a clearance
   closing or opening), and at an event where an indicator has changed sign since the last one (a host also
@@ -33,6 +33,8 @@ pythonfmu3 0.3.4's wrapper reads fmi3UpdateDiscreteStates' results under the C n
 """
 from __future__ import annotations
 
+import functools
+
 from dataclasses import dataclass
 from xml.etree.ElementTree import Element, SubElement
 
@@ -42,6 +44,7 @@ from pythonfmu3.modelexchange import ModelExchange
 
 from . import slave3
 from .slave3 import Input, Output, Port, Rotational, Translational, Variable  # noqa: F401
+from .slave_core import SlaveState
 from .units import BASE_UNITS
 
 # what the toolkit's FMI 3.0 model exchange FMUs can do
@@ -67,6 +70,13 @@ class _UpdateResult:
     valuesOfContinuousStatesChanged: bool = False
     nextEventTimeDefined: bool = False
     nextEventTime: float = 0.0
+
+
+@dataclass(frozen=True)
+class ModelExchangeState(SlaveState):
+    """The co-simulation slave's state and what a model exchange slave keeps besides (rollback, the cache key)."""
+    pos_time: dict               # per advanced position input, the time it was last set
+    last_sides: tuple            # the event indicators' signs at the last event
 
 
 class PressSlave(slave3.PressSlave, ModelExchange):
@@ -126,9 +136,12 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         mdl = self._mdl if self._initialised else self._build_model()
         return [float(z) for z in mdl.event_indicators(self._time, self._x, self._inputs_now())]
 
+    _state_type = ModelExchangeState
+
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self._pos_time = {ip: 0.0 for ip, _ in self._advanced}   # time each advanced position was last set
+        self._last_sides: tuple[bool, ...] = ()   # the indicators' signs at the last event (or initialisation)
 
     def set_float64(self, vrs, values):
         super().set_float64(vrs, values)
@@ -173,14 +186,6 @@ class PressSlave(slave3.PressSlave, ModelExchange):
             bad = type(self).model.states[int(np.argmin(np.isfinite(dx)))].name
             self._fail(f"derivative of state {bad} is not finite at t = {self._time:.9g} s")
         return dx
-
-    def _get_fmu_state(self):
-        return super()._get_fmu_state(), dict(self._pos_time), getattr(self, "_last_sides", ())
-
-    def _set_fmu_state(self, state):
-        base, pos_time, self._last_sides = state
-        super()._set_fmu_state(base)
-        self._pos_time = dict(pos_time)
 
     # -- the ModelExchange calls pythonfmu3's wrapper makes ------------------------------------------------
     def get_continuous_states(self):
@@ -265,3 +270,11 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         root.remove(old)
         return root
 
+
+@functools.lru_cache(maxsize=None)
+def fmu_class(declaration: type) -> type:
+    """The FMI 3.0 model exchange slave class of a declaration (:class:`fmus.declaration.Component`), as
+    the FMU's module defines it (:func:`fmus.build.fmu_module`): ``class <Name>(<declaration>, PressSlave)``, made
+    in this process."""
+    return type(declaration.__name__, (declaration, PressSlave), {"__module__": declaration.__module__,
+                                                                  "__qualname__": declaration.__qualname__})

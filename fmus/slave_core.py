@@ -1,149 +1,103 @@
-"""The FMI-version-neutral part of the one base slave: the declarations and the behaviour of every FMU.
+"""The FMI-version-neutral part of the one base slave: the behaviour of every FMU and its saved state.
 
 ``fmus.slave`` puts :class:`PressBehaviour` on pythonfmu's ``Fmi2Slave`` (FMI 2.0) and ``fmus.slave3`` on
 pythonfmu3's ``Fmi3Slave`` (FMI 3.0); what differs between the versions is only how variables are
 registered, the names of the value-access calls and how the modelDescription is written.  So an FMU of
 either version is the same declaration (``fmus/components/pd_*.py``) run by the same code, and this module
 imports neither pythonfmu: an FMI 3.0 FMU does not need the FMI 2.0 exporter at run time, nor the reverse.
-The port convention and the declaration syntax are described in ``fmus.slave``.
+The declarations are :mod:`fmus.declaration`; the port convention is described in ``fmus.slave``; what the
+exporters' C wrappers need besides is :mod:`fmus.wrapper_glue`.
 """
 from __future__ import annotations
 
 import math
-import sys
-import threading
-import types
-import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import ClassVar
 from xml.etree.ElementTree import Element, SubElement
 
 import numpy as np
 
+from .declaration import Component, Input, Output, Port, Rotational, Translational, Variable  # noqa: F401
 from .physics.base import DIFFERENCE_STEP, Model, ParameterError
-from .units import BASE_UNITS, check_unit
-
-_ROT = (("phi", "rad", "angle"), ("w", "rad/s", "angular velocity"), ("tau", "N.m", "torque"))
-_TRA = (("s", "m", "position"), ("v", "m/s", "velocity"), ("f", "N", "force"))
-
-
-@dataclass(frozen=True)
-class Port:
-    """A mechanical power port: motion one way, effort the other."""
-    name: str
-    motion: str  # "in": motion variables are inputs, effort is an output; "out": the reverse
-    doc: str
-    translational: bool = False
-
-    def __post_init__(self):
-        if self.motion not in ("in", "out"):
-            raise ValueError(f"port {self.name}: motion must be 'in' or 'out', got {self.motion!r}")
-
-    def variables(self) -> list["Variable"]:
-        (p, pu, pd), (v, vu, vd), (e, eu, ed) = _TRA if self.translational else _ROT
-        motion_c, effort_c = ("input", "output") if self.motion == "in" else ("output", "input")
-        effort_doc = ("reaction this component exerts on the driving flange" if self.motion == "in"
-                      else "torque/force the connected part exerts on this flange")
-        return [Variable(f"{self.name}.{p}", motion_c, pu, f"{self.doc}: {pd} (motion {self.motion})"),
-                Variable(f"{self.name}.{v}", motion_c, vu, f"{self.doc}: {vd} (motion {self.motion})"),
-                Variable(f"{self.name}.{e}", effort_c, eu, f"{self.doc}: {ed}, {effort_doc}")]
+from .refusal import CATEGORY as REFUSAL_CATEGORY
+from .refusal import Refusal
+from .units import BASE_UNITS
+from .wrapper_glue import hold_module_dict, offer_to_loader
 
 
-def Rotational(name: str, motion: str, doc: str) -> Port:
-    return Port(name, motion, doc, translational=False)
+def _copied(value):
+    """A copy of a state attribute that no later change of the slave reaches (arrays, lists and dicts are
+    copied; numbers, flags, tuples and the model, immutable once built, are kept by reference)."""
+    if isinstance(value, np.ndarray):
+        return value.copy()
+    if isinstance(value, list):
+        return list(value)
+    if isinstance(value, dict):
+        return dict(value)
+    return value
 
 
-def Translational(name: str, motion: str, doc: str) -> Port:
-    return Port(name, motion, doc, translational=True)
+def _key_part(value):
+    """A state attribute as part of a hashable, comparable key."""
+    if isinstance(value, np.ndarray):
+        return value.tobytes()
+    if isinstance(value, list):
+        return tuple(value)
+    if isinstance(value, dict):
+        return tuple(value.items())
+    return value
 
 
 @dataclass(frozen=True)
-class Variable:
-    name: str
-    causality: str  # "input" | "output"
-    unit: str
-    doc: str
-    start: float = 0.0
+class SlaveState:
+    """The complete internal state of a slave (fmi2GetFMUstate / fmi3GetFMUState): each field ``f`` is the
+    slave's attribute ``_f``.  The model object (``mdl``) is immutable once built (fmus.physics.base.Model:
+    everything that evolves lives in ``x``), so it is kept by reference; the containers are copied both ways, so
+    a saved state can be restored any number of times.  A base slave with more state extends this class and
+    names it in its ``_state_type`` (tests/test_slave_state.py checks that every attribute a step changes is a
+    field).
+
+    The fields but :attr:`DERIVED` also key what the slave caches from its state
+    (:meth:`PressBehaviour._feedthrough`)."""
+    x: np.ndarray            # the model's state
+    u: list                  # the inputs as set
+    y: list                  # the outputs last computed
+    time: float
+    stale: bool              # the outputs must be recomputed before the next get
+    initialised: bool
+    par: dict                # the parameters as set
+    mdl: Model | None        # the model built from them (None: to be built)
+    fresh: list              # per input: set since the last step (else held over it)
+    last_step: float         # size of the last step taken
+
+    # computed from the other fields (the outputs and whether they are up to date): not part of a cache key
+    DERIVED: ClassVar[frozenset] = frozenset({"y", "stale"})
+
+    @classmethod
+    def of(cls, slave) -> "SlaveState":
+        return cls(**{f.name: _copied(getattr(slave, f"_{f.name}")) for f in fields(cls)})
+
+    def restore(self, slave) -> None:
+        for f in fields(self):
+            setattr(slave, f"_{f.name}", _copied(getattr(self, f.name)))
+
+    @classmethod
+    def key(cls, slave) -> tuple:
+        """The slave's present state but the derived fields, as a key (compared with ``==``)."""
+        return tuple(_key_part(getattr(slave, f"_{f.name}")) for f in fields(cls) if f.name not in cls.DERIVED)
 
 
-def Input(name: str, unit: str, doc: str, start: float = 0.0) -> Variable:
-    return Variable(name, "input", unit, doc, start)
-
-
-def Output(name: str, unit: str, doc: str) -> Variable:
-    return Variable(name, "output", unit, doc)
-
-
-_MODULE_DICT_REFS: list = []
-
-
-def _hold_module_dict(cls: type) -> None:
-    """Work around a reference-count bug of the pythonfmu 0.7 C wrapper.
-
-    On every ``fmi2Instantiate`` its ``findClass`` re-executes the FMU's module source (with the module's
-    ``__dict__`` as globals) and then releases that *borrowed* ``__dict__`` once.  A component module that
-    defines no functions holds its dict only through the module object, so the first instantiation frees
-    it and the second crashes.  Every class statement that derives from PressSlave runs this hook, on
-    import and again on each re-execution by the wrapper, so each release is matched by one reference
-    taken just before it (tests/test_fmus_built.py::test_many_instances_in_one_process).  Module dicts
-    live as long as the process anyway, so the extra references cost nothing elsewhere.
-    """
-    module = sys.modules.get(cls.__module__)
-    if module is not None:
-        _MODULE_DICT_REFS.append(vars(module))
-
-
-# The module through which a slave offers its directional derivatives to the host loader
-# (fmus/loader/pressdrive_loader.c): pythonfmu's wrappers answer fmi2/fmi3GetDirectionalDerivative "not supported"
-# and give the loader no way to reach the slave object, so each slave, while the wrapper constructs it inside
-# fmi*Instantiate, leaves its ``directional_derivative`` here under the constructing thread's id; the loader, on
-# the same thread right after the wrapper returns the instance, takes it (``take()``) and keeps it by instance.
-# A fixed name in ``sys.modules``, not a module of this package: every FMU packs its own copy of this package
-# under its own name, and one loader serves them all.
-LOADER_BRIDGE = "_pressdrive_directional_derivatives"
-
-
-def _offer_to_loader(instance_name: str, directional_derivative) -> None:
-    """Offer a slave's bound method (weakly: a slave made outside the loader, in process, is not kept alive by an
-    offer nobody takes; the next construction on the thread replaces it)."""
-    bridge = sys.modules.get(LOADER_BRIDGE)
-    if bridge is None:
-        bridge = types.ModuleType(LOADER_BRIDGE, "directional derivatives offered to the host loader (fmus.slave_core)")
-        bridge.offered = {}
-        bridge.take = _take_offer
-        sys.modules[LOADER_BRIDGE] = bridge
-    bridge.offered[threading.get_ident()] = (instance_name, weakref.WeakMethod(directional_derivative))
-
-
-def _take_offer():
-    """(instance name, directional_derivative) offered on this thread, removed from the bridge, or None."""
-    entry = sys.modules[LOADER_BRIDGE].offered.pop(threading.get_ident(), None)
-    method = entry[1]() if entry is not None else None
-    return None if method is None else (entry[0], method)
-
-
-class PressBehaviour:
+class PressBehaviour(Component):
     """What every press-drive slave does, whatever its FMI version (module docstring).  A version's base class
     derives from this and its exporter's slave class and adds ``_register``, the value-access calls and
-    ``to_xml``; a declaration sets the class attributes below."""
+    ``to_xml``; the FMU's class derives from its declaration (:class:`fmus.declaration.Component`) and that base.
+    """
 
-    model: ClassVar[type[Model]]
-    description: ClassVar[str] = ""
-    ports: ClassVar[tuple[Port, ...]] = ()
-    signals: ClassVar[tuple[Variable, ...]] = ()
-    feedthrough: ClassVar[dict[str, tuple[str, ...]]] = {}
-    # motion-input ports whose position the model advances over a step with the held velocity input
-    # (phi(t) = port.phi + port.w*(t - t0)); declared in the modelDescription (tool "org.pressdrive": FMI 2.0's
-    # VendorAnnotations, FMI 3.0's Annotations) so a master hands these positions over at the step start, not
-    # extrapolated
-    advances_position: ClassVar[bool] = True
-    author = "press-drive toolkit"
-    license = "MIT"
-    version = "0.1.0"
+    _state_type: ClassVar[type[SlaveState]] = SlaveState   # what _get_fmu_state saves
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        _hold_module_dict(cls)
+        hold_module_dict(cls)
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -174,26 +128,7 @@ class PressBehaviour:
                           if io.causality == "input" and v.name == io.name}
         self._D = (None, None)  # (key, feed-through block) of the last directional derivative
         if cls.model.provides_output_jacobian():
-            _offer_to_loader(self.instance_name, self.directional_derivative)
-
-    # -- declaration -----------------------------------------------------------------------------------
-    @classmethod
-    def interface(cls) -> list[Variable]:
-        """All inputs and outputs, checked against the model's own names."""
-        io = [v for port in cls.ports for v in port.variables()] + list(cls.signals)
-        for v in io:
-            check_unit(v.unit)
-        ins = {v.name for v in io if v.causality == "input"}
-        outs = {v.name for v in io if v.causality == "output"}
-        if ins != set(cls.model.inputs) or outs != set(cls.model.outputs):
-            raise TypeError(f"{cls.__name__}: declared inputs/outputs {sorted(ins)} / {sorted(outs)} differ "
-                            f"from model {cls.model.__name__}: {sorted(cls.model.inputs)} / {sorted(cls.model.outputs)}")
-        for out, deps in cls.feedthrough.items():
-            if out not in outs or not set(deps) <= ins:
-                raise TypeError(f"{cls.__name__}: feedthrough entry {out}: {deps} names unknown variables")
-        # order inputs and outputs as the model expects them
-        order = {n: i for i, n in enumerate(cls.model.inputs + cls.model.outputs)}
-        return sorted(io, key=lambda v: (v.causality != "input", order[v.name]))
+            offer_to_loader(self.instance_name, self.directional_derivative)
 
     def _par_getter(self, name):
         return lambda: self._par[name]
@@ -273,8 +208,10 @@ class PressBehaviour:
             try:
                 self._mdl = cls(cls.Params.from_mapping(self._par))
             except ParameterError as e:
-                unit = next((s.unit for s in self._param_specs if s.name == e.name), "")
-                self._fail(f"parameter {e.name} = {e.value!r} {unit}".rstrip() + f" is not admissible: {e.requirement}")
+                # the refusal for programs (fmus.refusal: its own log category), then the line for people
+                refusal = Refusal.of(e, next((s.unit for s in self._param_specs if s.name == e.name), ""))
+                self.log(refusal.to_message(), self._OK, category=REFUSAL_CATEGORY)
+                self._fail(refusal.sentence())
         return self._mdl
 
     def _refresh(self) -> None:
@@ -290,10 +227,9 @@ class PressBehaviour:
 
         Why: libcosim, Ecos and FMPy's ``simulate_ssp`` read the outputs right after ``fmi2DoStep``, before any new
         input.  An output computed from the state at t+h and the position held from t (a stiff mesh or coupler
-        spring: c * (phi_in - phi)) is then wrong by c * w * h, a first-order error with a large constant that made
-        the exported bed drive 1.4 cm off in those hosts at 0.1 ms (issue 35).  A position set at t+h (a master
-        that refreshes feed-through: the harness's ``jacobi``, OMSimulator) is used as set, so their results do
-        not change."""
+        spring: c * (phi_in - phi)) is then wrong by c * w * h, a first-order error with a large constant.  A
+        position set at t+h (a master that refreshes feed-through: the harness's ``jacobi``, OMSimulator) is used
+        as set."""
         u = self._u
         if not (self._initialised and self._advanced):
             return u
@@ -336,8 +272,7 @@ class PressBehaviour:
         model, mode, time, state and inputs stay the same (a master asks for it one seed at a time)."""
         u = self._inputs_now()
         mdl = self._build_model()    # a new object after a parameter changed
-        key = (mdl, self._initialised, self._time, self._last_step, tuple(self._u), tuple(self._fresh),
-               self._x.tobytes())
+        key = self._state_type.key(self)
         if self._D[0] == key:
             return self._D[1]
         if not self._initialised:
@@ -404,16 +339,12 @@ class PressBehaviour:
         self._stale = True
         return True
 
-    # The complete internal state.  The model object (self._mdl) is immutable once built (fmus.physics.base.Model:
-    # everything that evolves lives in x), so it is kept by reference; the containers are copied both ways, so
-    # a saved state can be restored any number of times.
-    def _get_fmu_state(self):
-        return (self._x.copy(), list(self._u), list(self._y), self._time, self._stale, self._initialised,
-                dict(self._par), self._mdl, list(self._fresh), self._last_step)
+    # -- FMU state (rollback): SlaveState ----------------------------------------------------------------------
+    def _get_fmu_state(self) -> SlaveState:
+        return self._state_type.of(self)
 
-    def _set_fmu_state(self, state):
-        x, u, y, self._time, self._stale, self._initialised, par, self._mdl, fresh, self._last_step = state
-        self._x, self._u, self._y, self._par, self._fresh = x.copy(), list(u), list(y), dict(par), list(fresh)
+    def _set_fmu_state(self, state: SlaveState) -> None:
+        state.restore(self)
 
     # -- what the modelDescription says, in names (each version writes it in its own XML) ---------------------
     def _units_by_name(self) -> dict[str, str]:
@@ -426,12 +357,6 @@ class PressBehaviour:
     def _advanced_positions(self) -> list[str]:
         """The motion-input positions this slave advances itself over a step (``advances_position``)."""
         return [pos for pos in type(self)._port_positions() if pos is not None]
-
-    @classmethod
-    def _port_positions(cls) -> list[str | None]:
-        """Per port, the name of its position input if the model advances it over a step, else None."""
-        return [f"{port.name}.{'s' if port.translational else 'phi'}"
-                if port.motion == "in" and cls.advances_position else None for port in cls.ports]
 
     def _output_dependencies(self) -> list[tuple[str, tuple[str, ...], tuple[str, ...]]]:
         """(output, its direct input dependencies in continuous time, its dependencies at initialisation) for

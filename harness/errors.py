@@ -47,6 +47,17 @@ class StepDiscarded(FMUError):
     with a smaller step after a rollback)."""
 
 
+class ParameterRefused(FMUError):
+    """An FMU refused a parameter value: the failed FMI call, and as data ``refusal`` (a
+    :class:`fmus.refusal.Refusal`: ``parameter``, ``value``, ``unit``, ``requirement`` and the admissible range),
+    which the FMU logged under its own category (:data:`fmus.refusal.CATEGORY`), not read from message text."""
+
+    def __init__(self, instance: str, function: str, time: float | None, status: int | None,
+                 log: str = "", detail: str = "", refusal=None):
+        super().__init__(instance, function, time, status, log, detail)
+        self.refusal = refusal
+
+
 class SimulationError(HarnessError):
     """A run that stopped before its end.  ``partial`` is the result DataFrame up to the last good
     communication point (``partial.attrs["complete"]`` is False); ``time``, ``instance`` and ``variable``

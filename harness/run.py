@@ -34,6 +34,7 @@ import pandas as pd
 
 from harness.divergence import Diverged, DivergenceOptions, for_master as _detector
 from harness.errors import BlowUp, FMUError, HarnessError, SimulationError, SystemError_
+from harness.errors import ParameterRefused  # an FMU refused a parameter value (typed, fmus.refusal)
 from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import Instance, open_instance, release
 from harness.masters import MASTERS, NS, ConvergenceError, IterationOptions, master_class
@@ -507,7 +508,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
     except (FMUError, SimulationError, ConvergenceError) as e:
         error = str(e).splitlines()[0] if str(e) else type(e).__name__
         err_obj = e
-        if rec.rows == 0 and isinstance(e, FMUError) and "is not admissible" in (e.log or ""):
+        if rec.rows == 0 and isinstance(e, ParameterRefused):
             # the FMU refused a parameter value before the run: bad input, said in the user's words (no FMI call)
             log = e.log.strip().splitlines()[0]
             error = f"system {info['system']}: " + (log if log.startswith(f"{e.instance} ") else

@@ -1,2 +1,3 @@
-"""FMU declarations, one module per FMU (``pd_<name>.py``: unique module names, so that several of them
-can be loaded into one process).  Importing this package needs pythonfmu; the physics does not."""
+"""FMU declarations, one module per FMU (``pd_<name>.py``, a :class:`fmus.declaration.Component`): unique module
+names, so that several FMUs can be loaded into one process.  Importing them needs no exporter (pythonfmu); each
+imports its package relatively, so the same file serves the developer's ``fmus`` and the copy an FMU packs."""

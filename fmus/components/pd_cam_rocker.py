@@ -1,9 +1,9 @@
 """CamRocker FMU: cam-corrected rocker (slotted rocker with groove, or disc cam with oscillating follower)."""
-from fmus.physics.cam_rocker import CamRockerModel
-from fmus.slave import Output, PressSlave, Rotational
+from ..declaration import Component, Output, Rotational
+from ..physics.cam_rocker import CamRockerModel
 
 
-class CamRocker(PressSlave):
+class CamRocker(Component):
     model = CamRockerModel
     description = ("Cam-corrected rocker driven by a crank: slotted rocker whose kulisa follows a law of periodic motion "
                    "(LCSM, groove synthesised from the law) or disc cam with oscillating roller follower; rigid, elastic "

@@ -1,9 +1,9 @@
 """ConveyorLoad FMU: the trimming section's load on the belt conveyors' drive shaft (seed 003, second article)."""
-from fmus.physics.conveyor import ConveyorLoadModel
-from fmus.slave import Output, PressSlave, Rotational
+from ..declaration import Component, Output, Rotational
+from ..physics.conveyor import ConveyorLoadModel
 
 
-class ConveyorLoad(PressSlave):
+class ConveyorLoad(Component):
     model = ConveyorLoadModel
     description = ("Transport load of a non-stop book-block trimmer (Topolnytskyi): blocks at a pitch past two stationary "
                    "knives; the transport force is the cutting work w*h per unit of travel of the block edge inside the "

@@ -1,9 +1,9 @@
 """FlywheelShaft FMU: flywheel + belt pulley on a torsionally compliant main shaft with two crank-side take-offs."""
-from fmus.physics.flywheel_shaft import FlywheelShaftModel
-from fmus.slave import Output, PressSlave, Rotational
+from ..declaration import Component, Output, Rotational
+from ..physics.flywheel_shaft import FlywheelShaftModel
 
 
-class FlywheelShaft(PressSlave):
+class FlywheelShaft(Component):
     model = FlywheelShaftModel
     description = ("Flywheel + driven pulley on a torsionally compliant main shaft (c = G*pi*d^4/(32*l), damping from "
                    "the loss coefficient psi); fidelity 0: rigid shaft, 1: compliant shaft (2 DOF).\n"

@@ -1,9 +1,9 @@
 """FourBar FMU: crank-rocker four-bar, rigid, with an elastic coupler, or with a clearance joint (seeds 000, 004)."""
-from fmus.physics.fourbar import FourBarModel
-from fmus.slave import Output, PressSlave, Rotational
+from ..declaration import Component, Output, Rotational
+from ..physics.fourbar import FourBarModel
 
 
-class FourBar(PressSlave):
+class FourBar(Component):
     model = FourBarModel
     description = ("Crank-rocker four-bar: crank motion in, rocker motion out; fidelity 0 rigid closed-form "
                    "kinematics, 1 elastic coupler, 2 elastic coupler with a clearance joint and impacts.\n"

@@ -1,9 +1,9 @@
 """Gain FMU (test component): a pure direct feed-through y = k*u + offset, and the integral of u."""
-from fmus.physics.testing import GainModel
-from fmus.slave import Input, Output, PressSlave
+from ..declaration import Component, Input, Output
+from ..physics.testing import GainModel
 
 
-class Gain(PressSlave):
+class Gain(Component):
     model = GainModel
     description = ("Test component: y = clip(k*u + offset, -limit, limit) depends directly on u "
                    "(two Gains in a ring are an algebraic loop); integral is the time integral of u.")

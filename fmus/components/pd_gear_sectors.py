@@ -1,9 +1,9 @@
 """GearSectors FMU: printing-cylinder drive by eccentric round gear sectors plus the bed slider-crank (seed 002)."""
-from fmus.physics.gear_sectors import GearSectorsModel
-from fmus.slave import Output, PressSlave, Rotational, Translational
+from ..declaration import Component, Output, Rotational, Translational
+from ..physics.gear_sectors import GearSectorsModel
 
 
-class GearSectors(PressSlave):
+class GearSectors(Component):
     model = GearSectorsModel
     description = ("Flat-bed press: main shaft drives the printing cylinder by a 4-phase law (uniform, eccentric-sector "
                    "acceleration, synchronous with the bed, sector braking) and the bed by a slider-crank with skat.")

@@ -1,9 +1,9 @@
 """Inertia FMU: a rigid rotating mass with optional ground spring, damper and drive torque."""
-from fmus.physics.elements import InertiaModel
-from fmus.slave import PressSlave, Rotational
+from ..declaration import Component, Rotational
+from ..physics.elements import InertiaModel
 
 
-class Inertia(PressSlave):
+class Inertia(Component):
     model = InertiaModel
     description = ("Rigid inertia J with optional spring/damper to the frame and constant drive torque. "
                    "Port flange: motion out (phi, w outputs), torque in.")

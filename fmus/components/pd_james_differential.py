@@ -1,9 +1,9 @@
 """JamesDifferential FMU: planetary differential (ring, carrier in; sun out) of the taler drive, seed 004."""
-from fmus.physics.differential import JamesDifferentialModel
-from fmus.slave import Output, PressSlave, Rotational
+from ..declaration import Component, Output, Rotational
+from ..physics.differential import JamesDifferentialModel
 
 
-class JamesDifferential(PressSlave):
+class JamesDifferential(Component):
     model = JamesDifferentialModel
     description = ("James planetary differential: ring z3 and carrier b drive the sun z5 by "
                    "(w_sun - w_c)/(w_ring - w_c) = -z_ring/z_sun; fidelity 0 rigid, 1 compliant mesh with sun inertia.")

@@ -1,9 +1,9 @@
 """KnifeLoad FMU: cutting load of the spine-processing knife on its crank drive (seed 003)."""
-from fmus.physics.knife import KnifeLoadModel
-from fmus.slave import Output, PressSlave, Rotational
+from ..declaration import Component, Output, Rotational
+from ..physics.knife import KnifeLoadModel
 
 
-class KnifeLoad(PressSlave):
+class KnifeLoad(Component):
     model = KnifeLoadModel
     description = ("Knife cutting load (Poliudov & Knysh): feed force polynomial through 4 samples, entry ramp, "
                    "disturbance moment 0.5 R F (cos beta + f sin beta sin(gamma + alpha3)) over crank angles [phi_s, pi].")

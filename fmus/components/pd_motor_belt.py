@@ -1,8 +1,8 @@
 """MotorBelt FMU: asynchronous motor driving the flywheel pulley through a V-belt."""
-from fmus.physics.motor_belt import MotorBeltModel
-from fmus.slave import Input, Output, PressSlave, Rotational
+from ..declaration import Component, Input, Output, Rotational
+from ..physics.motor_belt import MotorBeltModel
 
-class MotorBelt(PressSlave):
+class MotorBelt(Component):
     model = MotorBeltModel
     description = ("Asynchronous motor + V-belt driving a pulley; fidelity 0: ideal speed source + elastic belt, "
                    "1: Kloss characteristic with rotor inertia + elastic belt, 2: level 1 + belt creep.\n"

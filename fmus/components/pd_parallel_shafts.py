@@ -1,10 +1,10 @@
 """ParallelShafts FMU: seed 003's knife drive shafts -- two identical shafts in parallel from a drive end and a
 belt-driven flywheel to the knife."""
-from fmus.physics.parallel_shafts import ParallelShaftsModel
-from fmus.slave import Output, PressSlave, Rotational
+from ..declaration import Component, Output, Rotational
+from ..physics.parallel_shafts import ParallelShaftsModel
 
 
-class ParallelShafts(PressSlave):
+class ParallelShafts(Component):
     model = ParallelShaftsModel
     description = ("Two identical shafts (c1 = G*pi*d^4/(32*l) each; in parallel C_red = G*pi*d^4/(16*l)) from the drive "
                    "end and from a flywheel J1 fed by a V-belt to the knife inertia J_red (seed 003, Fig. 3); "

@@ -1,8 +1,8 @@
 """RackBed FMU: pinion and rack driving the flat bed of a flat-bed press."""
-from fmus.physics.rack_bed import RackBedModel
-from fmus.slave import Output, PressSlave, Rotational
+from ..declaration import Component, Output, Rotational
+from ..physics.rack_bed import RackBedModel
 
-class RackBed(PressSlave):
+class RackBed(Component):
     model = RackBedModel
     description = ("Pinion + rack driving the flat bed (mass m_T) against guideway friction and a printing load; "
                    "fidelity 0: rigid mesh (bed follows the pinion), 1: elastic rack mesh (bed has its own state).\n"

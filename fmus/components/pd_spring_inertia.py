@@ -1,9 +1,9 @@
 """SpringInertia FMU: an inertia driven through a spring-damper from a motion-input flange."""
-from fmus.physics.elements import SpringInertiaModel
-from fmus.slave import PressSlave, Rotational
+from ..declaration import Component, Rotational
+from ..physics.elements import SpringInertiaModel
 
 
-class SpringInertia(PressSlave):
+class SpringInertia(Component):
     model = SpringInertiaModel
     description = ("Inertia J behind a spring-damper (c, d) driven by the motion of port drive; "
                    "drive.tau = -(c*(drive.phi - phi) + d*(drive.w - w)), the reaction on the driver, is a direct function of the inputs.")

@@ -1,9 +1,9 @@
 """TorqueLoad FMU: generic torque load of a rotating link (constant + Coulomb + viscous + spring)."""
-from fmus.physics.loads import TorqueLoadModel
-from fmus.slave import PressSlave, Rotational
+from ..declaration import Component, Rotational
+from ..physics.loads import TorqueLoadModel
 
 
-class TorqueLoad(PressSlave):
+class TorqueLoad(Component):
     model = TorqueLoadModel
     description = ("Torque load on a driven flange: flange.tau = -(T_const + T_coulomb*tanh(w/w_reg) + d*w + "
                    "c*(phi - phi_ref)); fidelity 0 (static law) only.")

@@ -20,7 +20,7 @@
  * Directional derivatives: pythonfmu's wrappers answer fmi2GetDirectionalDerivative (fmi3...) "not supported".
  * The loader answers them itself from the slave: a toolkit slave, while the wrapper constructs it, offers its
  * directional_derivative(unknowns, knowns, seed) in the module _pressdrive_directional_derivatives (see
- * fmus/slave_core.py: LOADER_BRIDGE); right after the wrapper's fmi2Instantiate returns, on the same thread, the
+ * fmus/wrapper_glue.py: LOADER_BRIDGE); right after the wrapper's fmi2Instantiate returns, on the same thread, the
  * loader takes that callable (the slot was emptied just before the call, and the offer must carry the instance's
  * name, so it is this instance's) and keeps it by instance.  fmi2GetDirectionalDerivative then takes the GIL
  * (PyGILState_Ensure, as the wrapper does on every call), calls it with lists of the value references and the
@@ -125,7 +125,7 @@ static void *python = NULL;   /* where the Python C API is looked up (prepare) *
 
 /* ------------------------------------------------------------------------ directional derivatives (header) */
 typedef struct PyObject PyObject;   /* opaque: only pointers pass through here */
-#define BRIDGE_MODULE "_pressdrive_directional_derivatives"   /* fmus/slave_core.py: LOADER_BRIDGE */
+#define BRIDGE_MODULE "_pressdrive_directional_derivatives"   /* fmus/wrapper_glue.py: LOADER_BRIDGE */
 
 static struct {
     int (*gil_ensure)(void);

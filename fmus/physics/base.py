@@ -19,10 +19,15 @@ DIFFERENCE_STEP = 6e-6   # relative step of Model.output_jacobian_by_differences
 
 
 class ParameterError(ValueError):
-    """A parameter value that is not physical.  The message names the parameter and the value."""
+    """A parameter value that is not physical.  The message names the parameter and the value; ``requirement``
+    says what is admissible in words, and where that is a range of the parameter alone, ``low``, ``high``,
+    ``low_open`` and ``choices`` give it as data (as :func:`param` declares it; None where there is none)."""
 
-    def __init__(self, name: str, value: Any, requirement: str):
+    def __init__(self, name: str, value: Any, requirement: str, *, low: float | None = None,
+                 high: float | None = None, low_open: bool = False, choices: Sequence[int] | None = None):
         self.name, self.value, self.requirement = name, value, requirement
+        self.low, self.high, self.low_open = low, high, low_open
+        self.choices = tuple(choices) if choices is not None else None
         super().__init__(f"parameter {name} = {value!r} is not admissible: {requirement}")
 
 
@@ -56,19 +61,20 @@ class Params:
         for f in fields(self):
             value = getattr(self, f.name)
             meta = f.metadata
-            if isinstance(value, float) and not math.isfinite(value):
-                raise ParameterError(f.name, value, "must be finite")
             choices = meta.get("choices")
-            if choices is not None and value not in choices:
-                raise ParameterError(f.name, value, f"must be one of {list(choices)}")
             low, high = meta.get("low"), meta.get("high")
+            bounds = dict(low=low, high=high, low_open=bool(meta.get("low_open")), choices=choices)
+            if isinstance(value, float) and not math.isfinite(value):
+                raise ParameterError(f.name, value, "must be finite", **bounds)
+            if choices is not None and value not in choices:
+                raise ParameterError(f.name, value, f"must be one of {list(choices)}", **bounds)
             if low is not None:
                 if meta.get("low_open") and not value > low:
-                    raise ParameterError(f.name, value, f"must be > {low:g} {meta['unit']}".rstrip())
+                    raise ParameterError(f.name, value, f"must be > {low:g} {meta['unit']}".rstrip(), **bounds)
                 if not meta.get("low_open") and not value >= low:
-                    raise ParameterError(f.name, value, f"must be >= {low:g} {meta['unit']}".rstrip())
+                    raise ParameterError(f.name, value, f"must be >= {low:g} {meta['unit']}".rstrip(), **bounds)
             if high is not None and not value <= high:
-                raise ParameterError(f.name, value, f"must be <= {high:g} {meta['unit']}".rstrip())
+                raise ParameterError(f.name, value, f"must be <= {high:g} {meta['unit']}".rstrip(), **bounds)
         self.check()
 
     def check(self) -> None:

@@ -58,7 +58,7 @@ SEED_RATIO = 3.0                                  # z3 / z5 (seed: i_53^b = -3)
 SEED_CARRIER_SWING = math.radians(40.0)           # gamma_Sigma (seed)
 # The seed's assembly branch of the four-bar for a crank turning counter-clockwise (fmus.physics.fourbar's
 # sign(cross(D - O5, A - O5)) = branch).  The seed's working stroke has the small peak of the rocker's
-# acceleration at its run-up and the large one at its run-out (its Fig. 2 as issue 32 reads it; our copy has
+# acceleration at its run-up and the large one at its run-out (its Fig. 2 as read from the text; our copy has
 # no figures): branch -1 gives C_delta_px1 = 3.113 < C_delta_px3 = 12.884, branch +1 the mirror image
 # (12.884 > 3.113).  The two branches are mirror images of one linkage: branch -1 turning counter-clockwise
 # is branch +1 turning clockwise, i.e. every stroke run backwards in time (B kept, C1 and C3 exchanged).

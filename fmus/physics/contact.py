@@ -152,7 +152,7 @@ def contact_force(q: float, q_dot: float, clearance: float, k: float, law: int, 
 def contact_force_slopes(q: float, q_dot: float, clearance: float, k: float, law: int, e: float,
                          v_impact: float, m_eff: float, exponent: float = 1.0) -> tuple[float, float, float, float]:
     """(F, dF/dq, dF/dq_dot, dF/dm_eff): :func:`contact_force` and its partial derivatives, for a component's
-    Jacobian (its directional derivatives, issue 29).  The force is :func:`contact_force`'s own value; the slopes
+    Jacobian (its directional derivatives).  The force is :func:`contact_force`'s own value; the slopes
     differentiate its law term by term, each the derivative of one equation of this module (no copy of the law):
 
     * separated, or in contact with the force clipped at zero (a receding contact whose damping would pull):

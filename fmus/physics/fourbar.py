@@ -41,7 +41,7 @@ Fidelity levels of :class:`FourBarModel` (port crank: motion in; port rocker: mo
        I dw/dt = -(1 - chi) F arm + rocker.tau,      crank.tau = F * cross(A - O2, e_AD).
    Within a communication step the crank pin moves with the held speed: phi(t) = crank.phi + crank.w (t - t0).
    Integrated by exponential Rosenbrock steps of order 3 (integrate.exprb32_pair): the coupler mode exactly on
-   its linearisation, one step per 0.01 rad of crank rotation, no sub-step sized for the coupler (issue 21);
+   its linearisation, one step per 0.01 rad of crank rotation, no sub-step sized for the coupler;
    the rates' Jacobian and time derivative in closed form (``_acc_jet_at``).
 2. as 1, with a total clearance ``clearance`` (dead band |q| <= clearance/2, seed 000 "total play") at the
    coupler-rocker joint.  The coupler and the joint are one spring: the contact force is

@@ -25,9 +25,11 @@ from pathlib import Path
 import numpy as np
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2FMUstate)
-from fmpy.fmi1 import calloc, free
+from fmpy.fmi1 import FMICallException, calloc, free
 
-from harness.errors import FMUError, StepDiscarded
+from fmus.refusal import CATEGORY as REFUSAL_CATEGORY
+from fmus.refusal import Refusal
+from harness.errors import FMUError, ParameterRefused, StepDiscarded
 from harness.fmi.cache import cache_dir, model_description, unzipped  # noqa: F401 (cache_dir: public here too)
 
 OK, WARNING, DISCARD, ERROR, FATAL, PENDING = range(6)
@@ -68,10 +70,7 @@ def _log(env, instance_name, status, category, message):
     if fmu is None:  # fmpy's native proxy keeps ONE Python logger for all FMUs: behave like fmpy's for others
         print(f"[{_LABELS[status].upper() if 0 <= status < 6 else status}] {text}")
         return
-    if fmu is not None:
-        fmu.log.append((status, text))
-        if status >= ERROR:
-            fmu.errors.append(" ".join(text.split()))
+    fmu._logged(status, category.decode("utf-8", "replace") if category else "", text)
 
 
 _CALLBACKS = fmi2CallbackFunctions()
@@ -164,6 +163,7 @@ class Instance:
     ``path`` is the .fmu file; ``name`` the instance name (used in every error message).  Attributes:
     ``md`` (fmpy model description), ``variables`` (name -> fmpy ModelVariable), ``time`` (the current
     communication point, for messages), ``log`` (the last 200 log messages as (status, text)), ``last_error``,
+    ``refusal`` (a parameter value the FMU refused, :mod:`fmus.refusal`, until the failing call raises it),
     ``failed`` (True once the instance returned fmi2Error or fmi2Fatal)."""
 
     path_kind = "fmi"  # how the instance is called: "fmi" (the FMU's shared library) or "in-process"
@@ -190,6 +190,7 @@ class Instance:
         self.log: deque = deque(maxlen=200)
         self.errors: list[str] = []   # error messages logged by the FMU
         self._reported = 0
+        self.refusal: Refusal | None = None   # a parameter value the FMU refused, not yet raised (fmus.refusal)
         self.failed = False
         self.time: float | None = None
 
@@ -202,34 +203,51 @@ class Instance:
         specific = [m for m in msgs if not m.startswith("Fatal py exception")]
         return "; ".join(specific or msgs[-1:])
 
+    def _logged(self, status: int, category: str, text: str) -> None:
+        """One message the FMU logged (every version's logger and the in-process queue end here): a refusal
+        (category :data:`fmus.refusal.CATEGORY`) is kept as data for the error of the failing call; any other
+        message goes to ``log``, and to ``errors`` from status error on."""
+        if category == REFUSAL_CATEGORY:
+            refusal = Refusal.from_message(text)
+            if refusal is not None:
+                self.refusal = refusal
+                return
+        self.log.append((status, text))
+        if status >= ERROR:
+            self.errors.append(" ".join(text.split()))
+
+    def _error(self, function: str, status: int, detail: str = "") -> FMUError:
+        """The error of a failed call (the messages logged since the last one): :class:`StepDiscarded` for
+        discard, :class:`ParameterRefused` when the FMU refused a parameter value, else :class:`FMUError`."""
+        log = self.last_error
+        self._reported = len(self.errors)
+        if status == DISCARD:
+            return StepDiscarded(self.name, function, self.time, status, log, detail)
+        refusal, self.refusal = self.refusal, None
+        if refusal is not None:
+            return ParameterRefused(self.name, function, self.time, status, log, detail, refusal=refusal)
+        return FMUError(self.name, function, self.time, status, log, detail)
+
     def _check(self, status: int, function: str) -> None:
         if status > WARNING:
             if status >= ERROR:
                 self.failed = True
-            cls = StepDiscarded if status == DISCARD else FMUError
-            log = self.last_error
-            self._reported = len(self.errors)
-            raise cls(self.name, function, self.time, status, log)
+            raise self._error(function, status)
 
     def _call(self, function: str, method, *args, **kwargs):
         """``method(*args, **kwargs)`` of an FMPy slave that raises on a bad status (FMI 1.0 and 3.0): the
         status becomes :class:`StepDiscarded` (discard) or :class:`FMUError` with the FMU's logged error; a
         library that cannot be called at all, an FMUError naming the Python error; an instance that failed
         before is not called again."""
-        from fmpy.fmi1 import FMICallException  # the one exception class FMPy raises for every FMI version
-
         if self.failed:
             raise FMUError(self.name, function, self.time, ERROR, detail="the instance failed before")
         try:
             return method(*args, **kwargs)
         except FMICallException as e:
             status = int(getattr(e, "status", ERROR))
-            log = self.last_error
-            self._reported = len(self.errors)
-            if status == DISCARD:
-                raise StepDiscarded(self.name, function, self.time, status, log) from None
-            self.failed = True
-            raise FMUError(self.name, function, self.time, status, log) from None
+            if status != DISCARD:
+                self.failed = True
+            raise self._error(function, status) from None
         except Exception as e:  # the library could not be called at all
             self.failed = True
             raise FMUError(self.name, function, self.time, ERROR, detail=f"{type(e).__name__}: {e}") from None
@@ -305,37 +323,46 @@ class FMU(Instance):
         else:
             self._slave = FMU2Slave(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
                                     modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
-        f = self._slave._functions
-        self._f = f
-        self._do_step = f.get("fmi2DoStep")  # None for Model Exchange
-        self._get_real = f["fmi2GetReal"]
-        self._set_real = f["fmi2SetReal"]
+        # FMPy's public FMI 2.0 functions of the loaded library (each logs through FMPy's call logger and raises
+        # FMICallException on a status worse than warning: :meth:`_fmi`); the hot ones bound once
+        self._get_real = self._slave.fmi2GetReal
+        self._set_real = self._slave.fmi2SetReal
+        self._do_step = None if model_exchange else self._slave.fmi2DoStep
         self._key = name.encode("utf-8")
         _BY_NAME[self._key] = self
         _install_proxy()
         resource = (self.unzip_dir / "resources").as_uri().encode("utf-8")
-        self.c = f["fmi2Instantiate"](self._key, 0 if model_exchange else 1, self.md.guid.encode("utf-8"),
-                                      resource, byref(_CALLBACKS), 0, 1 if logging_on else 0)
+        self.c = self._slave.fmi2Instantiate(self._key, 0 if model_exchange else 1, self.md.guid.encode("utf-8"),
+                                             resource, byref(_CALLBACKS), 0, 1 if logging_on else 0)
         if not self.c:
             raise FMUError(name, "fmi2Instantiate", None, None, self.last_error)
+
+    def _fmi(self, function: str, *args):
+        """The one checked FMI 2.0 call: FMPy's public function ``function`` of the instance's library (which logs
+        the call through FMPy's call logger when one is set and raises ``FMICallException`` on a status worse than
+        fmi2Warning), its status turned into this package's errors by :meth:`_check`.  The hot calls (get, set,
+        do_step) do the same inline on functions bound once."""
+        try:
+            return getattr(self._slave, function)(*args)
+        except FMICallException as e:
+            self._check(e.status, function)
 
     # -- life cycle --------------------------------------------------------------------------------------------
     def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):
         self.time = start_time
-        self._check(self._f["fmi2SetupExperiment"](self.c, tolerance is not None, tolerance or 0.0, start_time,
-                                                   stop_time is not None, stop_time or 0.0),
-                    "fmi2SetupExperiment")
+        self._fmi("fmi2SetupExperiment", self.c, tolerance is not None, tolerance or 0.0, start_time,
+                  stop_time is not None, stop_time or 0.0)
 
     def enter_initialization(self) -> None:
-        self._check(self._f["fmi2EnterInitializationMode"](self.c), "fmi2EnterInitializationMode")
+        self._fmi("fmi2EnterInitializationMode", self.c)
 
     def exit_initialization(self) -> None:
-        self._check(self._f["fmi2ExitInitializationMode"](self.c), "fmi2ExitInitializationMode")
+        self._fmi("fmi2ExitInitializationMode", self.c)
 
     def terminate(self) -> None:
         if self.failed or not self.c:  # no further calls into an instance that failed
             return
-        self._check(self._f["fmi2Terminate"](self.c), "fmi2Terminate")
+        self._fmi("fmi2Terminate", self.c)
 
     def free(self) -> None:
         """Free the instance and its saved states (the shared library stays loaded).
@@ -348,9 +375,12 @@ class FMU(Instance):
             return
         if self.c:
             for s in self._states:
-                self._f["fmi2FreeFMUstate"](self.c, byref(s))
+                try:   # the instance goes anyway: a state it cannot free is not an error of the run
+                    self._slave.fmi2FreeFMUstate(self.c, byref(s))
+                except FMICallException:
+                    pass
             self._states.clear()
-            self._f["fmi2FreeInstance"](self.c)
+            self._slave.fmi2FreeInstance(self.c)
             self.c = None
             if _BY_NAME.get(self._key) is self:
                 del _BY_NAME[self._key]
@@ -359,9 +389,10 @@ class FMU(Instance):
     def get(self, block: RealBlock) -> np.ndarray:
         """Read the block's variables into its buffer and return the numpy view."""
         if block.n:
-            status = self._get_real(self.c, block.vr, block.n, block.buf)
-            if status > WARNING:
-                self._check(status, "fmi2GetReal")
+            try:
+                self._get_real(self.c, block.vr, block.n, block.buf)
+            except FMICallException as e:
+                self._check(e.status, "fmi2GetReal")
         return block.values
 
     def set(self, block: RealBlock, values=None) -> None:
@@ -369,17 +400,19 @@ class FMU(Instance):
         if values is not None:
             block.values[:] = values
         if block.n:
-            status = self._set_real(self.c, block.vr, block.n, block.buf)
-            if status > WARNING:
-                self._check(status, "fmi2SetReal")
+            try:
+                self._set_real(self.c, block.vr, block.n, block.buf)
+            except FMICallException as e:
+                self._check(e.status, "fmi2SetReal")
 
     def get_list(self, block: RealBlock) -> list:
         """The block's variables as a list of floats (same values as :meth:`get`)."""
         if not block.n:
             return []
-        status = self._get_real(self.c, block.vr, block.n, block.buf)
-        if status > WARNING:
-            self._check(status, "fmi2GetReal")
+        try:
+            self._get_real(self.c, block.vr, block.n, block.buf)
+        except FMICallException as e:
+            self._check(e.status, "fmi2GetReal")
         return block.buf[:block.n]
 
     def set_list(self, block: RealBlock, values: list) -> None:
@@ -387,9 +420,10 @@ class FMU(Instance):
         n = block.n
         if n:
             block.buf[:n] = values
-            status = self._set_real(self.c, block.vr, n, block.buf)
-            if status > WARNING:
-                self._check(status, "fmi2SetReal")
+            try:
+                self._set_real(self.c, block.vr, n, block.buf)
+            except FMICallException as e:
+                self._check(e.status, "fmi2SetReal")
 
     def set_input_derivatives(self, block: RealBlock, order: int, values) -> None:
         """fmi2SetRealInputDerivatives of one derivative order for the block's variables."""
@@ -398,21 +432,20 @@ class FMU(Instance):
             return
         orders = (c_int * n)(*([order] * n))
         vals = (c_double * n)(*values)
-        self._check(self._f["fmi2SetRealInputDerivatives"](self.c, block.vr, n, orders, vals),
-                    "fmi2SetRealInputDerivatives")
+        self._fmi("fmi2SetRealInputDerivatives", self.c, block.vr, n, orders, vals)
 
     def set_value(self, name: str, value) -> None:
         """Set one variable of any type (parameters, start values); ``value`` is converted to its type."""
         v, value = self._typed(name, value)
         vr = (c_uint * 1)(v.valueReference)
         if v.type == "Real":
-            self._check(self._f["fmi2SetReal"](self.c, vr, 1, (c_double * 1)(value)), "fmi2SetReal")
+            self._fmi("fmi2SetReal", self.c, vr, 1, (c_double * 1)(value))
         elif v.type in ("Integer", "Enumeration"):
-            self._check(self._f["fmi2SetInteger"](self.c, vr, 1, (c_int * 1)(value)), "fmi2SetInteger")
+            self._fmi("fmi2SetInteger", self.c, vr, 1, (c_int * 1)(value))
         elif v.type == "Boolean":
-            self._check(self._f["fmi2SetBoolean"](self.c, vr, 1, (c_int * 1)(1 if value else 0)), "fmi2SetBoolean")
+            self._fmi("fmi2SetBoolean", self.c, vr, 1, (c_int * 1)(1 if value else 0))
         else:
-            self._check(self._f["fmi2SetString"](self.c, vr, 1, (c_char_p * 1)(value.encode())), "fmi2SetString")
+            self._fmi("fmi2SetString", self.c, vr, 1, (c_char_p * 1)(value.encode()))
 
     def get_value(self, name: str):
         """Read one variable of any type: float (Real), int (Integer, Enumeration), bool, str."""
@@ -420,15 +453,15 @@ class FMU(Instance):
         vr = (c_uint * 1)(v.valueReference)
         if v.type == "Real":
             buf = (c_double * 1)()
-            self._check(self._f["fmi2GetReal"](self.c, vr, 1, buf), "fmi2GetReal")
+            self._fmi("fmi2GetReal", self.c, vr, 1, buf)
             return float(buf[0])
         if v.type in ("Integer", "Enumeration", "Boolean"):
             function = "fmi2GetBoolean" if v.type == "Boolean" else "fmi2GetInteger"
             buf = (c_int * 1)()
-            self._check(self._f[function](self.c, vr, 1, buf), function)
+            self._fmi(function, self.c, vr, 1, buf)
             return bool(buf[0]) if v.type == "Boolean" else int(buf[0])
         buf = (c_char_p * 1)()
-        self._check(self._f["fmi2GetString"](self.c, vr, 1, buf), "fmi2GetString")
+        self._fmi("fmi2GetString", self.c, vr, 1, buf)
         return (buf[0] or b"").decode("utf-8")
 
     def directional_derivative(self, unknowns: RealBlock, knowns: RealBlock, seed) -> np.ndarray:
@@ -437,16 +470,16 @@ class FMU(Instance):
         self._directional_refused("fmi2GetDirectionalDerivative")
         seed_buf = (c_double * max(1, knowns.n))(*[float(s) for s in seed])
         out = (c_double * max(1, unknowns.n))()
-        self._check(self._f["fmi2GetDirectionalDerivative"](self.c, unknowns.vr, unknowns.n, knowns.vr, knowns.n,
-                                                             seed_buf, out), "fmi2GetDirectionalDerivative")
+        self._fmi("fmi2GetDirectionalDerivative", self.c, unknowns.vr, unknowns.n, knowns.vr, knowns.n, seed_buf, out)
         return np.array(out[:unknowns.n], dtype=float)
 
     # -- stepping ----------------------------------------------------------------------------------------------
     def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
         self.time = t
-        status = self._do_step(self.c, t, h, 1 if no_prior_state else 0)
-        if status > WARNING:
-            self._check(status, f"fmi2DoStep(h = {h:.6g} s)")
+        try:
+            self._do_step(self.c, t, h, 1 if no_prior_state else 0)
+        except FMICallException as e:
+            self._check(e.status, f"fmi2DoStep(h = {h:.6g} s)")
         self.time = t + h
 
     # -- FMU state (rollback) ----------------------------------------------------------------------------------
@@ -455,12 +488,12 @@ class FMU(Instance):
         if state is None:
             state = fmi2FMUstate()
             self._states.append(state)
-        self._check(self._f["fmi2GetFMUstate"](self.c, byref(state)), "fmi2GetFMUstate")
+        self._fmi("fmi2GetFMUstate", self.c, byref(state))
         return state
 
     def set_state(self, state) -> None:
-        self._check(self._f["fmi2SetFMUstate"](self.c, state), "fmi2SetFMUstate")
+        self._fmi("fmi2SetFMUstate", self.c, state)
 
     def free_state(self, state) -> None:
-        self._check(self._f["fmi2FreeFMUstate"](self.c, byref(state)), "fmi2FreeFMUstate")
+        self._fmi("fmi2FreeFMUstate", self.c, byref(state))
         self._states = [s for s in self._states if s is not state]

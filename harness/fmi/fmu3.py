@@ -96,9 +96,7 @@ class FMU3(Instance):
 
     def _log_message(self, environment, status, category, message) -> None:
         text = message.decode("utf-8", "replace") if message else ""
-        self.log.append((status, text))
-        if status >= ERROR:
-            self.errors.append(" ".join(text.split()))
+        self._logged(status, category.decode("utf-8", "replace") if category else "", text)
 
     # -- life cycle --------------------------------------------------------------------------------------------
     def setup(self, start_time: float = 0.0, stop_time: float | None = None, tolerance: float | None = None):

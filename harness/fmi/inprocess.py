@@ -34,6 +34,7 @@ from types import ModuleType
 
 import numpy as np
 
+from fmus.refusal import CATEGORY as REFUSAL_CATEGORY
 from harness.errors import FMUError, StepDiscarded
 from harness.fmi.fmu import DISCARD, ERROR, FATAL, WARNING, Instance, RealBlock, toolkit_annotation
 
@@ -171,12 +172,10 @@ class InProcessFMU(Instance):
         """Move the slave's queued log messages to ``log``/``errors`` (the C wrapper does this after each call)."""
         for msg in self._queue:
             status = int(msg.status)
-            if status < WARNING and not self.logging_on:
+            category = str(msg.category or "")
+            if status < WARNING and not self.logging_on and category != REFUSAL_CATEGORY:
                 continue
-            text = str(msg.msg)
-            self.log.append((status, text))
-            if status >= ERROR:
-                self.errors.append(" ".join(text.split()))
+            self._logged(status, category, str(msg.msg))
         del self._queue[:]
 
     def _fail(self, function: str, exc: BaseException):
@@ -185,9 +184,7 @@ class InProcessFMU(Instance):
         if not self.errors[self._reported:]:
             self.errors.append(" ".join(f"{type(exc).__name__}: {exc}".split()))
         self.failed = True
-        log = self.last_error
-        self._reported = len(self.errors)
-        raise FMUError(self.name, function, self.time, FATAL, log) from None
+        raise self._error(function, FATAL) from None
 
     def _call(self, function: str, method, *args):
         if self.failed:

@@ -64,7 +64,7 @@ class ReferenceError_(ValueError):
 
 
 def component_classes() -> dict[str, type]:
-    """Model name -> FMU class, for every FMU declared in fmus/components."""
+    """Model name -> its declaration class (fmus.declaration.Component), for every FMU in fmus/components."""
     from fmus.build import catalog
 
     return {name: getattr(importlib.import_module(f"fmus.components.{script.stem}"), name)
