@@ -191,3 +191,149 @@ def test_cli_one_command_writes_csv_and_charts(tmp_path):
     nop = write_yaml(tmp_path / "noplot.yaml", {k: v for k, v in TINY.items() if k != "plot"})
     assert main(["sweep", "two_inertia", "--grid", str(nop), "--workers", "0", "--out", str(out),
                  "--plot", str(charts)]) == 1
+
+
+# -- resuming safely ----------------------------------------------------------------------------------------------
+RESUMABLE = {k: v for k, v in TINY.items() if k != "plot"}
+
+
+def _cli_sweep(tmp_path, spec_data, *extra):
+    import contextlib
+    import io
+
+    from harness.__main__ import main
+
+    grid = write_yaml(tmp_path / "s.yaml", spec_data)
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = main(["sweep", "two_inertia", "--grid", str(grid), "--workers", "0", "--out", str(tmp_path / "r.csv"),
+                   *extra])
+    return rc, out.getvalue(), err.getvalue()
+
+
+def _partial_of_a_finished_sweep(tmp_path, data=RESUMABLE):
+    """The partial file a sweep leaves just before it writes its result (every point logged)."""
+    from harness.studies.sweep_checks import PointLog, identity, partial_path
+
+    spec = sweep.parse_spec(data, str(tmp_path / "s.yaml"))
+    log = PointLog(partial_path(tmp_path / "r.csv"), spec, resume=False, identity=identity("two_inertia", spec))
+    full = sweep.run_sweep("two_inertia", spec, workers=0, progress=False, log=log)
+    return log.path, full
+
+
+@pytest.mark.parametrize("cut", ["in the outputs", "in the key values"])
+def test_resume_runs_a_torn_last_row_again(tmp_path, cut):
+    """A crash mid-write leaves a last line without its newline: cut inside the outputs it used to count as done
+    with blank outputs, cut inside the key values as a point of another value (200.0 read as 20.0 or 2.0)."""
+    path, full = _partial_of_a_finished_sweep(tmp_path)
+    text = path.read_text()
+    last = text.rstrip("\n").rsplit("\n", 1)[1]
+    keep = last.index(",", last.index(",") + 1) + 3 if cut == "in the outputs" else 2
+    path.write_text(text[:len(text) - len(last) - 1] + last[:keep])
+    rc, out, err = _cli_sweep(tmp_path, RESUMABLE, "--resume")
+    assert rc == 0, err
+    assert "4 points (3 taken from r.partial.csv), 0 failed" in out, out
+    assert "1 torn or incomplete line(s) dropped" in err
+    df = pd.read_csv(tmp_path / "r.csv", keep_default_na=False)
+    pd.testing.assert_frame_equal(_without_wall(df), _without_wall(full), check_exact=True, check_dtype=False)
+
+
+@pytest.mark.parametrize("change, field", [({"stop_time": 0.01}, "stop_time"),
+                                           ({"grid": {"b.c": [50.0, 200.0], "w": [1.0, 3.0]}}, "points"),
+                                           ({"master": "gauss-seidel"}, "master")])
+def test_resume_refuses_a_partial_file_of_other_settings(tmp_path, change, field):
+    path, _ = _partial_of_a_finished_sweep(tmp_path)
+    before = path.read_text()
+    rc, out, err = _cli_sweep(tmp_path, dict(RESUMABLE, **change), "--resume")
+    assert rc == 1 and out == ""
+    line = err.strip()
+    assert "\n" not in line and line.startswith("error: --resume: ") and f": {field} " in line, line
+    assert "run without --resume" in line
+    assert path.read_text() == before            # the kept points are not touched
+
+
+def test_resume_of_a_finished_sweep_has_nothing_to_do(tmp_path):
+    rc, out, _ = _cli_sweep(tmp_path, RESUMABLE)
+    assert rc == 0 and (tmp_path / "r.sweep.json").is_file() and not (tmp_path / "r.partial.csv").exists()
+    stamp = (tmp_path / "r.csv").stat().st_mtime_ns
+    rc, out, err = _cli_sweep(tmp_path, RESUMABLE, "--resume")
+    assert rc == 0 and "complete, nothing to do (4 points" in out, (out, err)
+    assert (tmp_path / "r.csv").stat().st_mtime_ns == stamp
+    rc, out, err = _cli_sweep(tmp_path, dict(RESUMABLE, stop_time=0.01), "--resume")
+    assert rc == 1 and "r.sweep.json is of another sweep: stop_time 0.02 there, 0.01 now" in err, err
+
+
+def test_a_point_is_logged_once(tmp_path):
+    """dask may run a point twice (its worker lost after the point finished): the file keeps it once."""
+    from harness.studies.sweep_checks import PointLog
+
+    spec = sweep.parse_spec(RESUMABLE)
+    log = PointLog(tmp_path / "p.csv", spec, resume=False)
+    row = sweep.run_point("two_inertia", spec, spec.points[0])
+    log.add(row)
+    log.add(dict(row))
+    assert len(log.rows) == 1 and len(tmp_path.joinpath("p.csv").read_text().splitlines()) == 3
+
+
+@pytest.mark.parametrize("grid, expected", [
+    ({"w": {"linspace": [1, 2, 0]}}, "grid.w: linspace: the count 0 gives no point"),
+    ({"w": {"linspace": [1, 2, 2.7]}}, "grid.w: linspace: the count 2.7 is not a whole number"),
+    ({"w": {"logspace": [1, 100, True]}}, "grid.w: logspace: the count True is not a whole number"),
+    ({"w": [True, False]}, "grid.w: True is not a number"),
+    ({"w": {"linspace": [1, False, 3]}}, "grid.w: False is not a number"),
+    ({"w": [1.0, float("inf")]}, "grid.w: inf is not a finite number"),
+    ({"w": {"logspace": [0, 10, 3]}}, "grid.w: logspace: lo and hi must be > 0"),
+])
+def test_grid_values_are_checked_at_load(tmp_path, grid, expected):
+    path = write_yaml(tmp_path / "g.yaml", dict(RESUMABLE, grid=grid))
+    with pytest.raises(sweep.SweepError) as e:
+        sweep.read_spec(path)
+    assert str(e.value).startswith(f"{path}: {expected}"), str(e.value)
+    assert sweep.parse_spec(dict(RESUMABLE, grid={"w": {"linspace": [1, 2, 3.0]}})).points[-1] == {"w": 2.0}
+
+
+def _server(reply: bytes | None):
+    """A tiny TCP server on localhost that answers every connection with ``reply`` (None: says nothing)."""
+    import socket
+    import threading
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(4)
+    held = []
+
+    def serve():
+        while True:
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            held.append(conn)
+            if reply is not None:
+                conn.sendall(reply)
+
+    threading.Thread(target=serve, daemon=True).start()
+    return srv, srv.getsockname()[1]
+
+
+@pytest.mark.parametrize("reply, expected", [
+    (b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n", "is no dask scheduler"),
+    (None, "no dask scheduler greeted within 2 s"),
+])
+def test_a_wrong_service_at_the_scheduler_address_is_one_line(tmp_path, monkeypatch, reply, expected):
+    import dask
+    import time
+
+    srv, port = _server(reply)
+    try:
+        with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+            t0 = time.perf_counter()
+            rc, out, err = _cli_sweep(tmp_path, RESUMABLE, "--scheduler", f"127.0.0.1:{port}")
+            took = time.perf_counter() - t0
+    finally:
+        srv.close()
+    assert rc == 1 and out == "", out
+    line = err.strip()
+    assert "\n" not in line and line.startswith(f"error: --scheduler 127.0.0.1:{port}: ") and expected in line, err
+    assert took < 30, took
+    assert not list(tmp_path.glob("r.*"))      # nothing written for a sweep that could not start
