@@ -337,3 +337,60 @@ def test_a_wrong_service_at_the_scheduler_address_is_one_line(tmp_path, monkeypa
     assert "\n" not in line and line.startswith(f"error: --scheduler 127.0.0.1:{port}: ") and expected in line, err
     assert took < 30, took
     assert not list(tmp_path.glob("r.*"))      # nothing written for a sweep that could not start
+
+
+@pytest.mark.slow
+def test_an_ssp_sweep_on_a_scheduler_and_two_workers_that_share_no_folder_with_the_client(tmp_path, monkeypatch):
+    """A scheduler and two workers started in empty folders of their own; the client, in a third, sweeps an
+    exported drive (.ssp) by its relative name: the workers receive the file and give the serial results."""
+    import os
+    import subprocess
+    import sys
+    import time
+
+    from harness.ssp import export_ssp
+    from harness import load
+
+    client_dir, sched_dir = tmp_path / "client", tmp_path / "scheduler"
+    worker_dirs = [tmp_path / "worker1", tmp_path / "worker2"]
+    for d in (client_dir, sched_dir, *worker_dirs):
+        d.mkdir()
+    export_ssp(load("two_inertia"), client_dir / "drive.ssp")
+    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    sched_file = tmp_path / "scheduler.json"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    procs = [subprocess.Popen([*dask, "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--scheduler-file",
+                               str(sched_file)], cwd=sched_dir, env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)]
+    try:
+        for _ in range(600):
+            if sched_file.exists() and sched_file.read_text().strip().endswith("}"):
+                break
+            time.sleep(0.1)
+        address = json.loads(sched_file.read_text())["address"]
+        for d in worker_dirs:
+            procs.append(subprocess.Popen(
+                [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nworkers", "1", "--nthreads",
+                 "1", "--no-dashboard", "--local-directory", str(d)], cwd=d, env=env,
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        from dask.distributed import Client
+
+        with Client(address, timeout=60) as c:
+            c.wait_for_workers(2, timeout=120)
+        monkeypatch.chdir(client_dir)   # the system's path as a user types it, relative to the client's folder
+        spec = sweep.parse_spec(RESUMABLE)
+        dist = sweep.run_sweep("drive.ssp", spec, scheduler=address, progress=False)
+        serial = sweep.run_sweep("drive.ssp", spec, workers=0, progress=False)
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+    assert (dist["error"] == "").all(), dist["error"].tolist()
+    assert serial["w_end"].nunique() == 4
+    pd.testing.assert_frame_equal(_without_wall(serial), _without_wall(dist), check_exact=True)
+    for d in worker_dirs:   # the workers wrote no system file into their own folders
+        assert not list(d.rglob("drive.ssp"))
