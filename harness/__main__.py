@@ -5,8 +5,25 @@ shows it).  SIGTERM (``kill``, ``timeout``) interrupts a command as Ctrl-C does,
 and marked; the exit status is then 143 (130 after Ctrl-C)."""
 from __future__ import annotations
 
-import argparse
+import signal
 import sys
+
+
+def _on_sigterm(signum, frame):
+    """SIGTERM as an interrupt (:func:`_sigterm_as_interrupt`); a second one while the first's work is saved is
+    ignored.  Imports nothing heavy: it may fire inside any import of the start-up."""
+    from harness.errors import Terminated
+
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    raise Terminated("terminated (SIGTERM)")
+
+
+if __name__ == "__main__":   # from the first line on: a SIGTERM while the command starts gets the usual message
+    from harness.errors import Terminated as _Terminated  # noqa: F401 (imported before the handler can fire)
+
+    signal.signal(signal.SIGTERM, _on_sigterm)
+
+import argparse  # noqa: E402
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -91,22 +108,14 @@ def _accept_negative_numbers(parser: argparse.ArgumentParser) -> None:
 
 
 def _sigterm_as_interrupt():
-    """SIGTERM raises :class:`harness.run.Terminated` (a KeyboardInterrupt) in the main thread, so every
+    """SIGTERM raises :class:`harness.errors.Terminated` (a KeyboardInterrupt) in the main thread, so every
     command keeps its finished work on it as on Ctrl-C; a second SIGTERM while that work is being saved is
     ignored (SIGKILL still ends the process).  Returns the handler it replaced (None off the main thread)."""
-    import signal
     import threading
 
     if threading.current_thread() is not threading.main_thread():
         return None
-
-    def on_sigterm(signum, frame):
-        from harness.run import Terminated
-
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
-        raise Terminated("terminated (SIGTERM)")
-
-    return signal.signal(signal.SIGTERM, on_sigterm)
+    return signal.signal(signal.SIGTERM, _on_sigterm)
 
 
 def _debug_anywhere(argv: list[str]) -> tuple[list[str], bool]:
@@ -142,7 +151,7 @@ def _main(argv: list[str], debug: bool) -> int:
         args = ap.parse_args(argv)
         return int(args.func(args) or 0)
     except KeyboardInterrupt as e:
-        from harness.run import interruption
+        from harness.errors import interruption   # not harness.run: its import may be the one interrupted
 
         status, how = interruption(e)  # also a run's or study's interrupt re-raised with its status
         print(how, file=sys.stderr)
@@ -173,4 +182,11 @@ def _exit(status: int) -> None:
 
 
 if __name__ == "__main__":
-    _exit(main())
+    try:
+        _status = main()
+    except KeyboardInterrupt as _e:   # between the handler and main's own guard
+        from harness.errors import interruption
+
+        _status, _how = interruption(_e)
+        print(_how, file=sys.stderr)
+    _exit(_status)

@@ -27,6 +27,7 @@ import pandas as pd
 
 from harness.divergence import Diverged, DivergenceOptions, for_master as _detector
 from harness.errors import BlowUp, FMUError, HarnessError, SimulationError, SystemError_
+from harness.errors import Terminated, interruption  # noqa: F401 (defined with the errors, re-exported)
 from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import Instance, open_instance, release
 from harness.masters import MASTERS, NS, ConvergenceError, IterationOptions, master_class
@@ -48,22 +49,6 @@ class RunInterrupted(KeyboardInterrupt):
         super().__init__(message)
         self.partial = partial
         self.status = status
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM (``kill``, ``timeout``) turned into an interrupt by the command line (``python -m harness``
-    installs the handler), so a run or study keeps its finished work on it exactly as on Ctrl-C."""
-
-    status = 143
-    signal = "SIGTERM"
-
-
-def interruption(e: BaseException) -> tuple[int, str]:
-    """(exit status, words) of an interrupt, also one that a run or study re-raised with the status it carries
-    (:class:`RunInterrupted`, ``StudyInterrupted``): 143 and "terminated (SIGTERM)" after SIGTERM, else 130 and
-    "interrupted (Ctrl-C)"."""
-    status = int(getattr(e, "status", 130))
-    return status, "terminated (SIGTERM)" if status == 143 else "interrupted (Ctrl-C)"
 
 
 @dataclass
