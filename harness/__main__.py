@@ -149,6 +149,7 @@ def _main(argv: list[str], debug: bool) -> int:
     try:
         ap = build_parser()
         args = ap.parse_args(argv)
+        _check_out_folder(args)
         return int(args.func(args) or 0)
     except KeyboardInterrupt as e:
         from harness.errors import interruption   # not harness.run: its import may be the one interrupted
@@ -166,6 +167,15 @@ def _main(argv: list[str], debug: bool) -> int:
         own = isinstance(e, (HarnessError, ValueError, OSError)) and text
         print(f"error: {text}" if own else f"error: {type(e).__name__}: {text}".rstrip(": "), file=sys.stderr)
         return 1
+
+
+def _check_out_folder(args) -> None:
+    """``study ... --out DIR`` and ``scene ... --out DIR``: the folder is made and written to before the work
+    (a study of minutes used to fail on it only when it wrote its table)."""
+    if args.command in ("study", "scene") and getattr(args, "out", None) is not None:
+        from harness.results import check_writable
+
+        check_writable(args.out, "--out", folder=True)
 
 
 def _exit(status: int) -> None:

@@ -15,6 +15,7 @@ Errors in the system description (:class:`~harness.errors.SystemError_`) are alw
 """
 from __future__ import annotations
 
+import difflib
 import importlib
 import math
 import sys
@@ -195,7 +196,9 @@ def split_parameters(system: System, parameters: dict | None) -> dict[str, dict]
         if not dot or not var:
             raise SystemError_(f"parameter {ref!r} must be written 'Instance.parameter'")
         if inst not in out:
-            raise SystemError_(f"parameter {ref}: unknown instance {inst!r}")
+            close = difflib.get_close_matches(inst, list(out), n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise SystemError_(f"parameter {ref}: unknown instance {inst!r}{hint} (instances: {', '.join(out)})")
         out[inst][var] = value
     return out
 

@@ -80,16 +80,22 @@ def export_ssp(system: System, out: str | Path) -> Path:
     out = Path(out)
     if out.suffix.lower() != ".ssp":
         raise SystemError_(f"{out}: an SSP archive must end in .ssp")
+    from harness.results import check_writable
+
+    check_writable(out, "export")   # one line before the work for a place that cannot be written
     fmu_paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
     ssd = build_ssd(system, {name: f"resources/{p.name}" for name, p in fmu_paths.items()},
                     consistent_inputs(system))
-    out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_suffix(".ssp.part")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("SystemStructure.ssd", ET.tostring(ssd, encoding="utf-8", xml_declaration=True))
-        for p in sorted(set(fmu_paths.values())):
-            z.write(p, f"resources/{p.name}")
-    tmp.replace(out)
+    try:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("SystemStructure.ssd", ET.tostring(ssd, encoding="utf-8", xml_declaration=True))
+            for p in sorted(set(fmu_paths.values())):
+                z.write(p, f"resources/{p.name}")
+        tmp.replace(out)
+    except OSError as e:   # e.g. the disk full, the folder gone meanwhile
+        tmp.unlink(missing_ok=True)
+        raise SystemError_(f"export {out}: cannot write: {e.strerror or e}") from None
     return out
 
 

@@ -17,6 +17,22 @@ from harness.results import read_csv, to_csv
 ROOT = Path(__file__).resolve().parents[1]
 
 
+CLI_SYSTEMS = ("two_inertia", "bed_drive", "spine_knife", "feeder_gto52", "proof_press")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def built_fmus():
+    """The FMUs of the systems these commands run, built before the first one: a command that builds an FMU on
+    first use says so on stdout ("built ..."), and the tests below read stdout and stderr exactly (the file
+    failed on its first run after a fresh set-up and passed on the second)."""
+    from harness import load
+    from harness.model import resolve_fmu
+
+    for name in CLI_SYSTEMS:
+        for inst in load(name).instances:
+            resolve_fmu(inst.fmu)
+
+
 def cli(*args, cwd=ROOT):
     r = subprocess.run([sys.executable, "-m", "harness", *map(str, args)], cwd=cwd, capture_output=True,
                        text=True, timeout=600)
@@ -214,3 +230,36 @@ def test_negative_numbers_in_any_notation_reach_the_commands_check(tmp_path, arg
     """argparse took '-1e-3' for an unknown option ('unrecognized arguments' for a list option, issue 30)."""
     rc, out, err = cli(*args, "--out", tmp_path / ("x.csv" if args[0] == "run" else "o"))
     assert rc == 1 and expected in one_line(err), err
+
+
+# -- a newcomer's tries ----------------------------------------------------------------------------------------
+def test_export_into_a_place_that_cannot_be_written_is_one_clean_line(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    for out, expected in (("/proc/x.ssp", "export /proc/x.ssp: folder /proc is not writable"),
+                          (blocker / "x.ssp", f"export {blocker / 'x.ssp'}: {blocker} is a file, not a folder")):
+        rc, stdout, err = cli("export", "two_inertia", out)
+        line = one_line(err)
+        assert rc == 1 and stdout == "" and line.startswith(f"error: {expected}"), line
+        assert "Errno" not in line and ".part" not in line, line
+
+
+@pytest.mark.parametrize("args", [("scene", "two_inertia"), ("study", "stability", "two_inertia", "--quick"),
+                                  ("study", "precision", "two_inertia", "--quick")])
+def test_study_and_scene_check_their_out_folder_before_the_work(tmp_path, args):
+    """They used to run the whole study and fail only when writing the table."""
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    rc, out, err = cli(*args, "--out", blocker / "sub", cwd=tmp_path)
+    line = one_line(err)
+    assert rc == 1 and out == "" and f"--out {blocker / 'sub'}: {blocker} is a file, not a folder" in line, line
+
+
+@pytest.mark.parametrize("args, expected", [
+    (("--set", "bed.m_t=300"), "FMU RackBed of instance bed has no variable 'm_t' (did you mean 'm_T'?)"),
+    (("--set", "bedd.m_T=300"), "unknown instance 'bedd' (did you mean 'bed'?)"),
+    (("--master", "jacobbi"), "master = 'jacobbi' is not admissible (did you mean 'jacobi'?)"),
+])
+def test_a_misspelt_name_gets_did_you_mean(args, expected):
+    rc, out, err = cli("run", "bed_drive", "--stop-time", "0.001", *args)
+    assert rc == 1 and out == "" and expected in one_line(err), err
