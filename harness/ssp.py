@@ -211,6 +211,10 @@ def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] |
     for c in system.connections:
         if c.unit_conversion:
             ET.SubElement(conv, _q("pd:Conversion"), {"source": c.source, "target": c.target})
+    if system.free_inputs:   # inputs unconnected on purpose, with the reason: no warning in the imported drive
+        free = ET.SubElement(own, _q("pd:FreeInputs"))
+        for ref, why in system.free_inputs.items():
+            ET.SubElement(free, _q("pd:FreeInput"), {"name": ref, "reason": why})
     exp = system.experiment
     if exp is not None:
         ET.SubElement(own, _q("pd:Experiment"), {k: str(v) for k, v in (
@@ -394,7 +398,9 @@ class _Reader:
         for inst in instances:
             for k in [k for k in inst.parameters if f"{inst.name}.{k}" in driven]:
                 del inst.parameters[k]
-        bonds, conversions, exp_extra = self.own_annotation(sys_el)
+        bonds, conversions, exp_extra, free_inputs = self.own_annotation(sys_el)
+        names = {inst.name for inst in instances}
+        free_inputs = {ref: why for ref, why in free_inputs.items() if ref.partition(".")[0] in names}
         bonded = set()
         for b in bonds:
             bonded.update((c.source, c.target) for c in b.connections())
@@ -406,7 +412,7 @@ class _Reader:
         bonds += terminal_bonds + found
         experiment = self.experiment(root, exp_extra)
         return System(name=name, instances=instances, connections=connections, bonds=bonds,
-                      experiment=experiment, description=sys_el.get("description", ""))
+                      experiment=experiment, description=sys_el.get("description", ""), free_inputs=free_inputs)
 
     def collect(self, sys_el: ET.Element, path: tuple, name: str, instances: list, edges: list) -> None:
         """The components of ``sys_el`` and of every system nested in it (recursively) into ``instances``,
@@ -863,7 +869,9 @@ class _Reader:
         return [c for c in connections if (c.source, c.target) not in used], bonds
 
     def own_annotation(self, sys_el: ET.Element):
-        bonds, conversions, extra = [], set(), {}
+        """This toolkit's annotation: the bonds, the unit conversions, the experiment's own settings and the
+        inputs left unconnected on purpose (name -> reason)."""
+        bonds, conversions, extra, free = [], set(), {}, {}
         for ann in sys_el.findall(f"{_q('ssd:Annotations')}/{_q('ssc:Annotation')}"):
             if ann.get("type") != OWN_ANNOTATION:
                 continue
@@ -874,10 +882,13 @@ class _Reader:
                 bonds.append(Bond(b.get("motionOut"), b.get("motionIn"), b.get("translational") == "true"))
             for cv in own.findall(f"{_q('pd:UnitConversions')}/{_q('pd:Conversion')}"):
                 conversions.add((cv.get("source"), cv.get("target")))
+            for f in own.findall(f"{_q('pd:FreeInputs')}/{_q('pd:FreeInput')}"):
+                if f.get("name") and (f.get("reason") or "").strip():
+                    free[f.get("name")] = f.get("reason")
             e = own.find(_q("pd:Experiment"))
             if e is not None:
                 extra = dict(e.attrib)
-        return bonds, conversions, extra
+        return bonds, conversions, extra, free
 
     def experiment(self, root: ET.Element, extra: dict) -> Experiment | None:
         de = root.find(_q("ssd:DefaultExperiment"))
