@@ -277,3 +277,29 @@ def test_an_exported_drive_runs_as_quietly_as_the_native_one(tmp_path, system):
     rc, out, err = cli("run", ssp, "--stop-time", "0.002", cwd=tmp_path)
     assert rc == 0 and "points to t = 0.002 s" in out
     assert err.strip() == "", err
+
+
+def test_an_fmu_without_a_binary_for_this_platform_is_one_line_naming_it_and_its_platforms(tmp_path):
+    """fmpy said 'Cannot find shared library <the extraction cache>/binaries/linux64/X.so.'"""
+    import zipfile
+
+    from harness.errors import FMUError
+    from harness.model import Experiment, Instance, System, resolve_fmu
+
+    src = resolve_fmu("Inertia")
+    foreign = tmp_path / "Windows.fmu"
+    with zipfile.ZipFile(src) as zi, zipfile.ZipFile(foreign, "w") as zo:
+        for n in zi.namelist():
+            for other in ("win64", "darwin64"):
+                if n.startswith("binaries/linux64/"):
+                    zo.writestr(n.replace("linux64", other), zi.read(n))
+            if not n.startswith("binaries/"):
+                zo.writestr(n, zi.read(n))
+    system = System("w", [Instance("w", str(foreign))], experiment=Experiment(stop_time=0.01, step=0.001))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(FMUError) as e:
+            simulate(system, on_error="raise", options=RunOptions(in_process=False))
+    msg = str(e.value)
+    assert f"{foreign} has no binary for this platform" in msg and "binaries for darwin64, win64 only" in msg, msg
+    assert "\n" not in msg and "Cannot find shared library" not in msg
