@@ -411,6 +411,7 @@ class _Reader:
         connections, found = self.bonds_from_terminals(connections, instances)
         bonds += terminal_bonds + found
         experiment = self.experiment(root, exp_extra)
+        self.drop_unknown_bindings(instances)
         return System(name=name, instances=instances, connections=connections, bonds=bonds,
                       experiment=experiment, description=sys_el.get("description", ""), free_inputs=free_inputs)
 
@@ -596,6 +597,25 @@ class _Reader:
         inst = Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'", fmu))
         inst.parameters = {k: self.convert(v, inst, k) for k, v in inst.parameters.items()}
         return inst
+
+    def drop_unknown_bindings(self, instances: list[Instance]) -> None:
+        """A parameter binding names a variable its component's FMU lacks: OMSimulator warns and runs, so the
+        binding is dropped with ONE warning naming every such binding (an edited parameter set, or one written
+        for another version of the FMU).  A ``--set`` or ``start_values`` of a missing name stays an error."""
+        dropped = []
+        for inst in instances:
+            names = {v.name for v in model_description(inst.fmu).modelVariables}
+            for var in [k for k in inst.parameters if k not in names]:
+                del inst.parameters[var]
+                dropped.append(f"{inst.name}.{var}")
+        if dropped:
+            import warnings
+
+            from harness.model import SystemWarning
+
+            warnings.warn(f"{self.label(self.ssd_path)}: parameter binding(s) of {', '.join(dropped)} name no "
+                          f"variable of the component's FMU: ignored, the run goes on with the FMU's start "
+                          f"values", SystemWarning, stacklevel=2)
 
     def convert(self, value, inst: Instance, pname: str):
         """A parameter value in the unit of the FMU's variable (module docstring); any other value as is."""

@@ -303,3 +303,34 @@ def test_an_fmu_without_a_binary_for_this_platform_is_one_line_naming_it_and_its
     msg = str(e.value)
     assert f"{foreign} has no binary for this platform" in msg and "binaries for darwin64, win64 only" in msg, msg
     assert "\n" not in msg and "Cannot find shared library" not in msg
+
+
+def test_an_ssp_binding_of_a_missing_variable_is_one_warning_and_the_run_goes_on(tmp_path):
+    """As OMSimulator does; it used to stop the run ('parameter a.J_old: FMU Inertia ... has no variable').  A
+    --set of the missing name stays an error."""
+    import re
+    import zipfile
+
+    from harness import load
+    from harness.ssp import export_ssp
+
+    src = export_ssp(load("two_inertia"), tmp_path / "src.ssp")
+    ssp = tmp_path / "edited.ssp"
+    with zipfile.ZipFile(src) as zi, zipfile.ZipFile(ssp, "w") as zo:
+        for n in zi.namelist():
+            data = zi.read(n)
+            if n == "SystemStructure.ssd":
+                text = data.decode()
+                m = re.search(r'<ssv:Parameter name="J">.*?</ssv:Parameter>', text, re.S)
+                assert m, text[:2000]
+                text = text.replace(m.group(0), m.group(0) + m.group(0).replace('name="J"', 'name="J_old"'), 1)
+                data = text.encode()
+            zo.writestr(n, data)
+    rc, out, err = cli("run", ssp, "--stop-time", "0.01", cwd=tmp_path)
+    assert rc == 0 and "points to t = 0.01 s" in out, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("warning: ") and ".J_old name no variable" in lines[0], err
+    assert "edited.ssp" in lines[0]
+    rc, out, err = cli("run", ssp, "--stop-time", "0.01", "--set", "a.J_old=2", cwd=tmp_path)
+    last = err.strip().splitlines()[-1]   # after the load's warning
+    assert rc == 1 and last.startswith("error: ") and "has no variable 'J_old'" in last, err
