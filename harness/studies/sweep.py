@@ -480,6 +480,7 @@ def _run_cli(args) -> int:
     out = save(df, out)
     identity_path(out).write_text(json.dumps(ident, indent=1, sort_keys=True) + "\n")
     log.path.unlink(missing_ok=True)
+    log.id_path.unlink(missing_ok=True)
     failed = int((df["error"] != "").sum())
     resumed = f" ({skipped} taken from {log.path.name})" if skipped else ""
     print(f"{len(df)} points{resumed}, {failed} failed; wrote {out}")

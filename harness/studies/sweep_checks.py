@@ -10,9 +10,9 @@ right columns (a typo in a function name); the output file cannot be written (un
 pyarrow or fastparquet, a folder that cannot be created or written: the run command's checks).
 
 :class:`PointLog` appends each finished point to ``<out stem>.partial.csv`` as it finishes (header first).
-Its first line records the sweep's :func:`identity` (system or file hash, points, expressions, run settings,
-toolkit version).  A sweep that completes writes ``--out`` and its identity beside it (``<out stem>.sweep.json``)
-and removes the partial file; one that is interrupted (Ctrl-C) or fails leaves it, with every finished point.
+Beside it ``<out stem>.partial.json`` records the sweep's :func:`identity` (system or file hash, points,
+expressions, run settings, toolkit version).  A sweep that completes writes ``--out`` and its identity beside it
+(``<out stem>.sweep.json``) and removes the partial files; one that is interrupted (Ctrl-C) or fails leaves it, with every finished point.
 ``--resume`` refuses a partial file of another sweep in one line, drops a torn or incomplete last line (and
 runs that point again), skips the points it holds (matched on the values of the sweep variables), and on a
 finished sweep of the same identity says that there is nothing to do.
@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import csv
 import difflib
+import json
 import math
 import os
 from pathlib import Path
@@ -198,10 +199,9 @@ def toolkit_version() -> str:
 def identity(system_name: str, spec) -> dict:
     """What makes two sweeps the same: the system (a drive's name, or a file's name and SHA-256), the points
     (their count and a hash of the variables and values), the ``set:`` and ``outputs:`` expressions, the run
-    settings (stop time, step, master, extrapolation) and the toolkit's version.  Written into the partial
+    settings (stop time, step, master, extrapolation) and the toolkit's version.  Written beside the partial
     file and beside the result; ``--resume`` compares it field by field."""
     import hashlib
-    import json
 
     path = Path(str(system_name))
     if path.is_file():
@@ -232,14 +232,12 @@ def _shown(value) -> str:
     return "(default)" if value is None else repr(value) if isinstance(value, (str, dict)) else str(value)
 
 
-IDENTITY_MARK = "# sweep "
-
-
 class PointLog:
-    """Appends finished points to ``path``: a first line ``# sweep {identity}``, the CSV header, one line per
-    point, each written whole and ended by a newline.  ``done`` holds the keys already there.
+    """Appends finished points to ``path`` (a plain CSV: the header, one line per point, each written whole and
+    ended by a newline) and keeps the sweep's :func:`identity` beside it (``id_path``: ``x.partial.csv`` ->
+    ``x.partial.json``).  ``done`` holds the keys already there.
 
-    With ``resume`` the file must be of the same sweep (:func:`identity`, else one line naming the field);
+    With ``resume`` the file must be of the same sweep (its identity file, else one line naming the field);
     a line without its newline (a crash mid-write), of another field count, with a value that is no number or
     a point that is not in the spec is dropped and its point run again (``dropped`` counts them); the file is
     rewritten with the good lines so the appended ones follow on a clean line.  A point is logged once."""
@@ -252,31 +250,29 @@ class PointLog:
                         *spec.outputs, "error", "wall_time"]
         self.rows: list[dict] = []
         self.dropped = 0
+        self.id_path = self.path.with_suffix(".json")
         if resume and self.path.exists():
             self.rows = self._read()
             self._write(self.rows)
-        elif self.path.exists():
-            self.path.unlink()
+        else:
+            self.path.unlink(missing_ok=True)
+            self.id_path.write_text(json.dumps(self.identity, indent=1, sort_keys=True) + "\n")
         self.done = {point_key(spec, r) for r in self.rows}
         if not self.path.exists():
             self._write([])
 
     def _read(self) -> list[dict]:
-        import json
-
-        lines = self.path.read_text().splitlines(keepends=True)
-        first = lines[0] if lines else ""
         try:
-            stored = json.loads(first[len(IDENTITY_MARK):]) if first.startswith(IDENTITY_MARK) else None
-        except ValueError:
+            stored = json.loads(self.id_path.read_text())
+        except (OSError, ValueError):
             stored = None
         if not isinstance(stored, dict):
-            _fail(f"--resume: {self.path} does not say which sweep wrote it (no '{IDENTITY_MARK.strip()}' "
-                  f"first line); run without --resume to start afresh")
-        problem = identity_mismatch(stored, self.identity, self.path)
+            _fail(f"--resume: {self.path} does not say which sweep wrote it (no readable {self.id_path.name} "
+                  f"beside it); run without --resume to start afresh")
+        problem = identity_mismatch(stored, self.identity, self.id_path)
         if problem:
             _fail(problem)
-        body = lines[1:]
+        body = self.path.read_text().splitlines(keepends=True)
         if body and not body[-1].endswith("\n"):   # the last line of a crash mid-write
             body.pop()
             self.dropped += 1
@@ -319,10 +315,8 @@ class PointLog:
 
     def _write(self, rows: list[dict]) -> None:
         import io
-        import json
 
         buf = io.StringIO()
-        buf.write(IDENTITY_MARK + json.dumps(self.identity, sort_keys=True) + "\n")
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(self.columns)
         for r in rows:
@@ -357,8 +351,6 @@ def identity_path(out: Path) -> Path:
 def finished(out: Path, spec, ident: dict) -> bool:
     """True when ``out`` is the finished result of this very sweep (its identity file agrees and it holds
     every point); one line when the identity file names another sweep."""
-    import json
-
     ipath = identity_path(out)
     if not (Path(out).is_file() and ipath.is_file()):
         return False
