@@ -394,3 +394,47 @@ def test_an_ssp_sweep_on_a_scheduler_and_two_workers_that_share_no_folder_with_t
     pd.testing.assert_frame_equal(_without_wall(serial), _without_wall(dist), check_exact=True)
     for d in worker_dirs:   # the workers wrote no system file into their own folders
         assert not list(d.rglob("drive.ssp"))
+
+
+KILLER = '''\
+"""two_inertia, whose first load inside a dask worker ends that worker's process (a lost worker)."""
+import os
+from pathlib import Path
+
+from harness import load
+
+try:
+    from distributed import get_worker
+
+    get_worker()
+    in_worker = True
+except (ImportError, ValueError):
+    in_worker = False
+marker = Path(os.environ["SWEEP_TEST_MARKER"])
+if in_worker and not marker.exists():
+    marker.write_text(str(os.getpid()))
+    os._exit(1)
+SYSTEM = load("two_inertia")
+'''
+
+
+@pytest.mark.slow
+def test_a_lost_worker_s_point_is_run_again_and_written_once(tmp_path, monkeypatch):
+    """The first point's worker dies inside it: dask runs the point again on a worker of the restarted pool; the
+    result and the partial file hold every point once, as the serial run gives them."""
+    from harness.studies.sweep_checks import PointLog, identity
+
+    system = tmp_path / "killer.py"
+    system.write_text(KILLER)
+    marker = tmp_path / "killed"
+    monkeypatch.setenv("SWEEP_TEST_MARKER", str(marker))
+    spec = sweep.parse_spec(RESUMABLE)
+    log = PointLog(tmp_path / "k.partial.csv", spec, resume=False, identity=identity(str(system), spec))
+    dist = sweep.run_sweep(str(system), spec, workers=2, progress=False, log=log)
+    assert marker.exists()                       # a worker was lost
+    serial = sweep.run_sweep(str(system), spec, workers=0, progress=False)
+    assert (dist["error"] == "").all(), dist["error"].tolist()
+    pd.testing.assert_frame_equal(_without_wall(serial), _without_wall(dist[serial.columns]), check_exact=True,
+                                  check_dtype=False)
+    kept = pd.read_csv(log.path)
+    assert len(kept) == 4 and not kept[spec.variables].duplicated().any()

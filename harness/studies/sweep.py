@@ -337,7 +337,7 @@ def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, w
     from harness import load
     from harness.model import resolve_fmu
     from harness.studies.sweep_checks import check_workers, default_workers, point_key
-    from harness.studies.sweep_cluster import check_scheduler, shipped
+    from harness.studies.sweep_cluster import check_scheduler, payload, shipped
 
     workers = default_workers() if workers is None else workers
     check_workers(workers, local=scheduler is None)
@@ -367,11 +367,13 @@ def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, w
                                                       dashboard_address=":0", silence_logs=logging.ERROR)
         try:
             with Client(scheduler or cluster) as client:
-                # a system file goes to the workers as bytes (they may share no disk with this process); once
-                # through the scheduler, the workers fetch it from each other
+                # a system file goes to the workers as bytes (they may share no disk with this process): as a
+                # task of its own that returns them, so the scheduler holds them once and computes them again
+                # when the worker holding them is lost (scattered data would be lost with it, and every point
+                # after it cancelled: measured)
                 system = shipped(system_name)
                 if not isinstance(system, str):
-                    system = client.scatter(system, direct=False, hash=True)
+                    system = client.submit(payload, system, key=f"system-file-{system.digest[:32]}")
                 futures = [client.submit(run_point, system, spec, p, pure=False) for p in todo]
                 try:
                     for fut in _progress(as_completed(futures), progress, total=len(futures)):

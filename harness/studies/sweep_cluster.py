@@ -1,8 +1,9 @@
 """What a sweep on a cluster needs beyond a local one: the system file sent to the workers, and a check that
 the scheduler address answers as a dask scheduler.
 
-A system given as a file (``.ssp``, ``.fmu``, ``.py``) is read by the client and sent with the points (a
-:class:`SystemFile`: name, SHA-256 and bytes, through the scheduler), so workers that share no disk with the
+A system given as a file (``.ssp``, ``.fmu``, ``.py``) is read by the client and sent to the workers (a
+:class:`SystemFile`: name, SHA-256 and bytes, in a task of its own through the scheduler, which computes it again
+when a worker that held it is lost), so workers that share no disk with the
 client run it: each worker process writes it once per content hash into its temporary folder
 (``pressdrive-sweep/<hash>/<name>``) and loads it from there.  A drive name (``feeder_gto52``) is sent as the
 name: every worker has the toolkit and builds its FMUs itself.
@@ -49,6 +50,11 @@ class SystemFile:
 
 
 _LOCAL: dict[str, Path] = {}   # digest -> path, per worker process
+
+
+def payload(system: SystemFile) -> SystemFile:
+    """The task that hands the system file to the points on a cluster (its bytes live in the task itself)."""
+    return system
 
 
 def shipped(system: str) -> str | SystemFile:
@@ -127,4 +133,4 @@ def _read(s: socket.socket, n: int) -> bytes:
     return data
 
 
-__all__ = ["SystemFile", "shipped", "system_on_worker", "check_scheduler", "connect_timeout"]
+__all__ = ["SystemFile", "shipped", "payload", "system_on_worker", "check_scheduler", "connect_timeout"]
