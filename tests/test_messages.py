@@ -334,3 +334,39 @@ def test_an_ssp_binding_of_a_missing_variable_is_one_warning_and_the_run_goes_on
     rc, out, err = cli("run", ssp, "--stop-time", "0.01", "--set", "a.J_old=2", cwd=tmp_path)
     last = err.strip().splitlines()[-1]   # after the load's warning
     assert rc == 1 and last.startswith("error: ") and "has no variable 'J_old'" in last, err
+
+
+def test_sweep_at_a_scheduler_address_without_a_scheduler_is_one_line(tmp_path):
+    """In a fresh process (dask's distributed settings not yet loaded: the check read them before their import
+    and failed with "KeyError: 'distributed'"): a closed port and a service that answers garbage."""
+    import socket
+    import threading
+
+    spec = tmp_path / "s.yaml"
+    spec.write_text(SPEC)
+    closed = socket.socket()
+    closed.bind(("127.0.0.1", 0))
+    port = closed.getsockname()[1]
+    closed.close()
+    rc, out, err = cli("sweep", "two_inertia", "--grid", spec, "--scheduler", f"127.0.0.1:{port}", cwd=tmp_path)
+    assert rc == 1 and out == "" and f"--scheduler 127.0.0.1:{port}: cannot connect" in one_line(err), err
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(2)
+
+    def serve():
+        try:
+            conn, _ = srv.accept()
+            conn.sendall(b"220 mail.example ESMTP ready\r\n")
+            conn.recv(100)
+        except OSError:
+            pass
+
+    threading.Thread(target=serve, daemon=True).start()
+    try:
+        rc, out, err = cli("sweep", "two_inertia", "--grid", spec, "--scheduler", f"tcp://127.0.0.1:"
+                           f"{srv.getsockname()[1]}", cwd=tmp_path)
+    finally:
+        srv.close()
+    assert rc == 1 and out == "" and "is no dask scheduler" in one_line(err), err
+    assert not list(tmp_path.glob("results/*"))

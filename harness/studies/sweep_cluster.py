@@ -80,9 +80,11 @@ def system_on_worker(system: str | SystemFile) -> str:
 def connect_timeout() -> float:
     """dask's connect timeout (``distributed.comm.timeouts.connect``), in seconds."""
     import dask
+    import distributed  # noqa: F401 (its import registers the distributed.* defaults in dask's configuration)
     from dask.utils import parse_timedelta
 
-    return float(parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"), default="seconds"))
+    return float(parse_timedelta(dask.config.get("distributed.comm.timeouts.connect", default="30s"),
+                                 default="seconds"))
 
 
 def check_scheduler(address: str, timeout: float | None = None) -> None:
