@@ -5,8 +5,25 @@ shows it).  SIGTERM (``kill``, ``timeout``) interrupts a command as Ctrl-C does,
 and marked; the exit status is then 143 (130 after Ctrl-C)."""
 from __future__ import annotations
 
-import argparse
+import signal
 import sys
+
+
+def _on_sigterm(signum, frame):
+    """SIGTERM as an interrupt (:func:`_sigterm_as_interrupt`); a second one while the first's work is saved is
+    ignored.  Imports nothing heavy: it may fire inside any import of the start-up."""
+    from harness.errors import Terminated
+
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    raise Terminated("terminated (SIGTERM)")
+
+
+if __name__ == "__main__":   # from the first line on: a SIGTERM while the command starts gets the usual message
+    from harness.errors import Terminated as _Terminated  # noqa: F401 (imported before the handler can fire)
+
+    signal.signal(signal.SIGTERM, _on_sigterm)
+
+import argparse  # noqa: E402
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -91,22 +108,14 @@ def _accept_negative_numbers(parser: argparse.ArgumentParser) -> None:
 
 
 def _sigterm_as_interrupt():
-    """SIGTERM raises :class:`harness.run.Terminated` (a KeyboardInterrupt) in the main thread, so every
+    """SIGTERM raises :class:`harness.errors.Terminated` (a KeyboardInterrupt) in the main thread, so every
     command keeps its finished work on it as on Ctrl-C; a second SIGTERM while that work is being saved is
     ignored (SIGKILL still ends the process).  Returns the handler it replaced (None off the main thread)."""
-    import signal
     import threading
 
     if threading.current_thread() is not threading.main_thread():
         return None
-
-    def on_sigterm(signum, frame):
-        from harness.run import Terminated
-
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
-        raise Terminated("terminated (SIGTERM)")
-
-    return signal.signal(signal.SIGTERM, on_sigterm)
+    return signal.signal(signal.SIGTERM, _on_sigterm)
 
 
 def _debug_anywhere(argv: list[str]) -> tuple[list[str], bool]:
@@ -140,9 +149,10 @@ def _main(argv: list[str], debug: bool) -> int:
     try:
         ap = build_parser()
         args = ap.parse_args(argv)
+        _check_out_folder(args)
         return int(args.func(args) or 0)
     except KeyboardInterrupt as e:
-        from harness.run import interruption
+        from harness.errors import interruption   # not harness.run: its import may be the one interrupted
 
         status, how = interruption(e)  # also a run's or study's interrupt re-raised with its status
         print(how, file=sys.stderr)
@@ -159,6 +169,15 @@ def _main(argv: list[str], debug: bool) -> int:
         return 1
 
 
+def _check_out_folder(args) -> None:
+    """``study ... --out DIR`` and ``scene ... --out DIR``: the folder is made and written to before the work
+    (a study of minutes used to fail on it only when it wrote its table)."""
+    if args.command in ("study", "scene") and getattr(args, "out", None) is not None:
+        from harness.results import check_writable
+
+        check_writable(args.out, "--out", folder=True)
+
+
 def _exit(status: int) -> None:
     """Leave without interpreter finalisation: pythonfmu 0.7 FMUs run their Python inside this interpreter and
     tearing it down with their instances alive has, rarely, aborted the process after the work was done
@@ -173,4 +192,11 @@ def _exit(status: int) -> None:
 
 
 if __name__ == "__main__":
-    _exit(main())
+    try:
+        _status = main()
+    except KeyboardInterrupt as _e:   # between the handler and main's own guard
+        from harness.errors import interruption
+
+        _status, _how = interruption(_e)
+        print(_how, file=sys.stderr)
+    _exit(_status)

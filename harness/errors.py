@@ -72,3 +72,19 @@ class SimulationError(HarnessError):
 class BlowUp(SimulationError):
     """An output became non-finite or exceeded the master's blow-up limit: the run diverged faster than the
     divergence detector could judge it (or a model failed)."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (``kill``, ``timeout``) turned into an interrupt by the command line (``python -m harness``
+    installs the handler), so a run or study keeps its finished work on it exactly as on Ctrl-C."""
+
+    status = 143
+    signal = "SIGTERM"
+
+
+def interruption(e: BaseException) -> tuple[int, str]:
+    """(exit status, words) of an interrupt, also one that a run or study re-raised with the status it carries
+    (:class:`RunInterrupted`, ``StudyInterrupted``): 143 and "terminated (SIGTERM)" after SIGTERM, else 130 and
+    "interrupted (Ctrl-C)"."""
+    status = int(getattr(e, "status", 130))
+    return status, "terminated (SIGTERM)" if status == 143 else "interrupted (Ctrl-C)"

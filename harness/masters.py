@@ -701,5 +701,9 @@ def master_class(name: str) -> type[Master]:
     key = str(name).strip().lower().replace("_", "-")
     key = {"gauss seidel": "gauss-seidel", "gaussseidel": "gauss-seidel", "gs": "gauss-seidel"}.get(key, key)
     if key not in MASTERS:
-        raise SystemError_(f"master = {name!r} is not admissible: must be one of {', '.join(MASTERS)}")
+        import difflib
+
+        close = difflib.get_close_matches(key, list(MASTERS), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise SystemError_(f"master = {name!r} is not admissible{hint}: must be one of {', '.join(MASTERS)}")
     return MASTERS[key]

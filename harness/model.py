@@ -189,11 +189,15 @@ class System:
         def lookup(ref: str, what: str):
             inst, var = _split(ref, what)
             if inst not in variables:
-                raise SystemError_(f"{what} {ref}: unknown instance {inst!r}")
+                raise SystemError_(f"{what} {ref}: unknown instance {inst!r}{_did_you_mean(inst, variables)}")
             v = variables[inst].get(var)
             if v is None:
+                # a parameter's name is closer to what --set means than an output's
+                own = variables[inst].values()
+                close = _did_you_mean(var, [x.name for x in own if x.causality == "parameter"]) or \
+                    _did_you_mean(var, [x.name for x in own])
                 raise SystemError_(f"{what} {ref}: FMU {model_descriptions[inst].modelName} of instance "
-                                   f"{inst} has no variable {var!r}")
+                                   f"{inst} has no variable {var!r}{close}")
             return v
 
         for inst in self.instances:
@@ -395,3 +399,11 @@ def resolve_fmu(fmu: str | Path) -> Path:
         if build_main(["--out", str(out), "--only", script.stem]) != 0 or not path.is_file():
             raise SystemError_(f"building FMU {s} from {script.name} failed (see stderr)")
     return path
+
+
+def _did_you_mean(name: str, candidates) -> str:
+    """`` (did you mean 'x'?)`` for the closest of ``candidates`` (difflib), or nothing."""
+    import difflib
+
+    close = difflib.get_close_matches(name, list(candidates), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""

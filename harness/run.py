@@ -22,6 +22,7 @@ checks and messages; split, each would import the others' private helpers.)
 """
 from __future__ import annotations
 
+import difflib
 import importlib
 import math
 import sys
@@ -35,6 +36,7 @@ import pandas as pd
 from harness.divergence import Diverged, DivergenceOptions, for_master as _detector
 from harness.errors import BlowUp, FMUError, HarnessError, SimulationError, SystemError_
 from harness.errors import ParameterRefused  # an FMU refused a parameter value (typed, fmus.refusal)
+from harness.errors import Terminated, interruption  # noqa: F401 (defined with the errors, re-exported)
 from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import Instance, open_instance, release
 from harness.masters import MASTERS, NS, ConvergenceError, IterationOptions, master_class
@@ -58,22 +60,6 @@ class RunInterrupted(KeyboardInterrupt):
         super().__init__(message)
         self.partial = partial
         self.status = status
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM (``kill``, ``timeout``) turned into an interrupt by the command line (``python -m harness``
-    installs the handler), so a run or study keeps its finished work on it exactly as on Ctrl-C."""
-
-    status = 143
-    signal = "SIGTERM"
-
-
-def interruption(e: BaseException) -> tuple[int, str]:
-    """(exit status, words) of an interrupt, also one that a run or study re-raised with the status it carries
-    (:class:`RunInterrupted`, ``StudyInterrupted``): 143 and "terminated (SIGTERM)" after SIGTERM, else 130 and
-    "interrupted (Ctrl-C)"."""
-    status = int(getattr(e, "status", 130))
-    return status, "terminated (SIGTERM)" if status == 143 else "interrupted (Ctrl-C)"
 
 
 @dataclass
@@ -221,7 +207,9 @@ def split_parameters(system: System, parameters: dict | None) -> dict[str, dict]
         if not dot or not var:
             raise SystemError_(f"parameter {ref!r} must be written 'Instance.parameter'")
         if inst not in out:
-            raise SystemError_(f"parameter {ref}: unknown instance {inst!r}")
+            close = difflib.get_close_matches(inst, list(out), n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise SystemError_(f"parameter {ref}: unknown instance {inst!r}{hint} (instances: {', '.join(out)})")
         out[inst][var] = value
     return out
 

@@ -80,16 +80,22 @@ def export_ssp(system: System, out: str | Path) -> Path:
     out = Path(out)
     if out.suffix.lower() != ".ssp":
         raise SystemError_(f"{out}: an SSP archive must end in .ssp")
+    from harness.results import check_writable
+
+    check_writable(out, "export")   # one line before the work for a place that cannot be written
     fmu_paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
     ssd = build_ssd(system, {name: f"resources/{p.name}" for name, p in fmu_paths.items()},
                     consistent_inputs(system))
-    out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_suffix(".ssp.part")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("SystemStructure.ssd", ET.tostring(ssd, encoding="utf-8", xml_declaration=True))
-        for p in sorted(set(fmu_paths.values())):
-            z.write(p, f"resources/{p.name}")
-    tmp.replace(out)
+    try:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("SystemStructure.ssd", ET.tostring(ssd, encoding="utf-8", xml_declaration=True))
+            for p in sorted(set(fmu_paths.values())):
+                z.write(p, f"resources/{p.name}")
+        tmp.replace(out)
+    except OSError as e:   # e.g. the disk full, the folder gone meanwhile
+        tmp.unlink(missing_ok=True)
+        raise SystemError_(f"export {out}: cannot write: {e.strerror or e}") from None
     return out
 
 
@@ -205,6 +211,10 @@ def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] |
     for c in system.connections:
         if c.unit_conversion:
             ET.SubElement(conv, _q("pd:Conversion"), {"source": c.source, "target": c.target})
+    if system.free_inputs:   # inputs unconnected on purpose, with the reason: no warning in the imported drive
+        free = ET.SubElement(own, _q("pd:FreeInputs"))
+        for ref, why in system.free_inputs.items():
+            ET.SubElement(free, _q("pd:FreeInput"), {"name": ref, "reason": why})
     exp = system.experiment
     if exp is not None:
         ET.SubElement(own, _q("pd:Experiment"), {k: str(v) for k, v in (
@@ -388,7 +398,9 @@ class _Reader:
         for inst in instances:
             for k in [k for k in inst.parameters if f"{inst.name}.{k}" in driven]:
                 del inst.parameters[k]
-        bonds, conversions, exp_extra = self.own_annotation(sys_el)
+        bonds, conversions, exp_extra, free_inputs = self.own_annotation(sys_el)
+        names = {inst.name for inst in instances}
+        free_inputs = {ref: why for ref, why in free_inputs.items() if ref.partition(".")[0] in names}
         bonded = set()
         for b in bonds:
             bonded.update((c.source, c.target) for c in b.connections())
@@ -399,8 +411,9 @@ class _Reader:
         connections, found = self.bonds_from_terminals(connections, instances)
         bonds += terminal_bonds + found
         experiment = self.experiment(root, exp_extra)
+        self.drop_unknown_bindings(instances)
         return System(name=name, instances=instances, connections=connections, bonds=bonds,
-                      experiment=experiment, description=sys_el.get("description", ""))
+                      experiment=experiment, description=sys_el.get("description", ""), free_inputs=free_inputs)
 
     def collect(self, sys_el: ET.Element, path: tuple, name: str, instances: list, edges: list) -> None:
         """The components of ``sys_el`` and of every system nested in it (recursively) into ``instances``,
@@ -584,6 +597,25 @@ class _Reader:
         inst = Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'", fmu))
         inst.parameters = {k: self.convert(v, inst, k) for k, v in inst.parameters.items()}
         return inst
+
+    def drop_unknown_bindings(self, instances: list[Instance]) -> None:
+        """A parameter binding names a variable its component's FMU lacks: OMSimulator warns and runs, so the
+        binding is dropped with ONE warning naming every such binding (an edited parameter set, or one written
+        for another version of the FMU).  A ``--set`` or ``start_values`` of a missing name stays an error."""
+        dropped = []
+        for inst in instances:
+            names = {v.name for v in model_description(inst.fmu).modelVariables}
+            for var in [k for k in inst.parameters if k not in names]:
+                del inst.parameters[var]
+                dropped.append(f"{inst.name}.{var}")
+        if dropped:
+            import warnings
+
+            from harness.model import SystemWarning
+
+            warnings.warn(f"{self.label(self.ssd_path)}: parameter binding(s) of {', '.join(dropped)} name no "
+                          f"variable of the component's FMU: ignored, the run goes on with the FMU's start "
+                          f"values", SystemWarning, stacklevel=2)
 
     def convert(self, value, inst: Instance, pname: str):
         """A parameter value in the unit of the FMU's variable (module docstring); any other value as is."""
@@ -857,7 +889,9 @@ class _Reader:
         return [c for c in connections if (c.source, c.target) not in used], bonds
 
     def own_annotation(self, sys_el: ET.Element):
-        bonds, conversions, extra = [], set(), {}
+        """This toolkit's annotation: the bonds, the unit conversions, the experiment's own settings and the
+        inputs left unconnected on purpose (name -> reason)."""
+        bonds, conversions, extra, free = [], set(), {}, {}
         for ann in sys_el.findall(f"{_q('ssd:Annotations')}/{_q('ssc:Annotation')}"):
             if ann.get("type") != OWN_ANNOTATION:
                 continue
@@ -868,10 +902,13 @@ class _Reader:
                 bonds.append(Bond(b.get("motionOut"), b.get("motionIn"), b.get("translational") == "true"))
             for cv in own.findall(f"{_q('pd:UnitConversions')}/{_q('pd:Conversion')}"):
                 conversions.add((cv.get("source"), cv.get("target")))
+            for f in own.findall(f"{_q('pd:FreeInputs')}/{_q('pd:FreeInput')}"):
+                if f.get("name") and (f.get("reason") or "").strip():
+                    free[f.get("name")] = f.get("reason")
             e = own.find(_q("pd:Experiment"))
             if e is not None:
                 extra = dict(e.attrib)
-        return bonds, conversions, extra
+        return bonds, conversions, extra, free
 
     def experiment(self, root: ET.Element, extra: dict) -> Experiment | None:
         de = root.find(_q("ssd:DefaultExperiment"))

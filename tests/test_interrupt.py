@@ -102,3 +102,27 @@ def test_sigint_during_a_sweep_keeps_every_finished_point_and_resume_skips_them(
     assert not partial.exists()
     merged = df.set_index("b.c").loc[kept["b.c"], "w_end"].to_numpy()
     assert (merged == kept["w_end"].to_numpy()).all()   # the kept points were not run again
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="watches the child's start-up in /proc")
+@pytest.mark.parametrize("sig, status, words", [(signal.SIGTERM, 143, "terminated (SIGTERM)"),
+                                                (signal.SIGINT, 130, "interrupted (Ctrl-C)")])
+def test_a_signal_while_the_command_starts_gets_the_usual_message(tmp_path, sig, status, words):
+    """The signal arrives while the command still imports its modules (numpy's library just mapped, pandas and
+    the toolkit not yet): it used to end with an ImportError of a partially initialised module (the SIGTERM
+    handler imported harness.run) or a traceback, instead of the usual one line and status."""
+    p = _start(["run", "two_inertia", "--stop-time", "0.01", "--out", str(tmp_path / "x.csv")], tmp_path)
+    maps = Path(f"/proc/{p.pid}/maps")
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and p.poll() is None:
+        try:
+            if "numpy" in maps.read_text():
+                break
+        except OSError:
+            pass
+        time.sleep(0.002)
+    p.send_signal(sig)
+    out, err = p.communicate(timeout=120)
+    assert p.returncode == status, (p.returncode, err)
+    assert err.strip() == words, err
+    assert not (tmp_path / "x.csv").exists()

@@ -17,6 +17,22 @@ from harness.results import read_csv, to_csv
 ROOT = Path(__file__).resolve().parents[1]
 
 
+CLI_SYSTEMS = ("two_inertia", "bed_drive", "spine_knife", "feeder_gto52", "proof_press")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def built_fmus():
+    """The FMUs of the systems these commands run, built before the first one: a command that builds an FMU on
+    first use says so on stdout ("built ..."), and the tests below read stdout and stderr exactly (the file
+    failed on its first run after a fresh set-up and passed on the second)."""
+    from harness import load
+    from harness.model import resolve_fmu
+
+    for name in CLI_SYSTEMS:
+        for inst in load(name).instances:
+            resolve_fmu(inst.fmu)
+
+
 def cli(*args, cwd=ROOT):
     r = subprocess.run([sys.executable, "-m", "harness", *map(str, args)], cwd=cwd, capture_output=True,
                        text=True, timeout=600)
@@ -214,3 +230,143 @@ def test_negative_numbers_in_any_notation_reach_the_commands_check(tmp_path, arg
     """argparse took '-1e-3' for an unknown option ('unrecognized arguments' for a list option, issue 30)."""
     rc, out, err = cli(*args, "--out", tmp_path / ("x.csv" if args[0] == "run" else "o"))
     assert rc == 1 and expected in one_line(err), err
+
+
+# -- a newcomer's tries ----------------------------------------------------------------------------------------
+def test_export_into_a_place_that_cannot_be_written_is_one_clean_line(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    for out, expected in (("/proc/x.ssp", "export /proc/x.ssp: folder /proc is not writable"),
+                          (blocker / "x.ssp", f"export {blocker / 'x.ssp'}: {blocker} is a file, not a folder")):
+        rc, stdout, err = cli("export", "two_inertia", out)
+        line = one_line(err)
+        assert rc == 1 and stdout == "" and line.startswith(f"error: {expected}"), line
+        assert "Errno" not in line and ".part" not in line, line
+
+
+@pytest.mark.parametrize("args", [("scene", "two_inertia"), ("study", "stability", "two_inertia", "--quick"),
+                                  ("study", "precision", "two_inertia", "--quick")])
+def test_study_and_scene_check_their_out_folder_before_the_work(tmp_path, args):
+    """They used to run the whole study and fail only when writing the table."""
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    rc, out, err = cli(*args, "--out", blocker / "sub", cwd=tmp_path)
+    line = one_line(err)
+    assert rc == 1 and out == "" and f"--out {blocker / 'sub'}: {blocker} is a file, not a folder" in line, line
+
+
+@pytest.mark.parametrize("args, expected", [
+    (("--set", "bed.m_t=300"), "FMU RackBed of instance bed has no variable 'm_t' (did you mean 'm_T'?)"),
+    (("--set", "bedd.m_T=300"), "unknown instance 'bedd' (did you mean 'bed'?)"),
+    (("--master", "jacobbi"), "master = 'jacobbi' is not admissible (did you mean 'jacobi'?)"),
+])
+def test_a_misspelt_name_gets_did_you_mean(args, expected):
+    rc, out, err = cli("run", "bed_drive", "--stop-time", "0.001", *args)
+    assert rc == 1 and out == "" and expected in one_line(err), err
+
+
+@pytest.mark.parametrize("system", ["feeder_gto52", "spine_knife"])
+def test_an_exported_drive_runs_as_quietly_as_the_native_one(tmp_path, system):
+    """The export left out the inputs a drive leaves unconnected on purpose (free_inputs): its .ssp warned
+    'input flywheel.aux.tau is not connected' where the native run says nothing."""
+    from harness import load
+    from harness.ssp import export_ssp
+
+    ssp = export_ssp(load(system), tmp_path / f"{system}.ssp")
+    assert load(ssp).free_inputs == load(system).free_inputs
+    rc, out, err = cli("run", ssp, "--stop-time", "0.002", cwd=tmp_path)
+    assert rc == 0 and "points to t = 0.002 s" in out
+    assert err.strip() == "", err
+
+
+def test_an_fmu_without_a_binary_for_this_platform_is_one_line_naming_it_and_its_platforms(tmp_path):
+    """fmpy said 'Cannot find shared library <the extraction cache>/binaries/linux64/X.so.'"""
+    import zipfile
+
+    from harness.errors import FMUError
+    from harness.model import Experiment, Instance, System, resolve_fmu
+
+    src = resolve_fmu("Inertia")
+    foreign = tmp_path / "Windows.fmu"
+    with zipfile.ZipFile(src) as zi, zipfile.ZipFile(foreign, "w") as zo:
+        for n in zi.namelist():
+            for other in ("win64", "darwin64"):
+                if n.startswith("binaries/linux64/"):
+                    zo.writestr(n.replace("linux64", other), zi.read(n))
+            if not n.startswith("binaries/"):
+                zo.writestr(n, zi.read(n))
+    system = System("w", [Instance("w", str(foreign))], experiment=Experiment(stop_time=0.01, step=0.001))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(FMUError) as e:
+            simulate(system, on_error="raise", options=RunOptions(in_process=False))
+    msg = str(e.value)
+    assert f"{foreign} has no binary for this platform" in msg and "binaries for darwin64, win64 only" in msg, msg
+    assert "\n" not in msg and "Cannot find shared library" not in msg
+
+
+def test_an_ssp_binding_of_a_missing_variable_is_one_warning_and_the_run_goes_on(tmp_path):
+    """As OMSimulator does; it used to stop the run ('parameter a.J_old: FMU Inertia ... has no variable').  A
+    --set of the missing name stays an error."""
+    import re
+    import zipfile
+
+    from harness import load
+    from harness.ssp import export_ssp
+
+    src = export_ssp(load("two_inertia"), tmp_path / "src.ssp")
+    ssp = tmp_path / "edited.ssp"
+    with zipfile.ZipFile(src) as zi, zipfile.ZipFile(ssp, "w") as zo:
+        for n in zi.namelist():
+            data = zi.read(n)
+            if n == "SystemStructure.ssd":
+                text = data.decode()
+                m = re.search(r'<ssv:Parameter name="J">.*?</ssv:Parameter>', text, re.S)
+                assert m, text[:2000]
+                text = text.replace(m.group(0), m.group(0) + m.group(0).replace('name="J"', 'name="J_old"'), 1)
+                data = text.encode()
+            zo.writestr(n, data)
+    rc, out, err = cli("run", ssp, "--stop-time", "0.01", cwd=tmp_path)
+    assert rc == 0 and "points to t = 0.01 s" in out, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("warning: ") and ".J_old name no variable" in lines[0], err
+    assert "edited.ssp" in lines[0]
+    rc, out, err = cli("run", ssp, "--stop-time", "0.01", "--set", "a.J_old=2", cwd=tmp_path)
+    last = err.strip().splitlines()[-1]   # after the load's warning
+    assert rc == 1 and last.startswith("error: ") and "has no variable 'J_old'" in last, err
+
+
+def test_sweep_at_a_scheduler_address_without_a_scheduler_is_one_line(tmp_path):
+    """In a fresh process (dask's distributed settings not yet loaded: the check read them before their import
+    and failed with "KeyError: 'distributed'"): a closed port and a service that answers garbage."""
+    import socket
+    import threading
+
+    spec = tmp_path / "s.yaml"
+    spec.write_text(SPEC)
+    closed = socket.socket()
+    closed.bind(("127.0.0.1", 0))
+    port = closed.getsockname()[1]
+    closed.close()
+    rc, out, err = cli("sweep", "two_inertia", "--grid", spec, "--scheduler", f"127.0.0.1:{port}", cwd=tmp_path)
+    assert rc == 1 and out == "" and f"--scheduler 127.0.0.1:{port}: cannot connect" in one_line(err), err
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(2)
+
+    def serve():
+        try:
+            conn, _ = srv.accept()
+            conn.sendall(b"220 mail.example ESMTP ready\r\n")
+            conn.recv(100)
+        except OSError:
+            pass
+
+    threading.Thread(target=serve, daemon=True).start()
+    try:
+        rc, out, err = cli("sweep", "two_inertia", "--grid", spec, "--scheduler", f"tcp://127.0.0.1:"
+                           f"{srv.getsockname()[1]}", cwd=tmp_path)
+    finally:
+        srv.close()
+    assert rc == 1 and out == "" and "is no dask scheduler" in one_line(err), err
+    assert not list(tmp_path.glob("results/*"))

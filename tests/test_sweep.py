@@ -191,3 +191,250 @@ def test_cli_one_command_writes_csv_and_charts(tmp_path):
     nop = write_yaml(tmp_path / "noplot.yaml", {k: v for k, v in TINY.items() if k != "plot"})
     assert main(["sweep", "two_inertia", "--grid", str(nop), "--workers", "0", "--out", str(out),
                  "--plot", str(charts)]) == 1
+
+
+# -- resuming safely ----------------------------------------------------------------------------------------------
+RESUMABLE = {k: v for k, v in TINY.items() if k != "plot"}
+
+
+def _cli_sweep(tmp_path, spec_data, *extra):
+    import contextlib
+    import io
+
+    from harness.__main__ import main
+
+    grid = write_yaml(tmp_path / "s.yaml", spec_data)
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = main(["sweep", "two_inertia", "--grid", str(grid), "--workers", "0", "--out", str(tmp_path / "r.csv"),
+                   *extra])
+    return rc, out.getvalue(), err.getvalue()
+
+
+def _partial_of_a_finished_sweep(tmp_path, data=RESUMABLE):
+    """The partial file a sweep leaves just before it writes its result (every point logged)."""
+    from harness.studies.sweep_checks import PointLog, identity, partial_path
+
+    spec = sweep.parse_spec(data, str(tmp_path / "s.yaml"))
+    log = PointLog(partial_path(tmp_path / "r.csv"), spec, resume=False, identity=identity("two_inertia", spec))
+    full = sweep.run_sweep("two_inertia", spec, workers=0, progress=False, log=log)
+    return log.path, full
+
+
+@pytest.mark.parametrize("cut", ["in the outputs", "in the key values"])
+def test_resume_runs_a_torn_last_row_again(tmp_path, cut):
+    """A crash mid-write leaves a last line without its newline: cut inside the outputs it used to count as done
+    with blank outputs, cut inside the key values as a point of another value (200.0 read as 20.0 or 2.0)."""
+    path, full = _partial_of_a_finished_sweep(tmp_path)
+    text = path.read_text()
+    last = text.rstrip("\n").rsplit("\n", 1)[1]
+    keep = last.index(",", last.index(",") + 1) + 3 if cut == "in the outputs" else 2
+    path.write_text(text[:len(text) - len(last) - 1] + last[:keep])
+    rc, out, err = _cli_sweep(tmp_path, RESUMABLE, "--resume")
+    assert rc == 0, err
+    assert "4 points (3 taken from r.partial.csv), 0 failed" in out, out
+    assert "1 torn or incomplete line(s) dropped" in err
+    df = pd.read_csv(tmp_path / "r.csv", keep_default_na=False)
+    pd.testing.assert_frame_equal(_without_wall(df), _without_wall(full), check_exact=True, check_dtype=False)
+
+
+@pytest.mark.parametrize("change, field", [({"stop_time": 0.01}, "stop_time"),
+                                           ({"grid": {"b.c": [50.0, 200.0], "w": [1.0, 3.0]}}, "points"),
+                                           ({"master": "gauss-seidel"}, "master")])
+def test_resume_refuses_a_partial_file_of_other_settings(tmp_path, change, field):
+    path, _ = _partial_of_a_finished_sweep(tmp_path)
+    before = path.read_text()
+    rc, out, err = _cli_sweep(tmp_path, dict(RESUMABLE, **change), "--resume")
+    assert rc == 1 and out == ""
+    line = err.strip()
+    assert "\n" not in line and line.startswith("error: --resume: ") and f": {field} " in line, line
+    assert "run without --resume" in line
+    assert path.read_text() == before            # the kept points are not touched
+
+
+def test_resume_of_a_finished_sweep_has_nothing_to_do(tmp_path):
+    rc, out, _ = _cli_sweep(tmp_path, RESUMABLE)
+    assert rc == 0 and (tmp_path / "r.sweep.json").is_file() and not (tmp_path / "r.partial.csv").exists()
+    stamp = (tmp_path / "r.csv").stat().st_mtime_ns
+    rc, out, err = _cli_sweep(tmp_path, RESUMABLE, "--resume")
+    assert rc == 0 and "complete, nothing to do (4 points" in out, (out, err)
+    assert (tmp_path / "r.csv").stat().st_mtime_ns == stamp
+    rc, out, err = _cli_sweep(tmp_path, dict(RESUMABLE, stop_time=0.01), "--resume")
+    assert rc == 1 and "r.sweep.json is of another sweep: stop_time 0.02 there, 0.01 now" in err, err
+
+
+def test_a_point_is_logged_once(tmp_path):
+    """dask may run a point twice (its worker lost after the point finished): the file keeps it once."""
+    from harness.studies.sweep_checks import PointLog
+
+    spec = sweep.parse_spec(RESUMABLE)
+    log = PointLog(tmp_path / "p.csv", spec, resume=False)
+    row = sweep.run_point("two_inertia", spec, spec.points[0])
+    log.add(row)
+    log.add(dict(row))
+    assert len(log.rows) == 1 and len(tmp_path.joinpath("p.csv").read_text().splitlines()) == 2
+
+
+@pytest.mark.parametrize("grid, expected", [
+    ({"w": {"linspace": [1, 2, 0]}}, "grid.w: linspace: the count 0 gives no point"),
+    ({"w": {"linspace": [1, 2, 2.7]}}, "grid.w: linspace: the count 2.7 is not a whole number"),
+    ({"w": {"logspace": [1, 100, True]}}, "grid.w: logspace: the count True is not a whole number"),
+    ({"w": [True, False]}, "grid.w: True is not a number"),
+    ({"w": {"linspace": [1, False, 3]}}, "grid.w: False is not a number"),
+    ({"w": [1.0, float("inf")]}, "grid.w: inf is not a finite number"),
+    ({"w": {"logspace": [0, 10, 3]}}, "grid.w: logspace: lo and hi must be > 0"),
+])
+def test_grid_values_are_checked_at_load(tmp_path, grid, expected):
+    path = write_yaml(tmp_path / "g.yaml", dict(RESUMABLE, grid=grid))
+    with pytest.raises(sweep.SweepError) as e:
+        sweep.read_spec(path)
+    assert str(e.value).startswith(f"{path}: {expected}"), str(e.value)
+    assert sweep.parse_spec(dict(RESUMABLE, grid={"w": {"linspace": [1, 2, 3.0]}})).points[-1] == {"w": 2.0}
+
+
+def _server(reply: bytes | None):
+    """A tiny TCP server on localhost that answers every connection with ``reply`` (None: says nothing)."""
+    import socket
+    import threading
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(4)
+    held = []
+
+    def serve():
+        while True:
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            held.append(conn)
+            if reply is not None:
+                conn.sendall(reply)
+
+    threading.Thread(target=serve, daemon=True).start()
+    return srv, srv.getsockname()[1]
+
+
+@pytest.mark.parametrize("reply, expected", [
+    (b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n", "is no dask scheduler"),
+    (None, "no dask scheduler greeted within 2 s"),
+])
+def test_a_wrong_service_at_the_scheduler_address_is_one_line(tmp_path, monkeypatch, reply, expected):
+    import dask
+    import time
+
+    srv, port = _server(reply)
+    try:
+        with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+            t0 = time.perf_counter()
+            rc, out, err = _cli_sweep(tmp_path, RESUMABLE, "--scheduler", f"127.0.0.1:{port}")
+            took = time.perf_counter() - t0
+    finally:
+        srv.close()
+    assert rc == 1 and out == "", out
+    line = err.strip()
+    assert "\n" not in line and line.startswith(f"error: --scheduler 127.0.0.1:{port}: ") and expected in line, err
+    assert took < 30, took
+    assert not list(tmp_path.glob("r.*"))      # nothing written for a sweep that could not start
+
+
+@pytest.mark.slow
+def test_an_ssp_sweep_on_a_scheduler_and_two_workers_that_share_no_folder_with_the_client(tmp_path, monkeypatch):
+    """A scheduler and two workers started in empty folders of their own; the client, in a third, sweeps an
+    exported drive (.ssp) by its relative name: the workers receive the file and give the serial results."""
+    import os
+    import subprocess
+    import sys
+    import time
+
+    from harness.ssp import export_ssp
+    from harness import load
+
+    client_dir, sched_dir = tmp_path / "client", tmp_path / "scheduler"
+    worker_dirs = [tmp_path / "worker1", tmp_path / "worker2"]
+    for d in (client_dir, sched_dir, *worker_dirs):
+        d.mkdir()
+    export_ssp(load("two_inertia"), client_dir / "drive.ssp")
+    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    sched_file = tmp_path / "scheduler.json"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    procs = [subprocess.Popen([*dask, "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--scheduler-file",
+                               str(sched_file)], cwd=sched_dir, env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)]
+    try:
+        for _ in range(600):
+            if sched_file.exists() and sched_file.read_text().strip().endswith("}"):
+                break
+            time.sleep(0.1)
+        address = json.loads(sched_file.read_text())["address"]
+        for d in worker_dirs:
+            procs.append(subprocess.Popen(
+                [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nworkers", "1", "--nthreads",
+                 "1", "--no-dashboard", "--local-directory", str(d)], cwd=d, env=env,
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        from dask.distributed import Client
+
+        with Client(address, timeout=60) as c:
+            c.wait_for_workers(2, timeout=120)
+        monkeypatch.chdir(client_dir)   # the system's path as a user types it, relative to the client's folder
+        spec = sweep.parse_spec(RESUMABLE)
+        dist = sweep.run_sweep("drive.ssp", spec, scheduler=address, progress=False)
+        serial = sweep.run_sweep("drive.ssp", spec, workers=0, progress=False)
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+    assert (dist["error"] == "").all(), dist["error"].tolist()
+    assert serial["w_end"].nunique() == 4
+    pd.testing.assert_frame_equal(_without_wall(serial), _without_wall(dist), check_exact=True)
+    for d in worker_dirs:   # the workers wrote no system file into their own folders
+        assert not list(d.rglob("drive.ssp"))
+
+
+KILLER = '''\
+"""two_inertia, whose first load inside a dask worker ends that worker's process (a lost worker)."""
+import os
+from pathlib import Path
+
+from harness import load
+
+try:
+    from distributed import get_worker
+
+    get_worker()
+    in_worker = True
+except (ImportError, ValueError):
+    in_worker = False
+marker = Path(os.environ["SWEEP_TEST_MARKER"])
+if in_worker and not marker.exists():
+    marker.write_text(str(os.getpid()))
+    os._exit(1)
+SYSTEM = load("two_inertia")
+'''
+
+
+@pytest.mark.slow
+def test_a_lost_worker_s_point_is_run_again_and_written_once(tmp_path, monkeypatch):
+    """The first point's worker dies inside it: dask runs the point again on a worker of the restarted pool; the
+    result and the partial file hold every point once, as the serial run gives them."""
+    from harness.studies.sweep_checks import PointLog, identity
+
+    system = tmp_path / "killer.py"
+    system.write_text(KILLER)
+    marker = tmp_path / "killed"
+    monkeypatch.setenv("SWEEP_TEST_MARKER", str(marker))
+    spec = sweep.parse_spec(RESUMABLE)
+    log = PointLog(tmp_path / "k.partial.csv", spec, resume=False, identity=identity(str(system), spec))
+    dist = sweep.run_sweep(str(system), spec, workers=2, progress=False, log=log)
+    assert marker.exists()                       # a worker was lost
+    serial = sweep.run_sweep(str(system), spec, workers=0, progress=False)
+    assert (dist["error"] == "").all(), dist["error"].tolist()
+    pd.testing.assert_frame_equal(_without_wall(serial), _without_wall(dist[serial.columns]), check_exact=True,
+                                  check_dtype=False)
+    kept = pd.read_csv(log.path)
+    assert len(kept) == 4 and not kept[spec.variables].duplicated().any()

@@ -306,6 +306,26 @@ class Instance:
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r}, {self.path.name})"
 
+    def check_binary(self, model_identifier: str, function: str) -> None:
+        """One line (:class:`FMUError` for ``function``, the instantiate call) when the FMU has no shared library
+        for this platform where fmpy looks for it (``binaries/<platform>/<modelIdentifier><ext>``), naming the
+        FMU file and the platforms it has binaries for; fmpy's own message names the extraction cache only."""
+        import fmpy
+
+        folder = fmpy.platform_tuple if str(self.md.fmiVersion).startswith("3") else fmpy.platform
+        if (self.unzip_dir / "binaries" / folder / f"{model_identifier}{fmpy.sharedLibraryExtension}").is_file():
+            return
+        binaries = self.unzip_dir / "binaries"
+        have = sorted(d.name for d in binaries.iterdir() if d.is_dir() and any(d.iterdir())) \
+            if binaries.is_dir() else []
+        sources = (self.unzip_dir / "sources").is_dir()
+        has = (f"it has binaries for {', '.join(have)} only" if have else "it has no binaries at all") + \
+            (" (and sources: build it for this platform, e.g. with fmpy's 'Compile platform binary')"
+             if sources else "")
+        raise FMUError(self.name, function, None, None,
+                       detail=f"{self.path} has no binary for this platform ({folder}/{model_identifier}"
+                              f"{fmpy.sharedLibraryExtension}): {has}")
+
 
 class FMU(Instance):
     """One instance of an FMI 2.0 co-simulation FMU, called through its shared library (fmi2* functions)."""
@@ -315,6 +335,8 @@ class FMU(Instance):
         the ME functions too), for :class:`harness.fmi.me.ModelExchange2`."""
         super().__init__(path, name, model_exchange)
         self._states: list = []
+        cs = self.md.modelExchange if model_exchange else self.md.coSimulation
+        self.check_binary(cs.modelIdentifier, "fmi2Instantiate")
         if model_exchange:
             from fmpy.fmi2 import FMU2Model
 

@@ -44,6 +44,7 @@ class FMU1(Instance):
         self.can_interpolate_inputs = False  # the master hands no input derivatives to FMI 1.0 FMUs
         self.max_input_derivative_order = 0
         self._start, self._stop = 0.0, None
+        self.check_binary(self.md.coSimulation.modelIdentifier, "fmiInstantiateSlave")
         self._slave = FMU1Slave(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
                                 modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         self._call("fmiInstantiateSlave", self._slave.instantiate, loggingOn=False)

@@ -82,6 +82,9 @@ class FMU3(Instance):
         self._start, self._stop, self._tolerance = 0.0, None, None
         self._states: list = []
         self._float32 = any(t == "Float32" for t in self.native.values())
+        cs = self.md.modelExchange if model_exchange else self.md.coSimulation
+        self.check_binary(cs.modelIdentifier, "fmi3InstantiateModelExchange" if model_exchange
+                          else "fmi3InstantiateCoSimulation")
         if model_exchange:
             self._slave = FMU3Model(guid=self.md.guid, unzipDirectory=str(self.unzip_dir),
                                     modelIdentifier=self.md.modelExchange.modelIdentifier, instanceName=name)

@@ -122,19 +122,48 @@ def _arith(expr, ns: dict, what: str, check_only: bool = False) -> float:
 
 
 def _values(name: str, spec, source: str) -> list[float]:
-    try:
-        if isinstance(spec, list) and spec:
-            return [float(v) for v in spec]
-        if isinstance(spec, dict) and "linspace" in spec:
-            lo, hi, n = spec["linspace"]
-            return [float(v) for v in np.linspace(float(lo), float(hi), int(n))]
-        if isinstance(spec, dict) and "logspace" in spec:
-            lo, hi, n = spec["logspace"]
-            return [float(v) for v in np.logspace(math.log10(float(lo)), math.log10(float(hi)), int(n))]
-    except (TypeError, ValueError) as e:
-        raise SweepError(f"{source}: grid.{name}: {spec!r} is not numeric ({e})") from None
-    raise SweepError(f"{source}: grid.{name}: give a non-empty list, {{linspace: [lo, hi, n]}} or "
+    """The values of grid variable ``name``: a list of numbers, or ``{linspace|logspace: [lo, hi, n]}`` with a
+    whole count n >= 1; a switch (``true``), a text that is no number, a count of 2.7 or 0 is refused."""
+    key = f"{source}: grid.{name}"
+    if isinstance(spec, list) and spec:
+        return [_number(v, key) for v in spec]
+    for kind in ("linspace", "logspace"):
+        if isinstance(spec, dict) and kind in spec and len(spec) == 1:
+            args = spec[kind]
+            if not (isinstance(args, list) and len(args) == 3):
+                raise SweepError(f"{key}: {kind}: give [lo, hi, n], not {args!r}")
+            lo, hi, n = _number(args[0], key), _number(args[1], key), _count(args[2], f"{key}: {kind}")
+            if kind == "linspace":
+                return [float(v) for v in np.linspace(lo, hi, n)]
+            if lo <= 0 or hi <= 0:
+                raise SweepError(f"{key}: logspace: lo and hi must be > 0, not {lo!r} and {hi!r}")
+            return [float(v) for v in np.logspace(math.log10(lo), math.log10(hi), n)]
+    raise SweepError(f"{key}: give a non-empty list, {{linspace: [lo, hi, n]}} or "
                      f"{{logspace: [lo, hi, n]}}, not {spec!r}")
+
+
+def _number(value, key: str) -> float:
+    """A finite number (also written as text, as YAML reads ``1e-3``); a switch is no number."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise SweepError(f"{key}: {value!r} is not a number (give numbers; a switch is 0 or 1)")
+    try:
+        x = float(value)
+    except ValueError:
+        raise SweepError(f"{key}: {value!r} is not numeric") from None
+    if not math.isfinite(x):
+        raise SweepError(f"{key}: {value!r} is not a finite number")
+    return x
+
+
+def _count(value, key: str) -> int:
+    """A number of points: a whole number >= 1 (``3`` or ``3.0``; 2.7, 0 or ``true`` refused)."""
+    whole = (isinstance(value, int) and not isinstance(value, bool)) or (isinstance(value, float)
+                                                                          and value.is_integer())
+    if not whole:
+        raise SweepError(f"{key}: the count {value!r} is not a whole number of points")
+    if value < 1:
+        raise SweepError(f"{key}: the count {value!r} gives no point: give at least 1")
+    return int(value)
 
 
 PLOT_KEYS = ("x", "y", "hue", "facet", "reduce", "logx", "logy", "xspan", "units")
@@ -217,14 +246,15 @@ def parse_spec(data: dict, source: str = "<spec>") -> SweepSpec:
             raise SweepError(f"{source}: sample: needs 'n' and 'ranges: {{name: [lo, hi], ...}}'")
         for n_, r_ in s["ranges"].items():
             try:
-                ok = isinstance(r_, (list, tuple)) and len(r_) == 2 and float(r_[0]) < float(r_[1])
+                ok = (isinstance(r_, (list, tuple)) and len(r_) == 2 and not any(isinstance(x, bool) for x in r_)
+                      and float(r_[0]) < float(r_[1]))
             except (TypeError, ValueError):
                 ok = False
             if not ok:
                 raise SweepError(f"{source}: sample.ranges.{n_}: {r_!r} must be [lo, hi] with lo < hi")
         if s.get("method", "lhs") != "lhs":
             raise SweepError(f"{source}: sample.method: {s.get('method')!r} is not supported (lhs)")
-        if not (isinstance(s["n"], int) and s["n"] > 0):
+        if isinstance(s["n"], bool) or not (isinstance(s["n"], int) and s["n"] > 0):
             raise SweepError(f"{source}: sample.n: {s['n']!r} must be a positive integer")
         from scipy.stats import qmc
 
@@ -272,9 +302,11 @@ def read_spec(path: str | Path) -> SweepSpec:
     return parse_spec(data, str(path))
 
 
-def run_point(system_name: str, spec: SweepSpec, point: dict[str, float]) -> dict:
-    """One co-simulation; never raises: the error is part of the row."""
+def run_point(system_name, spec: SweepSpec, point: dict[str, float]) -> dict:
+    """One co-simulation; never raises: the error is part of the row.  ``system_name``: a system name or file,
+    or a :class:`~harness.studies.sweep_cluster.SystemFile` sent by the client (loaded from this worker's copy)."""
     from harness import load
+    from harness.studies.sweep_cluster import system_on_worker
 
     row: dict = dict(point)
     row.update({name: math.nan for name in spec.outputs})  # a failed point keeps every column (NaN)
@@ -285,7 +317,7 @@ def run_point(system_name: str, spec: SweepSpec, point: dict[str, float]) -> dic
         wanted = sorted({c for e in spec.outputs.values() for c in qoi.columns(e)})
         # the failure is recorded in the row, not warned about per point; the run's own message (e.g. the FMU
         # refusing a parameter) is the error, and quantities of a partial run would be misleading (NaN)
-        run = trial(load(system_name), start_values=params, output=wanted or None, **spec.run)
+        run = trial(load(system_on_worker(system_name)), start_values=params, output=wanted or None, **spec.run)
         if run.complete:
             for name, expr in spec.outputs.items():
                 row[name] = qoi.evaluate(expr, run.result)
@@ -305,6 +337,7 @@ def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, w
     from harness import load
     from harness.model import resolve_fmu
     from harness.studies.sweep_checks import check_workers, default_workers, point_key
+    from harness.studies.sweep_cluster import check_scheduler, payload, shipped
 
     workers = default_workers() if workers is None else workers
     check_workers(workers, local=scheduler is None)
@@ -326,13 +359,22 @@ def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, w
 
         import logging
 
+        if scheduler:
+            check_scheduler(scheduler)   # one line for a service that is no dask scheduler, before dask tries
         # silence_logs: the workers' WARNING lines (e.g. tasks cancelled after Ctrl-C) would follow the
         # sweep's own one-line report; errors still show
         cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                                       dashboard_address=":0", silence_logs=logging.ERROR)
         try:
             with Client(scheduler or cluster) as client:
-                futures = [client.submit(run_point, system_name, spec, p, pure=False) for p in todo]
+                # a system file goes to the workers as bytes (they may share no disk with this process): as a
+                # task of its own that returns them, so the scheduler holds them once and computes them again
+                # when the worker holding them is lost (scattered data would be lost with it, and every point
+                # after it cancelled: measured)
+                system = shipped(system_name)
+                if not isinstance(system, str):
+                    system = client.submit(payload, system, key=f"system-file-{system.digest[:32]}")
+                futures = [client.submit(run_point, system, spec, p, pure=False) for p in todo]
                 try:
                     for fut in _progress(as_completed(futures), progress, total=len(futures)):
                         finished(fut.result())
@@ -378,8 +420,9 @@ def register(subparsers) -> None:
                     "variables, parameters set, quantities of interest, error, wall_time [s]). The spec, the "
                     "parameters, the quantities, the output format and --workers are checked before the first "
                     "point. Each finished point is appended to OUT.partial.csv at once; a complete sweep "
-                    "writes OUT and removes it, an interrupted one (Ctrl-C: exit 130) keeps it, and --resume "
-                    "skips the points it holds.")
+                    "writes OUT (and OUT's stem.sweep.json, what the sweep was) and removes it, an interrupted one "
+                    "(Ctrl-C: exit 130) keeps it, and --resume skips the points it holds. A system file (.ssp, "
+                    ".fmu, .py) is sent to the workers, which need not share a disk with this process.")
     p.add_argument("system", help="system module name in systems/ or an .ssp/.ssd file")
     p.add_argument("--grid", required=True, type=Path, metavar="SPEC",
                    help="sweep description (.yaml/.yml/.json; format: module harness.studies.sweep)")
@@ -391,7 +434,9 @@ def register(subparsers) -> None:
     p.add_argument("--out", type=Path, default=None, metavar="FILE",
                    help="result file, .csv or .parquet (default: results/sweep_<system>.csv)")
     p.add_argument("--resume", action="store_true",
-                   help="skip the points already in OUT.partial.csv (default: start afresh)")
+                   help="skip the points already in OUT.partial.csv, which must be of the same system, spec and "
+                        "settings (a torn last line is run again); on a finished sweep do nothing (default: start "
+                        "afresh)")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
                    help="also write the charts of the spec's plot section to DIR/<spec stem>.png and .svg "
                         "(default: no charts)")
@@ -401,7 +446,8 @@ def register(subparsers) -> None:
 def _run_cli(args) -> int:
     import sys
 
-    from harness.studies.sweep_checks import PointLog, default_workers, partial_path, preflight
+    from harness.studies.sweep_checks import (PointLog, default_workers, finished, identity, identity_path,
+                                              partial_path, preflight)
 
     workers = default_workers() if args.workers is None else args.workers
     spec = read_spec(args.grid)
@@ -409,8 +455,21 @@ def _run_cli(args) -> int:
         raise SweepError(f"{args.grid}: --plot needs a 'plot:' section in the spec")
     out = Path(args.out or Path("results") / f"sweep_{Path(args.system).stem}.csv")
     preflight(args.system, spec, out, workers, local=args.scheduler is None)
-    log = PointLog(partial_path(out), spec, resume=getattr(args, "resume", False))
+    if args.scheduler:
+        from harness.studies.sweep_cluster import check_scheduler
+
+        check_scheduler(args.scheduler)   # before the partial file: a wrong address loses and writes nothing
+    ident = identity(args.system, spec)
+    resume = getattr(args, "resume", False)
+    if resume and not partial_path(out).exists() and finished(out, spec, ident):
+        print(f"{out}: complete, nothing to do ({len(spec.points)} points; run without --resume to compute "
+              f"them again)")
+        return 0
+    log = PointLog(partial_path(out), spec, resume=resume, identity=ident)
     skipped = len(log.done)
+    if log.dropped:
+        print(f"warning: {log.path}: {log.dropped} torn or incomplete line(s) dropped; their points run again",
+              file=sys.stderr)
     try:
         df = run_sweep(args.system, spec, scheduler=args.scheduler, workers=workers, log=log)
     except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM as the command line raises it (status 143)
@@ -421,7 +480,9 @@ def _run_cli(args) -> int:
               f"{log.path}; rerun with --resume to skip them", file=sys.stderr)
         return status
     out = save(df, out)
+    identity_path(out).write_text(json.dumps(ident, indent=1, sort_keys=True) + "\n")
     log.path.unlink(missing_ok=True)
+    log.id_path.unlink(missing_ok=True)
     failed = int((df["error"] != "").sum())
     resumed = f" ({skipped} taken from {log.path.name})" if skipped else ""
     print(f"{len(df)} points{resumed}, {failed} failed; wrote {out}")

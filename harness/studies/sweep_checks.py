@@ -10,14 +10,18 @@ right columns (a typo in a function name); the output file cannot be written (un
 pyarrow or fastparquet, a folder that cannot be created or written: the run command's checks).
 
 :class:`PointLog` appends each finished point to ``<out stem>.partial.csv`` as it finishes (header first).
-A sweep that completes writes ``--out`` and removes the partial file; one that is interrupted (Ctrl-C) or
-fails leaves it, with every finished point.  ``--resume`` reads it and skips the points it holds (points are
-matched on the values of the sweep variables).
+Beside it ``<out stem>.partial.json`` records the sweep's :func:`identity` (system or file hash, points,
+expressions, run settings, toolkit version).  A sweep that completes writes ``--out`` and its identity beside it
+(``<out stem>.sweep.json``) and removes the partial files; one that is interrupted (Ctrl-C) or fails leaves it, with every finished point.
+``--resume`` refuses a partial file of another sweep in one line, drops a torn or incomplete last line (and
+runs that point again), skips the points it holds (matched on the values of the sweep variables), and on a
+finished sweep of the same identity says that there is nothing to do.
 """
 from __future__ import annotations
 
 import csv
 import difflib
+import json
 import math
 import os
 from pathlib import Path
@@ -183,35 +187,154 @@ def point_key(spec, row) -> tuple:
     return tuple(float(row[v]) for v in spec.variables)
 
 
-class PointLog:
-    """Appends finished points to ``path`` (CSV, header first); ``done`` holds the keys already there."""
+def toolkit_version() -> str:
+    from importlib import metadata
 
-    def __init__(self, path: Path, spec, resume: bool):
+    try:
+        return metadata.version("pressdrive")
+    except metadata.PackageNotFoundError:  # pragma: no cover - a tree that was never installed
+        return "(not installed)"
+
+
+def identity(system_name: str, spec) -> dict:
+    """What makes two sweeps the same: the system (a drive's name, or a file's name and SHA-256), the points
+    (their count and a hash of the variables and values), the ``set:`` and ``outputs:`` expressions, the run
+    settings (stop time, step, master, extrapolation) and the toolkit's version.  Written beside the partial
+    file and beside the result; ``--resume`` compares it field by field."""
+    import hashlib
+
+    path = Path(str(system_name))
+    if path.is_file():
+        system = f"{path.name} sha256:{hashlib.sha256(path.read_bytes()).hexdigest()}"
+    else:
+        system = str(system_name)
+    grid = json.dumps([spec.variables, [[float(p[v]) for v in spec.variables] for p in spec.points]])
+    return {"system": system,
+            "points": f"{len(spec.points)} points sha256:{hashlib.sha256(grid.encode()).hexdigest()[:16]}",
+            "set": {k: str(v) for k, v in spec.set.items()},
+            "outputs": {k: str(v) for k, v in spec.outputs.items()},
+            **{k: spec.run.get(k) for k in ("stop_time", "step", "master", "extrapolation")},
+            "version": toolkit_version()}
+
+
+def identity_mismatch(stored: dict, now: dict, where: Path) -> str | None:
+    """The one-line refusal when ``stored`` (read from ``where``) is not ``now``, naming the first field that
+    differs with both values; None when they agree."""
+    for key in now:
+        if stored.get(key) != now[key]:
+            return (f"--resume: {where} is of another sweep: {key} {_shown(stored.get(key))} there, "
+                    f"{_shown(now[key])} now; run without --resume to start afresh, or give the same "
+                    f"system, spec and toolkit")
+    return None
+
+
+def _shown(value) -> str:
+    return "(default)" if value is None else repr(value) if isinstance(value, (str, dict)) else str(value)
+
+
+class PointLog:
+    """Appends finished points to ``path`` (a plain CSV: the header, one line per point, each written whole and
+    ended by a newline) and keeps the sweep's :func:`identity` beside it (``id_path``: ``x.partial.csv`` ->
+    ``x.partial.json``).  ``done`` holds the keys already there.
+
+    With ``resume`` the file must be of the same sweep (its identity file, else one line naming the field);
+    a line without its newline (a crash mid-write), of another field count, with a value that is no number or
+    a point that is not in the spec is dropped and its point run again (``dropped`` counts them); the file is
+    rewritten with the good lines so the appended ones follow on a clean line.  A point is logged once."""
+
+    def __init__(self, path: Path, spec, resume: bool, identity: dict | None = None):
         self.path = Path(path)
         self.spec = spec
+        self.identity = dict(identity or {})
         self.columns = [*spec.variables, *(f"set:{k}" for k in spec.set if k not in spec.variables),
                         *spec.outputs, "error", "wall_time"]
         self.rows: list[dict] = []
+        self.dropped = 0
+        self.id_path = self.path.with_suffix(".json")
         if resume and self.path.exists():
-            old = pd.read_csv(self.path, keep_default_na=False, na_values=[""])
-            missing = [c for c in self.columns if c not in old.columns]
-            if missing:
-                _fail(f"--resume: {self.path} was written by another sweep (no column {missing[0]!r})")
-            old["error"] = old["error"].fillna("").astype(str)
-            self.rows = old[self.columns].to_dict("records")
-        elif self.path.exists():
-            self.path.unlink()
+            self.rows = self._read()
+            self._write(self.rows)
+        else:
+            self.path.unlink(missing_ok=True)
+            self.id_path.write_text(json.dumps(self.identity, indent=1, sort_keys=True) + "\n")
         self.done = {point_key(spec, r) for r in self.rows}
-        self.path.parent.mkdir(parents=True, exist_ok=True)
         if not self.path.exists():
-            with open(self.path, "w", newline="") as f:
-                csv.writer(f).writerow(self.columns)
+            self._write([])
+
+    def _read(self) -> list[dict]:
+        try:
+            stored = json.loads(self.id_path.read_text())
+        except (OSError, ValueError):
+            stored = None
+        if not isinstance(stored, dict):
+            _fail(f"--resume: {self.path} does not say which sweep wrote it (no readable {self.id_path.name} "
+                  f"beside it); run without --resume to start afresh")
+        problem = identity_mismatch(stored, self.identity, self.id_path)
+        if problem:
+            _fail(problem)
+        body = self.path.read_text().splitlines(keepends=True)
+        if body and not body[-1].endswith("\n"):   # the last line of a crash mid-write
+            body.pop()
+            self.dropped += 1
+        records = csv.reader(body)
+        header = next(records, None)
+        if header is not None and header != self.columns:
+            missing = [c for c in self.columns if c not in header]
+            _fail(f"--resume: {self.path} was written by another sweep (columns "
+                  f"{'no ' + repr(missing[0]) if missing else 'in another order'})")
+        wanted = {point_key(self.spec, p) for p in self.spec.points}
+        rows, seen = [], set()
+        for rec in records:
+            row = self._row(rec)
+            key = point_key(self.spec, row) if row is not None else None
+            if row is None or key not in wanted or key in seen:
+                self.dropped += row is None or key not in wanted
+                continue
+            seen.add(key)
+            rows.append(row)
+        return rows
+
+    def _row(self, rec: list[str]) -> dict | None:
+        if len(rec) != len(self.columns):
+            return None
+        row = {}
+        for c, text in zip(self.columns, rec):
+            if c == "error":
+                row[c] = text
+                continue
+            try:
+                row[c] = float(text) if text != "" else math.nan
+            except ValueError:
+                return None
+            if c in self.spec.variables and not math.isfinite(row[c]):
+                return None
+        return row
+
+    def _line(self, row: dict) -> list:
+        return [repr(row.get(c)) if isinstance(row.get(c), float) else row.get(c, "") for c in self.columns]
+
+    def _write(self, rows: list[dict]) -> None:
+        import io
+
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(self.columns)
+        for r in rows:
+            w.writerow(self._line(r))
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        tmp.write_text(buf.getvalue())
+        os.replace(tmp, self.path)
 
     def add(self, row: dict) -> None:
+        key = point_key(self.spec, row)
+        if key in self.done:   # a point dask ran twice (its worker lost after it finished): logged once
+            return
+        self.done.add(key)
         self.rows.append(row)
         with open(self.path, "a", newline="") as f:
-            csv.writer(f).writerow([repr(row.get(c)) if isinstance(row.get(c), float) else row.get(c, "")
-                                    for c in self.columns])
+            csv.writer(f, lineterminator="\n").writerow(self._line(row))
+            f.flush()
 
     def frame(self) -> pd.DataFrame:
         order = {tuple(float(p[v]) for v in self.spec.variables): i for i, p in enumerate(self.spec.points)}
@@ -219,4 +342,35 @@ class PointLog:
         return pd.DataFrame(rows, columns=self.columns)
 
 
-__all__ = ["preflight", "check_workers", "check_out", "PointLog", "partial_path", "point_key"]
+def identity_path(out: Path) -> Path:
+    """Where a finished sweep keeps its :func:`identity`: ``x.csv`` -> ``x.sweep.json``."""
+    out = Path(out)
+    return out.with_name(f"{out.stem}.sweep.json")
+
+
+def finished(out: Path, spec, ident: dict) -> bool:
+    """True when ``out`` is the finished result of this very sweep (its identity file agrees and it holds
+    every point); one line when the identity file names another sweep."""
+    ipath = identity_path(out)
+    if not (Path(out).is_file() and ipath.is_file()):
+        return False
+    try:
+        stored = json.loads(ipath.read_text())
+    except ValueError:
+        return False
+    problem = identity_mismatch(stored if isinstance(stored, dict) else {}, ident, ipath)
+    if problem:
+        _fail(problem)
+    try:
+        df = pd.read_parquet(out) if Path(out).suffix.lower() == ".parquet" else pd.read_csv(out)
+    except Exception:
+        return False
+    try:
+        keys = {point_key(spec, r) for r in df[spec.variables].to_dict("records")}
+    except (KeyError, ValueError, TypeError):
+        return False
+    return keys == {point_key(spec, p) for p in spec.points}
+
+
+__all__ = ["preflight", "check_workers", "check_out", "PointLog", "partial_path", "point_key", "identity",
+           "identity_path", "finished"]
