@@ -73,6 +73,10 @@ def describe(system: System, only: str | None = None) -> list[str]:
             pad_s = max(len(s.name) for s in system.scenes)
             lines += [f"  {s.name:<{pad_s}}  {s.question}" + ("  [default]" if s.name == system.default_scene else "")
                       for s in system.scenes]
+        if system.scenarios:
+            lines.append("scenarios, transients (run SYSTEM --scenario NAME):")
+            pad_s = max(len(s.name) for s in system.scenarios)
+            lines += [f"  {s.name:<{pad_s}}  {s.question}" for s in system.scenarios]
     lines.append("variables (parameters with this system's values; set one with --set Instance.name=VALUE):")
     for inst in system.instances:
         if only is not None and inst.name != only:

@@ -97,3 +97,91 @@ def test_a_scenario_file(tmp_path):
         S.read(tmp_path / "k.yaml")
     with pytest.raises(SystemError_, match="does not exist"):
         S.read(tmp_path / "none.yaml")
+
+
+def _frame(t, w, angle, extra=None) -> pd.DataFrame:
+    df = pd.DataFrame({"flywheel.crank.w": w, "flywheel.crank.phi": angle, **(extra or {})},
+                      index=pd.Index(t, name="time"))
+    df.attrs["units"] = {c: "" for c in df.columns}
+    return df
+
+
+def test_the_stop_quantities_of_a_constant_deceleration():
+    """A shaft at w0 decelerating at a from t_e: it stops w0/a later having turned w0^2/(2a) (closed form; the
+    quantity counts the shaft stopped below 1 % of w0, i.e. 0.99 w0/a and w0 T - a T^2/2 with T that time)."""
+    system = load("bed_drive")
+    w0, a, t_e, dt = 6.0, 20.0, 1.5, 1e-4
+    t = np.arange(0, 2.2 + dt / 2, dt)
+    w = np.where(t < t_e, w0, np.maximum(w0 - a * (t - t_e), 0.0))
+    angle = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * dt)])    # the exact integral of w
+    stop = Scenario("stop", "", "stop", 2.2, (Change(t_e, "motor.supply", 0.0),), watch="bed.bed.s")
+    bed = 0.15 + 0.14 * np.sin(angle + bed_drive_origin())
+    q = S.transient(system, stop, _frame(t, w, angle, {"bed.bed.s": bed}))
+    T = 0.99 * w0 / a
+    assert q["stopping_time"] == pytest.approx(T, abs=2 * dt)
+    assert q["stopping_angle"] == pytest.approx(math.degrees(w0 * T - 0.5 * a * T * T), abs=math.degrees(w0 * 2 * dt))
+    k = (t >= t_e)
+    prior_max = bed[(t >= t_e - 2 * math.pi / w0) & (t < t_e)].max()
+    assert q["overrun"] == pytest.approx(max(0.0, bed[k].max() - prior_max), abs=1e-3)
+
+
+def bed_drive_origin() -> float:
+    return load("bed_drive").quantities.cycle_origin
+
+
+def test_the_startup_quantities_of_a_first_order_run_up():
+    """w = W (1 - exp(-t/tau)): 95 % of W at -tau ln(0.05), the angle there W (t95 - tau 0.95) (closed form)."""
+    system = load("bed_drive")
+    W, tau, dt = 6.5, 0.3, 1e-4
+    t = np.arange(0, 6.0 + dt / 2, dt)
+    w = W * (1 - np.exp(-t / tau))
+    angle = W * (t - tau * (1 - np.exp(-t / tau)))
+    q = S.transient(system, Scenario("up", "", "startup", 6.0), _frame(t, w, angle))
+    t95 = -tau * math.log(0.05)
+    assert q["final_speed"] == pytest.approx(W / (2 * math.pi / 60), rel=1e-6)
+    assert q["time_to_speed"] == pytest.approx(t95, rel=1e-4)
+    assert q["angle_to_speed"] == pytest.approx(math.degrees(W * (t95 - tau * 0.95)), rel=1e-4)
+
+
+def test_a_jam_from_the_command_line(tmp_path):
+    """run spine_knife --scenario jam: the load step's speed drop printed and written beside the result, equal
+    to the drop computed from the result's columns."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "jam.csv"
+    r = subprocess.run([sys.executable, "-m", "harness", "run", "spine_knife", "--scenario", "jam", "--out", str(out),
+                        "--quiet-quantities"], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "scenario jam (load)" in r.stdout and "speed_drop" in r.stdout
+    saved = json.loads((tmp_path / "jam.transient.json").read_text())
+    drop = {q["name"]: q["value"] for q in saved["quantities"]}["speed_drop"]
+    df = pd.read_csv(out, index_col=0)
+    w = df["shaft.crank.w"]
+    t_e = S.find(load("spine_knife"), "jam").changes[0].time
+    w_e = np.interp(t_e, df.index, w)
+    assert drop == pytest.approx(100 * (1 - w[df.index >= t_e].abs().min() / abs(w_e)), rel=1e-9)
+    assert drop > 1.0     # the load step reached the drive
+
+
+@pytest.mark.slow
+def test_an_emergency_stop_of_the_bed_drive_against_the_monolithic_reference():
+    """The bed drive at speed, stopped at 0.5 s (motor off, brake at twice rated torque after 50 ms): the run is
+    complete (a drive that stops is not a diverged one), and the co-simulation's crank speed and stopping time
+    agree with the monolithic reference, which integrates the brake's hold and slide as events."""
+    from harness.studies.reference import scenario_reference
+
+    system = load("bed_drive")
+    base = S.find(system, "estop")
+    sc = Scenario("estop_early", base.question, "stop", 1.1,
+                  tuple(Change(0.5, c.variable, c.value) for c in base.changes), base.parameters, base.watch)
+    df = S.run(system, sc, on_error="raise")
+    assert df.attrs["complete"]
+    ref = scenario_reference(system, sc, step=system.experiment.step)
+    w, wr = df["flywheel.crank.w"].to_numpy(), ref["flywheel.crank.w"].to_numpy()
+    assert np.max(np.abs(w - wr)) < 0.005 * np.ptp(wr)
+    q_ref = S.transient(system, sc, ref)
+    q = df.attrs["transient"]
+    assert q["stopping_time"] == pytest.approx(q_ref["stopping_time"], abs=2 * system.experiment.step)
+    assert q["stopping_angle"] == pytest.approx(q_ref["stopping_angle"], rel=0.01)
+    assert np.all(np.abs(wr[ref.index > 0.5 + q_ref["stopping_time"] + 0.05]) < 0.01 * 6.3)
