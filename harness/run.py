@@ -713,6 +713,10 @@ def run_cli(args) -> int:
             a["transient"].write_json(out.with_name(f"{out.stem}.transient.json"))
     where = f"wrote {out}" if out is not None else "no --out given, result not written"
     if args.plot is not None and len(df):
+        if a.get("scenario"):  # a transient's charts beside the plain run's, not over them
+            import dataclasses
+
+            system = dataclasses.replace(system, name=f"{system.name}_{a['scenario']}")
         where += "; chart " + ", ".join(str(p) for p in _plot(system, df, args.plot))
         from harness.charts import cycle_chart_missing
 
