@@ -107,6 +107,13 @@ class History:
         np.minimum(self.n + 1, self.depth, out=self.n)
         self._full = bool(self.n.size == 0 or self.n.min() == self.depth)
 
+    def restart(self) -> None:
+        """Keep only the newest sample of every signal: an event (an input's step) lies behind it, so the
+        extrapolation starts again from there (order 0, then rising as samples come) instead of reaching
+        across the event."""
+        np.minimum(self.n, 1, out=self.n)
+        self._full = bool(self.n.size == 0 or self.n.min() == self.depth)
+
     def copy_from(self, other: "History") -> None:
         self.t[:] = other.t
         self.y[:] = other.y

@@ -482,6 +482,8 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
                 signals.apply(t_ns)
                 if refresh:
                     m.refresh(t_ns / NS)
+                if t_ns in signals.step_times:  # an event: no coupling signal is extrapolated across it
+                    m.history.restart()
             t_ns, h_ns = controller.advance(m, t_ns, h_ns, stop_ns)
             steps += 1
             if sample_ns == step_ns or (t_ns - start_ns) % sample_ns == 0 or t_ns >= stop_ns:

@@ -169,6 +169,8 @@ class Signals:
             continuous = v.type == "Real" and v.variability not in ("discrete", "tunable")
             self.columns.append((inst, var, continuous, _typed(np.asarray(values), v, ref, times)))
         self._bound: list = []
+        times, counts = np.unique(self.t_ns, return_counts=True)
+        self.step_times = frozenset(int(t) for t in times[counts > 1])  # ns: where the table steps
 
     @property
     def instances(self) -> set[str]:

@@ -76,6 +76,21 @@ def test_a_driven_input_passes_through_a_connection_without_lag_under_every_mast
     np.testing.assert_allclose(df["a.flange.w"], w, rtol=0, atol=1e-9)
 
 
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel", "jacobian"])
+def test_no_coupling_signal_is_extrapolated_across_an_input_step(master, order):
+    """The same torque step with extrapolation order 1 and 2: the coupling's history restarts at the step, so
+    the torque held over the first step after it is T, not T plus the jump extrapolated across it (which
+    would put w off by T/J h/2 at order 1)."""
+    J, T = 0.5, 2.0
+    system = System("torque_step", [Instance("g", "Gain", {"k": 1.0}), Instance("a", "Inertia", {"J": J})],
+                    [Connection("g.y", "a.flange.tau", unit_conversion=True)], experiment=Experiment(1.0, H))
+    signal = pd.DataFrame({"time": [0.0, T_STEP, T_STEP, 1.0], "g.u": [0.0, 0.0, T, T]})
+    df = quiet(system, master=master, input=signal, extrapolation=order)
+    t = df.index.to_numpy()
+    np.testing.assert_allclose(df["a.flange.w"], np.where(t > T_STEP, (t - T_STEP) * T / J, 0.0), rtol=0, atol=1e-9)
+
+
 def test_rows_at_one_time_and_the_table_ends_follow_fmpys_input():
     """The interpolation rules on a table alone (FMPy's Input.interpolate, compared value for value)."""
     from fmpy.simulation import Input
