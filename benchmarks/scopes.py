@@ -47,7 +47,10 @@ SCOPES = {"stepping": "stepping alone: from initialised to the stop time, no res
                       "the harness keeps the judged columns in memory)",
           "whole": "whole process: start a fresh process, load the SSP, initialise, run, write the judged columns "
                    "to a CSV file, exit"}
-GOALS = {"stepping": 5.0, "whole": 2.0}
+GOALS = {"stepping": 5.0, "whole": 2.0, "sweep": 3.0}
+SWEEP_SCOPE = ("sweep of the same points: one fresh process per tool pinned to one CPU, start to exit; each point "
+               "initialised and run to the stop time, no time series written (the harness: its sweep command, "
+               "warm FMU code, new instances per point; a peer: the SSP loaded again per point)")
 
 
 @dataclass(frozen=True)
@@ -215,18 +218,32 @@ def time_whole(cfg: Config, ssp: Path, stop: float, columns: list[str], mode: st
     out = work / f"{cfg.tool}.csv"
     out.unlink(missing_ok=True)
     cmd = [*_pin(mode), *whole_command(cfg, ssp, stop, columns, out)]
+    return _timed(cmd, work, timeout, out)
+
+
+def _timed(cmd: list[str], cwd: Path, timeout: float, out: Path | None = None) -> dict:
+    """Wall seconds of a fresh process from its start to its exit and its CPU seconds (user + system of the
+    processes it waited for, the kernel's accounting); ``out``: the file it must have written."""
+    import resource
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     try:
-        r = subprocess.run(cmd, cwd=work, env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        r = subprocess.run(cmd, cwd=cwd, env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                            text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         return {"error": f"no result after {timeout:g} s"}
     seconds = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
+    if out is None:
+        return {"error": f"exit code {r.returncode}: " + " ".join((r.stderr or "").split())[-200:]} \
+            if r.returncode else {"seconds": seconds, "cpu_s": cpu}
     if r.returncode != 0 or not out.is_file():
         return {"error": f"exit code {r.returncode}: " + " ".join((r.stderr or "").split())[-200:]}
     with open(out) as fh:
         rows = sum(1 for _ in fh) - 1
-    return {"seconds": seconds, "rows": rows}
+    return {"seconds": seconds, "cpu_s": cpu, "rows": rows}
 
 
 def harness_parts(cfg: Config, ssp: Path, stop: float, columns: list[str], mode: str, timeout: float) -> dict:
@@ -283,11 +300,14 @@ def measure(name: str, configs: dict, modes, repeats: int, quick: bool, timeout:
     columns = host_accuracy.columns_of(system)
     runs = {t: c for t, c in configs.items() if isinstance(c, Config)}
     rows = []
+    if repeats < 1:
+        return rows
     with tempfile.TemporaryDirectory(prefix="scopes_") as tmp:
         work = Path(tmp)
         ssp = export_ssp(system, work / f"{name}.ssp")
         for mode in modes:
             got = {(t, s): [] for t in runs for s in SCOPES}
+            cpu = {t: [] for t in runs}
             errors = {}
             for k in range(repeats):
                 for t, cfg in runs.items():
@@ -298,6 +318,8 @@ def measure(name: str, configs: dict, modes, repeats: int, quick: bool, timeout:
                             errors[(t, scope)] = r["error"]
                         else:
                             got[(t, scope)].append(r["stepping_s"] if scope == "stepping" else r["seconds"])
+                            if scope == "whole":
+                                cpu[t].append(r["cpu_s"])
                 log(f"{name} {mode}: repetition {k + 1} of {repeats} done")
             for t, cfg in runs.items():
                 for scope in SCOPES:
@@ -305,17 +327,71 @@ def measure(name: str, configs: dict, modes, repeats: int, quick: bool, timeout:
                     rows.append(dict(drive=name, stop_time=stop, mode=mode, scope=scope, tool=t, run=cfg.label(),
                                      chosen=cfg.note, min_s=min(xs) if xs else math.nan,
                                      median_s=statistics.median(xs) if xs else math.nan, runs=len(xs),
+                                     cpu_min_s=min(cpu[t]) if scope == "whole" and cpu[t] else math.nan,
                                      error="" if xs else errors.get((t, scope), "no run")))
             if "harness" in runs:
                 parts = harness_parts(runs["harness"], ssp, stop, columns, mode, timeout)
                 rows.append(dict(drive=name, stop_time=stop, mode=mode, scope="parts", tool="harness",
                                  run=runs["harness"].label(), chosen=json.dumps(parts), min_s=math.nan,
-                                 median_s=math.nan, runs=1, error=parts.get("error", "")))
+                                 median_s=math.nan, runs=1, cpu_min_s=math.nan, error=parts.get("error", "")))
     for t, c in configs.items():
         if not isinstance(c, Config):
             for scope in SCOPES:
                 rows.append(dict(drive=name, stop_time=stop, mode="", scope=scope, tool=t, run="", chosen="",
-                                 min_s=math.nan, median_s=math.nan, runs=0, error=c))
+                                 min_s=math.nan, median_s=math.nan, runs=0, cpu_min_s=math.nan, error=c))
+    return rows
+
+
+SWEEP_PARAMETERS = {"feeder_gto52": "feeder.clearance", "bed_drive": "bed.m_T"}
+SWEEP_PEERS = ("omsimulator", "ecos")   # the peers whose Python API sets a parameter of a loaded SSP (benchmarks.whole)
+
+
+def sweep_values(name: str, points: int) -> list[float]:
+    """``points`` values of the drive's sweep parameter, from 0.9 to 1.1 times its declared value."""
+    from harness import load
+
+    inst, _, var = SWEEP_PARAMETERS[name].partition(".")
+    value = float(next(i for i in load(name).instances if i.name == inst).parameters[var])
+    return [value * (0.9 + 0.2 * k / max(points - 1, 1)) for k in range(points)]
+
+
+def sweep_command(cfg: Config, ssp: Path, stop: float, name: str, values: list[float], work: Path) -> list[str]:
+    """A sweep of ``values`` as the tool's user runs one on one CPU: the harness's ``sweep`` command with its
+    points in its own process (``--workers 0``: the FMUs' code imported once, each point opening its instances
+    again), a peer's loop loading the SSP again for every point (:mod:`benchmarks.whole`).  Nobody writes a
+    time series; the harness writes its one row per point."""
+    if cfg.tool == "harness":
+        spec = work / "sweep.json"
+        spec.write_text(json.dumps({"grid": {SWEEP_PARAMETERS[name]: values}, "stop_time": stop, "step": cfg.step,
+                                    "master": cfg.master, "extrapolation": cfg.order}))
+        return [sys.executable, "-m", "harness", "sweep", str(ssp), "--grid", str(spec), "--workers", "0",
+                "--out", str(work / "sweep.csv")]
+    return [sys.executable, "-m", "benchmarks.whole", "--sweep", cfg.tool, str(ssp), repr(stop), repr(cfg.step),
+            SWEEP_PARAMETERS[name], *map(repr, values)]
+
+
+def sweep(name: str, configs: dict, points: int, quick: bool, timeout: float, log=print) -> list[dict]:
+    """The same ``points`` points in the harness and each sweep peer, each a fresh process pinned to one CPU
+    (``taskset -c 0``), timed from start to exit (wall and CPU); throughput = points / wall seconds."""
+    from harness import load
+    from harness.ssp import export_ssp
+
+    system = load(name)
+    stop = system.experiment.step * 50 if quick else system.accuracy.stop_time
+    values = sweep_values(name, points)
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="scopes_sweep_") as tmp:
+        work = Path(tmp)
+        ssp = export_ssp(system, work / f"{name}.ssp")
+        for t, cfg in configs.items():
+            if not isinstance(cfg, Config) or (t != "harness" and t not in SWEEP_PEERS):
+                continue
+            r = _timed([*_pin("pinned"), *sweep_command(cfg, ssp, stop, name, values, work)], work, timeout)
+            log(f"{name} sweep of {points} points, {t}: {r}")
+            rows.append(dict(drive=name, stop_time=stop, mode="pinned", scope="sweep", tool=t, run=cfg.label(),
+                             chosen=f"{points} points of {SWEEP_PARAMETERS[name]}", min_s=r.get("seconds", math.nan),
+                             median_s=r.get("seconds", math.nan), runs=0 if "error" in r else 1,
+                             cpu_min_s=r.get("cpu_s", math.nan), error=r.get("error", "")))
     return rows
 
 
@@ -336,7 +412,7 @@ def tables(rows: list[dict]) -> str:
     keys = []
     for r in rows:
         k = (r["drive"], r["mode"], r["scope"])
-        if r["mode"] and r["scope"] in SCOPES and k not in keys:
+        if r["mode"] and r["scope"] in ALL_SCOPES and k not in keys:
             keys.append(k)
     for drive, mode, scope in keys:
         sel = [r for r in rows if (r["drive"], r["mode"], r["scope"]) == (drive, mode, scope)]
@@ -344,20 +420,21 @@ def tables(rows: list[dict]) -> str:
         stop = sel[0]["stop_time"]
         judged = "quick: accuracy not judged" if sel[0]["chosen"].startswith("quick") else "at its declared accuracy"
         out.append(f"\n{drive}, {stop:g} s {judged}, {mode}"
-                   f"{' (taskset -c 0)' if mode == 'pinned' else ''}; SCOPE: {SCOPES[scope]}")
-        out.append(f"| tool | run | min [s] | median [s] | runs | min / harness's min |")
-        out.append("|---|---|---|---|---|---|")
+                   f"{' (taskset -c 0)' if mode == 'pinned' else ''}; SCOPE: {ALL_SCOPES[scope]}")
+        out.append("| tool | run | min [s] | median [s] | runs | min / harness's min | CPU, min [s] |")
+        out.append("|---|---|---|---|---|---|---|")
         for r in sel:
             ratio = (r["min_s"] / ours["min_s"] if ours and math.isfinite(ours["min_s"]) and math.isfinite(r["min_s"])
                      else math.nan)
             if r["error"]:
-                out.append(f"| {r['tool']} | {r['run']} | - | - | 0 | {r['error']} |")
+                out.append(f"| {r['tool']} | {r['run']} | - | - | 0 | {r['error']} | |")
             else:
+                c = r.get("cpu_min_s", math.nan)
                 out.append(f"| {r['tool']} | {r['run']} | {r['min_s']:.3g} | {r['median_s']:.3g} | {r['runs']} | "
-                           f"{ratio:.2f}x |")
+                           f"{ratio:.2f}x | {'-' if not math.isfinite(c) else f'{c:.3g}'} |")
         no_run = [r for r in rows if r["drive"] == drive and not r["mode"] and r["scope"] == scope]
         for r in no_run:
-            out.append(f"| {r['tool']} | - | - | - | 0 | {r['error']} |")
+            out.append(f"| {r['tool']} | - | - | - | 0 | {r['error']} | |")
         part = next((r for r in rows if (r["drive"], r["mode"], r["scope"]) == (drive, mode, "parts")), None)
         if scope == "whole" and part is not None and not part["error"]:
             p = json.loads(part["chosen"])
@@ -367,10 +444,14 @@ def tables(rows: list[dict]) -> str:
 
 
 def goal_lines(rows: list[dict], quick: bool) -> list[tuple[str, bool | None, str]]:
+    """Per drive: stepping, whole process and (where measured) sweep, each its ratio in every mode."""
     lines = []
     for drive in dict.fromkeys(r["drive"] for r in rows):
         for scope, goal in GOALS.items():
-            what = f"{drive}: {scope.replace('whole', 'whole process')} >= {goal:g}x faster than the fastest peer"
+            if scope == "sweep" and not any(r["drive"] == drive and r["scope"] == "sweep" for r in rows):
+                continue
+            what = (f"{drive}: sweep throughput >= {goal:g}x the fastest peer's" if scope == "sweep" else
+                    f"{drive}: {scope.replace('whole', 'whole process')} >= {goal:g}x faster than the fastest peer")
             got = {m: ratios(rows, drive, m, scope) for m in MODES}
             got = {m: v for m, v in got.items() if math.isfinite(v[0])}
             if quick or not got:
@@ -389,6 +470,9 @@ def write(rows: list[dict], path: Path) -> Path:
         w.writeheader()
         w.writerows(rows)
     return path
+
+
+ALL_SCOPES = {**SCOPES, "sweep": SWEEP_SCOPE}
 
 
 def _worker(kind: str, spec: str) -> int:
@@ -414,16 +498,32 @@ def main(argv=None) -> int:
     ap.add_argument("--modes", nargs="+", default=list(MODES), choices=MODES)
     ap.add_argument("--repeats", type=int, default=5, help="runs per tool, scope and mode (min and median)")
     ap.add_argument("--quick", action="store_true", help="50 steps, accuracy not judged (smoke test)")
+    ap.add_argument("--sweep", type=int, default=50, metavar="POINTS",
+                    help="points of the sweep per drive (0: no sweep)")
+    ap.add_argument("--sweep-tools", nargs="+", default=list(SWEEP_PEERS), choices=SWEEP_PEERS,
+                    help="the peers that sweep (the harness always does)")
     ap.add_argument("--timeout", type=float, default=600.0, help="per process [s]")
+    ap.add_argument("--use", action="append", default=[], metavar="DRIVE:TOOL=STEP[:MASTER:ORDER]",
+                    help="take this run instead of choosing one (repeatable; a drive given any --use runs only the "
+                         "tools given; their accuracy is then NOT judged here: give runs a full run chose)")
     ap.add_argument("--out", type=Path, default=None, help="folder of scopes.csv (default: results/benchmark"
                                                           "[-quick])")
     args = ap.parse_args(argv)
     out = args.out or ROOT / "results" / ("benchmark-quick" if args.quick else "benchmark")
     rows = []
     for name in args.drives:
-        configs = choose(name, args.tools, args.quick, args.timeout, log=lambda s: print(s, file=sys.stderr))
+        given = [u.split(":", 1)[1] for u in args.use if u.split(":", 1)[0] == name]
+        configs = {} if given else choose(name, args.tools, args.quick, args.timeout,
+                                          log=lambda s: print(s, file=sys.stderr))
+        for u in given:
+            tool, _, how = u.partition("=")
+            step, master, order = (how.split(":") + ["", "0"])[:3]
+            configs[tool] = Config(tool, float(step), master, int(order), "given with --use (chosen by a full run)")
         rows += measure(name, configs, args.modes, args.repeats, args.quick, args.timeout,
                         log=lambda s: print(s, file=sys.stderr))
+        if args.sweep:
+            rows += sweep(name, {t: c for t, c in configs.items() if t == "harness" or t in args.sweep_tools},
+                          args.sweep, args.quick, args.timeout, log=lambda s: print(s, file=sys.stderr))
     print(tables(rows))
     print("")
     for what, met, evidence in goal_lines(rows, args.quick):

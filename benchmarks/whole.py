@@ -14,6 +14,10 @@ library's, so the process costs what the tool costs.
   set ``default``, one ``step(n)``;
 * ``fmpy-ssp``: ``fmpy.ssp.simulation.simulate_ssp`` with the SSD's parameter bindings passed as a parameter
   set (as :mod:`benchmarks.host_accuracy` does), written with ``fmpy.util.write_csv``.
+
+``python -m benchmarks.whole --sweep TOOL SSP STOP STEP PARAMETER VALUE...``: a sweep as that tool's user runs
+one, each point in the same process with the archive loaded again (its FMUs too), no result file
+(``omsimulator``, ``ecos``).
 """
 from __future__ import annotations
 
@@ -115,8 +119,51 @@ def run_fmpy_ssp(ssp: str, stop: float, step: float, out: str, columns: list[str
 RUNNERS = {"omsimulator": run_omsimulator, "libcosim": run_libcosim, "ecos": run_ecos, "fmpy-ssp": run_fmpy_ssp}
 
 
+def sweep_omsimulator(ssp: str, stop: float, step: float, parameter: str, values: list[float]) -> None:
+    """One point per value: the SSP instantiated again (its FMUs loaded again), the parameter set, initialised,
+    run to the stop time without a result file, deleted."""
+    from OMSimulator import SSP, CRef
+
+    archive = SSP(ssp)
+    system = Path(ssp).stem
+    for value in values:
+        im = archive.instantiate()
+        im.setFixedStepSize(step)
+        im.setStopTime(stop)
+        im.setResultFile("")
+        im.setValue(CRef(system, *parameter.split(".", 1)), value)
+        im.initialize()
+        im.simulate()
+        im.terminate()
+        im.delete()
+
+
+def sweep_ecos(ssp: str, stop: float, step: float, parameter: str, values: list[float]) -> None:
+    """One point per value: a new simulation of the SSP (its FMUs loaded again), the parameter set before
+    ``init``, run to the stop time without a writer."""
+    import ecospy
+
+    ecospy.EcosLib.set_log_level("warn")
+    n = n_steps(stop, step)
+    for value in values:
+        with ecospy.EcosSimulation(ssp_path=str(Path(ssp).resolve()), step_size=step) as sim:
+            sim.set_real("{}::{}".format(*parameter.split(".", 1)), value)
+            if not sim.init(0.0, "default"):
+                raise RuntimeError(f"ecos init: {ecospy.EcosLib.get_last_error()}")
+            sim.step(n)
+            sim.terminate()
+
+
+SWEEPS = {"omsimulator": sweep_omsimulator, "ecos": sweep_ecos}
+
+
 def main(argv=None) -> int:
-    tool, ssp, stop, step, out, *columns = sys.argv[1:] if argv is None else argv
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["--sweep"]:   # --sweep TOOL SSP STOP STEP PARAMETER VALUE...
+        tool, ssp, stop, step, parameter, *values = argv[1:]
+        SWEEPS[tool](ssp, float(stop), float(step), parameter, [float(v) for v in values])
+        return 0
+    tool, ssp, stop, step, out, *columns = argv
     RUNNERS[tool](ssp, float(stop), float(step), out, columns)
     return 0
 
