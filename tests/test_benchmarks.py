@@ -414,3 +414,7 @@ def test_scopes_quick_prints_both_scopes_for_every_tool(tmp_path):
     assert {"imports_s", "load_ssp_s", "open_fmus_s", "init_s", "stepping_s", "write_s",
             "interpreter_s"} <= set(parts)
     assert "part by part" in proc.stdout
+    swept = {r["tool"]: r for r in rows if r["scope"] == "sweep"}        # the same 3 points in each, pinned
+    assert set(swept) == {"harness", *[p for p in scopes.SWEEP_PEERS if host_accuracy.unavailable(p) is None]}
+    assert all(float(r["min_s"]) > 0 and r["mode"] == "pinned" for r in swept.values()), swept
+    assert sum(f"SCOPE: {scopes.SWEEP_SCOPE}" in line for line in proc.stdout.splitlines()) == 1
