@@ -205,9 +205,9 @@ def work_precision_chart(name: str, table, verdicts, stem: Path) -> list[Path]:
     tool's whole run in the guarded worker, loading included, the harness's its initialisation and stepping: the
     chart places runs by accuracy and does not compare speeds, which :mod:`benchmarks.scopes` does at equal
     scope), the error being the worst of the drive's declared requirements as a multiple of its tolerance
-    (below 1: the run meets them all).  Runs that did not complete or could not be judged are drawn on the top edge with a cross, runs whose
-    error is beyond :data:`CHART_TOP` times the tolerance there with a triangle.  The points are also written to
-    ``<stem>.csv`` (NaN: not judged)."""
+    (below 1: the run meets them all).  Runs that did not complete or could not be judged are drawn on the top
+    edge with a cross, runs whose error is beyond :data:`CHART_TOP` times the tolerance there with a triangle.
+    The points are also written to ``<stem>.csv`` (NaN: not judged)."""
     import matplotlib
 
     matplotlib.use("Agg")
