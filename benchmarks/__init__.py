@@ -29,4 +29,8 @@ outputs without direct feed-through, against the harness with master ``jacobi-sa
 algorithm of libcosim, Ecos and CoFmuPy) and checks the targets of the issue.  ``--quick`` runs tiny sizes
 (a smoke test, timings meaningless).  Timings on a shared machine are noisy: run the final benchmark on a
 quiet one.
+
+Every tool is timed over the same scope here: its initialisation and stepping.  The time a user waits for
+at each drive's declared accuracy, each tool at its own step, in two scopes side by side (stepping alone;
+the whole process from start to exit, writing the same columns) and a sweep: ``python -m benchmarks.scopes``.
 """

@@ -26,7 +26,19 @@ if __name__ == "__main__":   # from the first line on: a SIGTERM while the comma
 import argparse  # noqa: E402
 
 
-def build_parser() -> argparse.ArgumentParser:
+class _Version(argparse._VersionAction):
+    """``--version``: the installed package's version, looked up only when asked for (reading the package
+    metadata costs a noticeable part of a short command's start-up)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        self.version = f"%(prog)s {_version()}"
+        super().__call__(parser, namespace, values, option_string)
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser; ``command="run"``: with the ``run`` command alone (the same ``run``, its help
+    and its errors; the other commands' modules, the studies and the synthesis tools with scipy, are then not
+    imported: a run's start-up is shorter by their import time)."""
     import os
 
     prog = "pressdrive" if os.path.basename(sys.argv[0] or "").startswith("pressdrive") else "python -m harness"
@@ -35,8 +47,15 @@ def build_parser() -> argparse.ArgumentParser:
                                  "`python -m harness` are the same command.")
     ap.add_argument("--debug", action="store_true",
                     help="show the traceback of a failure (accepted anywhere on the command line)")
-    ap.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    ap.add_argument("--version", action=_Version, version="")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    if command == "run":
+        from harness import run
+
+        run.register(sub)
+        _show_defaults(ap)
+        _accept_negative_numbers(ap)
+        return ap
     from harness import describe, run, ssp, synthesis
     from harness.studies import accuracy, precision, scenes, stability, sweep, takeup
 
@@ -125,6 +144,15 @@ def _debug_anywhere(argv: list[str]) -> tuple[list[str], bool]:
     return [a for a in argv[:end] if a != "--debug"] + argv[end:], debug
 
 
+def _command(argv: list[str]) -> str | None:
+    """The command word of ``argv`` when every argument before it is ``--debug`` (the only option before a
+    command that takes no value); None otherwise (``--help``, ``--version``, no command: the full parser)."""
+    for a in argv:
+        if a != "--debug":
+            return a if not a.startswith("-") else None
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     argv, debug = _debug_anywhere(argv)
@@ -147,7 +175,7 @@ def _main(argv: list[str], debug: bool) -> int:
         warnings.showwarning = lambda message, category, *a, **k: print(
             f"warning: {str(message).splitlines()[0] if str(message) else category.__name__}", file=sys.stderr)
     try:
-        ap = build_parser()
+        ap = build_parser(_command(argv))
         args = ap.parse_args(argv)
         _check_out_folder(args)
         return int(args.func(args) or 0)

@@ -469,8 +469,10 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
     bad_input = False
     suspect = ""
     detector = _detector(m, opts.divergence) if opts.divergence is not None and m.bond_labels else None
+    init_time = math.nan  # the initialisation's share of wall_time (NaN: it did not finish)
     try:
         m.initialize(start_ns, stop_ns, tolerance, params)
+        init_time = _time.perf_counter() - wall
         rec.record(start_ns / NS)
         if detector is not None:
             detector.times[0] = start_ns / NS  # its first block boundary: the start of the run
@@ -510,7 +512,8 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
     finally:
         if bar is not None:
             bar.close()
-    info.update(steps=steps, wall_time=_time.perf_counter() - wall, iterations=m.iterations,
+    info.update(steps=steps, wall_time=_time.perf_counter() - wall, init_time=init_time,
+                iterations=m.iterations,
                 fmu_steps=m.fmu_steps, halved_steps=m.halvings,
                 rejected=controller.rejected, max_error_estimate=controller.max_accepted_error)
     df = rec.frame(complete=not error, error=error, **info)

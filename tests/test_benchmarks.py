@@ -333,3 +333,88 @@ def test_work_precision_chart_puts_harness_and_peer_runs_on_one_scale(tmp_path, 
     assert bottom <= 0.5 and top >= 10.0      # every drawn point inside the axes
     points = pd.read_csv(tmp_path / "new" / "wp.csv")   # written into a folder that did not exist
     assert len(points) == 3 and points["worst_error_over_tolerance"].isna().sum() == 1
+
+
+def _scope_rows(times: dict) -> list[dict]:
+    """Rows as benchmarks.scopes.measure writes them: {(tool, mode, scope): min seconds}."""
+    return [dict(drive="bed_drive", stop_time=1.0, mode=mode, scope=scope, tool=tool, run="0.2 ms", chosen="",
+                 min_s=t, median_s=t * 1.1, runs=3, error="") for (tool, mode, scope), t in times.items()]
+
+
+def test_scope_tables_say_their_scope_and_compare_within_it():
+    """Every table is headed by its scope; a ratio divides two times of the same scope and mode, never a peer's
+    whole process by the harness's stepping (the comparison this benchmark replaces)."""
+    from benchmarks import scopes
+
+    times = {}
+    for mode in scopes.MODES:
+        times.update({("harness", mode, "stepping"): 0.25, ("harness", mode, "whole"): 1.5,
+                      ("omsimulator", mode, "stepping"): 0.70, ("omsimulator", mode, "whole"): 2.4,
+                      ("ecos", mode, "stepping"): 2.0, ("ecos", mode, "whole"): 3.0})
+    rows = _scope_rows(times)
+    text = scopes.tables(rows)
+    heads = [line for line in text.splitlines() if "SCOPE:" in line]
+    assert len(heads) == 4 and all(("pinned" in h) for h in heads)
+    assert sum(scopes.SCOPES["stepping"] in h for h in heads) == 2
+    assert sum(scopes.SCOPES["whole"] in h for h in heads) == 2
+    assert scopes.ratios(rows, "bed_drive", "pinned", "stepping") == (pytest.approx(0.70 / 0.25), "omsimulator")
+    assert scopes.ratios(rows, "bed_drive", "pinned", "whole") == (pytest.approx(2.4 / 1.5), "omsimulator")
+    lines = {what: (met, evidence) for what, met, evidence in scopes.goal_lines(rows, quick=False)}
+    assert lines["bed_drive: stepping >= 5x faster than the fastest peer"][0] is False      # 2.8x
+    assert lines["bed_drive: whole process >= 2x faster than the fastest peer"][0] is False  # 1.6x
+    assert "1.60x (fastest peer omsimulator" in lines["bed_drive: whole process >= 2x faster than the fastest peer"][1]
+    times[("omsimulator", "unpinned", "whole")] = times[("omsimulator", "pinned", "whole")] = 3.1
+    lines = {what: met for what, met, _ in scopes.goal_lines(_scope_rows(times), quick=False)}
+    assert lines["bed_drive: whole process >= 2x faster than the fastest peer"] is True      # 3.0/1.5 (ecos)
+
+
+def test_whole_process_commands_write_the_same_columns(tmp_path):
+    from benchmarks import scopes
+
+    cols = ["bed.bed.s", "flywheel.shaft_torque"]
+    harness = scopes.whole_command(scopes.Config("harness", 5e-4, "jacobi", 1), tmp_path / "x.ssp", 1.0, cols,
+                                   tmp_path / "h.csv")
+    assert harness[1:4] == ["-m", "harness", "run"] and harness[-2:] == ["--out", str(tmp_path / "h.csv")]
+    assert [harness[i + 1] for i, a in enumerate(harness) if a == "--output"] == cols
+    for peer in scopes.PEERS:
+        cmd = scopes.whole_command(scopes.Config(peer, 1e-4), tmp_path / "x.ssp", 1.0, cols, tmp_path / "p.csv")
+        assert cmd[1:4] == ["-m", "benchmarks.whole", peer] and cmd[-2:] == cols
+
+
+def test_simulate_says_how_long_initialisation_took(fmu_dir):
+    from harness import load, simulate
+
+    df = simulate(load("feeder_gto52"), stop_time=0.004)
+    assert 0.0 < df.attrs["init_time"] < df.attrs["wall_time"]
+
+
+@pytest.mark.slow
+def test_scopes_quick_prints_both_scopes_for_every_tool(tmp_path):
+    """python -m benchmarks.scopes --quick: for one drive, a table of each scope, every tool in both (a time, or
+    the one-line reason it has none), and the harness's whole process part by part; written to scopes.csv."""
+    from benchmarks import host_accuracy, scopes
+
+    proc = subprocess.run([sys.executable, "-m", "benchmarks.scopes", "--quick", "--drives", "feeder_gto52",
+                           "--modes", "unpinned", "--repeats", "1", "--out", str(tmp_path)],
+                          capture_output=True, text=True, cwd=str(ROOT), timeout=900)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    rows = list(csv.DictReader(open(tmp_path / "scopes.csv")))
+    for scope in scopes.SCOPES:
+        assert sum(f"SCOPE: {scopes.SCOPES[scope]}" in line for line in proc.stdout.splitlines()) == 1
+        got = {r["tool"]: r for r in rows if r["scope"] == scope}
+        assert set(got) == {"harness", *scopes.PEERS}
+        assert float(got["harness"]["min_s"]) > 0
+        for peer in scopes.PEERS:
+            r = got[peer]
+            assert (math.isfinite(float(r["min_s"])) and float(r["min_s"]) > 0) or r["error"], r
+            if host_accuracy.unavailable(peer) is None and not (peer == "fmpy-ssp" and scope == "stepping"):
+                assert float(r["min_s"]) > 0, r       # an installed peer is timed in both scopes
+    assert "fmpy.ssp" in next(r for r in rows if r["tool"] == "fmpy-ssp" and r["scope"] == "stepping")["error"]
+    parts = json.loads(next(r for r in rows if r["scope"] == "parts")["chosen"])
+    assert {"imports_s", "load_ssp_s", "open_fmus_s", "init_s", "stepping_s", "write_s",
+            "interpreter_s"} <= set(parts)
+    assert "part by part" in proc.stdout
+    swept = {r["tool"]: r for r in rows if r["scope"] == "sweep"}        # the same 3 points in each, pinned
+    assert set(swept) == {"harness", *[p for p in scopes.SWEEP_PEERS if host_accuracy.unavailable(p) is None]}
+    assert all(float(r["min_s"]) > 0 and r["mode"] == "pinned" for r in swept.values()), swept
+    assert sum(f"SCOPE: {scopes.SWEEP_SCOPE}" in line for line in proc.stdout.splitlines()) == 1

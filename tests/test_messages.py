@@ -370,3 +370,28 @@ def test_sweep_at_a_scheduler_address_without_a_scheduler_is_one_line(tmp_path):
         srv.close()
     assert rc == 1 and out == "" and "is no dask scheduler" in one_line(err), err
     assert not list(tmp_path.glob("results/*"))
+
+
+def test_the_run_command_alone_parses_and_helps_as_the_full_command_line():
+    """``python -m harness run ...`` builds only the run command's parser (the studies are not imported for a
+    run); its help, its defaults and what it parses are those of the full command line's ``run``."""
+    import argparse
+    import subprocess
+    import sys
+
+    from harness.__main__ import _command, build_parser
+
+    def run_parser(ap):
+        sub = next(a for a in ap._actions if isinstance(a, argparse._SubParsersAction))
+        return sub.choices["run"]
+
+    full, alone = build_parser(), build_parser("run")
+    assert run_parser(alone).format_help() == run_parser(full).format_help()
+    argv = ["run", "bed_drive", "--stop-time", "0.1", "--step", "-1e-4", "--output", "bed.bed.s"]
+    got, want = vars(alone.parse_args(argv)), vars(full.parse_args(argv))
+    assert got.keys() == want.keys() and all(got[k] == want[k] for k in got if k != "func")
+    assert _command(["--debug", "run", "x"]) == "run" and _command(["--help"]) is None and _command([]) is None
+    code = ("import sys; from harness.__main__ import build_parser; build_parser('run'); "
+            "print(sorted(m for m in sys.modules if m.startswith(('harness.studies', 'harness.synthesis'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out
