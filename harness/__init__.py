@@ -10,11 +10,11 @@ Modules: :mod:`harness.model` (the system as data), :mod:`harness.fmi.fmu` (chec
 """
 from __future__ import annotations
 
-__all__ = ["load", "simulate", "RunOptions", "bond_energy", "to_csv", "MASTERS"]
+__all__ = ["load", "simulate", "simulate_scenario", "RunOptions", "bond_energy", "to_csv", "MASTERS"]
 
 
 def __getattr__(name):
-    if name in ("load", "simulate", "RunOptions"):
+    if name in ("load", "simulate", "simulate_scenario", "RunOptions"):
         from harness import run
 
         return getattr(run, name)

@@ -630,6 +630,21 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_cli)
 
 
+def simulate_scenario(system, scenario, **options) -> pd.DataFrame:
+    """Co-simulate ``system`` through ``scenario`` (one of the system's by name, a
+    :class:`~harness.specs.Scenario` or a .yaml/.json file; :mod:`harness.scenarios`): :func:`simulate` with
+    ``options``, the scenario's parameters under the ``start_values`` given, its changes as the input signals and
+    its stop time unless given.  ``df.attrs["scenario"]`` is its name, ``df.attrs["transient"]`` its quantities."""
+    from harness import scenarios
+
+    system = load(system)
+    sc, options = scenarios.prepare(system, scenario, options)
+    df = simulate(system, **options)
+    df.attrs["scenario"] = sc.name
+    df.attrs["transient"] = scenarios.transient(system, sc, df)
+    return df
+
+
 def partial_path(path: Path) -> Path:
     """Where an incomplete result is written instead of ``path``: ``x.csv`` -> ``x.partial.csv``."""
     path = Path(path)
@@ -694,9 +709,7 @@ def run_cli(args) -> int:
                             options=RunOptions(progress=None, in_process=False if args.fmi_only else None),
                             on_error="return")
             if getattr(args, "scenario", None):
-                from harness.scenarios import run as run_scenario
-
-                df = run_scenario(system, args.scenario, **settings)
+                df = simulate_scenario(system, args.scenario, **settings)
             else:
                 df = simulate(system, **settings)
     except RunInterrupted as e:
@@ -750,4 +763,4 @@ def _halved(a: dict) -> str:
     return f" ({n} taken again in halves where the coupling's correction did not converge)" if n else ""
 
 
-__all__ = ["load", "simulate", "RunOptions", "RunWarning", "RunInterrupted", "Terminated", "column_units", "partial_path", "register", "run_cli", "parse_sets", "HarnessError"]
+__all__ = ["load", "simulate", "simulate_scenario", "RunOptions", "RunWarning", "RunInterrupted", "Terminated", "column_units", "partial_path", "register", "run_cli", "parse_sets", "HarnessError"]

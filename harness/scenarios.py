@@ -1,5 +1,5 @@
 """Transients a drive is sized by: start-up, speed change, emergency stop and jam, as time events on its free
-inputs (``python -m harness run DRIVE --scenario NAME|FILE``, :func:`run`).
+inputs (``python -m harness run DRIVE --scenario NAME|FILE``, :func:`harness.run.simulate_scenario`).
 
 A scenario (:class:`harness.specs.Scenario`) is declared per drive in ``systems/<name>.py`` (``show`` lists them)
 or read from a small YAML or JSON file::
@@ -189,26 +189,21 @@ def input_starts(system, scenario: Scenario) -> dict[str, float]:
 
 
 # -- running ---------------------------------------------------------------------------------------------------
-def run(system, scenario, **options) -> pd.DataFrame:
-    """Co-simulate ``system`` through ``scenario`` (a name of the system's, a :class:`Scenario` or a file):
-    :func:`harness.run.simulate` with the scenario's parameters (under ``start_values`` given here), its changes
-    as the input signals and its stop time (unless given); ``df.attrs["scenario"]`` is its name and
-    ``df.attrs["transient"]`` its quantities (:func:`transient`)."""
-    from harness.run import load, simulate
-
-    system = load(system)
+def prepare(system, scenario, options: dict) -> tuple[Scenario, dict]:
+    """(the scenario, :func:`harness.run.simulate`'s arguments for it): ``options`` with the scenario's stop time
+    (unless given), its parameters under the ``start_values`` given and its changes as the input signals,
+    checked (module docstring).  :func:`harness.run.simulate_scenario` runs them."""
     sc = find(system, scenario)
+    options = dict(options)
     if options.pop("input", None) is not None:
         raise SystemError_(f"scenario {sc.name} drives the inputs itself: give input signals or a scenario, not both")
     stop_time = options.pop("stop_time", None) or sc.stop_time
     step = options.get("step") or options.get("step_size") or system.experiment.step
     check(system, sc, step, stop_time)
-    start_values = {**dict(sc.parameters), **(options.pop("start_values", None) or {})}
-    signals = table(sc, input_starts(system, sc)) if sc.changes else None
-    df = simulate(system, stop_time=stop_time, start_values=start_values, input=signals, **options)
-    df.attrs["scenario"] = sc.name
-    df.attrs["transient"] = transient(system, sc, df)
-    return df
+    options["start_values"] = {**dict(sc.parameters), **(options.get("start_values") or {})}
+    options["input"] = table(sc, input_starts(system, sc)) if sc.changes else None
+    options["stop_time"] = stop_time
+    return sc, options
 
 
 # -- the transient's quantities ----------------------------------------------------------------------------------

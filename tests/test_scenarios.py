@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from harness import load
+from harness import load, simulate_scenario
 from harness import scenarios as S
 from harness.errors import SystemError_
 from harness.specs import Change, Scenario
@@ -175,7 +175,7 @@ def test_an_emergency_stop_of_the_bed_drive_against_the_monolithic_reference():
     base = S.find(system, "estop")
     sc = Scenario("estop_early", base.question, "stop", 1.1,
                   tuple(Change(0.5, c.variable, c.value) for c in base.changes), base.parameters, base.watch)
-    df = S.run(system, sc, on_error="raise")
+    df = simulate_scenario(system, sc, on_error="raise")
     assert df.attrs["complete"]
     ref = scenario_reference(system, sc, step=system.experiment.step)
     w, wr = df["flywheel.crank.w"].to_numpy(), ref["flywheel.crank.w"].to_numpy()
