@@ -898,17 +898,37 @@ class _Reader:
 # CLI
 # --------------------------------------------------------------------------------------------------------
 def register(subparsers) -> None:
-    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included)",
-                              description="Write a system as an SSP 1.0 archive (its FMUs, their connections "
-                                          "and parameter values) for other FMI/SSP tools.")
+    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included) or as one "
+                                             "co-simulation FMU (.fmu)",
+                              description="Write a system as an SSP 1.0 archive (OUT.ssp: its FMUs, their "
+                                          "connections and parameter values) for other FMI/SSP tools, or as one "
+                                          "co-simulation FMU of the whole drive (OUT.fmu: its FMUs inside, run by "
+                                          "the drive's own master and step in each fmi2DoStep) for tools that "
+                                          "import single FMUs.")
     p.add_argument("system", help="system module name in systems/, or a .ssp/.ssd file")
-    p.add_argument("out", type=Path, help="output .ssp file")
+    p.add_argument("out", type=Path, help="output file: .ssp (SSP archive) or .fmu (one FMU of the drive)")
+    p.add_argument("--fmi-version", type=int, choices=(2,), default=2,
+                   help="FMI version of a drive FMU (.fmu): 2 (pythonfmu); default 2")
+    p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
+                   help="an output the drive FMU offers (repeatable; default: the signals of the drive's chart "
+                        "and accuracy requirements)")
     p.set_defaults(func=_run_export)
 
 
 def _run_export(args) -> int:
     from harness import load
 
-    out = export_ssp(load(args.system), args.out)
+    suffix = Path(args.out).suffix.lower()
+    if suffix == ".fmu":
+        from harness.drive_fmu import export_fmu
+
+        out = export_fmu(load(args.system), args.out, outputs=args.output, fmi_version=args.fmi_version)
+    elif suffix == ".ssp":
+        if args.output:
+            raise SystemError_(f"--output applies to a drive FMU (.fmu), not to {args.out}")
+        out = export_ssp(load(args.system), args.out)
+    else:
+        raise SystemError_(f"{args.out}: the export writes an .ssp (SSP archive) or an .fmu (one FMU of the "
+                           f"drive); got {suffix or 'no suffix'}")
     print(f"wrote {out}")
     return 0
