@@ -63,7 +63,7 @@ def unavailable(host: str) -> str | None:
 
     if host in ("libcosim", "ecos"):
         return peers.available()[host]
-    if host == "fmpy-ssp":
+    if host in ("fmpy-ssp", "fmpy-fmu"):
         try:
             import fmpy.ssp.simulation  # noqa: F401
         except Exception as e:
@@ -158,6 +158,17 @@ def _run_omsimulator(ssp: Path, stop: float, step: float, columns: list[str], sy
     return df
 
 
+def _run_fmpy_fmu(fmu: Path, stop: float, step: float, columns: list[str]) -> pd.DataFrame:
+    """FMPy's ``simulate_fmu`` on one FMU (a drive FMU: ``python -m harness export DRIVE X.fmu``), its outputs
+    recorded at every communication step of ``step``."""
+    from fmpy import simulate_fmu
+
+    result = simulate_fmu(str(fmu), stop_time=stop, step_size=step, output_interval=step, output=list(columns))
+    times = np.asarray(result["time"], dtype=float)
+    return pd.DataFrame({c: np.asarray(result[c], dtype=float) for c in columns},
+                        index=pd.Index(times, name="time"))
+
+
 def _run_harness(ssp: Path, stop: float, step: float, columns: list[str], master: str) -> pd.DataFrame:
     from harness.studies.trial import quiet_simulate
     from harness.ssp import load_ssp
@@ -170,7 +181,8 @@ def _run_harness(ssp: Path, stop: float, step: float, columns: list[str], master
 
 
 def run_host(host: str, ssp: Path, stop: float, step: float, columns: list[str], system_name: str) -> pd.DataFrame:
-    """One run of the archive in ``host``, IN THIS PROCESS (see :func:`run_guarded` for the safe way)."""
+    """One run of the archive in ``host``, IN THIS PROCESS (see :func:`run_guarded` for the safe way); for
+    ``fmpy-fmu`` the "archive" is one FMU (``fmpy.simulate_fmu``)."""
     from benchmarks import peers
 
     if host == "libcosim":
@@ -181,6 +193,8 @@ def run_host(host: str, ssp: Path, stop: float, step: float, columns: list[str],
         return _run_fmpy_ssp(ssp, stop, step, columns)
     if host == "omsimulator":
         return _run_omsimulator(ssp, stop, step, columns, system_name)
+    if host == "fmpy-fmu":
+        return _run_fmpy_fmu(ssp, stop, step, columns)
     if host.startswith("harness:"):
         return _run_harness(ssp, stop, step, columns, host.split(":", 1)[1])
     raise ValueError(f"{host}: unknown host (one of {', '.join(HOSTS)})")

@@ -183,7 +183,8 @@ def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] |
                 if v.type == "Real" and v.unit:
                     attrs["unit"] = v.unit
                 ET.SubElement(p, _q(f"ssv:{v.type}"), attrs)
-    conn_el = ET.SubElement(sys_el, _q("ssd:Connections"))
+    # SSP 1.0's schema wants at least one ssd:Connection in ssd:Connections: a system of one FMU has none
+    conn_el = ET.SubElement(sys_el, _q("ssd:Connections")) if connections else None
     for c in connections:
         src_inst, src_var = c.source.split(".", 1)
         dst_inst, dst_var = c.target.split(".", 1)
