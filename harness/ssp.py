@@ -80,15 +80,32 @@ def export_ssp(system: System, out: str | Path) -> Path:
     out = Path(out)
     if out.suffix.lower() != ".ssp":
         raise SystemError_(f"{out}: an SSP archive must end in .ssp")
+    from harness.ssp_start_values import copy_with_start_values
+
     fmu_paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
-    ssd = build_ssd(system, {name: f"resources/{p.name}" for name, p in fmu_paths.items()},
-                    consistent_inputs(system))
+    starts = consistent_inputs(system)
+    # each instance of a toolkit FMU gets a copy that starts from the instance's values by itself, for hosts
+    # that apply no parameter binding (FMPy's simulate_ssp): harness.ssp_start_values
+    sources, packed = {}, {}
+    for inst in system.instances:
+        p = fmu_paths[inst.name]
+        copy = copy_with_start_values(p, inst.name, {**inst.parameters, **starts.get(inst.name, {})})
+        if copy is None:
+            sources[inst.name] = f"resources/{p.name}"
+            packed[sources[inst.name]] = p
+        else:
+            sources[inst.name] = f"resources/{p.stem}_{inst.name}.fmu"
+            packed[sources[inst.name]] = copy
+    ssd = build_ssd(system, sources, starts)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_suffix(".ssp.part")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("SystemStructure.ssd", ET.tostring(ssd, encoding="utf-8", xml_declaration=True))
-        for p in sorted(set(fmu_paths.values())):
-            z.write(p, f"resources/{p.name}")
+        for name, content in sorted(packed.items()):
+            if isinstance(content, bytes):
+                z.writestr(name, content)
+            else:
+                z.write(content, name)
     tmp.replace(out)
     return out
 

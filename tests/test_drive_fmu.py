@@ -330,3 +330,35 @@ def test_the_drive_fmu_beside_another_fmu_in_an_ssp(drive_fmus, fmu_dir, tmp_pat
         scale = float(np.ptp(own.result[c].to_numpy())) or 1.0
         worst = float(np.max(np.abs(oms.result[c].to_numpy() - own.result[c].to_numpy()))) / scale
         assert worst <= 1e-9, f"{c}: OMSimulator {worst:.3g} of its range off the harness"
+
+
+# ------------------------------------------------------------------ FMPy's simulate_ssp without a parameter set
+def test_exported_ssp_carries_each_instances_values_in_its_fmu(fmu_dir, tmp_path):
+    """Each instance's FMU in the exported SSP is a copy that starts from the instance's values by itself
+    (harness.ssp_start_values): FMPy's simulate_ssp, given no parameter set, no longer runs the FMUs' defaults
+    (before: the crank at -1.75e4 rad/s by 1 ms).  What is left is its first step, which hands every input 0.0."""
+    from fmpy.validation import validate_fmu
+
+    system = load("bed_drive").on_fmus(fmu_dir)
+    ssp = export_ssp(system, tmp_path / "bed_drive.ssp")
+    with zipfile.ZipFile(ssp) as z:
+        names = [n for n in z.namelist() if n.endswith(".fmu")]
+        assert sorted(names) == sorted(f"resources/{Path(i.fmu).stem}_{i.name}.fmu" for i in system.instances)
+        z.extract("resources/MotorBelt_motor.fmu", tmp_path)
+    copy = tmp_path / "resources" / "MotorBelt_motor.fmu"
+    assert validate_fmu(str(copy)) == []
+    starts = {v.name: v.start for v in _md(copy).modelVariables}
+    for p, value in system.instance("motor").parameters.items():
+        assert float(starts[p]) == pytest.approx(float(value), rel=1e-15), p
+    # the harness reads the same system back and runs it as before
+    back = simulate(ssp, stop_time=0.01)
+    own = simulate(system, stop_time=0.01)
+    assert np.allclose(back["bed.bed.s"].to_numpy(), own["bed.bed.s"].to_numpy(), rtol=0, atol=1e-15)
+    out = _script(f"""
+        from fmpy.ssp.simulation import simulate_ssp
+        r = simulate_ssp({str(ssp)!r}, stop_time=1e-3, step_size=1e-4)
+        print(repr((float(r["flywheel.crank.w"][0]), float(r["flywheel.crank.w"][-1]), float(r["bed.bed.s"][-1]))))
+    """)
+    w0, w_end, s_end = eval(out.strip().splitlines()[-1])
+    assert w0 == pytest.approx(2 * np.pi)           # the drive's 60 rpm, not the FMU's default
+    assert abs(w_end) < 100.0                        # before: -1.75e4 rad/s by 1 ms
