@@ -203,11 +203,16 @@ def _rename(text: str, package: str) -> str:
     return re.sub(r"^(\s*)(from|import)\s+harness(?=[.\s])", rf"\1\2 {package}", text, flags=re.M)
 
 
-def stage(system: System, dest: Path, outputs: list[str] | None = None) -> tuple[Path, list[Path], dict]:
+SLAVES = {2: ("drive_slave.py", "DriveSlave"), 3: ("drive_slave3.py", "DriveSlave3")}   # per FMI version
+
+
+def stage(system: System, dest: Path, outputs: list[str] | None = None,
+          fmi_version: int = 2) -> tuple[Path, list[Path], dict]:
     """The staged slave script, the project files (the private harness package and the members) and the spec."""
     spec, paths = drive_spec(system, outputs)
-    files = harness_modules()
-    h = hashlib.sha1(json.dumps(spec, sort_keys=True).encode())
+    slave_file, slave_class = SLAVES[fmi_version]
+    files = harness_modules(HERE / slave_file)
+    h = hashlib.sha1(json.dumps(spec, sort_keys=True).encode() + str(fmi_version).encode())
     for f in files:
         h.update(str(f.relative_to(HERE.parent)).encode())
         h.update(f.read_bytes())
@@ -228,9 +233,12 @@ def stage(system: System, dest: Path, outputs: list[str] | None = None) -> tuple
                      for f in files + [HERE / "__init__.py"])
     text = (f'"""Drive FMU {cls}: the drive {system.name} with the toolkit\'s master inside '
             f'(harness.drive_slave)."""\n'
-            f"import json\n\nfrom {package}.drive_slave import DriveSlave\n\n"
-            f"SPEC = {json.dumps(json.dumps(spec))}\n\n\n"
-            f"class {cls}(DriveSlave):\n    spec = json.loads(SPEC)\n\n\n"
+            f"import json\n\nfrom {package}.{slave_file[:-3]} import {slave_class}\n"
+            + ("from pythonfmu3 import Fmi3Slave  # noqa: F401 (pythonfmu3 finds the class by this word)\n"
+               if fmi_version == 3 else "") +
+            f"\nSPEC = {json.dumps(json.dumps(spec))}\n\n\n"
+            f"class {cls}({slave_class}{', Fmi3Slave' if fmi_version == 3 else ''}):\n"
+            f"    spec = json.loads(SPEC)\n\n\n"
             "# every module of the bundled package, imported now (harness.drive_fmu: stage)\n"
             + "".join(f"import {m}  # noqa: E402,F401\n" for m in modules))
     script = dest / f"{system.name}_fmu_{digest}.py"
@@ -250,19 +258,23 @@ def export_fmu(system: System, out: str | Path, outputs: list[str] | None = None
     out = Path(out)
     if out.suffix.lower() != ".fmu":
         raise SystemError_(f"{out}: a drive FMU must end in .fmu")
-    if fmi_version != 2:
-        raise SystemError_(f"drive FMU: FMI version {fmi_version!r} is not built (allowed: 2)")
-    from pythonfmu.builder import FmuBuilder
+    if fmi_version not in SLAVES:
+        raise SystemError_(f"drive FMU: FMI version {fmi_version!r} is not built (allowed: 2, 3)")
+    if fmi_version == 3:
+        from pythonfmu3.builder import FmuBuilder
+    else:
+        from pythonfmu.builder import FmuBuilder
 
     tmp = Path(tempfile.mkdtemp(prefix=f"pressdrive_drive_{system.name}_"))
     try:
-        script, project, spec = stage(system, tmp / "src")
+        script, project, spec = stage(system, tmp / "src", outputs, fmi_version)
+        state = {"canGetAndSetFMUState" if fmi_version == 3 else "canGetAndSetFMUstate": spec["rollback"]}
         with contextlib.redirect_stdout(io.StringIO()):
             fmu = Path(FmuBuilder.build_FMU(script, dest=tmp / "out", project_files=project,
                                             canHandleVariableCommunicationStepSize=True, needsExecutionTool=False,
-                                            canGetAndSetFMUstate=spec["rollback"]))
+                                            **state))
         if sys.platform.startswith("linux"):
-            add_loader(fmu, compile_loader(tmp, 2), 2)
+            add_loader(fmu, compile_loader(tmp, fmi_version), fmi_version)
         out.parent.mkdir(parents=True, exist_ok=True)
         part = out.with_name(out.name + ".part")
         shutil.copyfile(fmu, part)

@@ -63,10 +63,12 @@ def system_of(spec: dict, members: str) -> System:
         free_inputs={i["name"]: i["description"] or "free input" for i in spec["inputs"]})
 
 
-class DriveSlave(Fmi2Slave):
-    """Base of the drive FMUs' slave classes; a subclass sets ``spec`` (module docstring)."""
+class DriveBehaviour:
+    """What a drive FMU's slave does, whatever its FMI version (module docstring); a version's class derives from
+    this and its exporter's slave class and adds ``_register`` and ``to_xml``.  A subclass sets ``spec``."""
 
     spec: dict = {}
+    _ERROR = Fmi2Status.error
     # the master state a snapshot does not hold (the interface-Jacobian master's estimate)
     _EXTRA_STATE = ("jacobian", "theta", "_jac_h", "_stale")
 
@@ -94,25 +96,13 @@ class DriveSlave(Fmi2Slave):
         self._outputs = [o["name"] for o in spec["outputs"]]
         for p in spec["parameters"]:
             self._values[p["name"]] = p["start"]
-            if p["type"] == "Integer":
-                self.register_variable(Integer(p["name"], causality=Fmi2Causality.calculatedParameter,
-                                               variability=Fmi2Variability.fixed, initial=Fmi2Initial.approx,
-                                               description=p["description"], getter=self._getter(p["name"])),
-                                       nested=False)
-            else:
-                self.register_variable(Real(p["name"], causality=Fmi2Causality.parameter,
-                                            variability=Fmi2Variability.fixed, description=p["description"],
-                                            getter=self._getter(p["name"]), setter=self._par_setter(p["name"])),
-                                       nested=False)
         for i in spec["inputs"]:
             self._values[i["name"]] = i["start"]
-            self.register_variable(Real(i["name"], causality=Fmi2Causality.input,
-                                        variability=Fmi2Variability.continuous, description=i["description"],
-                                        getter=self._getter(i["name"]), setter=self._in_setter(i)), nested=False)
-        for o in spec["outputs"]:
-            self.register_variable(Real(o["name"], causality=Fmi2Causality.output,
-                                        variability=Fmi2Variability.continuous, description=o["description"],
-                                        getter=self._out_getter(o["name"])), nested=False)
+        self._register()
+
+    def _register(self) -> None:
+        raise NotImplementedError
+
 
     # -- variables -----------------------------------------------------------------------------------------
     def _getter(self, name):
@@ -149,7 +139,7 @@ class DriveSlave(Fmi2Slave):
     # -- life cycle ----------------------------------------------------------------------------------------
     def _fail(self, message: str):
         line = f"drive {self._drive} ({self.instance_name}): {message}"
-        self.log(line, Fmi2Status.error, "logStatusError")
+        self.log(line, self._ERROR, "logStatusError")
         raise RuntimeError(line)
 
     def _release(self) -> None:
@@ -254,6 +244,31 @@ class DriveSlave(Fmi2Slave):
             setattr(m, k, copy.deepcopy(v))
         self._values = dict(values)
         self._running = running
+
+class DriveSlave(DriveBehaviour, Fmi2Slave):
+    """The FMI 2.0 drive slave (pythonfmu); a subclass sets ``spec`` (module docstring)."""
+
+    def _register(self) -> None:
+        spec = type(self).spec
+        for p in spec["parameters"]:
+            if p["type"] == "Integer":
+                self.register_variable(Integer(p["name"], causality=Fmi2Causality.calculatedParameter,
+                                               variability=Fmi2Variability.fixed, initial=Fmi2Initial.approx,
+                                               description=p["description"], getter=self._getter(p["name"])),
+                                       nested=False)
+            else:
+                self.register_variable(Real(p["name"], causality=Fmi2Causality.parameter,
+                                            variability=Fmi2Variability.fixed, description=p["description"],
+                                            getter=self._getter(p["name"]), setter=self._par_setter(p["name"])),
+                                       nested=False)
+        for i in spec["inputs"]:
+            self.register_variable(Real(i["name"], causality=Fmi2Causality.input,
+                                        variability=Fmi2Variability.continuous, description=i["description"],
+                                        getter=self._getter(i["name"]), setter=self._in_setter(i)), nested=False)
+        for o in spec["outputs"]:
+            self.register_variable(Real(o["name"], causality=Fmi2Causality.output,
+                                        variability=Fmi2Variability.continuous, description=o["description"],
+                                        getter=self._out_getter(o["name"])), nested=False)
 
     # -- model description ---------------------------------------------------------------------------------
     def to_xml(self, model_options=dict()) -> Element:

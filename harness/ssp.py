@@ -925,8 +925,8 @@ def register(subparsers) -> None:
                                           "import single FMUs.")
     p.add_argument("system", help="system module name in systems/, or a .ssp/.ssd file")
     p.add_argument("out", type=Path, help="output file: .ssp (SSP archive) or .fmu (one FMU of the drive)")
-    p.add_argument("--fmi-version", type=int, choices=(2,), default=2,
-                   help="FMI version of a drive FMU (.fmu): 2 (pythonfmu); default 2")
+    p.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
+                   help="FMI version of a drive FMU (.fmu): 2 (pythonfmu) or 3 (pythonfmu3); default 2")
     p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
                    help="an output the drive FMU offers (repeatable; default: the signals of the drive's chart "
                         "and accuracy requirements)")

@@ -45,10 +45,11 @@ def drive_fmus(fmu_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("drive_fmus")
     cache = {}
 
-    def get(name):
-        if name not in cache:
-            cache[name] = export_fmu(load(name).on_fmus(fmu_dir), out / f"{name}.fmu")
-        return cache[name]
+    def get(name, fmi_version=2):
+        if (name, fmi_version) not in cache:
+            cache[name, fmi_version] = export_fmu(load(name).on_fmus(fmu_dir), out / f"{name}_fmi{fmi_version}.fmu",
+                                                  fmi_version=fmi_version)
+        return cache[name, fmi_version]
     return get
 
 
@@ -231,19 +232,25 @@ def test_cli_export_dispatches_on_the_suffix(fmu_dir, tmp_path):
     r = subprocess.run([sys.executable, "-m", "harness", "export", "two_inertia", str(tmp_path / "t.txt")],
                        cwd=ROOT, capture_output=True, text=True, env=env)
     assert r.returncode != 0 and ".ssp (SSP archive) or an .fmu" in r.stderr
-    r = subprocess.run([sys.executable, "-m", "harness", "export", "two_inertia", str(tmp_path / "t.fmu")],
-                       cwd=ROOT, capture_output=True, text=True, env=env)
+    r = subprocess.run([sys.executable, "-m", "harness", "export", "two_inertia", str(tmp_path / "t.fmu"),
+                        "--fmi-version", "3", "--output", "a.flange.w"], cwd=ROOT, capture_output=True, text=True,
+                       env=env)
     assert r.returncode == 0, r.stderr
-    assert _md(tmp_path / "t.fmu").coSimulation.modelIdentifier == "TwoInertia"
+    md = _md(tmp_path / "t.fmu")
+    assert md.coSimulation.modelIdentifier == "TwoInertia" and md.fmiVersion == "3.0"
+    assert [v.name for v in md.modelVariables if v.causality == "output"] == ["a.flange.w"]
 
 
+@pytest.mark.parametrize("fmi_version", [2, 3])
 @pytest.mark.parametrize("name", system_names())
-def test_every_drive_exports_validates_and_equals_harness_run(drive_fmus, name):
+def test_every_drive_exports_validates_and_equals_harness_run(drive_fmus, name, fmi_version):
+    """In both FMI versions (FMI 3.0: pythonfmu3, its members still the FMI 2.0 FMUs, run by the same master)."""
     from fmpy.validation import validate_fmu
 
     system = load(name)
-    fmu = drive_fmus(name)
+    fmu = drive_fmus(name, fmi_version)
     assert validate_fmu(str(fmu)) == []
+    assert _md(fmu).fmiVersion.startswith(str(fmi_version))
     step = system.experiment.step
     stop = 40 * step
     importer = 2 * step
@@ -284,7 +291,9 @@ def test_peer_hosts_run_the_drive_fmu_at_the_declared_accuracy(drive_fmus, bed_r
 
 
 @pytest.mark.interop
-def test_omsimulator_command_line_runs_the_drive_fmu_without_python(drive_fmus, bed_reference, tmp_path):
+@pytest.mark.parametrize("fmi_version", [2, 3])
+def test_omsimulator_command_line_runs_the_drive_fmu_without_python(drive_fmus, bed_reference, tmp_path,
+                                                                    fmi_version):
     if not OMS_CLI.is_file():
         pytest.skip("OMSimulator's command-line tool is not installed in this environment (install it with "
                     "../shared/tools/omsimulator/install where that folder exists)")
@@ -292,7 +301,7 @@ def test_omsimulator_command_line_runs_the_drive_fmu_without_python(drive_fmus, 
            if not k.startswith(("PYTHON", "PRESSDRIVE_", "VIRTUAL_ENV", "LD_PRELOAD"))}
     system = load("bed_drive")
     stop = accuracy_spec(system).stop_time
-    fmu = drive_fmus("bed_drive")
+    fmu = drive_fmus("bed_drive", fmi_version)
     r = subprocess.run([str(OMS_CLI), str(fmu), f"--stopTime={stop}", "--stepSize=1e-3", "--resultFile=bd.csv"],
                        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=TIMEOUT)
     text = r.stdout + r.stderr
