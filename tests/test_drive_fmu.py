@@ -281,9 +281,10 @@ def test_peer_hosts_run_the_drive_fmu_at_the_declared_accuracy(drive_fmus, bed_r
         pytest.skip(reason)
     system = load("bed_drive")
     stop = accuracy_spec(system).stop_time
-    ssp = _wrapped(drive_fmus("bed_drive"), tmp_path / "bed_drive_fmu.ssp")
+    fmu = drive_fmus("bed_drive")
+    ssp = _wrapped(fmu, tmp_path / "bed_drive_fmu.ssp")
     columns = ha.columns_of(system)
-    run = ha.run_guarded(host, ssp, stop, 1e-3, [f"drive.{c}" for c in columns], "bed_drive_fmu", TIMEOUT)
+    run = ha.run_guarded(host, ssp, stop, 1e-3, [f"drive.{c}" for c in columns], f"{fmu.stem}_fmu", TIMEOUT)
     assert run.status == "complete", run.error
     result = run.result.rename(columns=lambda c: c.removeprefix("drive."))
     checks = check(system, result, bed_reference)
