@@ -1,7 +1,8 @@
 """The whole drive as one co-simulation FMU: ``python -m harness export DRIVE FILE.fmu`` and :func:`export_fmu`.
 
-The FMU (FMI 2.0, pythonfmu) carries the drive's member FMUs and runs the drive's declared master, input
-extrapolation and step inside each ``fmi2DoStep`` (the slave: :mod:`harness.drive_slave`).  It is built from
+The FMU (FMI 2.0 with pythonfmu, or FMI 3.0 with pythonfmu3: ``fmi_version``) carries the drive's member FMUs
+(FMI 2.0 in both) and runs the drive's declared master, input extrapolation and step inside each ``doStep`` (the
+slave: :mod:`harness.drive_slave`, :mod:`harness.drive_slave3`).  It is built from
 the same declarations as the component FMUs (``fmus/build.py``):
 
 * its code is the slave plus the harness modules it imports, under names unique to this build
