@@ -63,7 +63,7 @@ def unavailable(host: str) -> str | None:
 
     if host in ("libcosim", "ecos"):
         return peers.available()[host]
-    if host == "fmpy-ssp":
+    if host in ("fmpy-ssp", "fmpy-fmu", "fmpy-ssp-bare"):
         try:
             import fmpy.ssp.simulation  # noqa: F401
         except Exception as e:
@@ -84,7 +84,9 @@ def unavailable(host: str) -> str | None:
 
 
 # -- one run in one host (called in the worker process) ------------------------------------------------------
-def _run_fmpy_ssp(ssp: Path, stop: float, step: float, columns: list[str]) -> pd.DataFrame:
+def _run_fmpy_ssp(ssp: Path, stop: float, step: float, columns: list[str], bindings: bool = True) -> pd.DataFrame:
+    """``bindings``: pass the SSD's own bindings as the ``parameter_set`` (host ``fmpy-ssp``), else nothing
+    (host ``fmpy-ssp-bare``: what a user who calls ``simulate_ssp(path)`` gets)."""
     from fmpy.ssp.simulation import simulate_ssp
     from fmpy.ssp.ssd import Parameter, ParameterSet, read_ssd
 
@@ -95,7 +97,7 @@ def _run_fmpy_ssp(ssp: Path, stop: float, step: float, columns: list[str]) -> pd
             for values in binding.parameterValues:
                 for p in values.parameters:
                     bound.parameters.append(Parameter(name=f"{element.name}.{p.name}", type=p.type, value=p.value))
-    result = simulate_ssp(str(ssp), stop_time=stop, step_size=step, parameter_set=bound)
+    result = simulate_ssp(str(ssp), stop_time=stop, step_size=step, parameter_set=bound if bindings else None)
     names = result.dtype.names
     frame = {}
     for c in columns:
@@ -158,6 +160,17 @@ def _run_omsimulator(ssp: Path, stop: float, step: float, columns: list[str], sy
     return df
 
 
+def _run_fmpy_fmu(fmu: Path, stop: float, step: float, columns: list[str]) -> pd.DataFrame:
+    """FMPy's ``simulate_fmu`` on one FMU (a drive FMU: ``python -m harness export DRIVE X.fmu``), its outputs
+    recorded at every communication step of ``step``."""
+    from fmpy import simulate_fmu
+
+    result = simulate_fmu(str(fmu), stop_time=stop, step_size=step, output_interval=step, output=list(columns))
+    times = np.asarray(result["time"], dtype=float)
+    return pd.DataFrame({c: np.asarray(result[c], dtype=float) for c in columns},
+                        index=pd.Index(times, name="time"))
+
+
 def _run_harness(ssp: Path, stop: float, step: float, columns: list[str], master: str) -> pd.DataFrame:
     from harness.studies.trial import quiet_simulate
     from harness.ssp import load_ssp
@@ -170,7 +183,8 @@ def _run_harness(ssp: Path, stop: float, step: float, columns: list[str], master
 
 
 def run_host(host: str, ssp: Path, stop: float, step: float, columns: list[str], system_name: str) -> pd.DataFrame:
-    """One run of the archive in ``host``, IN THIS PROCESS (see :func:`run_guarded` for the safe way)."""
+    """One run of the archive in ``host``, IN THIS PROCESS (see :func:`run_guarded` for the safe way); for
+    ``fmpy-fmu`` the "archive" is one FMU (``fmpy.simulate_fmu``)."""
     from benchmarks import peers
 
     if host == "libcosim":
@@ -181,6 +195,10 @@ def run_host(host: str, ssp: Path, stop: float, step: float, columns: list[str],
         return _run_fmpy_ssp(ssp, stop, step, columns)
     if host == "omsimulator":
         return _run_omsimulator(ssp, stop, step, columns, system_name)
+    if host == "fmpy-fmu":
+        return _run_fmpy_fmu(ssp, stop, step, columns)
+    if host == "fmpy-ssp-bare":
+        return _run_fmpy_ssp(ssp, stop, step, columns, bindings=False)
     if host.startswith("harness:"):
         return _run_harness(ssp, stop, step, columns, host.split(":", 1)[1])
     raise ValueError(f"{host}: unknown host (one of {', '.join(HOSTS)})")
@@ -365,6 +383,73 @@ def markdown(verdicts: list[Verdict]) -> str:
     return "\n".join(lines)
 
 
+# -- the whole drive as one FMU (python -m harness export DRIVE X.fmu) against the drive's SSP ----------------------
+DRIVE_FMU_HOSTS = ("fmpy", "libcosim", "ecos", "omsimulator")
+IMPORTER_STEP = 1e-3    # s: the host's own step around a drive FMU (the drive's master sub-steps inside)
+
+
+def wrap_fmu(fmu: Path, out: Path, stop: float) -> Path:
+    """One FMU as the one component ``drive`` of an SSP (how libcosim, Ecos and OMSimulator's API take an FMU
+    here), its OSP step the importer's."""
+    from harness.model import Experiment, Instance, System
+    from harness.ssp import export_ssp
+
+    return export_ssp(System(f"{Path(fmu).stem}_fmu", [Instance("drive", Path(fmu))],
+                             experiment=Experiment(stop_time=stop, step=IMPORTER_STEP)), out)
+
+
+def drive_fmu_runs(system_name: str, hosts=DRIVE_FMU_HOSTS, out_dir: Path | None = None,
+                   timeout: float = TIMEOUT, progress=None) -> list[tuple[str, Verdict, Verdict | None]]:
+    """Per host: (host, the drive FMU at IMPORTER_STEP, the drive's SSP at its declared host step), each judged by
+    the drive's accuracy against the monolithic reference; ``run_time`` is the tool's own run.  The SSP in FMPy
+    runs through ``simulate_ssp`` (host ``fmpy-ssp``), the drive FMU through ``simulate_fmu``."""
+    from harness import export_fmu, load
+    from harness.ssp import export_ssp
+    from harness.studies.accuracy import accuracy_spec
+    from harness.studies.reference import reference
+
+    system = load(system_name)
+    spec = accuracy_spec(system)
+    out = Path(out_dir) if out_dir is not None else Path(tempfile.mkdtemp(prefix="drive_fmu_"))
+    fmu = export_fmu(system, out / f"{system_name}.fmu")
+    wrapped = wrap_fmu(fmu, out / f"{system_name}_fmu.ssp", spec.stop_time)
+    ssp = export_ssp(system, out / f"{system_name}.ssp")
+    ref = reference(system, stop_time=spec.stop_time, step=spec.reference_step)
+    columns = columns_of(system)
+    rows = []
+    for host in hosts:
+        if host == "fmpy":
+            run = run_guarded("fmpy-fmu", fmu, spec.stop_time, IMPORTER_STEP, columns, system_name, timeout)
+        else:
+            run = run_guarded(host, wrapped, spec.stop_time, IMPORTER_STEP, [f"drive.{c}" for c in columns],
+                              f"{system_name}_fmu", timeout)
+            if run.result is not None:
+                run.result = run.result.rename(columns=lambda c: c.removeprefix("drive."))
+        as_fmu = judge(system, run, ref)
+        ssp_host = "fmpy-ssp" if host == "fmpy" else host
+        as_ssp = judge(system, run_guarded(ssp_host, ssp, spec.stop_time, declared_step(ssp), columns, system_name,
+                                           timeout), ref)
+        rows.append((host, as_fmu, as_ssp))
+        if progress:
+            progress(f"{describe(as_fmu)} | SSP: {describe(as_ssp)}")
+    return rows
+
+
+def drive_fmu_markdown(rows) -> str:
+    lines = ["| drive | host | drive FMU (1 ms importer step) | its run | drive SSP (declared step) | its run |",
+             "|---|---|---|---|---|---|"]
+    for host, f, s in rows:
+        def cell(v):
+            if v.run.status != "complete":
+                return v.run.status + ": " + v.run.error[:80], ""
+            return ("meets" if v.meets else "misses") + "; " + "; ".join(f"{c.error:.2g} {c.unit}" for c in v.checks), \
+                f"{v.run.run_time:.1f} s"
+        a, ta = cell(f)
+        b, tb = cell(s)
+        lines.append(f"| {f.system} | {host} | {a} | {ta} | {b} ({s.run.step * 1e3:g} ms) | {tb} |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv[:1] == ["--worker"]:
@@ -375,9 +460,19 @@ def main(argv=None) -> int:
     p.add_argument("--steps", nargs="*", type=float, default=[], help="steps [s] besides the SSP's declared one")
     p.add_argument("--timeout", type=float, default=TIMEOUT, help="s per host run before it counts as hung")
     p.add_argument("--out", default="results", help="folder of host_accuracy.csv and the exported SSPs")
+    p.add_argument("--drive-fmu", action="store_true",
+                   help="the drives exported as one FMU (python -m harness export DRIVE X.fmu) in FMPy, libcosim, "
+                        "Ecos and OMSimulator at a 1 ms importer step, against their SSPs in the same hosts")
     args = p.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.drive_fmu:
+        rows = []
+        for name in args.systems or ["bed_drive"]:
+            rows += drive_fmu_runs(name, out_dir=out, timeout=args.timeout,
+                                   progress=lambda s: print(s, file=sys.stderr, flush=True))
+        print(drive_fmu_markdown(rows))
+        return 0 if all(f.meets for _, f, _ in rows) else 1
     verdicts = []
     for name in args.systems or drives():
         verdicts += measure(name, args.hosts, args.steps, out, args.timeout,

@@ -10,7 +10,16 @@ Modules: :mod:`harness.model` (the system as data), :mod:`harness.fmi.fmu` (chec
 """
 from __future__ import annotations
 
-__all__ = ["load", "simulate", "simulate_scenario", "RunOptions", "bond_energy", "to_csv", "MASTERS"]
+__all__ = ["load", "simulate", "simulate_scenario", "RunOptions", "bond_energy", "to_csv", "MASTERS", "export_fmu"]
+
+
+def export_fmu(system, out, outputs=None, fmi_version: int = 2):
+    """Write ``system`` (a name in systems/, a .py or .ssp file, or a System) as one co-simulation FMU of the
+    whole drive at ``out`` (:func:`harness.drive_fmu.export_fmu`) and return its path."""
+    from harness.drive_fmu import export_fmu as export
+    from harness.run import load
+
+    return export(load(system), out, outputs=outputs, fmi_version=fmi_version)
 
 
 def __getattr__(name):

@@ -81,17 +81,33 @@ def export_ssp(system: System, out: str | Path) -> Path:
     if out.suffix.lower() != ".ssp":
         raise SystemError_(f"{out}: an SSP archive must end in .ssp")
     from harness.results import check_writable
+    from harness.ssp_start_values import copy_with_start_values
 
     check_writable(out, "export")   # one line before the work for a place that cannot be written
     fmu_paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
-    ssd = build_ssd(system, {name: f"resources/{p.name}" for name, p in fmu_paths.items()},
-                    consistent_inputs(system))
+    starts = consistent_inputs(system)
+    # each instance of a toolkit FMU gets a copy that starts from the instance's values by itself, for hosts
+    # that apply no parameter binding (FMPy's simulate_ssp): harness.ssp_start_values
+    sources, packed = {}, {}
+    for inst in system.instances:
+        p = fmu_paths[inst.name]
+        copy = copy_with_start_values(p, inst.name, {**inst.parameters, **starts.get(inst.name, {})})
+        if copy is None:
+            sources[inst.name] = f"resources/{p.name}"
+            packed[sources[inst.name]] = p
+        else:
+            sources[inst.name] = f"resources/{p.stem}_{inst.name}.fmu"
+            packed[sources[inst.name]] = copy
+    ssd = build_ssd(system, sources, starts)
     tmp = out.with_suffix(".ssp.part")
     try:
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("SystemStructure.ssd", ET.tostring(ssd, encoding="utf-8", xml_declaration=True))
-            for p in sorted(set(fmu_paths.values())):
-                z.write(p, f"resources/{p.name}")
+            for name, content in sorted(packed.items()):
+                if isinstance(content, bytes):
+                    z.writestr(name, content)
+                else:
+                    z.write(content, name)
         tmp.replace(out)
     except OSError as e:   # e.g. the disk full, the folder gone meanwhile
         tmp.unlink(missing_ok=True)
@@ -189,7 +205,8 @@ def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] |
                 if v.type == "Real" and v.unit:
                     attrs["unit"] = v.unit
                 ET.SubElement(p, _q(f"ssv:{v.type}"), attrs)
-    conn_el = ET.SubElement(sys_el, _q("ssd:Connections"))
+    # SSP 1.0's schema wants at least one ssd:Connection in ssd:Connections: a system of one FMU has none
+    conn_el = ET.SubElement(sys_el, _q("ssd:Connections")) if connections else None
     for c in connections:
         src_inst, src_var = c.source.split(".", 1)
         dst_inst, dst_var = c.target.split(".", 1)
@@ -935,17 +952,37 @@ class _Reader:
 # CLI
 # --------------------------------------------------------------------------------------------------------
 def register(subparsers) -> None:
-    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included)",
-                              description="Write a system as an SSP 1.0 archive (its FMUs, their connections "
-                                          "and parameter values) for other FMI/SSP tools.")
+    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included) or as one "
+                                             "co-simulation FMU (.fmu)",
+                              description="Write a system as an SSP 1.0 archive (OUT.ssp: its FMUs, their "
+                                          "connections and parameter values) for other FMI/SSP tools, or as one "
+                                          "co-simulation FMU of the whole drive (OUT.fmu: its FMUs inside, run by "
+                                          "the drive's own master and step in each fmi2DoStep) for tools that "
+                                          "import single FMUs.")
     p.add_argument("system", help="system module name in systems/, or a .ssp/.ssd file")
-    p.add_argument("out", type=Path, help="output .ssp file")
+    p.add_argument("out", type=Path, help="output file: .ssp (SSP archive) or .fmu (one FMU of the drive)")
+    p.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
+                   help="FMI version of a drive FMU (.fmu): 2 (pythonfmu) or 3 (pythonfmu3); default 2")
+    p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
+                   help="an output the drive FMU offers (repeatable; default: the signals of the drive's chart "
+                        "and accuracy requirements)")
     p.set_defaults(func=_run_export)
 
 
 def _run_export(args) -> int:
     from harness import load
 
-    out = export_ssp(load(args.system), args.out)
+    suffix = Path(args.out).suffix.lower()
+    if suffix == ".fmu":
+        from harness.drive_fmu import export_fmu
+
+        out = export_fmu(load(args.system), args.out, outputs=args.output, fmi_version=args.fmi_version)
+    elif suffix == ".ssp":
+        if args.output:
+            raise SystemError_(f"--output applies to a drive FMU (.fmu), not to {args.out}")
+        out = export_ssp(load(args.system), args.out)
+    else:
+        raise SystemError_(f"{args.out}: the export writes an .ssp (SSP archive) or an .fmu (one FMU of the "
+                           f"drive); got {suffix or 'no suffix'}")
     print(f"wrote {out}")
     return 0
