@@ -194,7 +194,8 @@ def test_bad_input_is_one_line_naming_drive_variable_and_value(drive_fmus):
     fmu = drive_fmus("feeder_gto52")
     md = _md(fmu)
     inputs = [x.name for x in md.modelVariables if x.causality == "input"]
-    assert inputs == ["flywheel.aux.tau"]       # the drive's declared free input
+    # the drive's declared free inputs: the motor's supply and brake (a host drives its transients), the take-off
+    assert inputs == ["motor.supply", "motor.brake", "flywheel.aux.tau"]
     out = _script(f"""
         from fmpy import simulate_fmu
         for kwargs in (dict(start_values={{"flywheel.aux.tau": float("nan")}}), dict(step_size=1e-10, stop_time=2e-10)):
