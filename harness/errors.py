@@ -69,6 +69,17 @@ class SimulationError(HarnessError):
         self.partial, self.time, self.instance, self.variable = partial, time, instance, variable
 
 
+class SingularCoupling(SimulationError):
+    """The ``jacobian`` master's interface Jacobian is singular at a step: its Newton correction of the held
+    inputs has no unique solution, so the step cannot be coupled by that scheme (a condition of the coupling at
+    that step, not a crash).  The message names the time and the power bond (or connection) whose held values
+    span the singular direction; ``bond`` holds its label."""
+
+    def __init__(self, message: str, time: float | None = None, bond: str | None = None):
+        super().__init__(message, time=time)
+        self.bond = bond
+
+
 class BlowUp(SimulationError):
     """An output became non-finite or exceeded the master's blow-up limit: the run diverged faster than the
     divergence detector could judge it (or a model failed)."""

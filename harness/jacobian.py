@@ -145,6 +145,19 @@ def assemble(A: np.ndarray, D: np.ndarray, src: np.ndarray, fac: np.ndarray) -> 
     return C @ M
 
 
+def singular_direction(M: np.ndarray) -> list[int]:
+    """The entries that carry the singular direction of a square matrix ``M`` that ``np.linalg.solve`` refused:
+    the right singular vector of its smallest singular value, its entries within half of its largest, largest
+    first (for the message that names the bond of a singular coupling)."""
+    with np.errstate(all="ignore"):
+        try:
+            v = np.abs(np.linalg.svd(np.nan_to_num(M))[2][-1])
+        except np.linalg.LinAlgError:
+            return []
+    order = np.argsort(-v)
+    return [int(k) for k in order if v[k] >= 0.5 * v[order[0]]]
+
+
 def bond_gain(S: np.ndarray, inputs: list[int]) -> float:
     """The loop gain of one power bond over a step: max |S_kk| over its held inputs (effort and motion), the
     dimensionless share of a held value that comes back through the bond within the step (~ (omega h)^2 / 2

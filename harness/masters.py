@@ -1,6 +1,6 @@
 """Co-simulation masters: one stepping loop, one ``_step_impl`` per method (scipy.integrate._ivp style).
 
-(About 700 lines on purpose: the loop, its hooks and the five methods read together in one file; the
+(About 750 lines on purpose: the loop, its hooks and the five methods read together in one file; the
 coupling layout lives in :mod:`harness.coupling`, the loop's parts in extrapolation, stepcontrol, graph,
 iteration (the fixed-point solvers) and jacobian (the interface Jacobians).)
 
@@ -40,7 +40,7 @@ import numpy as np
 from harness import coupling, graph, jacobian
 from harness.clock import NS
 from harness.coupling import Inst as _Inst
-from harness.errors import AlgebraicLoopError, BlowUp, FMUError, SimulationError, SystemError_
+from harness.errors import AlgebraicLoopError, BlowUp, FMUError, SimulationError, SingularCoupling, SystemError_
 from harness.extrapolation import DEPTH, History, Polynomial
 from harness.iteration import ConvergenceError, IterationOptions, solve_fixed_point
 
@@ -657,10 +657,44 @@ class InterfaceJacobian(Master):
                 D[it.sl, it.isl] = jacobian.feedthrough_block(it.fmu, it.inp, it.out, v)
             A[it.sl, it.isl] = jacobian.step_sensitivity(it.fmu, it.inp, it.out, state, u0[it.isl], v,
                                                          self.y[it.sl], t, h)
-        self.jacobian, self._jac_h, self._stale = jacobian.assemble(A, D, self.src, self.fac), h, False
+        try:
+            S = jacobian.assemble(A, D, self.src, self.fac)
+        except np.linalg.LinAlgError:  # I - D C: the outputs' feed-through loop has no unique solution
+            outs = jacobian.singular_direction(np.eye(n_y) - D @ self._output_links())
+            raise self._singular(t, [k for o in outs for k in np.flatnonzero(self.src == o).tolist()],
+                                 "the feed-through of the outputs at the step's end") from None
+        self.jacobian, self._jac_h, self._stale = S, h, False
         self.theta = jacobian.target_weights(len(u0), self._bond_inputs, self.jacobian, self._pos)
         self.estimates += 1
         self.fmu_steps += n_u  # one step per held input
+
+    def _output_links(self) -> np.ndarray:
+        """``C`` of :func:`harness.jacobian.assemble`: held inputs x outputs, ``fac`` at each input's source."""
+        C = np.zeros((len(self.src), len(self.y)))
+        C[np.arange(len(self.src)), self.src] = self.fac
+        return C
+
+    def _held_name(self, k: int) -> str:
+        """``instance.input`` of entry ``k`` of the held-input vector."""
+        for it in self.insts:
+            if it.isl.start <= k < it.isl.stop:
+                return f"{it.name}.{list(it.input_pos)[k - it.isl.start]}"
+        return f"held input {k}"
+
+    def _singular(self, t: float, held: list[int], what: str) -> SingularCoupling:
+        """The one-line stop of a singular interface Jacobian at the step from ``t``: names the power bond whose held
+        effort or motion carries the singular direction ``held`` (held-input indices, largest first), else the
+        connection's input."""
+        names = [self._held_name(k) for k in held[:3]]
+        bonds = [label for k in held for label, (effort, motion), b in
+                 zip(self.bond_labels, self._bond_inputs, self._bonds) if k in (effort, *motion, b[2])]
+        bond = bonds[0] if bonds else None
+        where = f"on power bond {bond}" if bond else (f"on input {', '.join(names)}" if names else "")
+        return SingularCoupling(
+            f"t = {t:.9g} s: master 'jacobian': the interface Jacobian is singular {where} ({what} has no unique "
+            f"solution; held values in its singular direction: {', '.join(names) or 'none found'}): this step "
+            f"cannot be coupled by this scheme; use another step, or master 'jacobi' or 'gauss-seidel'",
+            time=t, bond=bond)
 
     def _step_impl(self, t, h, t_next, depth: int = 0):
         """One step of the scheme; a step whose correction does not contract even with fresh Jacobians (a contact
@@ -674,7 +708,11 @@ class InterfaceJacobian(Master):
             if fresh:
                 self._estimate(t, h, u0)
                 r0 = self._implicit_inputs(t, h) - u0  # with the new theta, from the same predictor
-            du = np.linalg.solve(np.eye(len(u0)) - self.theta[:, None] * self.jacobian, r0)
+            M = np.eye(len(u0)) - self.theta[:, None] * self.jacobian
+            try:
+                du = np.linalg.solve(M, r0)
+            except np.linalg.LinAlgError:  # the corrector's matrix: no unique correction of the held inputs
+                raise self._singular(t, jacobian.singular_direction(M), "the Newton correction") from None
             self.restore("ij")
             r1 = self._take(t, h, t_next, u0 + du)
             scale = np.abs(u0) + np.abs(r0) + 1e-9

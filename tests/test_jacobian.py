@@ -234,3 +234,36 @@ def test_the_command_line_says_how_many_steps_it_took_in_halves(monkeypatch, cap
     assert " taken again in halves where the coupling's correction did not converge" in line
     assert main(["run", "bed_drive", "--stop-time", "0.05", "--step", "1e-3", "--master", "jacobian"]) == 0
     assert "halves" not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("where", ["correction", "feed-through"])
+def test_a_singular_interface_jacobian_stops_the_run_in_one_line_naming_the_bond_and_the_time(fmu_dir, monkeypatch,
+                                                                                                where):
+    """numpy's LinAlgError ("Singular matrix") from the corrector or from the outputs' feed-through loop left the
+    run with no result and ended ``study stability proof_press`` with ``error: Singular matrix``.  It is a
+    condition of the coupling at that step: the run stops there, marked, with one line naming the time and the
+    bond, and keeps what it computed."""
+    from harness import load
+    from harness.errors import SimulationError
+
+    system = load("two_inertia").on_fmus(fmu_dir)
+    if where == "correction":     # J_G = I: the corrector's matrix I - theta S with theta = 1 vanishes
+        monkeypatch.setattr(ij, "assemble", lambda A, D, src, fac: np.eye(len(src)))
+        monkeypatch.setattr(ij, "target_weights", lambda n, bonds, S, positions: np.ones(n))
+    else:                         # I - D C singular: the outputs' feed-through loop has no unique solution
+        real = np.linalg.solve
+
+        def solve(a, b):
+            if a.shape == (a.shape[0], a.shape[0]) and b.ndim == 2:
+                raise np.linalg.LinAlgError("Singular matrix")
+            return real(a, b)
+
+        monkeypatch.setattr(ij.np.linalg, "solve", solve)
+    df = _quiet(system, stop_time=0.01, step=1e-3, master="jacobian", extrapolation=1)
+    assert df.attrs["complete"] is False and len(df) >= 1
+    error = df.attrs["error"]
+    assert "\n" not in error, error
+    assert error.startswith("t = 0 s: master 'jacobian': the interface Jacobian is singular"), error
+    assert "on power bond a.flange->b.drive" in error, error
+    with pytest.raises(SimulationError, match="singular on power bond a.flange->b.drive"):
+        _quiet(system, stop_time=0.01, step=1e-3, master="jacobian", extrapolation=1, on_error="raise")

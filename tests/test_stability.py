@@ -357,3 +357,55 @@ def test_press_search_reports_the_first_unstable_step_when_verdicts_come_in_band
     r = press_boundary(_BandedRun(), rtol=0.02, cap=64.0)
     assert r["status"] == "bracketed"
     assert r["h_stable"] <= 2e-3 < r["h_unstable"] < 3e-3
+
+
+class _StoppingRun(_BandedRun):
+    """Stable up to 2 ms; above, its runs stop before their end (as a singular interface Jacobian stops one),
+    recorded as PressRun records them."""
+
+    def __init__(self):
+        self.stops = {}
+
+    def unstable(self, h):
+        self.runs += 1
+        if h > 2e-3:
+            self.stops[h] = f"t = 0.01 s: master 'jacobian': the interface Jacobian is singular (step {h:g})"
+        return h > 2e-3
+
+
+def test_a_press_row_says_why_its_unstable_run_stopped():
+    from harness.studies.stability.press import _boundary_text, press_boundary
+
+    r = press_boundary(_StoppingRun(), rtol=0.02, cap=64.0)
+    assert r["status"] == "bracketed" and r["h_stable"] <= 2e-3 < r["h_unstable"]
+    assert r["note"] == f"t = 0.01 s: master 'jacobian': the interface Jacobian is singular (step {r['h_unstable']:g})"
+    assert "(the run stopped: t = 0.01 s: master 'jacobian': the interface Jacobian is singular" in _boundary_text(r)
+    assert press_boundary(_BandedRun(), rtol=0.02, cap=64.0)["note"] == ""   # judged on its deviation
+
+
+def test_a_press_search_that_cannot_go_on_is_a_failed_row_and_the_others_are_kept(tmp_path, monkeypatch, capsys):
+    """An exception in one method's search (numpy's "Singular matrix" ended `study stability proof_press` and lost
+    every row) is that row's one-line error; the other rows are measured, the table and chart written."""
+    from harness.__main__ import main
+    from harness.studies.stability import cli, press
+
+    class Run:
+        def __init__(self, system, master, order, parameters, duration, reference=None):
+            self.master, self.ref, self.runs = master, "ref", 0
+
+    def boundary(prun, rtol, cap):
+        if prun.master == "jacobian":
+            raise np.linalg.LinAlgError("Singular matrix")
+        return dict(h_stable=1e-3, h_unstable=2e-3, h_boundary=1.5e-3, status="bracketed", runs=3, note="")
+
+    monkeypatch.setattr(press, "PressRun", Run)
+    monkeypatch.setattr(press, "press_boundary", boundary)
+    drawn = []
+    monkeypatch.setattr(cli, "plot_press_map", lambda table, stem: drawn.append(len(table)) or [])
+    assert main(["study", "stability", "proof_press", "--values", "1e5", "--masters", "jacobi", "jacobian",
+                 "--orders", "0", "--out", str(tmp_path)]) == 1
+    table = pd.read_csv(tmp_path / "stability_proof_press_press_c_cyl.csv", keep_default_na=False)
+    assert list(zip(table["master"], table["status"])) == [("jacobi", "bracketed"), ("jacobian", "failed")]
+    assert table["error"].iloc[1] == "LinAlgError: Singular matrix" and drawn == [2]
+    err = capsys.readouterr().err
+    assert "1 of 2 rows failed" in err and "jacobian       order 1: failed: LinAlgError: Singular matrix" in err

@@ -4,28 +4,38 @@ A scene (declared as data in a ``systems/`` module, ``SYSTEM.scenes``) names a q
 :mod:`harness.qoi` expression), a tolerance and a time window (``stop_time`` may shorten the run).
 :func:`choose` then
 
-1. runs the full model (every component at its highest ``fidelity``, the system's default step and master)
-   and caches its quantity of interest and wall time (``results/cache/``, keyed by a hash of the system,
-   the scene and the equation sources): a repeat does not run the full model again;
+1. runs the full model (every component at its highest ``fidelity``, at the scene's step) with a method that
+   runs it to the end AND is accurate there (:func:`full_model`): the system's master first, then the
+   masters of the accuracy study's ladder (:data:`harness.studies.accuracy.DEFAULT_METHODS`), the first whose
+   run completes and whose quantity agrees with its own run at half the step within
+   :data:`FULL_MODEL_AGREEMENT` of the scene's tolerance.  That measured check needs nothing of the drive
+   but the scene itself (any drive, with or without a declared accuracy), and it judges the very quantity the
+   candidates are compared on.  No method passing stops the scene in one line naming each method's outcome.
+   The full model, its check and the methods refused are cached (``results/cache/``, keyed by a hash of the
+   system, the scene, the equation sources and this rule): a repeat does not run them again;
 2. greedy search over components, in the order the system lists them (stated, reproducible): for each
    component with a ``fidelity`` parameter, try its lower levels from the lowest up and keep the lowest whose
-   quantity stays within tolerance of the full model, given the choices already made;
-3. for the chosen fidelities and each searched master (the system's and ``gauss-seidel``; see :func:`choose`
-   for why not the others), doubles the communication step while the quantity stays within tolerance and the
-   run completes; the cheapest is the configuration with the largest step (same FMU calls per step), ties
-   going to the system's master -- a deterministic rule, unlike comparing noisy wall times;
+   quantity stays within tolerance of the full model, given the choices already made (with the full model's
+   master and step, so a difference is the model's, not the method's);
+3. for the chosen fidelities and each searched master (the full model's, the system's and ``gauss-seidel``;
+   see :func:`choose` for why not the others), doubles the communication step while the quantity stays within
+   tolerance and the run completes; the cheapest is the configuration with the fewest FMU steps (fmi2DoStep
+   calls summed over the FMUs: ``jacobian`` takes at least two per communication step, ``jacobi`` and
+   ``gauss-seidel`` one), ties going to the larger step, then to the first master searched -- a deterministic
+   rule, unlike comparing noisy wall times;
 4. measures the chosen model's wall time and the full model's side by side in the same process (the speed-up);
    on a cached repeat the full model's wall time is the cached one (``remeasure=True`` times it again).
 
-Every candidate run is recorded (fidelities, step, master, quantity, error, wall time) for the
-cost-vs-error chart.  The tolerance is relative to the full model's value unless ``relative=False``.
+Every candidate run is recorded (fidelities, step, master, quantity, error, wall time, FMU steps, its role)
+for the cost-vs-error chart.  The tolerance is relative to the full model's value unless ``relative=False``.
 """
 from __future__ import annotations
 
 import hashlib
 import json
+import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import pandas as pd
@@ -33,7 +43,8 @@ import pandas as pd
 from harness import qoi
 from harness.charts import save_figure
 from harness.specs import Scene  # noqa: F401 (declared with the systems; re-exported)
-from harness.studies.trial import StudyInterrupted, keep_interrupted, one_line, trial, write_complete
+from harness.studies.trial import (StudyInterrupted, keep_interrupted, one_line, partial_csv, trial,
+                                   write_complete)
 
 
 @dataclass
@@ -46,6 +57,15 @@ class Candidate:
     ok: bool
     note: str = ""
     master: str = ""
+    fmu_steps: int | None = None  # fmi2DoStep calls summed over the FMUs (None: the run raised)
+    role: str = "search"          # "full model", "full-model check" (half its step), "full model refused", "search"
+
+
+FULL_MODEL_AGREEMENT = 0.1
+"""The full model's quantity at the scene's step and at half of it must agree within this share of the scene's
+tolerance (the error of the run at the full step is then about this share, or twice it for a first-order
+method: small beside the tolerance the candidates are judged by)."""
+FULL_MODEL_RULE = "full model: completes and agrees with half its step (1)"   # part of the cache key
 
 
 @dataclass
@@ -59,6 +79,11 @@ class SceneResult:
 
     def table(self) -> pd.DataFrame:
         return candidate_table(self.candidates)
+
+    def full_model_text(self) -> str:
+        """How the full model was run, in words: its master and step, the methods refused before it and why,
+        and its check at half the step."""
+        return full_model_text(self.scene, self.full, self.candidates)
 
 
 def candidate_table(candidates: list[Candidate]) -> pd.DataFrame:
@@ -111,7 +136,7 @@ def fidelity_levels(system) -> dict[str, tuple[int, ...]]:
 def _key(system, scene: Scene) -> str:
     """Hash of the system, the scene and the equation sources (a changed model invalidates the cache)."""
     model = (system.name, system.instances, system.connections, system.bonds, system.experiment)
-    h = hashlib.sha1(repr((model, asdict(scene))).encode())
+    h = hashlib.sha1(repr((model, asdict(scene), FULL_MODEL_RULE)).encode())
     root = Path(__file__).resolve().parents[2] / "fmus"
     for src in sorted([*root.glob("physics/*.py"), *root.glob("components/pd_*.py"), root / "slave.py"]):
         h.update(src.read_bytes())
@@ -130,34 +155,112 @@ def _run(system, scene: Scene, fidelities: dict[str, int], step: float, full_val
                 master=master, extrapolation=exp.extrapolation, start_values=params,
                 output=qoi.columns(scene.quantity) or None)
     wall = run.wall_time
+    steps = None if run.result is None else run.result.attrs.get("fmu_steps")
+    steps = None if steps is None else int(steps)
     if not run.complete:
-        return Candidate(dict(fidelities), step, None, None, wall, False, run.error, master)
+        return Candidate(dict(fidelities), step, None, None, wall, False, run.error, master, steps)
     try:
         value = qoi.evaluate(scene.quantity, run.result)
     except Exception as e:
-        return Candidate(dict(fidelities), step, None, None, time.perf_counter() - t0, False, one_line(e), master)
+        return Candidate(dict(fidelities), step, None, None, time.perf_counter() - t0, False, one_line(e), master,
+                         steps)
     if full_value is None:
-        return Candidate(dict(fidelities), step, value, 0.0, wall, True, "", master)
+        return Candidate(dict(fidelities), step, value, 0.0, wall, True, "", master, steps)
     err = abs(value - full_value)
-    bound = scene.tolerance * (abs(full_value) if scene.relative else 1.0)
-    return Candidate(dict(fidelities), step, value, err, wall, err <= bound, "", master)
+    return Candidate(dict(fidelities), step, value, err, wall, err <= _bound(scene, full_value), "", master, steps)
+
+
+def _bound(scene: Scene, full_value: float) -> float:
+    """The admissible |error| of the scene's quantity around the full model's value."""
+    return scene.tolerance * (abs(full_value) if scene.relative else 1.0)
 
 
 def _better(a: Candidate, b: Candidate) -> bool:
-    """a is cheaper than b: a larger step (fewer communication steps; the FMU calls per step are the same
-    for ``jacobi`` and ``gauss-seidel``).  Deterministic, so the search is reproducible."""
+    """a is cheaper than b: fewer FMU steps (fmi2DoStep calls: the cost that holds on any machine, and the one
+    that tells ``jacobian``'s two or more calls per communication step from ``jacobi``'s one), a tie going to the
+    larger step.  Deterministic, so the search is reproducible."""
+    if a.fmu_steps is not None and b.fmu_steps is not None and a.fmu_steps != b.fmu_steps:
+        return a.fmu_steps < b.fmu_steps
     return a.step > b.step * (1.0 + 1e-9)
 
 
-def choose(system, scene: Scene, cache_dir: Path = Path("results/cache"), max_doublings: int = 6,
+class FullModelError(RuntimeError):
+    """No method runs a scene's full model to the end and accurately at the scene's step: the message (one line)
+    names each method tried and why it was refused; ``table`` holds those runs (a DataFrame)."""
+
+    def __init__(self, message: str, table: pd.DataFrame):
+        super().__init__(message)
+        self.table = table
+
+
+def _methods(system) -> list[str]:
+    """The masters that may run a scene's full model, in the order tried: the system's, then those of the
+    accuracy study's ladder (the methods a drive's accuracy is measured with)."""
+    from harness.studies.accuracy import DEFAULT_METHODS
+
+    return list(dict.fromkeys([system.experiment.master, *(m for m, _ in DEFAULT_METHODS)]))
+
+
+def full_model(system, scene: Scene, fidelities: dict[str, int], step: float,
+               candidates: list[Candidate]) -> Candidate:
+    """The full model's run at ``step`` with the first method of :func:`_methods` that runs it to the end and
+    agrees with its own run at half the step within :data:`FULL_MODEL_AGREEMENT` of the scene's tolerance (the
+    module docstring: why this check).  Every run made is appended to ``candidates`` (the refused ones, then the
+    full model and its check, with their ``role``); the accepted full model is returned.  None accepted:
+    :class:`FullModelError`."""
+    refused = []
+    for master in _methods(system):
+        candidates.append(replace(_run(system, scene, fidelities, step, None, master), role="full model refused"))
+        full = candidates[-1]
+        if not full.ok:
+            refused.append(f"{master} stopped: {full.note}")
+            continue
+        candidates.append(replace(_run(system, scene, fidelities, step / 2, full.value, master),
+                                  role="full model refused"))
+        half = candidates[-1]
+        allowed = FULL_MODEL_AGREEMENT * _bound(scene, full.value)
+        if half.ok and half.error <= allowed:
+            candidates[-2:] = [replace(full, role="full model"), replace(half, role="full-model check")]
+            return candidates[-2]
+        why = (f"at half the step it stopped: {half.note}" if half.error is None else
+               f"differs from its run at half the step by {half.error:.3g} {scene.unit}, more than "
+               f"{FULL_MODEL_AGREEMENT:g} of the tolerance ({allowed:.3g} {scene.unit})".replace(" )", ")"))
+        note = f"not accurate at {step:g} s: {why}"
+        candidates[-2:] = [replace(full, ok=False, note=note), replace(half, ok=False)]
+        refused.append(f"{master} {note}")
+    raise FullModelError(f"scene {scene.name}: no method runs the full model to the end and accurately at the "
+                         f"scene's step {step:g} s: " + "; ".join(refused)
+                         + " (a smaller step for the scene, Scene.step in the system's module, may)",
+                         candidate_table(candidates))
+
+
+def full_model_text(scene: Scene, full: Candidate, candidates: list[Candidate]) -> str:
+    """``full model: gauss-seidel at 0.2 ms, agrees with its run at 0.1 ms to 2.76e-07 m (allowed 0.000149 m);
+    refused before it: jacobi (t = 0.8296 s: ...)`` -- what the scene's output says about its reference run."""
+    check = next((c for c in candidates if c.role == "full-model check"), None)
+    text = f"full model: {full.master} at {full.step * 1e3:g} ms"
+    if check is not None and check.error is not None:
+        text += (f", agrees with its run at {check.step * 1e3:g} ms to {check.error:.3g} {scene.unit} (allowed "
+                 f"{FULL_MODEL_AGREEMENT * _bound(scene, full.value):.3g} {scene.unit})").replace(" )", ")")
+    refused = list(dict.fromkeys(c.master for c in candidates if c.role == "full model refused"))
+    if refused:
+        text += "; refused before it: " + ", ".join(
+            f"{m} ({next(c.note for c in candidates if c.master == m and c.role == 'full model refused')})"
+            for m in refused)
+    return text
+
+
+def choose(system, scene: Scene, cache_dir: Path = Path("results/cache"), max_doublings: int = 10,
            masters: tuple[str, ...] | None = None, remeasure: bool = False) -> SceneResult:
     """Answer ``scene`` on ``system`` with the coarsest adequate model (module docstring: the search).
 
-    ``masters``: the masters whose largest admissible step is searched (default: the system's master and
-    ``gauss-seidel``).  ``iterative`` is not searched: it repeats every step until the coupling converges,
+    ``masters``: the masters whose largest admissible step is searched (default: the full model's master, the
+    system's and ``gauss-seidel``).  ``iterative`` is not searched: it repeats every step until the coupling converges,
     so it costs several FMU steps per communication step and only pays off with algebraic loops, which the
     press drives do not have; ``jacobi-sampled`` costs the same as ``jacobi`` and is less accurate (it
-    exists to compare with other tools step by step).  The full model's run is cached in ``cache_dir``; a
+    exists to compare with other tools step by step).  ``max_doublings`` bounds the doubling (1024 times the
+    scene's step by default: a doubled run costs half the one before, and the tolerance ends the doubling
+    first).  The full model's run is cached in ``cache_dir``; a
     repeat does not run it again and takes its wall time from the cache unless ``remeasure`` is True.
     """
     candidates: list[Candidate] = []
@@ -173,32 +276,34 @@ def _choose(system, scene: Scene, cache_dir: Path, max_doublings: int, masters, 
     full_f = {k: v[-1] for k, v in levels.items()}
     exp = system.experiment
     step0, master0 = scene.step or exp.step, exp.master
-    if masters is None:
-        masters = tuple(dict.fromkeys((master0, "gauss-seidel")))
     cache = cache_dir / f"{system.name}_{scene.name}_{_key(system, scene)}.json"
     cached = cache.exists()
-    if cached:
-        full = Candidate(**json.loads(cache.read_text()))
+    if cached:           # the full model first, then the runs that chose its method (as when it was run)
+        runs = [Candidate(**c) for c in json.loads(cache.read_text())]
+        candidates += [c for c in runs if c.role == "full model"] + [c for c in runs if c.role != "full model"]
     else:
-        full = _run(system, scene, full_f, step0, None, master0)
-        if not full.ok:
-            raise RuntimeError(f"scene {scene.name}: the full model failed: {full.note}")
+        full_model(system, scene, full_f, step0, candidates)
+        candidates.sort(key=lambda c: c.role != "full model")   # the full model first (stable: the rest in order)
         cache.parent.mkdir(parents=True, exist_ok=True)
-        cache.write_text(json.dumps(asdict(full)))
-    candidates.append(full)
+        cache.write_text(json.dumps([asdict(c) for c in candidates]))
+    full = candidates[0]
+    master1 = full.master            # the method the full model is run with: the search compares models with it
+    if masters is None:
+        masters = tuple(dict.fromkeys((master1, master0, "gauss-seidel")))
     current = dict(full_f)
     for inst, lv in levels.items():  # greedy, in the system's instance order
         for level in lv[:-1]:
             trial = dict(current, **{inst: level})
-            c = _run(system, scene, trial, step0, full.value, master0)
+            c = _run(system, scene, trial, step0, full.value, master1)
             candidates.append(c)
             if c.ok:
                 current = trial
                 break
-    chosen = next((c for c in reversed(candidates) if c.ok and c.fidelities == current and c.step == step0), full)
+    chosen = next((c for c in reversed(candidates) if c.ok and c.role == "search" and c.fidelities == current
+                   and c.step == step0 and c.master == master1), full)
     for master in masters:           # the largest admissible step of each master, by doubling
         step = step0
-        if master != master0:
+        if master != master1:
             c = _run(system, scene, current, step0, full.value, master)
             candidates.append(c)
             if not c.ok:
@@ -214,9 +319,10 @@ def _choose(system, scene: Scene, cache_dir: Path, max_doublings: int, masters, 
             if _better(c, chosen):
                 chosen = c
     if remeasure or not cached:      # cost side by side in this process (warm: after the search)
-        full_again = _run(system, scene, full_f, step0, full.value, master0)
-        full = Candidate(**dict(asdict(full), wall_time=full_again.wall_time))
-        cache.write_text(json.dumps(asdict(full)))
+        full_again = _run(system, scene, full_f, step0, full.value, master1)
+        full = candidates[0] = replace(full, wall_time=full_again.wall_time)
+        n_full = 1 + sum(c.role != "search" for c in candidates[1:])
+        cache.write_text(json.dumps([asdict(c) for c in candidates[:n_full]]))
         chosen_again = _run(system, scene, chosen.fidelities, chosen.step, full.value, chosen.master)
     else:
         chosen_again = chosen
@@ -247,7 +353,7 @@ def chart(result: SceneResult, out: Path) -> list[Path]:
     from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
     full, ch = result.full, result.chosen
-    rest = [c for c in result.candidates[1:]]   # the first candidate is the full model itself
+    rest = [c for c in result.candidates[1:] if c.role == "search"]   # [0]: the full model; not its method runs
     measured = [c for c in rest if c.error is not None]
     unit = f" [{result.scene.unit}]" if result.scene.unit else ""
     tol = result.scene.tolerance * (abs(full.value) if result.scene.relative else 1.0)
@@ -320,9 +426,16 @@ def _run_cli(args) -> int:
         res = choose(system, scene, cache_dir=args.out / "cache", remeasure=args.remeasure)
     except StudyInterrupted as e:
         return keep_interrupted(e, stem.with_suffix(".csv"), f"scene {scene.name} stopped during its search")
+    except FullModelError as e:     # its runs kept, as an interrupted search keeps its candidates
+        out = partial_csv(stem.with_suffix(".csv"))
+        out.parent.mkdir(parents=True, exist_ok=True)
+        e.table.to_csv(out, index=False)
+        print(f"error: {e}; the {len(e.table)} runs made are kept in {out}", file=sys.stderr)
+        return 1
     csv = write_complete(res.table(), stem.with_suffix(".csv"))
     paths = chart(res, stem)
     print(f"scene {scene.name}: {res.scene.question}")
+    print(f"  {res.full_model_text()}")
     print(f"  chosen fidelities: {res.chosen.fidelities}, step {res.chosen.step:g} s, master {res.chosen.master} "
           f"({configuration(res.chosen, res.full)})")
     print(f"  quantity: {res.chosen.value:.6g} {res.scene.unit} (full model {res.full.value:.6g}); "
@@ -330,9 +443,10 @@ def _run_cli(args) -> int:
     print(f"  wall time: full {res.full.wall_time:.3f} s, chosen {res.chosen.wall_time:.3f} s, "
           f"speed-up {res.speedup:.2f}x " + ("(full model from the cache)" if res.cached_full
                                              else "(measured side by side in this run)"))
-    stopped = [c for c in res.candidates if c.error is None]
+    searched = [c for c in res.candidates if c.role == "search"]
+    stopped = [c for c in searched if c.error is None]
     if stopped:
-        print(f"  {len(stopped)} of {len(res.candidates)} candidates stopped early (their reasons: the note "
+        print(f"  {len(stopped)} of {len(searched)} candidates stopped early (their reasons: the note "
               f"column of {csv})")
     print(f"  chart: {paths[0]}")
     return 0

@@ -156,6 +156,7 @@ class PressRun:
         self.h_default = float(self.system.experiment.step)
         self.ref = reference if reference is not None else self.reference()
         self.runs = 0
+        self.stops: dict[float, str] = {}  # step -> why its run stopped before its end (judged unstable)
 
     def reference(self):
         """Gauss-seidel, order 0 at the default step (halved up to 3 times until it completes)."""
@@ -178,9 +179,12 @@ class PressRun:
         h = _check_h(h)
         n = self.n_steps(h)
         self.runs += 1
-        return quiet_simulate(self.system, stop_time=n * h, step=h, master=self.master,
-                               extrapolation=self.order, start_values=self.parameters, on_error="return",
-                               options=study_options(n))
+        df = quiet_simulate(self.system, stop_time=n * h, step=h, master=self.master,
+                            extrapolation=self.order, start_values=self.parameters, on_error="return",
+                            options=study_options(n))
+        if df.attrs.get("complete") is False:
+            self.stops[h] = str(df.attrs.get("error") or "incomplete run")
+        return df
 
     def judge(self, df) -> bool:
         """True if the run is unstable (deviation criterion of the press-drive section)."""
@@ -193,7 +197,15 @@ class PressRun:
 def press_boundary(prun: PressRun, rtol: float = 0.02, cap: float = 64.0, floor: float = 1.0 / 16) -> dict:
     """Largest stable step of one method (search of the press-drive section).  Returns ``h_stable`` (largest
     step judged stable), ``h_unstable`` (smallest judged unstable), ``h_boundary`` (their midpoint; NaN if not
-    bracketed), ``status`` (``bracketed``, ``stable to cap``, ``unstable at floor``) and ``runs``."""
+    bracketed), ``status`` (``bracketed``, ``stable to cap``, ``unstable at floor``), ``runs`` and ``note``: why
+    the run at ``h_unstable`` stopped before its end, where it did (e.g. a singular interface Jacobian), else
+    empty (judged on its deviation)."""
+    r = _press_search(prun, rtol, cap, floor)
+    r["note"] = getattr(prun, "stops", {}).get(r["h_unstable"], "")
+    return r
+
+
+def _press_search(prun: PressRun, rtol: float, cap: float, floor: float) -> dict:
     h0 = prun.h_default
     h_max = min(cap * h0, prun.duration / 16.0)
     h_min = floor * h0
@@ -279,11 +291,15 @@ def press_stability_table(system: str, sweep: str | None = None, values=None, ma
                     if v in failed:
                         omega, T, why = failed[v]
                         r = dict(h_stable=math.nan, h_unstable=math.nan, h_boundary=math.nan, status="failed",
-                                 runs=0, error=why)
+                                 runs=0, note="", error=why)
                     else:
                         omega, T, ref = runs[v]
                         prun = PressRun(base, master, order, {sweep: v}, duration=T, reference=ref)
-                        r = dict(press_boundary(prun, rtol=rtol, cap=cap), error="")
+                        try:
+                            r = dict(press_boundary(prun, rtol=rtol, cap=cap), error="")
+                        except Exception as e:  # a search that cannot go on: this row says why, the others go on
+                            r = dict(h_stable=math.nan, h_unstable=math.nan, h_boundary=math.nan, status="failed",
+                                     runs=prun.runs, note="", error=one_line(e))
                         if progress:
                             progress(f"{sweep} = {v:g}  {master:14s} order {order}: {_boundary_text(r)} "
                                      f"({r['runs']} runs)")
@@ -300,7 +316,10 @@ def _boundary_text(r: dict) -> str:
         return f"stable up to the cap of the search, {r['h_stable']:.4g} s"
     if r["status"] == "unstable at floor":
         return f"unstable down to the floor of the search, {r['h_unstable']:.4g} s"
-    return f"largest stable step {r['h_stable']:.4g} s, unstable at {r['h_unstable']:.4g} s"
+    if r["status"] == "failed":
+        return f"failed: {r['error']}"
+    stopped = f" (the run stopped: {r['note']})" if r.get("note") else ""
+    return f"largest stable step {r['h_stable']:.4g} s, unstable at {r['h_unstable']:.4g} s{stopped}"
 
 
 def _sweep_unit(system: str, sweep: str) -> str:
