@@ -40,8 +40,6 @@ the motion-output component across the bond.
 """
 from __future__ import annotations
 
-import functools
-
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
@@ -50,7 +48,7 @@ from pythonfmu.enums import Fmi2Status
 from .refusal import CATEGORY as REFUSAL_CATEGORY
 from .refusal import DESCRIPTION as REFUSAL_DESCRIPTION
 from .slave_core import (Input, Output, Port, PressBehaviour, Rotational, Translational, Variable,  # noqa: F401
-                         unit_definitions)
+                         slave_class, unit_definitions)
 
 
 class PressSlave(PressBehaviour, Fmi2Slave):
@@ -127,10 +125,6 @@ class PressSlave(PressBehaviour, Fmi2Slave):
         return root
 
 
-@functools.lru_cache(maxsize=None)
 def fmu_class(declaration: type) -> type:
-    """The FMI 2.0 co-simulation slave class of a declaration (:class:`fmus.declaration.Component`), as
-    the FMU's module defines it (:func:`fmus.build.fmu_module`): ``class <Name>(<declaration>, PressSlave)``, made
-    in this process."""
-    return type(declaration.__name__, (declaration, PressSlave), {"__module__": declaration.__module__,
-                                                                  "__qualname__": declaration.__qualname__})
+    """The FMI 2.0 co-simulation slave class of a declaration (:func:`fmus.slave_core.slave_class`)."""
+    return slave_class(declaration, PressSlave)

@@ -30,8 +30,6 @@ The power bonds are FMI 3.0 terminals too (:func:`terminals_and_icons`, packed b
 """
 from __future__ import annotations
 
-import functools
-
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu3 import Fmi3Causality, Fmi3Slave, Fmi3Status, Fmi3Variability, Float64, Int32
@@ -39,7 +37,7 @@ from pythonfmu3 import Fmi3Causality, Fmi3Slave, Fmi3Status, Fmi3Variability, Fl
 from .refusal import CATEGORY as REFUSAL_CATEGORY
 from .refusal import DESCRIPTION as REFUSAL_DESCRIPTION
 from .slave_core import (Input, Output, Port, PressBehaviour, Rotational, Translational, Variable,  # noqa: F401
-                         unit_definitions)
+                         slave_class, unit_definitions)
 
 # terminalKind of a power bond: a host connects two terminals of one kind (a motion-out flange to a motion-in one)
 TERMINAL_KIND = {False: "org.pressdrive.RotationalFlange", True: "org.pressdrive.TranslationalFlange"}
@@ -130,13 +128,9 @@ class PressSlave(PressBehaviour, Fmi3Slave):
         return root
 
 
-@functools.lru_cache(maxsize=None)
 def fmu_class(declaration: type) -> type:
-    """The FMI 3.0 co-simulation slave class of a declaration (:class:`fmus.declaration.Component`), as
-    the FMU's module defines it (:func:`fmus.build.fmu_module`): ``class <Name>(<declaration>, PressSlave)``, made
-    in this process."""
-    return type(declaration.__name__, (declaration, PressSlave), {"__module__": declaration.__module__,
-                                                                  "__qualname__": declaration.__qualname__})
+    """The FMI 3.0 co-simulation slave class of a declaration (:func:`fmus.slave_core.slave_class`)."""
+    return slave_class(declaration, PressSlave)
 
 
 def terminals_and_icons(ports: tuple[Port, ...]) -> Element | None:

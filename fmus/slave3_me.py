@@ -33,8 +33,6 @@ pythonfmu3 0.3.4's wrapper reads fmi3UpdateDiscreteStates' results under the C n
 """
 from __future__ import annotations
 
-import functools
-
 from dataclasses import dataclass
 from xml.etree.ElementTree import Element, SubElement
 
@@ -44,7 +42,7 @@ from pythonfmu3.modelexchange import ModelExchange
 
 from . import slave3
 from .slave3 import Input, Output, Port, Rotational, Translational, Variable  # noqa: F401
-from .slave_core import SlaveState
+from .slave_core import SlaveState, slave_class
 from .units import BASE_UNITS
 
 # what the toolkit's FMI 3.0 model exchange FMUs can do
@@ -271,10 +269,6 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         return root
 
 
-@functools.lru_cache(maxsize=None)
 def fmu_class(declaration: type) -> type:
-    """The FMI 3.0 model exchange slave class of a declaration (:class:`fmus.declaration.Component`), as
-    the FMU's module defines it (:func:`fmus.build.fmu_module`): ``class <Name>(<declaration>, PressSlave)``, made
-    in this process."""
-    return type(declaration.__name__, (declaration, PressSlave), {"__module__": declaration.__module__,
-                                                                  "__qualname__": declaration.__qualname__})
+    """The FMI 3.0 model exchange slave class of a declaration (:func:`fmus.slave_core.slave_class`)."""
+    return slave_class(declaration, PressSlave)

@@ -10,6 +10,8 @@ exporters' C wrappers need besides is :mod:`fmus.wrapper_glue`.
 """
 from __future__ import annotations
 
+import functools
+
 import math
 from dataclasses import dataclass, fields
 from typing import ClassVar
@@ -375,3 +377,12 @@ def unit_definitions(units) -> Element:
         unit = SubElement(unit_defs, "Unit", name=name)
         SubElement(unit, "BaseUnit", {k: str(e) for k, e in BASE_UNITS[name].items()})
     return unit_defs
+
+
+@functools.lru_cache(maxsize=None)
+def slave_class(declaration: type, base: type) -> type:
+    """The slave class of a declaration (:class:`fmus.declaration.Component`) on the FMI version's ``base``
+    (a ``PressSlave``), as the FMU's module defines it (:func:`fmus.build.fmu_module`):
+    ``class <Name>(<declaration>, <base>)``, made in this process (each version's ``fmu_class``)."""
+    return type(declaration.__name__, (declaration, base), {"__module__": declaration.__module__,
+                                                            "__qualname__": declaration.__qualname__})

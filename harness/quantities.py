@@ -44,6 +44,7 @@ import numpy as np
 import pandas as pd
 
 from harness import qoi
+from harness.results import KeptInAttrs
 from harness.specs import Answer, QuantitySpec
 
 RPM = 2 * math.pi / 60
@@ -191,7 +192,7 @@ KINDS = _SIMPLE + ("fluctuation", "register", "angles", "impacts")
 
 
 # -- the table -------------------------------------------------------------------------------------------------
-class Quantities:
+class Quantities(KeptInAttrs):
     """The engineering quantities of one run: ``rows`` (:class:`Row`), ``cycles`` (:class:`Cycles`), the
     system's name.  ``q["name"]`` is a value (None where the run gives none); :meth:`table` the printed
     table, :meth:`to_dict` / :meth:`write_json` the saved form, :meth:`frame` a DataFrame.
@@ -201,17 +202,6 @@ class Quantities:
     def __init__(self, system: str, rows: list[Row], cycles: Cycles | None, shaft: str = "",
                  cycle_name: str = ""):
         self.system, self.rows, self.cycles, self.shaft, self.cycle_name = system, tuple(rows), cycles, shaft, cycle_name
-
-    def __deepcopy__(self, memo):
-        return self
-
-    def __copy__(self):
-        return self
-
-    def __eq__(self, other):
-        return self is other
-
-    __hash__ = object.__hash__
 
     @property
     def names(self) -> list[str]:

@@ -17,17 +17,9 @@ import pandas as pd
 from harness.errors import SystemError_
 
 
-class BondLog:
-    """Per power bond, at each recorded communication point: ``P_out`` (tau held by the motion-output side
-    times its own speed, trapezoidal mean over the last step), ``P_in`` (the motion-input side's torque,
-    trapezoidal mean, times the speed it held) [W] and ``energy_error`` = integral of ``P_out - P_in`` from
-    the start [J].  Positive ``energy_error``: the coupling has put energy into the system.
-
-    Immutable once the run is over; copies and comparisons are by identity (cheap in ``df.attrs``)."""
-
-    def __init__(self, labels: list[str], time: np.ndarray, p_out: np.ndarray, p_in: np.ndarray,
-                 energy: np.ndarray):
-        self.labels, self.time, self.p_out, self.p_in, self.energy = labels, time, p_out, p_in, energy
+class KeptInAttrs:
+    """A value kept in a result's ``df.attrs``, immutable once made: pandas copies ``attrs`` with every new
+    frame, so its copies are the object itself (cheap) and it equals itself only."""
 
     def __deepcopy__(self, memo):
         return self
@@ -39,6 +31,19 @@ class BondLog:
         return self is other
 
     __hash__ = object.__hash__
+
+
+class BondLog(KeptInAttrs):
+    """Per power bond, at each recorded communication point: ``P_out`` (tau held by the motion-output side
+    times its own speed, trapezoidal mean over the last step), ``P_in`` (the motion-input side's torque,
+    trapezoidal mean, times the speed it held) [W] and ``energy_error`` = integral of ``P_out - P_in`` from
+    the start [J].  Positive ``energy_error``: the coupling has put energy into the system.
+
+    Immutable once the run is over; copies and comparisons are by identity (cheap in ``df.attrs``)."""
+
+    def __init__(self, labels: list[str], time: np.ndarray, p_out: np.ndarray, p_in: np.ndarray,
+                 energy: np.ndarray):
+        self.labels, self.time, self.p_out, self.p_in, self.energy = labels, time, p_out, p_in, energy
 
     def frame(self, label: str) -> pd.DataFrame:
         if label not in self.labels:

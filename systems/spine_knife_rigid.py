@@ -14,7 +14,6 @@ is systems/spine_knife.py's.  systems/spine_knife.py is the variant with a motor
 import dataclasses
 
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import Scene
 from systems import spine_knife as base
 
 SHAFT = {**base.SYSTEM.instance("shaft").parameters, "rigid_drive": 1}
@@ -36,12 +35,7 @@ SYSTEM = System(
     free_inputs={"shaft.pulley.tau": "the drive end is held at 600 rpm (rigid_drive = 1): a torque on it moves "
                                      "nothing",
                  "shaft.aux.tau": "the second take-off on the knife node drives nothing here: no torque on it"},
-    scenes=[
-        Scene("shaft_twist", "How large is the torsional deformation of the knife shaft?",
-              'peak(window(r["shaft.shaft_twist"], 0.1, 0.3))', tolerance=0.05, unit="rad", stop_time=0.3),
-        Scene("knife_torque", "What peak torque does the cutting put on the drive?",
-              'peak(window(r["knife.knife.tau"], 0.1, 0.3))', tolerance=0.02, unit="N.m", stop_time=0.3),
-    ],
+    scenes=list(base.SYSTEM.scenes),   # the belt variant's questions
     default_scene="shaft_twist",  # seed 003's question: torsional deformation and resonance of the knife shaft
 )
 
