@@ -57,11 +57,12 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         _accept_negative_numbers(ap)
         return ap
     from harness import describe, run, ssp, synthesis
-    from harness.studies import accuracy, compare, precision, scenes, stability, sweep, takeup
+    from harness.studies import accuracy, compare, precision, scenes, size, stability, sweep, takeup
 
     describe.register(sub)        # list, show SYSTEM
     run.register(sub)             # run a system
     compare.register(sub)         # compare X --variant ... --variant ...
+    size.register(sub)            # size X --vary I.p --target 'Q <= V'
     ssp.register(sub)             # export a system as SSP
     synthesis.register(sub)       # synth fourbar|groove|sectors|knife
     study = sub.add_parser("study", help="numerical studies (stability, precision)",

@@ -1,0 +1,213 @@
+"""A part sized to a target: ``python -m harness size DRIVE --vary I.p --target "QUANTITY <= VALUE"`` and
+:func:`size`.
+
+The engineering quantity (:mod:`harness.quantities`) is computed from a co-simulation run of the drive for each
+value of the parameter tried.  First the bracket: the quantity at both ends of ``--range`` (default: a quarter
+and four times the drive's value).  Where the target is met at one end and missed at the other, Brent's method
+finds the value where the quantity crosses the target (to ``--xtol`` of the range, runs reused); the answer is
+the boundary value on the side that meets it (the smallest value when the quantity falls as the parameter
+rises under ``<=``, the largest when it rises), verified by a run at it.  Where the target is met at both ends
+or at neither, it says so with the range the quantity took over the bracket; where the quantity's elasticity
+over the bracket, d ln Q / d ln p, is below 0.1 (a 16x change of the parameter moves it by less than 32 %), it
+says that the parameter barely governs it.
+
+Refused in one line before any run: a target that is not ``NAME <= VALUE`` or ``NAME >= VALUE``, a quantity the
+drive does not report (with the nearest names), a parameter the drive's FMUs do not have, a bracket that is not
+two positive increasing values for a positive parameter.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import re
+from dataclasses import dataclass, field
+
+from harness.errors import SystemError_
+
+WEAK = 0.1    # elasticity d ln Q / d ln p below which the parameter barely governs the quantity
+
+
+@dataclass(frozen=True)
+class Target:
+    quantity: str
+    op: str        # "<=" or ">="
+    value: float
+
+    def met(self, q: float) -> bool:
+        return q <= self.value if self.op == "<=" else q >= self.value
+
+    def __str__(self) -> str:
+        return f"{self.quantity} {self.op} {self.value:g}"
+
+
+def parse_target(text: str) -> Target:
+    m = re.fullmatch(r"\s*([A-Za-z_][\w]*)\s*(<=|>=)\s*([-+0-9.eE]+)\s*", str(text))
+    if not m:
+        raise SystemError_(f"--target {text!r}: expected 'QUANTITY <= VALUE' or 'QUANTITY >= VALUE'")
+    try:
+        value = float(m.group(3))
+    except ValueError:
+        raise SystemError_(f"--target {text!r}: {m.group(3)!r} is not a number") from None
+    return Target(m.group(1), m.group(2), value)
+
+
+@dataclass
+class Sizing:
+    """What :func:`size` found: ``answer`` (None when the bracket holds none) with ``verified`` (the quantity
+    at it), ``runs`` (value -> quantity, every run made), the bracket and the ``message`` to print."""
+    parameter: str
+    target: Target
+    bracket: tuple[float, float]
+    runs: dict = field(default_factory=dict)
+    answer: float | None = None
+    verified: float | None = None
+    message: str = ""
+
+
+def size(system, parameter: str, target, bracket: tuple[float, float] | None = None, xtol: float = 1e-3,
+         max_runs: int = 16, **options) -> Sizing:
+    """Size ``parameter`` (``Instance.parameter``) of ``system`` so that ``target`` (a :class:`Target` or
+    ``"NAME <= VALUE"``) holds; ``options`` go to every :func:`harness.run.simulate` run."""
+    from scipy.optimize import brentq
+
+    from harness.quantities import quantities
+    from harness.run import load, simulate
+
+    system = load(system)
+    target = target if isinstance(target, Target) else parse_target(target)
+    p0 = _current(system, parameter)
+    lo, hi = bracket if bracket is not None else (p0 / 4.0, p0 * 4.0)
+    if not (0.0 < lo < hi) or not all(map(math.isfinite, (lo, hi))):
+        raise SystemError_(f"size {system.name}: bracket [{lo:g}, {hi:g}] of {parameter} must be two positive "
+                           f"increasing values (the drive's value is {p0:g})")
+    check_target(system, target)
+    base = dict(options.pop("start_values", None) or {})
+    result = Sizing(parameter, target, (lo, hi))
+
+    def quantity(p: float) -> float:
+        if p in result.runs:
+            return result.runs[p]
+        if len(result.runs) >= max_runs:
+            raise SystemError_(f"size {system.name}: {max_runs} runs used without settling {parameter}; "
+                               f"runs: {_runs(result.runs)}")
+        df = simulate(system, start_values={**base, parameter: p}, **options)
+        if not df.attrs.get("complete", True):
+            raise SystemError_(f"size {system.name}: the run at {parameter} = {p:g} stopped: {df.attrs.get('error')}")
+        q = quantities(system, df)
+        value = q[target.quantity]
+        if not isinstance(value, (int, float)) or value is None:
+            raise SystemError_(f"size {system.name}: {target.quantity} has no value at {parameter} = {p:g}: "
+                               f"{q.row(target.quantity).note or q.heading()}")
+        result.runs[p] = float(value)
+        return float(value)
+
+    q_lo, q_hi = quantity(lo), quantity(hi)
+    # the elasticity d ln Q / d ln p over the bracket: a 1 % change of the parameter moves Q by that many %
+    elasticity = (math.log(abs(q_hi) / abs(q_lo)) / math.log(hi / lo)) if q_lo * q_hi > 0 else math.inf
+    weak = (f"; {target.quantity} changes by {100 * abs(q_hi - q_lo) / max(abs(q_lo), abs(q_hi)):.3g} % over this "
+            f"{hi / lo:g}x range of {parameter} (elasticity {elasticity:.2g}): the parameter barely governs it"
+            if abs(elasticity) < WEAK else "")
+    taken = f"{target.quantity} took {min(q_lo, q_hi):.4g} to {max(q_lo, q_hi):.4g} over [{lo:g}, {hi:g}]"
+    if target.met(q_lo) and target.met(q_hi):
+        result.message = f"{target} holds at both ends of the bracket ({taken}){weak}"
+        return result
+    if not target.met(q_lo) and not target.met(q_hi):
+        result.message = f"no value of {parameter} in [{lo:g}, {hi:g}] meets {target}: {taken}{weak}"
+        return result
+    root = brentq(lambda p: quantity(p) - target.value, lo, hi, xtol=xtol * (hi - lo), maxiter=max_runs)
+    # the boundary value on the side that meets the target, verified by its own run
+    side = lo if target.met(q_lo) else hi
+    answer = root
+    if not target.met(quantity(answer)):
+        answer = min(result.runs, key=lambda p: abs(p - root) if target.met(result.runs[p]) and
+                     (p - root) * (side - root) >= 0 else math.inf)
+    result.answer, result.verified = answer, quantity(answer)
+    which = "largest" if side == lo else "smallest"
+    qs = [result.runs[p] for p in sorted(result.runs)]
+    steps = [b - a for a, b in zip(qs, qs[1:]) if b != a]
+    monotonic = all(d > 0 for d in steps) or all(d < 0 for d in steps)
+    result.message = (f"{parameter} = {answer:.6g}: the {which} value in [{lo:g}, {hi:g}] that meets {target} "
+                      f"({target.quantity} = {result.verified:.6g} in the run at it; {len(result.runs)} runs){weak}")
+    if not monotonic:
+        worst = max(result.runs, key=lambda p: result.runs[p] if target.op == "<=" else -result.runs[p])
+        result.message = (f"{parameter} = {answer:.6g}: {target} holds from here towards {side:g}, but "
+                          f"{target.quantity} is not monotonic in {parameter} over the runs ({result.runs[worst]:.4g} "
+                          f"at {worst:.4g}): other values may meet the target too, or miss it; narrow --range "
+                          f"({target.quantity} = {result.verified:.6g} in the run at it; {len(result.runs)} runs)")
+    return result
+
+
+def check_target(system, target: Target) -> None:
+    """The target names a quantity the drive reports (its names from the drive's declaration, before any run)."""
+    import pandas as pd
+
+    from harness.quantities import quantities
+
+    names = quantities(system, pd.DataFrame(index=pd.Index([], name="time"))).names
+    if target.quantity not in names:
+        close = difflib.get_close_matches(target.quantity, names, n=3)
+        raise SystemError_(f"size {system.name}: no quantity {target.quantity!r}"
+                           + (f" (did you mean {', '.join(close)}?)" if close else
+                              f" (quantities: {', '.join(names) or 'none declared'})"))
+
+
+def _runs(runs: dict) -> str:
+    return ", ".join(f"{p:.4g} -> {q:.4g}" for p, q in sorted(runs.items()))
+
+
+def _current(system, parameter: str) -> float:
+    """The drive's value of ``parameter`` (the system's, else the FMU's declared start); one line when the FMU
+    has no such parameter."""
+    from harness.fmi.cache import model_description
+    from harness.model import resolve_fmu
+    from harness.run import split_parameters
+
+    inst, _, name = parameter.partition(".")
+    split_parameters(system, {parameter: None})      # an unknown instance: one line with the nearest names
+    md = model_description(resolve_fmu(system.instance(inst).fmu))
+    found = {v.name: v for v in md.modelVariables if v.causality == "parameter"}
+    if name not in found:
+        close = difflib.get_close_matches(name, list(found), n=3)
+        raise SystemError_(f"size {system.name}: FMU {md.modelName} of instance {inst} has no parameter {name!r}"
+                           + (f" (did you mean {', '.join(close)}?)" if close else ""))
+    given = dict(system.instance(inst).parameters).get(name)
+    return float(given if given is not None else found[name].start)
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "size", help="size one parameter of a drive to an engineering-quantity target",
+        description="Find the smallest (or largest) value of one parameter for which an engineering quantity "
+                    "meets a target (QUANTITY <= VALUE or >= VALUE): the quantity at both ends of the bracket, "
+                    "then Brent's method over co-simulation runs, runs reused; the answer is verified by a run at "
+                    "it. A target no value in the bracket meets is one line with the range the quantity took.")
+    p.add_argument("system", help="system name in systems/ (e.g. bed_drive), a .py file defining SYSTEM, or .ssp")
+    p.add_argument("--vary", required=True, metavar="Instance.param", help="the parameter to size")
+    p.add_argument("--target", required=True, metavar="'QUANTITY <= VALUE'",
+                   help="the engineering quantity's target (names as `run` prints them)")
+    p.add_argument("--range", nargs=2, type=float, default=None, metavar=("LOW", "HIGH"),
+                   help="the bracket searched (default: a quarter and four times the drive's value)")
+    p.add_argument("--xtol", type=float, default=1e-3, metavar="SHARE",
+                   help="the answer's tolerance as a share of the bracket (default 1e-3)")
+    p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
+                   help="stop time [s] of every run (default: the drive's default experiment)")
+    p.add_argument("--set", action="append", default=[], metavar="Instance.param=VALUE",
+                   help="other parameter values, the same in every run")
+    p.set_defaults(func=_cli)
+
+
+def _cli(args) -> int:
+    from harness.run import RunOptions, load, parse_sets
+
+    system = load(args.system)
+    target = parse_target(args.target)
+    _current(system, args.vary)
+    check_target(system, target)
+    result = size(system, args.vary, target, tuple(args.range) if args.range else None, xtol=args.xtol,
+                  stop_time=args.stop_time, start_values=parse_sets(args.set), options=RunOptions(progress=None))
+    print(result.message)
+    print(f"runs ({args.vary} -> {target.quantity}): {_runs(result.runs)}")
+    return 0 if result.answer is not None else 2
+
+
+__all__ = ["size", "parse_target", "Target", "Sizing"]

@@ -1,0 +1,52 @@
+"""size: one parameter of a drive sized to an engineering-quantity target (harness.studies.size)."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from harness import load
+from harness.errors import SystemError_
+from harness.studies.size import Target, parse_target, size
+
+
+def test_a_target_is_a_quantity_an_operator_and_a_value():
+    assert parse_target("speed_fluctuation <= 5") == Target("speed_fluctuation", "<=", 5.0)
+    assert parse_target(" motor_torque_rms_to_rated>=0.5e-1 ") == Target("motor_torque_rms_to_rated", ">=", 0.05)
+    for bad in ("speed_fluctuation < 5", "5 <= speed_fluctuation", "speed_fluctuation <= five", "<= 5"):
+        with pytest.raises(SystemError_, match="expected 'QUANTITY <= VALUE' or 'QUANTITY >= VALUE'|not a number"):
+            parse_target(bad)
+
+
+@pytest.mark.parametrize("args, message", [
+    (("--vary", "flywheel.J_flywheel", "--target", "speed_fluctuaton <= 5"),
+     "no quantity 'speed_fluctuaton' (did you mean speed_fluctuation"),
+    (("--vary", "flywheel.J_flywhel", "--target", "speed_fluctuation <= 5"),
+     "has no parameter 'J_flywhel' (did you mean J_flywheel"),
+    (("--vary", "flywheel.J_flywheel", "--target", "speed_fluctuation <= 5", "--range", "4", "2"),
+     "bracket [4, 2] of flywheel.J_flywheel must be two positive increasing values"),
+])
+def test_bad_input_is_one_line_before_any_run(args, message):
+    r = subprocess.run([sys.executable, "-m", "harness", "size", "bed_drive", *args], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 1 and r.stdout == "" and message in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "points to t" not in r.stderr
+
+
+@pytest.mark.slow
+def test_the_trimmer_motor_sized_to_a_thermal_target_against_its_closed_form():
+    """The trimmer's motor is an ideal speed source: its torque is the belt's whatever its rating, so
+    motor_torque_rms / (P_rated / w_rated) falls as 1/P_rated, and the smallest rating that keeps it <= 0.8 is
+    P0 r0 / 0.8 from one run at P0 (closed form); a target no rating in the bracket meets names the range."""
+    system = load("trimmer_conveyor")
+    one = size(system, "motor.P_rated", "motor_torque_rms_to_rated <= 0.8", (1000.0, 8000.0), xtol=1e-4,
+               stop_time=1.2)
+    assert one.answer is not None
+    p_any, r_any = next(iter(one.runs.items()))
+    want = p_any * r_any / 0.8
+    assert one.answer == pytest.approx(want, rel=2e-3) and one.verified <= 0.8 + 1e-9
+    assert "the smallest value" in one.message
+    none = size(system, "motor.P_rated", "motor_torque_rms_to_rated <= 0.01", (1000.0, 8000.0), stop_time=1.2)
+    assert none.answer is None and "no value of motor.P_rated in [1000, 8000] meets" in none.message
+    assert "motor_torque_rms_to_rated took" in none.message
