@@ -373,3 +373,20 @@ def test_exported_ssp_carries_each_instances_values_in_its_fmu(fmu_dir, tmp_path
     w0, w_end, s_end = eval(out.strip().splitlines()[-1])
     assert w0 == pytest.approx(2 * np.pi)           # the drive's 60 rpm, not the FMU's default
     assert abs(w_end) < 100.0                        # before: -1.75e4 rad/s by 1 ms
+
+
+def test_a_drive_fmu_run_in_this_process_leaves_the_fmi_log_routing_working(drive_fmus, fmu_dir):
+    """A drive FMU brings its own copy of the FMI layer, whose logger fmpy's one-per-process log proxy then held:
+    a parameter the FMU refused afterwards lost its line ('fmi2EnterInitializationMode failed ... status fatal')."""
+    import warnings
+
+    from fmpy import simulate_fmu
+
+    from harness import RunOptions, simulate
+
+    simulate_fmu(str(drive_fmus("bed_drive")), stop_time=0.002, step_size=1e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        df = simulate(load("bed_drive").on_fmus(fmu_dir), stop_time=0.01, start_values={"fourbar.crank_length": -0.1},
+                      options=RunOptions(in_process=False, progress=None))
+    assert "parameter crank_length = -0.1 m is not admissible" in df.attrs["error"], df.attrs["error"]

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import functools
 import sys
+import types
 from collections import Counter, deque
 from ctypes import byref, c_char_p, c_double, c_int, c_uint
 from pathlib import Path
@@ -60,8 +61,15 @@ def extracted(path: str | Path, model_exchange: bool = False):
 
 # -- log capture ------------------------------------------------------------------------------------------------
 # One logger for every instance (fmpy's native proxy formats the variadic message first); messages are routed
-# to the wrapper by instance name.
-_BY_NAME: dict[bytes, "FMU"] = {}
+# to the wrapper by instance name.  fmpy's proxy holds ONE Python logger for the whole process, and a drive FMU
+# loaded in this process brings its own copy of this module (harness.drive_fmu), which installs its logger: so
+# the routing table is one for the process (a fixed entry in sys.modules), and whichever copy's logger the proxy
+# holds finds every copy's instances.
+_ROUTES = sys.modules.setdefault("_pressdrive_fmi_log_routes",
+                                 types.ModuleType("_pressdrive_fmi_log_routes", "FMI log routing (harness.fmi.fmu)"))
+if not hasattr(_ROUTES, "by_name"):
+    _ROUTES.by_name = {}
+_BY_NAME: dict[bytes, "FMU"] = _ROUTES.by_name
 
 
 def _log(env, instance_name, status, category, message):
@@ -74,7 +82,8 @@ def _log(env, instance_name, status, category, message):
 
 
 _CALLBACKS = fmi2CallbackFunctions()
-_CALLBACKS.logger = fmi2CallbackLoggerTYPE(_log)
+_LOGGER = fmi2CallbackLoggerTYPE(_log)
+_CALLBACKS.logger = _LOGGER
 _CALLBACKS.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
 _CALLBACKS.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
 
@@ -85,6 +94,7 @@ def _install_proxy() -> None:
     try:
         from fmpy.logging import addLoggerProxy
 
+        _CALLBACKS.logger = _LOGGER   # the proxy takes the logger it finds here (not itself, once installed)
         addLoggerProxy(byref(_CALLBACKS))
     except Exception:  # pragma: no cover - no native proxy: messages arrive unformatted
         pass
