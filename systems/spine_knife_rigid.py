@@ -35,7 +35,8 @@ SYSTEM = System(
     free_inputs={"shaft.pulley.tau": "the drive end is held at 600 rpm (rigid_drive = 1): a torque on it moves "
                                      "nothing",
                  "shaft.aux.tau": "the second take-off on the knife node drives nothing here: no torque on it"},
-    scenes=list(base.SYSTEM.scenes),   # the belt variant's questions
+    scenes=list(base.SYSTEM.scenes),   # the belt variant's questions and its precision study
+    precision=base.SYSTEM.precision,
     default_scene="shaft_twist",  # seed 003's question: torsional deformation and resonance of the knife shaft
 )
 

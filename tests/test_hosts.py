@@ -184,15 +184,13 @@ def test_two_builds_from_different_sources_in_one_system(tmp_path):
     script = v2 / "pd_gain.py"
     script.write_text(src + textwrap.dedent("""
 
-        _plain_get_real = Gain.get_real
+        class _Doubled(GainModel):
+            def output(self, t, x, u):
+                y, integral = super().output(t, x, u)
+                return (2.0 * y, integral)
 
 
-        def _doubled(self, vrs):
-            y = [v.value_reference for v in self.vars.values() if v.name == "y"][0]
-            return [2.0 * x if r == y else x for r, x in zip(vrs, _plain_get_real(self, vrs))]
-
-
-        Gain.get_real = _doubled
+        Gain.model = _Doubled
         """))
     out1, out2 = tmp_path / "v1", tmp_path / "v2out"
     out1.mkdir(), out2.mkdir()
