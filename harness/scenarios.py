@@ -44,6 +44,8 @@ RPM = 2 * math.pi / 60
 REACHED = 0.95      # start-up: the share of the final speed that counts as "up to speed"
 SETTLED = 0.01      # speed change: the band around the new speed a settled cycle mean stays within
 STOPPED = 0.01      # stop: the share of the speed at the stop command below which the shaft counts as stopped
+DURING = {"startup": "on the way up to speed", "speed_change": "from the change on", "stop": "during the stop",
+          "load": "from the load step on"}   # the stretch a kind's peak loads are taken over, in words
 
 
 # -- finding and reading ---------------------------------------------------------------------------------------
@@ -210,19 +212,18 @@ def prepare(system, scenario, options: dict) -> tuple[Scenario, dict]:
 def transient(system, scenario: Scenario, df: pd.DataFrame):
     """The quantities of the transient (:class:`harness.quantities.Quantities`, rows over the scenario's kind):
     see the module docstring; a quantity the run does not reach is None with a note saying why."""
-    from harness.quantities import Quantities, Row, detect_cycles
+    from harness.quantities import Row, detect_cycles
 
     spec = system.quantities
     over = scenario.kind
 
-    class Transient(Quantities):
-        def heading(self) -> str:
-            return (f"{system.name}, scenario {scenario.name} ({scenario.kind}): {scenario.question}\n"
-                    f"  main-shaft speed on the {spec.shaft_name}" if spec is not None else
-                    f"{system.name}, scenario {scenario.name}: no engineering quantities declared")
+    title = (f"{system.name}, scenario {scenario.name} ({scenario.kind}): {scenario.question}\n"
+             f"  main-shaft speed on the {spec.shaft_name}" if spec is not None else
+             f"{system.name}, scenario {scenario.name}: no engineering quantities declared")
+    during = DURING[scenario.kind]
 
     if spec is None or df.empty:
-        return Transient(system.name, [], None)
+        return _transient_table(title, system.name, [], None)
     t = df.index.to_numpy(dtype=float)
     w = df[spec.shaft_speed].to_numpy(dtype=float)
     angle = df[spec.shaft_angle].to_numpy(dtype=float)
@@ -253,16 +254,15 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
 
     last_mean = float(cycles.means[-1]) if len(cycles.means) else None
     if scenario.kind == "startup":
-        during = "on the way up to speed"
         if last_mean is None:
             row("time_to_speed", None, "s", "time to 95 % of the final speed", cycles.reason)
-            return Transient(system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
+            return _transient_table(title, system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
         target = REACHED * last_mean
         up = np.flatnonzero(w * math.copysign(1.0, last_mean) >= abs(target))
         row("final_speed", last_mean / RPM, "rpm", "main-shaft speed the run ends at: the mean of its last cycle")
         if up.size == 0:
             row("time_to_speed", None, "s", "time to 95 % of the final speed", "the run does not reach it")
-            return Transient(system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
+            return _transient_table(title, system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
         k = int(up[0])
         t95 = t[k] if k == 0 else t[k - 1] + (target - w[k - 1]) / (w[k] - w[k - 1]) * (t[k] - t[k - 1])
         row("time_to_speed", t95, "s", f"time from rest to {100 * REACHED:g} % of the final speed")
@@ -270,7 +270,6 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
             f"main-shaft angle turned from rest to {100 * REACHED:g} % of the final speed")
         loads(0.0, t95)
     elif scenario.kind == "speed_change":
-        during = "from the change on"
         before = cycles.means[cycles.bounds[1:] <= t_e] if len(cycles.means) else []
         row("speed_before", before[-1] / RPM if len(before) else None, "rpm",
             "mean main-shaft speed of the last cycle before the change",
@@ -290,7 +289,6 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
                 f"{100 * SETTLED:g} % of the final speed", "" if settled else "not settled within the run")
         loads(t_e)
     elif scenario.kind == "stop":
-        during = "during the stop"
         w_e = at(w, t_e)
         moving = np.flatnonzero((t >= t_e) & (np.abs(w) > STOPPED * abs(w_e)))
         stopped = moving.size == 0 or moving[-1] < len(t) - 1
@@ -316,11 +314,18 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
                 row("overrun", None, "", f"overrun of {scenario.watch}", "no complete cycle before the stop")
         loads(t_e)
     else:  # load
-        during = "from the load step on"
         w_e = at(w, t_e)
         later = t >= t_e
         row("speed_drop", 100 * (1 - np.min(np.abs(w[later])) / abs(w_e)) if w_e else None, "%",
             "largest drop of the main-shaft speed after the load step, of its speed then")
         loads(t_e)
-    return Transient(system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
+    return _transient_table(title, system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
 
+
+def _transient_table(title: str, *args):
+    """A :class:`harness.quantities.Quantities` of a transient: its rows under the scenario's own heading."""
+    from harness.quantities import Quantities
+
+    table = Quantities(*args)
+    table.heading = lambda: title
+    return table
