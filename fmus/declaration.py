@@ -67,10 +67,13 @@ class Variable:
     unit: str
     doc: str
     start: float = 0.0
+    min: float | None = None   # the range an input's value must lie in (modelDescription min/max; None: open)
+    max: float | None = None
 
 
-def Input(name: str, unit: str, doc: str, start: float = 0.0) -> Variable:
-    return Variable(name, "input", unit, doc, start)
+def Input(name: str, unit: str, doc: str, start: float = 0.0, min: float | None = None,
+          max: float | None = None) -> Variable:
+    return Variable(name, "input", unit, doc, start, min, max)
 
 
 def Output(name: str, unit: str, doc: str) -> Variable:

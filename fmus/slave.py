@@ -94,10 +94,13 @@ class PressSlave(PressBehaviour, Fmi2Slave):
                  type(self).__name__)
         index = {v.name: i + 1 for i, v in enumerate(self.vars.values())}
         units_by_name = self._units_by_name()
+        ranges = self._input_ranges()
         for sv in root.find("ModelVariables"):
             real = sv.find("Real")
             if real is not None:
                 real.set("unit", units_by_name[sv.get("name")])
+                for key, value in ranges.get(sv.get("name"), {}).items():
+                    real.set(key, value)
         if type(self).model.provides_output_jacobian():
             # answered by the host loader from directional_derivative (fmus.slave_core), and in process
             root.find("CoSimulation").set("providesDirectionalDerivative", "true")

@@ -108,6 +108,11 @@ class PressSlave(PressBehaviour, Fmi3Slave):
             cs.set("providesDirectionalDerivatives", "true")
         root.insert(list(root).index(cs) + 1, unit_definitions([*self._units_by_name().values(), "s"]))
 
+        ranges = self._input_ranges()
+        for element in root.find("ModelVariables"):
+            for key, value in ranges.get(element.get("name"), {}).items():
+                element.set(key, value)
+
         vr = {v.name: v.value_reference for v in self.vars.values()}
         root.remove(root.find("ModelStructure"))
         structure = SubElement(root, "ModelStructure")

@@ -356,6 +356,16 @@ class PressBehaviour(Component):
         units.update({s.name: s.unit for s in type(self).model.states})
         return units
 
+    def _input_ranges(self) -> dict[str, dict[str, str]]:
+        """The declared min/max of every input that has one, as modelDescription attributes."""
+        out = {}
+        for v in self._io:
+            if v.causality == "input":
+                bounds = {k: f"{x:.16g}" for k, x in (("min", v.min), ("max", v.max)) if x is not None}
+                if bounds:
+                    out[v.name] = bounds
+        return out
+
     def _advanced_positions(self) -> list[str]:
         """The motion-input positions this slave advances itself over a step (``advances_position``)."""
         return [pos for pos in type(self)._port_positions() if pos is not None]

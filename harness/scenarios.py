@@ -12,6 +12,9 @@ or read from a small YAML or JSON file::
     changes:                       # time [s], free input, value, ramp [s] (0: a step)
       - {time: 1.5, variable: motor.supply, value: 0.0}
       - {time: 1.5, variable: motor.brake, value: 1.0}
+    accuracy:                      # optional: what the question needs (study accuracy DRIVE --scenario FILE)
+      - {name: stopping time, quantity: stopping_time, tolerance: 2.0e-3, unit: s}
+      - {name: stopping angle, quantity: stopping_angle, tolerance: 0.005, unit: deg, relative: true}
 
 Its ``parameters`` set the drive up (from rest, a brake's torque); its ``changes`` become the run's input signals
 (:mod:`harness.signals`: a step is two rows at one time, a ramp a straight line from the value before it), so the
@@ -38,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from harness.errors import SystemError_
-from harness.specs import Change, Scenario
+from harness.specs import Change, Requirement, Scenario
 
 RPM = 2 * math.pi / 60
 REACHED = 0.95      # start-up: the share of the final speed that counts as "up to speed"
@@ -86,7 +89,7 @@ def read(path: str | Path) -> Scenario:
     if not isinstance(data, dict):
         raise SystemError_(f"scenario file {path}: a mapping with name, question, kind, stop_time, parameters "
                            f"and changes is needed, not {type(data).__name__}")
-    known = {"name", "question", "kind", "stop_time", "parameters", "changes"}
+    known = {"name", "question", "kind", "stop_time", "parameters", "changes", "accuracy"}
     unknown = sorted(set(data) - known)
     if unknown:
         raise SystemError_(f"scenario file {path}: unknown key {unknown[0]!r} (keys: {', '.join(sorted(known))})")
@@ -113,9 +116,25 @@ def read(path: str | Path) -> Scenario:
         raise SystemError_(f"scenario file {path}: parameters must map Instance.parameter to a value")
     if "stop_time" not in data:
         raise SystemError_(f"scenario file {path}: stop_time [s] is missing")
+    accuracy = data.get("accuracy") or []
+    if not isinstance(accuracy, list):
+        raise SystemError_(f"scenario file {path}: accuracy must be a list of {{name, quantity, tolerance, unit, "
+                           f"relative}}")
+    requirements = []
+    for k, a in enumerate(accuracy):
+        where = f"accuracy[{k}]"
+        if not isinstance(a, dict) or not {"name", "quantity", "tolerance"} <= set(a) or set(a) - {
+                "name", "quantity", "tolerance", "unit", "relative", "where"}:
+            raise SystemError_(f"scenario file {path}: {where} = {a!r}: give name, quantity, tolerance and "
+                               f"optionally unit, relative, where")
+        tolerance = number(a["tolerance"], f"{where}.tolerance")
+        if tolerance < 0:
+            raise SystemError_(f"scenario file {path}: {where}.tolerance = {tolerance:g} is negative")
+        requirements.append(Requirement(str(a["name"]), str(a["quantity"]), tolerance, str(a.get("unit", "")),
+                                        bool(a.get("relative", False)), a.get("where")))
     return Scenario(str(data.get("name", path.stem)), str(data.get("question", "")), str(data.get("kind", "load")),
                     number(data["stop_time"], "stop_time"), tuple(parsed),
-                    tuple((str(k), v) for k, v in parameters.items()))
+                    tuple((str(k), v) for k, v in parameters.items()), accuracy=tuple(requirements))
 
 
 # -- checking and the input table ------------------------------------------------------------------------------
@@ -176,6 +195,29 @@ def _at(points: list[tuple[float, float]], t: float, after: bool) -> float:
     return v0 + (v1 - v0) * (t - t0) / (t1 - t0)
 
 
+def check_ranges(system, scenario: Scenario, origin: str) -> None:
+    """Every change's value within the min/max its FMU declares for the input, before the run; ``origin``: the
+    file the scenario comes from (its scenario file, or ``systems/<drive>.py``)."""
+    from harness.fmi.cache import model_description
+    from harness.model import resolve_fmu
+
+    names = {i.name for i in system.instances}
+    for c in scenario.changes:
+        inst, _, var = c.variable.partition(".")
+        if inst not in names:
+            continue  # an unknown instance: the input signals say it, with the nearest names
+        md = model_description(resolve_fmu(system.instance(inst).fmu))
+        v = next((v for v in md.modelVariables if v.name == var), None)
+        if v is None:
+            continue
+        lo = -math.inf if getattr(v, "min", None) in (None, "") else float(v.min)
+        hi = math.inf if getattr(v, "max", None) in (None, "") else float(v.max)
+        if not lo <= c.value <= hi:
+            raise SystemError_(f"{origin}: system {system.name}, scenario {scenario.name}: change of {c.variable} at "
+                               f"t = {c.time:g} s: value {c.value:g} is outside the range [{lo:g}, {hi:g}] that FMU "
+                               f"{md.modelName} of instance {inst} declares for {var}")
+
+
 def input_starts(system, scenario: Scenario) -> dict[str, float]:
     """Each changed input's start value, as its FMU declares it."""
     from harness.fmi.cache import model_description
@@ -196,12 +238,19 @@ def prepare(system, scenario, options: dict) -> tuple[Scenario, dict]:
     (unless given), its parameters under the ``start_values`` given and its changes as the input signals,
     checked (module docstring).  :func:`harness.run.simulate_scenario` runs them."""
     sc = find(system, scenario)
+    if isinstance(scenario, Scenario):
+        origin = "scenario given in Python"
+    elif any(s.name == str(scenario) for s in system.scenarios):
+        origin = f"systems/{system.name}.py"
+    else:
+        origin = f"scenario file {scenario}"
     options = dict(options)
     if options.pop("input", None) is not None:
         raise SystemError_(f"scenario {sc.name} drives the inputs itself: give input signals or a scenario, not both")
     stop_time = options.pop("stop_time", None) or sc.stop_time
     step = options.get("step") or options.get("step_size") or system.experiment.step
     check(system, sc, step, stop_time)
+    check_ranges(system, sc, origin)
     options["start_values"] = {**dict(sc.parameters), **(options.get("start_values") or {})}
     options["input"] = table(sc, input_starts(system, sc)) if sc.changes else None
     options["stop_time"] = stop_time
@@ -291,7 +340,7 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
     elif scenario.kind == "stop":
         w_e = at(w, t_e)
         moving = np.flatnonzero((t >= t_e) & (np.abs(w) > STOPPED * abs(w_e)))
-        stopped = moving.size == 0 or moving[-1] < len(t) - 1
+        stopped = t[-1] >= t_e and (moving.size == 0 or moving[-1] < len(t) - 1)
         if stopped and w_e != 0.0:
             k = moving[-1] + 1 if moving.size else int(np.searchsorted(t, t_e))
             row("stopping_time", t[k] - t_e, "s", f"from the first change until the main shaft stays below "

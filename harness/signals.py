@@ -87,11 +87,12 @@ def read_table(source) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     return times, columns
 
 
-def _typed(values: np.ndarray, v, ref: str, times: np.ndarray) -> list:
-    """The column as values of the input's FMI type; the first that does not fit is a one-line error."""
+def _typed(values: np.ndarray, v, ref: str, times: np.ndarray, origin: str = "", fmu: str = "its FMU") -> list:
+    """The column as values of the input's FMI type; the first that does not fit is a one-line error
+    (``origin``: where the table came from, e.g. ``input file x.csv: ``; ``fmu``: the FMU's model name)."""
     out = []
     for t, x in zip(times, values.tolist()):
-        where = f"input signal {ref!r} = {x!r} at t = {t:g} s"
+        where = f"{origin}input signal {ref!r} = {x!r} at t = {t:g} s"
         if v.type == "String":
             out.append(str(x))
             continue
@@ -114,7 +115,8 @@ def _typed(values: np.ndarray, v, ref: str, times: np.ndarray) -> list:
         lo = -math.inf if lo in (None, "") else float(lo)
         hi = math.inf if hi in (None, "") else float(hi)
         if v.type != "Boolean" and not lo <= float(x) <= hi:
-            raise SystemError_(f"{where}: outside the range [{lo:g}, {hi:g}] that its FMU declares")
+            raise SystemError_(f"{where}: outside the range [{lo:g}, {hi:g}] that {fmu} declares for "
+                               f"{v.name}")
         items = getattr(getattr(v, "declaredType", None), "items", None) if v.type == "Enumeration" else None
         if items and x not in {int(i.value) for i in items}:
             raise SystemError_(f"{where}: not one of the values of its enumeration ("
@@ -134,6 +136,7 @@ class Signals:
 
     def __init__(self, system, model_descriptions: dict, connections, source):
         times, columns = read_table(source)
+        origin = f"input file {source}: " if isinstance(source, (str, Path)) else ""
         self.t_ns = np.round(times * NS).astype(np.int64)
         self.n = len(times)
         targets = {c.target: c.source for c in connections}
@@ -167,7 +170,8 @@ class Signals:
                 raise SystemError_(f"input signal {column!r}: input {ref} is given twice (also as {seen[ref]!r})")
             seen[ref] = column
             continuous = v.type == "Real" and v.variability not in ("discrete", "tunable")
-            self.columns.append((inst, var, continuous, _typed(np.asarray(values), v, ref, times)))
+            self.columns.append((inst, var, continuous, _typed(np.asarray(values), v, ref, times, origin,
+                                                               f"FMU {md.modelName} of instance {inst}")))
         self._bound: list = []
         times, counts = np.unique(self.t_ns, return_counts=True)
         self.step_times = frozenset(int(t) for t in times[counts > 1])  # ns: where the table steps

@@ -225,7 +225,10 @@ class Scenario:
     rest, a brake's torque), ``changes`` drive its free inputs over time, ``stop_time`` [s] is its run.
     ``kind`` names what the transient quantities measure: ``startup`` (from rest to speed), ``speed_change``,
     ``stop`` (an emergency stop from the first change on) or ``load`` (a load step, e.g. a jam); ``watch``: the
-    tool's position column (the bed, the knife) whose overrun a stop reports."""
+    tool's position column (the bed, the knife) whose overrun a stop reports.  ``accuracy``: what the
+    scenario's question needs against the monolithic reference (``study accuracy DRIVE --scenario NAME``,
+    :func:`harness.studies.accuracy.search_scenario`): :class:`Requirement` whose ``quantity`` is a transient
+    quantity's name (``stopping_time``, ``shaft_torque_peak``: compared as a number) or a qoi expression."""
     name: str
     question: str
     kind: str
@@ -233,5 +236,6 @@ class Scenario:
     changes: tuple[Change, ...] = ()
     parameters: tuple[tuple[str, float], ...] = ()
     watch: str | None = None
+    accuracy: tuple[Requirement, ...] = ()
 
     KINDS = ("startup", "speed_change", "stop", "load")

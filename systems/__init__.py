@@ -16,7 +16,7 @@ def motor_inputs(motor: str = "motor") -> dict[str, str]:
 
 
 def motor_scenarios(system, rest: dict, *, motor: str = "motor", change_at: float = 1.5, stop_time: float = 3.0,
-                    watch: str | None = None) -> list:
+                    watch: str | None = None, accuracy: dict | None = None) -> list:
     """The transients every drive with a MotorBelt ships (harness.scenarios), for its instance ``motor``:
 
     * ``startup``: from rest (``rest``: the parameters that put the drive's parts at rest, the motor's
@@ -27,7 +27,10 @@ def motor_scenarios(system, rest: dict, *, motor: str = "motor", change_at: floa
       after the command (the order of a spring-applied brake's engage time).
 
     A motor declared as an ideal speed source (fidelity 0) runs at fidelity 1 (the Kloss curve with the rotor's
-    inertia) in them: a transient needs the motor's own dynamics."""
+    inertia) in them: a transient needs the motor's own dynamics.  ``accuracy``: scenario name -> the
+    :class:`harness.specs.Requirement` its question needs (``Scenario.accuracy``, ``study accuracy --scenario``)."""
+    from dataclasses import replace
+
     from fmus.physics.motor_belt import MotorBeltParams
     from harness.specs import Change, Scenario
 
@@ -36,7 +39,8 @@ def motor_scenarios(system, rest: dict, *, motor: str = "motor", change_at: floa
     dynamic = (((f"{motor}.fidelity", 1),) if values["fidelity"] == 0 else ())
     brake = ((f"{motor}.holding_torque", 2.0 * rated), (f"{motor}.brake_delay", 0.05))
     at_rest = tuple(rest.items()) + ((f"{motor}.w_start", 0.0),)
-    return [
+    accuracy = dict(accuracy or {})
+    scenarios = [
         Scenario("startup", "How long does the drive take from rest to speed, and what peak torques does the "
                  "start-up put on the motor, the shafts and the joints?", "startup", stop_time,
                  parameters=dynamic + at_rest),
@@ -49,6 +53,11 @@ def motor_scenarios(system, rest: dict, *, motor: str = "motor", change_at: floa
                                      Change(change_at, f"{motor}.brake", 1.0)), parameters=dynamic + brake,
                  watch=watch),
     ]
+    unknown = sorted(set(accuracy) - {sc.name for sc in scenarios})
+    if unknown:
+        raise ValueError(f"system {system.name}: accuracy declared for no scenario {unknown[0]!r} "
+                         f"(its scenarios: {', '.join(sc.name for sc in scenarios)})")
+    return [replace(sc, accuracy=tuple(accuracy.get(sc.name, ()))) for sc in scenarios]
 
 
 def jam(system, variable: str, torque: float, *, at: float = 1.0, stop_time: float = 2.0, motor: str = "motor"):

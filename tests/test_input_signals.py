@@ -228,3 +228,76 @@ def test_run_input_file_from_the_command_line(fmu_dir, tmp_path, monkeypatch, ca
     status = main(["run", str(fmu_dir / "Gain.fmu"), "--stop-time", "1", "--step", "0.01", "--input", str(bad)])
     err = capsys.readouterr().err.strip().splitlines()
     assert status == 1 and len(err) == 1 and err[0].startswith("error: input signal 'u2'") and "did you mean 'u'" in err[0]
+
+
+# -- declared ranges: the motor's supply and brake, and a foreign FMU's min/max ------------------------------------
+def test_the_motor_declares_its_inputs_ranges_and_an_out_of_range_signal_is_refused_in_one_line(tmp_path):
+    import sys
+
+    from harness import load
+    from harness.fmi.cache import model_description
+    from harness.model import resolve_fmu
+
+    system = load("bed_drive")
+    md = model_description(resolve_fmu(system.instance("motor").fmu))
+    declared = {v.name: (float(v.min), float(v.max)) for v in md.modelVariables if v.name in ("supply", "brake")}
+    assert declared == {"supply": (0.0, 1.5), "brake": (0.0, 1.0)}
+    f = tmp_path / "fast.csv"
+    f.write_text("time,motor.supply\n0,1\n0.001,1.6\n")
+    with pytest.raises(SystemError_) as e:
+        simulate(system, input=str(f), stop_time=0.002)
+    text = str(e.value)
+    assert "\n" not in text
+    for part in (f"input file {f}", "'motor.supply' = 1.6", "t = 0.001 s", "[0, 1.5]", "FMU MotorBelt of instance motor"):
+        assert part in text, (part, text)
+    # a scenario's value out of range: refused before the run, naming the scenario's file
+    sc = tmp_path / "over.yaml"
+    sc.write_text("name: over\nkind: speed_change\nstop_time: 1.0\n"
+                  "changes:\n  - {time: 0.5, variable: motor.brake, value: 2.0}\n")
+    from harness import simulate_scenario
+
+    with pytest.raises(SystemError_) as e:
+        simulate_scenario(system, str(sc))
+    text = str(e.value)
+    assert "\n" not in text
+    for part in (f"scenario file {sc}", "scenario over", "motor.brake", "value 2", "[0, 1]",
+                 "FMU MotorBelt of instance motor"):
+        assert part in text, (part, text)
+
+
+def test_a_foreign_fmus_declared_input_range_is_honoured(tmp_path):
+    """A foreign FMU (plain pythonfmu, its modelDescription given min = -1, max = 1 on its input u): a signal
+    inside runs, one outside is refused in one line naming the FMU, instance, variable, value and range."""
+    import sys
+    import zipfile
+
+    exe = Path(sys.executable).with_name("pythonfmu")
+    if not exe.is_file():
+        pytest.skip("pythonfmu command not installed")
+    r = subprocess.run([str(exe), "build", "-f", str(Path(__file__).parent / "foreign" / "plain_lag.py"), "-d",
+                        str(tmp_path)], capture_output=True, text=True)
+    built = tmp_path / "PlainLag.fmu"
+    if r.returncode != 0 or not built.is_file():
+        pytest.skip(f"pythonfmu build failed: {r.stderr.strip()[-300:]}")
+    fmu = tmp_path / "RangedLag.fmu"
+    with zipfile.ZipFile(built) as src, zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                text = data.decode()
+                head, _, tail = text.partition('name="u"')
+                body, sep, rest = tail.partition("/>")
+                assert "<Real" in body
+                data = (head + 'name="u"' + body.replace("<Real", '<Real min="-1" max="1"', 1) + sep + rest).encode()
+            dst.writestr(item, data)
+    system = System("ranged", [Instance("lag", str(fmu))], [], experiment=Experiment(stop_time=0.05, step=0.01))
+    ok = pd.DataFrame({"time": [0.0, 0.05], "lag.u": [0.0, 1.0]})
+    df = quiet(system, input=ok)
+    assert df.attrs.get("complete", True) and df["lag.y"].abs().max() > 0
+    bad = pd.DataFrame({"time": [0.0, 0.05], "lag.u": [0.0, 1.5]})
+    with pytest.raises(SystemError_) as e:
+        simulate(system, input=bad)
+    text = str(e.value)
+    assert "\n" not in text
+    for part in ("'lag.u' = 1.5", "t = 0.05 s", "[-1, 1]", "FMU PlainLag of instance lag", "for u"):
+        assert part in text, (part, text)

@@ -185,3 +185,94 @@ def test_an_emergency_stop_of_the_bed_drive_against_the_monolithic_reference():
     assert q["stopping_time"] == pytest.approx(q_ref["stopping_time"], abs=2 * system.experiment.step)
     assert q["stopping_angle"] == pytest.approx(q_ref["stopping_angle"], rel=0.01)
     assert np.all(np.abs(wr[ref.index > 0.5 + q_ref["stopping_time"] + 0.05]) < 0.01 * 6.3)
+
+
+# -- the accuracy a scenario declares, and the cheapest method that meets it -------------------------------------
+def test_a_scenario_without_a_declared_accuracy_is_refused_in_one_line():
+    from harness.studies.accuracy import scenario_spec
+
+    system = load("bed_drive")
+    with pytest.raises(ValueError) as e:
+        scenario_spec(system, "startup")
+    text = str(e.value)
+    assert "\n" not in text and "scenario startup" in text and "declares no accuracy" in text and "estop" in text
+    assert scenario_spec(system, "estop").accuracy
+
+
+def test_a_scenario_file_declares_its_accuracy(tmp_path):
+    f = tmp_path / "stop.yaml"
+    f.write_text("name: s\nkind: stop\nstop_time: 1.0\nchanges:\n  - {time: 0.5, variable: motor.brake, value: 1}\n"
+                 "accuracy:\n  - {name: t, quantity: stopping_time, tolerance: 0.002, unit: s}\n"
+                 "  - {name: w, quantity: 'r[\"flywheel.crank.w\"]', tolerance: 0.1, unit: rad/s, relative: true}\n")
+    sc = S.read(f)
+    assert [(r.name, r.quantity, r.tolerance, r.relative) for r in sc.accuracy] == [
+        ("t", "stopping_time", 0.002, False), ("w", 'r["flywheel.crank.w"]', 0.1, True)]
+    f.write_text("name: s\nstop_time: 1.0\naccuracy:\n  - {name: t, quantity: stopping_time, tolerance: -1}\n")
+    with pytest.raises(SystemError_, match=r"accuracy\[0\]\.tolerance = -1 is negative"):
+        S.read(f)
+
+
+def _early_estop(system, accuracy=None):
+    """The bed drive's estop moved to 0.5 s and cut to 1.1 s (a shorter reference), with its declared accuracy."""
+    from dataclasses import replace
+
+    base = S.find(system, "estop")
+    return replace(base, name="estop_early", stop_time=1.1, accuracy=accuracy or base.accuracy,
+                   changes=tuple(Change(0.5, c.variable, c.value) for c in base.changes))
+
+
+@pytest.fixture(scope="module")
+def early_estop_reference():
+    from harness.studies.reference import scenario_reference
+
+    system = load("bed_drive")
+    return scenario_reference(system, _early_estop(system), step=1e-4)
+
+
+@pytest.mark.slow
+def test_the_cheapest_method_meeting_an_estops_declared_accuracy(early_estop_reference):
+    """The study judges each run by the scenario's own accuracy against the monolithic reference and names the
+    cheapest by FMU steps: jacobi at 1 ms diverges in the bed drive, at 0.5 ms it meets; a step whose grid misses
+    the event time (0.3 ms: 0.5 s is no multiple) is not run."""
+    from harness.studies.accuracy import cheapest, search_scenario
+
+    system = load("bed_drive")
+    sc = _early_estop(system)
+    table = search_scenario(system, sc, methods=(("jacobi", 1),), steps=(3e-4, 5e-4, 1e-3),
+                            reference=early_estop_reference)
+    assert list(table["step"]) == [5e-4, 1e-3]
+    assert list(table["meets"]) == [True, False] and not table["complete"].iloc[1]
+    for r in sc.accuracy:
+        assert table[r.name].iloc[0] <= r.tolerance
+    best = cheapest(table)
+    assert best["step"] == 5e-4 and best["master"] == "jacobi"
+    # the same run judged against a tighter stopping time than its 0.5 ms grid resolves: none meets
+    from harness.specs import Requirement
+
+    tight = _early_estop(system, (Requirement("stopping time", "stopping_time", 1e-6, "s"),))
+    table = search_scenario(system, tight, methods=(("jacobi", 1),), steps=(5e-4,), reference=early_estop_reference)
+    assert not table["meets"].any() and table["complete"].all() and cheapest(table) is None
+    assert table["stopping time"].iloc[0] > 1e-6
+
+
+@pytest.mark.slow
+def test_the_scenario_accuracy_study_from_the_command_line_refuses_in_one_line_when_none_meets(tmp_path):
+    import subprocess
+    import sys
+
+    f = tmp_path / "tight_stop.yaml"
+    f.write_text("name: tight_stop\nkind: stop\nstop_time: 0.7\n"
+                 "parameters: {motor.holding_torque: 60.0, motor.brake_delay: 0.05}\n"
+                 "changes:\n  - {time: 0.5, variable: motor.supply, value: 0.0}\n"
+                 "  - {time: 0.5, variable: motor.brake, value: 1.0}\n"
+                 "accuracy:\n  - {name: crank speed, quantity: 'r[\"flywheel.crank.w\"]', tolerance: 1.0e-9, "
+                 "unit: rad/s}\n")
+    r = subprocess.run([sys.executable, "-m", "harness", "study", "accuracy", "bed_drive", "--scenario", str(f),
+                        "--masters", "jacobi:1", "--steps", "5e-4", "--out", str(tmp_path)],
+                       capture_output=True, text=True, timeout=900)
+    assert r.returncode == 1, r.stderr
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 1 and "no method and step of the ladder meets the accuracy of bed_drive, scenario " \
+                               "tight_stop (1 runs)" in lines[0]
+    table = pd.read_csv(tmp_path / "accuracy_bed_drive_tight_stop.csv")
+    assert table["complete"].all() and not table["meets"].any()

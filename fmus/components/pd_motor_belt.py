@@ -8,8 +8,12 @@ class MotorBelt(Component):
                    "1: Kloss characteristic with rotor inertia + elastic belt, 2: level 1 + belt creep.\n"
                    "pulley.tau = belt force * driven pulley radius, > 0 when the belt drives the pulley.")
     ports = (Rotational("pulley", motion="in", doc="driven pulley (on the flywheel shaft)"),)
-    signals = (Input("supply", "1", "supply frequency over its rated value (1: rated; 0: the motor is off)", start=1.0),
-               Input("brake", "1", "brake command: >= 0.5 applies the rotor brake (after brake_delay)", start=0.0),
+    # the supply's range: off to 1.5 times the rated frequency (a converter keeps the flux, the model's premise,
+    # up to where its voltage runs out; a 400 V motor in delta on a 400 V converter reaches 87 Hz = 1.74x)
+    signals = (Input("supply", "1", "supply frequency over its rated value (1: rated; 0: the motor is off)", start=1.0,
+                     min=0.0, max=1.5),
+               Input("brake", "1", "brake command: >= 0.5 applies the rotor brake (after brake_delay)", start=0.0,
+                     min=0.0, max=1.0),
                Output("motor_speed", "rad/s", "rotor angular velocity"),
                Output("motor_torque", "N.m", "electromagnetic torque of the motor (fidelity 0: torque the ideal source delivers)"),
                Output("power_electrical", "W", "electrical input power (air-gap power / efficiency)"),
