@@ -5,7 +5,9 @@ geometrically, fed by energy the coupling itself creates (``P_out - P_in`` integ
 :class:`harness.results.BondLog`'s ``energy_error``).  The detector judges that growth against the run's own
 scale, not a fixed number.
 
-:class:`DivergenceDetector` is fed every accepted communication point (``update(t, bond_log, h)``).  It cuts
+:class:`DivergenceDetector` is fed every accepted communication point (``update(t, bond_log, h)``) and told of
+each time event of the run's input signals (``event(t, bond_log)``: no verdict for ``min_blocks`` blocks after
+it, the energy error booked over them excused, so a load step or a stop is not read as divergence).  It cuts
 the run into blocks of ``block`` steps and keeps, per bond and block, the peak power ``max(|P_out|, |P_in|)``
 [W], the energy that flowed through the bond ``integral |P_out| dt`` [J] and the accumulated energy error
 [J].  At the end of each block a bond is DIVERGING when its power grew AND the coupling fed that growth:
@@ -169,6 +171,9 @@ class DivergenceDetector:
         self.peaks: list[list[float]] = []   # per block, per bond
         self.flows: list[list[float]] = []
         self.energies: list[list[float]] = [[0.0] * n]  # energy error at block boundaries (first: t = 0)
+        self._grace_end = -1             # after an event: the last block end given no verdict (event)
+        self._excused = [0.0] * n        # energy error booked in the events' grace blocks, not counted
+        self._raw = [0.0] * n            # the bond log's energy error at the last block end
         self.times: list[float] = [0.0]                 # block boundaries [s]
         self._flagged = [False] * n      # diverging at this block end
         self._streak = [0] * n           # consecutive block ends a bond has been diverging
@@ -181,6 +186,16 @@ class DivergenceDetector:
         # the geometric test's quarters [nb/4, nb/2), [nb/2, 3nb/4), [3nb/4, nb): their bounds only move
         # forward, so each keeps a sliding-window maximum per bond
         self._quarters = [[_WindowMax() for _ in range(n)] for _ in range(3)]
+
+    def event(self, t: float, bond_log) -> None:
+        """A time event at ``t`` [s] (an input stepped: a motor switched off, a brake commanded, a load put on).
+        The step it puts on the bonds' power and the energy the coupling books on the transient it excites are
+        the event's, not growth: the detector gives no verdict for ``min_blocks`` blocks from here (the time a
+        run gets from its start) and excuses the energy error booked over them; the peaks before the event stay
+        the run's scale.  A coupling that keeps creating energy after that is judged as before."""
+        if not self.n:
+            return
+        self._grace_end = len(self.peaks) + self.opts.min_blocks
 
     def update(self, t: float, bond_log, h: float) -> None:
         """One accepted communication point at ``t`` [s] after a step of ``h`` [s]; ``bond_log`` the master's
@@ -211,10 +226,15 @@ class DivergenceDetector:
             self._cummax.append(list(peak))
             self._cummax_all.append(max(peak))
         self.flows.append(flow)
-        self.energies.append(list(energy))
+        grace = len(self.peaks) <= self._grace_end
+        if grace:  # after an event (see event): the energy booked since the last block end is excused
+            self._excused = [x + e - r for x, e, r in zip(self._excused, energy, self._raw)]
+        self._raw = list(energy)
+        self.energies.append([e - x for e, x in zip(energy, self._excused)])
         self.times.append(t)
         self._peak, self._flow, self._k = [0.0] * self.n, [0.0] * self.n, 0
-        self._judge(t)
+        if not grace:
+            self._judge(t)
 
     def _judge(self, t: float) -> None:
         o = self.opts

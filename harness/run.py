@@ -484,9 +484,16 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
                 signals.apply(t_ns)
                 if refresh:
                     m.refresh(t_ns / NS)
-                if t_ns in signals.step_times:  # an event: no coupling signal is extrapolated across it
-                    m.history.restart()
-            t_ns, h_ns = controller.advance(m, t_ns, h_ns, stop_ns)
+                if t_ns in signals.step_times:  # an event: no coupling signal is extrapolated across it,
+                    m.history.restart()          # the step control and the divergence detector start afresh
+                    if controller.variable:
+                        controller.restart()
+                        h_ns = step_ns
+                    if detector is not None and t_ns > start_ns:
+                        detector.event(t_ns / NS, m.bond_log)
+            # a variable step lands on each row time of the input table (a step, a ramp's corner)
+            event_ns = signals.next_time(t_ns) if signals is not None and controller.variable else None
+            t_ns, h_ns = controller.advance(m, t_ns, h_ns, stop_ns if event_ns is None else min(stop_ns, event_ns))
             steps += 1
             if sample_ns == step_ns or (t_ns - start_ns) % sample_ns == 0 or t_ns >= stop_ns:
                 rec.record(t_ns / NS)

@@ -176,6 +176,12 @@ class Signals:
         times, counts = np.unique(self.t_ns, return_counts=True)
         self.step_times = frozenset(int(t) for t in times[counts > 1])  # ns: where the table steps
 
+    def next_time(self, t_ns: int) -> int | None:
+        """The table's first row time after ``t_ns`` [ns] (a step, a ramp's corner), None after the last: a
+        variable-step run lands a communication point on it."""
+        k = int(np.searchsorted(self.t_ns, t_ns, "right"))
+        return int(self.t_ns[k]) if k < self.n else None
+
     @property
     def instances(self) -> set[str]:
         """The instances that have a signal."""

@@ -97,6 +97,9 @@ class _Variable:
     def _clamp(self, h_ns: float) -> int:
         return int(min(self.max_ns, max(self.min_ns, h_ns)))
 
+    def restart(self) -> None:
+        """A time event (an input stepped): the error history before it says nothing of the steps after it."""
+
 
 class StepDoubling(_Variable):
     name = "richardson"
@@ -153,6 +156,9 @@ class Ecco(_Variable):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self.prev_err = 1.0
+
+    def restart(self) -> None:
+        self.prev_err = 1.0   # the PI controller's memory of the last error
 
     def error(self, master, h: float) -> float:
         p = master.bond_power

@@ -301,3 +301,20 @@ def test_a_foreign_fmus_declared_input_range_is_honoured(tmp_path):
     assert "\n" not in text
     for part in ("'lag.u' = 1.5", "t = 0.05 s", "[-1, 1]", "FMU PlainLag of instance lag", "for u"):
         assert part in text, (part, text)
+
+
+# -- events under step control: a communication point on the event, the step restarted there -----------------------
+def test_a_variable_step_lands_on_an_input_step_and_restarts_its_step_there():
+    """Under richardson (no coupling error here: its step grows by its largest factor) a torque step at an instant off any
+    grid: a communication point falls on it, the step after it is the run's initial step again, and the
+    inertia's speed is the closed form w = T/J (t - t_e) to 1e-9 (a step across the event would smear it)."""
+    J, T, t_e, h = 0.5, 2.0, 0.3337, 1e-3
+    system = System("torque_step", [Instance("g", "Gain", {"k": 1.0}), Instance("a", "Inertia", {"J": J})],
+                    [Connection("g.y", "a.flange.tau", unit_conversion=True)], experiment=Experiment(1.0, h))
+    signal = pd.DataFrame({"time": [0.0, t_e, t_e, 1.0], "g.u": [0.0, 0.0, T, T]})
+    df = quiet(system, input=signal, step_control="richardson")
+    t = df.index.to_numpy()
+    k = int(np.flatnonzero(np.isclose(t, t_e, rtol=0, atol=1e-9))[0])   # a row on the event
+    assert t[k + 1] - t[k] == pytest.approx(h, abs=1e-9)                  # the step restarted at the run's step
+    assert t[k] - t[k - 1] > 2 * h                                        # it had grown before the event
+    np.testing.assert_allclose(df["a.flange.w"], np.where(t > t_e, (t - t_e) * T / J, 0.0), rtol=0, atol=1e-9)
