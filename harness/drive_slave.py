@@ -23,8 +23,16 @@ descriptions).
 * ``fmi2GetFMUstate``/``fmi2SetFMUstate``: the master's snapshot (every member's state, the coupling data,
   the extrapolation history) when every member can roll back.
 
-Errors: pythonfmu turns a Python exception in any call into ``fmi2Fatal`` (it offers no ``fmi2Error`` from
-Python); the one line goes through the host's logger first (``fmi2Error`` category ``logStatusError``).
+Errors: pythonfmu turns a Python exception in any call into ``fmi2Fatal`` (its C wrapper, cppfmu's
+``fmi2DoStep``: a Python exception becomes ``cppfmu::FatalError`` -> ``fmi2Fatal``; ``do_step`` returning False
+gives ``fmi2Discard`` with ``fmi2LastSuccessfulTime`` the step's start; ``fmi2Error`` cannot be reached from
+Python); the one line goes through the host's logger first (``fmi2Error`` category ``logStatusError``).  A step
+the drive refuses before it moves (an importer step below 1 ns, a step that is not a multiple of the drive's step
+when a member cannot take a shorter one, a step from another time than the drive's) stays ``fmi2Fatal`` in FMI
+2.0: ``fmi2Discard`` was measured to be ignored by FMPy's ``simulate_fmu`` (it asks ``fmi2GetBooleanStatus``,
+which pythonfmu does not offer, and steps on: the drive frozen, the run "complete"), a worse answer than a stop.
+In FMI 3.0 it is ``fmi3Error`` (pythonfmu3 passes the status of ``do_step``'s result on): the line is logged,
+the drive stays where it was and the instance stays usable.
 """
 from __future__ import annotations
 
@@ -69,6 +77,7 @@ class DriveBehaviour:
 
     spec: dict = {}
     _ERROR = Fmi2Status.error
+    _STEP_REFUSED = None    # pythonfmu: fatal (module docstring: its fmi2Discard is ignored by FMPy)
     # the master state a snapshot does not hold (the interface-Jacobian master's estimate)
     _EXTRA_STATE = ("jacobian", "theta", "_jac_h", "_stale")
 
@@ -137,6 +146,14 @@ class DriveBehaviour:
         return get
 
     # -- life cycle ----------------------------------------------------------------------------------------
+    def _refuse_step(self, message: str):
+        """A step refused before the drive moves: the one line through the host's logger and the variant's
+        non-fatal answer (module docstring)."""
+        if self._STEP_REFUSED is None:
+            self._fail(message)
+        self.log(f"drive {self._drive} ({self.instance_name}): {message}", self._ERROR, "logStatusError")
+        return self._STEP_REFUSED
+
     def _fail(self, message: str):
         line = f"drive {self._drive} ({self.instance_name}): {message}"
         self.log(line, self._ERROR, "logStatusError")
@@ -198,17 +215,18 @@ class DriveBehaviour:
         m = self._ensure_master()
         t_ns, h_ns = int(round(current_time * NS)), int(round(step_size * NS))
         if h_ns < 1:
-            self._fail(f"communication step {step_size!r} s is below the smallest the drive's master admits "
-                       f"(1 ns, its time resolution)")
+            return self._refuse_step(f"communication step {step_size!r} s is below the smallest the drive's master "
+                                     f"admits (1 ns, its time resolution)")
         if abs(t_ns - m.t_ns) > 1:
-            self._fail(f"fmi2DoStep at t = {current_time!r} s, but the drive is at t = {m.t_ns / NS!r} s "
-                       f"(it steps forward from where it is; roll back with fmi2SetFMUstate)")
+            return self._refuse_step(f"doStep at t = {current_time!r} s, but the drive is at t = {m.t_ns / NS!r} s "
+                                     f"(it steps forward from where it is; roll back with the FMU state)")
         end = m.t_ns + h_ns
         if h_ns % self._step_ns:
             fixed = [n for n, f in self._fmus.items() if not f.can_vary_step]
             if fixed:
-                self._fail(f"communication step {step_size!r} s is not a multiple of the drive's step "
-                           f"{self._step_ns / NS!r} s and member {fixed[0]} cannot take a shorter step")
+                return self._refuse_step(f"communication step {step_size!r} s is not a multiple of the drive's "
+                                         f"step {self._step_ns / NS!r} s and member {fixed[0]} cannot take a "
+                                         f"shorter step")
         for ref in type(self)._input_names():
             inst, var = ref.split(".", 1)
             self._fmus[inst].set_value(var, self._values[ref])

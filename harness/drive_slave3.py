@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from xml.etree.ElementTree import Element, SubElement
 
-from pythonfmu3 import Fmi3Causality, Fmi3Initial, Fmi3Slave, Fmi3Status, Fmi3Variability, Float64, Int32
+from pythonfmu3 import (Fmi3Causality, Fmi3Initial, Fmi3Slave, Fmi3Status, Fmi3StepResult, Fmi3Variability,
+                        Float64, Int32)
 
 from harness.drive_slave import DriveBehaviour
 
@@ -21,6 +22,7 @@ class DriveSlave3(DriveBehaviour, Fmi3Slave):
     """The FMI 3.0 drive slave; a subclass sets ``spec``."""
 
     _ERROR = Fmi3Status.error
+    _STEP_REFUSED = Fmi3StepResult(status=Fmi3Status.error)   # pythonfmu3 returns do_step's status: fmi3Error
 
     def __init__(self, **kwargs):
         self._t = 0.0

@@ -189,8 +189,8 @@ def test_a_step_that_is_not_a_multiple_ends_with_a_shorter_sub_step(drive_fmus):
 
 def test_bad_input_is_one_line_naming_drive_variable_and_value(drive_fmus):
     """A non-finite input and a step below the master's time resolution (1 ns): the call fails with one line
-    through the host's logger (pythonfmu forwards it with FMI logging on; the call itself returns fmi2Fatal, the
-    status pythonfmu gives a Python exception)."""
+    through the host's logger (pythonfmu forwards it with FMI logging on; the input's call returns fmi2Fatal, the
+    status pythonfmu gives a Python exception, the refused step fmi2Discard: see the test below)."""
     fmu = drive_fmus("feeder_gto52")
     md = _md(fmu)
     inputs = [x.name for x in md.modelVariables if x.causality == "input"]
@@ -390,3 +390,54 @@ def test_a_drive_fmu_run_in_this_process_leaves_the_fmi_log_routing_working(driv
         df = simulate(load("bed_drive").on_fmus(fmu_dir), stop_time=0.01, start_values={"fourbar.crank_length": -0.1},
                       options=RunOptions(in_process=False, progress=None))
     assert "parameter crank_length = -0.1 m is not admissible" in df.attrs["error"], df.attrs["error"]
+
+
+@pytest.mark.parametrize("fmi_version", [2, 3])
+def test_a_refused_step_is_one_line_and_in_fmi3_not_fatal(drive_fmus, fmi_version):
+    """An importer step below the master's 1 ns and a step from another time than the drive's: one line through
+    the host's logger each.  FMI 3.0: fmi3Error, and the same instance then steps on from where it was to the
+    result of a run that never saw the refused calls.  FMI 2.0: fmi2Fatal (pythonfmu's wrapper gives a Python
+    exception fmi2Fatal and a False from do_step fmi2Discard, which FMPy's simulate_fmu ignores; fmi2Error is
+    out of its reach), so only the first call is made."""
+    fmu = drive_fmus("two_inertia", fmi_version)
+    out = _script(f"""
+        from fmpy import extract, read_model_description
+        from fmpy.fmi1 import FMICallException
+        from fmpy.fmi{fmi_version} import FMU{fmi_version}Slave
+        path = {str(fmu)!r}
+        md = read_model_description(path)
+        slave = FMU{fmi_version}Slave(guid=md.guid if {fmi_version} == 2 else md.instantiationToken,
+                                      unzipDirectory=extract(path),
+                                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="d")
+        slave.instantiate(loggingOn=True)       # FMPy's own logger prints the FMU's lines: [STATUS] message
+        if {fmi_version} == 2:
+            slave.setupExperiment(startTime=0.0)
+        slave.enterInitializationMode(); slave.exitInitializationMode()
+        statuses = []
+        for t, h in ((0.0, 1e-10), (0.5, 1e-3))[:{fmi_version} - 1]:
+            try:
+                slave.doStep(t, h)
+                statuses.append(0)
+            except FMICallException as e:
+                statuses.append(e.status)
+        t, value = 0.0, None
+        name = [v.name for v in md.modelVariables if v.causality == "output"][0]
+        if {fmi_version} == 3:
+            for _ in range(20):
+                slave.doStep(t, 1e-3); t += 1e-3
+            vr = {{v.name: v.valueReference for v in md.modelVariables}}
+            value = float(slave.getFloat64([vr[name]])[0])
+        print(repr((statuses, name, value)))
+    """)
+    statuses, name, value = eval(out.strip().splitlines()[-1])
+    lines = [line for line in out.splitlines() if line.startswith("[ERROR] drive two_inertia")]
+    if fmi_version == 2:
+        assert statuses == [4] and len(lines) == 1, out              # fmi2Fatal
+        assert "communication step 1e-10 s is below the smallest" in lines[0], lines
+        return
+    assert statuses == [3, 3], (statuses, lines)                      # fmi3Error (fmi3Fatal is 4)
+    assert len(lines) == 2, out
+    assert "communication step 1e-10 s is below the smallest" in lines[0], lines
+    assert "doStep at t = 0.5 s, but the drive is at t = 0.0 s" in lines[1], lines
+    own = simulate(load("two_inertia"), stop_time=0.02, step=None, output=[name])
+    assert value == pytest.approx(float(own[name].iloc[-1]), rel=1e-9, abs=1e-12)
