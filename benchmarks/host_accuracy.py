@@ -270,10 +270,12 @@ def columns_of(system) -> list[str]:
     its ``where``)."""
     from harness.studies.accuracy import accuracy_spec
 
+    from harness import qoi
+
     found: list[str] = []
     for req in accuracy_spec(system).requirements:
         for text in (req.quantity, req.where or ""):
-            for name in re.findall(r'r\["([^"]+)"\]', text):
+            for name in (qoi.columns(text) if text else []):
                 if name not in found:
                     found.append(name)
     return found
@@ -416,12 +418,14 @@ def drive_fmu_runs(system_name: str, hosts=DRIVE_FMU_HOSTS, out_dir: Path | None
     ssp = export_ssp(system, out / f"{system_name}.ssp")
     ref = reference(system, stop_time=spec.stop_time, step=spec.reference_step)
     columns = columns_of(system)
+    # an event counter's instant on the drive's own step, which the drive FMU offers beside it (qoi.rise_times)
+    fmu_columns = columns + [f"{c}.rise_time" for c in columns if c.endswith("_count")]
     rows = []
     for host in hosts:
         if host == "fmpy":
-            run = run_guarded("fmpy-fmu", fmu, spec.stop_time, IMPORTER_STEP, columns, system_name, timeout)
+            run = run_guarded("fmpy-fmu", fmu, spec.stop_time, IMPORTER_STEP, fmu_columns, system_name, timeout)
         else:
-            run = run_guarded(host, wrapped, spec.stop_time, IMPORTER_STEP, [f"drive.{c}" for c in columns],
+            run = run_guarded(host, wrapped, spec.stop_time, IMPORTER_STEP, [f"drive.{c}" for c in fmu_columns],
                               f"{system_name}_fmu", timeout)
             if run.result is not None:
                 run.result = run.result.rename(columns=lambda c: c.removeprefix("drive."))

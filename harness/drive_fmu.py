@@ -38,7 +38,7 @@ from harness.model import System, model_description, resolve_fmu
 
 HERE = Path(__file__).resolve().parent
 PLATFORM = "linux64"
-_COLUMN = re.compile(r"""r\[\s*["']([^"']+)["']\s*\]""")
+_COLUMN = re.compile(r"""(?:r\[|rise_times\()\s*["']([^"']+)["']""")
 
 
 def model_class_name(system: System) -> str:
@@ -145,6 +145,15 @@ def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, 
         u = unit_of(v)
         units.add(u)
         outs.append({"name": ref, "unit": u, "description": f"{inst}: {v.description or var}"})
+    # an event counter (an output named *_count: impacts, contact onsets) also offers the instant it last rose,
+    # on the drive's own step, so a host sampling at its coarser step still reads the events' instants as
+    # harness run does (qoi's rise_times reads <counter>.rise_time where a result carries it)
+    for out in list(outs):
+        if out["name"].endswith("_count"):
+            outs.append({"name": f"{out['name']}.rise_time", "unit": "s", "rise_of": out["name"],
+                         "description": f"the drive's communication point (its own step) at which {out['name']} "
+                                        f"last rose; its start time before the first rise"})
+            units.add("s")
     units.discard("")
     unknown = sorted(u for u in units if u not in BASE_UNITS)
     if unknown:

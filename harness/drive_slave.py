@@ -103,6 +103,11 @@ class DriveBehaviour:
         self._setup = (0.0, None, None)
         self._step_ns = int(round(spec["experiment"]["step"] * NS))
         self._outputs = [o["name"] for o in spec["outputs"]]
+        # an event counter's instant of its last rise (drive_fmu.drive_spec): output -> time [s], and the counter
+        # output -> (its rise_time output, its value after the last sub-step)
+        self._rise = {o["name"]: 0.0 for o in spec["outputs"] if o.get("rise_of")}
+        self._counters = {o["rise_of"]: o["name"] for o in spec["outputs"] if o.get("rise_of")}
+        self._counted: dict[str, float] = {}
         for p in spec["parameters"]:
             self._values[p["name"]] = p["start"]
         for i in spec["inputs"]:
@@ -140,6 +145,9 @@ class DriveBehaviour:
         return set_
 
     def _out_getter(self, name):
+        if name in self._rise:
+            return lambda: self._rise[name]
+
         def get():
             m = self._ensure_master()
             return float(m.y[m.signal_index[name]])
@@ -236,6 +244,11 @@ class DriveBehaviour:
                 h = min(self._step_ns, end - t)
                 m.step(t, h)
                 t += h
+                for counter, rise in self._counters.items():
+                    value = float(m.y[m.signal_index[counter]])
+                    if value > self._counted.get(counter, value):
+                        self._rise[rise] = t / NS
+                    self._counted[counter] = value
         except HarnessError as err:
             self._fail(f"t = {m.t_ns / NS:.9g} s: {' '.join(str(err).split())}")
         return True
@@ -250,11 +263,11 @@ class DriveBehaviour:
         slot = f"fmu-state-{id(object())}"
         m.snapshot(slot)
         extra = {k: copy.deepcopy(getattr(m, k)) for k in self._EXTRA_STATE if hasattr(m, k)}
-        return (m._slots.pop(slot), extra, dict(self._values), self._running)
+        return (m._slots.pop(slot), extra, dict(self._values), self._running, dict(self._rise), dict(self._counted))
 
     def _set_fmu_state(self, state):
         m = self._ensure_master()
-        saved, extra, values, running = state
+        saved, extra, values, running, rise, counted = state
         m._slots["fmu-state"] = saved
         m.restore("fmu-state")
         del m._slots["fmu-state"]
@@ -262,6 +275,7 @@ class DriveBehaviour:
             setattr(m, k, copy.deepcopy(v))
         self._values = dict(values)
         self._running = running
+        self._rise, self._counted = dict(rise), dict(counted)
 
 class DriveSlave(DriveBehaviour, Fmi2Slave):
     """The FMI 2.0 drive slave (pythonfmu); a subclass sets ``spec`` (module docstring)."""

@@ -8,6 +8,10 @@ An expression is Python syntax over these names only:
   (last value), ``at(x, time)`` (linear interpolation at a time), ``count_rises(x)`` (number of 0 -> nonzero
   transitions of a flag), ``sum``, ``abs``, ``sqrt``, ``where``;
 * ``window(x, t0, t1)`` -- the part of ``x`` with ``t0 <= t <= t1``;
+* ``rise_times("Instance.counter", t0, t1)`` -- the instants in ``[t0, t1]`` at which an event counter rose:
+  where the result carries ``Instance.counter.rise_time`` (a drive FMU's: the instant on the drive's own step,
+  read by a host at its coarser step) its value at each rising sample, else the rising sample's time (as
+  ``at_rises(window(r["Instance.counter"], t0, t1), window(t, t0, t1))``);
 * ``at_rises(s, x)`` -- the values of ``x`` at the samples where ``s`` increases from the previous sample: a
   0 -> 1 flag or an event counter (a flag already set at the first sample is not a rise here: inside a
   window it is a contact that began earlier);
@@ -111,6 +115,12 @@ def _namespace(df: pd.DataFrame, expr: str) -> dict:
     def at(x, time):
         return float(np.interp(time, t, np.asarray(x, dtype=float)))
 
+    def rise_times(name, t0, t1):
+        inside = (t >= t0) & (t <= t1)
+        count = _Columns(df, expr)[name]
+        instants = df[f"{name}.rise_time"].to_numpy(dtype=float) if f"{name}.rise_time" in df.columns else t
+        return _at_rises(count[inside], instants[inside])
+
     return {
         "r": _Columns(df, expr), "t": t,
         "peak": _reduction(lambda x: np.max(np.abs(x))), "rms": _reduction(lambda x: np.sqrt(np.mean(np.square(x)))),
@@ -118,7 +128,7 @@ def _namespace(df: pd.DataFrame, expr: str) -> dict:
         "window": window, "count_rises": _count_rises, "abs": np.abs, "sqrt": np.sqrt, "where": np.where,
         "sum": lambda x: float(np.sum(x)), "at_rises": _at_rises, "normalize": _normalize,
         "between": lambda x, lo, hi: (np.asarray(x) >= lo) & (np.asarray(x) <= hi),
-        "on_durations": _on_durations,
+        "on_durations": _on_durations, "rise_times": rise_times,
     }
 
 
@@ -174,4 +184,7 @@ def columns(expr: str) -> list[str]:
         if (isinstance(node, ast.Subscript) and isinstance(node.value, ast.Name) and node.value.id == "r"
                 and isinstance(node.slice, ast.Constant) and isinstance(node.slice.value, str)):
             out.append(node.slice.value)
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "rise_times"
+                and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
+            out.append(node.args[0].value)
     return out

@@ -83,7 +83,7 @@ SYSTEM = System(
     # peak pin force to 5 %
     accuracy=AccuracySpec((
         Requirement("take-up instants (stone-pin impacts)",
-                    'at_rises(window(r["feeder.impact_count"], 0.2, 0.6), window(t, 0.2, 0.6))',
+                    'rise_times("feeder.impact_count", 0.2, 0.6)',
                     0.5 / (N_CRANK * 6.0), "s"),                    # 0.5 deg of crank angle at N_CRANK rpm
         Requirement("peak stone-pin force", 'peak(window(r["feeder.pin_force"], 0.2, 0.6))', 0.05, "N",
                     relative=True),

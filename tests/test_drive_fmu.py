@@ -441,3 +441,32 @@ def test_a_refused_step_is_one_line_and_in_fmi3_not_fatal(drive_fmus, fmi_versio
     assert "doStep at t = 0.5 s, but the drive is at t = 0.0 s" in lines[1], lines
     own = simulate(load("two_inertia"), stop_time=0.02, step=None, output=[name])
     assert value == pytest.approx(float(own[name].iloc[-1]), rel=1e-9, abs=1e-12)
+
+
+def test_a_hosts_coarse_step_reads_the_feeders_take_up_instants_on_the_drives_own_step(drive_fmus):
+    """The feeder's FMU offers feeder.impact_count.rise_time beside the counter: FMPy at a 1 ms importer step
+    reads every take-up instant in 0.2-0.6 s equal to harness run's at the drive's own 0.2 ms step (from its
+    1 ms samples alone they are up to 1 ms late: the feeder missed its accuracy so)."""
+    from harness import qoi
+
+    fmu = drive_fmus("feeder_gto52")
+    names = [v.name for v in _md(fmu).modelVariables]
+    assert "feeder.impact_count.rise_time" in names
+    out = _script(f"""
+        import numpy as np
+        from fmpy import simulate_fmu
+        r = simulate_fmu({str(fmu)!r}, stop_time=0.6, step_size=1e-3,
+                         output=["feeder.impact_count", "feeder.impact_count.rise_time"])
+        print(repr([list(map(float, r[c])) for c in ("time", "feeder.impact_count", "feeder.impact_count.rise_time")]))
+    """)
+    t, count, rise = eval(out.strip().splitlines()[-1])
+    host = pd.DataFrame({"feeder.impact_count": count, "feeder.impact_count.rise_time": rise},
+                        index=pd.Index(t, name="time"))
+    own = simulate(load("feeder_gto52"), stop_time=0.6, output=["feeder.impact_count"])
+    expr = 'rise_times("feeder.impact_count", 0.2, 0.6)'
+    expected = qoi.value(expr, own)
+    assert len(expected) >= 4
+    np.testing.assert_allclose(qoi.value(expr, host), expected, rtol=0, atol=1e-12)
+    # read from the 1 ms samples alone, the instants are off by more than the drive's step
+    sampled = qoi.value(expr, host.drop(columns="feeder.impact_count.rise_time"))
+    assert np.max(np.abs(sampled - expected)) > 2e-4

@@ -115,3 +115,19 @@ def test_on_durations():
     assert qoi._on_durations(np.ones(5), np.arange(5.0)).size == 0   # on from the start: no rise
     with pytest.raises(qoi.QoIError, match="on_durations"):
         qoi.evaluate('sum(on_durations(r["c.f"], window(t, 0.0, 0.5)))', d)
+
+
+def test_rise_times_reads_a_counters_own_instants_where_the_result_carries_them():
+    """Without a rise_time column: the rising samples' times (as at_rises over the window); with one (a drive
+    FMU's, on its own finer step): its value at each rising sample; the counter is a column the quantity reads."""
+    t = np.arange(0.0, 1.0001, 0.1)
+    count = np.array([0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3], dtype=float)
+    df = pd.DataFrame({"c.n_count": count}, index=pd.Index(t, name="time"))
+    plain = qoi.value('rise_times("c.n_count", 0.15, 1.0)', df)
+    np.testing.assert_allclose(plain, qoi.value('at_rises(window(r["c.n_count"], 0.15, 1.0), window(t, 0.15, 1.0))', df))
+    np.testing.assert_allclose(plain, [0.5, 0.8])
+    df["c.n_count.rise_time"] = [0.0, 0.0, 0.13, 0.13, 0.13, 0.42, 0.42, 0.42, 0.77, 0.77, 0.77]
+    np.testing.assert_allclose(qoi.value('rise_times("c.n_count", 0.0, 1.0)', df), [0.13, 0.42, 0.77])
+    assert qoi.columns('rise_times("c.n_count", 0.2, 0.6)') == ["c.n_count"]
+    with pytest.raises(qoi.QoIError, match="no result column 'c.missing'"):
+        qoi.value('rise_times("c.missing", 0.0, 1.0)', df)
