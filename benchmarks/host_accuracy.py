@@ -401,10 +401,11 @@ def wrap_fmu(fmu: Path, out: Path, stop: float) -> Path:
 
 
 def drive_fmu_runs(system_name: str, hosts=DRIVE_FMU_HOSTS, out_dir: Path | None = None,
-                   timeout: float = TIMEOUT, progress=None) -> list[tuple[str, Verdict, Verdict | None]]:
+                   timeout: float = TIMEOUT, progress=None, ssp: bool = True) -> list[tuple[str, Verdict, Verdict | None]]:
     """Per host: (host, the drive FMU at IMPORTER_STEP, the drive's SSP at its declared host step), each judged by
     the drive's accuracy against the monolithic reference; ``run_time`` is the tool's own run.  The SSP in FMPy
-    runs through ``simulate_ssp`` (host ``fmpy-ssp``), the drive FMU through ``simulate_fmu``."""
+    runs through ``simulate_ssp`` (host ``fmpy-ssp``), the drive FMU through ``simulate_fmu``.  ``ssp=False``: the
+    drive FMU alone (the SSP's verdict None; the SSPs in the hosts are the main table's)."""
     from harness import export_fmu, load
     from harness.ssp import export_ssp
     from harness.studies.accuracy import accuracy_spec
@@ -415,7 +416,7 @@ def drive_fmu_runs(system_name: str, hosts=DRIVE_FMU_HOSTS, out_dir: Path | None
     out = Path(out_dir) if out_dir is not None else Path(tempfile.mkdtemp(prefix="drive_fmu_"))
     fmu = export_fmu(system, out / f"{system_name}.fmu")
     wrapped = wrap_fmu(fmu, out / f"{system_name}_fmu.ssp", spec.stop_time)
-    ssp = export_ssp(system, out / f"{system_name}.ssp")
+    ssp_file = export_ssp(system, out / f"{system_name}.ssp") if ssp else None
     ref = reference(system, stop_time=spec.stop_time, step=spec.reference_step)
     columns = columns_of(system)
     # an event counter's instant on the drive's own step, which the drive FMU offers beside it (qoi.rise_times)
@@ -431,11 +432,11 @@ def drive_fmu_runs(system_name: str, hosts=DRIVE_FMU_HOSTS, out_dir: Path | None
                 run.result = run.result.rename(columns=lambda c: c.removeprefix("drive."))
         as_fmu = judge(system, run, ref)
         ssp_host = "fmpy-ssp" if host == "fmpy" else host
-        as_ssp = judge(system, run_guarded(ssp_host, ssp, spec.stop_time, declared_step(ssp), columns, system_name,
-                                           timeout), ref)
+        as_ssp = judge(system, run_guarded(ssp_host, ssp_file, spec.stop_time, declared_step(ssp_file), columns,
+                                           system_name, timeout), ref) if ssp else None
         rows.append((host, as_fmu, as_ssp))
         if progress:
-            progress(f"{describe(as_fmu)} | SSP: {describe(as_ssp)}")
+            progress(f"{describe(as_fmu)} | SSP: {describe(as_ssp) if as_ssp is not None else 'not run'}")
     return rows
 
 
@@ -449,8 +450,9 @@ def drive_fmu_markdown(rows) -> str:
             return ("meets" if v.meets else "misses") + "; " + "; ".join(f"{c.error:.2g} {c.unit}" for c in v.checks), \
                 f"{v.run.run_time:.1f} s"
         a, ta = cell(f)
-        b, tb = cell(s)
-        lines.append(f"| {f.system} | {host} | {a} | {ta} | {b} ({s.run.step * 1e3:g} ms) | {tb} |")
+        b, tb = cell(s) if s is not None else ("not run", "")
+        step = f" ({s.run.step * 1e3:g} ms)" if s is not None else ""
+        lines.append(f"| {f.system} | {host} | {a} | {ta} | {b}{step} | {tb} |")
     return "\n".join(lines)
 
 
@@ -467,13 +469,14 @@ def main(argv=None) -> int:
     p.add_argument("--drive-fmu", action="store_true",
                    help="the drives exported as one FMU (python -m harness export DRIVE X.fmu) in FMPy, libcosim, "
                         "Ecos and OMSimulator at a 1 ms importer step, against their SSPs in the same hosts")
+    p.add_argument("--no-ssp", action="store_true", help="with --drive-fmu: the drive FMUs alone, not their SSPs")
     args = p.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     if args.drive_fmu:
         rows = []
         for name in args.systems or ["bed_drive"]:
-            rows += drive_fmu_runs(name, out_dir=out, timeout=args.timeout,
+            rows += drive_fmu_runs(name, out_dir=out, timeout=args.timeout, ssp=not args.no_ssp,
                                    progress=lambda s: print(s, file=sys.stderr, flush=True))
         print(drive_fmu_markdown(rows))
         return 0 if all(f.meets for _, f, _ in rows) else 1
