@@ -485,7 +485,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
                 if refresh:
                     m.refresh(t_ns / NS)
                 if t_ns in signals.step_times:  # an event: no coupling signal is extrapolated across it,
-                    m.history.restart()          # the step control and the divergence detector start afresh
+                    m.history.restart()          # the step control restarts, the divergence detector is told
                     if controller.variable:
                         controller.restart()
                         h_ns = step_ns

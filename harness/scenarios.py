@@ -21,8 +21,10 @@ Its ``parameters`` set the drive up (from rest, a brake's torque); its ``changes
 master sets each new value at the communication point of its time.  Every change's time must be such a point
 (a whole multiple of the step from the start) and inside the run; a ramp's length is >= 0; two changes of one
 input may not overlap.  Refused in one line before the run: an unknown scenario (the drive's are listed), a
-file that is not a scenario, a change outside the run, a negative ramp, a variable that is not a free input or a
-value outside its declared range (these two by :class:`harness.signals.Signals`).
+file that is not a scenario, a change outside the run, a negative ramp, a variable that is neither a free input
+nor a parameter its FMU declares tunable (a tunable one is set through setReal between steps; a fixed one is
+refused, naming it; by :class:`harness.signals.Signals`), a value outside its declared range (naming the
+scenario's file).
 
 After the run, the transient's quantities (:func:`transient`) are in ``df.attrs["transient"]``: for a
 ``startup`` the time and main-shaft angle to 95 % of the speed the run ends at, and the peak motor, shaft and

@@ -11,8 +11,12 @@ time; before the first row the first value holds, after the last row the last.  
 step: from that time on, the second row's value (the first row's at the very start of the table and while the
 FMUs initialize).  The value set at a communication point holds over the step that follows.
 
-Refused in one line before the run: a column for an input the system connects, for a variable that is not an
-input, or for no variable at all (with the nearest names); a time column that decreases or is not finite; a
+A column may also name a parameter its FMU declares tunable (FMI 2.0 ``variability="tunable"``): it is set
+through setReal between communication steps and held (a scenario's change of a tunable parameter goes so); a
+fixed parameter is refused, naming it.
+
+Refused in one line before the run: a column for an input the system connects, for a variable that is neither
+an input nor a tunable parameter, or for no variable at all (with the nearest names); a time column that decreases or is not finite; a
 value that is not finite, not of the input's type, or outside the ``min``/``max`` its FMU declares.
 """
 from __future__ import annotations
@@ -159,10 +163,16 @@ class Signals:
                 near = _nearest(var, inputs) or _nearest(var, list(variables))
                 raise SystemError_(f"input signal {column!r}: FMU {md.modelName} of instance {inst} has no "
                                    f"variable {var!r}{near}; {listed}")
-            if v.causality != "input":
+            tunable = v.causality == "parameter" and v.variability == "tunable"
+            if v.causality == "parameter" and not tunable:
+                raise SystemError_(f"input signal {column!r}: parameter {var} of instance {inst} is not tunable "
+                                   f"(its FMU declares variability {v.variability!r}): it cannot change during the "
+                                   f"run; set it before the run (start_values, --set), or drive a free input or a "
+                                   f"tunable parameter ({listed})")
+            if v.causality != "input" and not tunable:
                 article = "an" if v.causality[:1] in "aeiou" else "a"
                 raise SystemError_(f"input signal {column!r}: {var} of instance {inst} is {article} {v.causality}, "
-                                   f"not an input; a signal drives inputs only ({listed})")
+                                   f"not an input; a signal drives inputs and tunable parameters only ({listed})")
             if ref in targets:
                 raise SystemError_(f"input signal {column!r}: input {ref} is connected from {targets[ref]}; a "
                                    f"signal drives a free input only ({listed})")

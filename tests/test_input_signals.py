@@ -179,7 +179,8 @@ def _table(**columns):
     ("two_inertia", _table(**{"c.u": [0.0, 1.0]}), "input signal 'c.u': unknown instance 'c' (instances: a, b"),
     ("Gain", _table(uu=[0.0, 1.0]),
      "input signal 'uu': FMU Gain of instance Gain has no variable 'uu' (did you mean 'u'?); free inputs of Gain: u"),
-    ("Gain", _table(k=[0.0, 1.0]), "input signal 'k': k of instance Gain is a parameter, not an input"),
+    ("Gain", _table(k=[0.0, 1.0]), "input signal 'k': parameter k of instance Gain is not tunable (its FMU "
+                                   "declares variability 'fixed'): it cannot change during the run"),
     ("Gain", _table(u=[0.0, np.nan]), "input signal 'Gain.u' = nan at t = 1 s: not a finite number"),
     ("Gain", pd.DataFrame({"time": [0.0, 0.5, 0.4], "u": [0, 1, 2]}),
      "input: the time column decreases in row 3 (0.4 s after 0.5 s)"),
@@ -318,3 +319,29 @@ def test_a_variable_step_lands_on_an_input_step_and_restarts_its_step_there():
     assert t[k + 1] - t[k] == pytest.approx(h, abs=1e-9)                  # the step restarted at the run's step
     assert t[k] - t[k - 1] > 2 * h                                        # it had grown before the event
     np.testing.assert_allclose(df["a.flange.w"], np.where(t > t_e, (t - t_e) * T / J, 0.0), rtol=0, atol=1e-9)
+
+
+def test_a_tunable_parameter_changes_mid_run_through_set_real(tmp_path):
+    """A foreign FMU's tunable parameter (plain pythonfmu's lag, k declared tunable) stepped at 1 s by a signal:
+    set between communication steps and held, the lag follows explicit Euler with k before and after exactly;
+    its fixed-parameter counterpart in our FMUs is refused (the Gain case above)."""
+    import sys
+
+    exe = Path(sys.executable).with_name("pythonfmu")
+    if not exe.is_file():
+        pytest.skip("pythonfmu command not installed")
+    r = subprocess.run([str(exe), "build", "-f", str(Path(__file__).parent / "foreign" / "plain_lag.py"), "-d",
+                        str(tmp_path)], capture_output=True, text=True)
+    fmu = tmp_path / "PlainLag.fmu"
+    if r.returncode != 0 or not fmu.is_file():
+        pytest.skip(f"pythonfmu build failed: {r.stderr.strip()[-300:]}")
+    h, t_e = 0.01, 1.0
+    system = System("lag", [Instance("lag", str(fmu))], [], experiment=Experiment(stop_time=2.0, step=h))
+    signal = pd.DataFrame({"time": [0.0, t_e, t_e, 2.0], "lag.u": [1.0] * 4, "lag.k": [-0.5, -0.5, 2.0, 2.0]})
+    df = quiet(system, input=signal)
+    y, expected = 0.0, [0.0]
+    for n in range(200):
+        k = -0.5 if n * h < t_e - 1e-12 else 2.0
+        y += h * (k * 1.0 - y) / 1.0
+        expected.append(y)
+    np.testing.assert_allclose(df["lag.y"].to_numpy(), expected, rtol=0, atol=1e-12)
