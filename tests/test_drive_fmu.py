@@ -258,7 +258,13 @@ def test_every_drive_exports_validates_and_equals_harness_run(drive_fmus, name, 
     columns = [x.name for x in _md(fmu).modelVariables if x.causality == "output"]
     run = ha.run_guarded("fmpy-fmu", fmu, stop, importer, columns, name, TIMEOUT)
     assert run.status == "complete", run.error
-    own = simulate(system, stop_time=stop, output=columns)
+    rises = [c for c in columns if c.endswith(".rise_time")]      # an event counter's instant on the drive's step
+    own = simulate(system, stop_time=stop, output=[c for c in columns if c not in rises])
+    for c in rises:     # the drive's own point of the counter's last rise, its start time before the first
+        count = own[c.removesuffix(".rise_time")].to_numpy()
+        t = own.index.to_numpy()
+        rose = np.concatenate([[False], count[1:] > count[:-1]])
+        own[c] = [t[:k + 1][rose[:k + 1]][-1] if rose[:k + 1].any() else 0.0 for k in range(len(t))]
     own = own.iloc[::2]
     assert len(own) == len(run.result)
     for c in columns:
