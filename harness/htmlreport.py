@@ -36,7 +36,7 @@ th,td{border:1px solid #ccc;padding:.2em .5em;vertical-align:top}th{background:#
 td.n{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
 img{max-width:100%;height:auto;border:1px solid #ddd;margin:.4em 0}
 figure{margin:.5em 0}figcaption{font-size:.85em;color:#555}pre{background:#f7f7f7;padding:.5em;
-font-size:.85em;white-space:pre-wrap}.note{color:#555;font-size:.85em}
+font-size:.85em;white-space:pre-wrap}.note{color:#555;font-size:.85em}.wide{overflow-x:auto}
 """
 
 
@@ -63,7 +63,7 @@ def number(v) -> str:
 def table(header: list[str], rows: list[list], numeric: set[int] | None = None, caption: str = "") -> str:
     """An HTML table; cells of the ``numeric`` columns (indices; default: every cell that is a number) are
     formatted by :func:`number` and right-aligned."""
-    out = ["<table>"]
+    out = ['<div class="wide"><table>']
     if caption:
         out.append(f"<caption>{esc(caption)}</caption>")
     out.append("<tr>" + "".join(f"<th>{esc(h)}</th>" for h in header) + "</tr>")
@@ -74,7 +74,7 @@ def table(header: list[str], rows: list[list], numeric: set[int] | None = None, 
                 isinstance(c, (int, float, list, tuple)) and not isinstance(c, bool) or c is None)
             cells.append(f'<td class="n">{esc(number(c))}</td>' if is_num else f"<td>{esc(c)}</td>")
         out.append("<tr>" + "".join(cells) + "</tr>")
-    out.append("</table>")
+    out.append("</table></div>")
     return "\n".join(out)
 
 
