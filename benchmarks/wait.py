@@ -12,6 +12,10 @@ Each line gives the wall time, the process's CPU time (user + system, of the chi
 processes on a loaded machine than the wall time), the stepping time the command printed, and the ratios
 whole / stepping by wall time and by CPU time.  ``--pin`` runs every command on CPU 0 (``taskset -c 0``), so
 the command's own threads do not spread over cores.  The median over ``--repeat`` runs is shown.
+
+``--stages``: the CPU time of each stage of ``run SYSTEM --plot`` (imports, loading the drive, opening the FMUs,
+the stepping, the quantities, the charts) in one process, and the total against the stepping's own CPU time
+(``attrs["cpu_time"]``): on a loaded machine the wall times stretch with the load, CPU times much less.
 """
 from __future__ import annotations
 
@@ -93,13 +97,61 @@ def lines(rows: list[dict], pin: bool, repeat: int) -> list[str]:
     return out
 
 
+STAGES_CHILD = r"""
+import json, sys, tempfile, time
+T = time.process_time
+marks = [("interpreter start-up", T())]
+import harness.run as run
+marks.append(("imports of the run command", T()))
+system = run.load(sys.argv[1])
+marks.append(("loading the drive", T()))
+df = run.simulate(system, options=run.RunOptions(progress=None))
+marks.append(("simulate", T()))
+df.attrs["quantities"].table()
+marks.append(("quantities table", T()))
+from harness.charts import plot_result
+with tempfile.TemporaryDirectory() as d:
+    plot_result(system, df, d)
+marks.append(("charts (two figures, PNG and SVG)", T()))
+out, prev = [], 0.0
+for name, t in marks:
+    out.append((name, t - prev))
+    prev = t
+step = df.attrs.get("cpu_time", df.attrs["wall_time"])   # a tree before cpu_time: the wall time
+i = [n for n, _ in out].index("simulate")
+out[i:i + 1] = [("simulate: opening the FMUs, results", out[i][1] - step), ("simulate: initialisation and steps", step)]
+print(json.dumps({"stages": out, "stepping_cpu": step, "total": prev}))
+"""
+
+
+def stages(system: str, pin: bool) -> dict:
+    """CPU time [s] of each stage of ``run SYSTEM --plot`` in a process of its own (the run command's steps
+    called one by one): robust to other processes, which stretch wall times but hardly CPU times."""
+    import json
+
+    argv = [sys.executable, "-c", STAGES_CHILD, system]
+    _wall, _cpu, out = timed(argv, pin)
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def stage_lines(found: dict) -> list[str]:
+    out = ["CPU time by stage of run --plot (one process; the stepping's own CPU time from attrs['cpu_time'])"]
+    out += [f"  {name:<44} {t:6.2f} s" for name, t in found["stages"]]
+    out.append(f"  {'total':<44} {found['total']:6.2f} s = {found['total'] / found['stepping_cpu']:.1f}x the "
+               f"stepping's CPU time (goal <= {GOAL:g}x)")
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.wait", description=__doc__.splitlines()[0])
     ap.add_argument("--system", default="bed_drive")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--pin", action="store_true", help="run every command on CPU 0 (taskset -c 0)")
+    ap.add_argument("--stages", action="store_true", help="also the CPU time of each stage of run --plot")
     args = ap.parse_args(argv)
     print("\n".join(lines(measure(args.system, args.repeat, args.pin), args.pin, args.repeat)))
+    if args.stages:
+        print("\n".join(stage_lines(stages(args.system, args.pin))))
     return 0
 
 

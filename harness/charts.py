@@ -26,6 +26,7 @@ from harness import qoi
 from harness.specs import Panel
 
 _ZONE_COLOURS = ("#2ca02c", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b")
+DPI = 110   # of the run charts' PNGs, and of their figures: the layout's text measures are then the PNG's own
 
 
 def save_figure(fig, stem: str | Path, dpi: float | None = None) -> list[Path]:
@@ -191,7 +192,7 @@ def _figure(n: int):
 
     ncol = 2 if n > 3 else 1
     nrow = -(-n // ncol)
-    fig = Figure(figsize=(7.0 * ncol, 2.3 * nrow + 0.9))
+    fig = Figure(figsize=(7.0 * ncol, 2.3 * nrow + 0.9), dpi=DPI)
     axes = fig.subplots(nrow, ncol, squeeze=False)
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
@@ -256,7 +257,7 @@ def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[
     _key(fig, key)
     fig.suptitle(f"{system.name} over time: {_status(df)}", fontsize=9)
     _finish(fig, -(-len(key) // 3))
-    return save_figure(fig, out_dir / system.name, dpi=110)
+    return save_figure(fig, out_dir / system.name, dpi=DPI)
 
 
 def _startup(df: pd.DataFrame) -> float | None:
@@ -332,7 +333,7 @@ def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list
     fig.suptitle(f"{system.name}, one machine cycle: cycle {k + 1} (t = {t[0]:.3g} to {t[-1]:.3g} s), "
                  f"{_status(df)}", fontsize=9)
     _finish(fig, -(-len(key) // 3))
-    return save_figure(fig, out_dir / f"{system.name}_cycle", dpi=110)
+    return save_figure(fig, out_dir / f"{system.name}_cycle", dpi=DPI)
 
 
 def plot_result(system, df: pd.DataFrame, out_dir: str | Path) -> list[Path]:

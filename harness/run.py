@@ -455,7 +455,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
     """The stepping loop over ``span`` = (start, stop, step, recording interval) [ns]; ``signals`` (a
     :class:`~harness.signals.Signals`) set at each communication point before the step; the result, marked as
     it ended, with the ``system``'s engineering quantities."""
-    wall = _time.perf_counter()
+    wall, cpu = _time.perf_counter(), _time.process_time()
     start_ns, stop_ns, step_ns, sample_ns = span
     # a signal into an instance that feeds others: the point's outputs again, so no connection lags a step
     # (the row at t keeps the values recorded at the end of the step, as FMPy records them)
@@ -513,6 +513,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
         if bar is not None:
             bar.close()
     info.update(steps=steps, wall_time=_time.perf_counter() - wall, init_time=init_time,
+                cpu_time=_time.process_time() - cpu,
                 iterations=m.iterations,
                 fmu_steps=m.fmu_steps, halved_steps=m.halvings,
                 rejected=controller.rejected, max_error_estimate=controller.max_accepted_error)
