@@ -201,3 +201,20 @@ def test_the_page_shows_its_charts_and_tables_in_headless_chromium(page, tmp_pat
     shot = tmp_path / "shot.png"
     _chromium(f"--screenshot={shot}", "--window-size=1280,2000", path.as_uri())
     assert shot.is_file() and shot.stat().st_size > 20_000
+
+
+def test_harness_report_writes_a_runs_page_and_refuses_what_is_not_a_result(run, tmp_path):
+    import pandas as pd
+
+    import harness
+
+    system, df = run
+    path = harness.report(df, tmp_path / "r.html", system=system)
+    text = path.read_text()
+    assert "Engineering quantities" in text and len(re.findall(r'src="data:image/png;base64,', text)) == 2
+    with pytest.raises(TypeError, match="not a run's result"):
+        harness.report(pd.DataFrame({"x": [1.0]}), tmp_path / "t.html")
+    from harness.errors import SystemError_
+
+    with pytest.raises(SystemError_, match="ending in .html"):
+        harness.report(df, tmp_path / "r.txt", system=system)
