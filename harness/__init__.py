@@ -10,7 +10,28 @@ Modules: :mod:`harness.model` (the system as data), :mod:`harness.fmi.fmu` (chec
 """
 from __future__ import annotations
 
-__all__ = ["load", "simulate", "simulate_scenario", "RunOptions", "bond_energy", "to_csv", "MASTERS", "export_fmu"]
+__all__ = ["load", "simulate", "simulate_scenario", "RunOptions", "bond_energy", "to_csv", "MASTERS", "export_fmu",
+           "report"]
+
+
+def report(result, path, system=None):
+    """Write one self-contained HTML page of ``result`` at ``path`` (:mod:`harness.htmlreport`) and return its
+    path: a run's result (the DataFrame of :func:`simulate`; ``system``: the drive, default: the one the run
+    names), or a study's result that writes its own page (:func:`harness.studies.compare.compare`'s comparison,
+    :func:`harness.studies.size.size`'s sizing; a sweep's table: :func:`harness.studies.sweep.report`)."""
+    import pandas as pd
+
+    from harness.htmlreport import check_report_path, write_run_report
+
+    check_report_path(path)
+    if hasattr(result, "report") and not isinstance(result, pd.DataFrame):
+        return result.report(path)
+    if not isinstance(result, pd.DataFrame) or "quantities" not in result.attrs:
+        raise TypeError(f"harness.report: {type(result).__name__} is not a run's result (harness.simulate), a "
+                        f"comparison or a sizing; a sweep's table: harness.studies.sweep.report(df, spec, path)")
+    from harness.run import load
+
+    return write_run_report(load(system if system is not None else result.attrs["system"]), result, path)
 
 
 def export_fmu(system, out, outputs=None, fmi_version: int = 2):

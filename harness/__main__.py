@@ -35,10 +35,29 @@ class _Version(argparse._VersionAction):
         super().__call__(parser, namespace, values, option_string)
 
 
-def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+# The commands and their one-line help, in the order ``--help`` lists them: the top-level help (and
+# ``--version``, a bare ``python -m harness``) is built from this table alone, without importing the commands'
+# modules (pandas, scipy, matplotlib: over a second); tests/test_messages.py checks it against the full parser.
+COMMANDS = (
+    ("list", "list the shipped systems with their descriptions"),
+    ("show", "show a system: instances, bonds, scenes and every variable with its unit"),
+    ("run", "run a system (name in systems/, a .py file defining SYSTEM, or .ssp/.ssd) and write its result"),
+    ("compare", "two or more designs of a drive side by side: their engineering quantities and charts"),
+    ("size", "size one parameter of a drive to an engineering-quantity target"),
+    ("export", "write a system as an SSP 1.0 archive (FMUs included) or as one co-simulation FMU (.fmu)"),
+    ("synth", "mechanism synthesis and analysis tools of the seeds"),
+    ("study", "numerical studies (stability, precision)"),
+    ("scene", "answer a scene's question with the coarsest adequate model"),
+    ("sweep", "parameter sweep on dask.distributed"),
+)
+TOP_ONLY = ([], ["-h"], ["--help"], ["--version"])   # argument lists the top-level parser alone answers
+
+
+def build_parser(command: str | None = None, top_only: bool = False) -> argparse.ArgumentParser:
     """The command line's parser; ``command="run"``: with the ``run`` command alone (the same ``run``, its help
     and its errors; the other commands' modules, the studies and the synthesis tools with scipy, are then not
-    imported: a run's start-up is shorter by their import time)."""
+    imported: a run's start-up is shorter by their import time).  ``top_only``: the commands as names with
+    their help (:data:`COMMANDS`) and no options, for ``--help``, ``--version`` and a bare command line."""
     import os
 
     prog = "pressdrive" if os.path.basename(sys.argv[0] or "").startswith("pressdrive") else "python -m harness"
@@ -49,6 +68,11 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                     help="show the traceback of a failure (accepted anywhere on the command line)")
     ap.add_argument("--version", action=_Version, version="")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    if top_only:
+        for name, text in COMMANDS:
+            sub.add_parser(name, help=text)
+        _show_defaults(ap)
+        return ap
     if command == "run":
         from harness import run
 
@@ -177,7 +201,7 @@ def _main(argv: list[str], debug: bool) -> int:
         warnings.showwarning = lambda message, category, *a, **k: print(
             f"warning: {str(message).splitlines()[0] if str(message) else category.__name__}", file=sys.stderr)
     try:
-        ap = build_parser(_command(argv))
+        ap = build_parser(_command(argv), top_only=[a for a in argv if a != "--debug"] in TOP_ONLY)
         args = ap.parse_args(argv)
         _check_out_folder(args)
         return int(args.func(args) or 0)

@@ -3,7 +3,8 @@
 A result is a pandas DataFrame indexed by time (index name ``time``) with columns ``Instance.variable``.
 ``df.attrs`` carries ``complete`` (False if the run stopped early), ``error`` (the one-line reason),
 ``system``, ``master``, ``steps`` (accepted communication steps), ``wall_time`` (initialisation and stepping
-[s]) with ``init_time`` (the initialisation's share; NaN if it did not finish) and ``bonds`` (a
+[s]) with ``init_time`` (the initialisation's share; NaN if it did not finish), ``cpu_time`` (the process's
+CPU time over the same span [s]: less disturbed than the wall time by other processes) and ``bonds`` (a
 :class:`BondLog`: power on each side of every power bond and the accumulated coupling energy error; see
 :func:`bond_energy`).
 """

@@ -455,7 +455,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
     """The stepping loop over ``span`` = (start, stop, step, recording interval) [ns]; ``signals`` (a
     :class:`~harness.signals.Signals`) set at each communication point before the step; the result, marked as
     it ended, with the ``system``'s engineering quantities."""
-    wall = _time.perf_counter()
+    wall, cpu = _time.perf_counter(), _time.process_time()
     start_ns, stop_ns, step_ns, sample_ns = span
     # a signal into an instance that feeds others: the point's outputs again, so no connection lags a step
     # (the row at t keeps the values recorded at the end of the step, as FMPy records them)
@@ -520,6 +520,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
         if bar is not None:
             bar.close()
     info.update(steps=steps, wall_time=_time.perf_counter() - wall, init_time=init_time,
+                cpu_time=_time.process_time() - cpu,
                 iterations=m.iterations,
                 fmu_steps=m.fmu_steps, halved_steps=m.halvings,
                 rejected=controller.rejected, max_error_estimate=controller.max_accepted_error)
@@ -627,6 +628,11 @@ def register(subparsers) -> None:
                         "where the system declares its crank angle, DIR/<system>_cycle.png/.svg (over the last "
                         "complete crank revolution); <name>.partial.png/.svg for a run that stopped early "
                         "(default: no chart)")
+    p.add_argument("--report", type=Path, default=None, metavar="FILE.html",
+                   help="write one self-contained HTML page of the run to hand on: its engineering quantities, "
+                        "charts (inline), the drive (instances, fidelities, parameters changed from their "
+                        "defaults), the method with the drive's declared accuracy, versions and run time; checked "
+                        "before the run (default: none)")
     p.add_argument("--quiet-quantities", action="store_true",
                    help="do not print the table of the drive's engineering quantities after the run (default: "
                         "printed; with --out they are written beside the result as FILE.quantities.json "
@@ -668,6 +674,10 @@ def _check_targets(args) -> None:
         check_writable(args.out, "--out")
     if args.plot is not None:
         check_writable(args.plot, "--plot", folder=True)
+    if getattr(args, "report", None) is not None:
+        from harness.htmlreport import check_report_path
+
+        check_report_path(args.report)
 
 
 def _plot(system, df, folder: Path) -> list[Path]:
@@ -737,17 +747,24 @@ def run_cli(args) -> int:
         if a.get("transient") is not None and a["transient"].rows:
             a["transient"].write_json(out.with_name(f"{out.stem}.transient.json"))
     where = f"wrote {out}" if out is not None else "no --out given, result not written"
+    charts = None
     if args.plot is not None and len(df):
         if a.get("scenario"):  # a transient's charts beside the plain run's, not over them
             import dataclasses
 
             system = dataclasses.replace(system, name=f"{system.name}_{a['scenario']}")
-        where += "; chart " + ", ".join(str(p) for p in _plot(system, df, args.plot))
+        charts = _plot(system, df, args.plot)
+        where += "; chart " + ", ".join(str(p) for p in charts)
         from harness.charts import cycle_chart_missing
 
         missing = cycle_chart_missing(system, df) if system.chart is not None else ""
         if missing:  # a drive that has a cycle chart says why this run has none
             where += f"; no cycle chart: {missing}"
+    if getattr(args, "report", None) is not None:
+        from harness.htmlreport import write_run_report
+
+        page = args.report if a["complete"] else partial_path(args.report)   # never over a complete run's page
+        where += f"; report {write_run_report(system, df, page, charts)}"
     if not a["complete"]:
         hint = f"; {_divergence_hint(a)}" if a.get("diverged") or a.get("blew_up") else ""
         print(f"error: {a['error']}; {len(df)} points to t = {df.index[-1] if len(df) else 0:.6g} s kept, "

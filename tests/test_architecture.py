@@ -20,6 +20,7 @@ LAYERS = [
          "harness.coupling", "harness.iteration", "harness.jacobian", "harness.masters", "harness.results",
          "harness.qoi")),                                         # system model and masters
     (4, ("harness", "harness.run", "harness.signals", "harness.ssp", "harness.charts",   # run / ssp (lazy API)
+         "harness.htmlreport",                                    # the HTML report's page and a run's sections
          "harness.quantities", "harness.scenarios",               # engineering quantities, transients
          "systems")),                                             # the drives as data, loaded by run.load
     (5, ("harness.studies", "harness.synthesis", "harness.__main__")),  # studies, synthesis, CLI

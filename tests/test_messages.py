@@ -395,3 +395,21 @@ def test_the_run_command_alone_parses_and_helps_as_the_full_command_line():
             "print(sorted(m for m in sys.modules if m.startswith(('harness.studies', 'harness.synthesis'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]", out
+
+
+def test_the_top_level_help_is_the_full_parsers_without_importing_the_commands():
+    """``--help`` is built from harness.__main__.COMMANDS alone: the same text as the full parser's, and
+    pandas, matplotlib and scipy stay unimported (they cost the bare help over a second)."""
+    import subprocess
+    import sys
+
+    from harness.__main__ import COMMANDS, build_parser
+
+    full = build_parser()
+    sub = next(a for a in full._actions if a.dest == "command")
+    assert [(c.dest, c.help) for c in sub._choices_actions] == list(COMMANDS)
+    assert build_parser(top_only=True).format_help() == full.format_help()
+    code = ("import sys\nfrom harness.__main__ import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+            "print(sorted(m for m in ('pandas', 'matplotlib', 'scipy', 'networkx') if m in sys.modules))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert p.stdout.strip().splitlines()[-1] == "[]", p.stdout[-300:] + p.stderr[-300:]

@@ -41,7 +41,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from .base import Model, ParameterError, Params, param
 
@@ -146,6 +145,8 @@ def resonance_check(f_n: float, N_B: float, band: float = 0.1) -> dict:
 def response(J_red: float, C_red: float, mu_red: float, moment, t_end: float, max_step: float | None = None,
              t_eval=None):
     """Eq. (11) from rest with scipy solve_ivp; ``moment(t)`` is M_dist.  Returns (t, dphi, dphi_dot)."""
+    from scipy.integrate import solve_ivp   # here: every FMU bundles this module, most never call it
+
     p = natural_frequency(C_red, J_red)
     n = damping_coefficient(p, mu_red)
     if max_step is None:

@@ -188,6 +188,45 @@ class Comparison:
                 if p.suffix == ".png"]
 
 
+    def report(self, path: str | Path, charts: list[Path] | None = None) -> Path:
+        """One self-contained HTML page of the comparison (:mod:`harness.htmlreport`): the variants, the
+        side-by-side table, the overlaid chart (``charts``: PNGs already drawn, else drawn here), the drive as
+        declared, the method and the versions; returns its path."""
+        from harness import htmlreport as h
+
+        keep = None
+        if charts is None:
+            charts, keep = h.render_charts(self.plot, None)
+        try:
+            first = next(iter(self.results.values()))
+            page = h.Page(f"{self.system.name}: {len(self.results)} variants compared",
+                          "every variant run with the same method and stop time; differences from the first")
+            page.section("Variants", h.table(["label", "what it changes", "points", "to t [s]", "stepping [s]"],
+                                             [[lab, df.attrs.get("variant", ""), len(df),
+                                               float(df.index[-1]) if len(df) else 0.0,
+                                               df.attrs.get("wall_time")] for lab, df in self.results.items()],
+                                             numeric={2, 3, 4}))
+            page.section("Engineering quantities side by side",
+                         h.para(_heading_line(first)), h.frame_table(self.frame(), "quantity"))
+            page.section("Charts", *[h.image(p, f"{self.system.name}: the variants over their last machine cycle")
+                                     for p in charts] or [h.para("no chart: the drive declares no crank angle or no "
+                                                                 "variant completed a machine cycle")])
+            h.drive_section(page, self.system, None, heading="The drive as declared (the variants change the "
+                                                             "values above)")
+            h.method_section(page, self.system, first.attrs)
+            h.versions_section(page, [(f"stepping, {lab}", df.attrs.get("wall_time", "saved result"))
+                                      for lab, df in self.results.items()])
+            return page.write(path)
+        finally:
+            if keep is not None:
+                keep.cleanup()
+
+
+def _heading_line(df) -> str:
+    q = df.attrs.get("quantities")
+    return q.heading().splitlines()[0] + " (the first variant's; each variant's own steady cycles)" if q else ""
+
+
 def compare(system, variants, **options) -> Comparison:
     """Run every variant of ``system`` (a name in systems/ or a System; variants as :class:`Variant` or
     ``"LABEL: ..."`` strings) with :func:`harness.run.simulate` and ``options`` (the same for all) and return the
@@ -236,6 +275,9 @@ def register(subparsers) -> None:
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
                    help="draw the variants over their last machine cycle against the crank angle: "
                         "DIR/<drive>_compare.png (default: no chart)")
+    p.add_argument("--report", type=Path, default=None, metavar="FILE.html",
+                   help="write one self-contained HTML page: the variants, the side-by-side table, the overlaid "
+                        "chart, the drive, the method and versions; checked before any run (default: none)")
     p.set_defaults(func=_cli)
 
 
@@ -249,6 +291,10 @@ def _cli(args) -> int:
         check_writable(args.out, "--out")
     if args.plot is not None:
         check_writable(args.plot, "--plot", folder=True)
+    if args.report is not None:
+        from harness.htmlreport import check_report_path
+
+        check_report_path(args.report)
     check(system, variants)
     result = compare(system, variants, stop_time=args.stop_time, step=args.step, master=args.master,
                      options=RunOptions(progress=None))
@@ -256,8 +302,11 @@ def _cli(args) -> int:
     if args.out is not None:
         result.frame().to_csv(args.out)
         print(f"wrote {args.out}")
+    charts = None
     if args.plot is not None:
         charts = result.plot(args.plot)
         print("chart " + ", ".join(map(str, charts)) if charts else "no chart: the drive declares no crank angle "
               "or no variant completed a machine cycle")
+    if args.report is not None:
+        print(f"report {result.report(args.report, charts)}")
     return 0

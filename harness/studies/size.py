@@ -21,6 +21,7 @@ import difflib
 import math
 import re
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from harness.errors import SystemError_
 
@@ -62,6 +63,75 @@ class Sizing:
     answer: float | None = None
     verified: float | None = None
     message: str = ""
+    system: object = field(default=None, repr=False)      # the drive sized
+    verifying: object = field(default=None, repr=False)   # the run at the answer (its DataFrame), None without one
+
+    def report(self, path, charts: list | None = None):
+        """One self-contained HTML page of the sizing (:mod:`harness.htmlreport`): the answer, the runs tried
+        (with a chart of the quantity over the parameter and the target), the verifying run's quantities and
+        charts, the drive, the method and the versions; returns its path."""
+        from harness import htmlreport as h
+
+        keeps = []
+        try:
+            page = h.Page(f"{self.system.name}: {self.parameter} sized to {self.target}",
+                          f"{len(self.runs)} co-simulation runs over [{self.bracket[0]:g}, {self.bracket[1]:g}]")
+            answer = (f"{self.parameter} = {self.answer:.6g} ({self.target.quantity} = {self.verified:.6g} in the "
+                      f"run at it)" if self.answer is not None else "no answer in the bracket")
+            rows = [[p, q, "yes" if self.target.met(q) else "no", "verifying run" if p == self.answer else ""]
+                    for p, q in sorted(self.runs.items())]
+            runs_chart, keep = h.render_charts(self._runs_chart, None)
+            keeps.append(keep)
+            page.section("Answer", h.para(answer), h.para(self.message, "note"))
+            page.section("Runs tried", h.table([self.parameter, self.target.quantity, f"meets {self.target}", ""],
+                                               rows, numeric={0, 1}),
+                         *[h.image(p, f"{self.target.quantity} over {self.parameter}, every run; the target "
+                                      f"dashed") for p in runs_chart])
+            if self.verifying is not None:
+                df = self.verifying
+                if charts is None and len(df):
+                    from harness.charts import plot_result
+
+                    charts, keep = h.render_charts(lambda d: plot_result(self.system, df, d), None)
+                    keeps.append(keep)
+                h.quantities_section(page, df.attrs.get("quantities"),
+                                     heading=f"The verifying run at {self.parameter} = {self.answer:.6g}: "
+                                             f"engineering quantities")
+                page.section("The verifying run: charts", *[h.image(p, f"{self.system.name} at {self.parameter} = "
+                                                                       f"{self.answer:.6g}") for p in charts or []])
+                h.drive_section(page, self.system, df.attrs.get("start_values"),
+                                heading="The drive (as in the verifying run)")
+                h.method_section(page, self.system, df.attrs)
+                h.versions_section(page, [("stepping of the verifying run", df.attrs.get("wall_time"))])
+            else:
+                h.drive_section(page, self.system, None, heading="The drive as declared")
+                h.versions_section(page, [])
+            return page.write(path)
+        finally:
+            for k in keeps:
+                if k is not None:
+                    k.cleanup()
+
+    def _runs_chart(self, folder):
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from harness.charts import save_figure
+
+        ps = sorted(self.runs)
+        fig, ax = plt.subplots(figsize=(6.5, 3.2))
+        ax.plot(ps, [self.runs[p] for p in ps], marker="o", lw=1.0)
+        ax.axhline(self.target.value, color="0.3", ls="--", lw=0.9, label=str(self.target))
+        if self.answer is not None:
+            ax.plot([self.answer], [self.verified], marker="*", ms=12, color="C3", ls="none", label="answer")
+        ax.set_xlabel(self.parameter)
+        ax.set_ylabel(self.target.quantity)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        return save_figure(fig, Path(folder) / "size_runs", dpi=100)
 
 
 def size(system, parameter: str, target, bracket: tuple[float, float] | None = None, xtol: float = 1e-3,
@@ -82,7 +152,8 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
                            f"increasing values (the drive's value is {p0:g})")
     check_target(system, target)
     base = dict(options.pop("start_values", None) or {})
-    result = Sizing(parameter, target, (lo, hi))
+    result = Sizing(parameter, target, (lo, hi), system=system)
+    frames = {}
 
     def quantity(p: float) -> float:
         if p in result.runs:
@@ -94,6 +165,7 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         if not df.attrs.get("complete", True):
             raise SystemError_(f"size {system.name}: the run at {parameter} = {p:g} stopped: {df.attrs.get('error')}")
         q = quantities(system, df)
+        frames[p] = df
         value = q[target.quantity]
         if not isinstance(value, (int, float)) or value is None:
             raise SystemError_(f"size {system.name}: {target.quantity} has no value at {parameter} = {p:g}: "
@@ -122,6 +194,7 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         answer = min(result.runs, key=lambda p: abs(p - root) if target.met(result.runs[p]) and
                      (p - root) * (side - root) >= 0 else math.inf)
     result.answer, result.verified = answer, quantity(answer)
+    result.verifying = frames.get(answer)
     which = "largest" if side == lo else "smallest"
     qs = [result.runs[p] for p in sorted(result.runs)]
     steps = [b - a for a, b in zip(qs, qs[1:]) if b != a]
@@ -193,6 +266,10 @@ def register(subparsers) -> None:
                    help="stop time [s] of every run (default: the drive's default experiment)")
     p.add_argument("--set", action="append", default=[], metavar="Instance.param=VALUE",
                    help="other parameter values, the same in every run")
+    p.add_argument("--report", type=Path, default=None, metavar="FILE.html",
+                   help="write one self-contained HTML page: the answer, the runs tried, the verifying run's "
+                        "quantities and charts, the drive, the method and versions; checked before any run "
+                        "(default: none)")
     p.set_defaults(func=_cli)
 
 
@@ -203,10 +280,16 @@ def _cli(args) -> int:
     target = parse_target(args.target)
     _current(system, args.vary)
     check_target(system, target)
+    if args.report is not None:
+        from harness.htmlreport import check_report_path
+
+        check_report_path(args.report)
     result = size(system, args.vary, target, tuple(args.range) if args.range else None, xtol=args.xtol,
                   stop_time=args.stop_time, start_values=parse_sets(args.set), options=RunOptions(progress=None))
     print(result.message)
     print(f"runs ({args.vary} -> {target.quantity}): {_runs(result.runs)}")
+    if args.report is not None:
+        print(f"report {result.report(args.report)}")
     return 0 if result.answer is not None else 2
 
 

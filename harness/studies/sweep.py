@@ -36,7 +36,10 @@ one line naming the file and the key (``spec.yaml: set.flywheel.d: ... uses unkn
 Each worker process loads the FMUs itself (pythonfmu FMUs hold the GIL, so threads would not help).  A
 failed point is recorded with its error and never aborts the sweep.  The result is one DataFrame: the sweep
 variables, the parameters set, the quantities of interest, ``error`` and ``wall_time``; saved as Parquet
-(``.parquet``) or CSV.
+(``.parquet``) or CSV.  ``sweep ... --report FILE.html`` writes one page of it (:func:`report`).
+
+(About 630 lines: the spec's format and its checks, the run of the points, the chart and the page read
+together; the pre-run checks and the cluster live in sweep_checks and sweep_cluster.)
 """
 from __future__ import annotations
 
@@ -440,6 +443,9 @@ def register(subparsers) -> None:
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
                    help="also write the charts of the spec's plot section to DIR/<spec stem>.png and .svg "
                         "(default: no charts)")
+    p.add_argument("--report", type=Path, default=None, metavar="FILE.html",
+                   help="write one self-contained HTML page: what was swept, the table of points, the spec's "
+                        "chart, the drive and versions; checked before the first point (default: none)")
     p.set_defaults(func=_run_cli)
 
 
@@ -455,6 +461,10 @@ def _run_cli(args) -> int:
         raise SweepError(f"{args.grid}: --plot needs a 'plot:' section in the spec")
     out = Path(args.out or Path("results") / f"sweep_{Path(args.system).stem}.csv")
     preflight(args.system, spec, out, workers, local=args.scheduler is None)
+    if getattr(args, "report", None) is not None:
+        from harness.htmlreport import check_report_path
+
+        check_report_path(args.report)
     if args.scheduler:
         from harness.studies.sweep_cluster import check_scheduler
 
@@ -486,6 +496,7 @@ def _run_cli(args) -> int:
     failed = int((df["error"] != "").sum())
     resumed = f" ({skipped} taken from {log.path.name})" if skipped else ""
     print(f"{len(df)} points{resumed}, {failed} failed; wrote {out}")
+    paths = None
     if args.plot is not None:
         from harness.studies.sweep_checks import parameter_units
 
@@ -493,11 +504,61 @@ def _run_cli(args) -> int:
                            title=f"{Path(args.system).stem}: {Path(args.grid).name}",
                            units=parameter_units(args.system, spec))
         print("charts: " + ", ".join(str(p) for p in paths))
+    if getattr(args, "report", None) is not None:
+        charts = [p for p in paths if p.suffix == ".png"] if paths is not None else None
+        print(f"report {report(df, spec, args.report, args.system, charts, result_file=out)}")
     if len(df) and failed == len(df):
         first = df["error"].iloc[0]
         print(f"error: every point failed; the first: {first}", file=sys.stderr)
         return 1
     return 0
+
+
+ROWS_SHOWN = 400   # a report's table shows at most this many points (the result file holds them all)
+
+
+def report(df: pd.DataFrame, spec: SweepSpec, path: str | Path, system: str, charts: list[Path] | None = None,
+           result_file: str | Path | None = None) -> Path:
+    """One self-contained HTML page of a sweep (:mod:`harness.htmlreport`): what was swept (variables, set
+    expressions, quantities of interest, run settings), the table of points, the chart of the spec's ``plot:``
+    section (``charts``: PNGs already drawn, else drawn here), the drive as declared and the versions with the
+    points' run time; returns its path.  ``system``: the system's name or file, as given to :func:`run_sweep`."""
+    from harness import htmlreport as h
+    from harness.run import load
+
+    drive = load(system)
+    keep = None
+    if charts is None and spec.plot is not None and len(df):
+        from harness.studies.sweep_checks import parameter_units
+
+        charts, keep = h.render_charts(lambda d: plot_sweep(df, spec, d / Path(spec.source).stem,
+                                                            title=f"{drive.name}: {Path(spec.source).name}",
+                                                            units=parameter_units(system, spec)), None)
+    try:
+        failed = int((df["error"].fillna("").astype(str) != "").sum()) if "error" in df.columns else 0
+        page = h.Page(f"{drive.name}: sweep {Path(spec.source).name}",
+                      f"{len(df)} points, {failed} failed" + (f"; the result file: {result_file}" if result_file
+                                                               else ""))
+        values = {v: sorted({float(p[v]) for p in spec.points}) for v in spec.variables}
+        what = [[f"{spec.kind} variable", v, ", ".join(f"{x:g}" for x in values[v][:12])
+                 + (f" ... ({len(values[v])} values)" if len(values[v]) > 12 else "")] for v in spec.variables]
+        what += [["set", k, str(e)] for k, e in spec.set.items()]
+        what += [["output", k, str(e)] for k, e in spec.outputs.items()]
+        what += [["run", k, str(v)] for k, v in spec.run.items()]
+        page.section("What was swept", h.table(["", "name", "values or expression"], what, numeric=set()))
+        page.section("Chart", *[h.image(p, f"{drive.name}: {Path(spec.source).name}") for p in charts or []]
+                     or [h.para("no chart: the spec has no plot: section" if spec.plot is None else "no chart")])
+        shown = df.head(ROWS_SHOWN)
+        cut = (f"the first {ROWS_SHOWN} of {len(df)} points (the result file holds them all)"
+               if len(df) > ROWS_SHOWN else f"all {len(df)} points")
+        page.section("Points", h.para(cut, "note"), h.frame_table(shown.reset_index(drop=True), "point"))
+        h.drive_section(page, drive, None, heading="The drive as declared (the sweep sets the values above)")
+        total = float(df["wall_time"].sum()) if "wall_time" in df.columns else math.nan
+        h.versions_section(page, [("the points' run time, summed", total)])
+        return page.write(path)
+    finally:
+        if keep is not None:
+            keep.cleanup()
 
 
 def plot_sweep(df: pd.DataFrame, spec: SweepSpec, out_stem: str | Path, title: str = "",
