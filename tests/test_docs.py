@@ -9,7 +9,8 @@ scratch folder holding links to ``systems/`` and ``build_fmus.py``, with the ses
 their own.  Shown output is an excerpt: its lines must appear in the printed output (stdout, then stderr) one
 after the other, in order; a line ``...`` skips any number of printed lines, and ``...`` inside a line
 matches any text.  A number matches to the digits shown (half a unit of its last digit), or within the
-tolerance the command states in a comment, ``# output within 2%``.  A command too slow for the suite ends
+tolerance the command states in a comment, ``# output within 2%``; a command that exits non-zero by design
+says so, ``# exits 2``.  A command too slow for the suite ends
 with ``# slow: why``; it must be a ``python -m harness`` command, and in the default suite is checked against
 the command line's own parser (so a renamed option, command or choice fails here); with ``-m slow`` it runs
 and its shown output is checked too.  The README's ```python example runs too.  Cost: about 40 s.
@@ -253,7 +254,9 @@ def run_and_check(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
         done = subprocess.run(argv, capture_output=True, text=True, timeout=3600,
                               env=dict(os.environ, PYTHONPATH=str(ROOT)))
         status, out, err = done.returncode, done.stdout, done.stderr
-    assert status in (0, None), f"{page}: {command!r} exited {status}:\n{err[-2000:]}"
+    stated = re.search(r"#.*\bexits (\d+)", command)           # a documented refusal, e.g. size's 2
+    expected = (int(stated.group(1)),) if stated else (0, None)
+    assert status in expected, f"{page}: {command!r} exited {status}:\n{err[-2000:]}"
     if shown:
         wrong = output_mismatch(shown, out + "\n" + err, stated_tolerance(command))
         assert wrong is None, (f"{page}: {command!r} prints other than the page shows: {wrong}\n"
