@@ -13,16 +13,12 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
-import os
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 from benchmarks import cofmupy
 from benchmarks.cases import CASES, check_columns, ssp_folder
+from benchmarks.launch import run_config
 from benchmarks.runners import CONVENTIONS, HARNESS_TOOLS, SAME_ALGORITHM, TOOLS
 from harness.charts import save_figure
 
@@ -45,26 +41,6 @@ def _csv_list(text: str, allowed, what: str) -> list[str]:
     if bad or not items:
         raise SystemExit(f"--{what} {text!r}: unknown {', '.join(bad) or '(empty)'}; choose from {', '.join(allowed)}")
     return items
-
-
-def run_config(spec: dict, mode: str, timeout: float) -> dict:
-    """One configuration in a fresh subprocess (pinned to CPU 0 with taskset in mode 'pinned')."""
-    cmd = [sys.executable, "-m", "benchmarks.worker", json.dumps(spec)]
-    if mode == "pinned":
-        if shutil.which("taskset") is None:
-            return {"error": "taskset not found: cannot pin"}
-        cmd = ["taskset", "-c", "0"] + cmd
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
-    try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=str(ROOT))
-    except subprocess.TimeoutExpired:
-        return {"error": f"timed out after {timeout:g} s"}
-    for line in reversed(proc.stdout.splitlines()):
-        if line.startswith("RESULT "):
-            return json.loads(line[len("RESULT "):])
-    tail = " ".join((proc.stderr or "").strip().splitlines()[-2:])
-    return {"error": f"worker exit code {proc.returncode}: {tail}"[:300]}
 
 
 def compare(final: dict, reference: dict, scales: dict) -> float:

@@ -15,6 +15,9 @@ from pathlib import Path
 from harness.model import Connection, Experiment, Instance, System
 
 RING_SIZE = 6
+# the accuracy search's ladder (harness.studies.accuracy.search) for the coupling goals and the timing scopes
+METHODS = (("jacobi", 1), ("gauss-seidel", 1), ("jacobian", 1))
+STEPS = {"bed_drive": (2e-4, 5e-4, 1e-3, 2e-3), "feeder_gto52": (1e-4, 2e-4, 4e-4, 1e-3)}
 
 
 def ring(n: int = RING_SIZE) -> System:

@@ -32,12 +32,12 @@ import warnings
 from dataclasses import replace
 from pathlib import Path
 
+from benchmarks.cases import METHODS, STEPS
+
 ROOT = Path(__file__).resolve().parents[1]
 FULL_STEPS = (5e-4, 1e-3, 2e-3, 4e-3, 8e-3)     # the full model's stability ladder (jacobian) [s]
 FULL_ACCURACY_STEPS = (2.5e-4, 5e-4, 1e-3)      # the full model's accuracy ladder (jacobian) [s]
 DECLARED_GOALS = {"bed_drive": 10.0, "feeder_gto52": 5.0}
-METHODS = (("jacobi", 1), ("gauss-seidel", 1), ("jacobian", 1))
-STEPS = {"bed_drive": (2e-4, 5e-4, 1e-3, 2e-3), "feeder_gto52": (1e-4, 2e-4, 4e-4, 1e-3)}
 PEER_STEPS = (2e-4, 1e-4, 5e-5)
 PEERS = ("libcosim", "ecos", "omsimulator")
 CHART_TOP = 100.0   # work-precision chart: errors beyond this multiple of the tolerance are drawn on the top edge   # each with its own algorithm on the exported SSP
@@ -104,7 +104,7 @@ def full_model_lines(quick: bool, log=print) -> list[tuple[str, bool | None, str
 
 
 def _pinned_realtime(system_name: str, row, timeout: float) -> dict:
-    from benchmarks.bench import run_config
+    from benchmarks.launch import run_config
 
     run = dict(stop_time=float(row["stop_time"]), step=float(row["step"]), master=str(row["master"]),
                extrapolation=int(row["order"]), parameters={})

@@ -371,7 +371,7 @@ def table(verdicts: list[Verdict]) -> pd.DataFrame:
 
 
 def markdown(verdicts: list[Verdict]) -> str:
-    """The table for docs/interoperability.md: per drive, host and step, each requirement's error / tolerance."""
+    """The table for docs/howto/export.md: per drive, host and step, each requirement's error / tolerance."""
     lines = ["| drive | host | step | run | " + "requirement: error / tolerance | meets |", "|---|---|---|---|---|---|"]
     for v in verdicts:
         r = v.run

@@ -4,7 +4,7 @@
 For each drive (bed_drive, feeder_gto52) every tool runs the SAME exported SSP at its declared accuracy:
 
 * which run: the harness's cheapest method and step that meets the drive's declared accuracy
-  (:func:`harness.studies.accuracy.search` over :data:`benchmarks.coupling.METHODS`), each peer's coarsest step
+  (:func:`harness.studies.accuracy.search` over :data:`benchmarks.cases.METHODS`), each peer's coarsest step
   of :data:`PEER_STEPS` whose run (its own algorithm, :func:`benchmarks.host_accuracy.run_guarded`) meets it,
   judged by the same :func:`harness.studies.accuracy.check` against the monolithic reference;
 * scope "stepping alone": a fresh process loads the SSP and initialises (not timed), then the stepping from the
@@ -93,7 +93,7 @@ def choose(name: str, peers, quick: bool, timeout: float, log=print) -> dict:
         return out
     from harness.studies import accuracy
 
-    from benchmarks.coupling import METHODS, STEPS
+    from benchmarks.cases import METHODS, STEPS
 
     table = accuracy.search(system, METHODS, STEPS[name], progress=lambda s: log(f"{name}: {s}"))
     best = accuracy.cheapest(table)

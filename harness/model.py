@@ -118,6 +118,10 @@ class Experiment:
 
 @dataclass
 class System:
+    """A drive as data: its FMU instances, connections and power bonds, default experiment, and what may be
+    asked of it (scenes, precision, stability, accuracy, chart, quantities, free inputs, scenarios).
+    ``harness.load`` gives one; ``systems/<name>.py`` declares one as ``SYSTEM``."""
+
     name: str
     instances: list[Instance]
     connections: list[Connection] = field(default_factory=list)
@@ -140,6 +144,7 @@ class System:
     refused: tuple = ()
 
     def instance(self, name: str) -> Instance:
+        """The instance called ``name``; an unknown name is refused in one line listing the instances."""
         for inst in self.instances:
             if inst.name == name:
                 return inst

@@ -1,12 +1,19 @@
-"""The README and docs/ cannot go stale: every docs page is linked from the README, every relative link
-resolves, and every command a page shows runs.
+"""The README and docs/ cannot go stale: every docs page is reached from the README, every relative link
+resolves, no page speaks of the project's history, every command a page shows runs, and the output a page
+shows is what the command prints.
 
-Convention: a fenced ```console block holds commands, one per line starting with ``$ ``.  Each is run here
-as written (in a scratch folder holding links to ``systems/`` and ``build_fmus.py``, with the session's FMUs),
-and must exit 0: ``python -m harness`` commands through the command line's ``main`` in this process, others
-in a process of their own.  A command too slow for the suite ends with ``# slow: why``; it must be a ``python -m
-harness`` command, and is checked against the command line's own parser (so a renamed option, command or
-choice fails here) instead of being run.  The README's ```python example runs too.  Cost: about 30 s.
+Convention: a fenced ```console block holds commands, one per line starting with ``$ ``; the lines after a
+command, up to the next one, are its output as the page shows it.  Each command is run here as written (in a
+scratch folder holding links to ``systems/`` and ``build_fmus.py``, with the session's FMUs), and must exit 0:
+``python -m harness`` commands through the command line's ``main`` in this process, others in a process of
+their own.  Shown output is an excerpt: its lines must appear in the printed output (stdout, then stderr) one
+after the other, in order; a line ``...`` skips any number of printed lines, and ``...`` inside a line
+matches any text.  A number matches to the digits shown (half a unit of its last digit), or within the
+tolerance the command states in a comment, ``# output within 2%``; a command that exits non-zero by design
+says so, ``# exits 2``.  A command too slow for the suite ends
+with ``# slow: why``; it must be a ``python -m harness`` command, and in the default suite is checked against
+the command line's own parser (so a renamed option, command or choice fails here); with ``-m slow`` it runs
+and its shown output is checked too.  The README's ```python example runs too.  Cost: about 40 s.
 """
 from __future__ import annotations
 
@@ -21,7 +28,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
-PAGES = sorted((ROOT / "docs").glob("*.md"))
+PAGES = sorted((ROOT / "docs").rglob("*.md"))
 FENCE = re.compile(r"^```(\w*)[^\n]*\n(.*?)^```", re.M | re.S)
 LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
 
@@ -30,9 +37,88 @@ def blocks(path: Path, language: str) -> list[str]:
     return [body for lang, body in FENCE.findall(path.read_text(encoding="utf-8")) if lang == language]
 
 
+def examples(path: Path) -> list[tuple[str, list[str]]]:
+    """(command, the output lines the page shows after it) of every ``$ `` line of the page's console blocks."""
+    out: list[tuple[str, list[str]]] = []
+    for body in blocks(path, "console"):
+        for line in body.splitlines():
+            if line.startswith("$ "):
+                out.append((line[2:].strip(), []))
+            elif out and line.strip():
+                out[-1][1].append(line.rstrip())
+    return out
+
+
 def commands(path: Path) -> list[str]:
-    return [line[2:].strip() for body in blocks(path, "console") for line in body.splitlines()
-            if line.startswith("$ ")]
+    return [command for command, _ in examples(path)]
+
+
+NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+
+
+def _line_pattern(expected: str) -> tuple[re.Pattern, list[str]]:
+    """A shown line as a regular expression (numbers captured, ``...`` any text, blanks any blanks) and its
+    numbers as shown."""
+    parts, numbers = [], []
+    for token in re.split(rf"(\.\.\.|{NUMBER}|\s+)", expected.strip()):
+        if not token:
+            continue
+        if token == "...":
+            parts.append(".*?")
+        elif token.isspace():
+            parts.append(r"\s+")
+        elif re.fullmatch(NUMBER, token):
+            parts.append(f"({NUMBER})")
+            numbers.append(token)
+        else:
+            parts.append(re.escape(token))
+    return re.compile(r"\s*" + "".join(parts) + r"\s*"), numbers
+
+
+def _number_agrees(shown: str, printed: str, rtol: float) -> bool:
+    digits = shown.lower().split("e")[0]
+    exponent = int(shown.lower().split("e")[1]) if "e" in shown.lower() else 0
+    decimals = len(digits.split(".")[1]) if "." in digits else 0
+    half_unit = 0.5 * 10.0 ** (exponent - decimals)
+    e, a = float(shown), float(printed)
+    return abs(a - e) <= max(half_unit * (1 + 1e-9), rtol * abs(e))
+
+
+def _line_agrees(expected: str, printed: str, rtol: float) -> bool:
+    pattern, shown = _line_pattern(expected)
+    m = pattern.fullmatch(printed)
+    return bool(m) and all(_number_agrees(s, p, rtol) for s, p in zip(shown, m.groups()))
+
+
+def output_mismatch(expected: list[str], printed: str, rtol: float = 0.0) -> str | None:
+    """None when the shown lines (``...`` lines split them into runs) appear in ``printed``, each run on
+    consecutive lines, the runs in order; else what was not found."""
+    runs: list[list[str]] = [[]]
+    for line in expected:
+        if line.strip() == "...":
+            runs.append([])
+        else:
+            runs[-1].append(line)
+    lines = [line for line in printed.splitlines() if line.strip()]
+    at = 0
+    for run in filter(None, runs):
+        best = 0                                      # the most lines of the run matched from one start
+        for start in range(at, len(lines) - len(run) + 1):
+            n = next((k for k, (e, p) in enumerate(zip(run, lines[start:start + len(run)]))
+                      if not _line_agrees(e, p, rtol)), len(run))
+            if n == len(run):
+                at = start + len(run)
+                break
+            best = max(best, n)
+        else:
+            return f"not printed (after line {at} of the output): {run[best]!r}" + (
+                f" (following {run[best - 1]!r})" if best else "")
+    return None
+
+
+def stated_tolerance(command: str) -> float:
+    m = re.search(r"#.*output within ([\d.]+)\s*%", command)
+    return float(m.group(1)) / 100.0 if m else 0.0
 
 
 def slugs(path: Path) -> set[str]:
@@ -43,15 +129,54 @@ def slugs(path: Path) -> set[str]:
     return out
 
 
-ALL_COMMANDS = [(page.name, c) for page in PAGES + [README] for c in commands(page)]
+def page_id(page: Path) -> str:
+    return str(page.relative_to(ROOT))
 
 
-def test_every_docs_page_is_linked_from_the_readme():
-    linked = {(README.parent / target.split("#")[0]).resolve()
-              for target in LINK.findall(README.read_text(encoding="utf-8"))}
+ALL_EXAMPLES = [(page_id(page), c, shown) for page in PAGES + [README] for c, shown in examples(page)]
+ALL_COMMANDS = [(page, c) for page, c, _ in ALL_EXAMPLES]
+SLOW_EXAMPLES = [e for e in ALL_EXAMPLES if "# slow" in e[1]]
+
+
+def test_every_docs_page_is_reached_from_the_readme():
+    """Through links, page to page (README -> docs/index.md -> a how-to -> ...)."""
+    seen, todo = set(), [README.resolve()]
+    while todo:
+        page = todo.pop()
+        if page in seen or page.suffix != ".md" or not page.is_file():
+            continue
+        seen.add(page)
+        for target in LINK.findall(FENCE.sub("", page.read_text(encoding="utf-8"))):
+            if not re.match(r"^[a-z]+:", target) and target.split("#")[0]:
+                todo.append((page.parent / target.split("#")[0]).resolve())
     assert PAGES, "no docs/*.md pages"
-    missing = [p.name for p in PAGES if p.resolve() not in linked]
-    assert not missing, f"docs pages not linked from README.md: {missing}"
+    missing = [page_id(p) for p in PAGES if p.resolve() not in seen]
+    assert not missing, f"docs pages no link leads to from README.md: {missing}"
+
+
+HISTORY = re.compile(r"\b(?:issues?\s+#?\d+|stops?\s+\d+(?![\d.]))|\bgoal lines?\b|\[(?:MET|MISS)\s*\]", re.I)
+
+
+@pytest.mark.parametrize("page", [README] + PAGES, ids=page_id)
+def test_no_page_speaks_of_the_projects_history(page):
+    """Issue and stop numbers and goal lines belong in CHANGELOG.md, not in a user's page."""
+    found = HISTORY.findall(page.read_text(encoding="utf-8"))
+    assert not found, f"{page_id(page)}: {found} (project history goes to CHANGELOG.md)"
+
+
+def test_shown_output_is_compared():
+    """The comparison itself: excerpts, ``...``, numbers to the digits shown or a stated tolerance."""
+    printed = "run: 101 points to t = 0.05 s\n  speed  62.94  rpm\n  torque  14.74  N.m\n  end\n"
+    assert output_mismatch(["  speed  62.94  rpm", "  torque  14.74  N.m"], printed) is None
+    assert output_mismatch(["run: 101 points ...", "...", "  end"], printed) is None
+    assert output_mismatch(["  speed  62.9  rpm"], printed) is None               # fewer digits shown
+    assert output_mismatch(["  speed  62.93  rpm"], printed) is not None          # a stale number
+    assert output_mismatch(["  speed  63  rpm"], printed, rtol=0.01) is None      # within a stated 1 %
+    assert output_mismatch(["  speed  60  rpm"], printed, rtol=0.01) is not None
+    assert output_mismatch(["  speed  62.94  rpm", "  end"], printed) is not None  # not consecutive
+    assert output_mismatch(["  torque  14.74  N.m", "  speed  62.94  rpm"], printed) is not None   # order
+    assert output_mismatch(["  speed  62.94  m/s"], printed) is not None          # text
+    assert stated_tolerance("python -m harness run x  # output within 2.5%") == 0.025
 
 
 @pytest.mark.parametrize("page", [README] + PAGES, ids=lambda p: p.name)
@@ -105,13 +230,8 @@ def parse_only(command: str) -> None:
         raise AssertionError(f"{command!r}: the command line refuses it (exit {e.code})") from None
 
 
-@pytest.mark.parametrize("page, command", ALL_COMMANDS, ids=[f"{p}:{c[:60]}" for p, c in ALL_COMMANDS])
-def test_every_command_on_a_page_runs(page, command, scratch, fmu_dir, monkeypatch, capsys):
-    """``python -m harness`` commands run in this process through the command line's own ``main`` (a
-    process each would cost 2-3 s of imports); anything else in a process of its own."""
-    if "# slow" in command:
-        parse_only(command)
-        return
+def run_and_check(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
+    """Run ``command`` as the page shows it and compare its output with the shown lines."""
     monkeypatch.chdir(scratch)
     monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
     monkeypatch.setenv("MPLBACKEND", "Agg")
@@ -122,18 +242,42 @@ def test_every_command_on_a_page_runs(page, command, scratch, fmu_dir, monkeypat
         from harness.__main__ import main
 
         monkeypatch.setattr(warnings, "showwarning", warnings.showwarning)   # main() sets its own
+        capsys.readouterr()
         try:
             status = main(argv)
         except SystemExit as e:                       # --help, --version
             status = e.code
-        err = capsys.readouterr().err
+        out, err = capsys.readouterr()
     else:
         argv = shlex.split(command, comments=True)
         argv[0] = sys.executable if argv[0] == "python" else argv[0]
-        done = subprocess.run(argv, capture_output=True, text=True, timeout=120,
+        done = subprocess.run(argv, capture_output=True, text=True, timeout=3600,
                               env=dict(os.environ, PYTHONPATH=str(ROOT)))
-        status, err = done.returncode, done.stderr
-    assert status in (0, None), f"{page}: {command!r} exited {status}:\n{err[-2000:]}"
+        status, out, err = done.returncode, done.stdout, done.stderr
+    stated = re.search(r"#.*\bexits (\d+)", command)           # a documented refusal, e.g. size's 2
+    expected = (int(stated.group(1)),) if stated else (0, None)
+    assert status in expected, f"{page}: {command!r} exited {status}:\n{err[-2000:]}"
+    if shown:
+        wrong = output_mismatch(shown, out + "\n" + err, stated_tolerance(command))
+        assert wrong is None, (f"{page}: {command!r} prints other than the page shows: {wrong}\n"
+                               f"--- printed:\n{(out + err)[-3000:]}")
+
+
+@pytest.mark.parametrize("page, command, shown", ALL_EXAMPLES, ids=[f"{p}:{c[:60]}" for p, c, _ in ALL_EXAMPLES])
+def test_every_command_on_a_page_runs(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
+    """``python -m harness`` commands run in this process through the command line's own ``main`` (a
+    process each would cost 2-3 s of imports); anything else in a process of its own."""
+    if "# slow" in command:
+        parse_only(command)
+        return
+    run_and_check(page, command, shown, scratch, fmu_dir, monkeypatch, capsys)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("page, command, shown", SLOW_EXAMPLES, ids=[f"{p}:{c[:60]}" for p, c, _ in SLOW_EXAMPLES])
+def test_every_slow_command_on_a_page_runs(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
+    """The ``# slow`` commands, run and their shown output checked (``-m slow``)."""
+    run_and_check(page, command, shown, scratch, fmu_dir, monkeypatch, capsys)
 
 
 def test_the_readme_python_example_runs(fmu_dir, monkeypatch, capsys):

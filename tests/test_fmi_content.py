@@ -29,9 +29,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from harness import simulate
 from harness.errors import FMUError
 from harness.model import Connection, Experiment, Instance, System
+from reference_builds import build_reference_fmus, quiet, reference_system
 
 HERE = Path(__file__).resolve().parent
 MASTERS = ("jacobi", "jacobi-sampled", "gauss-seidel", "iterative")
@@ -60,12 +60,6 @@ def identity1(tmp_path_factory) -> Path:
         z.write(src / "modelDescription.xml", "modelDescription.xml")
         z.write(lib, "binaries/linux64/Identity1.so")
     return fmu
-
-
-def quiet(system, **kw):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return simulate(system, **kw)
 
 
 @pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
@@ -100,28 +94,14 @@ def test_fmi1_string_passes_a_chain_of_two_connections_unchanged(identity1, mast
 
 
 # ------------------------------------------------------------------------------------------------ FMI 3.0
-def _build_reference_fmus(out: Path, version: int) -> dict[str, Path]:
-    """The Reference-FMUs of tests/reference_fmus built for FMI ``version`` into ``out`` (or skip)."""
-    if shutil.which("cmake") is None:
-        pytest.skip("cmake is not installed: cannot build the Reference-FMUs")
-    _cc()
-    # gcc 12+ flags a strncpy in Resource/model.c (FMI 3.0 only) under the sources' own -Werror
-    for cmd in (["cmake", str(HERE / "reference_fmus"), f"-DFMI_VERSION={version}", "-DCMAKE_BUILD_TYPE=Release",
-                 "-DCMAKE_C_FLAGS=-Wno-error=stringop-truncation"], ["cmake", "--build", ".", "-j", "2"]):
-        r = subprocess.run(cmd, cwd=out, capture_output=True, text=True)
-        if r.returncode != 0:
-            pytest.skip(f"building the Reference-FMUs failed ({' '.join(cmd[:2])}): {r.stderr.strip()[-300:]}")
-    return {p.stem: p for p in (out / "fmus").glob("*.fmu")}
-
-
 @pytest.fixture(scope="session")
 def reference3(tmp_path_factory) -> dict[str, Path]:
-    return _build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_3"), 3)
+    return build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_3"), 3)
 
 
 @pytest.fixture(scope="session")
 def reference2(tmp_path_factory) -> dict[str, Path]:
-    return _build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_2"), 2)
+    return build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_2"), 2)
 
 
 def assert_agrees(df: pd.DataFrame, ref: pd.DataFrame, prefix: str, rtol: float, what: str) -> int:
@@ -152,22 +132,6 @@ def test_reference_fmu_3_alone_matches_fmpy(reference3, model, master):
     ref = pd.DataFrame(simulate_fmu(str(fmu), stop_time=stop, step_size=step, output_interval=step,
                                     fmi_type="CoSimulation")).set_index("time")
     assert assert_agrees(df, ref, "m.", 1e-12, f"{model} under {master}") >= 1
-
-
-def reference_system(fmus: dict) -> System:
-    """Stair -> Feedthrough (Int32), VanDerPol -> Feedthrough (Float64, Float32), Feedthrough -> Feedthrough
-    (Int32, Boolean, Float64), BouncingBall -> Feedthrough (Float64)."""
-    return System("reference", [Instance("bb", str(fmus["BouncingBall"])), Instance("dq", str(fmus["Dahlquist"])),
-                                Instance("stair", str(fmus["Stair"])), Instance("ft", str(fmus["Feedthrough"])),
-                                Instance("ft2", str(fmus["Feedthrough"])), Instance("res", str(fmus["Resource"])),
-                                Instance("vdp", str(fmus["VanDerPol"]), {"mu": 1.5})],
-                  [Connection("stair.counter", "ft.Int32_input"),
-                   Connection("vdp.x0", "ft.Float64_continuous_input"),
-                   Connection("ft.Int32_output", "ft2.Int32_input"),
-                   Connection("ft.Boolean_output", "ft2.Boolean_input"),
-                   Connection("ft.Float64_continuous_output", "ft2.Float64_discrete_input"),
-                   Connection("bb.h", "ft2.Float64_continuous_input")],
-                  experiment=Experiment(stop_time=3.0, step=0.01))
 
 
 @pytest.mark.parametrize("master", MASTERS)

@@ -1,7 +1,7 @@
 """Every shipped drive with a declared accuracy, exported as SSP, run in each FMI host with the host's own
 algorithm at the step the SSP declares, judged against the monolithic reference by the drive's own accuracy
 (``harness.studies.accuracy.check``; issue 35).  The runner is ``benchmarks/host_accuracy.py``; the measured
-table is in docs/interoperability.md ("Accuracy in other hosts").
+table is in docs/howto/export.md ("Accuracy in other hosts").
 
 * The step the SSP declares to other hosts (its OSP annotation, :func:`harness.ssp.host_step`) is the drive's
   ``AccuracySpec.sampled_host_step`` (or its experiment's step, where that is smaller): checked here to be the

@@ -4,50 +4,23 @@ Integer and Boolean connections, exported as SSP and run in libcosim and Ecos.  
 cmake or a C compiler."""
 from __future__ import annotations
 
-import shutil
-import subprocess
-import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from harness import simulate
-from harness.model import Connection, Experiment, Instance, System
+from harness.model import Experiment, Instance, System
 from harness.ssp import export_ssp
 from benchmarks import peers
+from reference_builds import MODELS, build_reference_fmus, quiet, reference_system
 
-SOURCES = Path(__file__).parent / "reference_fmus"
-MODELS = ("BouncingBall", "Dahlquist", "Feedthrough", "Resource", "Stair", "VanDerPol")
 STOP, STEP = 3.0, 0.01
 
 
 @pytest.fixture(scope="session")
 def reference_fmus(tmp_path_factory) -> dict[str, Path]:
-    if shutil.which("cmake") is None:
-        pytest.skip("cmake is not installed: cannot build the Reference-FMUs")
-    if shutil.which("cc") is None and shutil.which("gcc") is None:
-        pytest.skip("no C compiler (cc/gcc): cannot build the Reference-FMUs")
-    if not (SOURCES / "CMakeLists.txt").is_file():
-        pytest.skip(f"no Reference-FMUs sources in {SOURCES}")
-    build = tmp_path_factory.mktemp("reference_fmus_build")
-    for cmd in (["cmake", str(SOURCES), "-DFMI_VERSION=2", "-DCMAKE_BUILD_TYPE=Release"],
-                ["cmake", "--build", ".", "-j", "2"]):
-        r = subprocess.run(cmd, cwd=build, capture_output=True, text=True)
-        if r.returncode != 0:
-            pytest.skip(f"building the Reference-FMUs failed ({' '.join(cmd[:2])}): {r.stderr.strip()[-300:]}")
-    fmus = {m: build / "fmus" / f"{m}.fmu" for m in MODELS}
-    missing = [m for m, p in fmus.items() if not p.is_file()]
-    if missing:
-        pytest.skip(f"the Reference-FMUs build made no {', '.join(missing)}")
-    return fmus
-
-
-def quiet(system, **kw):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return simulate(system, **kw)
+    return build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_build"), 2)
 
 
 @pytest.mark.parametrize("model", MODELS)
@@ -83,25 +56,8 @@ def _type(fmu: Path, name: str) -> str:
 
 
 def system(fmus: dict, feedthrough: bool = True) -> System:
-    """All six (Feedthrough twice) with Integer, Boolean and Real connections; ``feedthrough=False``: without
-    the Feedthrough instances (libcosim 0.11 aborts the process on their ssc:Enumeration connectors:
-    "ssp_parser.cpp: Don't know how to handle Enumeration type")."""
-    if not feedthrough:
-        return System("reference_no_ft", [Instance("bb", str(fmus["BouncingBall"])),
-                                          Instance("dq", str(fmus["Dahlquist"])),
-                                          Instance("stair", str(fmus["Stair"])), Instance("res", str(fmus["Resource"])),
-                                          Instance("vdp", str(fmus["VanDerPol"]), {"mu": 1.5})],
-                      experiment=Experiment(stop_time=STOP, step=STEP))
-    return System("reference", [Instance("bb", str(fmus["BouncingBall"])), Instance("dq", str(fmus["Dahlquist"])),
-                                Instance("stair", str(fmus["Stair"])), Instance("ft", str(fmus["Feedthrough"])),
-                                Instance("ft2", str(fmus["Feedthrough"])), Instance("res", str(fmus["Resource"])),
-                                Instance("vdp", str(fmus["VanDerPol"]), {"mu": 1.5})],
-                  [Connection("stair.counter", "ft.Int32_input"),
-                   Connection("vdp.x0", "ft.Float64_continuous_input"),
-                   Connection("ft.Int32_output", "ft2.Int32_input"),
-                   Connection("ft.Boolean_output", "ft2.Boolean_input"),
-                   Connection("bb.h", "ft2.Float64_continuous_input")],
-                  experiment=Experiment(stop_time=STOP, step=STEP))
+    """All six without the Float64 chain between the Feedthroughs (:func:`reference_builds.reference_system`)."""
+    return reference_system(fmus, float_chain=False, feedthrough=feedthrough, stop=STOP, step=STEP)
 
 
 @pytest.mark.parametrize("master", ["jacobi-sampled", "jacobi", "gauss-seidel", "iterative", "jacobian"])

@@ -33,9 +33,9 @@ HEAD = ('<?xml version="1.0" encoding="UTF-8"?>\n<ssd:SystemStructureDescription
 
 @pytest.fixture(scope="module")
 def ref2(tmp_path_factory) -> dict[str, Path]:
-    from test_fmi_content import _build_reference_fmus   # the one build of tests/reference_fmus (or skip)
+    from reference_builds import build_reference_fmus   # the one build of tests/reference_fmus (or skip)
 
-    return _build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_2"), 2)
+    return build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_2"), 2)
 
 
 def quiet(system, **kw):

@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 from fmus.physics import groove
+from fmus.physics import liftoff as L
 from fmus.physics import takeup as T
 
 LAM1, LAM2, LAM3, R = 3.5, 4.2, 3.0, 0.040
@@ -46,7 +47,7 @@ def test_fig3_circular_groove_lifts_off_at_the_rockers_inflections_and_a_right_t
     normal flipped there)."""
     phi, g, g1, g2, prof = _base_fourbar()
     assert np.allclose(prof.rho, LAM3, atol=1e-9)
-    w = T.wall_forces(prof, g1, g2, R, 15.0, 0.00043, 0.0)
+    w = L.wall_forces(prof, g1, g2, R, 15.0, 0.00043, 0.0)
     A = np.stack([-LAM1 + np.cos(phi), np.sin(phi)], axis=-1)
     Bn = LAM3 * np.stack([np.cos(g), np.sin(g)], axis=-1)
     along = np.sum((A - Bn) * np.stack([np.cos(g), np.sin(g)], axis=-1), axis=1)    # conrod . slot
@@ -71,8 +72,8 @@ def test_fig3_wall_forces_balance_the_stone_and_the_kulisas_energy(law):
     """The forces of the chart against motion computed without them: the roller centre's acceleration from
     second differences of its path B(t), and the power balance -- the rolling roller's wall force does no
     work (it is normal to the groove), so the conrod alone feeds the kinetic energy of kulisa and stone."""
-    case = T.LiftOffCase(law=law, n=14400)
-    w = T.lift_off(case)
+    case = L.LiftOffCase(law=law, n=14400)
+    w = L.lift_off(case)
     om, h = case.omega, w.phi[1] - w.phi[0]
     dt = h / om
     B = w.B
@@ -108,8 +109,8 @@ def test_fig3_chart_rows_are_the_zero_crossings_and_lift_offs_happen_between_the
     for (law, _, _), (case, w) in runs.items():
         rows = df[df["law"] == law].sort_values("phi_deg")
         assert len(rows) == len(w.lift_off) > 0
-        fine = T.LiftOffCase(law=law, n=4 * case.n)
-        ref = pd.DataFrame(S.liftoff_rows(T.lift_off(fine), fine)).sort_values("phi_deg")
+        fine = L.LiftOffCase(law=law, n=4 * case.n)
+        ref = pd.DataFrame(S.liftoff_rows(L.lift_off(fine), fine)).sort_values("phi_deg")
         np.testing.assert_allclose(rows["phi_deg"], ref["phi_deg"], atol=0.1)
         np.testing.assert_allclose(rows["rho_mm"], ref["rho_mm"], atol=0.1)
     mid = df[df["position"] == "intermediate"]
@@ -121,20 +122,20 @@ def test_fig3_chart_rows_are_the_zero_crossings_and_lift_offs_happen_between_the
 
 def test_fig3_without_load_the_lift_offs_do_not_depend_on_the_crank_speed():
     """Every force is an inertia force, omega^2 times a function of the crank angle."""
-    a = T.lift_off(T.LiftOffCase(law="K0", rpm=100.0))
-    b = T.lift_off(T.LiftOffCase(law="K0", rpm=200.0))
+    a = L.lift_off(L.LiftOffCase(law="K0", rpm=100.0))
+    b = L.lift_off(L.LiftOffCase(law="K0", rpm=200.0))
     np.testing.assert_array_equal(a.lift_off, b.lift_off)
     np.testing.assert_allclose(b.N, 4.0 * a.N, rtol=1e-9, atol=1e-12)
 
 
 def test_fig3_refuses_a_law_without_a_groove_and_unphysical_values_in_one_line():
     with pytest.raises(ValueError, match="lambda2 = 3.6 has no groove"):
-        T.lift_off(T.LiftOffCase(law="K0", lam2=3.6))
+        L.lift_off(L.LiftOffCase(law="K0", lam2=3.6))
     for kw, msg in (({"rpm": 0.0}, r"LiftOffCase.rpm = 0.0 outside \(0, inf\)"),
                     ({"m_stone": -0.01}, r"LiftOffCase.m_stone = -0.01 outside \[0, inf\)"),
                     ({"J": 0.0, "m_stone": 0.0}, "moves nothing"), ({"law": "Sh"}, "law")):
         with pytest.raises(ValueError, match=msg) as e:
-            T.lift_off(T.LiftOffCase(**kw))
+            L.lift_off(L.LiftOffCase(**kw))
         assert "\n" not in str(e.value)
 
 
@@ -156,8 +157,8 @@ def test_fig2_kinematic_row_is_the_roller_paths_velocity_and_zero_across_the_slo
     run along the slot (V3 of eq. 10)."""
     from harness.studies import takeup as S
 
-    case = T.LiftOffCase(law=law, n=14400)
-    w = T.lift_off(case)
+    case = L.LiftOffCase(law=law, n=14400)
+    w = L.lift_off(case)
     dt = (w.phi[1] - w.phi[0]) / case.omega
     slot = _periodic_d(w.rho, dt)
     across = w.rho * _periodic_d(np.unwrap(w.gamma), dt)
@@ -181,7 +182,7 @@ def test_fig2_circular_groove_has_no_velocity_along_the_slot():
     """Known answer: on the base four-bar's circle the stone never moves along the slot; the roller centre
     moves across it at lambda3 r gamma' omega."""
     phi, g, g1, g2, prof = _base_fourbar()
-    w = T.wall_forces(prof, g1, g2, R, 15.0, 0.00043, 0.01)
+    w = L.wall_forces(prof, g1, g2, R, 15.0, 0.00043, 0.01)
     assert np.max(np.abs(w.v_slot)) < 1e-6 * np.max(np.abs(w.v_rocker))
     np.testing.assert_allclose(w.v_rocker, LAM3 * R * g1 * 15.0, rtol=1e-9)
 
@@ -191,8 +192,8 @@ def _one_lift_off(N_of_k):
     dt the time step between samples)."""
     import dataclasses
 
-    case = T.LiftOffCase(law="K0")
-    w = T.lift_off(case)
+    case = L.LiftOffCase(law="K0")
+    w = L.lift_off(case)
     i = int(w.lift_off[0][0])
     k = (np.arange(len(w.phi)) - i) % len(w.phi)
     s = math.copysign(1.0, w.N[i])
@@ -208,7 +209,7 @@ def test_crossing_of_the_play_after_a_lift_off_meets_the_closed_forms():
     half sample after the crossing) in the time of constant acceleration after that ramp."""
     clearance, Ndot = 10e-6, 50.0
     case, w, dt = _one_lift_off(lambda k, dt: -Ndot * (np.where(k > 1000, 1000, k) - 0.5) * dt)
-    cr = T.crossing(w, case, clearance)[0]
+    cr = L.crossing(w, case, clearance)[0]
     m_n = cr["m_n"]
     t = (6 * clearance * m_n / Ndot) ** (1 / 3)
     assert cr["t_cross"] == pytest.approx(t, rel=1e-4)
@@ -216,23 +217,23 @@ def test_crossing_of_the_play_after_a_lift_off_meets_the_closed_forms():
     assert cr["crank_deg"] == pytest.approx(math.degrees(case.omega * t), rel=1e-4)
     N1 = 1.0
     case, w, dt = _one_lift_off(lambda k, dt: np.where(k == 0, N1, -N1))
-    cr = T.crossing(w, case, clearance)[0]
+    cr = L.crossing(w, case, clearance)[0]
     a0, ramp = N1 / cr["m_n"], dt / 2
     x = -ramp / 2 + math.sqrt(ramp ** 2 / 4 - 2 * (ramp ** 2 / 6 - clearance / a0))
     assert cr["t_cross"] == pytest.approx(ramp + x, rel=1e-4)
     assert cr["v_impact"] == pytest.approx(a0 * (ramp / 2 + x), rel=1e-4)
     # a force that turns back before the roller has crossed: it returns to its wall, no crossing
     case, w, dt = _one_lift_off(lambda k, dt: np.where((k >= 1) & (k <= 3), -1e-3, 1.0))
-    assert math.isnan(T.crossing(w, case, clearance)[0]["t_cross"])
+    assert math.isnan(L.crossing(w, case, clearance)[0]["t_cross"])
 
 
 def test_crossing_mass_is_the_free_kulisas_inertia_seen_along_the_wall_normal():
     """m_n = (J + m_s |dB/dgamma|^2) / (dB/dgamma . n_g)^2, with dB/dgamma from the stone's position at the
     frozen crank angle for two kulisa angles (central difference of the roller centre, not of rho)."""
-    case = T.LiftOffCase(law="C0")
-    w = T.lift_off(case)
+    case = L.LiftOffCase(law="C0")
+    w = L.lift_off(case)
     branch = groove.base_branch(case.lam1, case.lam2, case.lam3)
-    for (i, _), cr in zip(w.lift_off, T.crossing(w, case)):
+    for (i, _), cr in zip(w.lift_off, L.crossing(w, case)):
         phi, g, dg = w.phi[i], w.gamma[i], 1e-5
 
         def B(gg):

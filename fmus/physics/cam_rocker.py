@@ -60,6 +60,14 @@ Inside a communication step the crank angle is extrapolated with the held crank 
 phi(t) = crank.phi + crank.w*(t - t0).  State: gamma, omega, v_impact, impacts, contact_flag (the last
 three are discrete memory updated in ``advance``); level 3 adds rho_s, rho_rate and the groove joint's
 v_impact, impacts and contact flag.
+
+Why one module of about 800 lines: it holds one job, the CamRocker FMU's model, one ``Model`` class whose
+levels share its state vector, kinematics G(phi) and geometry (lever, stone radius, roller) and hand over to
+each other (level 2's 1-D play is level 3's conrod joint with the stone frozen; every level's output and
+Jacobian read the same kinematics).  The equations that stand alone already live apart: the laws of motion
+(fmus.physics.laws), the groove (groove), the contact laws (contact), the integrators (integrate); what is
+left is the coupling of those for each level, which a split by level would have to pass back and forth as
+private state.
 """
 from __future__ import annotations
 

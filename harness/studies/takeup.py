@@ -29,7 +29,7 @@ alpha_m: the first alpha_c with a non-classical take-up, the classical share), `
 seed's figures from the model (alone with ``--figures``): ``takeup_velocity.png/.svg`` (Fig. 2, the roller
 centre's velocity during the take-up: :func:`plot_velocity`) and ``takeup_liftoff.png/.svg`` with
 ``takeup_liftoff.csv`` (Fig. 3, where the roller lifts off its groove wall for K0 and C0 on the feeder's
-groove: :func:`plot_liftoff`, :func:`fmus.physics.takeup.lift_off`).
+groove: :func:`plot_liftoff`, :func:`fmus.physics.liftoff.lift_off`).
 """
 from __future__ import annotations
 
@@ -245,7 +245,7 @@ def plot_velocity(out: Path, alpha_c=(0.0, 0.05, 0.3), R3: float = 0.040, laws=L
     import matplotlib.pyplot as plt
 
     from fmus.physics import groove
-    from fmus.physics.takeup import LiftOffCase, lift_off
+    from fmus.physics.liftoff import LiftOffCase, lift_off
 
     cols = max(len(alpha_c), len(laws))
     fig, axes = plt.subplots(2, cols, figsize=(4.2 * cols, 6.8), squeeze=False)
@@ -300,9 +300,9 @@ def liftoff_rows(w, case) -> list[dict]:
     """One row per lift-off: where the roller leaves its wall (crank angle from the forward stroke's start,
     stone radius, kulisa angle), whether the rocker is then at an extreme position (within 1 % of the swing
     of either end: its dead centres and the dwell) or between them, and its crossing of the groove's play to
-    the other wall (:func:`fmus.physics.takeup.crossing`: time, crank angle, impact speed)."""
+    the other wall (:func:`fmus.physics.liftoff.crossing`: time, crank angle, impact speed)."""
     from fmus.physics import groove
-    from fmus.physics.takeup import crossing
+    from fmus.physics.liftoff import crossing
 
     start = groove.base_design(case.lam1, case.lam2, case.lam3)["phi_start"]
     g_lo, g_hi = float(w.gamma.min()), float(w.gamma.max())
@@ -326,7 +326,7 @@ def liftoff_rows(w, case) -> list[dict]:
 
 def liftoff_map(laws=LIFTOFF_LAWS, loads=LIFTOFF_LOADS) -> tuple[pd.DataFrame, dict]:
     """Every lift-off of the seed's Fig. 3 cases, and the wall forces behind them ({(law, rpm, friction): w})."""
-    from fmus.physics.takeup import LiftOffCase, lift_off
+    from fmus.physics.liftoff import LiftOffCase, lift_off
 
     rows, runs = [], {}
     for law, (rpm, fr) in itertools.product(laws, loads):
@@ -407,7 +407,7 @@ def register(study_subparsers) -> None:
 
 def figures(out: Path) -> list[Path]:
     """The seed's Figs 2 and 3 from the model, with Fig. 3's lift-offs as ``takeup_liftoff.csv`` and printed."""
-    from fmus.physics.takeup import LiftOffCase, lift_off
+    from fmus.physics.liftoff import LiftOffCase, lift_off
 
     table, runs = liftoff_map()
     table = table.sort_values(["law", "rpm", "head_friction", "phi_deg"])
