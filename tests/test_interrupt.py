@@ -13,6 +13,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from childproc import wait_for_cpu
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -38,8 +40,7 @@ def test_sigint_during_a_run_writes_the_finished_part_marked(tmp_path):
     out = tmp_path / "bed.csv"
     # 60 s of the bed drive takes far longer than we wait
     p = _start(["run", "bed_drive", "--stop-time", "60", "--out", str(out)], ROOT)
-    time.sleep(8.0)
-    assert p.poll() is None, p.communicate()
+    wait_for_cpu(p, 6.0)          # the loading takes about 3 s of CPU: stepping by then
     p.send_signal(signal.SIGINT)
     stdout, stderr = p.communicate(timeout=60)
     assert p.returncode == 130, (stdout, stderr)

@@ -17,6 +17,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from childproc import wait_for_cpu
+
 from harness import simulate
 from harness.results import parquet_engine
 
@@ -114,8 +116,7 @@ def test_sigterm_keeps_the_finished_part_marked_as_ctrl_c_does(tmp_path):
     p = subprocess.Popen([sys.executable, "-m", "harness", "run", "bed_drive", "--stop-time", "60", "--out",
                           str(out)], cwd=ROOT, env=dict(os.environ, PYTHONUNBUFFERED="1"), text=True,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    time.sleep(8.0)
-    assert p.poll() is None, p.communicate()
+    wait_for_cpu(p, 6.0)          # the loading takes about 3 s of CPU: stepping by then
     p.send_signal(signal.SIGTERM)
     stdout, stderr = p.communicate(timeout=60)
     assert p.returncode == 143, (p.returncode, stdout, stderr)
