@@ -17,8 +17,10 @@ causalities need no round trip.
 
 Either error stops the run the way any FMU error does (:func:`harness.run.simulate`): the result up to the last
 good communication point is kept, marked incomplete.  Values cross the process boundary as Python floats
-(pickled doubles), so an isolated run is bit-identical to the same run in one process; what it costs is one
-round trip per forwarded call (measured in docs/interoperability.md, "Isolating foreign FMUs").
+(pickled doubles), so an isolated run is bit-identical to the same run in one process.  What it costs is the
+round trips: the values a master sets travel with its next call, and a step's answer carries the values of
+every variable block the master reads, so a plain step (set inputs, step, read outputs) is one round trip
+(measured by ``python -m benchmarks.isolation``, written in docs/interoperability.md).
 """
 from __future__ import annotations
 
@@ -124,6 +126,8 @@ class IsolatedInstance(Instance):
         self._proc = None
         self._conn = None
         self._blocks: dict[int, tuple] = {}
+        self._pending: list = []     # sets not sent yet: they travel with the next call (one round trip less)
+        self._fresh: dict | None = None   # every block's values after the last step, until anything else is sent
         parent, child = socket.socketpair()
         env = dict(os.environ)
         root = str(Path(__file__).resolve().parents[2])   # this checkout of the toolkit wins in the child too
@@ -147,8 +151,10 @@ class IsolatedInstance(Instance):
         child or a call over the timeout is :class:`FMUCrashed`."""
         if self.failed or self._conn is None:
             raise FMUError(self.name, function, self.time, None, detail="the instance failed before")
+        pending, self._pending = self._pending, []
+        self._fresh = None
         try:
-            self._conn.send((op, args))
+            self._conn.send((pending, op, args))
             ready = self._conn.poll(self.timeout if wait is None else wait)
         except (OSError, EOFError):
             ready = True   # the child is gone: its exit status says how
@@ -220,7 +226,7 @@ class IsolatedInstance(Instance):
         if self._conn is not None and not self.failed:
             try:
                 self._ask(f"{self._prefix}FreeInstance", "free")
-                self._conn.send(("exit", ()))
+                self._conn.send(([], "exit", ()))
             except (FMUError, OSError):
                 pass
         if self._proc is not None:
@@ -242,14 +248,20 @@ class IsolatedInstance(Instance):
     # -- values ------------------------------------------------------------------------------------------------
     def get(self, block: RealBlock):
         if block.n:
-            block.values[:] = self._ask(f"{self._prefix}GetReal", "get", self._block(block))
+            key = self._block(block)
+            fresh = self._fresh
+            block.values[:] = fresh[key] if fresh is not None and key in fresh else \
+                self._ask(f"{self._prefix}GetReal", "get", key)
         return block.values
 
     def set(self, block: RealBlock, values=None) -> None:
+        """Kept and sent with the next call (an FMU's error in it is raised by that call, with its own words)."""
         if values is not None:
             block.values[:] = values
         if block.n:
-            self._ask(f"{self._prefix}SetReal", "set", self._block(block), block.values.tolist())
+            key = self._block(block)
+            self._pending.append((key, block.values.tolist()))
+            self._fresh = None
 
     def get_list(self, block: RealBlock) -> list:
         return self.get(block).tolist() if block.n else []
@@ -279,7 +291,8 @@ class IsolatedInstance(Instance):
     # -- stepping ----------------------------------------------------------------------------------------------
     def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
         self.time = t
-        self._ask(f"{self._prefix}DoStep(h = {h:.6g} s)", "do_step", t, h, no_prior_state)
+        fresh = self._ask(f"{self._prefix}DoStep(h = {h:.6g} s)", "do_step", t, h, no_prior_state)
+        self._fresh = fresh
         self.time = t + h
 
     # -- FMU state (rollback): the state stays in the child, the parent holds its number --------------------------
@@ -318,8 +331,9 @@ def _serve(conn: Connection) -> None:
         if op == "set":
             inst.set_list(blocks[args[0]], args[1])
             return None
-        if op == "do_step":
-            return inst.do_step(*args)
+        if op == "do_step":   # the answer carries every block's values after the step (the master reads them next)
+            inst.do_step(*args)
+            return {key: inst.get_list(b) for key, b in blocks.items()}
         if op == "set_input_derivatives":
             return inst.set_input_derivatives(blocks[args[0]], args[1], args[2])
         if op == "directional_derivative":
@@ -341,12 +355,14 @@ def _serve(conn: Connection) -> None:
 
     while True:
         try:
-            op, args = conn.recv()
+            pending, op, args = conn.recv()
         except (EOFError, OSError):
             return
         if op == "exit":
             return
         try:
+            for key, values in pending:
+                inst.set_list(blocks[key], values)
             value = handle(op, args)
         except FMUError as e:
             reply = ("error", (type(e), str(e), dict(e.__dict__)), True if inst is None else inst.failed)
