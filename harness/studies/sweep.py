@@ -298,7 +298,7 @@ def read_spec(path: str | Path) -> SweepSpec:
         else:
             data = json.loads(text)
     except Exception as e:
-        raise SweepError(f"{path}: cannot parse ({type(e).__name__}: {e})") from None
+        raise SweepError(f"{path}: cannot parse ({type(e).__name__}: {' '.join(str(e).split())})") from None
     if not isinstance(data, dict):
         raise SweepError(f"{path}: expected a mapping at the top level")
     return parse_spec(data, str(path))
