@@ -1,7 +1,7 @@
 """Every reader of what a user writes, fuzzed (hypothesis): any input loads or is refused in one line.
 
 Readers: SSP archives (the SSD, its SSV parameter sets and SSM mappings, mutated from a real export), a bare
-.ssd, sweep spec files (YAML and JSON), scenario files, input-signal CSV files, ``--set`` assignments
+.ssd, an FMU's modelDescription.xml (mutated, the FMU run alone), sweep spec files (YAML and JSON), scenario files, input-signal CSV files, ``--set`` assignments
 (``Instance.param=VALUE``), ``size --target`` quantity targets and ``compare --variant`` strings.  The property
 for every generated input: the reader returns, or raises one of the toolkit's own errors (``HarnessError``,
 ``SweepError``, ``QoIError``) with a one-line, non-empty message; never another exception type, never a hang
@@ -244,6 +244,29 @@ def test_ssd_files_and_broken_archives(exported_ssp, content):
     path = _fresh(".ssd")
     path.write_text(mutate(ssd, content))
     loads_or_one_line(load_ssp, path)
+
+
+@pytest.fixture(scope="module")
+def gain_fmu() -> Path:
+    from harness.model import resolve_fmu
+
+    return resolve_fmu("Gain")
+
+
+@FUZZ
+@given(edits)
+def test_fmu_model_descriptions(gain_fmu, changes):
+    """An FMU whose modelDescription.xml is mutated, run alone (``run X.fmu``): loaded, its description checked."""
+    from harness.run import load
+
+    members = _members(gain_fmu)
+    members["modelDescription.xml"] = mutate(members["modelDescription.xml"].decode(), changes).encode(
+        "utf-8", "surrogatepass")
+    path = _fresh(".fmu")
+    with zipfile.ZipFile(path, "w") as z:
+        for n, b in members.items():
+            z.writestr(n, b)
+    loads_or_one_line(load, path)
 
 
 @pytest.mark.slow
