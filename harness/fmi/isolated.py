@@ -158,6 +158,9 @@ class IsolatedInstance(Instance):
             ready = self._conn.poll(self.timeout if wait is None else wait)
         except (OSError, EOFError):
             ready = True   # the child is gone: its exit status says how
+        except BaseException:   # Ctrl-C, SIGTERM while waiting: the answer would come out of turn; end the child
+            self._kill()
+            raise
         if not ready:
             self._kill()
             raise FMUCrashed(self.name, function, self.time, hung=True,
