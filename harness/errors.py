@@ -2,8 +2,19 @@
 from __future__ import annotations
 
 
+def single_line(text) -> str:
+    """``text`` with its line breaks written as ``\\n`` (a name or value a user wrote may hold one): every
+    message of the toolkit stays one line."""
+    return str(text).replace("\r", "\\r").replace("\n", "\\n")
+
+
 class HarnessError(Exception):
-    """Base of every error raised by the harness."""
+    """Base of every error raised by the harness (its message is one line: :func:`single_line`)."""
+
+    def __init__(self, *args):
+        if args and isinstance(args[0], str):
+            args = (single_line(args[0].strip()),) + args[1:]
+        super().__init__(*args)
 
 
 class SystemError_(HarnessError, ValueError):

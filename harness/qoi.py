@@ -45,7 +45,14 @@ _ALLOWED_NODES = (ast.Expression, ast.Call, ast.Name, ast.Load, ast.Constant, as
 
 
 class QoIError(ValueError):
-    pass
+    """A quantity-of-interest expression that cannot be evaluated (one line: :func:`harness.errors.single_line`)."""
+
+    def __init__(self, *args):
+        from harness.errors import single_line
+
+        if args and isinstance(args[0], str):
+            args = (single_line(args[0].strip()),) + args[1:]
+        super().__init__(*args)
 
 
 class _Columns:

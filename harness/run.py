@@ -73,7 +73,10 @@ class RunOptions:
     pythonfmu FMU whose script imports here in this process, the others through FMI with one warning; True
     requires it; False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs.
     ``divergence``: thresholds of the divergence detector on the power bonds (:mod:`harness.divergence`);
-    None switches it off."""
+    None switches it off.  ``isolate``: run FMUs in child processes of their own (:mod:`harness.fmi.isolated`:
+    True or "foreign" every FMU not built by the toolkit, "all" every FMU, or an ``Isolation`` with its
+    per-call timeout), so a crash or hang inside an FMU call stops the run in one line and keeps its rows;
+    None/False (default) runs every FMU in this process."""
     iteration: IterationOptions = field(default_factory=IterationOptions)
     steps: StepOptions = field(default_factory=StepOptions)
     blowup: float = 1e12
@@ -81,6 +84,7 @@ class RunOptions:
     logging: bool = True
     in_process: bool | None = None
     divergence: DivergenceOptions | None = field(default_factory=DivergenceOptions)
+    isolate: object = None
 
 
 def load(x) -> System:
@@ -269,7 +273,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
              extrapolation=None, step_control: str | None = None, tolerance: float | None = None,
              start_values: dict | None = None, output: list[str] | None = None, *, start_time: float | None = None,
              output_interval: float | None = None, input=None, on_error: str = "return",
-             options: RunOptions | None = None, **other_names) -> pd.DataFrame:
+             options: RunOptions | None = None, isolate=None, **other_names) -> pd.DataFrame:
     """Co-simulate ``system`` and return its result: a DataFrame indexed by time [s], one column per
     ``Instance.variable`` (in the FMU's declared unit, ``df.attrs["units"]``).
 
@@ -314,7 +318,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
       detector's one line in ``attrs["suspect"]`` (also warned; '' otherwise);
       ``"raise"``: raises :class:`~harness.errors.SimulationError` whose ``partial`` is that result.
     * ``options``: :class:`RunOptions` (iteration, step-control limits, blow-up limit, divergence detector,
-      progress bar, FMU logging, in-process calls); default ``RunOptions()``.
+      progress bar, FMU logging, in-process calls, isolation); default ``RunOptions()``.
+    * ``isolate``: ``RunOptions.isolate`` given here (True: every foreign FMU in a child process of its own).
     * ``other_names``: FMPy's ``step_size`` and ``relative_tolerance``; ``parameters=`` and ``outputs=``, this
       function's former names of ``start_values`` and ``output``, still accepted with a DeprecationWarning.
 
@@ -328,6 +333,14 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         start_values, output = moved.get("start_values", start_values), moved.get("output", output)
     system = load(system)
     opts = options or RunOptions()
+    if isolate is not None:
+        import dataclasses
+
+        opts = dataclasses.replace(opts, isolate=isolate)
+    if opts.isolate is not None:
+        from harness.fmi.isolated import Isolation
+
+        Isolation.of(opts.isolate)   # a bad value in one line before anything runs
     if on_error not in ("return", "raise"):
         raise SystemError_(f"on_error = {on_error!r} is not admissible: must be 'return' or 'raise'")
     exp = system.experiment
@@ -383,7 +396,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     m = None
     try:
         for inst in system.instances:
-            fmus[inst.name] = open_instance(paths[inst.name], inst.name, opts.logging, opts.in_process)
+            fmus[inst.name] = open_instance(paths[inst.name], inst.name, opts.logging, opts.in_process,
+                                            isolate=opts.isolate)
         m = cls(fmus, connections, system.bonds, extra, opts.iteration, tolerance, opts.blowup)
         controller = make_step_control(step_control, m, step_ns, tolerance, opts.steps)
         if not controller.variable and (stop_ns - start_ns) % step_ns:
@@ -640,6 +654,14 @@ def register(subparsers) -> None:
     p.add_argument("--fmi-only", action="store_true",
                    help="call every FMU through its FMI library (default: pythonfmu FMUs, the toolkit's and "
                         "others', are called in this process: the same results bit for bit, faster)")
+    p.add_argument("--isolate", nargs="?", const="foreign", default=None, choices=("foreign", "all"),
+                   help="run every foreign FMU (not built by this toolkit; 'all': every FMU) in a child process "
+                        "of its own: a crash or a hang inside one of its calls stops the run in one line naming "
+                        "the instance, the FMI call and the time, and the rows computed so far are kept "
+                        "(default: every FMU in this process)")
+    p.add_argument("--isolate-timeout", type=float, default=None, metavar="SECONDS",
+                   help="with --isolate: the longest one FMU call may take before its process is killed and "
+                        "the run stops (default: 60 s)")
     p.set_defaults(func=run_cli)
 
 
@@ -723,7 +745,8 @@ def run_cli(args) -> int:
                             input=getattr(args, "input", None), master=args.master,
                             extrapolation=args.extrapolation, step_control=args.step_control,
                             tolerance=args.tolerance, start_values=parse_sets(args.set), output=args.output,
-                            options=RunOptions(progress=None, in_process=False if args.fmi_only else None),
+                            options=RunOptions(progress=None, in_process=False if args.fmi_only else None,
+                                               isolate=_isolation(args)),
                             on_error="return")
             if getattr(args, "scenario", None):
                 df = simulate_scenario(system, args.scenario, **settings)
@@ -779,6 +802,19 @@ def run_cli(args) -> int:
     if a.get("transient") is not None:
         print(a["transient"].table())
     return 0
+
+
+def _isolation(args):
+    """The run's isolation from ``--isolate [foreign|all]`` and ``--isolate-timeout`` (None: none)."""
+    which = getattr(args, "isolate", None)
+    timeout = getattr(args, "isolate_timeout", None)
+    if which is None:
+        if timeout is not None:
+            raise SystemError_(f"--isolate-timeout {timeout:g} needs --isolate")
+        return None
+    from harness.fmi.isolated import DEFAULT_TIMEOUT, Isolation
+
+    return Isolation(which, DEFAULT_TIMEOUT if timeout is None else timeout)
 
 
 def _halved(a: dict) -> str:

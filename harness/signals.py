@@ -55,7 +55,8 @@ def read_table(source) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         try:
             source = pd.read_csv(path, skipinitialspace=True)
         except Exception as e:  # an empty or unreadable file: one line naming it
-            raise SystemError_(f"input file {path}: cannot be read as CSV ({type(e).__name__}: {e})") from None
+            raise SystemError_(f"input file {path}: cannot be read as CSV ({type(e).__name__}: "
+                               f"{' '.join(str(e).split())})") from None
         where = f"input file {path}"
     else:
         where = "input"

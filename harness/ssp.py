@@ -318,7 +318,7 @@ def load_ssp(path: str | Path) -> System:
     reader = _Reader(ssd_path, root_dir, archive)
     try:
         tree = ET.parse(ssd_path)
-    except ET.ParseError as e:
+    except (ET.ParseError, LookupError, ValueError) as e:  # also a declared encoding Python lacks
         raise SystemError_(f"{reader.label(ssd_path)}: not well-formed XML ({e})") from None
     return reader.system(tree.getroot())
 
@@ -700,7 +700,7 @@ class _Reader:
                 where = p
                 try:
                     pset = ET.fromstring(text)
-                except ET.ParseError as e:
+                except (ET.ParseError, LookupError, ValueError) as e:  # also a declared encoding Python lacks
                     raise SystemError_(f"{p}: not well-formed XML ({e})") from None
                 if pset.tag != _q("ssv:ParameterSet"):
                     raise SystemError_(f"{p}: root element is <{pset.tag}>, not ssv:ParameterSet "
@@ -735,7 +735,7 @@ class _Reader:
             where, text = self._source_text(el.get("source"), el.get("sourceBase", "SSD"), owner, component_source)
             try:
                 root = ET.fromstring(text)
-            except ET.ParseError as e:
+            except (ET.ParseError, LookupError, ValueError) as e:  # also a declared encoding Python lacks
                 raise SystemError_(f"{where}: not well-formed XML ({e})") from None
         else:
             where, root = self.label(self.ssd_path), el.find(_q("ssm:ParameterMapping"))

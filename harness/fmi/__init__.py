@@ -23,7 +23,8 @@ class InProcessFallback(UserWarning):
     """A pythonfmu FMU runs through its FMI library because its script does not import in this process."""
 
 
-def open_instance(path: str | Path, name: str, logging_on: bool = True, in_process: bool | None = None) -> Instance:
+def open_instance(path: str | Path, name: str, logging_on: bool = True, in_process: bool | None = None,
+                  isolate=None) -> Instance:
     """An instance of the FMU at ``path``, called in-process or through FMI.
 
     ``in_process``: None (default) runs every pythonfmu FMU in this process
@@ -39,7 +40,17 @@ def open_instance(path: str | Path, name: str, logging_on: bool = True, in_proce
     (:mod:`harness.fmi.me`: integrated by a solver of its own).  That is the one way to choose ME: an SSP
     component with ``implementation="ModelExchange"`` reaches here as a copy of its FMU without the
     co-simulation interface (:func:`harness.fmi.cache.model_exchange_only`), so every layer above (system
-    validation, coupling, results) sees the interface that runs."""
+    validation, coupling, results) sees the interface that runs.
+
+    ``isolate``: an :class:`harness.fmi.isolated.Isolation` (or what :meth:`Isolation.of` takes): the FMUs it
+    applies to (by default every foreign FMU) run in a child process of their own
+    (:class:`harness.fmi.isolated.IsolatedInstance`), so a crash or a hang inside a call is one error line."""
+    if isolate is not None:
+        from harness.fmi.isolated import IsolatedInstance, Isolation
+
+        iso = Isolation.of(isolate)
+        if iso is not None and Path(path).is_file() and iso.applies(extracted(path, model_exchange=_me_only(path))[1]):
+            return IsolatedInstance(path, name, logging_on, in_process, iso.timeout)
     if in_process not in IN_PROCESS_CHOICES:
         raise FMUError(name, "instantiate", None, None,
                        detail=f"in_process = {in_process!r} is not admissible: must be None, True or False")
@@ -71,6 +82,11 @@ def open_instance(path: str | Path, name: str, logging_on: bool = True, in_proce
             else:
                 return inprocess.InProcessFMU(path, name, logging_on, cls)
     return FMU(path, name, logging_on)
+
+
+def _me_only(path) -> bool:
+    md = model_description(path)
+    return md.coSimulation is None and md.modelExchange is not None
 
 
 def release(master, fmus: dict) -> None:

@@ -55,7 +55,12 @@ def model_description(path: str | Path):
             # readable but not valid (e.g. a variable name declared twice): libcosim and Ecos load such FMUs,
             # so does the master, saying so in one line; a variable whose name is not unique cannot be used
             # (harness.fmi.fmu.Instance.var names it)
-            md = read_model_description(str(p), validate=False)
+            said = "; ".join(" ".join(x.split()) for x in problems)
+            try:
+                md = read_model_description(str(p), validate=False)
+            except Exception:  # not even loadable without validation: its problems are the one line
+                raise SystemError_(f"{p.name}: modelDescription.xml is not valid and cannot be loaded ({said})") \
+                    from None
             warnings.warn(InvalidModelDescription(
                 f"{p.name}: modelDescription.xml is not valid ({'; '.join(' '.join(x.split()) for x in problems)}); "
                 f"loaded anyway"), stacklevel=2)

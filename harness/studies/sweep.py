@@ -34,7 +34,9 @@ from its FMU, ``wall_time`` in s, any other column from ``plot.units``; a column
 one line naming the file and the key (``spec.yaml: set.flywheel.d: ... uses unknown name 'alpha'``).
 
 Each worker process loads the FMUs itself (pythonfmu FMUs hold the GIL, so threads would not help).  A
-failed point is recorded with its error and never aborts the sweep.  The result is one DataFrame: the sweep
+failed point is recorded with its error and never aborts the sweep; every foreign FMU (one not built by the
+toolkit) runs in a child process of its own (:mod:`harness.fmi.isolated`), so one that crashes or hangs fails
+its point, not the worker.  The result is one DataFrame: the sweep
 variables, the parameters set, the quantities of interest, ``error`` and ``wall_time``; saved as Parquet
 (``.parquet``) or CSV.  ``sweep ... --report FILE.html`` writes one page of it (:func:`report`).
 
@@ -299,7 +301,7 @@ def read_spec(path: str | Path) -> SweepSpec:
         else:
             data = json.loads(text)
     except Exception as e:
-        raise SweepError(f"{path}: cannot parse ({type(e).__name__}: {e})") from None
+        raise SweepError(f"{path}: cannot parse ({type(e).__name__}: {' '.join(str(e).split())})") from None
     if not isinstance(data, dict):
         raise SweepError(f"{path}: expected a mapping at the top level")
     return parse_spec(data, str(path))
@@ -320,7 +322,9 @@ def run_point(system_name, spec: SweepSpec, point: dict[str, float]) -> dict:
         wanted = sorted({c for e in spec.outputs.values() for c in qoi.columns(e)})
         # the failure is recorded in the row, not warned about per point; the run's own message (e.g. the FMU
         # refusing a parameter) is the error, and quantities of a partial run would be misleading (NaN)
-        run = trial(load(system_on_worker(system_name)), start_values=params, output=wanted or None, **spec.run)
+        # foreign FMUs run isolated (harness.fmi.isolated): one that crashes or hangs fails its point, not the worker
+        settings = {"isolate": True, **spec.run}
+        run = trial(load(system_on_worker(system_name)), start_values=params, output=wanted or None, **settings)
         if run.complete:
             for name, expr in spec.outputs.items():
                 row[name] = qoi.evaluate(expr, run.result)

@@ -35,7 +35,15 @@ from harness.studies.trial import partial_csv as partial_path  # the point log o
 
 class SweepError(ValueError):
     """A sweep that cannot run as specified (one line naming the file, variable, value and allowed range);
-    defined here, below :mod:`harness.studies.sweep`, which re-exports it, so the two import without a circle."""
+    defined here, below :mod:`harness.studies.sweep`, which re-exports it, so the two import without a circle.
+    A line break in a name or value the file holds is written as ``\\n`` (:func:`harness.errors.single_line`)."""
+
+    def __init__(self, *args):
+        from harness.errors import single_line
+
+        if args and isinstance(args[0], str):
+            args = (single_line(args[0].strip()),) + args[1:]
+        super().__init__(*args)
 
 
 def _fail(message: str):

@@ -438,6 +438,18 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                "fmi2DoStep: currentCommunicationPoint = %.17g differs from the FMU time %.17g", t, inst->s.time);
         return fmi2Error;
     }
+#ifdef FAIL_AT  /* tests/test_isolation.py: a broken FMU that crashes, aborts or hangs in doStep at t >= FAIL_AT */
+    if (t >= FAIL_AT - 1e-12) {
+#if FAIL_HOW == 1
+        volatile int *nowhere = (volatile int *)0;
+        *nowhere = 1;                       /* SIGSEGV */
+#elif FAIL_HOW == 2
+        abort();                            /* SIGABRT */
+#else
+        for (volatile unsigned long spin = 0;; spin++) { }   /* never returns */
+#endif
+    }
+#endif
     advance(&inst->s, h);
     if (!isfinite(inst->s.r[VR_X]) || !isfinite(inst->s.r[VR_V])) {
         inst->s.mode = MODE_ERROR;
