@@ -247,7 +247,8 @@ def register(study_subparsers) -> None:
                    help="communication steps [s] (default: " + " ".join(f"{h:g}" for h in DEFAULT_STEPS) + ")")
     p.add_argument("--scenario", default=None,
                    help="judge a transient instead (a scenario NAME of the drive or a FILE): the accuracy the "
-                        "scenario declares, against the monolithic reference through the same events")
+                        "scenario declares, against the monolithic reference through the same events (default: the "
+                        "drive's steady accuracy)")
     p.add_argument("--out", default="results", help="folder of accuracy_<system>.csv "
                                                     "(accuracy_<system>_<scenario>.csv with --scenario)")
     p.set_defaults(func=_cli)
