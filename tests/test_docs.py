@@ -263,6 +263,7 @@ def run_and_check(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
                                f"--- printed:\n{(out + err)[-3000:]}")
 
 
+@pytest.mark.xdist_group("docs_commands")        # one scratch folder: a page's later commands read earlier outputs
 @pytest.mark.parametrize("page, command, shown", ALL_EXAMPLES, ids=[f"{p}:{c[:60]}" for p, c, _ in ALL_EXAMPLES])
 def test_every_command_on_a_page_runs(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
     """``python -m harness`` commands run in this process through the command line's own ``main`` (a
@@ -274,6 +275,7 @@ def test_every_command_on_a_page_runs(page, command, shown, scratch, fmu_dir, mo
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("docs_commands")
 @pytest.mark.parametrize("page, command, shown", SLOW_EXAMPLES, ids=[f"{p}:{c[:60]}" for p, c, _ in SLOW_EXAMPLES])
 def test_every_slow_command_on_a_page_runs(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
     """The ``# slow`` commands, run and their shown output checked (``-m slow``)."""
