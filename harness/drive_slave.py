@@ -42,6 +42,7 @@ from harness.errors import HarnessError
 from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import open_instance
 from harness.masters import master_class
+from harness.stepcontrol import FixedStep
 from harness.model import Bond, Connection, Experiment, Instance, System
 
 
@@ -213,11 +214,7 @@ class DriveBehaviour:
             inst, var = ref.split(".", 1)
             self._fmus[inst].set_value(var, self._values[ref])
         try:
-            t = m.t_ns
-            while t < end:
-                h = min(self._step_ns, end - t)
-                m.step(t, h)
-                t += h
+            m.run(FixedStep(self._step_ns), end)  # the master's one loop, in the drive's own steps
         except HarnessError as err:
             self._fail(f"t = {m.t_ns / NS:.9g} s: {' '.join(str(err).split())}")
         return True

@@ -2,7 +2,8 @@
 
 Each strategy implements ``advance(master, t_ns, h_ns, stop_ns) -> (t_new_ns, h_next_ns)``: take one
 ACCEPTED communication step from ``t_ns`` (possibly after rejected attempts rolled back with FMU state) and
-propose the next step.  Times are integer nanoseconds.
+propose the next step; its ``step_ns`` is the first step.  Times are integer nanoseconds.  It is called by the
+one run loop, :meth:`harness.masters.Master.run`, and takes steps only through ``master.step``.
 
 ``FixedStep`` (default)   every step the same (the last one shortened to land on the stop time).
 ``StepDoubling``          Richardson extrapolation error estimate as in PyFMI's Master: one step of h and two
@@ -72,6 +73,7 @@ class _Variable:
     defaults: dict = {}
 
     def __init__(self, step_ns: int, tolerance=None, options: StepOptions | None = None, order: int = 1):
+        self.step_ns = step_ns  # the first step proposed
         o = options or StepOptions()
         d = self.defaults
         self.min_ns = _ns(o.min_step) if o.min_step is not None else max(2, step_ns // 1000)
