@@ -74,7 +74,8 @@ class RunOptions:
     pythonfmu FMU whose script imports here in this process, the others through FMI with one warning; True
     requires it; False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs.
     ``divergence``: thresholds of the divergence detector on the power bonds (:mod:`harness.divergence`);
-    None switches it off."""
+    None switches it off.  ``observers``: further :class:`harness.observers.Observer` objects the run loop
+    calls, after the recording and the divergence watch (docs/howto/add-an-observer.md)."""
     iteration: IterationOptions = field(default_factory=IterationOptions)
     steps: StepOptions = field(default_factory=StepOptions)
     blowup: float = 1e12
@@ -82,6 +83,7 @@ class RunOptions:
     logging: bool = True
     in_process: bool | None = None
     divergence: DivergenceOptions | None = field(default_factory=DivergenceOptions)
+    observers: tuple = ()
 
 
 def load(x) -> System:
@@ -455,6 +457,7 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
     watch = DivergenceWatch(m, opts.divergence) if opts.divergence is not None and m.bond_labels else None
     if watch is not None:
         observers.append(watch)
+    observers += list(opts.observers)
     observers.append(ProgressBar(stop_ns - start_ns, opts.progress))
     init_time = math.nan  # the initialisation's share of wall_time (NaN: it did not finish)
     try:
