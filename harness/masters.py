@@ -40,7 +40,8 @@ import numpy as np
 from harness import coupling, graph, jacobian
 from harness.clock import NS
 from harness.coupling import Inst as _Inst
-from harness.errors import AlgebraicLoopError, BlowUp, FMUError, SimulationError, SingularCoupling, SystemError_
+from harness.errors import (AlgebraicLoopError, BlowUp, FMUError, SimulationError, SingularCoupling,
+                            SystemDescriptionError)
 from harness.extrapolation import DEPTH, History, Polynomial
 from harness.iteration import ConvergenceError, IterationOptions, solve_fixed_point
 
@@ -67,7 +68,7 @@ class Master:
     :meth:`history_depth`   the samples of each output kept for the held inputs;
     :meth:`needs_rollback`  True when a step is taken more than once (the FMUs' state is saved);
     :meth:`_prepare`        the hook for a method's own data, called once at the end of ``__init__`` (the
-                            coupling layout is ready then); it may refuse FMUs (``SystemError_``).
+                            coupling layout is ready then); it may refuse FMUs (``SystemDescriptionError``).
 
     **The loop** (:meth:`run`): per communication step, input signals are applied, the step-control strategy
     (:mod:`harness.stepcontrol`) calls :meth:`step` once or more (rolling back with :meth:`snapshot` /
@@ -212,7 +213,7 @@ class Master:
                              ib.isl.start + ib.input_pos[f"{b_port}.{v}"],
                              self.signal_index[f"{b_inst}.{b_port}.{e}"]))
             except KeyError as err:
-                raise SystemError_(f"bond {b.label}: variable {err.args[0]} is not part of the bond's connections")
+                raise SystemDescriptionError(f"bond {b.label}: variable {err.args[0]} is not part of the bond's connections")
             self.bond_labels.append(b.label)
         self._bonds = [tuple(r) for r in rows]
         self.bond_log = np.zeros((3, len(rows)))  # rows P_out, P_in [W] over the last step, energy error [J]
@@ -285,7 +286,12 @@ class Master:
         hist = self.history
         if hist.newest == t and hist.full and self.extrapolation.order <= 1 and not self._interp:
             self._hold_all_floats(t, h)
-            return
+        else:
+            self._hold_all_arrays(t, h)
+
+    def _hold_all_arrays(self, t: float, h: float) -> None:
+        """:meth:`_hold_all` on arrays: the general case and the reference of :meth:`_hold_all_floats`
+        (tests/test_harness_masters.py runs with the arrays only and compares bit for bit)."""
         u = self.u
         np.multiply(self.fac, self.extrapolation.held(self.history, self.src, t, h), out=u)
         u += self.off
@@ -686,7 +692,7 @@ class InterfaceJacobian(Master):
     def _prepare(self) -> None:
         fixed = [f"{it.name} ({it.fmu.md.modelName})" for it in self.insts if not it.fmu.can_get_set_state]
         if fixed:
-            raise SystemError_(f"master 'jacobian' takes each step twice and estimates its Jacobians by rollback, "
+            raise SystemDescriptionError(f"master 'jacobian' takes each step twice and estimates its Jacobians by rollback, "
                                f"but {', '.join(fixed)} cannot roll back (no canGetAndSetFMUstate): use "
                                f"master='jacobi' or 'gauss-seidel' for such FMUs")
         # per power bond: the held effort and the held motion (not the positions the FMU advances itself), whose
@@ -824,5 +830,5 @@ def master_class(name: str) -> type[Master]:
 
         close = difflib.get_close_matches(key, list(MASTERS), n=1)
         hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise SystemError_(f"master = {name!r} is not admissible{hint}: must be one of {', '.join(MASTERS)}")
+        raise SystemDescriptionError(f"master = {name!r} is not admissible{hint}: must be one of {', '.join(MASTERS)}")
     return MASTERS[key]

@@ -20,7 +20,7 @@ def code_of(page: str) -> str:
 
 
 @pytest.mark.parametrize("page", PAGES)
-def test_page_example_runs(page, monkeypatch, fmu_dir):
+def test_page_example_runs(page, monkeypatch):
     monkeypatch.setattr("harness.masters.MASTERS", dict(MASTERS))  # the page's registration stays in the test
     namespace: dict = {"__name__": f"howto_{page}"}
     with warnings.catch_warnings():
@@ -28,7 +28,7 @@ def test_page_example_runs(page, monkeypatch, fmu_dir):
         exec(compile(code_of(page), str(HOWTO / page), "exec"), namespace)
 
 
-def test_master_page_fails_on_a_wrong_master(fmu_dir):
+def test_master_page_fails_on_a_wrong_master():
     """The master page's asserts can fail: the same block with the FMU steps not counted does."""
     code = code_of("add-a-master.md").replace("self._step_fmus(self.insts, t, h, no_prior_state=True)",
                                               "[it.fmu.do_step(t, h, no_prior_state=True) for it in self.insts]")

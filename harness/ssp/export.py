@@ -25,7 +25,7 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from fmus.units import BASE_UNITS
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 from harness.model import System, model_description, resolve_fmu
 from harness.ssp.format import FMU_TYPE, OSP_ANNOTATION, OWN_ANNOTATION, PARAMETER_SET
 from harness.ssp.start_values import consistent_inputs
@@ -43,7 +43,7 @@ def export_ssp(system: System, out: str | Path) -> Path:
     """Write ``system`` as an SSP archive at ``out`` (FMUs included) and return its path."""
     out = Path(out)
     if out.suffix.lower() != ".ssp":
-        raise SystemError_(f"{out}: an SSP archive must end in .ssp")
+        raise SystemDescriptionError(f"{out}: an SSP archive must end in .ssp")
     from harness.results import check_writable
     from harness.ssp_start_values import copy_with_start_values
 
@@ -75,7 +75,7 @@ def export_ssp(system: System, out: str | Path) -> Path:
         tmp.replace(out)
     except OSError as e:   # e.g. the disk full, the folder gone meanwhile
         tmp.unlink(missing_ok=True)
-        raise SystemError_(f"export {out}: cannot write: {e.strerror or e}") from None
+        raise SystemDescriptionError(f"export {out}: cannot write: {e.strerror or e}") from None
     return out
 
 
@@ -122,7 +122,7 @@ def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] |
             params = ET.SubElement(pset, _q("ssv:Parameters"))
             for name, value in bound.items():
                 if name not in variables:
-                    raise SystemError_(f"instance {inst.name}: FMU {md.modelName} has no parameter {name}")
+                    raise SystemDescriptionError(f"instance {inst.name}: FMU {md.modelName} has no parameter {name}")
                 v = variables[name]
                 p = ET.SubElement(params, _q("ssv:Parameter"), {"name": name})
                 if v.type == "Boolean":
@@ -244,10 +244,10 @@ def _run_export(args) -> int:
         out = export_fmu(load(args.system), args.out, outputs=args.output, fmi_version=args.fmi_version)
     elif suffix == ".ssp":
         if args.output:
-            raise SystemError_(f"--output applies to a drive FMU (.fmu), not to {args.out}")
+            raise SystemDescriptionError(f"--output applies to a drive FMU (.fmu), not to {args.out}")
         out = export_ssp(load(args.system), args.out)
     else:
-        raise SystemError_(f"{args.out}: the export writes an .ssp (SSP archive) or an .fmu (one FMU of the "
+        raise SystemDescriptionError(f"{args.out}: the export writes an .ssp (SSP archive) or an .fmu (one FMU of the "
                            f"drive); got {suffix or 'no suffix'}")
     print(f"wrote {out}")
     return 0

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 from harness.fmi.cache import model_exchange_only, terminals, unzipped
 from harness.model import Bond, Connection, Experiment, Instance, System, model_description
 from harness.ssp.format import FMU_TYPE, OWN_ANNOTATION, PARAMETER_MAPPING_TYPE, PARAMETER_SET_TYPE
@@ -45,7 +45,7 @@ def _unpack(path: Path) -> Path:
     try:
         return unzipped(path, "_ssp")
     except zipfile.BadZipFile as e:
-        raise SystemError_(f"{path}: not an SSP archive ({e})") from None
+        raise SystemDescriptionError(f"{path}: not an SSP archive ({e})") from None
 
 
 def load_ssp(path: str | Path) -> System:
@@ -53,26 +53,26 @@ def load_ssp(path: str | Path) -> System:
     into a System."""
     path = Path(path)
     if not path.exists():
-        raise SystemError_(f"{path}: no such file")
+        raise SystemDescriptionError(f"{path}: no such file")
     archive = None
     if path.is_dir():
         ssd_path, root_dir = path / "SystemStructure.ssd", path
         if not ssd_path.is_file():
-            raise SystemError_(f"{path}: a folder given as an SSP must hold SystemStructure.ssd (it does not)")
+            raise SystemDescriptionError(f"{path}: a folder given as an SSP must hold SystemStructure.ssd (it does not)")
     elif path.suffix.lower() == ".ssp":
         root_dir, archive = _unpack(path), path
         ssd_path = root_dir / "SystemStructure.ssd"
         if not ssd_path.exists():
-            raise SystemError_(f"{path}: the archive has no SystemStructure.ssd")
+            raise SystemDescriptionError(f"{path}: the archive has no SystemStructure.ssd")
     elif path.suffix.lower() == ".ssd":
         ssd_path, root_dir = path, path.parent
     else:
-        raise SystemError_(f"{path}: expected an .ssp or .ssd file")
+        raise SystemDescriptionError(f"{path}: expected an .ssp or .ssd file")
     reader = _Reader(ssd_path, root_dir, archive)
     try:
         tree = ET.parse(ssd_path)
     except ET.ParseError as e:
-        raise SystemError_(f"{reader.label(ssd_path)}: not well-formed XML ({e})") from None
+        raise SystemDescriptionError(f"{reader.label(ssd_path)}: not well-formed XML ({e})") from None
     return reader.system(tree.getroot())
 
 
@@ -146,8 +146,8 @@ class _Reader:
                 pass
         return str(path)
 
-    def fail(self, what: str) -> SystemError_:
-        return SystemError_(f"{self.label(self.ssd_path)}: {what}")
+    def fail(self, what: str) -> SystemDescriptionError:
+        return SystemDescriptionError(f"{self.label(self.ssd_path)}: {what}")
 
     def system(self, root: ET.Element) -> System:
         if root.tag != _q("ssd:SystemStructureDescription"):
@@ -362,7 +362,7 @@ class _Reader:
         if implementation == "ModelExchange":  # run through its ME interface (harness.fmi.me), not as CS
             try:
                 fmu = model_exchange_only(fmu)
-            except SystemError_ as e:
+            except SystemDescriptionError as e:
                 raise self.fail(f"component '{name}': implementation='ModelExchange', but {e}") from None
         inst = Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'", fmu))
         inst.parameters = {k: self.convert(v, inst, k) for k, v in inst.parameters.items()}
@@ -403,16 +403,16 @@ class _Reader:
         what = (f"{value.where}: component '{inst.name}', parameter '{pname}' = {value.value!r} {value.unit}")
         if target is None:
             if src is not None and src.scaled:
-                raise SystemError_(f"{what}: the FMU's variable declares no unit, and {value.unit} is a scaled "
+                raise SystemDescriptionError(f"{what}: the FMU's variable declares no unit, and {value.unit} is a scaled "
                                    f"unit (factor {src.factor!r}, offset {src.offset!r}): cannot apply it")
             return value.value
         dst = fmu_units.get(target) or self.units.get(target)
         if src is None or dst is None:
             missing = value.unit if src is None else target
-            raise SystemError_(f"{what}: the FMU's variable is in {target}, and {missing} has no unit definition "
+            raise SystemDescriptionError(f"{what}: the FMU's variable is in {target}, and {missing} has no unit definition "
                                f"(ssc:Unit / UnitDefinitions) to convert with")
         if src.exponents != dst.exponents:
-            raise SystemError_(f"{what}: the FMU's variable is in {target}; {value.unit} ({src.dimension()}) "
+            raise SystemDescriptionError(f"{what}: the FMU's variable is in {target}; {value.unit} ({src.dimension()}) "
                                f"and {target} ({dst.dimension()}) are not the same quantity")
         return (src.factor * value.value + src.offset - dst.offset) / dst.factor
 
@@ -454,9 +454,9 @@ class _Reader:
                 try:
                     pset = ET.fromstring(text)
                 except ET.ParseError as e:
-                    raise SystemError_(f"{p}: not well-formed XML ({e})") from None
+                    raise SystemDescriptionError(f"{p}: not well-formed XML ({e})") from None
                 if pset.tag != _q("ssv:ParameterSet"):
-                    raise SystemError_(f"{p}: root element is <{pset.tag}>, not ssv:ParameterSet "
+                    raise SystemDescriptionError(f"{p}: root element is <{pset.tag}>, not ssv:ParameterSet "
                                        f"(referenced by a ParameterBinding of {owner})")
             elif inline is not None:
                 pset = inline.find(_q("ssv:ParameterSet"))
@@ -489,13 +489,13 @@ class _Reader:
             try:
                 root = ET.fromstring(text)
             except ET.ParseError as e:
-                raise SystemError_(f"{where}: not well-formed XML ({e})") from None
+                raise SystemDescriptionError(f"{where}: not well-formed XML ({e})") from None
         else:
             where, root = self.label(self.ssd_path), el.find(_q("ssm:ParameterMapping"))
             if root is None:
                 raise self.fail(f"{owner}: ssd:ParameterMapping has neither a source nor an ssm:ParameterMapping")
         if root.tag != _q("ssm:ParameterMapping"):
-            raise SystemError_(f"{where}: root element is <{root.tag}>, not ssm:ParameterMapping "
+            raise SystemDescriptionError(f"{where}: root element is <{root.tag}>, not ssm:ParameterMapping "
                                f"(referenced by a ParameterBinding of {owner})")
         return Mapping(root, f"{where} ({owner})")
 
