@@ -1,8 +1,8 @@
 """Co-simulation masters: one stepping loop, one ``_step_impl`` per method (scipy.integrate._ivp style).
 
-(About 750 lines on purpose: the loop, its hooks and the five methods read together in one file; the
-coupling layout lives in :mod:`harness.coupling`, the loop's parts in extrapolation, stepcontrol, graph,
-iteration (the fixed-point solvers) and jacobian (the interface Jacobians).)
+(About 830 lines on purpose: the loop, the contract of a method, its hooks and the five methods read together in
+one file; the coupling layout lives in :mod:`harness.coupling`, the loop's parts in extrapolation, stepcontrol,
+graph, iteration (the fixed-point solvers), jacobian (the interface Jacobians) and observers.)
 
 The base class :class:`Master` owns the coupling data (prepared once: value-reference blocks, a signal
 vector ``y`` of every Real output, the connection index arrays, the extrapolation :class:`History`), the

@@ -7,8 +7,9 @@ on_error="return", options=None)`` returns the result DataFrame (see :mod:`harne
 experiment (then: master ``jacobi``, extrapolation 0, fixed step).  Further options live in :class:`RunOptions`
 (iteration of the ``iterative`` master, step-control limits, blow-up limit, progress bar, FMU logging).
 
-(About 700 lines: loading a system, simulate's argument checks, its stepping loop and the ``run`` command that
-exposes the same arguments read together; input signals live in :mod:`harness.signals`.)
+(About 730 lines: loading a system, simulate's argument checks, the assembly of its result and the ``run``
+command that exposes the same arguments read together; the loop is :meth:`harness.masters.Master.run`, input
+signals live in :mod:`harness.signals`.)
 
 Failures during the run (an FMU error, a non-finite output, an output beyond the blow-up limit, an iteration
 that does not converge) stop it with a one-line message naming the time, the instance and the variable or
@@ -17,8 +18,6 @@ returned with ``attrs["complete"] = False`` and ``attrs["error"]`` (and a :class
 ``on_error="raise"`` raises :class:`~harness.errors.SimulationError` whose ``partial`` is that DataFrame.
 Errors in the system description (:class:`~harness.errors.SystemError_`) are always raised before the run.
 
-(About 640 lines: loading, simulate's argument checks, the stepping loop and the ``run`` command share their
-checks and messages; split, each would import the others' private helpers.)
 """
 from __future__ import annotations
 
