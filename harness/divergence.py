@@ -81,6 +81,8 @@ from collections import deque
 from dataclasses import dataclass
 
 from harness.errors import SimulationError
+from harness.clock import NS
+from harness.observers import Observer
 
 
 class Diverged(SimulationError):
@@ -368,6 +370,31 @@ class DivergenceDetector:
                     f"({created / flowed if flowed > 0 else math.inf:.0%} of the {flowed:.3g} J that flowed "
                     f"through it)")
         return evidence
+
+
+class DivergenceWatch(Observer):
+    """The detector as an observer of the run loop (:class:`harness.observers.Observer`): fed every accepted
+    point; raises :class:`Diverged` to stop the run; at a completed end keeps the detector's verdict in
+    ``suspect`` ('' if none)."""
+
+    def __init__(self, master, options: DivergenceOptions | None = None):
+        self.detector = for_master(master, options)
+        self.suspect = ""
+
+    def on_start(self, master, t_ns):
+        self.detector.times[0] = t_ns / NS  # its first block boundary: the start of the run
+        self.start_ns = t_ns
+
+    def on_event(self, master, t_ns):
+        if t_ns > self.start_ns:            # an input step after the start: the detector's grace
+            self.detector.event(t_ns / NS, master.bond_log)
+
+    def on_step(self, master, t_prev_ns, t_ns):
+        self.detector.update(t_ns / NS, master.bond_log, (t_ns - t_prev_ns) / NS)
+
+    def on_end(self, master, t_ns, completed):
+        if completed:
+            self.suspect = self.detector.finish(t_ns / NS)
 
 
 def for_master(master, options: DivergenceOptions | None = None) -> DivergenceDetector:

@@ -167,7 +167,7 @@ def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, 
                          "offset": float(c.offset), "unit_conversion": bool(c.unit_conversion)}
                         for c in system.connections],
         "bonds": [{"motion_out": b.motion_out, "motion_in": b.motion_in,
-                   "translational": system._bond_is_translational(b, mds)} for b in system.bonds],
+                   "translational": system.bond_is_translational(b, mds)} for b in system.bonds],
         "experiment": {"stop_time": float(exp.stop_time), "step": float(exp.step), "master": exp.master,
                        "extrapolation": int(exp.extrapolation)},
         "parameters": parameters, "inputs": inputs, "outputs": outs,

@@ -50,6 +50,8 @@ from harness.errors import HarnessError
 from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import open_instance
 from harness.masters import master_class
+from harness.observers import Observer
+from harness.stepcontrol import FixedStep
 from harness.model import Bond, Connection, Experiment, Instance, System
 
 
@@ -70,6 +72,22 @@ def system_of(spec: dict, members: str) -> System:
                               extrapolation=e["extrapolation"]),
         free_inputs={i["name"]: i["description"] or "free input" for i in spec["inputs"]})
 
+
+
+class _CounterRises(Observer):
+    """The instant each event counter the drive offers (``<counter>.rise_time``) last rose, on the drive's own
+    steps: at every accepted point the counter compared with its value at the previous one."""
+
+    def __init__(self, slave):
+        self.slave = slave
+
+    def on_step(self, master, t_prev_ns, t_ns):
+        s = self.slave
+        for counter, rise in s._counters.items():
+            value = float(master.y[master.signal_index[counter]])
+            if value > s._counted.get(counter, value):
+                s._rise[rise] = t_ns / NS
+            s._counted[counter] = value
 
 class DriveBehaviour:
     """What a drive FMU's slave does, whatever its FMI version (module docstring); a version's class derives from
@@ -239,16 +257,8 @@ class DriveBehaviour:
             inst, var = ref.split(".", 1)
             self._fmus[inst].set_value(var, self._values[ref])
         try:
-            t = m.t_ns
-            while t < end:
-                h = min(self._step_ns, end - t)
-                m.step(t, h)
-                t += h
-                for counter, rise in self._counters.items():
-                    value = float(m.y[m.signal_index[counter]])
-                    if value > self._counted.get(counter, value):
-                        self._rise[rise] = t / NS
-                    self._counted[counter] = value
+            # the master's one loop, in the drive's own steps; each counter's last rise read at every one
+            m.run(FixedStep(self._step_ns), end, observers=(_CounterRises(self),))
         except HarnessError as err:
             self._fail(f"t = {m.t_ns / NS:.9g} s: {' '.join(str(err).split())}")
         return True

@@ -17,12 +17,15 @@ class HarnessError(Exception):
         super().__init__(*args)
 
 
-class SystemError_(HarnessError, ValueError):
+class SystemDescriptionError(HarnessError, ValueError):
     """A system that cannot be simulated as described: unknown instance or variable, a variable connected
     twice, causality or unit mismatch, an unknown parameter, an unknown master/extrapolation/step control."""
 
 
-class AlgebraicLoopError(SystemError_):
+SystemError_ = SystemDescriptionError  # the former name (deprecated; it read as a shadowed builtin): the same class
+
+
+class AlgebraicLoopError(SystemDescriptionError):
     """Direct feed-through around a cycle of connections that the chosen master cannot solve.
 
     ``loops`` lists every loop as the sorted ``Instance.variable`` names in it."""

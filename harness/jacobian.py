@@ -115,11 +115,12 @@ def feedthrough_block(fmu, inp, out, point: np.ndarray) -> np.ndarray:
 
 
 def step_sensitivity(fmu, inp, out, start_state, held: np.ndarray, point: np.ndarray | None,
-                     base: np.ndarray, t: float, h: float) -> np.ndarray:
+                     base: np.ndarray, t: float, h: float, *, step) -> np.ndarray:
     """``A_i``: d outputs(t+h) / d held inputs through the state of ``fmu``: for each input, roll back to
     ``start_state``, step on ``held`` with that input perturbed, set the point inputs ``point`` (None: the FMU
     has no feed-through, leave the inputs) and difference the outputs against ``base`` (the outputs of the
-    unperturbed step with the same point inputs)."""
+    unperturbed step with the same point inputs).  ``step(t, h)`` takes the FMU's step (the master's, which
+    counts it)."""
     A = np.zeros((base.size, held.size))
     dh = perturbation(held)
     for j in range(held.size):
@@ -127,7 +128,7 @@ def step_sensitivity(fmu, inp, out, start_state, held: np.ndarray, point: np.nda
         x[j] += dh[j]
         fmu.set_state(start_state)
         fmu.set(inp, x)
-        fmu.do_step(t, h, False)
+        step(t, h)
         if point is not None:
             fmu.set(inp, point)
         A[:, j] = (np.asarray(fmu.get(out), dtype=float) - base) / dh[j]

@@ -1,8 +1,8 @@
 """Co-simulation masters: one stepping loop, one ``_step_impl`` per method (scipy.integrate._ivp style).
 
-(About 750 lines on purpose: the loop, its hooks and the five methods read together in one file; the
-coupling layout lives in :mod:`harness.coupling`, the loop's parts in extrapolation, stepcontrol, graph,
-iteration (the fixed-point solvers) and jacobian (the interface Jacobians).)
+(About 830 lines on purpose: the loop, the contract of a method, its hooks and the five methods read together in
+one file; the coupling layout lives in :mod:`harness.coupling`, the loop's parts in extrapolation, stepcontrol,
+graph, iteration (the fixed-point solvers), jacobian (the interface Jacobians) and observers.)
 
 The base class :class:`Master` owns the coupling data (prepared once: value-reference blocks, a signal
 vector ``y`` of every Real output, the connection index arrays, the extrapolation :class:`History`), the
@@ -40,7 +40,8 @@ import numpy as np
 from harness import coupling, graph, jacobian
 from harness.clock import NS
 from harness.coupling import Inst as _Inst
-from harness.errors import AlgebraicLoopError, BlowUp, FMUError, SimulationError, SingularCoupling, SystemError_
+from harness.errors import (AlgebraicLoopError, BlowUp, FMUError, SimulationError, SingularCoupling,
+                            SystemDescriptionError)
 from harness.extrapolation import DEPTH, History, Polynomial
 from harness.iteration import ConvergenceError, IterationOptions, solve_fixed_point
 
@@ -53,11 +54,52 @@ class AssumptionWarning(UserWarning):
 
 
 class Master:
-    """Base class: the coupling machinery and the run loop.  Subclasses implement :meth:`_step_impl`."""
+    """Base class: the coupling machinery and THE run loop (:meth:`run`).  A method is a subclass that sets a
+    few class attributes, may override :meth:`_prepare`, and implements :meth:`_step_impl`.
+
+    **Configuration** (class attributes, read by ``__init__``; a subclass never changes base state after it):
+
+    ``name``                the name ``simulate(master=...)`` takes (register the class in :data:`MASTERS`);
+    ``solves_loops``        True: algebraic loops of direct feed-through are solved, not refused;
+    ``refreshes_discrete``  True: non-Real connections are passed at the END of each step, feed-through chains
+                            within the point (see :meth:`_pass_discrete`); False: at the start of the step;
+    ``input_derivatives``   False: every instance gets its held (midpoint) inputs as values, never input
+                            derivatives (methods that iterate or correct the held values);
+    :meth:`history_depth`   the samples of each output kept for the held inputs;
+    :meth:`needs_rollback`  True when a step is taken more than once (the FMUs' state is saved);
+    :meth:`_prepare`        the hook for a method's own data, called once at the end of ``__init__`` (the
+                            coupling layout is ready then); it may refuse FMUs (``SystemDescriptionError``).
+
+    **The loop** (:meth:`run`): per communication step, input signals are applied, the step-control strategy
+    (:mod:`harness.stepcontrol`) calls :meth:`step` once or more (rolling back with :meth:`snapshot` /
+    :meth:`restore` between attempts), and each accepted point goes to the observers
+    (:class:`harness.observers.Observer`: recording, divergence watch, progress bar).  :meth:`step` passes the
+    non-Real connections, calls ``_step_impl``, checks the outputs, books the power bonds' energy and moves
+    ``t_ns``.
+
+    **The contract of** ``_step_impl(t, h, t_next)`` (times in s, from the integer ns of :meth:`step`):
+
+    * on entry every FMU is at ``t``; ``self.y`` and the history's newest samples are the consistent outputs at
+      ``t``; the held inputs ``self.u`` are those of the previous step;
+    * it advances every FMU to ``t_next``, and ONLY through :meth:`_step_fmus` (which calls ``do_step`` and
+      counts FMU steps into ``fmu_steps``; a helper that steps an FMU itself, such as a Jacobian estimate, is
+      given :meth:`_step_fmus` to call);
+    * it may set inputs (:meth:`_hold_all`, :meth:`_set_held_inputs`), save and restore state under its own slot
+      names (not ``"step"`` or a controller's), step again, and add to ``iterations`` / ``halvings``;
+    * on return ``self.y`` holds consistent outputs at ``t_next`` and the history has their sample at
+      ``t_next`` (:meth:`_exchange` does both); ``self.u`` holds the inputs the FMUs held over the step;
+    * it returns nothing and leaves ``t_ns``, the bond log and the failure checks to :meth:`step`; a failure is
+      raised (an :class:`~harness.errors.FMUError`, :class:`~harness.errors.SimulationError` or
+      :class:`ConvergenceError`), never returned.
+
+    **Counters** (kept here only): ``steps`` accepted communication steps of :meth:`run`, ``fmu_steps``
+    ``do_step`` calls summed over the FMUs, ``iterations`` of the fixed-point solvers, ``halvings`` steps taken
+    again as two halves."""
 
     name: ClassVar[str] = "base"
     solves_loops: ClassVar[bool] = False
     refreshes_discrete: ClassVar[bool] = False  # pass non-Real feed-through chains within a point (Jacobi)
+    input_derivatives: ClassVar[bool] = True   # False: held values only (iterated or corrected methods)
 
     def __init__(self, fmus: dict, connections, bonds=(), extrapolation: Polynomial | None = None,
                  iteration: IterationOptions | None = None, tolerance: float | None = None,
@@ -83,6 +125,9 @@ class Master:
         # the signal vector y, the held-input vector u and the non-Real connections (harness.coupling)
         lay = coupling.layout(fmus, self.connections, mds, self.extrapolation.order > 0)
         self.insts, self.index = lay.insts, lay.index
+        if not self.input_derivatives:
+            for it in self.insts:
+                it.interp = False
         self.signal_names, self.signal_index = lay.signal_names, lay.signal_index
         self.y = np.zeros(len(lay.signal_names))
         self.history = History(len(lay.signal_names), self.history_depth())
@@ -114,10 +159,14 @@ class Master:
         self._slots: dict[str, tuple] = {}
         self._y_list: list | None = None  # y as a list at the end of the last step (None: recompute)
         self.t_ns = 0
-        self._step_calls = len(self.insts)  # do_step calls of one communication step (methods that vary: 0)
+        self.steps = 0       # accepted communication steps (run)
         self.iterations = 0  # total iterations (iterative master)
         self.halvings = 0    # steps taken again as two halves (jacobian master: harness.jacobian.needs_halving)
-        self.fmu_steps = 0   # fmi2DoStep calls made, summed over the FMUs (the cost a step size cannot hide)
+        self.fmu_steps = 0   # do_step calls made, summed over the FMUs (only _step_fmus adds to it)
+        self._prepare()
+
+    def _prepare(self) -> None:
+        """A method's own data, once the coupling layout is ready (the end of ``__init__``); default: none."""
 
     def _assume_sampled(self, mds: dict, loops: list) -> tuple[dict, list]:
         """A loop only *assumed* by FMI 2.0's default (outputs without declared ``dependencies`` may depend
@@ -164,7 +213,7 @@ class Master:
                              ib.isl.start + ib.input_pos[f"{b_port}.{v}"],
                              self.signal_index[f"{b_inst}.{b_port}.{e}"]))
             except KeyError as err:
-                raise SystemError_(f"bond {b.label}: variable {err.args[0]} is not part of the bond's connections")
+                raise SystemDescriptionError(f"bond {b.label}: variable {err.args[0]} is not part of the bond's connections")
             self.bond_labels.append(b.label)
         self._bonds = [tuple(r) for r in rows]
         self.bond_log = np.zeros((3, len(rows)))  # rows P_out, P_in [W] over the last step, energy error [J]
@@ -237,7 +286,12 @@ class Master:
         hist = self.history
         if hist.newest == t and hist.full and self.extrapolation.order <= 1 and not self._interp:
             self._hold_all_floats(t, h)
-            return
+        else:
+            self._hold_all_arrays(t, h)
+
+    def _hold_all_arrays(self, t: float, h: float) -> None:
+        """:meth:`_hold_all` on arrays: the general case and the reference of :meth:`_hold_all_floats`
+        (tests/test_harness_masters.py runs with the arrays only and compares bit for bit)."""
         u = self.u
         np.multiply(self.fac, self.extrapolation.held(self.history, self.src, t, h), out=u)
         u += self.off
@@ -405,7 +459,6 @@ class Master:
         if self._discrete and not self.refreshes_discrete:
             self._pass_discrete(t)  # values sampled at t, held over the step
         self._step_impl(t, h, t_next)
-        self.fmu_steps += self._step_calls
         if self._discrete and self.refreshes_discrete:
             self._pass_discrete(t_next)  # refreshed at t_next, as Real feed-through is, before the point is recorded
         y = self._y_list = self.y.tolist()
@@ -416,8 +469,61 @@ class Master:
 
     def _step_impl(self, t: float, h: float, t_next: float) -> None:
         """Advance every FMU from t to t_next (= t + h) and leave consistent outputs at t_next in
-        ``self.y`` (and the history)."""
+        ``self.y`` (and the history): the contract in the class docstring."""
         raise NotImplementedError
+
+    def _step_fmus(self, insts, t: float, h: float, *, no_prior_state: bool) -> None:
+        """``do_step(t, h)`` of each instance in ``insts``, in order: the one place FMU steps are taken and
+        counted.  ``no_prior_state``: FMI's noSetFMUStatePriorToCurrentPoint (True: this step will not be
+        rolled back)."""
+        for it in insts:
+            it.fmu.do_step(t, h, no_prior_state=no_prior_state)
+        self.fmu_steps += len(insts)
+
+    def run(self, controller, stop_ns: int, observers=(), inputs=None) -> int:
+        """THE run loop: communication steps from ``t_ns`` (after :meth:`initialize`) to ``stop_ns``, each taken
+        by ``controller.advance`` (:mod:`harness.stepcontrol`, starting with its ``step_ns``).  ``inputs``
+        (None or a :class:`harness.signals.Signals`): applied at each point before the step (``apply(t_ns)``),
+        the point's outputs made consistent again when a signal drives an instance that feeds others, and at
+        one of its ``step_times`` the history restarted (no coupling signal is extrapolated across an event) and
+        a variable step control restarted from its first step; a variable step also ends on each of the inputs'
+        row times (``next_time``).
+        ``observers`` (:class:`harness.observers.Observer`) see the start, each input event, each accepted point
+        and the end, in the order given; ``on_end`` runs however the run ends.  Returns the time reached [ns]."""
+        observers = list(observers)
+        t_ns = self.t_ns
+        refresh = inputs is not None and any(c.source.split(".", 1)[0] in inputs.instances
+                                             for c in self.connections)
+        completed = False
+        try:
+            for o in observers:
+                o.on_start(self, t_ns)
+            h_ns = controller.step_ns
+            while t_ns < stop_ns:
+                if inputs is not None:
+                    inputs.apply(t_ns)
+                    if refresh:
+                        self.refresh(t_ns / NS)
+                    if t_ns in inputs.step_times:  # an event: no coupling signal is extrapolated across it,
+                        self.history.restart()       # a variable step control starts again from its first step
+                        if controller.variable:
+                            controller.restart()
+                            h_ns = controller.step_ns
+                        for o in observers:
+                            o.on_event(self, t_ns)
+                # a variable step lands on each row time of the input table (a step, a ramp's corner)
+                event_ns = inputs.next_time(t_ns) if inputs is not None and controller.variable else None
+                t_prev = t_ns
+                until = stop_ns if event_ns is None else min(stop_ns, event_ns)
+                t_ns, h_ns = controller.advance(self, t_ns, h_ns, until)
+                self.steps += 1
+                for o in observers:
+                    o.on_step(self, t_prev, t_ns)
+            completed = True
+        finally:
+            for o in observers:
+                o.on_end(self, t_ns, completed)
+        return t_ns
 
     def _declared_range(self) -> tuple | None:
         """(indices into y, min, max) of the Real outputs that declare ``min`` or ``max`` (None: none does)."""
@@ -486,8 +592,7 @@ class Jacobi(Master):
 
     def _step_impl(self, t, h, t_next):
         self._hold_all(t, h)
-        for it in self.insts:
-            it.fmu.do_step(t, h, True)
+        self._step_fmus(self.insts, t, h, no_prior_state=True)
         self._outputs_at(t_next)
 
     _outputs_at = Master._exchange  # consistent outputs at t+h: feed-through refreshed with the new inputs
@@ -507,8 +612,7 @@ class GaussSeidel(Master):
     """FMUs step in dependency order; each uses the newest outputs (samples at t+h where available)."""
     name = "gauss-seidel"
 
-    def __init__(self, fmus, connections, *args, **kwargs):
-        super().__init__(fmus, connections, *args, **kwargs)
+    def _prepare(self) -> None:
         order = graph.stepping_order(self.connections, self.mds)
         self.order = [self.insts[self.index[n]] for n in order]
 
@@ -516,7 +620,7 @@ class GaussSeidel(Master):
         point = self.extrapolation.order >= 1
         for it in self.order:
             self._set_held_inputs(it, t, h)
-            it.fmu.do_step(t, h, True)
+            self._step_fmus((it,), t, h, no_prior_state=True)
             if point and it.feedthrough and it.inp.n:
                 # the FMUs after this one take its sample at t+h as exact: a feed-through output must see its
                 # inputs AT t+h (newest samples, or the polynomial at t+h for sources not yet stepped), not
@@ -537,13 +641,9 @@ class Iterative(Master):
     name = "iterative"
     solves_loops = True
     refreshes_discrete = True
+    input_derivatives = False  # the iteration converges the held (midpoint) values
 
-    def __init__(self, fmus, connections, *args, **kwargs):
-        super().__init__(fmus, connections, *args, **kwargs)
-        for it in self.insts:
-            it.interp = False  # the iteration converges the held (midpoint) values; no input derivatives
-        self._batched = [it for it in self.insts if it.inp.n]
-        self._interp = []
+    def _prepare(self) -> None:
         # without fmi2GetFMUstate/fmi2SetFMUstate a step cannot be repeated: each step is then taken once on
         # the held inputs (the explicit coupling of jacobi), while algebraic loops at communication points,
         # which need no rollback, are still solved -- said once, naming the FMUs
@@ -561,8 +661,7 @@ class Iterative(Master):
         coupled = self._batched
         self._hold_all(t, h)
         if not self.rolls_back:
-            for it in self.insts:
-                it.fmu.do_step(t, h, True)
+            self._step_fmus(self.insts, t, h, no_prior_state=True)
             self._exchange(t_next)
             return
         u0 = self.u.copy()
@@ -577,8 +676,7 @@ class Iterative(Master):
             values = u.tolist()
             for it in coupled:
                 it.fmu.set_list(it.inp, values[it.isl])
-            for it in self.insts:
-                it.fmu.do_step(t, h, False)
+            self._step_fmus(self.insts, t, h, no_prior_state=False)
             self._exchange(t_next)
             out = np.empty_like(u)
             for it in coupled:
@@ -587,7 +685,6 @@ class Iterative(Master):
 
         _u, _gu, n = solve_fixed_point(g, u0, self.iteration, self.tol, f"coupled step at t = {t:.9g} s")
         self.iterations += n
-        self.fmu_steps += (n - 1) * len(self.insts)  # the base counted one
 
 
 class InterfaceJacobian(Master):
@@ -598,18 +695,14 @@ class InterfaceJacobian(Master):
     connections are passed as by ``jacobi`` and take no part in the correction."""
     name = "jacobian"
     refreshes_discrete = True
+    input_derivatives = False  # the correction is on the held (midpoint) values
 
-    def __init__(self, fmus, connections, *args, **kwargs):
-        super().__init__(fmus, connections, *args, **kwargs)
+    def _prepare(self) -> None:
         fixed = [f"{it.name} ({it.fmu.md.modelName})" for it in self.insts if not it.fmu.can_get_set_state]
         if fixed:
-            raise SystemError_(f"master 'jacobian' takes each step twice and estimates its Jacobians by rollback, "
+            raise SystemDescriptionError(f"master 'jacobian' takes each step twice and estimates its Jacobians by rollback, "
                                f"but {', '.join(fixed)} cannot roll back (no canGetAndSetFMUstate): use "
                                f"master='jacobi' or 'gauss-seidel' for such FMUs")
-        for it in self.insts:
-            it.interp = False  # the correction is on the held (midpoint) values; no input derivatives
-        self._batched = [it for it in self.insts if it.inp.n]
-        self._interp = []
         # per power bond: the held effort and the held motion (not the positions the FMU advances itself), whose
         # weights of the sample at t+h follow their loop gains at each estimate (harness.jacobian.target_weights)
         pos = set(self._pos.tolist())
@@ -617,7 +710,7 @@ class InterfaceJacobian(Master):
         self._bond_inputs = [(b[0], [k for k in m if k not in pos]) for b, m in zip(self._bonds, held)]
         self.theta = jacobian.target_weights(len(self.u), self._bond_inputs, None, self._pos)
         self.jacobian: np.ndarray | None = None  # S of harness.jacobian.assemble, for the step size self._jac_h
-        self._jac_h, self._stale, self._step_calls = 0.0, True, 0  # _take and _estimate count their FMU steps
+        self._jac_h, self._stale = 0.0, True
         # Jacobian estimates (one extra FMU step per held input each) and steps taken again with fresh Jacobians
         # because the correction did not contract (the halved steps: Master.halvings)
         self.estimates = self.retries = 0
@@ -637,9 +730,7 @@ class InterfaceJacobian(Master):
         values = u.tolist()
         for it in self._batched:
             it.fmu.set_list(it.inp, values[it.isl])
-        for it in self.insts:
-            it.fmu.do_step(t, h, False)
-        self.fmu_steps += len(self.insts)
+        self._step_fmus(self.insts, t, h, no_prior_state=False)
         self._exchange(t_next)
         return self._implicit_inputs(t, h) - u
 
@@ -656,7 +747,7 @@ class InterfaceJacobian(Master):
             if v is not None:
                 D[it.sl, it.isl] = jacobian.feedthrough_block(it.fmu, it.inp, it.out, v)
             A[it.sl, it.isl] = jacobian.step_sensitivity(it.fmu, it.inp, it.out, state, u0[it.isl], v,
-                                                         self.y[it.sl], t, h)
+                                                         self.y[it.sl], t, h, step=self._stepper(it))
         try:
             S = jacobian.assemble(A, D, self.src, self.fac)
         except np.linalg.LinAlgError:  # I - D C: the outputs' feed-through loop has no unique solution
@@ -666,7 +757,11 @@ class InterfaceJacobian(Master):
         self.jacobian, self._jac_h, self._stale = S, h, False
         self.theta = jacobian.target_weights(len(u0), self._bond_inputs, self.jacobian, self._pos)
         self.estimates += 1
-        self.fmu_steps += n_u  # one step per held input
+
+    def _stepper(self, it: _Inst):
+        """``step(t, h)`` of one instance through :meth:`_step_fmus` (counted), for harness.jacobian."""
+        one = (it,)
+        return lambda t, h: self._step_fmus(one, t, h, no_prior_state=False)
 
     def _output_links(self) -> np.ndarray:
         """``C`` of :func:`harness.jacobian.assemble`: held inputs x outputs, ``fac`` at each input's source."""
@@ -743,5 +838,5 @@ def master_class(name: str) -> type[Master]:
 
         close = difflib.get_close_matches(key, list(MASTERS), n=1)
         hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise SystemError_(f"master = {name!r} is not admissible{hint}: must be one of {', '.join(MASTERS)}")
+        raise SystemDescriptionError(f"master = {name!r} is not admissible{hint}: must be one of {', '.join(MASTERS)}")
     return MASTERS[key]

@@ -159,7 +159,7 @@ class System:
             Instance(i.name, i.fmu if str(i.fmu).endswith(".fmu") else Path(folder) / f"{i.fmu}.fmu",
                      dict(i.parameters)) for i in self.instances])
 
-    def _bond_is_translational(self, b: Bond, model_descriptions: dict | None) -> bool:
+    def bond_is_translational(self, b: Bond, model_descriptions: dict | None) -> bool:
         if b.translational is not None:
             return b.translational
         inst, port = _split(b.motion_out, "bond port")
@@ -174,7 +174,7 @@ class System:
         """Explicit connections plus the expanded power bonds (bond kinds detected from the FMUs)."""
         out = list(self.connections)
         for b in self.bonds:
-            out.extend(b.connections(self._bond_is_translational(b, model_descriptions)))
+            out.extend(b.connections(self.bond_is_translational(b, model_descriptions)))
         return out
 
     def validate(self, model_descriptions: dict, parameters: dict | None = None) -> list[str]:

@@ -7,8 +7,9 @@ on_error="return", options=None)`` returns the result DataFrame (see :mod:`harne
 experiment (then: master ``jacobi``, extrapolation 0, fixed step).  Further options live in :class:`RunOptions`
 (iteration of the ``iterative`` master, step-control limits, blow-up limit, progress bar, FMU logging).
 
-(About 700 lines: loading a system, simulate's argument checks, its stepping loop and the ``run`` command that
-exposes the same arguments read together; input signals live in :mod:`harness.signals`.)
+(About 730 lines: loading a system, simulate's argument checks, the assembly of its result and the ``run``
+command that exposes the same arguments read together; the loop is :meth:`harness.masters.Master.run`, input
+signals live in :mod:`harness.signals`.)
 
 Failures during the run (an FMU error, a non-finite output, an output beyond the blow-up limit, an iteration
 that does not converge) stop it with a one-line message naming the time, the instance and the variable or
@@ -17,8 +18,6 @@ returned with ``attrs["complete"] = False`` and ``attrs["error"]`` (and a :class
 ``on_error="raise"`` raises :class:`~harness.errors.SimulationError` whose ``partial`` is that DataFrame.
 Errors in the system description (:class:`~harness.errors.SystemError_`) are always raised before the run.
 
-(About 640 lines: loading, simulate's argument checks, the stepping loop and the ``run`` command share their
-checks and messages; split, each would import the others' private helpers.)
 """
 from __future__ import annotations
 
@@ -33,7 +32,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.divergence import Diverged, DivergenceOptions, for_master as _detector
+from harness.divergence import Diverged, DivergenceOptions, DivergenceWatch
 from harness.errors import BlowUp, FMUError, HarnessError, SimulationError, SystemError_
 from harness.errors import ParameterRefused  # an FMU refused a parameter value (typed, fmus.refusal)
 from harness.errors import Terminated, interruption  # noqa: F401 (defined with the errors, re-exported)
@@ -41,6 +40,7 @@ from harness.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import Instance, open_instance, release
 from harness.masters import MASTERS, NS, ConvergenceError, IterationOptions, master_class
 from harness.model import System, model_description, resolve_fmu
+from harness.observers import ProgressBar, Recording
 from harness.quantities import json_path, quantities
 from harness.results import Recorder
 from harness.signals import Signals, full_name
@@ -76,7 +76,9 @@ class RunOptions:
     None switches it off.  ``isolate``: run FMUs in child processes of their own (:mod:`harness.fmi.isolated`:
     True or "foreign" every FMU not built by the toolkit, "all" every FMU, or an ``Isolation`` with its
     per-call timeout), so a crash or hang inside an FMU call stops the run in one line and keeps its rows;
-    None/False (default) runs every FMU in this process."""
+    None/False (default) runs every FMU in this process.  ``observers``: further
+    :class:`harness.observers.Observer` objects the run loop calls, after the recording and the divergence watch
+    (docs/howto/add-an-observer.md)."""
     iteration: IterationOptions = field(default_factory=IterationOptions)
     steps: StepOptions = field(default_factory=StepOptions)
     blowup: float = 1e12
@@ -85,6 +87,7 @@ class RunOptions:
     in_process: bool | None = None
     divergence: DivergenceOptions | None = field(default_factory=DivergenceOptions)
     isolate: object = None
+    observers: tuple = ()
 
 
 def load(x) -> System:
@@ -434,19 +437,6 @@ def column_units(fmus: dict, columns: list[str]) -> dict[str, str]:
     return out
 
 
-def _progress(total_ns: int, enabled: bool | None):
-    if enabled is None:
-        enabled = sys.stderr.isatty()
-    if not enabled:
-        return None
-    try:
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover
-        return None
-    return tqdm(total=total_ns / NS, unit="s", delay=2.0, file=sys.stderr, leave=False,
-                bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
-
-
 def _output_interval(output_interval, step: float, step_ns: int, step_control) -> int:
     """The recording interval [ns]: ``output_interval``, a whole multiple of the step (fixed step only), or
     the step itself (every communication point)."""
@@ -466,58 +456,28 @@ def _output_interval(output_interval, step: float, step_ns: int, step_control) -
 
 
 def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info, system, signals=None):
-    """The stepping loop over ``span`` = (start, stop, step, recording interval) [ns]; ``signals`` (a
-    :class:`~harness.signals.Signals`) set at each communication point before the step; the result, marked as
-    it ended, with the ``system``'s engineering quantities."""
+    """Initialize ``m`` and run it over ``span`` = (start, stop, step, recording interval) [ns] in the one run
+    loop (:meth:`harness.masters.Master.run`), with the recording, the divergence watch and the progress bar as
+    its observers and ``signals`` (a :class:`~harness.signals.Signals`) as its inputs; the result, marked as it
+    ended, with the ``system``'s engineering quantities."""
     wall, cpu = _time.perf_counter(), _time.process_time()
     start_ns, stop_ns, step_ns, sample_ns = span
-    # a signal into an instance that feeds others: the point's outputs again, so no connection lags a step
-    # (the row at t keeps the values recorded at the end of the step, as FMPy records them)
-    refresh = signals is not None and any(c.source.split(".", 1)[0] in signals.instances for c in m.connections)
-    steps = 0
-    t_ns = start_ns
-    bar = _progress(stop_ns - start_ns, opts.progress)
     error = ""
     err_obj: Exception | None = None
     interrupted = False
     bad_input = False
-    suspect = ""
-    detector = _detector(m, opts.divergence) if opts.divergence is not None and m.bond_labels else None
+    # (a row at t keeps the values recorded at the end of the step, as FMPy records them)
+    observers = [Recording(rec, start_ns, stop_ns, None if sample_ns == step_ns else sample_ns)]
+    watch = DivergenceWatch(m, opts.divergence) if opts.divergence is not None and m.bond_labels else None
+    if watch is not None:
+        observers.append(watch)
+    observers += list(opts.observers)
+    observers.append(ProgressBar(stop_ns - start_ns, opts.progress))
     init_time = math.nan  # the initialisation's share of wall_time (NaN: it did not finish)
     try:
         m.initialize(start_ns, stop_ns, tolerance, params)
         init_time = _time.perf_counter() - wall
-        rec.record(start_ns / NS)
-        if detector is not None:
-            detector.times[0] = start_ns / NS  # its first block boundary: the start of the run
-        h_ns = step_ns
-        shown = start_ns
-        while t_ns < stop_ns:
-            t_prev = t_ns
-            if signals is not None:
-                signals.apply(t_ns)
-                if refresh:
-                    m.refresh(t_ns / NS)
-                if t_ns in signals.step_times:  # an event: no coupling signal is extrapolated across it,
-                    m.history.restart()          # the step control restarts, the divergence detector is told
-                    if controller.variable:
-                        controller.restart()
-                        h_ns = step_ns
-                    if detector is not None and t_ns > start_ns:
-                        detector.event(t_ns / NS, m.bond_log)
-            # a variable step lands on each row time of the input table (a step, a ramp's corner)
-            event_ns = signals.next_time(t_ns) if signals is not None and controller.variable else None
-            t_ns, h_ns = controller.advance(m, t_ns, h_ns, stop_ns if event_ns is None else min(stop_ns, event_ns))
-            steps += 1
-            if sample_ns == step_ns or (t_ns - start_ns) % sample_ns == 0 or t_ns >= stop_ns:
-                rec.record(t_ns / NS)
-            if detector is not None:
-                detector.update(t_ns / NS, m.bond_log, (t_ns - t_prev) / NS)
-            if bar is not None and (steps & 63) == 0:
-                bar.update((t_ns - shown) / NS)
-                shown = t_ns
-        if detector is not None:
-            suspect = detector.finish(t_ns / NS)
+        m.run(controller, stop_ns, observers, inputs=signals)
     except (FMUError, SimulationError, ConvergenceError) as e:
         error = str(e).splitlines()[0] if str(e) else type(e).__name__
         err_obj = e
@@ -530,10 +490,8 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
     except KeyboardInterrupt as e:
         interrupted, how = interruption(e)
         error = f"{how} at t = {rec.time[rec.rows - 1] if rec.rows else 0.0:.9g} s"
-    finally:
-        if bar is not None:
-            bar.close()
-    info.update(steps=steps, wall_time=_time.perf_counter() - wall, init_time=init_time,
+    suspect = watch.suspect if watch is not None else ""
+    info.update(steps=m.steps, wall_time=_time.perf_counter() - wall, init_time=init_time,
                 cpu_time=_time.process_time() - cpu,
                 iterations=m.iterations,
                 fmu_steps=m.fmu_steps, halved_steps=m.halvings,

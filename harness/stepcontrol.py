@@ -2,7 +2,8 @@
 
 Each strategy implements ``advance(master, t_ns, h_ns, stop_ns) -> (t_new_ns, h_next_ns)``: take one
 ACCEPTED communication step from ``t_ns`` (possibly after rejected attempts rolled back with FMU state) and
-propose the next step.  Times are integer nanoseconds.
+propose the next step; its ``step_ns`` is the first step.  Times are integer nanoseconds.  It is called by the
+one run loop, :meth:`harness.masters.Master.run`, and takes steps only through ``master.step``.
 
 ``FixedStep`` (default)   every step the same (the last one shortened to land on the stop time).
 ``StepDoubling``          Richardson extrapolation error estimate as in PyFMI's Master: one step of h and two
@@ -26,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.errors import SimulationError, StepDiscarded, SystemError_
+from harness.errors import SimulationError, StepDiscarded, SystemDescriptionError
 
 from harness.clock import NS
 
@@ -72,6 +73,7 @@ class _Variable:
     defaults: dict = {}
 
     def __init__(self, step_ns: int, tolerance=None, options: StepOptions | None = None, order: int = 1):
+        self.step_ns = step_ns  # the first step proposed
         o = options or StepOptions()
         d = self.defaults
         self.min_ns = _ns(o.min_step) if o.min_step is not None else max(2, step_ns // 1000)
@@ -86,9 +88,9 @@ class _Variable:
         for name in ("rtol", "atol", "safety", "min_factor", "max_factor"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and value > 0 and math.isfinite(value)):
-                raise SystemError_(f"step control {self.name}: {name} = {value!r} must be > 0")
+                raise SystemDescriptionError(f"step control {self.name}: {name} = {value!r} must be > 0")
         if not self.min_ns <= self.max_ns:
-            raise SystemError_(f"step control {self.name}: min_step = {self.min_ns / NS:g} s exceeds "
+            raise SystemDescriptionError(f"step control {self.name}: min_step = {self.min_ns / NS:g} s exceeds "
                                f"max_step = {self.max_ns / NS:g} s")
         self.accepted = 0
         self.rejected = 0
@@ -188,17 +190,17 @@ def step_control(name, master, step_ns: int, tolerance=None, options: StepOption
     """The step-control strategy ``name`` for ``master`` (capabilities of its FMUs checked)."""
     key = "none" if name is None else str(name).strip().lower()
     if key not in STEP_CONTROLS:
-        raise SystemError_(f"step_control = {name!r} is not admissible: must be one of none, richardson, ecco")
+        raise SystemDescriptionError(f"step_control = {name!r} is not admissible: must be one of none, richardson, ecco")
     cls = STEP_CONTROLS[key]
     if cls.variable:
         for it in master.insts:
             if not it.fmu.can_vary_step:
-                raise SystemError_(f"step_control = {key!r} needs variable communication steps, but instance "
+                raise SystemDescriptionError(f"step_control = {key!r} needs variable communication steps, but instance "
                                    f"{it.name} does not declare canHandleVariableCommunicationStepSize")
             if cls.needs_state and not it.fmu.can_get_set_state:
-                raise SystemError_(f"step_control = {key!r} needs rollback, but instance {it.name} does not "
+                raise SystemDescriptionError(f"step_control = {key!r} needs rollback, but instance {it.name} does not "
                                    f"declare canGetAndSetFMUstate")
         if key == "ecco" and not master.bond_labels:
-            raise SystemError_("step_control = 'ecco' needs at least one power bond in the system")
+            raise SystemDescriptionError("step_control = 'ecco' needs at least one power bond in the system")
     order = 2 if master.extrapolation.order >= 1 else 1
     return cls(step_ns, tolerance, options, order)

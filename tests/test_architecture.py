@@ -18,6 +18,7 @@ LAYERS = [
     (2, ("harness.errors", "harness.clock", "harness.fmi")),      # FMI layer
     (3, ("harness.specs", "harness.model", "harness.graph", "harness.extrapolation", "harness.stepcontrol",
          "harness.coupling", "harness.iteration", "harness.jacobian", "harness.masters", "harness.results",
+         "harness.observers",
          "harness.qoi")),                                         # system model and masters
     (4, ("harness", "harness.run", "harness.signals", "harness.ssp", "harness.charts",   # run / ssp (lazy API)
          "harness.htmlreport",                                    # the HTML report's page and a run's sections

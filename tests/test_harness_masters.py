@@ -179,3 +179,21 @@ def test_bond_energy_follows_its_definition_and_sign(fmu_dir):
     e = 0.5 * JA * w ** 2 + 0.5 * JB * df["b.w"].values ** 2 + 0.5 * C * (df["a.flange.phi"].values - df["b.phi"].values) ** 2
     assert be["energy_error"].iloc[-1] > 0 and e[-1] - e[0] > 0
     assert 0.3 < be["energy_error"].iloc[-1] / (e[-1] - e[0]) < 3.0
+
+
+@pytest.mark.parametrize("master, order", [("jacobi", 0), ("jacobi", 1), ("jacobi-sampled", 1), ("iterative", 1)])
+def test_held_inputs_in_floats_equal_the_arrays(master, order, monkeypatch):
+    """The held inputs' fast path in plain floats (Master._hold_all_floats) gives the array path's values bit for
+    bit: the same run with the arrays only is the same result (and the fast path was taken)."""
+    from harness.masters import Master
+    from harness.run import load
+
+    calls = []
+    fast = Master._hold_all_floats
+    monkeypatch.setattr(Master, "_hold_all_floats", lambda self, t, h: (calls.append(t), fast(self, t, h)))
+    kw = dict(stop_time=0.2, step=1e-3, master=master, extrapolation=order)
+    ref = simulate(load("two_inertia"), **kw)
+    assert calls, "the fast path was not taken"
+    monkeypatch.setattr(Master, "_hold_all_floats", Master._hold_all_arrays)
+    arrays = simulate(load("two_inertia"), **kw)
+    assert np.array_equal(ref.values, arrays.values)

@@ -1,24 +1,4 @@
-"""SSP 1.0 export and import (System Structure and Parameterization).
-
-Export (``python -m harness export X OUT.ssp``) writes ``SystemStructure.ssd`` with
-
-* one ``ssd:Component`` per instance (``source="resources/<Model>.fmu"``), its connectors typed and with
-  units (the inputs a connection drives, the outputs and the parameters it sets), and its parameter values
-  inline as an ``ssv:ParameterSet`` named ``default`` (Ecos applies it with ``init(parameter_set="default")``;
-  libcosim applies inline values on load), with each connected input's consistent start value
-  (:func:`consistent_inputs`);
-* every connection (power bonds expanded into their member variables: SSP 1.0 has no terminals, an
-  ``ssd:Connector`` is one variable, so the FMI 3.0 FMUs' flange terminals are not named in the .ssd; a host
-  that reads terminals finds them in the FMUs), with ``ssc:LinearTransformation`` where one is declared and
-  ``ssc:IntegerMappingTransformation`` / ``ssc:BooleanMappingTransformation`` for a value mapping;
-* the units used, a ``DefaultExperiment`` carrying the OSP ``FixedStepAlgorithm`` annotation so libcosim takes
-  the step at which its algorithm meets the drive's accuracy (:func:`host_step`), and a ``org.pressdrive``
-  annotation that keeps what SSP cannot say (power bonds, master, extrapolation, the harness's own step) so
-  that export -> import is a lossless round trip;
-
-and packs the FMUs into ``resources/``.
-
-Import (:func:`load_ssp`) reads SSP written by any tool: components with ``source`` relative to the
+"""SSP 1.0 import: reads SSP written by any tool: components with ``source`` relative to the
 archive (or the .ssd's folder), inline and referenced (``.ssv``) parameter values on components or on the
 system (``Component.parameter`` names; a binding's ``prefix`` is prepended to the names of its source, as
 the SSP 1.0 schema says; ``sourceBase="component"`` reads the .ssv from inside the component's FMU, as
@@ -41,8 +21,7 @@ SystemStructure.ssd; a DefaultExperiment's startTime is the run's start.  Anythi
 meaning of the system (signal dictionaries, non-FMU components, inputs of the whole system) is refused with
 one line naming the element and the file.
 
-The module is over 600 lines: it writes and reads one format, and keeps both sides together so that every
-element the export writes is one the import reads back (the round trip the tests hold equal).
+(About 600 lines: one reader of the whole .ssd and its .ssv/.ssm files, whose checks share one message form.)
 """
 from __future__ import annotations
 
@@ -51,237 +30,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from fmus.units import BASE_UNITS
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 from harness.fmi.cache import model_exchange_only, terminals, unzipped
-from harness.model import Bond, Connection, Experiment, Instance, System, model_description, resolve_fmu
-from harness.ssp_values import NS, VALUE_TABLES, Mapping, Quantity, Unit, _q, units, value_table
-
-for _prefix, _uri in NS.items():
-    ET.register_namespace(_prefix, _uri)
-
-OSP_ANNOTATION = "com.opensimulationplatform"
-OWN_ANNOTATION = "org.pressdrive"
-FMU_TYPE = "application/x-fmu-sharedlibrary"
-PARAMETER_SET = "default"
-PARAMETER_SET_TYPE = "application/x-ssp-parameter-set"
-PARAMETER_MAPPING_TYPE = "application/x-ssp-parameter-mapping"
-
-
-def _num(value) -> str:
-    return repr(float(value)) if isinstance(value, float) else str(value)
-
-
-# --------------------------------------------------------------------------------------------------------
-# export
-# --------------------------------------------------------------------------------------------------------
-def export_ssp(system: System, out: str | Path) -> Path:
-    """Write ``system`` as an SSP archive at ``out`` (FMUs included) and return its path."""
-    out = Path(out)
-    if out.suffix.lower() != ".ssp":
-        raise SystemError_(f"{out}: an SSP archive must end in .ssp")
-    from harness.results import check_writable
-    from harness.ssp_start_values import copy_with_start_values
-
-    check_writable(out, "export")   # one line before the work for a place that cannot be written
-    fmu_paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
-    starts = consistent_inputs(system)
-    # each instance of a toolkit FMU gets a copy that starts from the instance's values by itself, for hosts
-    # that apply no parameter binding (FMPy's simulate_ssp): harness.ssp_start_values
-    sources, packed = {}, {}
-    for inst in system.instances:
-        p = fmu_paths[inst.name]
-        copy = copy_with_start_values(p, inst.name, {**inst.parameters, **starts.get(inst.name, {})})
-        if copy is None:
-            sources[inst.name] = f"resources/{p.name}"
-            packed[sources[inst.name]] = p
-        else:
-            sources[inst.name] = f"resources/{p.stem}_{inst.name}.fmu"
-            packed[sources[inst.name]] = copy
-    ssd = build_ssd(system, sources, starts)
-    tmp = out.with_suffix(".ssp.part")
-    try:
-        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("SystemStructure.ssd", ET.tostring(ssd, encoding="utf-8", xml_declaration=True))
-            for name, content in sorted(packed.items()):
-                if isinstance(content, bytes):
-                    z.writestr(name, content)
-                else:
-                    z.write(content, name)
-        tmp.replace(out)
-    except OSError as e:   # e.g. the disk full, the folder gone meanwhile
-        tmp.unlink(missing_ok=True)
-        raise SystemError_(f"export {out}: cannot write: {e.strerror or e}") from None
-    return out
-
-
-def consistent_inputs(system: System) -> dict[str, dict]:
-    """Instance -> {input: value} of every connected input at the start of the default experiment, as the
-    harness initialises the system (:meth:`harness.masters.Master.initialize`: the outputs in initialization
-    mode, each input from its source through the connection's transformation).
-
-    The export binds them as the inputs' start values, because a host need not set inputs before
-    initialization: FMPy's ``simulate_ssp`` sets none (only a parameter set), and an FMU that takes a state
-    from an input (a motor's rotor angle from its pulley's, a four-bar's rocker from its crank) then starts
-    from the input's FMU default, 0: the exported bed drive in FMPy had its bed 0.19 m off at 0.3 s, 2.6 mm
-    with these start values (issue 35)."""
-    from harness.clock import NS as NS_PER_S
-    from harness.fmi import open_instance, release
-    from harness.masters import master_class
-
-    paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
-    mds = {name: model_description(p) for name, p in paths.items()}
-    exp = system.experiment
-    start = float(exp.start_time) if exp is not None else 0.0
-    fmus: dict = {}
-    m = None
-    try:
-        for inst in system.instances:
-            fmus[inst.name] = open_instance(paths[inst.name], inst.name, logging_on=False)
-        m = master_class(exp.master if exp is not None else "jacobi")(fmus, system.all_connections(mds),
-                                                                      system.bonds)
-        m.initialize(int(round(start * NS_PER_S)), None, None, {i.name: dict(i.parameters) for i in system.instances})
-        out: dict[str, dict] = {}
-        for c in system.all_connections(mds):
-            inst, var = c.target.split(".", 1)
-            out.setdefault(inst, {})[var] = fmus[inst].get_value(var)
-        return out
-    finally:
-        release(m, fmus)
-
-
-def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] | None = None) -> ET.Element:
-    """The SystemStructure.ssd element tree of a system (``sources``: instance -> FMU path in the archive;
-    ``starts``: instance -> {input: start value}, bound with the instance's parameters: :func:`consistent_inputs`)."""
-    root = ET.Element(_q("ssd:SystemStructureDescription"), {"version": "1.0", "name": system.name})
-    sys_el = ET.SubElement(root, _q("ssd:System"), {"name": system.name})
-    if system.description:
-        sys_el.set("description", system.description.strip().splitlines()[0])
-    elements = ET.SubElement(sys_el, _q("ssd:Elements"))
-    connections = system.all_connections()
-    driven = {c.target for c in connections}
-    used_units: set[str] = set()
-    for inst in system.instances:
-        md = model_description(resolve_fmu(inst.fmu))
-        comp = ET.SubElement(elements, _q("ssd:Component"),
-                             {"name": inst.name, "type": FMU_TYPE, "source": sources[inst.name]})
-        conns = ET.SubElement(comp, _q("ssd:Connectors"))
-        variables = {v.name: v for v in md.modelVariables}
-        for v in md.modelVariables:
-            # an input no connection drives is no connector (unless a value is bound to it): FMPy's simulate_ssp
-            # (0.3.x get_connections) wires a declared input without a connection to the source of the input
-            # declared before it; the trimmer's unused take-off aux.tau took the cutting torque and doubled the
-            # shaft's torque (issue 35)
-            if (v.causality == "output" or v.name in inst.parameters
-                    or (v.causality == "input" and f"{inst.name}.{v.name}" in driven)):
-                c = ET.SubElement(conns, _q("ssd:Connector"), {"name": v.name, "kind": v.causality})
-                attrs = {}
-                if v.type == "Real" and v.unit:
-                    attrs["unit"] = v.unit
-                    used_units.add(v.unit)
-                ET.SubElement(c, _q(f"ssc:{v.type}"), attrs)
-        # OMSimulator 3.0 reads a bound name that begins with its component's name as a path from the system
-        # (component knife, input knife.phi: "Unknown signal model.root.knife.phi", and the process dies): such
-        # an input is not bound, it starts from its FMU's start value
-        start = {k: v for k, v in (starts or {}).get(inst.name, {}).items() if not k.startswith(f"{inst.name}.")}
-        bound = {**inst.parameters, **start}
-        if bound:
-            bindings = ET.SubElement(comp, _q("ssd:ParameterBindings"))
-            binding = ET.SubElement(bindings, _q("ssd:ParameterBinding"))
-            values = ET.SubElement(binding, _q("ssd:ParameterValues"))
-            pset = ET.SubElement(values, _q("ssv:ParameterSet"), {"version": "1.0", "name": PARAMETER_SET})
-            params = ET.SubElement(pset, _q("ssv:Parameters"))
-            for name, value in bound.items():
-                if name not in variables:
-                    raise SystemError_(f"instance {inst.name}: FMU {md.modelName} has no parameter {name}")
-                v = variables[name]
-                p = ET.SubElement(params, _q("ssv:Parameter"), {"name": name})
-                if v.type == "Boolean":
-                    attrs = {"value": "true" if value else "false"}
-                elif v.type == "String":
-                    attrs = {"value": str(value)}
-                else:
-                    attrs = {"value": _num(float(value) if v.type == "Real" else int(value))}
-                if v.type == "Real" and v.unit:
-                    attrs["unit"] = v.unit
-                ET.SubElement(p, _q(f"ssv:{v.type}"), attrs)
-    # SSP 1.0's schema wants at least one ssd:Connection in ssd:Connections: a system of one FMU has none
-    conn_el = ET.SubElement(sys_el, _q("ssd:Connections")) if connections else None
-    for c in connections:
-        src_inst, src_var = c.source.split(".", 1)
-        dst_inst, dst_var = c.target.split(".", 1)
-        e = ET.SubElement(conn_el, _q("ssd:Connection"), {"startElement": src_inst, "startConnector": src_var,
-                                                          "endElement": dst_inst, "endConnector": dst_var})
-        if c.factor != 1.0 or c.offset != 0.0:
-            ET.SubElement(e, _q("ssc:LinearTransformation"), {"factor": _num(float(c.factor)),
-                                                              "offset": _num(float(c.offset))})
-        if c.mapping is not None:   # an Integer/Enumeration or Boolean connection's value table
-            _value_table(e, c.mapping, _variable_type(system, c.source) == "Boolean")
-    # SSP 1.0 allows exactly one child element per ssc:Annotation: everything of ours goes into pd:Drive
-    own = ET.SubElement(_annotation(sys_el, OWN_ANNOTATION), _q("pd:Drive"))
-    bonds_el = ET.SubElement(own, _q("pd:Bonds"))
-    for b in system.bonds:
-        kind = "true" if system._bond_is_translational(b, None) else "false"
-        ET.SubElement(bonds_el, _q("pd:Bond"), {"motionOut": b.motion_out, "motionIn": b.motion_in,
-                                                 "translational": kind})
-    conv = ET.SubElement(own, _q("pd:UnitConversions"))
-    for c in system.connections:
-        if c.unit_conversion:
-            ET.SubElement(conv, _q("pd:Conversion"), {"source": c.source, "target": c.target})
-    if system.free_inputs:   # inputs unconnected on purpose, with the reason: no warning in the imported drive
-        free = ET.SubElement(own, _q("pd:FreeInputs"))
-        for ref, why in system.free_inputs.items():
-            ET.SubElement(free, _q("pd:FreeInput"), {"name": ref, "reason": why})
-    exp = system.experiment
-    if exp is not None:
-        ET.SubElement(own, _q("pd:Experiment"), {k: str(v) for k, v in (
-            ("master", exp.master), ("extrapolation", exp.extrapolation), ("stepControl", exp.step_control),
-            ("tolerance", exp.tolerance), ("step", _num(float(exp.step)) if exp.step else None)) if v is not None})
-    units_el = ET.SubElement(root, _q("ssd:Units"))
-    for name in sorted(used_units):
-        u = ET.SubElement(units_el, _q("ssc:Unit"), {"name": name})
-        ET.SubElement(u, _q("ssc:BaseUnit"), {k: str(e) for k, e in BASE_UNITS.get(name, {}).items()})
-    if exp is not None:
-        de = ET.SubElement(root, _q("ssd:DefaultExperiment"), {"startTime": _num(float(exp.start_time)),
-                                                               "stopTime": _num(float(exp.stop_time))})
-        osp = _annotation(de, OSP_ANNOTATION)
-        algorithm = ET.SubElement(osp, _q("osp:Algorithm"))
-        ET.SubElement(algorithm, _q("osp:FixedStepAlgorithm"), {"baseStepSize": _num(host_step(system))})
-    return root
-
-
-def _variable_type(system: System, ref: str) -> str:
-    inst, var = ref.split(".", 1)
-    md = model_description(resolve_fmu(system.instance(inst).fmu))
-    return next(v.type for v in md.modelVariables if v.name == var)
-
-
-def _value_table(parent: ET.Element, table: dict, boolean: bool) -> None:
-    """``table`` as SSP 1.0 writes it: ssc:BooleanMappingTransformation or ssc:IntegerMappingTransformation."""
-    def text(x) -> str:
-        return ("true" if x else "false") if boolean else str(int(x))
-
-    el = ET.SubElement(parent, _q(f"ssc:{'Boolean' if boolean else 'Integer'}MappingTransformation"))
-    for k, v in table.items():
-        ET.SubElement(el, _q("ssc:MapEntry"), {"source": text(k), "target": text(v)})
-
-
-def host_step(system: System) -> float:
-    """The step the SSP declares to other hosts (the OSP annotation): the drive's ``sampled_host_step`` where it
-    declares one below its experiment's step -- libcosim, Ecos and FMPy read outputs right after each step and
-    hold them, and need a smaller step than the harness's own master to meet the drive's accuracy (issue 35) --
-    else the experiment's step.  The harness's own step goes in the ``pd:Experiment`` annotation."""
-    step = float(system.experiment.step)
-    accuracy = getattr(system, "accuracy", None)
-    sampled = getattr(accuracy, "sampled_host_step", None)
-    return min(step, float(sampled)) if sampled else step
-
-
-def _annotation(parent: ET.Element, kind: str) -> ET.Element:
-    anns = parent.find(_q("ssd:Annotations"))
-    if anns is None:
-        anns = ET.SubElement(parent, _q("ssd:Annotations"))
-    return ET.SubElement(anns, _q("ssc:Annotation"), {"type": kind})
+from harness.model import Bond, Connection, Experiment, Instance, System, model_description
+from harness.ssp.format import FMU_TYPE, OWN_ANNOTATION, PARAMETER_MAPPING_TYPE, PARAMETER_SET_TYPE
+from harness.ssp_values import VALUE_TABLES, Mapping, Quantity, Unit, _q, units, value_table
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -292,7 +45,7 @@ def _unpack(path: Path) -> Path:
     try:
         return unzipped(path, "_ssp")
     except zipfile.BadZipFile as e:
-        raise SystemError_(f"{path}: not an SSP archive ({e})") from None
+        raise SystemDescriptionError(f"{path}: not an SSP archive ({e})") from None
 
 
 def load_ssp(path: str | Path) -> System:
@@ -300,26 +53,26 @@ def load_ssp(path: str | Path) -> System:
     into a System."""
     path = Path(path)
     if not path.exists():
-        raise SystemError_(f"{path}: no such file")
+        raise SystemDescriptionError(f"{path}: no such file")
     archive = None
     if path.is_dir():
         ssd_path, root_dir = path / "SystemStructure.ssd", path
         if not ssd_path.is_file():
-            raise SystemError_(f"{path}: a folder given as an SSP must hold SystemStructure.ssd (it does not)")
+            raise SystemDescriptionError(f"{path}: a folder given as an SSP must hold SystemStructure.ssd (it does not)")
     elif path.suffix.lower() == ".ssp":
         root_dir, archive = _unpack(path), path
         ssd_path = root_dir / "SystemStructure.ssd"
         if not ssd_path.exists():
-            raise SystemError_(f"{path}: the archive has no SystemStructure.ssd")
+            raise SystemDescriptionError(f"{path}: the archive has no SystemStructure.ssd")
     elif path.suffix.lower() == ".ssd":
         ssd_path, root_dir = path, path.parent
     else:
-        raise SystemError_(f"{path}: expected an .ssp or .ssd file")
+        raise SystemDescriptionError(f"{path}: expected an .ssp or .ssd file")
     reader = _Reader(ssd_path, root_dir, archive)
     try:
         tree = ET.parse(ssd_path)
     except (ET.ParseError, LookupError, ValueError) as e:  # also a declared encoding Python lacks
-        raise SystemError_(f"{reader.label(ssd_path)}: not well-formed XML ({e})") from None
+        raise SystemDescriptionError(f"{reader.label(ssd_path)}: not well-formed XML ({e})") from None
     return reader.system(tree.getroot())
 
 
@@ -393,8 +146,8 @@ class _Reader:
                 pass
         return str(path)
 
-    def fail(self, what: str) -> SystemError_:
-        return SystemError_(f"{self.label(self.ssd_path)}: {what}")
+    def fail(self, what: str) -> SystemDescriptionError:
+        return SystemDescriptionError(f"{self.label(self.ssd_path)}: {what}")
 
     def system(self, root: ET.Element) -> System:
         if root.tag != _q("ssd:SystemStructureDescription"):
@@ -609,7 +362,7 @@ class _Reader:
         if implementation == "ModelExchange":  # run through its ME interface (harness.fmi.me), not as CS
             try:
                 fmu = model_exchange_only(fmu)
-            except SystemError_ as e:
+            except SystemDescriptionError as e:
                 raise self.fail(f"component '{name}': implementation='ModelExchange', but {e}") from None
         inst = Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'", fmu))
         inst.parameters = {k: self.convert(v, inst, k) for k, v in inst.parameters.items()}
@@ -650,16 +403,16 @@ class _Reader:
         what = (f"{value.where}: component '{inst.name}', parameter '{pname}' = {value.value!r} {value.unit}")
         if target is None:
             if src is not None and src.scaled:
-                raise SystemError_(f"{what}: the FMU's variable declares no unit, and {value.unit} is a scaled "
+                raise SystemDescriptionError(f"{what}: the FMU's variable declares no unit, and {value.unit} is a scaled "
                                    f"unit (factor {src.factor!r}, offset {src.offset!r}): cannot apply it")
             return value.value
         dst = fmu_units.get(target) or self.units.get(target)
         if src is None or dst is None:
             missing = value.unit if src is None else target
-            raise SystemError_(f"{what}: the FMU's variable is in {target}, and {missing} has no unit definition "
+            raise SystemDescriptionError(f"{what}: the FMU's variable is in {target}, and {missing} has no unit definition "
                                f"(ssc:Unit / UnitDefinitions) to convert with")
         if src.exponents != dst.exponents:
-            raise SystemError_(f"{what}: the FMU's variable is in {target}; {value.unit} ({src.dimension()}) "
+            raise SystemDescriptionError(f"{what}: the FMU's variable is in {target}; {value.unit} ({src.dimension()}) "
                                f"and {target} ({dst.dimension()}) are not the same quantity")
         return (src.factor * value.value + src.offset - dst.offset) / dst.factor
 
@@ -701,9 +454,9 @@ class _Reader:
                 try:
                     pset = ET.fromstring(text)
                 except (ET.ParseError, LookupError, ValueError) as e:  # also a declared encoding Python lacks
-                    raise SystemError_(f"{p}: not well-formed XML ({e})") from None
+                    raise SystemDescriptionError(f"{p}: not well-formed XML ({e})") from None
                 if pset.tag != _q("ssv:ParameterSet"):
-                    raise SystemError_(f"{p}: root element is <{pset.tag}>, not ssv:ParameterSet "
+                    raise SystemDescriptionError(f"{p}: root element is <{pset.tag}>, not ssv:ParameterSet "
                                        f"(referenced by a ParameterBinding of {owner})")
             elif inline is not None:
                 pset = inline.find(_q("ssv:ParameterSet"))
@@ -736,13 +489,13 @@ class _Reader:
             try:
                 root = ET.fromstring(text)
             except (ET.ParseError, LookupError, ValueError) as e:  # also a declared encoding Python lacks
-                raise SystemError_(f"{where}: not well-formed XML ({e})") from None
+                raise SystemDescriptionError(f"{where}: not well-formed XML ({e})") from None
         else:
             where, root = self.label(self.ssd_path), el.find(_q("ssm:ParameterMapping"))
             if root is None:
                 raise self.fail(f"{owner}: ssd:ParameterMapping has neither a source nor an ssm:ParameterMapping")
         if root.tag != _q("ssm:ParameterMapping"):
-            raise SystemError_(f"{where}: root element is <{root.tag}>, not ssm:ParameterMapping "
+            raise SystemDescriptionError(f"{where}: root element is <{root.tag}>, not ssm:ParameterMapping "
                                f"(referenced by a ParameterBinding of {owner})")
         return Mapping(root, f"{where} ({owner})")
 
@@ -946,43 +699,3 @@ class _Reader:
                           master=extra.get("master", "jacobi"), extrapolation=int(extra.get("extrapolation", 0)),
                           step_control=extra.get("stepControl"),
                           tolerance=float(extra["tolerance"]) if "tolerance" in extra else None, start_time=start)
-
-
-# --------------------------------------------------------------------------------------------------------
-# CLI
-# --------------------------------------------------------------------------------------------------------
-def register(subparsers) -> None:
-    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included) or as one "
-                                             "co-simulation FMU (.fmu)",
-                              description="Write a system as an SSP 1.0 archive (OUT.ssp: its FMUs, their "
-                                          "connections and parameter values) for other FMI/SSP tools, or as one "
-                                          "co-simulation FMU of the whole drive (OUT.fmu: its FMUs inside, run by "
-                                          "the drive's own master and step in each fmi2DoStep) for tools that "
-                                          "import single FMUs.")
-    p.add_argument("system", help="system module name in systems/, or a .ssp/.ssd file")
-    p.add_argument("out", type=Path, help="output file: .ssp (SSP archive) or .fmu (one FMU of the drive)")
-    p.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
-                   help="FMI version of a drive FMU (.fmu): 2 (pythonfmu) or 3 (pythonfmu3); default 2")
-    p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
-                   help="an output the drive FMU offers (repeatable; default: the signals of the drive's chart "
-                        "and accuracy requirements)")
-    p.set_defaults(func=_run_export)
-
-
-def _run_export(args) -> int:
-    from harness import load
-
-    suffix = Path(args.out).suffix.lower()
-    if suffix == ".fmu":
-        from harness.drive_fmu import export_fmu
-
-        out = export_fmu(load(args.system), args.out, outputs=args.output, fmi_version=args.fmi_version)
-    elif suffix == ".ssp":
-        if args.output:
-            raise SystemError_(f"--output applies to a drive FMU (.fmu), not to {args.out}")
-        out = export_ssp(load(args.system), args.out)
-    else:
-        raise SystemError_(f"{args.out}: the export writes an .ssp (SSP archive) or an .fmu (one FMU of the "
-                           f"drive); got {suffix or 'no suffix'}")
-    print(f"wrote {out}")
-    return 0
