@@ -160,6 +160,9 @@ class System:
                      dict(i.parameters)) for i in self.instances])
 
     def bond_is_translational(self, b: Bond, model_descriptions: dict | None) -> bool:
+        """Whether bond ``b`` is translational (ports ``.s/.v/.f``) rather than rotational (``.phi/.w/.tau``):
+        as the bond declares, else from the variables of its motion side's FMU (``model_descriptions`` by
+        instance name, or read from the FMU file)."""
         if b.translational is not None:
             return b.translational
         inst, port = _split(b.motion_out, "bond port")
