@@ -144,6 +144,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     figures = select(args.names)
     if args.list:
+        print("Each command runs in a scratch folder; the files listed under it are then copied to docs/images/.")
         for f in figures:
             print(f"{f.name} ({f.cost}): {f.shown()}")
             for published, produced in f.files:
