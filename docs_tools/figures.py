@@ -60,7 +60,7 @@ FIGURES: tuple[Figure, ...] = (
                  "stability_bed_drive_fourbar_rocker_inertia.csv"), "35 s"),
     Figure("stability_two_inertia", "python -m harness study stability two_inertia --out {out}",
            _same("stability_two_inertia_inertia.png", "stability_two_inertia_inertia.svg",
-                 "stability_two_inertia_inertia.csv"), "a few minutes"),
+                 "stability_two_inertia_inertia.csv"), "2-3 min"),
     Figure("scene_bed_drive", "python -m harness scene bed_drive --out {out}",
            _same("scene_bed_drive_print_speed_ripple.png", "scene_bed_drive_print_speed_ripple.svg"), "1-2 min"),
     Figure("feeder_clearance", "python -m harness sweep feeder_gto52 --grid systems/studies/feeder_clearance.yaml "
