@@ -203,10 +203,13 @@ def test_the_pages_show_commands():
         assert command.startswith(("python ", "pressdrive ")), f"{page}: {command!r} is not a command this test runs"
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def scratch(tmp_path_factory):
     """A folder to run the pages' commands in: ``systems/`` and ``build_fmus.py`` linked from the tree, the
-    outputs (``results/``) kept out of it."""
+    outputs (``results/``) kept out of it.  One per session, not per module: under pytest-xdist a worker may run
+    another module's test between two of these, which would tear a module-scoped folder down and lose the
+    files a page's earlier command wrote.  (A page's commands run in order on one worker: the suite is
+    distributed by file, ``--dist loadfile``.)"""
     d = tmp_path_factory.mktemp("docs_commands")
     for name in ("systems", "build_fmus.py"):
         (d / name).symlink_to(ROOT / name)
@@ -263,7 +266,6 @@ def run_and_check(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
                                f"--- printed:\n{(out + err)[-3000:]}")
 
 
-@pytest.mark.xdist_group("docs_commands")        # one scratch folder: a page's later commands read earlier outputs
 @pytest.mark.parametrize("page, command, shown", ALL_EXAMPLES, ids=[f"{p}:{c[:60]}" for p, c, _ in ALL_EXAMPLES])
 def test_every_command_on_a_page_runs(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
     """``python -m harness`` commands run in this process through the command line's own ``main`` (a
@@ -275,7 +277,6 @@ def test_every_command_on_a_page_runs(page, command, shown, scratch, fmu_dir, mo
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("docs_commands")
 @pytest.mark.parametrize("page, command, shown", SLOW_EXAMPLES, ids=[f"{p}:{c[:60]}" for p, c, _ in SLOW_EXAMPLES])
 def test_every_slow_command_on_a_page_runs(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
     """The ``# slow`` commands, run and their shown output checked (``-m slow``)."""
