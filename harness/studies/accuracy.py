@@ -117,17 +117,7 @@ def search(system, methods=DEFAULT_METHODS, steps=DEFAULT_STEPS, progress=None) 
                 t = trial(system, stop_time=spec.stop_time, step=h, master=master, extrapolation=order)
                 checks = check(system, t.result, ref) if t.result is not None else [
                     Check(r.name, math.nan, r.tolerance, r.unit, False, t.error) for r in spec.requirements]
-                attrs = t.result.attrs if t.result is not None else {}
-                row = dict(master=master, order=order, step=h, complete=t.complete, wall_time=t.wall_time,
-                           fmu_steps=attrs.get("fmu_steps", math.nan),
-                           realtime=spec.stop_time / t.wall_time if t.complete else math.nan,
-                           meets=t.complete and all(c.ok for c in checks), error=t.error)
-                row.update({c.name: c.error for c in checks})
-                rows.append(row)
-                if progress:
-                    verdict = "meets" if row["meets"] else ("fails" if t.complete else f"stopped: {t.error}")
-                    progress(f"{master:12s} order {order} step {h:g} s: {verdict}; "
-                             + ", ".join(f"{c.name} {c.error:.3g}/{c.tolerance:g}" for c in checks))
+                rows.append(_row(dict(master=master, order=order, step=h), t, checks, spec.stop_time, progress))
     except KeyboardInterrupt as e:
         raise StudyInterrupted(pd.DataFrame(rows), e) from None
     return pd.DataFrame(rows)
@@ -210,21 +200,27 @@ def search_scenario(system, scenario, methods=DEFAULT_METHODS, steps=DEFAULT_STE
                     t.result.attrs["transient"] = transient(system, sc, t.result)
                 checks = check_scenario(system, sc, t.result, reference, ref_q) if t.result is not None else [
                     Check(r.name, math.nan, r.tolerance, r.unit, False, t.error) for r in sc.accuracy]
-                attrs = t.result.attrs if t.result is not None else {}
-                row = dict(scenario=sc.name, master=master, order=order, step=h, complete=t.complete,
-                           wall_time=t.wall_time, fmu_steps=attrs.get("fmu_steps", math.nan),
-                           realtime=sc.stop_time / t.wall_time if t.complete else math.nan,
-                           meets=t.complete and all(c.ok for c in checks), error=t.error)
-                row.update({c.name: c.error for c in checks})
-                rows.append(row)
-                if progress:
-                    verdict = "meets" if row["meets"] else ("fails" if t.complete else f"stopped: {t.error}")
-                    progress(f"{master:12s} order {order} step {h:g} s: {verdict}; "
-                             + ", ".join(f"{c.name} {c.error:.3g}/{c.tolerance:g}" for c in checks))
+                rows.append(_row(dict(scenario=sc.name, master=master, order=order, step=h), t, checks,
+                                 sc.stop_time, progress))
     except KeyboardInterrupt as e:
         raise StudyInterrupted(pd.DataFrame(rows), e) from None
     return pd.DataFrame(rows)
 
+
+
+def _row(key: dict, t, checks, stop_time: float, progress) -> dict:
+    """One row of a study's table: ``key`` (the method and step), the trial ``t``'s outcome and cost, and each
+    check's error; said through ``progress`` when given."""
+    attrs = t.result.attrs if t.result is not None else {}
+    row = dict(key, complete=t.complete, wall_time=t.wall_time, fmu_steps=attrs.get("fmu_steps", math.nan),
+               realtime=stop_time / t.wall_time if t.complete else math.nan,
+               meets=t.complete and all(c.ok for c in checks), error=t.error)
+    row.update({c.name: c.error for c in checks})
+    if progress:
+        verdict = "meets" if row["meets"] else ("fails" if t.complete else f"stopped: {t.error}")
+        progress(f"{key['master']:12s} order {key['order']} step {key['step']:g} s: {verdict}; "
+                 + ", ".join(f"{c.name} {c.error:.3g}/{c.tolerance:g}" for c in checks))
+    return row
 
 def cheapest(table: pd.DataFrame) -> pd.Series | None:
     """The row that meets every requirement with the fewest FMU steps (then the shortest wall time)."""
