@@ -24,6 +24,7 @@ from harness.masters import AssumptionWarning
 from harness.model import Connection, Experiment, Instance, System
 from harness.ssp import export_ssp
 from benchmarks import peers
+from foreign_builds import build_plain_lag
 
 HERE = Path(__file__).parent
 N_RING = 6
@@ -32,16 +33,7 @@ STOP, STEP = 2.0, 0.01
 
 @pytest.fixture(scope="session")
 def plain_lag_fmu(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("plain_fmu")
-    exe = Path(sys.executable).with_name("pythonfmu")
-    if not exe.is_file():
-        pytest.skip("pythonfmu command not installed")
-    r = subprocess.run([str(exe), "build", "-f", str(HERE / "foreign" / "plain_lag.py"), "-d", str(out)],
-                       capture_output=True, text=True)
-    fmu = out / "PlainLag.fmu"
-    if r.returncode != 0 or not fmu.is_file():
-        pytest.skip(f"pythonfmu build failed: {r.stderr.strip()[-300:]}")
-    return fmu
+    return build_plain_lag(tmp_path_factory.mktemp("plain_fmu"))
 
 
 def ring(fmu: Path, n: int = N_RING) -> System:

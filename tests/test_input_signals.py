@@ -19,6 +19,8 @@ from harness.masters import MASTERS
 from harness.model import Connection, Experiment, Instance, System
 from harness.signals import Signals
 
+from foreign_builds import build_plain_lag
+
 ROOT = Path(__file__).resolve().parents[1]
 H = 1e-2
 T_STEP = 0.5
@@ -233,8 +235,6 @@ def test_run_input_file_from_the_command_line(fmu_dir, tmp_path, monkeypatch, ca
 
 # -- declared ranges: the motor's supply and brake, and a foreign FMU's min/max ------------------------------------
 def test_the_motor_declares_its_inputs_ranges_and_an_out_of_range_signal_is_refused_in_one_line(tmp_path):
-    import sys
-
     from harness import load
     from harness.fmi.cache import model_description
     from harness.model import resolve_fmu
@@ -269,17 +269,9 @@ def test_the_motor_declares_its_inputs_ranges_and_an_out_of_range_signal_is_refu
 def test_a_foreign_fmus_declared_input_range_is_honoured(tmp_path):
     """A foreign FMU (plain pythonfmu, its modelDescription given min = -1, max = 1 on its input u): a signal
     inside runs, one outside is refused in one line naming the FMU, instance, variable, value and range."""
-    import sys
     import zipfile
 
-    exe = Path(sys.executable).with_name("pythonfmu")
-    if not exe.is_file():
-        pytest.skip("pythonfmu command not installed")
-    r = subprocess.run([str(exe), "build", "-f", str(Path(__file__).parent / "foreign" / "plain_lag.py"), "-d",
-                        str(tmp_path)], capture_output=True, text=True)
-    built = tmp_path / "PlainLag.fmu"
-    if r.returncode != 0 or not built.is_file():
-        pytest.skip(f"pythonfmu build failed: {r.stderr.strip()[-300:]}")
+    built = build_plain_lag(tmp_path)
     fmu = tmp_path / "RangedLag.fmu"
     with zipfile.ZipFile(built) as src, zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as dst:
         for item in src.infolist():
@@ -325,16 +317,7 @@ def test_a_tunable_parameter_changes_mid_run_through_set_real(tmp_path):
     """A foreign FMU's tunable parameter (plain pythonfmu's lag, k declared tunable) stepped at 1 s by a signal:
     set between communication steps and held, the lag follows explicit Euler with k before and after exactly;
     its fixed-parameter counterpart in our FMUs is refused (the Gain case above)."""
-    import sys
-
-    exe = Path(sys.executable).with_name("pythonfmu")
-    if not exe.is_file():
-        pytest.skip("pythonfmu command not installed")
-    r = subprocess.run([str(exe), "build", "-f", str(Path(__file__).parent / "foreign" / "plain_lag.py"), "-d",
-                        str(tmp_path)], capture_output=True, text=True)
-    fmu = tmp_path / "PlainLag.fmu"
-    if r.returncode != 0 or not fmu.is_file():
-        pytest.skip(f"pythonfmu build failed: {r.stderr.strip()[-300:]}")
+    fmu = build_plain_lag(tmp_path)
     h, t_e = 0.01, 1.0
     system = System("lag", [Instance("lag", str(fmu))], [], experiment=Experiment(stop_time=2.0, step=h))
     signal = pd.DataFrame({"time": [0.0, t_e, t_e, 2.0], "lag.u": [1.0] * 4, "lag.k": [-0.5, -0.5, 2.0, 2.0]})

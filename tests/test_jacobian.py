@@ -169,20 +169,12 @@ def test_a_contact_made_within_a_step_is_taken_in_halves():
 
 def test_fmus_without_state_support_are_refused_in_one_line(tmp_path):
     """The scheme takes each step twice: an FMU without fmi2Get/SetFMUstate is refused, named, in one line."""
-    import subprocess
-    import sys
-
     from harness.errors import SystemError_
     from harness.model import Connection, Experiment, Instance, System
 
-    exe = Path(sys.executable).with_name("pythonfmu")
-    if not exe.is_file():
-        pytest.skip("pythonfmu command not installed")
-    r = subprocess.run([str(exe), "build", "-f", str(HERE / "foreign" / "plain_lag.py"), "-d", str(tmp_path)],
-                       capture_output=True, text=True)
-    if r.returncode != 0:
-        pytest.skip(f"pythonfmu build failed: {r.stderr.strip()[-300:]}")
-    fmu = tmp_path / "PlainLag.fmu"
+    from foreign_builds import build_plain_lag
+
+    fmu = build_plain_lag(tmp_path)
     s = System("pair", [Instance("a", str(fmu)), Instance("b", str(fmu))],
                [Connection("a.y", "b.u"), Connection("b.y", "a.u")], experiment=Experiment(1.0, 0.1))
     with pytest.raises(SystemError_) as e:
