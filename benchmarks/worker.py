@@ -13,7 +13,11 @@ def main(argv: list[str] | None = None) -> int:
     from benchmarks import runners
 
     try:
-        if spec["tool"] == "sweep-overhead":
+        if spec["tool"] == "step-parts":
+            from benchmarks import step_parts
+
+            out = step_parts.measure(spec)
+        elif spec["tool"] == "sweep-overhead":
             out = runners.run_sweep_overhead(spec["case"], spec["quick"])
         elif spec["tool"] == "realtime":
             out = runners.run_realtime(spec["case"], spec["run"], spec["quick"], stand_in=spec.get("stand_in"))

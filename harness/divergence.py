@@ -143,7 +143,8 @@ class _WindowMax:
             while dq and not peaks[dq[-1]][j] > v:  # drop what v ties or beats: max() keeps the first largest
                 dq.pop()
             dq.append(i)
-        self.end = max(self.end, b)
+        if b > self.end:
+            self.end = b
         while dq and dq[0] < a:
             dq.popleft()
         return peaks[dq[0]][j] if dq and b > a else 0.0
@@ -222,7 +223,7 @@ class DivergenceDetector:
         self.peaks.append(peak)
         if self._cummax:
             prev, prev_all = self._cummax[-1], self._cummax_all[-1]
-            self._cummax.append([max(a, b) for a, b in zip(prev, peak)])
+            self._cummax.append([b if b > a else a for a, b in zip(prev, peak)])  # max(a, b), NaN alike
             self._cummax_all.append(max(prev_all, max(peak)))
         else:
             self._cummax.append(list(peak))
@@ -250,8 +251,9 @@ class DivergenceDetector:
                 if o.fast * first < last < first / o.rest and self._creates(j, nb):
                     self._flag(t, j, first, last, self.times[0], self.times[half], o.fast, nb)
         q2 = nb // 2
+        tail = self.peaks[nb - o.late:]
         for j in range(self.n if nb >= max(o.min_blocks, 4 * o.late) else 0):
-            late = max(p[j] for p in self.peaks[nb - o.late:])
+            late = max([p[j] for p in tail])
             early = max(self._cummax[q2 - 1][j], floor)
             if not o.growth * early < late < early / o.rest:  # false for NaN (the master's finite check names those)
                 continue
@@ -264,10 +266,12 @@ class DivergenceDetector:
             # zero-order hold moves energy through the bond with almost no error on it and still grows);
             # spin-ups and cuts saturate, a resonance under periodic forcing grows polynomially (power x2.25
             # at most from Q2 to Q3 for a linearly growing amplitude)
-            bounds = _quarters(nb)
+            (a2, b2), (a3, b3), (a4, b4) = _quarters(nb)
+            w2, w3, w4 = self._quarters
+            peaks = self.peaks
             scale = o.floor * self._cummax_all[-1]  # a bond near rest is not judged (cut onsets)
             for j in range(self.n):
-                p2, p3, p4 = (w[j].max(self.peaks, j, a, b) for w, (a, b) in zip(self._quarters, bounds))
+                p2, p3, p4 = w2[j].max(peaks, j, a2, b2), w3[j].max(peaks, j, a3, b3), w4[j].max(peaks, j, a4, b4)
                 if p2 < scale or p2 < o.quiet * self.nominal[j] or p3 <= 0.0:
                     continue  # near rest: on the run's scale, or on the bond's declared nominal power
                 r3, r4 = p3 / p2, p4 / p3
