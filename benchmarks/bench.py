@@ -275,7 +275,9 @@ def targets(rows: list[dict]) -> list[tuple[str, bool | None, str]]:
             out.append((what, None, "not measured"))
             continue
         best = min(measured, key=measured.get)
-        out.append((what, h < measured[best], f"fastest peer {best}: harness/{best} = {h / measured[best]:.2f}"))
+        out.append((what, h < measured[best], f"fastest peer {best}: harness/{best} = {h / measured[best]:.2f}"
+                    + ("; against Ecos by part in CPU time, with the floor: python -m benchmarks.step_parts"
+                       if best == "ecos" else "")))
     for r in rows:
         if r.get("kind") == "scene" and "realtime_factor" in r:
             out.append((f"{REALTIME_SYSTEM} default scene >= {SCENE_GOAL:g}x faster than real time ({r['mode']})",
