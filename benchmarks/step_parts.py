@@ -20,6 +20,9 @@ machine wall times measure the other processes too).  Per FMU step [us]:
   instead of the checked ones: its per-row cost stays), the held inputs and the exchange (the two
   computations per step that move values between FMUs), and what is left: the loop and the calls.
 
+``--fmi`` adds the harness calling every FMU through fmpy, ctypes and pythonfmu's C wrapper (as Ecos calls
+them) instead of in-process: the difference is what that call path costs per FMU step.
+
 The harness reaches Ecos's cost per FMU step when its calls-free part is at or below Ecos's: the FMUs'
 Python is the same work in both.  ``--profile`` adds ``cProfile`` of the harness's calls-free run (CPU time,
 the functions with the most own time), which says which part of the master remains.
@@ -37,6 +40,8 @@ from benchmarks.cases import CASES
 
 CASE_ORDER = ("ring", "plain_ring", "two_inertia", "feeder_gto52", "bed_drive", "spine_knife", "proof_press")
 VARIANTS = ("harness", "harness-free", "harness-free-nowatch", "harness-free-onecol", "ecos", "ecos-free")
+# with --fmi: the harness with every FMU called through its C library by fmpy/ctypes instead of in-process
+FMI_VARIANT = "harness-fmi"
 
 
 def _free_slave(slave) -> None:
@@ -78,7 +83,7 @@ def _harness_run(folder: Path, case, columns: list[str], variant: str) -> tuple[
     from harness.fmi.inprocess import InProcessFMU
 
     system = load(str(Path(folder) / "SystemStructure.ssd"))
-    options = RunOptions()
+    options = RunOptions(in_process=False) if variant == FMI_VARIANT else RunOptions()
     if not case.detector or variant.endswith("nowatch"):
         options = dataclasses.replace(options, divergence=None)
     output = columns[:1] if variant.endswith("onecol") else columns
@@ -227,7 +232,7 @@ def _launch(spec: dict, timeout: float) -> dict:
 
 
 def run_case(name: str, work: Path, quick: bool, repeats: int, profile: bool, timeout: float, rounds: int = 2,
-             log=print) -> dict:
+             fmi: bool = False, log=print) -> dict:
     """Every variant of case ``name``, in turn, each in its own pinned process, ``rounds`` times over:
     {variant: the result of the round with the least CPU time}."""
     from benchmarks.cases import check_columns, ssp_folder
@@ -240,7 +245,7 @@ def run_case(name: str, work: Path, quick: bool, repeats: int, profile: bool, ti
             "repeats": repeats, "quick": quick}
     out: dict[str, dict] = {}
     for k in range(rounds):
-        for variant in VARIANTS:
+        for variant in VARIANTS + ((FMI_VARIANT,) if fmi else ()):
             spec = dict(base, variant=variant, profile=profile and k == 0 and variant == "harness-free")
             r = _launch(spec, timeout)
             log(f"  {name:13s} round {k + 1} {variant:22s} " +
@@ -262,6 +267,8 @@ def parts(results: dict) -> dict:
         "watch": h0 - us["harness-free-nowatch"], "recording": h0 - us["harness-free-onecol"],
         # the harness's cost per FMU step if its own part were Ecos's, the FMUs' Python as measured in it
         "floor_ratio": (h - h0 + e0) / e,
+        # what calling the same FMUs through fmpy, ctypes and pythonfmu's C wrapper adds (NaN: not measured)
+        "fmi_path": us.get(FMI_VARIANT, math.nan) - h,
     }
 
 
@@ -302,6 +309,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=3, help="runs per process; the least CPU time counts")
     ap.add_argument("--rounds", type=int, default=2, help="every variant in turn, this many times; the least counts")
     ap.add_argument("--profile", action="store_true", help="cProfile the harness's calls-free run")
+    ap.add_argument("--fmi", action="store_true",
+                    help="also the harness calling every FMU through fmpy and its C library (not in-process)")
     ap.add_argument("--work", default="results/step_parts", help="folder for the exported SSPs")
     ap.add_argument("--json", help="also write the raw results to this file")
     ap.add_argument("--timeout", type=float, default=600.0)
@@ -315,7 +324,8 @@ def main(argv: list[str] | None = None) -> int:
     work.mkdir(parents=True, exist_ok=True)
     raw, rows = {}, {}
     for name in names:
-        raw[name] = run_case(name, work, args.quick, args.repeats, args.profile, args.timeout, args.rounds)
+        raw[name] = run_case(name, work, args.quick, args.repeats, args.profile, args.timeout, args.rounds,
+                             args.fmi)
         rows[name] = parts(raw[name])
         prof = raw[name]["harness-free"].get("profile")
         if prof:
@@ -327,6 +337,10 @@ def main(argv: list[str] | None = None) -> int:
                   "; ".join(f"{f} {100 * s:.0f} %" for f, s in prof["functions"]))
     print("\nCPU time per FMU step [us], pinned, least of the repeats (h: harness jacobi-sampled, E: Ecos):")
     print("\n".join(table(rows)))
+    for name, p in rows.items():
+        if math.isfinite(p["fmi_path"]):
+            print(f"  {name}: the same harness run calling its FMUs through fmpy, ctypes and the C wrapper costs "
+                  f"{p['fmi_path']:+.1f} us per FMU step more than in-process")
     print()
     for what, met, evidence in goal_lines(rows):
         print(f"[{'n/a ' if met is None else ('MET ' if met else 'MISS')}] {what}: {evidence}")
