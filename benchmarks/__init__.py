@@ -33,4 +33,7 @@ quiet one.
 Every tool is timed over the same scope here: its initialisation and stepping.  The time a user waits for
 at each drive's declared accuracy, each tool at its own step, in two scopes side by side (stepping alone;
 the whole process from start to exit, writing the same columns) and a sweep: ``python -m benchmarks.scopes``.
+Where the time goes, in CPU seconds: ``python -m benchmarks.step_parts`` (a co-simulation step in the harness and
+in Ecos, part by part, with the floor of their ratio) and ``python -m benchmarks.sweep_parts`` (a sweep in the
+harness's warm worker and in OMSimulator, part by part).
 """
