@@ -112,7 +112,7 @@ marks.append(("quantities table", T()))
 from harness.charts import plot_result
 with tempfile.TemporaryDirectory() as d:
     plot_result(system, df, d)
-marks.append(("charts (two figures, PNG and SVG)", T()))
+marks.append(("charts (two figures, PNG)", T()))
 out, prev = [], 0.0
 for name, t in marks:
     out.append((name, t - prev))

@@ -1,6 +1,6 @@
 """Charts of a result, drawn for a press engineer: Matplotlib, written as PNG and SVG.
 
-``run ... --plot DIR`` writes two figures (:func:`plot_result`):
+``run ... --plot DIR`` writes two figures (:func:`plot_result`), as PNG (and SVG with ``--svg``):
 
 * ``<system>.png``: the signals over time, one panel each, titled by the signal and its meaning with its
   unit ("Bed position s [m]"), with time ticks on every panel.  The parts of the machine cycle the system
@@ -29,17 +29,18 @@ _ZONE_COLOURS = ("#2ca02c", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b")
 DPI = 110   # of the run charts' PNGs, and of their figures: the layout's text measures are then the PNG's own
 
 
-def save_figure(fig, stem: str | Path, dpi: float | None = None) -> list[Path]:
+def save_figure(fig, stem: str | Path, dpi: float | None = None, svg: bool = True) -> list[Path]:
     """Write ``fig`` as ``<stem>.png`` and ``<stem>.svg`` (a ``.png``/``.svg`` suffix of ``stem`` is dropped
-    first; the folder is made), close it and return the two paths.  ``dpi``: of the PNG (None: matplotlib's
-    default); the SVG is vector.  The one figure saver of the toolkit (charts, studies, benchmarks)."""
+    first; the folder is made), close it and return the paths.  ``dpi``: of the PNG (None: matplotlib's
+    default); the SVG is vector.  ``svg=False``: the PNG only (each format is a full drawing of the figure).
+    The one figure saver of the toolkit (charts, studies, benchmarks)."""
     import sys
 
     stem = Path(stem)
     if stem.suffix.lower() in (".png", ".svg"):
         stem = stem.with_suffix("")
     stem.parent.mkdir(parents=True, exist_ok=True)
-    paths = [stem.with_name(stem.name + ".png"), stem.with_name(stem.name + ".svg")]
+    paths = [stem.with_name(stem.name + ext) for ext in ((".png", ".svg") if svg else (".png",))]
     for p in paths:
         fig.savefig(p, dpi=dpi if dpi is not None else "figure")
     if "matplotlib.pyplot" in sys.modules:      # a figure pyplot made (studies): pyplot lets it go
@@ -220,7 +221,7 @@ def _finish(fig, key_rows: int) -> None:
     fig.tight_layout(rect=(0.0, bottom, 1.0, 1.0 - 0.4 / fig.get_figheight()), h_pad=1.2)
 
 
-def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[Path]:
+def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path, svg: bool) -> list[Path]:
     fig, axes = _figure(len(panels))
     t = df.index.to_numpy(dtype=float)
     units = df.attrs.get("units") or {}
@@ -257,7 +258,7 @@ def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[
     _key(fig, key)
     fig.suptitle(f"{system.name} over time: {_status(df)}", fontsize=9)
     _finish(fig, -(-len(key) // 3))
-    return save_figure(fig, out_dir / system.name, dpi=DPI)
+    return save_figure(fig, out_dir / system.name, dpi=DPI, svg=svg)
 
 
 def _startup(df: pd.DataFrame) -> float | None:
@@ -306,7 +307,7 @@ def _zone_key(zone_spans) -> list:
             for k, (label, spans) in enumerate(zone_spans) if spans]
 
 
-def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list[Path]:
+def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path, svg: bool) -> list[Path]:
     spec = system.chart
     panels = [p for p in panels if p.cycle]
     if spec is None or spec.crank_angle not in df.columns or not panels:
@@ -333,13 +334,15 @@ def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path) -> list
     fig.suptitle(f"{system.name}, one machine cycle: cycle {k + 1} (t = {t[0]:.3g} to {t[-1]:.3g} s), "
                  f"{_status(df)}", fontsize=9)
     _finish(fig, -(-len(key) // 3))
-    return save_figure(fig, out_dir / f"{system.name}_cycle", dpi=DPI)
+    return save_figure(fig, out_dir / f"{system.name}_cycle", dpi=DPI, svg=svg)
 
 
-def plot_result(system, df: pd.DataFrame, out_dir: str | Path) -> list[Path]:
-    """Write ``<out_dir>/<system>.png`` and ``.svg`` (over time) and, where the system declares its crank
-    angle and the run completed a revolution, ``<system>_cycle.png`` and ``.svg`` (over one machine cycle);
-    returns the paths, the time chart's first."""
+def plot_result(system, df: pd.DataFrame, out_dir: str | Path, svg: bool = False) -> list[Path]:
+    """Write ``<out_dir>/<system>.png`` (over time) and, where the system declares its crank angle and the run
+    completed a revolution, ``<system>_cycle.png`` (over one machine cycle); ``svg=True``: each also as
+    ``.svg`` (vector, for a document; a second full drawing of each figure, so not by default).  Returns the
+    paths, the time chart's first."""
     out_dir = Path(out_dir)
     panels, zones = _panels(system, df), _zones(system, df)
-    return _time_chart(system, df, panels, zones, out_dir) + _cycle_chart(system, df, panels, zones, out_dir)
+    return (_time_chart(system, df, panels, zones, out_dir, svg)
+            + _cycle_chart(system, df, panels, zones, out_dir, svg))

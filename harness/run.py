@@ -596,10 +596,13 @@ def register(subparsers) -> None:
                         "pandas.read_csv(FILE, header=[0, 1], index_col=0); Parquet keeps the units in its "
                         "metadata); default: names only")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
-                   help="write charts of the run: DIR/<system>.png/.svg (the system's signals over time) and, "
-                        "where the system declares its crank angle, DIR/<system>_cycle.png/.svg (over the last "
-                        "complete crank revolution); <name>.partial.png/.svg for a run that stopped early "
+                   help="write charts of the run: DIR/<system>.png (the system's signals over time) and, "
+                        "where the system declares its crank angle, DIR/<system>_cycle.png (over the last "
+                        "complete crank revolution); <name>.partial.png for a run that stopped early "
                         "(default: no chart)")
+    p.add_argument("--svg", action="store_true",
+                   help="with --plot: also write each chart as SVG (vector, for a document) beside its PNG "
+                        "(default: PNG only; the SVG is a second drawing of each chart)")
     p.add_argument("--report", type=Path, default=None, metavar="FILE.html",
                    help="write one self-contained HTML page of the run to hand on: its engineering quantities, "
                         "charts (inline), the drive (instances, fidelities, parameters changed from their "
@@ -654,25 +657,28 @@ def _check_targets(args) -> None:
         check_writable(args.out, "--out")
     if args.plot is not None:
         check_writable(args.plot, "--plot", folder=True)
+    elif getattr(args, "svg", False):
+        raise HarnessError("--svg needs --plot DIR: the SVG is written beside each chart's PNG")
     if getattr(args, "report", None) is not None:
         from harness.htmlreport import check_report_path
 
         check_report_path(args.report)
 
 
-def _plot(system, df, folder: Path) -> list[Path]:
-    """The run's charts in ``folder`` (the PNGs are returned); an incomplete run's under
-    ``<name>.partial.png/.svg``, so they never replace the charts of a complete run (drawn beside, renamed)."""
+def _plot(system, df, folder: Path, svg: bool = False) -> list[Path]:
+    """The run's charts in ``folder`` (the PNGs are returned; ``svg``: also as SVG); an incomplete run's under
+    ``<name>.partial.png`` (``.svg``), so they never replace the charts of a complete run (drawn beside,
+    renamed)."""
     import os
     import tempfile
 
     from harness.charts import plot_result
 
     if df.attrs.get("complete", True):
-        return [p for p in plot_result(system, df, folder) if p.suffix == ".png"]
+        return [p for p in plot_result(system, df, folder, svg) if p.suffix == ".png"]
     with tempfile.TemporaryDirectory(dir=folder, prefix=".partial-chart-") as tmp:
         paths = []
-        for drawn in plot_result(system, df, tmp):
+        for drawn in plot_result(system, df, tmp, svg):
             paths.append(Path(folder) / f"{drawn.stem}.partial{drawn.suffix}")
             os.replace(drawn, paths[-1])
     return [p for p in paths if p.suffix == ".png"]
@@ -734,7 +740,7 @@ def run_cli(args) -> int:
             import dataclasses
 
             system = dataclasses.replace(system, name=f"{system.name}_{a['scenario']}")
-        charts = _plot(system, df, args.plot)
+        charts = _plot(system, df, args.plot, getattr(args, "svg", False))
         where += "; chart " + ", ".join(str(p) for p in charts)
         from harness.charts import cycle_chart_missing
 

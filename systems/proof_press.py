@@ -101,6 +101,8 @@ SYSTEM.quantities = QuantitySpec(
         Load("shaft_torque", "flywheel.shaft_torque", "torque the main shaft transmits from the flywheel"),
         Load("belt_torque", "motor.pulley.tau", "belt torque on the flywheel pulley"),
         Load("crank_torque", "press.crank.tau", "torque the slider-crank and sectors take from the main shaft"),
+        Load("mesh_force", "press.mesh_force", "tooth force of the gearing on the cylinder at its pitch circle "
+                                               "(D_C/2)"),
     ),
     answers=(
         Answer("cylinder_slip", "peak", ("press.sync_error",), "um",

@@ -45,9 +45,9 @@ def figures(monkeypatch):
     """The figures plot_result makes, by file stem, kept open for inspection instead of written."""
     made = {}
 
-    def keep(fig, stem, dpi=None):
+    def keep(fig, stem, dpi=None, svg=True):
         made[Path(stem).name] = fig
-        return [Path(f"{stem}.png"), Path(f"{stem}.svg")]
+        return [Path(f"{stem}.png")] + ([Path(f"{stem}.svg")] if svg else [])
 
     monkeypatch.setattr(charts, "save_figure", keep)
     return made
@@ -60,7 +60,7 @@ def visible_axes(fig):
 def test_time_chart_panels_name_the_signal_unit_and_carry_time_ticks(bed, figures, tmp_path):
     system, df = bed
     paths = charts.plot_result(system, df, tmp_path)
-    assert [p.name for p in paths] == ["bed_drive.png", "bed_drive.svg", "bed_drive_cycle.png", "bed_drive_cycle.svg"]
+    assert [p.name for p in paths] == ["bed_drive.png", "bed_drive_cycle.png"]   # SVG only when asked
     axes = visible_axes(figures["bed_drive"])
     titles = [ax.get_title(loc="left") for ax in axes]
     assert "Bed position s [m]" in titles and "Bed speed v [m/s]" in titles
@@ -138,7 +138,7 @@ def test_a_system_that_declares_nothing_gets_its_bonds_titled_by_the_fmus(fmu_di
     assert system.chart is None
     df = run(system, stop_time=0.01, step=1e-3)
     paths = charts.plot_result(system, df, tmp_path)
-    assert [p.name for p in paths] == ["two_inertia.png", "two_inertia.svg"]   # no crank: no cycle chart
+    assert [p.name for p in paths] == ["two_inertia.png"]   # no crank: no cycle chart
     titles = [ax.get_title(loc="left") for ax in visible_axes(figures["two_inertia"])]
     assert titles and all(not t.startswith(("bond", "scene")) and "(" in t and t.endswith("]") for t in titles)
 
@@ -152,9 +152,22 @@ def test_run_plot_writes_and_names_both_charts(fmu_dir, tmp_path, monkeypatch, c
     monkeypatch.setattr(warnings, "showwarning", warnings.showwarning)   # main() sets its own
     assert main(["run", "bed_drive", "--stop-time", "1.05", "--plot", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    for name in ("bed_drive.png", "bed_drive.svg", "bed_drive_cycle.png", "bed_drive_cycle.svg"):
-        assert (tmp_path / name).exists(), name
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bed_drive.png", "bed_drive_cycle.png"]   # PNG only
     assert str(tmp_path / "bed_drive.png") in out and str(tmp_path / "bed_drive_cycle.png") in out
+    svg = tmp_path / "svg"
+    assert main(["run", "bed_drive", "--stop-time", "1.05", "--plot", str(svg), "--svg", "--quiet-quantities"]) == 0
+    assert sorted(p.name for p in svg.iterdir()) == ["bed_drive.png", "bed_drive.svg", "bed_drive_cycle.png",
+                                                     "bed_drive_cycle.svg"]
+    assert (svg / "bed_drive_cycle.svg").read_text().lstrip().startswith("<?xml")
+
+
+def test_svg_without_plot_is_refused_before_the_run(tmp_path, capsys):
+    from harness.__main__ import main
+
+    assert main(["run", "bed_drive", "--svg", "--out", str(tmp_path / "r.csv")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--svg needs --plot" in err[0]
+    assert not any(tmp_path.iterdir())
 
 
 def test_a_tiny_signal_carries_its_power_of_ten_in_the_unit_and_ports_are_titled_short():

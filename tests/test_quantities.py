@@ -173,6 +173,8 @@ def _check_answers(name, q, df, t, b, first, steady, spec):
     elif name == "proof_press":
         printing = steady & (col("press.phase") == 2)
         _rel(q["cylinder_slip"], 1e6 * np.abs(col("press.sync_error")[printing]).max(), 1e-12)
+        force = _mesh_force_from_the_cylinder(df)
+        _rel(q["mesh_force_peak"], np.abs(force[steady]).max(), 1e-2)
     elif name == "spine_knife":
         cutting = steady & (col("knife.cutting") > 0)
         _rel(q["knife_shaft_twist"], 1e3 * np.abs(col("shaft.shaft_twist")[steady]).max(), 1e-12)
@@ -181,6 +183,31 @@ def _check_answers(name, q, df, t, b, first, steady, spec):
     elif name == "trimmer_conveyor":
         _rel(q["trimming_moment_mean"], np.mean(col("trim.shaft.tau")[steady]), 3e-3)
         _rel(q["trimming_moment_peak"], np.abs(col("trim.shaft.tau")[steady]).max(), 1e-12)
+
+
+def _mesh_force_from_the_cylinder(df):
+    """The gearing's tooth force on the proof press's cylinder from other columns: the torque it applies, J_cyl
+    times the cylinder's acceleration (differences of its recorded speed) minus the load's torque on it, over
+    the pitch radius D_C/2 (GearSectors' parameters as the drive sets them)."""
+    from fmus.physics.gear_sectors import GearSectorsParams
+
+    p = GearSectorsParams(**load("proof_press").instance("press").parameters)
+    t = df.index.to_numpy()
+    torque = p.J_cyl * np.gradient(df["press.cylinder.w"].to_numpy(), t) - df["cylinder.flange.tau"].to_numpy()
+    return torque / (0.5 * p.D_C)
+
+
+def test_the_proof_press_mesh_force_is_the_cylinder_torque_over_its_pitch_radius():
+    """press.mesh_force (GearSectors) against the torque on the cylinder from its speed and its load, over the
+    pitch radius: equal to the differences' error, and its peak is what the quantities report."""
+    system = load("proof_press")
+    df = simulate(system, stop_time=0.4, on_error="raise")
+    force, mesh = _mesh_force_from_the_cylinder(df), df["press.mesh_force"].to_numpy()
+    inner = slice(5, -5)   # one-sided differences at the ends
+    assert np.abs(mesh).max() > 50.0                                        # N: a real load, not a zero
+    assert np.abs(force - mesh)[inner].max() < 5e-3 * np.abs(mesh).max()
+    assert df.attrs["units"]["press.mesh_force"] == "N"
+    assert "mesh_force_peak" in df.attrs["quantities"].names
 
 
 def test_saved_result_gives_the_same_quantities(run, tmp_path):

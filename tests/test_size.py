@@ -26,6 +26,8 @@ def test_a_target_is_a_quantity_an_operator_and_a_value():
      "has no parameter 'J_flywhel' (did you mean J_flywheel"),
     (("--vary", "flywheel.J_flywheel", "--target", "speed_fluctuation <= 5", "--range", "4", "2"),
      "bracket [4, 2] of flywheel.J_flywheel must be two positive increasing values"),
+    (("--vary", "flywheel.J_flywheel", "--target", "speed_fluctuation <= 5", "--scheduler", "127.0.0.1:9"),
+     "--scheduler 127.0.0.1:9: cannot connect"),
 ])
 def test_bad_input_is_one_line_before_any_run(args, message):
     r = subprocess.run([sys.executable, "-m", "harness", "size", "bed_drive", *args], capture_output=True, text=True,
@@ -50,3 +52,37 @@ def test_the_trimmer_motor_sized_to_a_thermal_target_against_its_closed_form():
     none = size(system, "motor.P_rated", "motor_torque_rms_to_rated <= 0.01", (1000.0, 8000.0), stop_time=1.2)
     assert none.answer is None and "no value of motor.P_rated in [1000, 8000] meets" in none.message
     assert "motor_torque_rms_to_rated took" in none.message
+
+
+def test_a_changed_drive_object_is_refused_for_a_scheduler_before_any_run():
+    """The workers load the drive by its name: an object that differs from what its name loads would be sized
+    as another drive, so it is refused in one line (an unchanged one goes by its name)."""
+    import dataclasses
+
+    from harness.studies.size import _sent
+
+    system = load("trimmer_conveyor")
+    assert _sent(system, system) == "trimmer_conveyor" and _sent(system, "trimmer_conveyor") == "trimmer_conveyor"
+    changed = dataclasses.replace(system, instances=system.instances[::-1])
+    with pytest.raises(SystemError_, match="differs from the one 'trimmer_conveyor' loads; give the name or file"):
+        size(changed, "motor.P_rated", "motor_torque_rms_to_rated <= 0.8", (1000.0, 8000.0),
+             scheduler="127.0.0.1:9")
+
+
+@pytest.mark.slow
+def test_sizing_on_a_dask_cluster_gives_the_serial_answer_from_the_same_runs():
+    """Two local worker processes: the bracket's ends run at once, then Brent's runs one by one through the
+    client; every run, the answer, the message and the verifying run equal the serial search's."""
+    import logging
+
+    from dask.distributed import LocalCluster
+
+    args = ("trimmer_conveyor", "motor.P_rated", "motor_torque_rms_to_rated <= 0.8", (1000.0, 8000.0))
+    serial = size(*args, xtol=1e-2, stop_time=1.2)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster:
+        spread = size(*args, xtol=1e-2, stop_time=1.2, scheduler=cluster.scheduler_address)
+    assert serial.answer is not None and len(serial.runs) >= 4
+    assert spread.runs == serial.runs and spread.answer == serial.answer and spread.message == serial.message
+    assert spread.verifying.equals(serial.verifying)
+    assert spread.verifying.attrs["quantities"]["motor_torque_rms_to_rated"] == serial.verified

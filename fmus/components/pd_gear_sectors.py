@@ -11,8 +11,11 @@ class GearSectors(Component):
              Rotational("cylinder", motion="out", doc="printing cylinder"),
              Translational("bed", motion="out", doc="bed (taler)"))
     signals = (Output("sync_error", "m", "cylinder surface minus bed displacement since point 2, printing phase only"),
-               Output("phase", "1", "1 acceleration 1-2, 2 synchronous 2-3, 3 braking 3-4, 4 uniform 4-1"))
+               Output("phase", "1", "1 acceleration 1-2, 2 synchronous 2-3, 3 braking 3-4, 4 uniform 4-1"),
+               Output("mesh_force", "N", "tangential tooth force of the gearing on the cylinder at its pitch "
+                                         "circle D_C/2 (+: driving it forward)"))
     feedthrough = {"crank.tau": ("crank.phi", "crank.w", "cylinder.tau", "bed.f"),
                    "cylinder.phi": ("crank.phi",), "cylinder.w": ("crank.phi", "crank.w"),
                    "bed.s": ("crank.phi",), "bed.v": ("crank.phi", "crank.w"),
-                   "sync_error": ("crank.phi",), "phase": ("crank.phi",)}
+                   "sync_error": ("crank.phi",), "phase": ("crank.phi",),
+                   "mesh_force": ("crank.phi", "crank.w", "cylinder.tau")}

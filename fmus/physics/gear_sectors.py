@@ -542,10 +542,17 @@ class GearSectorsModel(Model):
     -crank.tau*w_K = (J_cyl*a_cyl - cylinder.tau)*w_cyl + (m_bed*a_bed - bed.f)*v_bed, with the kinematic
     accelerations a = (d2x/dphi2)*w_K^2 (crank acceleration neglected), divided by w_K analytically, so it
     stays defined at w_K = 0.  Fidelity 1: the kinematic cylinder angle drives the cylinder inertia through
-    (c_cyl, d_cyl); the spring torque replaces the cylinder term."""
+    (c_cyl, d_cyl); the spring torque replaces the cylinder term.
+
+    mesh_force is the tangential tooth force the drive puts on the cylinder, referred to the cylinder's pitch
+    circle of diameter D_C (the rims 6' rolling on the bed's racks 6 while printing): the torque the gearing
+    applies to the cylinder, J_cyl*a_cyl - cylinder.tau (fidelity 0) or the spring torque (fidelity 1),
+    divided by D_C/2; positive when it drives the cylinder forward.  The sectors' own pitch radii vary along
+    the law and are known only relative to R_B (the synthesis is dimensionless), so D_C/2 is the one absolute
+    pitch radius of the drive."""
     Params = GearSectorsParams
     inputs = ("crank.phi", "crank.w", "cylinder.tau", "bed.f")
-    outputs = ("crank.tau", "cylinder.phi", "cylinder.w", "bed.s", "bed.v", "sync_error", "phase")
+    outputs = ("crank.tau", "cylinder.phi", "cylinder.w", "bed.s", "bed.v", "sync_error", "phase", "mesh_force")
     states = (Signal("phi_cyl", "rad", "angle of the cylinder (fidelity 1; kinematic at fidelity 0)"),
               Signal("w_cyl", "rad/s", "angular velocity of the cylinder"))
 
@@ -591,15 +598,15 @@ class GearSectorsModel(Model):
         bed_term = (p.m_bed * L * w * wk * wk - f_bed) * L * v
         if p.fidelity == 0:
             phi_cyl, w_cyl = phic, om * wk
-            crank_tau = -(p.J_cyl * ec * wk * wk - tau_c) * om - bed_term
+            m = p.J_cyl * ec * wk * wk - tau_c        # the gearing's torque on the cylinder
         else:
             phi_cyl, w_cyl = x[0], x[1]
             m = p.c_cyl * (phic - x[0]) + p.d_cyl * (om * wk - x[1])
-            crank_tau = -m * om - bed_term
+        crank_tau = -m * om - bed_term
         sync = 0.0
         if phase == 2:
             sync = 0.5 * p.D_C * (phi_cyl - self.law.point2_angle(phi)) - L * (S - self.law.S2)
-        return (crank_tau, phi_cyl, w_cyl, L * S, L * v * wk, sync, float(phase))
+        return (crank_tau, phi_cyl, w_cyl, L * S, L * v * wk, sync, float(phase), m / (0.5 * p.D_C))
 
     def output_jacobian(self, t, x, u):
         """d outputs / d (crank.phi, crank.w, cylinder.tau, bed.f), every column in closed form from :meth:`output`'s
@@ -624,12 +631,15 @@ class GearSectorsModel(Model):
                     -2.0 * p.J_cyl * ec * wk * om - d_bed_w, om, L * v)
             D[1, 0] = om                                     # cylinder.phi = phi_C(phi)
             D[2, :2] = (ec * wk, om)                         # cylinder.w = om * wk
+            D[7, :3] = (p.J_cyl * jc * wk * wk, 2.0 * p.J_cyl * ec * wk, -1.0)   # mesh_force * D_C / 2
             d_cyl_phi = om
         else:
             m = p.c_cyl * (phic - x[0]) + p.d_cyl * (om * wk - x[1])
             dm_phi = p.c_cyl * om + p.d_cyl * ec * wk
             D[0] = (-dm_phi * om - m * ec - d_bed_phi, -p.d_cyl * om * om - d_bed_w, 0.0, L * v)
+            D[7, :2] = (dm_phi, p.d_cyl * om)                # mesh_force * D_C / 2
             d_cyl_phi = 0.0                                  # cylinder.phi is the state
+        D[7] /= 0.5 * p.D_C
         D[3, 0] = L * v                                      # bed.s = L S
         D[4, :2] = (L * w * wk, L * v)                       # bed.v = L v wk
         if phase == 2:

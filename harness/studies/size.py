@@ -17,6 +17,7 @@ two positive increasing values for a positive parameter.
 """
 from __future__ import annotations
 
+import contextlib
 import difflib
 import math
 import re
@@ -134,15 +135,90 @@ class Sizing:
         return save_figure(fig, Path(folder) / "size_runs", dpi=100)
 
 
-def size(system, parameter: str, target, bracket: tuple[float, float] | None = None, xtol: float = 1e-3,
-         max_runs: int = 16, **options) -> Sizing:
-    """Size ``parameter`` (``Instance.parameter``) of ``system`` so that ``target`` (a :class:`Target` or
-    ``"NAME <= VALUE"``) holds; ``options`` go to every :func:`harness.run.simulate` run."""
-    from scipy.optimize import brentq
-
+def run_at(system, parameter: str, quantity: str, start_values: dict, options: dict, value: float) -> dict:
+    """One run of the sizing at ``parameter = value`` (in this process or on a dask worker): ``{"value": the
+    quantity, "error": one line or "", "frame": the result}``; never raises (the client raises the error).
+    ``system``: a :class:`~harness.model.System`, a drive's name or a shipped file
+    (:mod:`harness.studies.sweep_cluster`, loaded once per worker process)."""
     from harness.quantities import quantities
     from harness.run import load, simulate
+    from harness.studies.sweep_cluster import SystemFile, system_on_worker
 
+    try:
+        if isinstance(system, (str, SystemFile)):
+            key = system if isinstance(system, str) else system.digest
+            if key not in _LOADED:
+                _LOADED[key] = load(system_on_worker(system))
+            system = _LOADED[key]
+        df = simulate(system, start_values={**start_values, parameter: value}, **options)
+        if not df.attrs.get("complete", True):
+            return dict(value=None, frame=None, error=f"the run at {parameter} = {value:g} stopped: "
+                                                      f"{df.attrs.get('error')}")
+        q = quantities(system, df)
+        found = q[quantity]
+        if found is None or not isinstance(found, (int, float)):
+            return dict(value=None, frame=None, error=f"{quantity} has no value at {parameter} = {value:g}: "
+                                                      f"{q.row(quantity).note or q.heading()}")
+        return dict(value=float(found), frame=df, error="")
+    except Exception as e:  # noqa: BLE001 (one line back to the client, which raises it)
+        from harness.studies.trial import one_line
+
+        return dict(value=None, frame=None, error=f"the run at {parameter} = {value:g}: {one_line(e)}")
+
+
+_LOADED: dict = {}   # drive name or file digest -> System, per worker process
+
+
+def _sent(system, given):
+    """What the workers receive for the drive: its name or file as given (a file's bytes, as a sweep sends
+    them), or the name of a drive object equal to the one its name loads; one line for a changed object."""
+    from harness.run import load
+    from harness.studies.sweep_cluster import shipped
+
+    if not hasattr(given, "instances"):
+        return shipped(str(given))
+    try:
+        if load(given.name) == given:
+            return given.name
+    except Exception:  # noqa: BLE001 (no loadable name: refused below)
+        pass
+    raise SystemError_(f"size {given.name} on a dask scheduler: the workers load the drive by its name or file, "
+                       f"and this System differs from the one {given.name!r} loads; give the name or file, with "
+                       f"start_values for the changed parameters")
+
+
+@contextlib.contextmanager
+def _runner(system, given, scheduler: str | None):
+    """(what each run is given as the drive, a function running a list of :func:`run_at` argument tuples and
+    returning their outcomes in order): in this process, or on the workers of the dask scheduler at
+    ``scheduler`` (checked first as a sweep checks it; a drive file sent as bytes once)."""
+    if scheduler is None:
+        yield system, lambda calls: [run_at(*c) for c in calls]
+        return
+    from dask.distributed import Client
+
+    from harness.studies.sweep_cluster import SystemFile, check_scheduler, payload
+
+    ref = _sent(system, given)
+    check_scheduler(scheduler)
+    with Client(scheduler) as client:
+        if isinstance(ref, SystemFile):
+            ref = client.submit(payload, ref, key=f"system-file-{ref.digest[:32]}")
+        yield ref, lambda calls: client.gather([client.submit(run_at, *c, pure=False) for c in calls])
+
+
+def size(system, parameter: str, target, bracket: tuple[float, float] | None = None, xtol: float = 1e-3,
+         max_runs: int = 16, scheduler: str | None = None, **options) -> Sizing:
+    """Size ``parameter`` (``Instance.parameter``) of ``system`` so that ``target`` (a :class:`Target` or
+    ``"NAME <= VALUE"``) holds; ``options`` go to every :func:`harness.run.simulate` run.  ``scheduler``: the
+    address of a dask scheduler; the runs then go to its workers (the two ends of the bracket at once, then
+    each of the root finding's runs) through the sweep's machinery (:mod:`harness.studies.sweep_cluster`: the
+    address checked first, a drive file sent as bytes); the answer is the same as without one."""
+    from scipy.optimize import brentq
+
+    from harness.run import load
+
+    given = system
     system = load(system)
     target = target if isinstance(target, Target) else parse_target(target)
     p0 = _current(system, parameter)
@@ -154,60 +230,60 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
     base = dict(options.pop("start_values", None) or {})
     result = Sizing(parameter, target, (lo, hi), system=system)
     frames = {}
+    with _runner(system, given, scheduler) as (ref, submit):
 
-    def quantity(p: float) -> float:
-        if p in result.runs:
-            return result.runs[p]
-        if len(result.runs) >= max_runs:
-            raise SystemError_(f"size {system.name}: {max_runs} runs used without settling {parameter}; "
-                               f"runs: {_runs(result.runs)}")
-        df = simulate(system, start_values={**base, parameter: p}, **options)
-        if not df.attrs.get("complete", True):
-            raise SystemError_(f"size {system.name}: the run at {parameter} = {p:g} stopped: {df.attrs.get('error')}")
-        q = quantities(system, df)
-        frames[p] = df
-        value = q[target.quantity]
-        if not isinstance(value, (int, float)) or value is None:
-            raise SystemError_(f"size {system.name}: {target.quantity} has no value at {parameter} = {p:g}: "
-                               f"{q.row(target.quantity).note or q.heading()}")
-        result.runs[p] = float(value)
-        return float(value)
+        def quantities_at(ps: list[float]) -> list[float]:
+            todo = [p for p in dict.fromkeys(ps) if p not in result.runs]
+            if len(result.runs) + len(todo) > max_runs:
+                raise SystemError_(f"size {system.name}: {max_runs} runs used without settling {parameter}; "
+                                   f"runs: {_runs(result.runs)}")
+            for p, run in zip(todo, submit([(ref, parameter, target.quantity, base, options, p) for p in todo])):
+                if run["error"]:
+                    raise SystemError_(f"size {system.name}: {run['error']}")
+                frames[p], result.runs[p] = run["frame"], run["value"]
+            return [result.runs[p] for p in ps]
 
-    q_lo, q_hi = quantity(lo), quantity(hi)
-    # the elasticity d ln Q / d ln p over the bracket: a 1 % change of the parameter moves Q by that many %
-    elasticity = (math.log(abs(q_hi) / abs(q_lo)) / math.log(hi / lo)) if q_lo * q_hi > 0 else math.inf
-    weak = (f"; {target.quantity} changes by {100 * abs(q_hi - q_lo) / max(abs(q_lo), abs(q_hi)):.3g} % over this "
-            f"{hi / lo:g}x range of {parameter} (elasticity {elasticity:.2g}): the parameter barely governs it"
-            if abs(elasticity) < WEAK else "")
-    taken = f"{target.quantity} took {min(q_lo, q_hi):.4g} to {max(q_lo, q_hi):.4g} over [{lo:g}, {hi:g}]"
-    if target.met(q_lo) and target.met(q_hi):
-        result.message = f"{target} holds at both ends of the bracket ({taken}){weak}"
+        def quantity(p: float) -> float:
+            return quantities_at([p])[0]
+
+        q_lo, q_hi = quantities_at([lo, hi])     # at once on a cluster
+        # the elasticity d ln Q / d ln p over the bracket: a 1 % change of the parameter moves Q by that many %
+        elasticity = (math.log(abs(q_hi) / abs(q_lo)) / math.log(hi / lo)) if q_lo * q_hi > 0 else math.inf
+        change = 100 * abs(q_hi - q_lo) / max(abs(q_lo), abs(q_hi))
+        weak = (f"; {target.quantity} changes by {change:.3g} % over this {hi / lo:g}x range of {parameter} "
+                f"(elasticity {elasticity:.2g}): the parameter barely governs it"
+                if abs(elasticity) < WEAK else "")
+        taken = f"{target.quantity} took {min(q_lo, q_hi):.4g} to {max(q_lo, q_hi):.4g} over [{lo:g}, {hi:g}]"
+        if target.met(q_lo) and target.met(q_hi):
+            result.message = f"{target} holds at both ends of the bracket ({taken}){weak}"
+            return result
+        if not target.met(q_lo) and not target.met(q_hi):
+            result.message = f"no value of {parameter} in [{lo:g}, {hi:g}] meets {target}: {taken}{weak}"
+            return result
+        root = brentq(lambda p: quantity(p) - target.value, lo, hi, xtol=xtol * (hi - lo), maxiter=max_runs)
+        # the boundary value on the side that meets the target, verified by its own run
+        side = lo if target.met(q_lo) else hi
+        answer = root
+        if not target.met(quantity(answer)):
+            answer = min(result.runs, key=lambda p: abs(p - root) if target.met(result.runs[p]) and
+                         (p - root) * (side - root) >= 0 else math.inf)
+        result.answer, result.verified = answer, quantity(answer)
+        result.verifying = frames.get(answer)
+        which = "largest" if side == lo else "smallest"
+        qs = [result.runs[p] for p in sorted(result.runs)]
+        steps = [b - a for a, b in zip(qs, qs[1:]) if b != a]
+        monotonic = all(d > 0 for d in steps) or all(d < 0 for d in steps)
+        result.message = (f"{parameter} = {answer:.6g}: the {which} value in [{lo:g}, {hi:g}] that meets "
+                          f"{target} ({target.quantity} = {result.verified:.6g} in the run at it; "
+                          f"{len(result.runs)} runs){weak}")
+        if not monotonic:
+            worst = max(result.runs, key=lambda p: result.runs[p] if target.op == "<=" else -result.runs[p])
+            result.message = (f"{parameter} = {answer:.6g}: {target} holds from here towards {side:g}, but "
+                              f"{target.quantity} is not monotonic in {parameter} over the runs "
+                              f"({result.runs[worst]:.4g} at {worst:.4g}): other values may meet the target too, "
+                              f"or miss it; narrow --range "
+                              f"({target.quantity} = {result.verified:.6g} in the run at it; {len(result.runs)} runs)")
         return result
-    if not target.met(q_lo) and not target.met(q_hi):
-        result.message = f"no value of {parameter} in [{lo:g}, {hi:g}] meets {target}: {taken}{weak}"
-        return result
-    root = brentq(lambda p: quantity(p) - target.value, lo, hi, xtol=xtol * (hi - lo), maxiter=max_runs)
-    # the boundary value on the side that meets the target, verified by its own run
-    side = lo if target.met(q_lo) else hi
-    answer = root
-    if not target.met(quantity(answer)):
-        answer = min(result.runs, key=lambda p: abs(p - root) if target.met(result.runs[p]) and
-                     (p - root) * (side - root) >= 0 else math.inf)
-    result.answer, result.verified = answer, quantity(answer)
-    result.verifying = frames.get(answer)
-    which = "largest" if side == lo else "smallest"
-    qs = [result.runs[p] for p in sorted(result.runs)]
-    steps = [b - a for a, b in zip(qs, qs[1:]) if b != a]
-    monotonic = all(d > 0 for d in steps) or all(d < 0 for d in steps)
-    result.message = (f"{parameter} = {answer:.6g}: the {which} value in [{lo:g}, {hi:g}] that meets {target} "
-                      f"({target.quantity} = {result.verified:.6g} in the run at it; {len(result.runs)} runs){weak}")
-    if not monotonic:
-        worst = max(result.runs, key=lambda p: result.runs[p] if target.op == "<=" else -result.runs[p])
-        result.message = (f"{parameter} = {answer:.6g}: {target} holds from here towards {side:g}, but "
-                          f"{target.quantity} is not monotonic in {parameter} over the runs ({result.runs[worst]:.4g} "
-                          f"at {worst:.4g}): other values may meet the target too, or miss it; narrow --range "
-                          f"({target.quantity} = {result.verified:.6g} in the run at it; {len(result.runs)} runs)")
-    return result
 
 
 def check_target(system, target: Target) -> None:
@@ -266,6 +342,9 @@ def register(subparsers) -> None:
                    help="stop time [s] of every run (default: the drive's default experiment)")
     p.add_argument("--set", action="append", default=[], metavar="Instance.param=VALUE",
                    help="other parameter values, the same in every run")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="address of a dask scheduler: the runs go to its workers (the bracket's two ends at once, "
+                        "then the root finding's runs), as a sweep's points do (default: in this process)")
     p.add_argument("--report", type=Path, default=None, metavar="FILE.html",
                    help="write one self-contained HTML page: the answer, the runs tried, the verifying run's "
                         "quantities and charts, the drive, the method and versions; checked before any run "
@@ -284,8 +363,13 @@ def _cli(args) -> int:
         from harness.htmlreport import check_report_path
 
         check_report_path(args.report)
-    result = size(system, args.vary, target, tuple(args.range) if args.range else None, xtol=args.xtol,
-                  stop_time=args.stop_time, start_values=parse_sets(args.set), options=RunOptions(progress=None))
+    if args.scheduler:
+        from harness.studies.sweep_cluster import check_scheduler
+
+        check_scheduler(args.scheduler)   # one line for a wrong address, before any run
+    result = size(args.system, args.vary, target, tuple(args.range) if args.range else None, xtol=args.xtol,
+                  scheduler=args.scheduler, stop_time=args.stop_time, start_values=parse_sets(args.set),
+                  options=RunOptions(progress=None))
     print(result.message)
     print(f"runs ({args.vary} -> {target.quantity}): {_runs(result.runs)}")
     if args.report is not None:
