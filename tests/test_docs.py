@@ -208,8 +208,9 @@ def scratch(tmp_path_factory):
     """A folder to run the pages' commands in: ``systems/`` and ``build_fmus.py`` linked from the tree, the
     outputs (``results/``) kept out of it.  One per session, not per module: under pytest-xdist a worker may run
     another module's test between two of these, which would tear a module-scoped folder down and lose the
-    files a page's earlier command wrote.  (A page's commands run in order on one worker: the suite is
-    distributed by file, ``--dist loadfile``.)"""
+    files a page's earlier command wrote.  (A page's commands run in order on one worker: the default suite is
+    distributed by file, ``--dist loadfile``.  The ``# slow`` commands each stand alone: the slow suite runs
+    without the others, each test on whichever worker is free.)"""
     d = tmp_path_factory.mktemp("docs_commands")
     for name in ("systems", "build_fmus.py"):
         (d / name).symlink_to(ROOT / name)
