@@ -88,6 +88,10 @@ class Component:
     ports: ClassVar[tuple[Port, ...]] = ()
     signals: ClassVar[tuple[Variable, ...]] = ()
     feedthrough: ClassVar[dict[str, tuple[str, ...]]] = {}
+    # parameters that may change during the run (FMI variability "tunable", set between communication steps: a
+    # brake's torque, a load torque): only those whose new value the model takes on from the present state, never
+    # one that sizes the state or the geometry (those stay "fixed"; setting one after initialisation is refused)
+    tunable: ClassVar[tuple[str, ...]] = ()
     # motion-input ports whose position the model advances over a step with the held velocity input
     # (phi(t) = port.phi + port.w*(t - t0)); declared in the modelDescription (tool "org.pressdrive": FMI 2.0's
     # VendorAnnotations, FMI 3.0's Annotations) so a master hands these positions over at the step start, not

@@ -63,7 +63,8 @@ class PressSlave(PressBehaviour, Fmi2Slave):
     def _register(self) -> None:
         for s in self._param_specs:
             kind = Integer if s.is_integer else Real
-            self.register_variable(kind(s.name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
+            variability = Fmi2Variability.tunable if s.name in type(self).tunable else Fmi2Variability.fixed
+            self.register_variable(kind(s.name, causality=Fmi2Causality.parameter, variability=variability,
                                         description=s.doc, getter=self._par_getter(s.name),
                                         setter=self._par_setter(s.name)), nested=False)
         n_in = len(type(self).model.inputs)

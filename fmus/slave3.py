@@ -67,7 +67,8 @@ class PressSlave(PressBehaviour, Fmi3Slave):
         units = self._units_by_name()
         for s in self._param_specs:
             kind, unit = (Int32, {}) if s.is_integer else (Float64, {"unit": units[s.name]})
-            self.register_variable(kind(s.name, causality=Fmi3Causality.parameter, variability=Fmi3Variability.fixed,
+            variability = Fmi3Variability.tunable if s.name in type(self).tunable else Fmi3Variability.fixed
+            self.register_variable(kind(s.name, causality=Fmi3Causality.parameter, variability=variability,
                                         description=s.doc, getter=self._par_getter(s.name),
                                         setter=self._par_setter(s.name), **unit), nested=False)
         n_in = len(type(self).model.inputs)

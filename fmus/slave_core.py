@@ -107,6 +107,9 @@ class PressBehaviour(Component):
         cls = type(self)
         self._io = cls.interface()
         self._param_specs = cls.model.Params.specs()
+        unknown = sorted(set(cls.tunable) - {s.name for s in self._param_specs})
+        if unknown:
+            raise TypeError(f"{cls.__name__}: tunable names no parameter of {cls.model.__name__}: {unknown[0]!r}")
         self._par = {s.name: s.default for s in self._param_specs}
         self._u = [v.start for v in self._io if v.causality == "input"]
         self._fresh = [True] * len(self._u)  # input set since the last step (else held over it)
@@ -115,6 +118,9 @@ class PressBehaviour(Component):
         # (position, velocity) input indices of the motion-input ports the model advances over a step
         self._advanced = [(names.index(pos), names.index(f"{port.name}.{'v' if port.translational else 'w'}"))
                           for port, pos in zip(cls.ports, cls._port_positions()) if pos is not None]
+        # (index, name, min, max) of every input that declares a range: a value outside is refused (_check_inputs)
+        self._ranges = [(i, v.name, v.min, v.max) for i, v in enumerate(v for v in self._io if v.causality == "input")
+                        if v.min is not None or v.max is not None]
         self._y = [0.0] * len(cls.model.outputs)
         self._x = np.zeros(len(cls.model.states))
         self._time = 0.0
@@ -136,12 +142,25 @@ class PressBehaviour(Component):
         return lambda: self._par[name]
 
     def _par_setter(self, name):
+        tunable = name in type(self).tunable
+
         def set_(value):
-            if self._initialised:
+            if self._initialised and not tunable:
                 raise RuntimeError(f"{self.instance_name}: parameter {name} is fixed after initialisation")
+            if self._initialised and value == self._par[name]:
+                return   # a held value set again (a master sets its signals at every step): nothing changes
+            before = (self._par[name], self._mdl)
             self._par[name] = value
             self._mdl = None
             self._stale = True
+            if self._initialised:
+                # a tunable parameter during the run: the model is rebuilt at once from the present state, so a
+                # refused value fails this call (fmus.refusal) and the instance keeps the value it had
+                try:
+                    self._build_model()
+                except RuntimeError:
+                    self._par[name], self._mdl = before
+                    raise
         return set_
 
     def _in_getter(self, i):
@@ -322,9 +341,18 @@ class PressBehaviour(Component):
         self._stale = True
 
     def _check_inputs(self) -> None:
-        if math.isfinite(sum(self._u)):  # every input is finite (a NaN or an infinity makes the sum non-finite)
+        """Every input finite and within the min/max its modelDescription declares, else the refused parameter's
+        error path (:meth:`_fail`: one line naming the instance, the variable, the value and the range): a host
+        that does not read the declared ranges gets the answer from the FMU itself."""
+        u = self._u
+        for i, name, lo, hi in self._ranges:
+            value = u[i]
+            if (lo is not None and value < lo) or (hi is not None and value > hi):
+                self._fail(f"input {name} = {value!r} at t = {self._time:.9g} s is outside its declared range "
+                           f"[{'-inf' if lo is None else f'{lo:g}'}, {'inf' if hi is None else f'{hi:g}'}]")
+        if math.isfinite(sum(u)):  # every input is finite (a NaN or an infinity makes the sum non-finite)
             return
-        for v, value in zip(self._io, self._u):
+        for v, value in zip(self._io, u):
             if not math.isfinite(value):
                 self._fail(f"input {v.name} = {value!r} at t = {self._time:.9g} s is not finite")
 

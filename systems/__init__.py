@@ -16,7 +16,8 @@ def motor_inputs(motor: str = "motor") -> dict[str, str]:
 
 
 def motor_scenarios(system, rest: dict, *, motor: str = "motor", change_at: float = 1.5, stop_time: float = 3.0,
-                    watch: str | None = None, accuracy: dict | None = None) -> list:
+                    watch: str | None = None, overrun: tuple[float, str] | None = None,
+                    accuracy: dict | None = None) -> list:
     """The transients every drive with a MotorBelt ships (harness.scenarios), for its instance ``motor``:
 
     * ``startup``: from rest (``rest``: the parameters that put the drive's parts at rest, the motor's
@@ -27,8 +28,10 @@ def motor_scenarios(system, rest: dict, *, motor: str = "motor", change_at: floa
       after the command (the order of a spring-applied brake's engage time).
 
     A motor declared as an ideal speed source (fidelity 0) runs at fidelity 1 (the Kloss curve with the rotor's
-    inertia) in them: a transient needs the motor's own dynamics.  ``accuracy``: scenario name -> the
-    :class:`harness.specs.Requirement` its question needs (``Scenario.accuracy``, ``study accuracy --scenario``)."""
+    inertia) in them: a transient needs the motor's own dynamics.  Each declares the accuracy its question needs
+    (``Scenario.accuracy``, ``study accuracy --scenario``; :func:`startup_accuracy`, :func:`speed_change_accuracy`,
+    :func:`stop_accuracy`; ``overrun``: the tolerance and unit of the ``watch`` column's overrun in a stop);
+    ``accuracy``: scenario name -> the :class:`harness.specs.Requirement` that replace a scenario's."""
     from dataclasses import replace
 
     from fmus.physics.motor_belt import MotorBeltParams
@@ -53,11 +56,71 @@ def motor_scenarios(system, rest: dict, *, motor: str = "motor", change_at: floa
                                      Change(change_at, f"{motor}.brake", 1.0)), parameters=dynamic + brake,
                  watch=watch),
     ]
+    declared = {"startup": startup_accuracy(), "speed_change": speed_change_accuracy(),
+                "estop": stop_accuracy(watch, overrun)}
+    accuracy = {**declared, **accuracy}
     unknown = sorted(set(accuracy) - {sc.name for sc in scenarios})
     if unknown:
         raise ValueError(f"system {system.name}: accuracy declared for no scenario {unknown[0]!r} "
                          f"(its scenarios: {', '.join(sc.name for sc in scenarios)})")
     return [replace(sc, accuracy=tuple(accuracy.get(sc.name, ()))) for sc in scenarios]
+
+
+# -- the accuracy each transient's question needs (against the monolithic reference through the same events) -----
+# An engineer's tolerances, from what each number is used for (../shared/reference/press-engineering-facts.md):
+# a time to speed or a stopping time feeds the motor's start class and the guard's interlock to a few percent or
+# a couple of milliseconds; a stopping angle positions the tool to 0.5 %; a new press rate is read in sheets per
+# hour to 0.2 %; peak torques size the motor (overload margin 0.8 T_max), shafts, couplings and the belt, to 2 %;
+# a jam's speed drop (the motor's pull-out margin) to 0.2 percentage points of speed.
+PEAK = 0.02        # relative tolerance of a peak motor, shaft or belt torque
+STOP_TIME = 2e-3   # s: the stopping time
+RATE = 2e-3        # relative tolerance of a speed the run ends at
+
+
+def _peaks(*names: str) -> tuple:
+    from harness.specs import Requirement
+
+    what = {"motor_torque_peak": "peak motor torque", "shaft_torque_peak": "peak main-shaft torque",
+            "belt_torque_peak": "peak belt torque"}
+    return tuple(Requirement(what[n], n, PEAK, "N.m", relative=True) for n in names)
+
+
+def startup_accuracy() -> tuple:
+    """A start-up's: the time to 95 % of speed to 2 %, the peak motor and main-shaft torque on the way up to 2 %."""
+    from harness.specs import Requirement
+
+    return (Requirement("time to 95 % speed", "time_to_speed", 0.02, "s", relative=True),
+            *_peaks("motor_torque_peak", "shaft_torque_peak"))
+
+
+def speed_change_accuracy() -> tuple:
+    """A speed change's: the new speed (the press rate) to 0.2 %, the peak motor and main-shaft torque from the
+    change on to 2 %."""
+    from harness.specs import Requirement
+
+    return (Requirement("speed after the change", "speed_after", RATE, "rpm", relative=True),
+            *_peaks("motor_torque_peak", "shaft_torque_peak"))
+
+
+def stop_accuracy(watch: str | None = None, overrun: tuple[float, str] | None = None) -> tuple:
+    """An emergency stop's: the stopping time to 2 ms, the stopping angle to 0.5 %, the peak main-shaft and belt
+    torque of the stop to 2 % (a brake on the motor holds the drive through the belt), and, where the drive has a
+    tool (``watch``), its overrun to ``overrun`` = (tolerance, unit)."""
+    from harness.specs import Requirement
+
+    out = (Requirement("stopping time", "stopping_time", STOP_TIME, "s"),
+           Requirement("stopping angle", "stopping_angle", 5e-3, "deg", relative=True),
+           *_peaks("shaft_torque_peak", "belt_torque_peak"))
+    if watch is not None and overrun is not None:
+        out += (Requirement(f"overrun of {watch}", "overrun", overrun[0], overrun[1]),)
+    return out
+
+
+def jam_accuracy() -> tuple:
+    """A jam's: the speed drop to 0.2 percentage points, the peak motor and main-shaft torque after it to 2 %."""
+    from harness.specs import Requirement
+
+    return (Requirement("speed drop", "speed_drop", 0.2, "%"), *_peaks("motor_torque_peak", "shaft_torque_peak"))
 
 
 def jam(system, variable: str, torque: float, *, at: float = 1.0, stop_time: float = 2.0, motor: str = "motor"):
@@ -68,4 +131,4 @@ def jam(system, variable: str, torque: float, *, at: float = 1.0, stop_time: flo
     dynamic = (((f"{motor}.fidelity", 1),) if system.instance(motor).parameters.get("fidelity", 1) == 0 else ())
     return Scenario("jam", f"What does a jam, a sudden load of {abs(torque):.4g} N.m on {variable}, do to the "
                     f"drive's speed and loads?", "load", stop_time, (Change(at, variable, torque),),
-                    parameters=dynamic)
+                    parameters=dynamic, accuracy=jam_accuracy())

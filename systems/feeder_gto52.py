@@ -150,5 +150,6 @@ SYSTEM.quantities = QuantitySpec(
 # The transients the drive is sized by (harness.scenarios): start-up, speed change, emergency stop (the feeder
 # rocker's overrun reported) and a jam: twice the motor's rated torque, reduced to the main shaft through the belt
 # (750 W at 960 rpm times 6.4: 47.7 N.m), stepped onto the shaft's second take-off
-SYSTEM.scenarios = [*motor_scenarios(SYSTEM, {"flywheel.w0": 0.0}, watch="feeder.rocker.phi"),
+SYSTEM.scenarios = [*motor_scenarios(SYSTEM, {"flywheel.w0": 0.0}, watch="feeder.rocker.phi",
+                                     overrun=(0.01, "rad")),
                     jam(SYSTEM, "flywheel.aux.tau", -2.0 * 750.0 / (960.0 * RPM) * 0.64 / 0.1)]

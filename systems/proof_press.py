@@ -132,5 +132,5 @@ SYSTEM.chart = ChartSpec(
 
 # The transients the press is sized by (harness.scenarios): start-up, speed change, emergency stop (the bed's
 # overrun reported)
-SYSTEM.scenarios = motor_scenarios(SYSTEM, {"flywheel.w0": 0.0}, watch="press.bed.s", change_at=2.0,
+SYSTEM.scenarios = motor_scenarios(SYSTEM, {"flywheel.w0": 0.0}, watch="press.bed.s", overrun=(5e-4, "m"), change_at=2.0,
                                    stop_time=4.0)

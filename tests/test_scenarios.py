@@ -188,15 +188,31 @@ def test_an_emergency_stop_of_the_bed_drive_against_the_monolithic_reference():
 
 
 # -- the accuracy a scenario declares, and the cheapest method that meets it -------------------------------------
-def test_a_scenario_without_a_declared_accuracy_is_refused_in_one_line():
+def test_a_scenario_without_a_declared_accuracy_is_refused_in_one_line(tmp_path):
     from harness.studies.accuracy import scenario_spec
 
     system = load("bed_drive")
+    f = tmp_path / "plain.yaml"
+    f.write_text("name: plain\nkind: stop\nstop_time: 1.0\nchanges:\n  - {time: 0.5, variable: motor.brake, value: 1}\n")
     with pytest.raises(ValueError) as e:
-        scenario_spec(system, "startup")
+        scenario_spec(system, str(f))
     text = str(e.value)
-    assert "\n" not in text and "scenario startup" in text and "declares no accuracy" in text and "estop" in text
+    assert "\n" not in text and "scenario plain" in text and "declares no accuracy" in text and "estop" in text
     assert scenario_spec(system, "estop").accuracy
+
+
+@pytest.mark.parametrize("drive", ["bed_drive", "feeder_gto52", "proof_press", "spine_knife", "trimmer_conveyor"])
+def test_every_shipped_scenario_declares_the_accuracy_of_its_question(drive):
+    """Each scenario asks its kind's quantities: a start-up its time to speed, a speed change its new speed, a stop
+    its stopping time and angle, a jam its speed drop; each beside the peak torques it puts on the parts; a
+    transient quantity each names is one the scenario's kind reports."""
+    asked = {"startup": "time_to_speed", "speed_change": "speed_after", "stop": "stopping_time", "load": "speed_drop"}
+    system = load(drive)
+    for sc in system.scenarios:
+        names = [r.quantity for r in sc.accuracy]
+        assert asked[sc.kind] in names, (drive, sc.name, names)
+        assert any(n.endswith("_torque_peak") for n in names), (drive, sc.name, names)
+        assert all(r.tolerance > 0 for r in sc.accuracy)
 
 
 def test_a_scenario_file_declares_its_accuracy(tmp_path):

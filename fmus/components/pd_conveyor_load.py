@@ -11,4 +11,7 @@ class ConveyorLoad(Component):
     ports = (Rotational("shaft", motion="in", doc="drive shaft of the belt conveyors"),)
     signals = (Output("transport_force", "N", "transport force of the blocks through the trimming section"),
                Output("blocks_cut", "1", "number of blocks with edge inside the cutting zone"))
+    # the stack's cutting work and the conveyor's own resistance may change during the run (another paper, a
+    # jammed guide); the geometry and the number of knives stay fixed
+    tunable = ("w_cut", "F0")
     feedthrough = {"shaft.tau": ("shaft.phi",), "transport_force": ("shaft.phi",), "blocks_cut": ("shaft.phi",)}

@@ -8,3 +8,6 @@ class Inertia(Component):
     description = ("Rigid inertia J with optional spring/damper to the frame and constant drive torque. "
                    "Port flange: motion out (phi, w outputs), torque in.")
     ports = (Rotational("flange", motion="out", doc="flange of the inertia"),)
+    # the external drive torque and the damping to the frame may change during the run; J, the spring and the
+    # initial motion stay fixed
+    tunable = ("tau_drive", "d_ground")

@@ -23,6 +23,9 @@ class MotorBelt(Component):
     # fidelity 0: the ideal source delivers the belt torque, so motor torque and powers follow the pulley's motion;
     # at fidelities 1, 2 they follow the supply at once (its slip speed); the brake's torque follows its command
     # and, holding at rest, the belt
+    # the brake's holding torque and engage time may change during the run (a weaker brake, a later one); the
+    # drive's geometry, inertia, belt and motor rating stay fixed
+    tunable = ("holding_torque", "brake_delay")
     feedthrough = {"pulley.tau": ("pulley.phi", "pulley.w"), "belt_torque": ("pulley.phi", "pulley.w"),
                    "motor_torque": ("pulley.phi", "pulley.w", "supply"),
                    "power_electrical": ("pulley.phi", "pulley.w", "supply"),

@@ -252,6 +252,7 @@ class Monolithic:
         classes = component_classes()
         parameters = dict(parameters or {})
         self.names, self.models, self.slices, self.classes = [], [], [], []
+        self.values: list[dict] = []   # per instance: the parameters its model was built from
         n = 0
         for inst in system.instances:
             mname = model_name(inst.fmu)
@@ -264,6 +265,7 @@ class Monolithic:
             prefix = inst.name + "."
             values.update({k[len(prefix):]: v for k, v in parameters.items() if k.startswith(prefix)})
             model = cls.model(cls.model.Params.from_mapping(values))
+            self.values.append(values)
             self.names.append(inst.name)
             self.models.append(model)
             self.classes.append(cls)
@@ -278,8 +280,7 @@ class Monolithic:
                 self.project[i] = True
             elif isinstance(kind, str):
                 raise ReferenceError_(f"instance {self.names[i]}: no monolithic reference: {kind}")
-            elif kind is not None and kind.applies(m):
-                self.switches.append(kind(i, m))
+        self._set_switches(range(len(self.models)))
         index = {name: i for i, name in enumerate(self.names)}
         self.wires: list[list[_Wire | None]] = [[None] * len(m.inputs) for m in self.models]
         for c in system.all_connections():
@@ -296,10 +297,48 @@ class Monolithic:
             self.start_inputs.append([starts[name] for name in cls.model.inputs])
         self.sweeps = self._evaluation_order()
         self.inputs = inputs
-        # (instance, input) index of each signal, in the order of inputs.values()
-        self.driven = [] if inputs is None else [
-            (index[inst], self.models[index[inst]].inputs.index(var)) for inst, var, *_ in inputs.columns]
+        # (column of inputs.values(), instance, input index) of each signal on an input, and (column, instance,
+        # parameter) of each on a tunable parameter: held between the table's rows, the model rebuilt at a change
+        self.driven, self.tuned = [], []
+        for k, (inst, var, *_) in enumerate(inputs.columns if inputs is not None else ()):
+            i = index[inst]
+            if var in self.models[i].inputs:
+                self.driven.append((k, i, self.models[i].inputs.index(var)))
+            elif var in self.values[i] and var in self.classes[i].tunable:
+                self.tuned.append((k, i, var))
+            else:
+                raise ReferenceError_(f"input signal {inst}.{var}: neither an input nor a tunable parameter of "
+                                      f"{self.classes[i].__name__}")
+        self._tuned_to = None     # the tuned parameters' values the models are built from
         self._segment_end = None  # ns: the end of the stretch being integrated (its inputs before any step there)
+
+    def _set_switches(self, instances) -> None:
+        """The switches of ``instances`` (indices) for their present models (a brake appears with its torque)."""
+        instances = set(instances)
+        self.switches = [c for c in self.switches if c.i not in instances]
+        for i in sorted(instances):
+            m = self.models[i]
+            kind = _KINDS.get((type(m).__name__, getattr(m.p, "fidelity", None)))
+            if kind is not None and not isinstance(kind, str) and kind.applies(m):
+                self.switches.append(kind(i, m))
+
+    def _tune(self, t: float) -> None:
+        """The models of the tuned parameters' values at ``t`` (after a step there), rebuilt where they changed,
+        as the FMU rebuilds its model when a tunable parameter is set between communication steps."""
+        if not self.tuned:
+            return
+        values = self.inputs.values(round(t * NS), after_event=True)
+        now = tuple(float(values[k]) for k, _, _ in self.tuned)
+        if now == self._tuned_to:
+            return
+        changed = {i for (k, i, var), v in zip(self.tuned, now) if self.values[i][var] != v}
+        for (k, i, var), v in zip(self.tuned, now):
+            self.values[i][var] = v
+        for i in changed:
+            cls = self.classes[i].model
+            self.models[i] = cls(cls.Params.from_mapping(self.values[i]))
+        self._set_switches(changed)
+        self._tuned_to = now
 
     def _evaluation_order(self) -> list[int]:
         """Instance indices in the order their outputs must be evaluated (SCCs repeated len(SCC) times)."""
@@ -343,8 +382,9 @@ class Monolithic:
         if self.driven:
             t_ns = round(t * NS)
             after = self._segment_end is None or t_ns < self._segment_end
-            for (i, j), value in zip(self.driven, self.inputs.values(t_ns, after_event=after)):
-                u[i][j] = float(value)
+            values = self.inputs.values(t_ns, after_event=after)
+            for k, i, j in self.driven:
+                u[i][j] = float(values[k])
         y: list = [None] * len(self.models)
         for i in self.sweeps:
             for j, w in enumerate(self.wires[i]):
@@ -390,6 +430,7 @@ class Monolithic:
                  atol: float = 1e-10, max_step: float | None = None) -> pd.DataFrame:
         n_steps = int(round(stop_time / step))
         grid = np.arange(n_steps + 1) * step
+        self._tune(0.0)
         x = self.initial_state()
         events = self._event_functions(0.0, x)
         self.n_events = 0
@@ -408,6 +449,7 @@ class Monolithic:
             while rows and rows[0] <= round(t * NS):
                 rows.pop(0)
             t_stop = rows[0] / NS if rows else grid[-1]
+            self._tune(t)
             self._segment_end = rows[0] if rows else None
             sol = solve_ivp(self.rhs, (t, t_stop), x, method=method, rtol=rtol, atol=atol, max_step=limit,
                             dense_output=True, events=[f for _, f in events] or None, t_eval=None)
@@ -432,6 +474,7 @@ class Monolithic:
                 events = self._event_functions(t, x)
             elif rows and t == t_stop:  # an input row: the memory the new inputs set (a brake's timer), re-arm
                 self._segment_end = None
+                self._tune(t)
                 u, _ = self.signals(t, x)
                 for i, m in enumerate(self.models):
                     if m.input_memory:
@@ -446,6 +489,7 @@ class Monolithic:
     def frame(self, grid: np.ndarray, states: np.ndarray) -> pd.DataFrame:
         cols: dict[str, list] = {}
         for k, t in enumerate(grid):
+            self._tune(float(t))
             u, y = self.signals(float(t), states[k])
             for i, m in enumerate(self.models):
                 for name, value in zip(m.inputs, u[i]):

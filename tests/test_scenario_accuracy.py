@@ -1,0 +1,24 @@
+"""The cheapest method measured for each scenario (docs/howto/transients.md's table) meets the accuracy the
+scenario declares against the monolithic reference through the same events."""
+from __future__ import annotations
+
+import pytest
+
+from harness import load
+from harness.studies.accuracy import search_scenario
+
+MEASURED = [  # (drive, scenario, master, order, step): the cheapest of the ladder the page shows
+    ("spine_knife", "jam", "jacobi", 1, 5e-4),
+    ("spine_knife", "startup", "jacobi", 1, 5e-4),
+    ("spine_knife", "estop", "jacobi", 1, 5e-4),
+    ("spine_knife", "speed_change", "jacobi", 1, 5e-4),
+    ("trimmer_conveyor", "startup", "jacobi", 1, 1e-3),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("drive, scenario, master, order, step", MEASURED)
+def test_the_measured_method_meets_the_scenarios_declared_accuracy(drive, scenario, master, order, step):
+    system = load(drive)
+    table = search_scenario(system, scenario, methods=((master, order),), steps=(step,))
+    assert len(table) == 1 and bool(table["meets"].iloc[0]), table.to_dict("records")
