@@ -76,8 +76,8 @@ class FMU3(Instance):
         if arrays:
             raise FMUError(name, "instantiate", None, None,
                            detail=f"{self.path.name}: array {'inputs/outputs' if len(arrays) > 1 else 'input/output'} "
-                                  f"{', '.join(arrays[:4])}: FMI 3.0 arrays of this type are not supported (numeric arrays "
-                                  f"run as one variable per element)")
+                                  f"{', '.join(arrays[:4])}: FMI 3.0 arrays of this type are not supported "
+                                  f"(numeric arrays run as one variable per element)")
         self._elements = array_elements(self.md)
         self._arrays: dict[int, list] = {}   # array value reference -> its values as last set or read
         self.can_interpolate_inputs = False
