@@ -41,6 +41,8 @@ def broken(_c_build) -> dict:  # noqa: F811
     """{how: path of the oscillator that fails that way in doStep at t >= 0.5 s}, plus "healthy"."""
     out = {how: _pack(_c_build, f"osc_{how}", _broken_md(f"osc_{how}"), [f"FAIL_AT={FAIL_AT}", f"FAIL_HOW={n}"])
            for how, (n, _) in HOW.items()}
+    out["segv_if_x0_positive"] = _pack(_c_build, "osc_segv_x0", _broken_md("osc_segv_x0"),
+                                       [f"FAIL_AT={FAIL_AT}", "FAIL_HOW=1", "FAIL_ONLY_IF_X0_POSITIVE"])
     out["healthy"] = _pack(_c_build, "osc_healthy", _broken_md("osc_healthy"))
     return out
 
@@ -82,6 +84,29 @@ def test_crash_or_hang_is_one_line_and_keeps_the_rows(broken, how):
     assert len(df) == round(FAIL_AT / STEP) + 1
     assert df.index[-1] == pytest.approx(FAIL_AT)
     pd.testing.assert_frame_equal(df, healthy.iloc[:len(df)], check_exact=True)
+
+
+def test_each_instance_of_one_fmu_has_its_own_process_and_the_crash_names_its_instance(broken):
+    """Two instances of one foreign FMU, coupled; only osc1 (x0 > 0) segfaults at t = 0.5 s: each runs in a
+    process of its own, the error names osc1 (not osc0, which is stepped first), the rows before are kept."""
+    from harness.fmi import open_instance
+    from harness.fmi.isolated import Isolation
+    from harness.model import Connection, Instance, System
+
+    fmu = broken["segv_if_x0_positive"]
+    a, b = open_instance(fmu, "osc0", isolate=True), open_instance(fmu, "osc1", isolate=True)
+    try:
+        assert a._proc.pid != b._proc.pid
+    finally:
+        a.free(), b.free()
+    system = System("two_of_one", [Instance("osc0", str(fmu), {"x0": -0.1}), Instance("osc1", str(fmu), {"x0": 0.1})],
+                    [Connection("osc0.x", "osc1.F", factor=-20.0, unit_conversion=True),
+                     Connection("osc1.x", "osc0.F", factor=-20.0, unit_conversion=True)])
+    df = _run(system, stop_time=1.0, step=STEP, isolate=Isolation("foreign", timeout=5.0))
+    assert df.attrs["complete"] is False
+    assert df.attrs["error"].startswith(f"instance osc1: fmi2DoStep(h = {STEP:g} s) failed at t = {FAIL_AT:g} s: "
+                                        f"the FMU's isolated process died (SIGSEGV"), df.attrs["error"]
+    assert len(df) == round(FAIL_AT / STEP) + 1
 
 
 def test_simulate_raise_names_instance_and_time(broken):

@@ -4,7 +4,8 @@
   time; every layer (system validation, the FMI wrapper, the studies, the peer runners) asks here.
 * FMI 3.0 descriptions are given in FMI 2.0's words (:func:`_as_fmi2_types`): Float64/Float32 variables are
   ``Real``, the eight integer types ``Integer``; Boolean, String and Enumeration keep their names (an array of
-  more than one element is typed e.g. ``Float64[3x3]``, which nothing takes for a scalar), so system
+  more than one element of a non-numeric type is typed e.g. ``String[3]``, which nothing takes for a scalar;
+  numeric arrays become one scalar variable per element, ``y[1]``, ``A[1,2]``: :func:`array_elements`), so system
   validation, coupling and results treat both versions alike.  :func:`native_types` keeps each variable's
   FMI 3.0 type, which the FMI 3.0 wrapper (:mod:`harness.fmi.fmu3`) calls by.
 * :func:`terminals`: an FMI 3.0 FMU's terminals (``terminalsAndIcons/terminalsAndIcons.xml``), read once per
@@ -69,19 +70,97 @@ def model_description(path: str | Path):
     return _DESCRIPTIONS[key]
 
 
+ELEMENT_REF0 = 0xF0000000   # value references of array elements (:func:`array_elements`) start here
+
+
+@dataclass(frozen=True)
+class ArrayElement:
+    """One element of an FMI 3.0 array variable, a scalar variable of its own to every layer: ``array`` the
+    array's value reference, ``index`` the element's place in its row-major values, ``size`` their number."""
+    array: int
+    index: int
+    size: int
+
+
+_ELEMENTS: dict[int, dict[int, ArrayElement]] = {}   # id(model description) -> element value reference -> element
+
+
+def _element_names(name: str, shape: tuple) -> list[str]:
+    """``y[1]``, ``y[2]``...; ``A[1,1]``, ``A[1,2]``... (1-based, row-major as FMI 3.0 stores arrays)."""
+    import itertools
+
+    return [f"{name}[{','.join(str(i + 1) for i in idx)}]" for idx in itertools.product(*(range(n) for n in shape))]
+
+
+def _expand_arrays(md, native: dict) -> None:
+    """Replace each numeric FMI 3.0 array of more than one element by one scalar variable per element (named
+    by :func:`_element_names`, start values split, value references from :data:`ELEMENT_REF0`), in the model
+    variables and in the outputs' dependencies, so that every layer connects, sets and records elements."""
+    import copy
+
+    elements, by_array, out = {}, {}, []
+    for v in md.modelVariables:
+        shape = tuple(int(n) for n in (getattr(v, "shape", None) or ()))
+        kind = native[v.name]
+        if not shape or shape == (1,) * len(shape) or kind not in _FMI3_AS_FMI2:
+            out.append(v)
+            continue
+        names = _element_names(v.name, shape)
+        starts = str(v.start).split() if v.start is not None else None
+        if starts is not None and len(starts) != len(names):
+            starts = None
+        copies = []
+        for i, n in enumerate(names):
+            e = copy.copy(v)
+            e.name, e.shape, e.dimensions, e.dimensionValueReferences = n, (), [], []
+            e.start = starts[i] if starts is not None else None
+            e.valueReference = ELEMENT_REF0 + len(elements)
+            e.type = _FMI3_AS_FMI2[kind]
+            elements[e.valueReference] = ArrayElement(v.valueReference, i, len(names))
+            native[n] = kind
+            copies.append(e)
+        by_array[id(v)] = copies
+        out.extend(copies)
+    if not elements:
+        return
+    md.modelVariables[:] = out
+
+    def expanded(variables):
+        return None if variables is None else [e for d in variables for e in by_array.get(id(d), [d])]
+
+    for unknowns in (md.outputs, md.initialUnknowns, md.derivatives):
+        new = []
+        for u in unknowns:
+            for e in by_array.get(id(u.variable), [u.variable]):
+                c = copy.copy(u)
+                c.variable, c.dependencies = e, expanded(u.dependencies)
+                new.append(c)
+        unknowns[:] = new
+    _ELEMENTS[id(md)] = elements
+
+
+def array_elements(md) -> dict[int, ArrayElement]:
+    """Element value reference -> :class:`ArrayElement` of an FMI 3.0 description read by
+    :func:`model_description` (empty if it has no arrays)."""
+    return _ELEMENTS.get(id(md), {})
+
+
 def _as_fmi2_types(md) -> None:
-    """Rename an FMI 3.0 description's variable types to FMI 2.0's (module docstring); keep the originals."""
+    """Rename an FMI 3.0 description's variable types to FMI 2.0's (module docstring); keep the originals;
+    numeric arrays become one scalar per element (:func:`_expand_arrays`)."""
     if not str(md.fmiVersion).startswith("3"):
         return
     native = {}
     for v in md.modelVariables:
         native[v.name] = v.type
+    _NATIVE_TYPES[id(md)] = native
+    _expand_arrays(md, native)
+    for v in md.modelVariables:
         shape = tuple(int(n) for n in (getattr(v, "shape", None) or ()))
         if shape and shape != (1,) * len(shape):  # an array keeps a type of its own: never taken for a scalar
             v.type = f"{v.type}[{'x'.join(map(str, shape))}]"
-        else:
+        elif v.valueReference < ELEMENT_REF0:
             v.type = _FMI3_AS_FMI2.get(v.type, v.type)
-    _NATIVE_TYPES[id(md)] = native
 
 
 def native_types(md) -> dict[str, str]:

@@ -10,9 +10,10 @@ What the master cannot use is refused when the instance is made, in one line nam
 
 * Clocks (``Clock`` variables; a Scheduled-Execution-only FMU has no co-simulation interface at all and is
   refused by :func:`~harness.fmi.fmu.extracted`): the master has no clocked partitions or event mode;
-* arrays among the inputs and outputs (a variable whose ``Dimension``s give more than one element): the
-  master connects and records scalars.  A one-element array is a scalar to it.  An array parameter is refused
-  only when a value is set for it.
+* arrays of a non-numeric type among the inputs and outputs (String, Boolean, Binary with more than one
+  element).  A numeric array is one scalar variable per element (``y[1]``, ``A[1,2]``, 1-based, row-major:
+  :func:`harness.fmi.cache.array_elements`): reading an element reads its whole array, setting one sets the
+  whole array with the other elements as last set or read (at first their start values).
 
 The co-simulation runs without event mode and without early return (FMI 3.0's basic step mode, as an FMI 2.0
 slave runs); an FMU that asks to terminate in ``fmi3DoStep`` raises :class:`~harness.errors.FMUError`
@@ -30,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.errors import FMUError
-from harness.fmi.cache import native_types
+from harness.fmi.cache import array_elements, native_types
 from harness.fmi.fmu import ERROR, Instance, RealBlock
 
 _INTEGERS = ("Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")
@@ -75,7 +76,10 @@ class FMU3(Instance):
         if arrays:
             raise FMUError(name, "instantiate", None, None,
                            detail=f"{self.path.name}: array {'inputs/outputs' if len(arrays) > 1 else 'input/output'} "
-                                  f"{', '.join(arrays[:4])}: FMI 3.0 arrays are not supported (only scalars)")
+                                  f"{', '.join(arrays[:4])}: FMI 3.0 arrays of this type are not supported "
+                                  f"(numeric arrays run as one variable per element)")
+        self._elements = array_elements(self.md)
+        self._arrays: dict[int, list] = {}   # array value reference -> its values as last set or read
         self.can_interpolate_inputs = False
         self.max_input_derivative_order = 0
         self.provides_directional_derivative = not model_exchange and _declares_directional_derivatives(self.unzip_dir)
@@ -130,6 +134,13 @@ class FMU3(Instance):
     # -- values ------------------------------------------------------------------------------------------------
     def _reals(self, function: str, block: RealBlock) -> None:
         """fmi3GetFloat64 / fmi3SetFloat64 on the block's buffer; Float32 variables one by one."""
+        if self._elements and any(r in self._elements for r in block.refs):
+            for i, (n, r) in enumerate(zip(block.names, block.refs)):
+                if function.startswith("fmi3Get"):
+                    block.buf[i] = self._read(n, r)
+                else:
+                    self._write(n, r, block.buf[i])
+            return
         if not self._float32 or all(self.native[n] == "Float64" for n in block.names):
             self._call(function, getattr(self._slave, function), self._c, block.vr, block.n, block.buf, block.n)
             return
@@ -139,6 +150,42 @@ class FMU3(Instance):
                 block.buf[i] = self._call(f"fmi3Get{kind}", getattr(self._slave, f"get{kind}"), [r])[0]
             else:
                 self._call(f"fmi3Set{kind}", getattr(self._slave, f"set{kind}"), [r], [block.buf[i]])
+
+    def _read(self, name: str, ref: int):
+        """One scalar or array element (:func:`harness.fmi.cache.array_elements`) by its FMI 3.0 type."""
+        kind = self.native[name]
+        kind = "Int64" if kind == "Enumeration" else kind
+        e = self._elements.get(ref)
+        if e is None:
+            return self._call(f"fmi3Get{kind}", getattr(self._slave, f"get{kind}"), [ref])[0]
+        values = self._call(f"fmi3Get{kind}", getattr(self._slave, f"get{kind}"), [e.array], e.size)
+        self._arrays[e.array] = list(values)
+        return values[e.index]
+
+    def _write(self, name: str, ref: int, value) -> None:
+        """Set one scalar or array element: an element sets its whole array (the other elements as last set or
+        read, else their start values)."""
+        kind = self.native[name]
+        kind = "Int64" if kind == "Enumeration" else kind
+        e = self._elements.get(ref)
+        if e is None:
+            self._call(f"fmi3Set{kind}", getattr(self._slave, f"set{kind}"), [ref], [value])
+            return
+        values = self._arrays.get(e.array)
+        if values is None:
+            values = self._array_starts(e.array, kind)
+        values[e.index] = value
+        self._arrays[e.array] = values
+        self._call(f"fmi3Set{kind}", getattr(self._slave, f"set{kind}"), [e.array], values)
+
+    def _array_starts(self, array: int, kind: str) -> list:
+        conv = float if kind.startswith("Float") else int
+        starts = [None] * next(e.size for e in self._elements.values() if e.array == array)
+        for v in self.md.modelVariables:
+            e = self._elements.get(v.valueReference)
+            if e is not None and e.array == array:
+                starts[e.index] = conv(v.start) if v.start is not None else conv(0)
+        return starts
 
     def get(self, block: RealBlock):
         if block.n:
@@ -182,12 +229,12 @@ class FMU3(Instance):
             value = value if isinstance(value, bytes) else str(value).encode()
         else:
             v, value = self._typed(name, value)
-        self._call(f"fmi3Set{kind}", getattr(self._slave, f"set{kind}"), [v.valueReference], [value])
+        self._write(name, v.valueReference, value)
 
     def get_value(self, name: str):
         """Read one variable: float (Float64/32), int (Int*/UInt*, Enumeration), bool, str, bytes (Binary)."""
         v, kind = self._native(name)
-        value = self._call(f"fmi3Get{kind}", getattr(self._slave, f"get{kind}"), [v.valueReference])[0]
+        value = self._read(name, v.valueReference)
         if kind in ("Float64", "Float32"):
             return float(value)
         if kind in _INTEGERS:
