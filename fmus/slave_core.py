@@ -348,7 +348,7 @@ class PressBehaviour(Component):
         for i, name, lo, hi in self._ranges:
             value = u[i]
             if (lo is not None and value < lo) or (hi is not None and value > hi):
-                self._fail(f"input {name} = {value!r} at t = {self._time:.9g} s is outside its declared range "
+                self._fail(f"input {name} = {float(value)!r} at t = {self._time:.9g} s is outside its declared range "
                            f"[{'-inf' if lo is None else f'{lo:g}'}, {'inf' if hi is None else f'{hi:g}'}]")
         if math.isfinite(sum(u)):  # every input is finite (a NaN or an infinity makes the sum non-finite)
             return

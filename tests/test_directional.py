@@ -23,6 +23,7 @@ from harness.errors import FMUError
 from harness.fmi import open_instance
 from harness.fmi.inprocess import InProcessFMU
 from harness.run import RunOptions
+from input_ranges import declared_range, fold
 
 NAMES = sorted(catalog())
 STEP = 1e-3
@@ -42,8 +43,9 @@ def fmu3_dir(tmp_path_factory) -> Path:
     return out
 
 
-def _point(n: int, base: float) -> np.ndarray:
-    return base + 0.37 * np.arange(n)
+def _point(inputs: list, base: float) -> np.ndarray:
+    """Input j at base + 0.37 j, folded into the range the FMU declares for it (it refuses a value outside)."""
+    return np.array([fold(base + 0.37 * j, *declared_range(v)) for j, v in enumerate(inputs)])
 
 
 def _central(set_inputs, get_outputs, u: np.ndarray) -> np.ndarray:
@@ -87,7 +89,7 @@ def _harness_case(inst, name: str, where: str) -> list[float]:
     inst.exit_initialization()
     devs, t, nonzero = [], 0.0, 0
     for base in BASES:
-        u = _point(len(ins), base)
+        u = _point([v for v in inst.md.modelVariables if v.causality == "input"], base)
         inst.set(inp, u)
         inst.do_step(t, STEP)
         t += STEP
@@ -133,7 +135,7 @@ def test_directional_derivatives_in_initialisation_mode(fmu_dir, fmu3_dir, name,
         inp, out = inst.reals(ins), inst.reals(outs)
         inst.setup(0.0)
         inst.enter_initialization()
-        u = _point(len(ins), 1.1)
+        u = _point([v for v in inst.md.modelVariables if v.causality == "input"], 1.1)
         inst.set(inp, u)
         D = np.column_stack([inst.directional_derivative(out, inp, e) for e in np.eye(len(ins))])
         fd = _central(lambda v: inst.set(inp, v), lambda: inst.get(out).copy(), u)
@@ -212,7 +214,7 @@ def _fmpy_case(path: Path, version: int) -> None:
     s.exitInitializationMode()
     t = 0.0
     for base in BASES:
-        u = _point(len(iv), base)
+        u = _point([v for v in md.modelVariables if v.causality == "input"], base)
         set_(iv, list(u))
         s.doStep(t, STEP)
         t += STEP
@@ -443,8 +445,8 @@ def test_binary_instances_answer_from_their_own_slaves(fmu_dir, fmu3_dir):
 
 # -- a host without Python: the loader initialises Python itself and answers from the slave ---------------------
 C_HOST = r"""
-/* dd_host <2|3> <binary.so> <resources> <guid/token> <in vrs a,b,..> <out vrs a,b,..>: instantiate, initialise,
-   set inputs 0.3 + 0.37 j, one step of 1 ms, set them again; print "DEV <max |DD - central difference| / scale>"
+/* dd_host <2|3> <binary.so> <resources> <guid/token> <in vrs a,b,..> <out vrs a,b,..> <inputs u0,u1,..>: instantiate,
+   initialise, set the inputs, one step of 1 ms, set them again; print "DEV <max |DD - central difference| / scale>"
    over a unit seed per input (DD from Get...DirectionalDerivative, differences from Set/Get); exit 4 on a failed
    call. */
 #include <dlfcn.h>
@@ -488,7 +490,9 @@ int main(int argc, char **argv) {
             || ((int (*)(I))dlsym(lib, "fmi2EnterInitializationMode"))(c)
             || ((int (*)(I))dlsym(lib, "fmi2ExitInitializationMode"))(c)) return 4;
     }
-    for (size_t j = 0; j < ni; j++) u[j] = 0.3 + 0.37 * j;
+    { char *s = strdup(argv[7]), *x = NULL; size_t j = 0;
+      for (char *i = strtok_r(s, ",", &x); i && j < ni; i = strtok_r(NULL, ",", &x)) u[j++] = strtod(i, NULL);
+      free(s); if (j != ni) return 5; }
     if (set(in, ni, u)) return 4;
     bool b1, b2, b3; double last;
     if (v3 ? ((int (*)(I, double, double, bool, bool *, bool *, bool *, double *))dlsym(lib, "fmi3DoStep"))(
@@ -554,9 +558,10 @@ def test_c_host_without_python_gets_directional_derivatives(fmu_dir, fmu3_dir, d
         md = read_model_description(str(fmu))
         ins = ",".join(str(v.valueReference) for v in md.modelVariables if v.causality == "input")
         outs = ",".join(str(v.valueReference) for v in md.modelVariables if v.causality == "output")
+        u = ",".join(repr(float(x)) for x in _point([v for v in md.modelVariables if v.causality == "input"], 0.3))
         resources = folder / "resources"
         r = subprocess.run([str(dd_host), str(version), str(folder / "binaries" / platform / f"{name}.so"),
-                            str(resources), md.guid, ins, outs],
+                            str(resources), md.guid, ins, outs, u],
                            capture_output=True, text=True, env=env, timeout=300)
         assert r.returncode == 0, f"{name}: exit {r.returncode}: {(r.stdout + r.stderr)[-800:]}"
         dev = float(next(line.split()[1] for line in r.stdout.splitlines() if line.startswith("DEV")))

@@ -12,6 +12,7 @@ from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
 from fmus import build as build_fmus
+from input_ranges import declared_range, fold
 
 SCRIPTS = [s.stem for s in build_fmus.component_scripts()]
 
@@ -65,7 +66,8 @@ def test_model_description_is_standard_and_complete(fmu):
 def _drive_inputs(md, slave, k):
     inputs = [v for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
     if inputs:
-        slave.setReal([v.valueReference for v in inputs], [0.01 * (i + 1) * np.sin(0.3 * k + i) for i in range(len(inputs))])
+        slave.setReal([v.valueReference for v in inputs],
+                      [fold(0.01 * (i + 1) * np.sin(0.3 * k + i), *declared_range(v)) for i, v in enumerate(inputs)])
 
 
 def test_rollback_with_fmu_state_is_bit_exact(fmu):

@@ -12,6 +12,7 @@ import pytest
 from fmus.build import catalog
 from fmus.slave import fmu_class
 from fmus.slave_core import SlaveState
+from input_ranges import fold
 
 # attributes a step may change that are not state: the cache keyed by the state itself
 NOT_STATE = {"_D"}
@@ -56,16 +57,22 @@ def started(cls):
     return s
 
 
+def _inside(s, vr: int, value: float) -> float:
+    """``value`` folded into the range the slave declares for the input ``vr`` (it refuses one outside)."""
+    declared = s._io[s._in_by_vr[vr]]
+    return fold(value, declared.min, declared.max)
+
+
 def exercise(s, k: int) -> None:
     """What a master does at one communication point: set inputs, step (a step size of its own), read outputs and
     their derivatives."""
     h = 1e-3 * (1.0 + 0.1 * k)
     ins, outs = sorted(s._in_by_vr), sorted(s._out_by_vr)
     if ins:
-        s.set_real(ins, [0.01 * (i + 1) * np.sin(0.3 * k + i) for i in range(len(ins))])
+        s.set_real(ins, [_inside(s, vr, 0.01 * (i + 1) * np.sin(0.3 * k + i)) for i, vr in enumerate(ins)])
     s.do_step(k * h, h)
     if ins:    # a position set again, the others held over the next step: both kinds of input in the state
-        s.set_real(ins[:1], [0.02 * np.cos(0.3 * k)])
+        s.set_real(ins[:1], [_inside(s, ins[0], 0.02 * np.cos(0.3 * k))])
     s.get_real(outs)
     if ins and outs and type(s).model.provides_output_jacobian():
         s.directional_derivative(outs, ins, [1.0] * len(ins))
