@@ -1,4 +1,4 @@
-"""Performance benchmarks of the co-simulation master against its peers (issue 10).
+"""Performance benchmarks of the co-simulation master against its peers.
 
 ``python -m benchmarks`` times, in ONE run and side by side, the same co-simulation in every tool:
 
@@ -18,7 +18,7 @@
 * the real-time factor of bed_drive: its default scene (the coarsest model that answers the scene's question
   within tolerance, :func:`harness.studies.scenes.choose`) and, for comparison, its default experiment (the
   declared model);
-* the real-time factors of the declared models of bed_drive and feeder_gto52 against issue 21's goals, each
+* the real-time factors of the declared models of bed_drive and feeder_gto52 against their goals (:mod:`benchmarks.bench`), each
   beside its two floors (:mod:`benchmarks.floors`: the same run with the FMUs' physics, or all their calls,
   made free after initialisation: the most a faster model, or a faster FMU layer as well, could give with
   this master), and a warm sweep worker's per-point overhead.
@@ -26,7 +26,7 @@
 It prints the cost per FMU-step [us] and the ratios harness/peer, writes ``benchmark.csv`` and the bar chart
 ``docs/images/benchmark.png`` (+ .svg), checks that every tool computed the same thing (final values of the
 outputs without direct feed-through, against the harness with master ``jacobi-sampled``, which is the
-algorithm of libcosim, Ecos and CoFmuPy) and checks the targets of the issue.  ``--quick`` runs tiny sizes
+algorithm of libcosim, Ecos and CoFmuPy) and checks the targets (``SCENE_GOAL``, ``DECLARED_GOALS``, ``SWEEP_GOAL`` in :mod:`benchmarks.bench`).  ``--quick`` runs tiny sizes
 (a smoke test, timings meaningless).  Timings on a shared machine are noisy: run the final benchmark on a
 quiet one.
 

@@ -1,4 +1,4 @@
-"""Which content kind runs in which tool: the measured table of docs/howto/foreign.md (issue 33).
+"""Which content kind runs in which tool: the measured table of docs/howto/foreign.md.
 
     python -m benchmarks.content_matrix [--kinds fmi1-cs,ssp-units] [--tools ours,fmpy] [--timeout 120]
 

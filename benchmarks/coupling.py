@@ -1,4 +1,4 @@
-"""Issue 29's goals, measured: fewer, larger steps at a stated accuracy (``python -m benchmarks.coupling``, and
+"""The coupling goals, measured: fewer, larger steps at a stated accuracy (``python -m benchmarks.coupling``, and
 the coupling lines of ``python -m benchmarks``).
 
 Four lines, each MET / MISS with its evidence:

@@ -1,5 +1,5 @@
 """What a run would cost if part of it were free: stand-ins for the FMUs' work, for the real-time floors of
-:mod:`benchmarks.bench` (issue 21).
+:mod:`benchmarks.bench`.
 
 A floor run is the declared model's run as the benchmark times it, except that right after initialisation
 (``fmi2ExitInitializationMode``) every FMU on the in-process path gets stand-ins:

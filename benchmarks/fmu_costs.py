@@ -1,4 +1,4 @@
-"""What each component FMU costs per communication step in the press drives (issue 10: profile each do_step).
+"""What each component FMU costs per communication step in the press drives (a profile of each do_step).
 
     python -m benchmarks.fmu_costs [SYSTEM ...] [--steps N]
 

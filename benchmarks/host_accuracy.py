@@ -1,4 +1,4 @@
-"""Are the shipped drives, exported as SSP, as accurate in other hosts as in ours?  (issue 35)
+"""Are the shipped drives, exported as SSP, as accurate in other hosts as in ours?
 
 ``python -m benchmarks.host_accuracy [--systems bed_drive feeder_gto52] [--hosts ...] [--steps 1e-4 5e-5]``
 

@@ -225,7 +225,7 @@ def _main(argv: list[str], debug: bool) -> int:
 
 def _check_out_folder(args) -> None:
     """``study ... --out DIR`` and ``scene ... --out DIR``: the folder is made and written to before the work
-    (a study of minutes used to fail on it only when it wrote its table)."""
+    (so a study of minutes does not fail on it only when it writes its table)."""
     if args.command in ("study", "scene") and getattr(args, "out", None) is not None:
         from harness.results import check_writable
 

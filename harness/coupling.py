@@ -1,4 +1,4 @@
-"""The coupling layout of a system, computed once when a master is built (issue 20, part).
+"""The coupling layout of a system, computed once when a master is built.
 
 Two vectors carry every Real value the master passes on:
 

@@ -122,8 +122,8 @@ SYSTEM = System(
         bond("cam.rocker", "diff.carrier"),
         bond("diff.sun", "bed.pinion"),
     ],
-    # Linear extrapolation at 0.5 ms (issue 21): against the monolithic reference (precision study, 0.15 s and
-    # 1 s) every compared column is closer than with the zero-order hold at 0.2 ms declared before, the run
+    # Linear extrapolation at 0.5 ms: against the monolithic reference (precision study, 0.15 s and 1 s)
+    # every compared column is closer than with the zero-order hold at 0.2 ms, the run
     # takes 2.5 times fewer steps, and the step is half the coupling's stability limit at order 1 (1 ms)
     experiment=Experiment(stop_time=2.0, step=5e-4, master="jacobi", extrapolation=1),
     free_inputs=motor_inputs(),
@@ -162,7 +162,7 @@ SYSTEM = System(
         Requirement("peak main-shaft torque", 'peak(r["flywheel.shaft_torque"])', 0.01, "N.m", relative=True),
     ), stop_time=1.0,
         # hosts that read outputs after the step and hold them (libcosim, Ecos): jacobi-sampled with hold meets
-        # this at 0.1 ms (2.5 um, 0.038 %, 0.72 %, the seed's mechanism of issue 32) and diverges at 0.2 ms (the
+        # this at 0.1 ms (2.5 um, 0.038 %, 0.72 %, with the seed's mechanism) and diverges at 0.2 ms (the
         # effort through the rigid differential and cam arrives a step late); the exported SSP declares it
         # (tests/test_host_accuracy.py)
         sampled_host_step=1e-4),

@@ -60,8 +60,8 @@ SYSTEM = System(
         bond("flywheel.crank", "feeder.crank"),
         bond("feeder.rocker", "head.flange"),
     ],
-    # Linear extrapolation at 0.2 ms (issue 21): every compared column closer to the monolithic reference than
-    # the zero-order hold at 0.1 ms declared before (precision study, 0.2 s and 0.6 s); at 0.4 ms the crank
+    # Linear extrapolation at 0.2 ms: every compared column closer to the monolithic reference than the
+    # zero-order hold at 0.1 ms (precision study, 0.2 s and 0.6 s); at 0.4 ms the crank
     # torque is not (tests/test_precision.py)
     experiment=Experiment(stop_time=1.0, step=2e-4, master="jacobi", extrapolation=1),
     free_inputs={**motor_inputs(),

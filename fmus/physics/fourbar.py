@@ -26,9 +26,8 @@ Fidelity levels of :class:`FourBarModel` (port crank: motion in; port rocker: mo
    balance.  Sign convention of the toolkit (fmus.slave): crank.tau is the torque the four-bar exerts on the
    crank flange, rocker.tau the torque the load exerts on the rocker, so power conservation of massless links
    reads ``crank.tau * crank.w = rocker.tau * rocker.w``, i.e. crank.tau = rocker.tau * dpsi/dphi (a load
-   driven forwards, rocker.tau < 0, gives crank.tau < 0).  NOTE: the issue text wrote
-   "crank.tau*w_crank + rocker.tau*w_rocker = 0"; with the repository's bond convention that would make a
-   load pull the crank forwards, so the convention-consistent form above is used (and tested).
+   driven forwards, rocker.tau < 0, gives crank.tau < 0).  The form "crank.tau*w_crank + rocker.tau*w_rocker
+   = 0" would, with this bond convention, make a load pull the crank forwards (tested).
    joint_force (coupler tension) from the rocker's torque balance: F = rocker.tau / arm,
    arm = cross(D - O5, e_AD) (the rocker inertia is not used at this level).
 1. elastic coupler: the rocker is a state (psi, w) with inertia I = rocker_inertia + coupler_mass/2 * r^2

@@ -20,7 +20,7 @@ good communication point is kept, marked incomplete.  Values cross the process b
 (pickled doubles), so an isolated run is bit-identical to the same run in one process.  What it costs is the
 round trips: the values a master sets travel with its next call, and a step's answer carries the values of
 every variable block the master reads, so a plain step (set inputs, step, read outputs) is one round trip
-(measured by ``python -m benchmarks.isolation``, written in docs/interoperability.md).
+(measured by ``python -m benchmarks.isolation``, written in docs/howto/foreign.md).
 """
 from __future__ import annotations
 

@@ -100,7 +100,7 @@ def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] |
             # an input no connection drives is no connector (unless a value is bound to it): FMPy's simulate_ssp
             # (0.3.x get_connections) wires a declared input without a connection to the source of the input
             # declared before it; the trimmer's unused take-off aux.tau took the cutting torque and doubled the
-            # shaft's torque (issue 35)
+            # shaft's torque
             if (v.causality == "output" or v.name in inst.parameters
                     or (v.causality == "input" and f"{inst.name}.{v.name}" in driven)):
                 c = ET.SubElement(conns, _q("ssd:Connector"), {"name": v.name, "kind": v.causality})
@@ -198,7 +198,7 @@ def _value_table(parent: ET.Element, table: dict, boolean: bool) -> None:
 def host_step(system: System) -> float:
     """The step the SSP declares to other hosts (the OSP annotation): the drive's ``sampled_host_step`` where it
     declares one below its experiment's step -- libcosim, Ecos and FMPy read outputs right after each step and
-    hold them, and need a smaller step than the harness's own master to meet the drive's accuracy (issue 35) --
+    hold them, and need a smaller step than the harness's own master to meet the drive's accuracy --
     else the experiment's step.  The harness's own step goes in the ``pd:Experiment`` annotation."""
     step = float(system.experiment.step)
     accuracy = getattr(system, "accuracy", None)

@@ -472,7 +472,7 @@ class _Reader:
                 found = self.parameter_mapping(mapping, owner, component_source).apply(found, self.fail)
             # SSP 1.0 (SystemStructureDescription.xsd, ParameterBinding/@prefix): the prefix is PREPENDED
             # to every name of the parameter source, so a set of bare names can be bound at system level
-            # to one element with prefix="Element.".  (Until issue 6 the prefix was stripped instead.)
+            # to one element with prefix="Element.".
             for pname, value in found.items():
                 values[prefix + pname] = value
         return values

@@ -13,8 +13,8 @@ def consistent_inputs(system: System) -> dict[str, dict]:
     The export binds them as the inputs' start values, because a host need not set inputs before
     initialization: FMPy's ``simulate_ssp`` sets none (only a parameter set), and an FMU that takes a state
     from an input (a motor's rotor angle from its pulley's, a four-bar's rocker from its crank) then starts
-    from the input's FMU default, 0: the exported bed drive in FMPy had its bed 0.19 m off at 0.3 s, 2.6 mm
-    with these start values (issue 35)."""
+    from the input's FMU default, 0, and the exported bed drive in FMPy would start with its bed far off
+    (tests/test_host_accuracy.py runs it in FMPy from these start values)."""
     from harness.clock import NS as NS_PER_S
     from harness.fmi import open_instance, release
     from harness.masters import master_class

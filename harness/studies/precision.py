@@ -13,7 +13,7 @@ equations as one ODE integrated by Radau to rtol 1e-9), and writes
   interest (``--metric``, default ``max_abs``) versus wall time, one line per method, and the reference's own
   cost as a vertical line.
 
-Choices (documented here because the issue leaves them open):
+Choices:
 
 * Wall time is the whole :func:`harness.simulate` call (loading and instantiating the FMUs included), and for
   the reference the whole ``reference()`` call (assembling the models, integrating, sampling the grid), so
