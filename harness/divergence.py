@@ -195,7 +195,7 @@ class DivergenceDetector:
         The step it puts on the bonds' power and the energy the coupling books on the transient it excites are
         the event's, not growth: the detector gives no verdict for ``min_blocks`` blocks from here (the time a
         run gets from its start) and excuses the energy error booked over them; the peaks before the event stay
-        the run's scale.  A coupling that keeps creating energy after that is judged as before."""
+        the run's scale.  A coupling that keeps creating energy after that is judged as at any other time."""
         if not self.n:
             return
         self._grace_end = len(self.peaks) + self.opts.min_blocks

@@ -32,8 +32,8 @@ vanishing onset speed was sampled, and no explicit integrator sized on the conta
 
 v_E is the approach speed of the impact whose elastic energy at this penetration equals the contact's.
 During a free impact the elastic energy never exceeds the kinetic energy the contact started with
-(E_el <= m_eff v0^2 / 2 - dissipated), so v_E < v0 and an impact is integrated exactly as before, to the
-bit; only a contact loaded beyond what its own impact could have compressed it gets v0 = v_E.  There the
+(E_el <= m_eff v0^2 / 2 - dissipated), so v_E < v0 and a free impact's v0 stays its approach speed at the onset,
+to the bit; only a contact loaded beyond what its own impact could have compressed it gets v0 = v_E.  There the
 damping is c = C k pen^n / v_E = C sqrt((n + 1) k m_eff pen^(n-1) / 2) (C = chi v0 of the law, e.g. 6.4
 for Flores at e = 0.2): the largest damping the same law reaches at the peak of an impact of that depth,
 bounded by C sqrt((n + 1) / (2 n)) times the linearised contact frequency.  The criterion has no free

@@ -1,6 +1,6 @@
 """SSP 1.0 (System Structure and Parameterization): export, import and the start values the export binds.
 
-Split by job; every name is importable from ``harness.ssp`` as before:
+Split by job; every name below is importable from ``harness.ssp`` itself:
 
 ``harness.ssp.export``        :func:`export_ssp` (an .ssp archive of a system, FMUs included), :func:`build_ssd`,
                               :func:`host_step` (the step declared to other hosts) and the ``export`` command;

@@ -68,7 +68,7 @@ def trial(system, ignore: type[Warning] = Warning, **options) -> Trial:
 class StudyInterrupted(KeyboardInterrupt):
     """Ctrl-C (SIGINT) or SIGTERM during a study: ``table`` holds the rows the study had finished (a DataFrame,
     possibly empty), ``status`` the exit status a shell expects (130 after Ctrl-C, 143 after SIGTERM) and ``how``
-    says which.  A KeyboardInterrupt still, so a caller that does not look for it is interrupted as before."""
+    says which.  A KeyboardInterrupt still, so a caller that does not look for it is interrupted as by any other."""
 
     def __init__(self, table: pd.DataFrame, cause: BaseException):
         from harness.run import interruption
