@@ -12,6 +12,7 @@ import numpy as np
 
 from .base import ParameterError
 from .fourbar import check_crank_rocker, kinematics, min_transmission, position
+from .roots import brentq
 
 
 @dataclass(frozen=True)
@@ -49,7 +50,6 @@ class FourBarAnalysis:
 
 def extreme_crank_angles(a, b, f, r, branch=1) -> tuple[float, float]:
     """Crank angles [rad, in [0, 2pi)] of the two extreme rocker positions (roots of dpsi/dphi)."""
-    from scipy.optimize import brentq
     grid = np.linspace(0.0, 2 * np.pi, 721)
     v = kinematics(grid, a, b, f, r, branch)[1]
     roots = []
@@ -95,13 +95,21 @@ def _stroke(a, b, f, r, branch, start, span):
     return swing, big_b, c1, c3
 
 
-def analyse(crank: float, coupler: float, frame: float, rocker: float, branch: int = 1) -> FourBarAnalysis:
-    """Time ratio, swing, transmission and the motion invariants B, C1, C3 of both strokes.
+@dataclass(frozen=True)
+class StrokeAngles:
+    """Where the strokes of a crank-rocker lie (crank = 1, turning counter-clockwise): :class:`FourBarAnalysis`'s
+    fields of the same names, without its motion invariants (which need ``scipy.optimize``)."""
+    coupler: float
+    frame: float
+    rocker: float
+    working_stroke_deg: float
+    idle_stroke_deg: float
+    working_start_deg: float
+    idle_start_deg: float
 
-    The link lengths are scaled to crank = 1.  The crank turns counter-clockwise; the working stroke is the
-    slower one (the larger crank angle between the extreme rocker positions).  Raises ParameterError for a
-    linkage that is not a Grashof crank-rocker.
-    """
+
+def _strokes(crank, coupler, frame, rocker, branch):
+    """(a, b, f, r) scaled to crank = 1 and the strokes' (working start, working span, idle start, idle span) [rad]."""
     names = ("crank", "coupler", "frame", "rocker")
     check_crank_rocker(crank, coupler, frame, rocker, names)
     if branch not in (-1, 1):
@@ -113,7 +121,25 @@ def analyse(crank: float, coupler: float, frame: float, rocker: float, branch: i
         w_start, w_span, i_start = e1, span1, e2
     else:
         w_start, w_span, i_start = e2, 2 * np.pi - span1, e1
-    i_span = 2 * np.pi - w_span
+    return (a, b, f, r), (w_start, w_span, i_start, 2 * np.pi - w_span)
+
+
+def stroke_angles(crank: float, coupler: float, frame: float, rocker: float, branch: int = 1) -> StrokeAngles:
+    """The strokes of :func:`analyse` (the same floats) without the motion invariants."""
+    (_a, b, f, r), (w_start, w_span, i_start, i_span) = _strokes(crank, coupler, frame, rocker, branch)
+    deg = math.degrees
+    return StrokeAngles(coupler=b, frame=f, rocker=r, working_stroke_deg=deg(w_span), idle_stroke_deg=deg(i_span),
+                        working_start_deg=deg(w_start) % 360.0, idle_start_deg=deg(i_start) % 360.0)
+
+
+def analyse(crank: float, coupler: float, frame: float, rocker: float, branch: int = 1) -> FourBarAnalysis:
+    """Time ratio, swing, transmission and the motion invariants B, C1, C3 of both strokes.
+
+    The link lengths are scaled to crank = 1.  The crank turns counter-clockwise; the working stroke is the
+    slower one (the larger crank angle between the extreme rocker positions).  Raises ParameterError for a
+    linkage that is not a Grashof crank-rocker.
+    """
+    (a, b, f, r), (w_start, w_span, i_start, i_span) = _strokes(crank, coupler, frame, rocker, branch)
     sw_w, bw, c1w, c3w = _stroke(a, b, f, r, branch, w_start, w_span)
     _, bi, c1i, c3i = _stroke(a, b, f, r, branch, i_start, i_span)
     deg = math.degrees
