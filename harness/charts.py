@@ -171,7 +171,8 @@ def _draw_panel(ax, x, df, panel: Panel, units: dict, rows=slice(None)) -> None:
         ax.plot(x, y[rows] / 10.0 ** power, lw=0.9, label=label)
     unit = ", ".join(sorted({u for (_, u), _ in drawn}))
     unit = f"1e{power} {unit}" if power else unit
-    ax.set_title("\n".join(textwrap.wrap(f"{panel.title} [{unit}]", 95)), fontsize=8.5, loc="left")
+    ax.set_title("\n".join(textwrap.wrap(f"{panel.title} [{unit}]", 95)), fontsize=8.5, loc="left",
+                 y=1.0)   # placed, not re-placed at each drawing after measuring the y axis (nothing above the panels)
     ax.set_ylabel(f"[{unit}]", fontsize=7)
     ax.tick_params(labelsize=7, labelbottom=True)
     ax.ticklabel_format(axis="y", style="plain", useOffset=False)
