@@ -166,6 +166,7 @@ def test_a_system_that_declares_nothing_gets_its_bonds_titled_by_the_fmus(fmu_di
     assert [p.name for p in paths] == ["two_inertia.png"]   # no crank: no cycle chart
     titles = [ax.get_title(loc="left") for ax in visible_axes(figures["two_inertia"])]
     assert titles and all(not t.startswith(("bond", "scene")) and "(" in t and t.endswith("]") for t in titles)
+    assert_laid_out(figures["two_inertia"])
 
 
 def test_run_plot_writes_and_names_both_charts(fmu_dir, tmp_path, monkeypatch, capsys):
