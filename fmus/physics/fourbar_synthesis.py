@@ -12,7 +12,6 @@ import numpy as np
 
 from .base import ParameterError
 from .fourbar import check_crank_rocker, kinematics, min_transmission, position
-from .roots import brentq
 
 
 @dataclass(frozen=True)
@@ -49,19 +48,31 @@ class FourBarAnalysis:
 
 
 def extreme_crank_angles(a, b, f, r, branch=1) -> tuple[float, float]:
-    """Crank angles [rad, in [0, 2pi)] of the two extreme rocker positions (roots of dpsi/dphi)."""
-    grid = np.linspace(0.0, 2 * np.pi, 721)
-    v = kinematics(grid, a, b, f, r, branch)[1]
-    roots = []
-    for k in range(len(grid) - 1):
-        if v[k] == 0.0:
-            roots.append(float(grid[k]))
-        elif v[k] * v[k + 1] < 0.0:
-            roots.append(brentq(lambda x: float(kinematics(x, a, b, f, r, branch)[1]), grid[k], grid[k + 1],
-                                xtol=1e-15, rtol=1e-15))
-    if len(roots) != 2:
-        raise ValueError(f"expected two extreme rocker positions, found {len(roots)}")
-    return roots[0], roots[1]
+    """Crank angles [rad, in [0, 2pi), ascending] of the two extreme rocker positions.
+
+    The rocker stops (dpsi/dphi = 0) where crank and coupler are collinear: stretched out, the rocker pin D lies
+    at (a + b) along the crank, folded at (b - a) opposite it.  The triangle O2-D-O5 then has sides
+    (b +- a), f and r, so the cosine law gives the angle of O2->D from the frame line up to its sign; the sign is
+    the one whose D lies on the assembly ``branch`` (sign(cross(D - O5, A - O5)) = branch, fmus.physics.fourbar).
+    """
+    angles = []
+    for reach, turn in ((b + a, 0.0), (b - a, np.pi)):      # |O2 D| and the angle from O2->D to the crank
+        c = (reach * reach + f * f - r * r) / (2.0 * reach * f)
+        if not -1.0 <= c <= 1.0:
+            raise ValueError(f"no extreme rocker position with a {reach!r} reach from the crank pivot "
+                             f"(cos = {c!r}): not a crank-rocker")
+        for side in (1.0, -1.0):
+            theta = side * math.acos(c)                       # angle of O2->D
+            d = (reach * math.cos(theta), reach * math.sin(theta))
+            phi = theta - turn
+            pin = (a * math.cos(phi), a * math.sin(phi))
+            cross = (d[0] - f) * (pin[1]) - d[1] * (pin[0] - f)
+            if cross * branch > 0.0:
+                angles.append(phi % (2 * np.pi))
+                break
+    if len(angles) != 2:
+        raise ValueError(f"expected two extreme rocker positions on branch {branch}, found {len(angles)}")
+    return min(angles), max(angles)
 
 
 def _peak(fun, lo, hi, n=2001):
