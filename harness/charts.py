@@ -171,7 +171,8 @@ def _draw_panel(ax, x, df, panel: Panel, units: dict, rows=slice(None)) -> None:
         ax.plot(x, y[rows] / 10.0 ** power, lw=0.9, label=label)
     unit = ", ".join(sorted({u for (_, u), _ in drawn}))
     unit = f"1e{power} {unit}" if power else unit
-    ax.set_title("\n".join(textwrap.wrap(f"{panel.title} [{unit}]", 95)), fontsize=8.5, loc="left")
+    ax.set_title("\n".join(textwrap.wrap(f"{panel.title} [{unit}]", 95)), fontsize=8.5, loc="left",
+                 y=1.0)   # placed, not re-placed at each drawing after measuring the y axis (nothing above the panels)
     ax.set_ylabel(f"[{unit}]", fontsize=7)
     ax.tick_params(labelsize=7, labelbottom=True)
     ax.ticklabel_format(axis="y", style="plain", useOffset=False)
@@ -216,9 +217,62 @@ def _status(df: pd.DataFrame) -> str:
             f"step {a.get('step', 0):g} s{status}")
 
 
-def _finish(fig, key_rows: int) -> None:
-    bottom = (0.3 + 0.18 * key_rows) / fig.get_figheight() if key_rows else 0.0
-    fig.tight_layout(rect=(0.0, bottom, 1.0, 1.0 - 0.4 / fig.get_figheight()), h_pad=1.2)
+def _finish(fig, axes, n: int, key_rows: int) -> None:
+    """Margins and gaps of the panel grid from what is drawn around the panels, measured once: the titles' lines,
+    the y tick labels' widths (from each axis's own ticks), the legends beside the panels, the key below.  It
+    replaces Matplotlib's tight layout, which measures every tick label of every panel with a full layout (about
+    a third of a chart's time) and arrives at the same room for them."""
+    from matplotlib import rcParams
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.font_manager import FontProperties
+
+    pt = 1.0 / 72.0                                                   # inch
+    width_in, height_in = fig.get_size_inches()
+    nrow, ncol = axes.shape
+    shown = list(axes.flat)[:n]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fonts = {}
+
+    def text_width(text: str, size: float) -> float:                  # inch, the widest line
+        prop = fonts.setdefault(size, FontProperties(size=size))
+        return max((renderer.get_text_width_height_descent(line, prop, ismath=False)[0] for line in
+                    text.split("\n") if line), default=0.0) / fig.dpi
+
+    tick = (rcParams["xtick.major.size"] + rcParams["xtick.major.pad"]) * pt
+    line = 1.2 * pt                                                   # a line of text per point of font size
+    below = tick + 7 * line + 1 * pt + 7 * line + 3 * pt              # x tick labels, the x label (labelpad 1)
+    above = [rcParams["axes.titlepad"] * pt + 3 * pt
+             + max(ax.get_title(loc="left").count("\n") + 1 for ax in shown[r * ncol:(r + 1) * ncol]) * 8.5 * line
+             for r in range(nrow)]
+    top = 0.02 * height_in + 9 * line + 4 * pt + above[0]              # the suptitle (at 0.98, top-aligned)
+    bottom = below + 4 * pt + ((0.3 + 0.18 * key_rows) if key_rows else 0.0)
+    gap_v = below + max(above[1:], default=0.0)
+    panel_h = (height_in - top - bottom - (nrow - 1) * gap_v) / nrow
+    fig.subplots_adjust(top=1.0 - top / height_in, bottom=bottom / height_in, hspace=gap_v / panel_h)
+
+    # the y ticks follow the panels' height, now set; the widths of their labels set the left margins
+    left_of, right_of, title_of = [0.0] * ncol, [0.0] * ncol, [0.0] * ncol
+    for i, ax in enumerate(shown):
+        c = i % ncol
+        lo, hi = sorted(ax.get_ylim())
+        locs = [v for v in ax.yaxis.get_majorticklocs() if lo - 1e-9 * (hi - lo) <= v <= hi + 1e-9 * (hi - lo)]
+        labels = ax.yaxis.get_major_formatter().format_ticks(locs)
+        left_of[c] = max(left_of[c], tick + max((text_width(s, 7) for s in labels), default=0.0)
+                         + rcParams["axes.labelpad"] * pt + 7 * line + 3 * pt)
+        legend = ax.get_legend()
+        if legend is not None:
+            right_of[c] = max(right_of[c], (legend.get_window_extent(renderer).x1 - ax.bbox.x1) / fig.dpi + 3 * pt)
+        title_of[c] = max(title_of[c], text_width(ax.get_title(loc="left"), 8.5))
+    overhang = text_width("0.000", 7) / 2 + 3 * pt                     # the last x tick label, centred on the edge
+    left = left_of[0] + 2 * pt
+    right = max(right_of[-1], overhang)
+    gap_h = max((max(right_of[c], overhang) + left_of[c + 1] for c in range(ncol - 1)), default=0.0)
+    for _ in range(2):                                                # a title longer than its panel
+        panel_w = (width_in - left - right - (ncol - 1) * gap_h) / ncol
+        right = max(right, title_of[-1] - panel_w + 3 * pt)
+        gap_h = max([gap_h] + [title_of[c] - panel_w + 3 * pt for c in range(ncol - 1)])
+    panel_w = (width_in - left - right - (ncol - 1) * gap_h) / ncol
+    fig.subplots_adjust(left=left / width_in, right=1.0 - right / width_in, wspace=gap_h / panel_w)
 
 
 def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path, svg: bool) -> list[Path]:
@@ -257,7 +311,7 @@ def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path, svg: boo
         key.append(("time window a scene reads (bar at the top)", dict(color="0.3")))
     _key(fig, key)
     fig.suptitle(f"{system.name} over time: {_status(df)}", fontsize=9)
-    _finish(fig, -(-len(key) // 3))
+    _finish(fig, axes, len(panels), -(-len(key) // 3))
     return save_figure(fig, out_dir / system.name, dpi=DPI, svg=svg)
 
 
@@ -333,7 +387,7 @@ def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path, svg: bo
     _key(fig, key)
     fig.suptitle(f"{system.name}, one machine cycle: cycle {k + 1} (t = {t[0]:.3g} to {t[-1]:.3g} s), "
                  f"{_status(df)}", fontsize=9)
-    _finish(fig, -(-len(key) // 3))
+    _finish(fig, axes, len(panels), -(-len(key) // 3))
     return save_figure(fig, out_dir / f"{system.name}_cycle", dpi=DPI, svg=svg)
 
 

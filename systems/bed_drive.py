@@ -59,7 +59,7 @@ RPM = 2 * math.pi / 60
 CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m
 C_COUPLER, D_COUPLER = 5e7, 2e3  # N/m, N.s/m: four-bar coupler (assumed); the cam transmission copies them
 BRANCH = bed_law.SEED_BRANCH                                      # the seed's assembly of the four-bar
-_analysis = fourbar_synthesis.analyse(1.0, COUPLER / CRANK, FRAME / CRANK, ROCKER / CRANK, branch=BRANCH)
+_analysis = fourbar_synthesis.stroke_angles(1.0, COUPLER / CRANK, FRAME / CRANK, ROCKER / CRANK, branch=BRANCH)
 PHI_START = math.radians(_analysis.working_start_deg)  # crank angle where the working stroke begins
 ROCKER_START = float(fourbar.position(PHI_START, CRANK, COUPLER, FRAME, ROCKER, BRANCH)[0])  # rad
 PINION_RADIUS = 0.004 * 25 / 2                                  # m: module 4 mm, z6 = 25

@@ -57,6 +57,31 @@ def visible_axes(fig):
     return [ax for ax in fig.axes if ax.get_visible() and ax.get_title(loc="left")]
 
 
+def assert_laid_out(fig):
+    """Every panel with its title, tick labels, axis labels and legend inside the figure, clear of the other
+    panels, of the title above them and of the key below them (what the fixed margins must leave room for)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    inside = fig.bbox.padded(0.5)
+    boxes = [(ax.get_title(loc="left"), ax.get_tightbbox(renderer)) for ax in visible_axes(fig)]
+    boxes += [("figure title", fig._suptitle.get_window_extent(renderer))]
+    boxes += [("key", leg.get_window_extent(renderer)) for leg in fig.legends]
+    for i, (name, box) in enumerate(boxes):
+        assert inside.x0 <= box.x0 and box.x1 <= inside.x1 and inside.y0 <= box.y0 and box.y1 <= inside.y1, \
+            f"{name!r} {box.extents} clipped by the figure {fig.bbox.extents}"
+        for other, box2 in boxes[i + 1:]:
+            assert not box.overlaps(box2), f"{name!r} {box.extents} overlaps {other!r} {box2.extents}"
+
+
+def test_charts_leave_room_for_every_label(bed, feeder, figures, tmp_path):
+    for system, df in (bed, feeder):
+        charts.plot_result(system, df, tmp_path)
+    assert {"bed_drive", "bed_drive_cycle", "feeder_gto52", "feeder_gto52_cycle"} <= set(figures)
+    for fig in figures.values():
+        assert_laid_out(fig)
+
+
 def test_time_chart_panels_name_the_signal_unit_and_carry_time_ticks(bed, figures, tmp_path):
     system, df = bed
     paths = charts.plot_result(system, df, tmp_path)
@@ -141,6 +166,7 @@ def test_a_system_that_declares_nothing_gets_its_bonds_titled_by_the_fmus(fmu_di
     assert [p.name for p in paths] == ["two_inertia.png"]   # no crank: no cycle chart
     titles = [ax.get_title(loc="left") for ax in visible_axes(figures["two_inertia"])]
     assert titles and all(not t.startswith(("bond", "scene")) and "(" in t and t.endswith("]") for t in titles)
+    assert_laid_out(figures["two_inertia"])
 
 
 def test_run_plot_writes_and_names_both_charts(fmu_dir, tmp_path, monkeypatch, capsys):
@@ -215,6 +241,8 @@ def test_cycle_chart_of_the_knife_and_the_trimmer(fmu_dir, figures, tmp_path, na
     df = run(system, stop_time=stop)
     paths = charts.plot_result(system, df, tmp_path)
     assert f"{name}_cycle.png" in [p.name for p in paths]
+    assert_laid_out(figures[name])
+    assert_laid_out(figures[f"{name}_cycle"])
     axes = visible_axes(figures[f"{name}_cycle"])
     for ax in axes:
         assert ax.get_xlim() == (0.0, 360.0)

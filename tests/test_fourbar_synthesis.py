@@ -170,3 +170,25 @@ def test_cli_json_and_errors(capsys):
     assert proc.returncode == 2
     assert proc.stdout == "" and len(proc.stderr.strip().splitlines()) == 1
     assert "--rocker 5" in proc.stderr and "Traceback" not in proc.stderr
+
+
+@pytest.mark.parametrize("linkage", [PUBLISHED, (1.0, 3.0, 2.5, 2.8), (1.0, 4.0, 3.5, 2.0), (1.0, 2.2, 2.0, 1.5)])
+@pytest.mark.parametrize("branch", [1, -1])
+def test_extreme_crank_angles_are_the_zeros_of_the_rockers_speed(linkage, branch):
+    """The closed form (crank and coupler collinear) against the sign changes of dpsi/dphi found by SciPy."""
+    from scipy.optimize import brentq
+
+    from fmus.physics.fourbar import kinematics
+    from fmus.physics.fourbar_synthesis import extreme_crank_angles, stroke_angles
+    a, b, f, r = linkage
+    speed = lambda x: float(kinematics(x, a, b, f, r, branch)[1])   # noqa: E731
+    grid = np.linspace(0.0, 2 * np.pi, 721)
+    v = kinematics(grid, a, b, f, r, branch)[1]
+    zeros = [brentq(speed, grid[k], grid[k + 1], xtol=1e-15, rtol=1e-15)
+             for k in range(len(grid) - 1) if v[k] * v[k + 1] < 0.0]
+    assert len(zeros) == 2
+    assert extreme_crank_angles(a, b, f, r, branch) == pytest.approx(tuple(zeros), abs=1e-12)
+    full, strokes = analyse(*linkage, branch=branch), stroke_angles(*linkage, branch=branch)
+    for name in ("coupler", "frame", "rocker", "working_stroke_deg", "idle_stroke_deg", "working_start_deg",
+                 "idle_start_deg"):
+        assert getattr(strokes, name) == getattr(full, name)

@@ -193,7 +193,7 @@ def idle_stroke(linkage=SEED_LINKAGE, branch: int = SEED_BRANCH) -> FourBarStrok
 
 
 def _stroke(linkage, branch, idle):
-    an = fourbar_synthesis.analyse(*linkage, branch=branch)
+    an = fourbar_synthesis.stroke_angles(*linkage, branch=branch)
     a, b, f, r = 1.0, an.coupler, an.frame, an.rocker
     start = math.radians(an.idle_start_deg if idle else an.working_start_deg)
     span = math.radians(an.idle_stroke_deg if idle else an.working_stroke_deg)

@@ -48,20 +48,31 @@ class FourBarAnalysis:
 
 
 def extreme_crank_angles(a, b, f, r, branch=1) -> tuple[float, float]:
-    """Crank angles [rad, in [0, 2pi)] of the two extreme rocker positions (roots of dpsi/dphi)."""
-    from scipy.optimize import brentq
-    grid = np.linspace(0.0, 2 * np.pi, 721)
-    v = kinematics(grid, a, b, f, r, branch)[1]
-    roots = []
-    for k in range(len(grid) - 1):
-        if v[k] == 0.0:
-            roots.append(float(grid[k]))
-        elif v[k] * v[k + 1] < 0.0:
-            roots.append(brentq(lambda x: float(kinematics(x, a, b, f, r, branch)[1]), grid[k], grid[k + 1],
-                                xtol=1e-15, rtol=1e-15))
-    if len(roots) != 2:
-        raise ValueError(f"expected two extreme rocker positions, found {len(roots)}")
-    return roots[0], roots[1]
+    """Crank angles [rad, in [0, 2pi), ascending] of the two extreme rocker positions.
+
+    The rocker stops (dpsi/dphi = 0) where crank and coupler are collinear: stretched out, the rocker pin D lies
+    at (a + b) along the crank, folded at (b - a) opposite it.  The triangle O2-D-O5 then has sides
+    (b +- a), f and r, so the cosine law gives the angle of O2->D from the frame line up to its sign; the sign is
+    the one whose D lies on the assembly ``branch`` (sign(cross(D - O5, A - O5)) = branch, fmus.physics.fourbar).
+    """
+    angles = []
+    for reach, turn in ((b + a, 0.0), (b - a, np.pi)):      # |O2 D| and the angle from O2->D to the crank
+        c = (reach * reach + f * f - r * r) / (2.0 * reach * f)
+        if not -1.0 <= c <= 1.0:
+            raise ValueError(f"no extreme rocker position with a {reach!r} reach from the crank pivot "
+                             f"(cos = {c!r}): not a crank-rocker")
+        for side in (1.0, -1.0):
+            theta = side * math.acos(c)                       # angle of O2->D
+            d = (reach * math.cos(theta), reach * math.sin(theta))
+            phi = theta - turn
+            pin = (a * math.cos(phi), a * math.sin(phi))
+            cross = (d[0] - f) * (pin[1]) - d[1] * (pin[0] - f)
+            if cross * branch > 0.0:
+                angles.append(phi % (2 * np.pi))
+                break
+    if len(angles) != 2:
+        raise ValueError(f"expected two extreme rocker positions on branch {branch}, found {len(angles)}")
+    return min(angles), max(angles)
 
 
 def _peak(fun, lo, hi, n=2001):
@@ -95,13 +106,21 @@ def _stroke(a, b, f, r, branch, start, span):
     return swing, big_b, c1, c3
 
 
-def analyse(crank: float, coupler: float, frame: float, rocker: float, branch: int = 1) -> FourBarAnalysis:
-    """Time ratio, swing, transmission and the motion invariants B, C1, C3 of both strokes.
+@dataclass(frozen=True)
+class StrokeAngles:
+    """Where the strokes of a crank-rocker lie (crank = 1, turning counter-clockwise): :class:`FourBarAnalysis`'s
+    fields of the same names, without its motion invariants (which need ``scipy.optimize``)."""
+    coupler: float
+    frame: float
+    rocker: float
+    working_stroke_deg: float
+    idle_stroke_deg: float
+    working_start_deg: float
+    idle_start_deg: float
 
-    The link lengths are scaled to crank = 1.  The crank turns counter-clockwise; the working stroke is the
-    slower one (the larger crank angle between the extreme rocker positions).  Raises ParameterError for a
-    linkage that is not a Grashof crank-rocker.
-    """
+
+def _strokes(crank, coupler, frame, rocker, branch):
+    """(a, b, f, r) scaled to crank = 1 and the strokes' (working start, working span, idle start, idle span) [rad]."""
     names = ("crank", "coupler", "frame", "rocker")
     check_crank_rocker(crank, coupler, frame, rocker, names)
     if branch not in (-1, 1):
@@ -113,7 +132,25 @@ def analyse(crank: float, coupler: float, frame: float, rocker: float, branch: i
         w_start, w_span, i_start = e1, span1, e2
     else:
         w_start, w_span, i_start = e2, 2 * np.pi - span1, e1
-    i_span = 2 * np.pi - w_span
+    return (a, b, f, r), (w_start, w_span, i_start, 2 * np.pi - w_span)
+
+
+def stroke_angles(crank: float, coupler: float, frame: float, rocker: float, branch: int = 1) -> StrokeAngles:
+    """The strokes of :func:`analyse` (the same floats) without the motion invariants."""
+    (_a, b, f, r), (w_start, w_span, i_start, i_span) = _strokes(crank, coupler, frame, rocker, branch)
+    deg = math.degrees
+    return StrokeAngles(coupler=b, frame=f, rocker=r, working_stroke_deg=deg(w_span), idle_stroke_deg=deg(i_span),
+                        working_start_deg=deg(w_start) % 360.0, idle_start_deg=deg(i_start) % 360.0)
+
+
+def analyse(crank: float, coupler: float, frame: float, rocker: float, branch: int = 1) -> FourBarAnalysis:
+    """Time ratio, swing, transmission and the motion invariants B, C1, C3 of both strokes.
+
+    The link lengths are scaled to crank = 1.  The crank turns counter-clockwise; the working stroke is the
+    slower one (the larger crank angle between the extreme rocker positions).  Raises ParameterError for a
+    linkage that is not a Grashof crank-rocker.
+    """
+    (a, b, f, r), (w_start, w_span, i_start, i_span) = _strokes(crank, coupler, frame, rocker, branch)
     sw_w, bw, c1w, c3w = _stroke(a, b, f, r, branch, w_start, w_span)
     _, bi, c1i, c3i = _stroke(a, b, f, r, branch, i_start, i_span)
     deg = math.degrees
