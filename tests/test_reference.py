@@ -150,3 +150,38 @@ def test_bed_drive_convergence_orders_with_rigid_links(master, extrapolation, th
     orders = _orders(system, {}, 0.08, [2e-4, 1e-4, 5e-5], master, extrapolation,
                      ["bed.bed.s", "flywheel.crank.w"])
     assert all(abs(p - theory) <= 0.3 for p in orders), orders
+
+
+def test_a_drive_held_by_its_brake_after_an_estop_does_not_stall_the_reference(monkeypatch):
+    """The trimmer's emergency stop: the rotor brake holds from 1.6 s and the conveyors settle onto it.  With
+    1e-10 rad/s asked of speeds at rest (below the roundoff of the shaft's and the belt's spring forces on angles
+    of some 56 rad), Radau's Newton iteration stalled at steps of microseconds from about 2.07 s (over 200000
+    right-hand sides before 2.08 s); judged against each state's own scale the stop runs through in a few
+    thousand.  At rest the belt holds the trimming load (static balance of the drive shaft: the belt's torque on
+    the drive pulley equals the moment trimming puts on the conveyors), the rotor stands and its brake carries
+    the belt's pull (the motor is off)."""
+    from harness.scenarios import find
+    from harness.studies.reference import scenario_reference
+
+    calls = {"n": 0}
+    rhs = Monolithic.rhs
+
+    def counted(self, t, x):
+        calls["n"] += 1
+        if calls["n"] > 100_000:
+            raise RuntimeError(f"the reference stalls at t = {t:.6f} s")
+        return rhs(self, t, x)
+
+    monkeypatch.setattr(Monolithic, "rhs", counted)
+    system = load("trimmer_conveyor")
+    sc = find(system, "estop")
+    ref = scenario_reference(system, sc, step=1e-3, stop_time=2.3)
+    assert ref.attrs["complete"] and ref.index[-1] == pytest.approx(2.3)
+    rest = ref.loc[2.2:]
+    assert np.max(np.abs(rest["motor.motor_speed"])) == 0.0
+    assert np.max(np.abs(rest["drive.crank.w"])) < 1e-6
+    load_moment = -rest["trim.shaft.tau"].to_numpy()
+    assert np.min(load_moment) > 10.0  # the blocks in the knives still load the conveyors
+    np.testing.assert_allclose(rest["motor.pulley.tau"].to_numpy(), load_moment, rtol=1e-6)
+    np.testing.assert_allclose(rest["motor.brake_torque"].to_numpy(), rest["motor.belt_torque"].to_numpy(),
+                               rtol=1e-6)

@@ -13,6 +13,17 @@ MEASURED = [  # (drive, scenario, master, order, step): the cheapest of the ladd
     ("spine_knife", "estop", "jacobi", 1, 5e-4),
     ("spine_knife", "speed_change", "jacobi", 1, 5e-4),
     ("trimmer_conveyor", "startup", "jacobi", 1, 1e-3),
+    ("trimmer_conveyor", "speed_change", "jacobi", 1, 1e-3),
+    ("trimmer_conveyor", "estop", "jacobi", 1, 5e-4),
+    ("feeder_gto52", "startup", "jacobi", 1, 1e-3),
+    ("feeder_gto52", "estop", "jacobi", 1, 5e-4),
+    ("feeder_gto52", "jam", "jacobi", 1, 2e-4),
+    ("feeder_gto52", "speed_change", "jacobi", 1, 2e-4),
+    ("bed_drive", "startup", "jacobi", 1, 5e-4),
+    ("bed_drive", "speed_change", "jacobi", 1, 5e-4),
+    ("proof_press", "startup", "jacobi", 1, 1e-3),
+    ("proof_press", "estop", "jacobi", 1, 1e-3),
+    ("proof_press", "speed_change", "jacobi", 1, 5e-4),
 ]
 
 
