@@ -47,7 +47,7 @@ def _cpu() -> float:
 def child_harness(ssp: str, stop: float, parameter: str, values: list[float], run, out: str) -> dict:
     start = _cpu()  # the interpreter's start, up to this module's own imports
     import harness
-    import harness.run
+    import harness.run.simulation
     import harness.studies.sweep as sweep_module
     from harness.studies.sweep import parse_spec, run_point, save
 
@@ -56,7 +56,7 @@ def child_harness(ssp: str, stop: float, parameter: str, values: list[float], ru
     spec = parse_spec({"grid": {parameter: values}, "stop_time": stop, "step": step, "master": master,
                        "extrapolation": order, "outputs": {}}, "<sweep_parts>")
     parts = {"load": 0.0, "open": 0.0, "run": 0.0}
-    load, open_instance, trial = harness.load, harness.run.open_instance, sweep_module.trial
+    load, open_instance, trial = harness.load, harness.run.simulation.open_instance, sweep_module.trial
 
     def timed(key, fn):
         def wrapper(*args, **kwargs):
@@ -74,7 +74,7 @@ def child_harness(ssp: str, stop: float, parameter: str, values: list[float], ru
         return r
 
     harness.load = timed("load", load)
-    harness.run.open_instance = timed("open", open_instance)
+    harness.run.simulation.open_instance = timed("open", open_instance)
     sweep_module.trial = trial_cpu
     points, rows = [], []
     for p in spec.points:

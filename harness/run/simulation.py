@@ -1,0 +1,341 @@
+"""Running a system: :func:`simulate` (:mod:`harness.run`; loading is :mod:`harness.run.systems`, the command
+line :mod:`harness.run.cli`).
+
+``simulate(system, stop_time=None, step=None, master=None, extrapolation=None, step_control=None,
+tolerance=None, start_values=None, output=None, *, start_time=None, output_interval=None, input=None,
+on_error="return", options=None)`` returns the result DataFrame (see :mod:`harness.results`); FMPy's names
+``step_size`` and ``relative_tolerance`` work too.  Arguments left at None come from the system's default
+experiment (then: master ``jacobi``, extrapolation 0, fixed step).  Further options live in :class:`RunOptions`
+(iteration of the ``iterative`` master, step-control limits, blow-up limit, progress bar, FMU logging).
+
+(:func:`simulate`'s argument checks and the assembly of its result; the loop is
+:meth:`harness.masters.Master.run`, input signals live in :mod:`harness.signals`.)
+
+Failures during the run (an FMU error, a non-finite output, an output beyond the blow-up limit, an iteration
+that does not converge) stop it with a one-line message naming the time, the instance and the variable or
+FMI call.  With ``on_error="return"`` (default) the result up to the last good communication point is
+returned with ``attrs["complete"] = False`` and ``attrs["error"]`` (and a :class:`RunWarning` is issued);
+``on_error="raise"`` raises :class:`~harness.errors.SimulationError` whose ``partial`` is that DataFrame.
+Errors in the system description (:class:`~harness.errors.SystemError_`) are always raised before the run.
+
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from harness.divergence import Diverged, DivergenceOptions, DivergenceWatch
+from harness.errors import BlowUp, FMUError, SimulationError, SystemError_
+from harness.errors import ParameterRefused  # an FMU refused a parameter value (typed, fmus.refusal)
+from harness.errors import interruption
+from harness.extrapolation import extrapolation as make_extrapolation
+from harness.fmi import Instance, open_instance, release
+from harness.masters import NS, ConvergenceError, IterationOptions, master_class
+from harness.model import model_description, resolve_fmu
+from harness.observers import ProgressBar, Recording
+from harness.quantities import quantities
+from harness.results import Recorder
+from harness.signals import Signals, full_name
+from harness.stepcontrol import StepOptions, step_control as make_step_control
+from harness.run.interrupts import RunInterrupted, RunWarning
+from harness.run.systems import load
+from harness.run.parameters import _positive, _renamed, split_parameters
+
+
+@dataclass
+class RunOptions:
+    """Options of :func:`simulate` beyond its keyword arguments.
+
+    ``iteration``: the ``iterative`` master's solver; ``steps``: limits of the variable-step controllers;
+    ``blowup``: an output whose magnitude exceeds it stops the run (amplitude blow-up); ``progress``: tqdm
+    progress bar (None: only when stderr is a terminal, shown after 2 s); ``logging``: FMU debug logging;
+    ``in_process``: how pythonfmu FMUs are called (:func:`harness.fmi.open_instance`: None runs every
+    pythonfmu FMU whose script imports here in this process, the others through FMI with one warning; True
+    requires it; False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs.
+    ``divergence``: thresholds of the divergence detector on the power bonds (:mod:`harness.divergence`);
+    None switches it off.  ``isolate``: run FMUs in child processes of their own (:mod:`harness.fmi.isolated`:
+    True or "foreign" every FMU not built by the toolkit, "all" every FMU, or an ``Isolation`` with its
+    per-call timeout), so a crash or hang inside an FMU call stops the run in one line and keeps its rows;
+    None/False (default) runs every FMU in this process.  ``observers``: further
+    :class:`harness.observers.Observer` objects the run loop calls, after the recording and the divergence watch
+    (docs/howto/add-an-observer.md)."""
+    iteration: IterationOptions = field(default_factory=IterationOptions)
+    steps: StepOptions = field(default_factory=StepOptions)
+    blowup: float = 1e12
+    progress: bool | None = None
+    logging: bool = True
+    in_process: bool | None = None
+    divergence: DivergenceOptions | None = field(default_factory=DivergenceOptions)
+    isolate: object = None
+    observers: tuple = ()
+
+
+def simulate(system, stop_time: float | None = None, step: float | None = None, master: str | None = None,
+             extrapolation=None, step_control: str | None = None, tolerance: float | None = None,
+             start_values: dict | None = None, output: list[str] | None = None, *, start_time: float | None = None,
+             output_interval: float | None = None, input=None, on_error: str = "return",
+             options: RunOptions | None = None, isolate=None, **other_names) -> pd.DataFrame:
+    """Co-simulate ``system`` and return its result: a DataFrame indexed by time [s], one column per
+    ``Instance.variable`` (in the FMU's declared unit, ``df.attrs["units"]``).
+
+    The arguments of ``fmpy.simulate_fmu`` work here with the same meaning: ``start_time``, ``stop_time``,
+    ``step_size`` (the communication step, also written ``step`` as on the command line), ``relative_tolerance``
+    (also ``tolerance``), ``output_interval``, ``start_values``, ``output``, ``input``.  A system of one FMU (a
+    bare .fmu) takes the FMU's own variable names as FMPy does; the columns stay ``Instance.variable``.
+    FMPy's other arguments are a TypeError saying what takes their place (docs/fmpy.md).
+
+    Arguments (None: the system's default experiment, then the fallback named):
+
+    * ``system``: a module name in ``systems/`` (``"bed_drive"``), a .py file defining ``SYSTEM``, an
+      .ssp/.ssd file, an .fmu file (run alone), or a :class:`System`.
+    * ``start_time`` [s]: start of the run (default: the default experiment's, else 0; finite, before
+      ``stop_time``).
+    * ``stop_time`` [s]: end of the run (positive).
+    * ``step`` or ``step_size`` [s]: communication step (positive, >= 1 ns, at most ``stop_time -
+      start_time``; the first step of a variable-step run; default: the default experiment's, else
+      ``output_interval``, as FMPy steps a co-simulation FMU).
+    * ``output_interval`` [s]: record every this often (a whole multiple of the step, fixed step only;
+      default: every communication point); the end of the run is always recorded.
+    * ``master``: ``"jacobi"`` (fallback), ``"jacobi-sampled"``, ``"gauss-seidel"``, ``"iterative"`` or
+      ``"jacobian"`` (:data:`harness.masters.MASTERS`).
+    * ``extrapolation``: order of the held inputs, 0 (hold, fallback), 1 or 2 (polynomial at the step midpoint).
+    * ``step_control``: None/``"none"`` (fixed step, fallback), ``"richardson"`` or ``"ecco"``.
+    * ``tolerance`` or ``relative_tolerance`` [-]: passed to the FMUs (fmi2SetupExperiment), and the
+      tolerance of step control and of the iterative master (positive; fallback none, the iteration then
+      uses 1e-10).
+    * ``start_values``: ``{"Instance.parameter": value}`` in the parameter's declared unit, over the system's
+      values (default: none; the command line's ``--set``).  A value the FMU refuses returns an empty result,
+      ``attrs["bad_input"]`` True, with a one-line error naming the instance, parameter, value, unit and
+      admissible range.
+    * ``output``: ``["Instance.variable", ...]`` to record (default: every Real output; ``--output``).
+    * ``input``: signals for free inputs: a structured numpy array (FMPy's ``input``), a DataFrame or a CSV
+      file with a ``time`` column and one column per ``Instance.variable`` input, interpolated as FMPy does
+      (continuous Real linearly, the others held; two rows at one time are a step), set at each
+      communication point before the step (:mod:`harness.signals`; ``--input``).
+    * ``on_error``: ``"return"`` (default): a run that stops early (divergence, FMU failure, non-finite
+      output) returns what it computed with ``attrs["complete"] = False`` and a one-line ``attrs["error"]``
+      (``attrs["diverged"]`` if the divergence detector stopped it) and warns :class:`RunWarning`; a run
+      that ends while the power on a bond is still growing geometrically stays complete and carries the
+      detector's one line in ``attrs["suspect"]`` (also warned; '' otherwise);
+      ``"raise"``: raises :class:`~harness.errors.SimulationError` whose ``partial`` is that result.
+    * ``options``: :class:`RunOptions` (iteration, step-control limits, blow-up limit, divergence detector,
+      progress bar, FMU logging, in-process calls, isolation); default ``RunOptions()``.
+    * ``isolate``: ``RunOptions.isolate`` given here (True: every foreign FMU in a child process of its own).
+    * ``other_names``: FMPy's ``step_size`` and ``relative_tolerance``; ``parameters=`` and ``outputs=``, this
+      function's former names of ``start_values`` and ``output``, still accepted with a DeprecationWarning.
+
+    Ctrl-C raises :class:`RunInterrupted` (a KeyboardInterrupt) whose ``partial`` is the result so far,
+    marked ``attrs["complete"] = False``, ``attrs["interrupted"] = True``.  Errors in the description or the
+    arguments raise :class:`~harness.errors.SystemError_` before the run."""
+    if other_names:
+        moved = _renamed(other_names, dict(step=step, tolerance=tolerance, start_values=start_values,
+                                           output=output))
+        step, tolerance = moved.get("step", step), moved.get("tolerance", tolerance)
+        start_values, output = moved.get("start_values", start_values), moved.get("output", output)
+    system = load(system)
+    opts = options or RunOptions()
+    if isolate is not None:
+        import dataclasses
+
+        opts = dataclasses.replace(opts, isolate=isolate)
+    if opts.isolate is not None:
+        from harness.fmi.isolated import Isolation
+
+        Isolation.of(opts.isolate)   # a bad value in one line before anything runs
+    if on_error not in ("return", "raise"):
+        raise SystemError_(f"on_error = {on_error!r} is not admissible: must be 'return' or 'raise'")
+    exp = system.experiment
+    if stop_time is None:
+        if exp is None:
+            raise SystemError_(f"system {system.name} has no default experiment: give stop_time")
+        stop_time = exp.stop_time
+    if step is None and (exp is None or exp.step is None) and output_interval is not None:
+        step = output_interval  # as fmpy.simulate_fmu steps a co-simulation FMU: one step per output interval
+    if step is None:
+        if exp is None:
+            raise SystemError_(f"system {system.name} has no default experiment: give step")
+        if exp.step is None:  # an SSP's DefaultExperiment without a step (OSP's annotation gives one)
+            raise SystemError_(f"system {system.name}: its default experiment declares no step: give step "
+                               f"(--step on the command line)")
+        step = exp.step
+    master = master if master is not None else (exp.master if exp else "jacobi")
+    extrapolation = extrapolation if extrapolation is not None else (exp.extrapolation if exp else 0)
+    step_control = step_control if step_control is not None else (exp.step_control if exp else None)
+    tolerance = tolerance if tolerance is not None else (exp.tolerance if exp else None)
+    start_time = start_time if start_time is not None else (exp.start_time if exp else 0.0)
+    stop_time, step = _positive("stop_time", stop_time), _positive("step", step)
+    if tolerance is not None:
+        _positive("tolerance", tolerance, unit="")
+    if (isinstance(start_time, bool) or not isinstance(start_time, (int, float)) or not math.isfinite(start_time)
+            or not 0.0 <= start_time < stop_time):
+        raise SystemError_(f"start_time = {start_time!r} is not admissible: must be a finite number in "
+                           f"[0, stop_time = {stop_time!r}) [s]")
+    start_ns, stop_ns, step_ns = int(round(start_time * NS)), int(round(stop_time * NS)), int(round(step * NS))
+    if step_ns < 1:
+        raise SystemError_(f"step = {step!r} is not admissible: master time has a resolution of 1 ns")
+    if step_ns > stop_ns - start_ns:
+        raise SystemError_(f"step = {step!r} s is longer than the run from start_time = {start_time!r} s to "
+                           f"stop_time = {stop_time!r} s" if start_ns else
+                           f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
+    sample_ns = _output_interval(output_interval, step, step_ns, step_control)
+    cls = master_class(master)
+    extra = make_extrapolation(extrapolation)
+    params = split_parameters(system, start_values)
+    output = None if output is None else [full_name(system, c) for c in output]
+
+    paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
+    mds = {name: model_description(p) for name, p in paths.items()}
+    signals = None
+    if input is not None:
+        signals = Signals(system, mds, system.all_connections(mds), input)
+        for inst, values in signals.start_values(start_ns).items():  # set before the FMUs initialize
+            params[inst].update(values)
+    system.validate(mds, {f"{i}.{k}": v for i, d in params.items() for k, v in d.items()})
+    connections = system.all_connections(mds)
+
+    fmus: dict[str, Instance] = {}
+    m = None
+    try:
+        for inst in system.instances:
+            fmus[inst.name] = open_instance(paths[inst.name], inst.name, opts.logging, opts.in_process,
+                                            isolate=opts.isolate)
+        m = cls(fmus, connections, system.bonds, extra, opts.iteration, tolerance, opts.blowup)
+        controller = make_step_control(step_control, m, step_ns, tolerance, opts.steps)
+        if not controller.variable and (stop_ns - start_ns) % step_ns:
+            for name, f in fmus.items():
+                if not f.can_vary_step:
+                    raise SystemError_(f"stop_time = {stop_time!r} s is not a multiple of step = {step!r} s and "
+                                       f"instance {name} cannot take a shorter last step")
+        n_rows = -(-(stop_ns - start_ns) // sample_ns) + 1 if not controller.variable else 1024
+        rec = Recorder(m, output, n_rows)
+        if signals is not None:
+            signals.bind(fmus)
+        info = dict(system=system.name, master=cls.name, extrapolation=extra.order,
+                    step_control=controller.name, step=step, start_time=start_time, stop_time=stop_time,
+                    tolerance=tolerance, output_interval=sample_ns / NS, inputs=signals.names if signals else [],
+                    units=column_units(fmus, rec.columns))
+        info["start_values"] = {k: (v.item() if hasattr(v, "item") else v) for k, v in (start_values or {}).items()}
+        return _run(m, controller, rec, params, (start_ns, stop_ns, step_ns, sample_ns), tolerance, on_error, opts,
+                    info, system, signals)
+    finally:
+        release(m, fmus)
+
+
+def column_units(fmus: dict, columns: list[str]) -> dict[str, str]:
+    """``{column: unit}`` of result columns ``Instance.variable`` from the FMUs' declared units ('' if none);
+    the index ``time`` is in s."""
+    from harness.model import _unit
+
+    out = {}
+    for c in columns:
+        inst, _, var = c.partition(".")
+        f = fmus.get(inst)
+        v = f.variables.get(var) if f is not None else None
+        out[c] = _unit(v) if v is not None else ""
+    return out
+
+
+def _output_interval(output_interval, step: float, step_ns: int, step_control) -> int:
+    """The recording interval [ns]: ``output_interval``, a whole multiple of the step (fixed step only), or
+    the step itself (every communication point)."""
+    if output_interval is None:
+        return step_ns
+    interval = _positive("output_interval", output_interval)
+    if step_control not in (None, "none"):
+        raise SystemError_(f"output_interval = {interval!r} s needs a fixed step: under step_control = "
+                           f"{step_control!r} the communication points are the controller's; leave "
+                           f"output_interval out (every accepted point is recorded)")
+    sample_ns = int(round(interval * NS))
+    if sample_ns < step_ns or sample_ns % step_ns:
+        raise SystemError_(f"output_interval = {interval!r} s is not a whole multiple of step = {step!r} s: the "
+                           f"result holds communication points (values between them are not computed); give "
+                           f"a multiple of the step, or a step that divides it")
+    return sample_ns
+
+
+def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info, system, signals=None):
+    """Initialize ``m`` and run it over ``span`` = (start, stop, step, recording interval) [ns] in the one run
+    loop (:meth:`harness.masters.Master.run`), with the recording, the divergence watch and the progress bar as
+    its observers and ``signals`` (a :class:`~harness.signals.Signals`) as its inputs; the result, marked as it
+    ended, with the ``system``'s engineering quantities."""
+    wall, cpu = _time.perf_counter(), _time.process_time()
+    start_ns, stop_ns, step_ns, sample_ns = span
+    error = ""
+    err_obj: Exception | None = None
+    interrupted = False
+    bad_input = False
+    # (a row at t keeps the values recorded at the end of the step, as FMPy records them)
+    observers = [Recording(rec, start_ns, stop_ns, None if sample_ns == step_ns else sample_ns)]
+    watch = DivergenceWatch(m, opts.divergence) if opts.divergence is not None and m.bond_labels else None
+    if watch is not None:
+        observers.append(watch)
+    observers += list(opts.observers)
+    observers.append(ProgressBar(stop_ns - start_ns, opts.progress))
+    init_time = math.nan  # the initialisation's share of wall_time (NaN: it did not finish)
+    try:
+        m.initialize(start_ns, stop_ns, tolerance, params)
+        init_time = _time.perf_counter() - wall
+        m.run(controller, stop_ns, observers, inputs=signals)
+    except (FMUError, SimulationError, ConvergenceError) as e:
+        error = str(e).splitlines()[0] if str(e) else type(e).__name__
+        err_obj = e
+        if rec.rows == 0 and isinstance(e, ParameterRefused):
+            # the FMU refused a parameter value before the run: bad input, said in the user's words (no FMI call)
+            log = e.log.strip().splitlines()[0]
+            error = f"system {info['system']}: " + (log if log.startswith(f"{e.instance} ") else
+                                                    f"instance {e.instance}: {log}")
+            bad_input = True
+    except KeyboardInterrupt as e:
+        interrupted, how = interruption(e)
+        error = f"{how} at t = {rec.time[rec.rows - 1] if rec.rows else 0.0:.9g} s"
+    suspect = watch.suspect if watch is not None else ""
+    info.update(steps=m.steps, wall_time=_time.perf_counter() - wall, init_time=init_time,
+                cpu_time=_time.process_time() - cpu,
+                iterations=m.iterations,
+                fmu_steps=m.fmu_steps, halved_steps=m.halvings,
+                rejected=controller.rejected, max_error_estimate=controller.max_accepted_error)
+    df = rec.frame(complete=not error, error=error, **info)
+    df.attrs["diverged"] = isinstance(err_obj, Diverged)
+    df.attrs["blew_up"] = isinstance(err_obj, BlowUp)
+    df.attrs["interrupted"] = bool(interrupted)
+    df.attrs["bad_input"] = bad_input
+    df.attrs["suspect"] = suspect
+    df.attrs["quantities"] = quantities(system, df)  # the engineering quantities, also of a partial result
+    if interrupted:
+        raise RunInterrupted(error, partial=df, status=interrupted)
+    if error:
+        if on_error == "raise":
+            raise SimulationError(error, partial=df, time=getattr(err_obj, "time", None),
+                                  instance=getattr(err_obj, "instance", None),
+                                  variable=getattr(err_obj, "variable", None)) from err_obj
+        warnings.warn(f"run stopped early: {error}", RunWarning, stacklevel=3)
+    elif suspect:
+        warnings.warn(suspect, RunWarning, stacklevel=3)
+    return df
+
+
+def simulate_scenario(system, scenario, **options) -> pd.DataFrame:
+    """Co-simulate ``system`` through ``scenario`` (one of the system's by name, a
+    :class:`~harness.specs.Scenario` or a .yaml/.json file; :mod:`harness.scenarios`): :func:`simulate` with
+    ``options``, the scenario's parameters under the ``start_values`` given, its changes as the input signals and
+    its stop time unless given.  ``df.attrs["scenario"]`` is its name, ``df.attrs["transient"]`` its quantities."""
+    from harness import scenarios
+
+    system = load(system)
+    sc, options = scenarios.prepare(system, scenario, options)
+    df = simulate(system, **options)
+    df.attrs["scenario"] = sc.name
+    df.attrs["transient"] = scenarios.transient(system, sc, df)
+    return df
+
+
+def partial_path(path: Path) -> Path:
+    """Where an incomplete result is written instead of ``path``: ``x.csv`` -> ``x.partial.csv``."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}.partial{path.suffix or '.csv'}")
