@@ -31,14 +31,14 @@ from fmpy.fmi2 import FMU2Slave, fmi2FMUstate
 from harness.errors import FMUError
 from harness.fmi.annotation import advanced_positions, toolkit_annotation  # noqa: F401 (public here too)
 from harness.fmi.cache import cache_dir, model_description, unzipped  # noqa: F401 (public here too)
-from harness.fmi.instance import Instance, RealBlock, extracted  # noqa: F401 (public here too)
+from harness.fmi.instance import FMUInstance, Instance, RealBlock, extracted  # noqa: F401 (public here too)
 from harness.fmi.log_routing import _BY_NAME, _CALLBACKS, _install_proxy
 from harness.fmi.status import DISCARD, ERROR, FATAL, OK, PENDING, WARNING  # noqa: F401 (public here too)
 
 _LEAKED: list = []  # instances that failed and are deliberately never freed (see FMU.free)
 
 
-class FMU(Instance):
+class FMU(FMUInstance):
     """One instance of an FMI 2.0 co-simulation FMU, called through its shared library (fmi2* functions)."""
 
     def __init__(self, path: str | Path, name: str, logging_on: bool = True, model_exchange: bool = False):

@@ -74,7 +74,7 @@ def _keep_installed_pythonfmu() -> None:
             pass
 
 
-class Instance:
+class FMUInstance:
     """What every FMU instance offers the master, whatever runs it (the C library through FMI, or a
     pythonfmu slave object called in this process: :mod:`harness.fmi.inprocess`).
 
@@ -245,3 +245,7 @@ class Instance:
                               f"{fmpy.sharedLibraryExtension}): {has}")
 
 
+
+
+# the former name of FMUInstance (deprecated: harness.model.Instance is the declaration of an instance in a system)
+Instance = FMUInstance

@@ -34,7 +34,7 @@ from multiprocessing.connection import Connection
 from pathlib import Path
 
 from harness.errors import FMUError, SystemError_
-from harness.fmi.fmu import Instance, RealBlock
+from harness.fmi.fmu import FMUInstance, RealBlock
 
 DEFAULT_TIMEOUT = 60.0  # [s] per forwarded call: far beyond any sane step, short enough for a night's sweep
 STARTUP = 120.0         # [s] allowed beyond the timeout for the child's start (a Python interpreter, imports)
@@ -111,7 +111,7 @@ def _signal_name(code: int) -> str:
     return f"{sig.name}, {what}" if what else sig.name
 
 
-class IsolatedInstance(Instance):
+class IsolatedInstance(FMUInstance):
     """An FMU instance in a child process (module docstring); the master calls it like any other."""
 
     def __init__(self, path: str | Path, name: str, logging_on: bool = True, in_process: bool | None = None,

@@ -35,7 +35,7 @@ from harness.errors import BlowUp, FMUError, SimulationError, SystemError_
 from harness.errors import ParameterRefused  # an FMU refused a parameter value (typed, fmus.refusal)
 from harness.errors import interruption
 from harness.extrapolation import extrapolation as make_extrapolation
-from harness.fmi import Instance, open_instance, release
+from harness.fmi import FMUInstance, open_instance, release
 from harness.masters import NS, ConvergenceError, IterationOptions, master_class
 from harness.model import model_description, resolve_fmu
 from harness.observers import ProgressBar, Recording
@@ -199,7 +199,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     system.validate(mds, {f"{i}.{k}": v for i, d in params.items() for k, v in d.items()})
     connections = system.all_connections(mds)
 
-    fmus: dict[str, Instance] = {}
+    fmus: dict[str, FMUInstance] = {}
     m = None
     try:
         for inst in system.instances:
