@@ -335,7 +335,8 @@ def _serve(conn: Connection) -> None:
             inst.set_list(blocks[args[0]], args[1])
             return None
         if op == "do_step":   # the answer carries every block's values after the step (the master reads them next)
-            inst.do_step(*args)
+            t, h, no_prior_state = args
+            inst.do_step(t, h, no_prior_state=no_prior_state)
             return {key: inst.get_list(b) for key, b in blocks.items()}
         if op == "set_input_derivatives":
             return inst.set_input_derivatives(blocks[args[0]], args[1], args[2])
