@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
 
-from harness.errors import FMUError, SystemError_
+from harness.errors import FMUError, SystemDescriptionError
 from harness.fmi.fmu import FMUInstance, RealBlock
 
 DEFAULT_TIMEOUT = 60.0  # [s] per forwarded call: far beyond any sane step, short enough for a night's sweep
@@ -61,10 +61,11 @@ class Isolation:
 
     def __post_init__(self):
         if self.which not in ("foreign", "all", "none"):
-            raise SystemError_(f"isolate = {self.which!r} is not admissible: must be 'foreign', 'all' or 'none'")
+            raise SystemDescriptionError(f"isolate = {self.which!r} is not admissible: must be 'foreign', 'all' "
+                                         f"or 'none'")
         t = self.timeout
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not t > 0 or t != t or t == float("inf"):
-            raise SystemError_(f"isolation timeout = {t!r} s is not admissible: must be a finite number > 0")
+            raise SystemDescriptionError(f"isolation timeout = {t!r} s is not admissible: must be a finite number > 0")
 
     @classmethod
     def of(cls, value) -> "Isolation | None":
@@ -82,8 +83,8 @@ class Isolation:
         elif isinstance(value, (int, float)):
             iso = cls(timeout=value)
         else:
-            raise SystemError_(f"isolate = {value!r} is not admissible: must be True, False, 'foreign', 'all', "
-                             f"'none', a timeout in s or an Isolation")
+            raise SystemDescriptionError(f"isolate = {value!r} is not admissible: must be True, False, 'foreign', "
+                                         f"'all', 'none', a timeout in s or an Isolation")
         return None if iso.which == "none" else iso
 
     def applies(self, unzip_dir: Path) -> bool:

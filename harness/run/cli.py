@@ -7,7 +7,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from harness.errors import HarnessError, SystemError_
+from harness.errors import HarnessError, SystemDescriptionError
 from harness.masters import MASTERS
 from harness.quantities import json_path
 from harness.run.interrupts import RunInterrupted, RunWarning
@@ -228,7 +228,7 @@ def _isolation(args):
     timeout = getattr(args, "isolate_timeout", None)
     if which is None:
         if timeout is not None:
-            raise SystemError_(f"--isolate-timeout {timeout:g} needs --isolate")
+            raise SystemDescriptionError(f"--isolate-timeout {timeout:g} needs --isolate")
         return None
     from harness.fmi.isolated import DEFAULT_TIMEOUT, Isolation
 

@@ -8,7 +8,7 @@ import difflib
 import math
 import warnings
 
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 from harness.model import System
 from harness.signals import full_name
 
@@ -16,8 +16,8 @@ from harness.signals import full_name
 def _positive(name: str, value, unit: str = "s") -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
         text = repr(float(value)) if isinstance(value, (int, float)) and not isinstance(value, bool) else repr(value)
-        raise SystemError_(f"{name} = {text} is not admissible: must be a positive finite number"
-                           + (f" [{unit}]" if unit else ""))
+        raise SystemDescriptionError(f"{name} = {text} is not admissible: must be a positive finite number"
+                                     + (f" [{unit}]" if unit else ""))
     return float(value)
 
 
@@ -28,11 +28,12 @@ def split_parameters(system: System, parameters: dict | None) -> dict[str, dict]
     for ref, value in (parameters or {}).items():
         inst, dot, var = full_name(system, ref).partition(".")
         if not dot or not var:
-            raise SystemError_(f"parameter {ref!r} must be written 'Instance.parameter'")
+            raise SystemDescriptionError(f"parameter {ref!r} must be written 'Instance.parameter'")
         if inst not in out:
             close = difflib.get_close_matches(inst, list(out), n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise SystemError_(f"parameter {ref}: unknown instance {inst!r}{hint} (instances: {', '.join(out)})")
+            raise SystemDescriptionError(f"parameter {ref}: unknown instance {inst!r}{hint} "
+                                         f"(instances: {', '.join(out)})")
         out[inst][var] = value
     return out
 
@@ -112,6 +113,6 @@ def parse_sets(items: list[str] | None) -> dict:
     for item in items or []:
         name, eq, value = item.partition("=")
         if not eq or not name.strip() or not value.strip():
-            raise SystemError_(f"--set {item!r}: expected Instance.param=VALUE")
+            raise SystemDescriptionError(f"--set {item!r}: expected Instance.param=VALUE")
         out[name.strip()] = _value(value)
     return out

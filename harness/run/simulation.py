@@ -31,7 +31,7 @@ from pathlib import Path
 import pandas as pd
 
 from harness.divergence import Diverged, DivergenceOptions, DivergenceWatch
-from harness.errors import BlowUp, FMUError, SimulationError, SystemError_
+from harness.errors import BlowUp, FMUError, SimulationError, SystemDescriptionError
 from harness.errors import ParameterRefused  # an FMU refused a parameter value (typed, fmus.refusal)
 from harness.errors import interruption
 from harness.extrapolation import extrapolation as make_extrapolation
@@ -149,20 +149,20 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
 
         Isolation.of(opts.isolate)   # a bad value in one line before anything runs
     if on_error not in ("return", "raise"):
-        raise SystemError_(f"on_error = {on_error!r} is not admissible: must be 'return' or 'raise'")
+        raise SystemDescriptionError(f"on_error = {on_error!r} is not admissible: must be 'return' or 'raise'")
     exp = system.experiment
     if stop_time is None:
         if exp is None:
-            raise SystemError_(f"system {system.name} has no default experiment: give stop_time")
+            raise SystemDescriptionError(f"system {system.name} has no default experiment: give stop_time")
         stop_time = exp.stop_time
     if step is None and (exp is None or exp.step is None) and output_interval is not None:
         step = output_interval  # as fmpy.simulate_fmu steps a co-simulation FMU: one step per output interval
     if step is None:
         if exp is None:
-            raise SystemError_(f"system {system.name} has no default experiment: give step")
+            raise SystemDescriptionError(f"system {system.name} has no default experiment: give step")
         if exp.step is None:  # an SSP's DefaultExperiment without a step (OSP's annotation gives one)
-            raise SystemError_(f"system {system.name}: its default experiment declares no step: give step "
-                               f"(--step on the command line)")
+            raise SystemDescriptionError(f"system {system.name}: its default experiment declares no step: give step "
+                                         f"(--step on the command line)")
         step = exp.step
     master = master if master is not None else (exp.master if exp else "jacobi")
     extrapolation = extrapolation if extrapolation is not None else (exp.extrapolation if exp else 0)
@@ -174,15 +174,15 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         _positive("tolerance", tolerance, unit="")
     if (isinstance(start_time, bool) or not isinstance(start_time, (int, float)) or not math.isfinite(start_time)
             or not 0.0 <= start_time < stop_time):
-        raise SystemError_(f"start_time = {start_time!r} is not admissible: must be a finite number in "
-                           f"[0, stop_time = {stop_time!r}) [s]")
+        raise SystemDescriptionError(f"start_time = {start_time!r} is not admissible: must be a finite number in "
+                                     f"[0, stop_time = {stop_time!r}) [s]")
     start_ns, stop_ns, step_ns = int(round(start_time * NS)), int(round(stop_time * NS)), int(round(step * NS))
     if step_ns < 1:
-        raise SystemError_(f"step = {step!r} is not admissible: master time has a resolution of 1 ns")
+        raise SystemDescriptionError(f"step = {step!r} is not admissible: master time has a resolution of 1 ns")
     if step_ns > stop_ns - start_ns:
-        raise SystemError_(f"step = {step!r} s is longer than the run from start_time = {start_time!r} s to "
-                           f"stop_time = {stop_time!r} s" if start_ns else
-                           f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
+        raise SystemDescriptionError(f"step = {step!r} s is longer than the run from start_time = {start_time!r} s to "
+                                     f"stop_time = {stop_time!r} s" if start_ns else
+                                     f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
     sample_ns = _output_interval(output_interval, step, step_ns, step_control)
     cls = master_class(master)
     extra = make_extrapolation(extrapolation)
@@ -210,8 +210,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         if not controller.variable and (stop_ns - start_ns) % step_ns:
             for name, f in fmus.items():
                 if not f.can_vary_step:
-                    raise SystemError_(f"stop_time = {stop_time!r} s is not a multiple of step = {step!r} s and "
-                                       f"instance {name} cannot take a shorter last step")
+                    raise SystemDescriptionError(f"stop_time = {stop_time!r} s is not a multiple of step = {step!r} "
+                                                 f"s and instance {name} cannot take a shorter last step")
         n_rows = -(-(stop_ns - start_ns) // sample_ns) + 1 if not controller.variable else 1024
         rec = Recorder(m, output, n_rows)
         if signals is not None:
@@ -248,14 +248,14 @@ def _output_interval(output_interval, step: float, step_ns: int, step_control) -
         return step_ns
     interval = _positive("output_interval", output_interval)
     if step_control not in (None, "none"):
-        raise SystemError_(f"output_interval = {interval!r} s needs a fixed step: under step_control = "
-                           f"{step_control!r} the communication points are the controller's; leave "
-                           f"output_interval out (every accepted point is recorded)")
+        raise SystemDescriptionError(f"output_interval = {interval!r} s needs a fixed step: under step_control = "
+                                     f"{step_control!r} the communication points are the controller's; leave "
+                                     f"output_interval out (every accepted point is recorded)")
     sample_ns = int(round(interval * NS))
     if sample_ns < step_ns or sample_ns % step_ns:
-        raise SystemError_(f"output_interval = {interval!r} s is not a whole multiple of step = {step!r} s: the "
-                           f"result holds communication points (values between them are not computed); give "
-                           f"a multiple of the step, or a step that divides it")
+        raise SystemDescriptionError(f"output_interval = {interval!r} s is not a whole multiple of step = {step!r} "
+                                     f"s: the result holds communication points (values between them are not "
+                                     f"computed); give a multiple of the step, or a step that divides it")
     return sample_ns
 
 
