@@ -58,7 +58,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness.errors import FMUError, SystemError_
+from harness.errors import FMUError, SystemDescriptionError
 
 PEERS = {"fmpy": "fmpy.fmi2", "libcosim": "libcosimpy.CosimExecution", "ecos": "ecospy",
          "cofmupy": "cofmupy"}
@@ -80,12 +80,12 @@ def available() -> dict[str, str | None]:
 def n_steps(stop_time: float, step: float) -> int:
     """Number of communication steps; stop_time must be a whole number of steps."""
     if not (isinstance(step, (int, float)) and math.isfinite(step) and step > 0):
-        raise SystemError_(f"step = {step!r} must be a finite number > 0 s")
+        raise SystemDescriptionError(f"step = {step!r} must be a finite number > 0 s")
     if not (isinstance(stop_time, (int, float)) and math.isfinite(stop_time) and stop_time > 0):
-        raise SystemError_(f"stop_time = {stop_time!r} must be a finite number > 0 s")
+        raise SystemDescriptionError(f"stop_time = {stop_time!r} must be a finite number > 0 s")
     n = round(stop_time / step)
     if n < 1 or abs(n * step - stop_time) > 1e-9 * stop_time:
-        raise SystemError_(f"stop_time = {stop_time!r} s is not a whole number of steps of step = {step!r} s")
+        raise SystemDescriptionError(f"stop_time = {stop_time!r} s is not a whole number of steps of step = {step!r} s")
     return n
 
 
@@ -103,13 +103,13 @@ def _check_start(md, variables: dict, parameters: dict, inputs: dict) -> None:
     for name, causality, value in wanted:
         var = variables.get(name)
         if var is None:
-            raise SystemError_(f"{md.modelName}: no {causality} {name!r}")
+            raise SystemDescriptionError(f"{md.modelName}: no {causality} {name!r}")
         if var.causality != causality:
-            raise SystemError_(f"{md.modelName}: {name} has causality {var.causality}, not {causality}")
+            raise SystemDescriptionError(f"{md.modelName}: {name} has causality {var.causality}, not {causality}")
         if causality == "input" and var.type != "Real":
-            raise SystemError_(f"{md.modelName}: input {name} is {var.type}; only Real inputs are supported")
+            raise SystemDescriptionError(f"{md.modelName}: input {name} is {var.type}; only Real inputs are supported")
         if var.type == "Real" and not (isinstance(value, (int, float)) and math.isfinite(value)):
-            raise SystemError_(f"{md.modelName}: {causality} {name} = {value!r} is not a finite number")
+            raise SystemDescriptionError(f"{md.modelName}: {causality} {name} = {value!r} is not a finite number")
 
 
 def _check_request(fmu_path, parameters: dict, inputs: dict, outputs: list) -> tuple[object, dict]:
@@ -117,11 +117,11 @@ def _check_request(fmu_path, parameters: dict, inputs: dict, outputs: list) -> t
     md, variables = _variables(fmu_path)
     _check_start(md, variables, parameters, inputs)
     if not outputs:
-        raise SystemError_(f"{md.modelName}: no outputs requested")
+        raise SystemDescriptionError(f"{md.modelName}: no outputs requested")
     for name in outputs:
         var = variables.get(name)
         if var is None or var.type != "Real":
-            raise SystemError_(f"{md.modelName}: no Real variable {name!r} to record")
+            raise SystemDescriptionError(f"{md.modelName}: no Real variable {name!r} to record")
     return md, variables
 
 
@@ -200,7 +200,7 @@ def communication_points(n: int, step: float, convention: str = "exact") -> tupl
             acc += step
             t[k] = acc
         return t, np.full(n, float(step))
-    raise SystemError_(f"time convention {convention!r} is not one of {', '.join(TIME_CONVENTIONS)}")
+    raise SystemDescriptionError(f"time convention {convention!r} is not one of {', '.join(TIME_CONVENTIONS)}")
 
 
 def run_fmu_fmpy(fmu_path, stop_time: float, step: float, parameters: dict, inputs: dict, outputs: list,
@@ -259,7 +259,7 @@ def step_nanoseconds(step: float) -> int:
     """libcosim's step in integer nanoseconds; the step must be one (to 1e-9 relative)."""
     ns = round(step * 1e9)
     if ns < 1 or abs(ns - step * 1e9) > 1e-9 * step * 1e9:
-        raise SystemError_(f"libcosim: step = {step!r} s is not a whole number of nanoseconds")
+        raise SystemDescriptionError(f"libcosim: step = {step!r} s is not a whole number of nanoseconds")
     return ns
 
 
@@ -356,7 +356,7 @@ def _split(column: str, instances: list[str]) -> tuple[str, str]:
     for inst in sorted(instances, key=len, reverse=True):
         if column.startswith(inst + "."):
             return inst, column[len(inst) + 1:]
-    raise SystemError_(f"output {column!r} names no instance of the system ({', '.join(sorted(instances))})")
+    raise SystemDescriptionError(f"output {column!r} names no instance of the system ({', '.join(sorted(instances))})")
 
 
 def run_ssp_libcosim(ssp_path, stop_time: float, step: float, outputs: list) -> pd.DataFrame:
@@ -366,7 +366,7 @@ def run_ssp_libcosim(ssp_path, stop_time: float, step: float, outputs: list) -> 
     execution_cls, _, observer_cls, enums = _libcosim()
     path = Path(ssp_path).resolve()
     if not path.exists():
-        raise SystemError_(f"no SSP file or folder {path}")
+        raise SystemDescriptionError(f"no SSP file or folder {path}")
     try:
         execution = execution_cls.from_ssp_file(str(path), step_nanoseconds(step))
     except AssertionError as e:
@@ -378,7 +378,7 @@ def run_ssp_libcosim(ssp_path, stop_time: float, step: float, outputs: list) -> 
     for column in outputs:
         inst, var = _split(column, list(slaves))
         if var not in refs[slaves[inst]]:
-            raise SystemError_(f"{inst}: no Real variable {var!r} to record")
+            raise SystemDescriptionError(f"{inst}: no Real variable {var!r} to record")
         targets.append((slaves[inst], refs[slaves[inst]][var]))
     observer = _libcosim_record(execution, observer_cls, enums, targets, n)
     return _libcosim_run(execution, observer, targets, n, step, list(outputs))
@@ -447,7 +447,7 @@ def run_ssp_ecos(ssp_path, stop_time: float, step: float, outputs: list,
     n = n_steps(stop_time, step)
     path = Path(ssp_path).resolve()
     if not path.exists():
-        raise SystemError_(f"no SSP file or folder {path}")
+        raise SystemDescriptionError(f"no SSP file or folder {path}")
     ecospy = _ecos()
     try:
         sim = ecospy.EcosSimulation(ssp_path=str(path), step_size=step)

@@ -47,7 +47,7 @@ def _cpu() -> float:
 def child_harness(ssp: str, stop: float, parameter: str, values: list[float], run, out: str) -> dict:
     start = _cpu()  # the interpreter's start, up to this module's own imports
     import harness
-    import harness.run
+    import harness.run.simulation
     import harness.studies.sweep as sweep_module
     from harness.studies.sweep import parse_spec, run_point, save
 

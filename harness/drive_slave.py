@@ -97,7 +97,7 @@ class DriveBehaviour:
     _ERROR = Fmi2Status.error
     _STEP_REFUSED = None    # pythonfmu: fatal (module docstring: its fmi2Discard is ignored by FMPy)
     # the master state a snapshot does not hold (the interface-Jacobian master's estimate)
-    _EXTRA_STATE = ("jacobian", "theta", "_jac_h", "_stale")
+    _EXTRA_STATE = ("jacobian", "theta", "_jac_h", "_jacobian_stale")
 
     def __init_subclass__(cls, **kwargs):
         """pythonfmu 0.7's C wrapper re-executes the FMU's module on every fmi2Instantiate and then releases its

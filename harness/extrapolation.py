@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 
 DEPTH = 3  # samples kept per signal (enough for degree 2)
 
@@ -133,7 +133,7 @@ class Polynomial:
 
     def __init__(self, order: int):
         if order not in (0, 1, 2):
-            raise SystemError_(f"extrapolation = {order!r} is not admissible: must be 0, 1 or 2")
+            raise SystemDescriptionError(f"extrapolation = {order!r} is not admissible: must be 0, 1 or 2")
         self.order = order
         self.uses_midpoint = order >= 1
 
@@ -217,8 +217,8 @@ def extrapolation(spec) -> Polynomial:
             return Polynomial(EXTRAPOLATIONS[key])
         if key.isdigit():
             return Polynomial(int(key))
-        raise SystemError_(f"extrapolation = {spec!r} is not admissible: use 0, 1, 2 or one of "
-                           f"{', '.join(EXTRAPOLATIONS)}")
+        raise SystemDescriptionError(f"extrapolation = {spec!r} is not admissible: use 0, 1, 2 or one of "
+                                     f"{', '.join(EXTRAPOLATIONS)}")
     if isinstance(spec, bool) or not isinstance(spec, int):
-        raise SystemError_(f"extrapolation = {spec!r} is not admissible: must be 0, 1 or 2")
+        raise SystemDescriptionError(f"extrapolation = {spec!r} is not admissible: must be 0, 1 or 2")
     return Polynomial(spec)

@@ -329,12 +329,12 @@ def write_run_report(system, df, path: str | Path, charts: list[Path] | None = N
 
 def check_report_path(path: str | Path) -> Path:
     """``--report FILE.html`` before any run: an .html/.htm name in a folder that can be written."""
-    from harness.errors import SystemError_
+    from harness.errors import SystemDescriptionError
     from harness.results import check_writable
 
     path = Path(path)
     if path.suffix.lower() not in (".html", ".htm"):
-        raise SystemError_(f"--report {path}: give a file name ending in .html")
+        raise SystemDescriptionError(f"--report {path}: give a file name ending in .html")
     return check_writable(path, "--report")
 
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.errors import HarnessError, SystemError_
+from harness.errors import HarnessError, SystemDescriptionError
 
 
 class ConvergenceError(HarnessError):
@@ -27,12 +27,12 @@ class IterationOptions:
 
     def __post_init__(self):
         if self.method not in ("fixed-point", "anderson", "newton"):
-            raise SystemError_(f"iteration method = {self.method!r} is not admissible: must be fixed-point, "
-                               f"anderson or newton")
+            raise SystemDescriptionError(f"iteration method = {self.method!r} is not admissible: must be fixed-point, "
+                                         f"anderson or newton")
         if not (isinstance(self.max_iterations, int) and self.max_iterations >= 1):
-            raise SystemError_(f"max_iterations = {self.max_iterations!r} must be an integer >= 1")
+            raise SystemDescriptionError(f"max_iterations = {self.max_iterations!r} must be an integer >= 1")
         if self.tolerance is not None and not self.tolerance > 0:
-            raise SystemError_(f"iteration tolerance = {self.tolerance!r} must be > 0")
+            raise SystemDescriptionError(f"iteration tolerance = {self.tolerance!r} must be > 0")
 
 
 def solve_fixed_point(g, u0: np.ndarray, options: IterationOptions, tol: float, what: str):

@@ -150,10 +150,10 @@ class Master:
                 if var in it.input_pos and var in it.fmu.advanced_positions:
                     it.pos_idx = np.append(it.pos_idx, it.input_pos[var]).astype(np.intp)
         # the same positions in u, for the held inputs of all instances at once (_hold_all)
-        self._pos = np.concatenate([it.pos_idx + it.isl.start for it in self.insts]).astype(np.intp)
-        self._pos_src = self.src[self._pos]
+        self._advanced_positions = np.concatenate([it.pos_idx + it.isl.start for it in self.insts]).astype(np.intp)
+        self._advanced_positions_src = self.src[self._advanced_positions]
         self._links = [link for it in self.insts for link in it.links]  # (src, fac, off) of every entry of u
-        self._pos_list = self._pos.tolist()
+        self._advanced_positions_list = self._advanced_positions.tolist()
         self._batched = [it for it in self.insts if it.inp.n and not it.interp]
         self._interp = [it for it in self.insts if it.inp.n and it.interp]
         self._slots: dict[str, tuple] = {}
@@ -295,11 +295,11 @@ class Master:
         u = self.u
         np.multiply(self.fac, self.extrapolation.held(self.history, self.src, t, h), out=u)
         u += self.off
-        pos = self._pos
+        pos = self._advanced_positions
         hist = self.history
         newest = hist.newest  # no source has a sample newer than t: the held position IS the start sample
         if pos.size and (self.extrapolation.order or newest is None or newest > t):
-            src = self._pos_src
+            src = self._advanced_positions_src
             newer = hist.t[0, src] > t
             if self.extrapolation.order or newer.any():
                 start = np.where(newer, hist.y[1, src], hist.y[0, src])
@@ -326,7 +326,7 @@ class Master:
             y1, t1 = hist.y[1].tolist(), hist.t[1].tolist()
             a = te - t  # te - t0, t0 = t for every source (newest == t)
             held = [y0[s] + a / (t - t1[s]) * (y0[s] - y1[s]) for s, _, _ in links]
-            for k in self._pos_list:
+            for k in self._advanced_positions_list:
                 held[k] = y0[links[k][0]]
         values = [f * v + o for (_, f, o), v in zip(links, held)]
         self.u[:] = values
@@ -705,12 +705,12 @@ class InterfaceJacobian(Master):
                                f"master='jacobi' or 'gauss-seidel' for such FMUs")
         # per power bond: the held effort and the held motion (not the positions the FMU advances itself), whose
         # weights of the sample at t+h follow their loop gains at each estimate (harness.jacobian.target_weights)
-        pos = set(self._pos.tolist())
+        pos = set(self._advanced_positions.tolist())
         held = [jacobian.motion_held(self.insts[self.index[b.motion_in.split(".", 1)[0]]], b) for b in self.bonds]
         self._bond_inputs = [(b[0], [k for k in m if k not in pos]) for b, m in zip(self._bonds, held)]
-        self.theta = jacobian.target_weights(len(self.u), self._bond_inputs, None, self._pos)
+        self.theta = jacobian.target_weights(len(self.u), self._bond_inputs, None, self._advanced_positions)
         self.jacobian: np.ndarray | None = None  # S of harness.jacobian.assemble, for the step size self._jac_h
-        self._jac_h, self._stale = 0.0, True
+        self._jac_h, self._jacobian_stale = 0.0, True
         # Jacobian estimates (one extra FMU step per held input each) and steps taken again with fresh Jacobians
         # because the correction did not contract (the halved steps: Master.halvings)
         self.estimates = self.retries = 0
@@ -754,8 +754,8 @@ class InterfaceJacobian(Master):
             outs = jacobian.singular_direction(np.eye(n_y) - D @ self._output_links())
             raise self._singular(t, [k for o in outs for k in np.flatnonzero(self.src == o).tolist()],
                                  "the feed-through of the outputs at the step's end") from None
-        self.jacobian, self._jac_h, self._stale = S, h, False
-        self.theta = jacobian.target_weights(len(u0), self._bond_inputs, self.jacobian, self._pos)
+        self.jacobian, self._jac_h, self._jacobian_stale = S, h, False
+        self.theta = jacobian.target_weights(len(u0), self._bond_inputs, self.jacobian, self._advanced_positions)
         self.estimates += 1
 
     def _stepper(self, it: _Inst):
@@ -799,7 +799,7 @@ class InterfaceJacobian(Master):
         self.snapshot("ij")
         for attempt in (0, 1):
             r0 = self._take(t, h, t_next, u0)
-            fresh = self._stale or self._jac_h != h
+            fresh = self._jacobian_stale or self._jac_h != h
             if fresh:
                 self._estimate(t, h, u0)
                 r0 = self._implicit_inputs(t, h) - u0  # with the new theta, from the same predictor
@@ -812,7 +812,7 @@ class InterfaceJacobian(Master):
             r1 = self._take(t, h, t_next, u0 + du)
             scale = np.abs(u0) + np.abs(r0) + 1e-9
             rho = jacobian.contraction(r0, r1, scale)
-            self._stale = rho > jacobian.CONTRACTION
+            self._jacobian_stale = rho > jacobian.CONTRACTION
             if fresh and depth < jacobian.MAX_HALVINGS and h * NS >= 1.5 and jacobian.needs_halving(rho, r1, scale):
                 self.restore("ij")
                 self.halvings += 1

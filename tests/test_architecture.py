@@ -15,12 +15,15 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = [
     (0, ("fmus.physics",)),
     (1, ("fmus",)),                                               # FMU slaves, catalog, build, references
-    (2, ("harness.errors", "harness.clock", "harness.fmi")),      # FMI layer
+    (2, ("harness.errors", "harness.clock", "harness.fmi",        # FMI layer
+         "harness.fmi.instance", "harness.fmi.status", "harness.fmi.log_routing", "harness.fmi.annotation")),
     (3, ("harness.specs", "harness.model", "harness.graph", "harness.extrapolation", "harness.stepcontrol",
          "harness.coupling", "harness.iteration", "harness.jacobian", "harness.masters", "harness.results",
          "harness.observers",
          "harness.qoi")),                                         # system model and masters
     (4, ("harness", "harness.run", "harness.signals", "harness.ssp", "harness.charts",   # run / ssp (lazy API)
+         "harness.run.systems", "harness.run.parameters", "harness.run.interrupts",   # the run package, by job
+         "harness.run.simulation", "harness.run.cli",
          "harness.htmlreport",                                    # the HTML report's page and a run's sections
          "harness.quantities", "harness.scenarios",               # engineering quantities, transients
          "systems")),                                             # the drives as data, loaded by run.load

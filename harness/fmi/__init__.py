@@ -8,12 +8,12 @@ from pathlib import Path
 from harness.errors import FMUError
 from harness.fmi import inprocess
 from harness.fmi.cache import model_description
-from harness.fmi.fmu import FMU, Instance, extracted
+from harness.fmi.fmu import FMU, FMUInstance, Instance, extracted  # Instance: FMUInstance's deprecated name
 from harness.fmi.fmu1 import FMU1
 from harness.fmi.fmu3 import FMU3
 from harness.fmi.me import ModelExchange2, ModelExchange3, SolverSettings
 
-__all__ = ["FMU", "FMU1", "FMU3", "ModelExchange2", "ModelExchange3", "SolverSettings", "Instance",
+__all__ = ["FMU", "FMU1", "FMU3", "ModelExchange2", "ModelExchange3", "SolverSettings", "FMUInstance", "Instance",
            "open_instance", "extracted", "IN_PROCESS_CHOICES", "InProcessFallback"]
 
 IN_PROCESS_CHOICES = (None, True, False)
@@ -24,7 +24,7 @@ class InProcessFallback(UserWarning):
 
 
 def open_instance(path: str | Path, name: str, logging_on: bool = True, in_process: bool | None = None,
-                  isolate=None) -> Instance:
+                  isolate=None) -> FMUInstance:
     """An instance of the FMU at ``path``, called in-process or through FMI.
 
     ``in_process``: None (default) runs every pythonfmu FMU in this process

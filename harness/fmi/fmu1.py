@@ -17,7 +17,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from harness.errors import FMUError
-from harness.fmi.fmu import ERROR, Instance, RealBlock
+from harness.fmi.fmu import ERROR, FMUInstance, RealBlock
 
 def _text(value) -> str:
     """An fmiString as fmpy returns it (bytes, or None for a null pointer) as text: FMI 1.0 strings are
@@ -31,7 +31,7 @@ _TYPES = {"Real": ("Real", float), "Integer": ("Integer", int), "Enumeration": (
           "Boolean": ("Boolean", bool), "String": ("String", _text)}  # model type -> (FMI 1.0 call suffix, Python type)
 
 
-class FMU1(Instance):
+class FMU1(FMUInstance):
     """One instance of an FMI 1.0 co-simulation FMU (module docstring)."""
 
     path_kind = "fmi1"

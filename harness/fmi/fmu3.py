@@ -32,7 +32,7 @@ import numpy as np
 
 from harness.errors import FMUError
 from harness.fmi.cache import array_elements, native_types
-from harness.fmi.fmu import ERROR, Instance, RealBlock
+from harness.fmi.fmu import ERROR, FMUInstance, RealBlock
 
 _INTEGERS = ("Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")
 
@@ -54,7 +54,7 @@ def _declares_directional_derivatives(unzip_dir: Path) -> bool:
     return cs is not None and cs.get("providesDirectionalDerivatives") in ("true", "1")
 
 
-class FMU3(Instance):
+class FMU3(FMUInstance):
     """One instance of an FMI 3.0 co-simulation FMU (module docstring)."""
 
     path_kind = "fmi3"

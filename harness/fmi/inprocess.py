@@ -36,7 +36,7 @@ import numpy as np
 
 from fmus.refusal import CATEGORY as REFUSAL_CATEGORY
 from harness.errors import FMUError, StepDiscarded
-from harness.fmi.fmu import DISCARD, ERROR, FATAL, WARNING, Instance, RealBlock, toolkit_annotation
+from harness.fmi.fmu import DISCARD, ERROR, FATAL, WARNING, FMUInstance, RealBlock, toolkit_annotation
 
 _SLAVE_BASE = "Fmi2Slave"
 
@@ -157,7 +157,7 @@ class _State:
         self.value = None
 
 
-class InProcessFMU(Instance):
+class InProcessFMU(FMUInstance):
     """A pythonfmu FMU whose slave object is called directly in this process (module docstring)."""
 
     path_kind = "in-process"

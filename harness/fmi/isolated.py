@@ -33,8 +33,8 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
 
-from harness.errors import FMUError, SystemError_
-from harness.fmi.fmu import Instance, RealBlock
+from harness.errors import FMUError, SystemDescriptionError
+from harness.fmi.fmu import FMUInstance, RealBlock
 
 DEFAULT_TIMEOUT = 60.0  # [s] per forwarded call: far beyond any sane step, short enough for a night's sweep
 STARTUP = 120.0         # [s] allowed beyond the timeout for the child's start (a Python interpreter, imports)
@@ -61,10 +61,11 @@ class Isolation:
 
     def __post_init__(self):
         if self.which not in ("foreign", "all", "none"):
-            raise SystemError_(f"isolate = {self.which!r} is not admissible: must be 'foreign', 'all' or 'none'")
+            raise SystemDescriptionError(f"isolate = {self.which!r} is not admissible: must be 'foreign', 'all' "
+                                         f"or 'none'")
         t = self.timeout
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not t > 0 or t != t or t == float("inf"):
-            raise SystemError_(f"isolation timeout = {t!r} s is not admissible: must be a finite number > 0")
+            raise SystemDescriptionError(f"isolation timeout = {t!r} s is not admissible: must be a finite number > 0")
 
     @classmethod
     def of(cls, value) -> "Isolation | None":
@@ -82,8 +83,8 @@ class Isolation:
         elif isinstance(value, (int, float)):
             iso = cls(timeout=value)
         else:
-            raise SystemError_(f"isolate = {value!r} is not admissible: must be True, False, 'foreign', 'all', "
-                             f"'none', a timeout in s or an Isolation")
+            raise SystemDescriptionError(f"isolate = {value!r} is not admissible: must be True, False, 'foreign', "
+                                         f"'all', 'none', a timeout in s or an Isolation")
         return None if iso.which == "none" else iso
 
     def applies(self, unzip_dir: Path) -> bool:
@@ -111,7 +112,7 @@ def _signal_name(code: int) -> str:
     return f"{sig.name}, {what}" if what else sig.name
 
 
-class IsolatedInstance(Instance):
+class IsolatedInstance(FMUInstance):
     """An FMU instance in a child process (module docstring); the master calls it like any other."""
 
     def __init__(self, path: str | Path, name: str, logging_on: bool = True, in_process: bool | None = None,
@@ -335,7 +336,8 @@ def _serve(conn: Connection) -> None:
             inst.set_list(blocks[args[0]], args[1])
             return None
         if op == "do_step":   # the answer carries every block's values after the step (the master reads them next)
-            inst.do_step(*args)
+            t, h, no_prior_state = args
+            inst.do_step(t, h, no_prior_state=no_prior_state)
             return {key: inst.get_list(b) for key, b in blocks.items()}
         if op == "set_input_derivatives":
             return inst.set_input_derivatives(blocks[args[0]], args[1], args[2])

@@ -1,22 +1,19 @@
-"""The command ``python -m harness run``: its arguments (:func:`register`), the files it writes checked before
-the run, its charts, and the one-line messages of a run that stops early (:func:`run_cli`).
-"""
+"""The command ``python -m harness run`` (:mod:`harness.run`): its parser (:func:`register`) and
+:func:`run_cli`, which checks the targets, runs, writes the result, charts and report, and prints one line."""
+
 from __future__ import annotations
 
 import sys
 import warnings
 from pathlib import Path
 
-
-from harness.errors import HarnessError, SystemError_
+from harness.errors import HarnessError, SystemDescriptionError
 from harness.masters import MASTERS
 from harness.quantities import json_path
-
-
 from harness.run.interrupts import RunInterrupted, RunWarning
-from harness.run.parameters import parse_sets
-from harness.run.simulation import RunOptions, simulate, partial_path, simulate_scenario
 from harness.run.systems import load
+from harness.run.parameters import parse_sets
+from harness.run.simulation import RunOptions, partial_path, simulate, simulate_scenario
 
 
 def register(subparsers) -> None:
@@ -102,7 +99,6 @@ def register(subparsers) -> None:
                    help="with --isolate: the longest one FMU call may take before its process is killed and "
                         "the run stops (default: 60 s)")
     p.set_defaults(func=run_cli)
-
 
 
 def _check_targets(args) -> None:
@@ -232,7 +228,7 @@ def _isolation(args):
     timeout = getattr(args, "isolate_timeout", None)
     if which is None:
         if timeout is not None:
-            raise SystemError_(f"--isolate-timeout {timeout:g} needs --isolate")
+            raise SystemDescriptionError(f"--isolate-timeout {timeout:g} needs --isolate")
         return None
     from harness.fmi.isolated import DEFAULT_TIMEOUT, Isolation
 
@@ -243,5 +239,3 @@ def _halved(a: dict) -> str:
     """' (N taken in halves, ...)' where the jacobian master halved steps (harness.jacobian.needs_halving)."""
     n = a.get("halved_steps") or 0
     return f" ({n} taken again in halves where the coupling's correction did not converge)" if n else ""
-
-

@@ -1,12 +1,7 @@
-"""What a run that stops early raises or warns: :class:`RunWarning` (a partial result returned) and
-:class:`RunInterrupted` (Ctrl-C or SIGTERM, carrying the partial result and the exit status).
-"""
+"""The exceptions of a run that stopped early (:mod:`harness.run`): :class:`RunWarning` (a partial result
+returned) and :class:`RunInterrupted` (Ctrl-C or SIGTERM, with the result so far)."""
+
 from __future__ import annotations
-
-
-
-
-
 
 
 class RunWarning(UserWarning):
@@ -22,5 +17,3 @@ class RunInterrupted(KeyboardInterrupt):
         super().__init__(message)
         self.partial = partial
         self.status = status
-
-

@@ -1,25 +1,23 @@
-"""Parameters and keyword arguments of a run: :func:`split_parameters` (``Instance.param`` overrides per
-instance), FMPy's argument names mapped to ours (:func:`_renamed`) and ``--set`` values (:func:`parse_sets`).
-"""
+"""The arguments of a run (:mod:`harness.run`): ``Instance.param`` values split per instance
+(:func:`split_parameters`), ``--set`` items (:func:`parse_sets`), positive times, and :func:`simulate`'s
+keyword arguments given under FMPy's or former names (:func:`_renamed`)."""
+
 from __future__ import annotations
 
 import difflib
 import math
 import warnings
 
-
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 from harness.model import System
 from harness.signals import full_name
-
-
 
 
 def _positive(name: str, value, unit: str = "s") -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
         text = repr(float(value)) if isinstance(value, (int, float)) and not isinstance(value, bool) else repr(value)
-        raise SystemError_(f"{name} = {text} is not admissible: must be a positive finite number"
-                           + (f" [{unit}]" if unit else ""))
+        raise SystemDescriptionError(f"{name} = {text} is not admissible: must be a positive finite number"
+                                     + (f" [{unit}]" if unit else ""))
     return float(value)
 
 
@@ -30,18 +28,23 @@ def split_parameters(system: System, parameters: dict | None) -> dict[str, dict]
     for ref, value in (parameters or {}).items():
         inst, dot, var = full_name(system, ref).partition(".")
         if not dot or not var:
-            raise SystemError_(f"parameter {ref!r} must be written 'Instance.parameter'")
+            raise SystemDescriptionError(f"parameter {ref!r} must be written 'Instance.parameter'")
         if inst not in out:
             close = difflib.get_close_matches(inst, list(out), n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise SystemError_(f"parameter {ref}: unknown instance {inst!r}{hint} (instances: {', '.join(out)})")
+            raise SystemDescriptionError(f"parameter {ref}: unknown instance {inst!r}{hint} "
+                                         f"(instances: {', '.join(out)})")
         out[inst][var] = value
     return out
 
 
 # FMPy's names (fmpy.simulate_fmu) and this function's older ones, each mapped to its one spelling here
 _ALIASES = {"step_size": "step", "relative_tolerance": "tolerance"}  # FMPy's, the same meaning (docs/fmpy.md)
+
+
 _DEPRECATED = {"parameters": "start_values", "outputs": "output"}    # still accepted, with a DeprecationWarning
+
+
 # FMPy's other arguments: what takes their place here (one line each, raised as a TypeError)
 _FMPY_ONLY = {
     "solver": "a model exchange FMU is integrated by CVODE inside the master (harness.fmi.me)",
@@ -90,7 +93,7 @@ def _renamed(given: dict, canonical: dict) -> dict:
     return out
 
 
-
+# -- CLI ----------------------------------------------------------------------------------------------------------
 def _value(text: str):
     t = text.strip()
     if t.lower() in ("true", "false"):
@@ -110,8 +113,6 @@ def parse_sets(items: list[str] | None) -> dict:
     for item in items or []:
         name, eq, value = item.partition("=")
         if not eq or not name.strip() or not value.strip():
-            raise SystemError_(f"--set {item!r}: expected Instance.param=VALUE")
+            raise SystemDescriptionError(f"--set {item!r}: expected Instance.param=VALUE")
         out[name.strip()] = _value(value)
     return out
-
-

@@ -1,4 +1,5 @@
-"""Running a system: :func:`simulate` and :func:`simulate_scenario`.
+"""Running a system: :func:`simulate` (:mod:`harness.run`; loading is :mod:`harness.run.systems`, the command
+line :mod:`harness.run.cli`).
 
 ``simulate(system, stop_time=None, step=None, master=None, extrapolation=None, step_control=None,
 tolerance=None, start_values=None, output=None, *, start_time=None, output_interval=None, input=None,
@@ -7,7 +8,8 @@ on_error="return", options=None)`` returns the result DataFrame (see :mod:`harne
 experiment (then: master ``jacobi``, extrapolation 0, fixed step).  Further options live in :class:`RunOptions`
 (iteration of the ``iterative`` master, step-control limits, blow-up limit, progress bar, FMU logging).
 
-The loop itself is :meth:`harness.masters.Master.run`; input signals live in :mod:`harness.signals`.
+(:func:`simulate`'s argument checks and the assembly of its result; the loop is
+:meth:`harness.masters.Master.run`, input signals live in :mod:`harness.signals`.)
 
 Failures during the run (an FMU error, a non-finite output, an output beyond the blow-up limit, an iteration
 that does not converge) stop it with a one-line message naming the time, the instance and the variable or
@@ -17,6 +19,7 @@ returned with ``attrs["complete"] = False`` and ``attrs["error"]`` (and a :class
 Errors in the system description (:class:`~harness.errors.SystemError_`) are always raised before the run.
 
 """
+
 from __future__ import annotations
 
 import math
@@ -28,11 +31,11 @@ from pathlib import Path
 import pandas as pd
 
 from harness.divergence import Diverged, DivergenceOptions, DivergenceWatch
-from harness.errors import BlowUp, FMUError, SimulationError, SystemError_
+from harness.errors import BlowUp, FMUError, SimulationError, SystemDescriptionError
 from harness.errors import ParameterRefused  # an FMU refused a parameter value (typed, fmus.refusal)
 from harness.errors import interruption
 from harness.extrapolation import extrapolation as make_extrapolation
-from harness.fmi import Instance, open_instance, release
+from harness.fmi import FMUInstance, open_instance, release
 from harness.masters import NS, ConvergenceError, IterationOptions, master_class
 from harness.model import model_description, resolve_fmu
 from harness.observers import ProgressBar, Recording
@@ -40,11 +43,9 @@ from harness.quantities import quantities
 from harness.results import Recorder
 from harness.signals import Signals, full_name
 from harness.stepcontrol import StepOptions, step_control as make_step_control
-
-
 from harness.run.interrupts import RunInterrupted, RunWarning
-from harness.run.parameters import _positive, _renamed, split_parameters
 from harness.run.systems import load
+from harness.run.parameters import _positive, _renamed, split_parameters
 
 
 @dataclass
@@ -73,7 +74,6 @@ class RunOptions:
     divergence: DivergenceOptions | None = field(default_factory=DivergenceOptions)
     isolate: object = None
     observers: tuple = ()
-
 
 
 def simulate(system, stop_time: float | None = None, step: float | None = None, master: str | None = None,
@@ -149,20 +149,20 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
 
         Isolation.of(opts.isolate)   # a bad value in one line before anything runs
     if on_error not in ("return", "raise"):
-        raise SystemError_(f"on_error = {on_error!r} is not admissible: must be 'return' or 'raise'")
+        raise SystemDescriptionError(f"on_error = {on_error!r} is not admissible: must be 'return' or 'raise'")
     exp = system.experiment
     if stop_time is None:
         if exp is None:
-            raise SystemError_(f"system {system.name} has no default experiment: give stop_time")
+            raise SystemDescriptionError(f"system {system.name} has no default experiment: give stop_time")
         stop_time = exp.stop_time
     if step is None and (exp is None or exp.step is None) and output_interval is not None:
         step = output_interval  # as fmpy.simulate_fmu steps a co-simulation FMU: one step per output interval
     if step is None:
         if exp is None:
-            raise SystemError_(f"system {system.name} has no default experiment: give step")
+            raise SystemDescriptionError(f"system {system.name} has no default experiment: give step")
         if exp.step is None:  # an SSP's DefaultExperiment without a step (OSP's annotation gives one)
-            raise SystemError_(f"system {system.name}: its default experiment declares no step: give step "
-                               f"(--step on the command line)")
+            raise SystemDescriptionError(f"system {system.name}: its default experiment declares no step: give step "
+                                         f"(--step on the command line)")
         step = exp.step
     master = master if master is not None else (exp.master if exp else "jacobi")
     extrapolation = extrapolation if extrapolation is not None else (exp.extrapolation if exp else 0)
@@ -174,15 +174,15 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         _positive("tolerance", tolerance, unit="")
     if (isinstance(start_time, bool) or not isinstance(start_time, (int, float)) or not math.isfinite(start_time)
             or not 0.0 <= start_time < stop_time):
-        raise SystemError_(f"start_time = {start_time!r} is not admissible: must be a finite number in "
-                           f"[0, stop_time = {stop_time!r}) [s]")
+        raise SystemDescriptionError(f"start_time = {start_time!r} is not admissible: must be a finite number in "
+                                     f"[0, stop_time = {stop_time!r}) [s]")
     start_ns, stop_ns, step_ns = int(round(start_time * NS)), int(round(stop_time * NS)), int(round(step * NS))
     if step_ns < 1:
-        raise SystemError_(f"step = {step!r} is not admissible: master time has a resolution of 1 ns")
+        raise SystemDescriptionError(f"step = {step!r} is not admissible: master time has a resolution of 1 ns")
     if step_ns > stop_ns - start_ns:
-        raise SystemError_(f"step = {step!r} s is longer than the run from start_time = {start_time!r} s to "
-                           f"stop_time = {stop_time!r} s" if start_ns else
-                           f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
+        raise SystemDescriptionError(f"step = {step!r} s is longer than the run from start_time = {start_time!r} s to "
+                                     f"stop_time = {stop_time!r} s" if start_ns else
+                                     f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
     sample_ns = _output_interval(output_interval, step, step_ns, step_control)
     cls = master_class(master)
     extra = make_extrapolation(extrapolation)
@@ -199,7 +199,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     system.validate(mds, {f"{i}.{k}": v for i, d in params.items() for k, v in d.items()})
     connections = system.all_connections(mds)
 
-    fmus: dict[str, Instance] = {}
+    fmus: dict[str, FMUInstance] = {}
     m = None
     try:
         for inst in system.instances:
@@ -210,8 +210,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         if not controller.variable and (stop_ns - start_ns) % step_ns:
             for name, f in fmus.items():
                 if not f.can_vary_step:
-                    raise SystemError_(f"stop_time = {stop_time!r} s is not a multiple of step = {step!r} s and "
-                                       f"instance {name} cannot take a shorter last step")
+                    raise SystemDescriptionError(f"stop_time = {stop_time!r} s is not a multiple of step = {step!r} "
+                                                 f"s and instance {name} cannot take a shorter last step")
         n_rows = -(-(stop_ns - start_ns) // sample_ns) + 1 if not controller.variable else 1024
         rec = Recorder(m, output, n_rows)
         if signals is not None:
@@ -248,14 +248,14 @@ def _output_interval(output_interval, step: float, step_ns: int, step_control) -
         return step_ns
     interval = _positive("output_interval", output_interval)
     if step_control not in (None, "none"):
-        raise SystemError_(f"output_interval = {interval!r} s needs a fixed step: under step_control = "
-                           f"{step_control!r} the communication points are the controller's; leave "
-                           f"output_interval out (every accepted point is recorded)")
+        raise SystemDescriptionError(f"output_interval = {interval!r} s needs a fixed step: under step_control = "
+                                     f"{step_control!r} the communication points are the controller's; leave "
+                                     f"output_interval out (every accepted point is recorded)")
     sample_ns = int(round(interval * NS))
     if sample_ns < step_ns or sample_ns % step_ns:
-        raise SystemError_(f"output_interval = {interval!r} s is not a whole multiple of step = {step!r} s: the "
-                           f"result holds communication points (values between them are not computed); give "
-                           f"a multiple of the step, or a step that divides it")
+        raise SystemDescriptionError(f"output_interval = {interval!r} s is not a whole multiple of step = {step!r} "
+                                     f"s: the result holds communication points (values between them are not "
+                                     f"computed); give a multiple of the step, or a step that divides it")
     return sample_ns
 
 
@@ -320,7 +320,6 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
     return df
 
 
-
 def simulate_scenario(system, scenario, **options) -> pd.DataFrame:
     """Co-simulate ``system`` through ``scenario`` (one of the system's by name, a
     :class:`~harness.specs.Scenario` or a .yaml/.json file; :mod:`harness.scenarios`): :func:`simulate` with
@@ -340,5 +339,3 @@ def partial_path(path: Path) -> Path:
     """Where an incomplete result is written instead of ``path``: ``x.csv`` -> ``x.partial.csv``."""
     path = Path(path)
     return path.with_name(f"{path.stem}.partial{path.suffix or '.csv'}")
-
-

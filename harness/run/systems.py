@@ -1,17 +1,14 @@
-"""Finding a system: :func:`load` (a name in ``systems/``, a .py file defining ``SYSTEM``, an SSP or a bare
-FMU), :func:`system_names` and :func:`declared` (a system's declared experiment and accuracy).
-"""
+"""Finding a system (:mod:`harness.run`): :func:`load` from a name in ``systems/``, a .py file, an .ssp/.ssd
+or a bare .fmu; :func:`system_names` and :func:`declared` over ``systems/``."""
+
 from __future__ import annotations
 
 import importlib
 import sys
 from pathlib import Path
 
-
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 from harness.model import System, model_description
-
-
 
 
 def load(x) -> System:
@@ -33,13 +30,13 @@ def load(x) -> System:
         return _fmu_system(Path(s))
     name = s[len("systems."):] if s.startswith("systems.") else s
     if not name.isidentifier():  # a file of another kind, a folder, a path: no module name at all
-        raise SystemError_(f"system {s!r} is neither a system name nor a .py, .ssp or .ssd file; "
-                           f"{_known_systems()}")
+        raise SystemDescriptionError(f"system {s!r} is neither a system name nor a .py, .ssp or .ssd file; "
+                                     f"{_known_systems()}")
     try:
         module = importlib.import_module(f"systems.{name}")
     except ModuleNotFoundError as e:
         if e.name in (f"systems.{name}", "systems"):
-            raise SystemError_(f"unknown system {s!r}{_close_match(name)}; {_known_systems()}") from None
+            raise SystemDescriptionError(f"unknown system {s!r}{_close_match(name)}; {_known_systems()}") from None
         raise
     return _system_of(module, f"systems/{name}.py")
 
@@ -50,7 +47,7 @@ def _fmu_system(path: Path) -> System:
     from harness.model import Experiment, Instance as Component  # (Instance here is the FMU wrapper's name)
 
     if not path.is_file():
-        raise SystemError_(f"{path}: no such FMU file")
+        raise SystemDescriptionError(f"{path}: no such FMU file")
     md = model_description(path)
     name = (md.modelName or path.stem).replace(".", "_")
     de = md.defaultExperiment
@@ -80,13 +77,14 @@ def _load_file(path: Path) -> System:
         return _system_of(module, str(path))
     if path.stem in system_names() and (path.is_file() or len(path.parts) == 1 or path.parent.name == "systems"):
         return load(path.stem)
-    raise SystemError_(f"system file {str(path)!r} does not exist{_close_match(path.stem)}; {_known_systems()}")
+    raise SystemDescriptionError(f"system file {str(path)!r} does not exist{_close_match(path.stem)}; "
+                                 f"{_known_systems()}")
 
 
 def _system_of(module, where: str) -> System:
     system = getattr(module, "SYSTEM", None)
     if not isinstance(system, System):
-        raise SystemError_(f"system module {where} defines no SYSTEM = System(...)")
+        raise SystemDescriptionError(f"system module {where} defines no SYSTEM = System(...)")
     return system
 
 
@@ -119,5 +117,3 @@ def declared(spec: str) -> dict:
         if value is not None:
             out[name] = value
     return out
-
-

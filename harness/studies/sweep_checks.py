@@ -81,13 +81,13 @@ def check_out(out: Path) -> None:
     """``--out`` can be written: the run command's own checks (:func:`harness.results.result_format`: .csv, or
     .parquet where pyarrow or fastparquet is installed; :func:`harness.results.check_writable`: the folder
     is made and writable), said as a :class:`SweepError`."""
-    from harness.errors import SystemError_
+    from harness.errors import SystemDescriptionError
     from harness.results import check_writable, result_format
 
     try:
         result_format(out)
         check_writable(out, "--out")
-    except SystemError_ as e:
+    except SystemDescriptionError as e:
         _fail(str(e))
 
 
