@@ -22,7 +22,7 @@ _ROUTES = sys.modules.setdefault("_pressdrive_fmi_log_routes",
                                  types.ModuleType("_pressdrive_fmi_log_routes", "FMI log routing (harness.fmi.fmu)"))
 if not hasattr(_ROUTES, "by_name"):
     _ROUTES.by_name = {}
-_BY_NAME: dict[bytes, "FMU"] = _ROUTES.by_name
+_BY_NAME: dict[bytes, object] = _ROUTES.by_name  # instance name -> its FMI 2.0 wrapper (harness.fmi.fmu.FMU)
 
 
 def _log(env, instance_name, status, category, message):

@@ -44,7 +44,7 @@ def load(x) -> System:
 def _fmu_system(path: Path) -> System:
     """One FMU run alone, as ``fmpy.simulate_fmu`` runs it: one instance named after the model (``.`` made
     ``_``), the FMU's DefaultExperiment as the default experiment (no step there: the run asks for one)."""
-    from harness.model import Experiment, Instance as Component  # (Instance here is the FMU wrapper's name)
+    from harness.model import Experiment, Instance as Component  # the declaration of the one instance
 
     if not path.is_file():
         raise SystemDescriptionError(f"{path}: no such FMU file")
