@@ -24,7 +24,7 @@ STAND_INS = ("physics", "fmu-calls")
 
 def _physics_free(fmu) -> None:
     slave = fmu._slave
-    model = slave._mdl
+    model = slave._model
     frozen = tuple(model.output(slave._time, slave._x, slave._u))
     model.advance = lambda t0, h, x, u: x
     model.output = lambda t, x, u: frozen

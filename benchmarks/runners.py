@@ -152,12 +152,12 @@ def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str, 
         for it in insts:
             s = it.fmu._slave
             s.component = it.fmu.c
-            prep.append((s, list(it.inp.vr)[: it.inp.n], it.src, it.fac, it.off, list(it.out.vr)[: it.out.n],
-                         it.sl))
+            prep.append((s, list(it.inp.vr)[: it.inp.n], it.src, it.factor, it.offset, list(it.out.vr)[: it.out.n],
+                         it.output_slice))
         for t, h in zip(times, steps):
-            for s, ivr, src, fac, off, _ovr, _sl in prep:
+            for s, ivr, src, factor, offset, _ovr, _sl in prep:
                 if ivr:
-                    s.setReal(ivr, list(fac * y[src] + off))
+                    s.setReal(ivr, list(factor * y[src] + offset))
             for s, *_ in prep:
                 s.doStep(t, h)
             for s, _ivr, _src, _fac, _off, ovr, sl in prep:
@@ -166,13 +166,13 @@ def run_floor(folder: Path, step: float, n: int, columns: list[str], kind: str, 
         prep = []
         for it in insts:
             dll = it.fmu._slave.dll   # the library's own ctypes functions (argument types set by FMPy)
-            prep.append((dll.fmi2SetReal, dll.fmi2DoStep, dll.fmi2GetReal, it.fmu.c, it.inp, it.src, it.fac,
-                         it.off, it.out, it.sl))
+            prep.append((dll.fmi2SetReal, dll.fmi2DoStep, dll.fmi2GetReal, it.fmu.c, it.inp, it.src, it.factor,
+                         it.offset, it.out, it.output_slice))
         for t, h in zip(times, steps):
-            for set_real, _ds, _gr, c, inp, src, fac, off, _out, _sl in prep:
+            for set_real, _ds, _gr, c, inp, src, factor, offset, _out, _sl in prep:
                 if inp.n:
-                    np.multiply(fac, y[src], out=inp.values)
-                    inp.values += off
+                    np.multiply(factor, y[src], out=inp.values)
+                    inp.values += offset
                     set_real(c, inp.vr, inp.n, inp.buf)
             for _sr, do_step, _gr, c, *_ in prep:
                 do_step(c, t, h, 1)

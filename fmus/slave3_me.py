@@ -88,7 +88,7 @@ class PressSlave(slave3.PressSlave, ModelExchange):
     @time.setter
     def time(self, t: float) -> None:   # fmi3SetTime
         self._time = float(t)
-        self._stale = True
+        self._outputs_stale = True
 
     def _register(self) -> None:
         super()._register()
@@ -119,7 +119,7 @@ class PressSlave(slave3.PressSlave, ModelExchange):
     def _state_setter(self, i):
         def set_(value):
             self._x[i] = value
-            self._stale = True
+            self._outputs_stale = True
         return set_
 
     def _der_getter(self, i):
@@ -131,7 +131,7 @@ class PressSlave(slave3.PressSlave, ModelExchange):
     def _indicators(self) -> list[float]:
         if not type(self).model.switches:
             return []
-        mdl = self._mdl if self._initialised else self._build_model()
+        mdl = self._model if self._initialised else self._build_model()
         return [float(z) for z in mdl.event_indicators(self._time, self._x, self._inputs_now())]
 
     _state_type = ModelExchangeState
@@ -148,9 +148,9 @@ class PressSlave(slave3.PressSlave, ModelExchange):
     def _mark_positions(self) -> None:
         """A motion-input position just set holds from the present time (module docstring)."""
         for ip, _ in self._advanced:
-            if self._fresh[ip]:
+            if self._input_set[ip]:
                 self._pos_time[ip] = self._time
-                self._fresh[ip] = False
+                self._input_set[ip] = False
 
     def _inputs_now(self) -> list:
         """The inputs at the present time: as the host set them, except that a motion-input position the model
@@ -174,12 +174,12 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         self._ode_model()
         super().exit_initialization_mode()
         self._pos_time = {ip: self._time for ip in self._pos_time}
-        self._fresh = [False] * len(self._u)
+        self._input_set = [False] * len(self._u)
         self._last_sides = self._sides() if type(self).model.switches else ()
 
     def _derivatives(self) -> np.ndarray:
         self._check_inputs()
-        dx = np.asarray(self._mdl.derivatives(self._time, self._x, self._inputs_now(), self._time), dtype=float)
+        dx = np.asarray(self._model.derivatives(self._time, self._x, self._inputs_now(), self._time), dtype=float)
         if not np.all(np.isfinite(dx)):
             bad = type(self).model.states[int(np.argmin(np.isfinite(dx)))].name
             self._fail(f"derivative of state {bad} is not finite at t = {self._time:.9g} s")
@@ -193,7 +193,7 @@ class PressSlave(slave3.PressSlave, ModelExchange):
 
     def set_continuous_states(self, values):
         self._x = np.array(values, dtype=float)
-        self._stale = True
+        self._outputs_stale = True
 
     def get_number_of_continuous_states(self) -> int:
         return len(type(self).model.states)
@@ -218,10 +218,10 @@ class PressSlave(slave3.PressSlave, ModelExchange):
         if type(self).model.switches and self._initialised:
             sides = self._sides()
             if sides != self._last_sides:    # an indicator changed sign since the last event (or initialisation)
-                x = np.asarray(self._mdl.at_event(self._time, self._x.copy(), self._inputs_now()), dtype=float)
+                x = np.asarray(self._model.at_event(self._time, self._x.copy(), self._inputs_now()), dtype=float)
                 if not np.array_equal(x, self._x):
                     self._x = x
-                    self._stale = True
+                    self._outputs_stale = True
                     result.valuesOfContinuousStatesChanged = True
                 self._last_sides = self._sides()
         return result

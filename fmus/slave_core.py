@@ -53,7 +53,7 @@ def _key_part(value):
 @dataclass(frozen=True)
 class SlaveState:
     """The complete internal state of a slave (fmi2GetFMUstate / fmi3GetFMUState): each field ``f`` is the
-    slave's attribute ``_f``.  The model object (``mdl``) is immutable once built (fmus.physics.base.Model:
+    slave's attribute ``_f``.  The model object (``model``) is immutable once built (fmus.physics.base.Model:
     everything that evolves lives in ``x``), so it is kept by reference; the containers are copied both ways, so
     a saved state can be restored any number of times.  A base slave with more state extends this class and
     names it in its ``_state_type`` (tests/test_slave_state.py checks that every attribute a step changes is a
@@ -65,15 +65,15 @@ class SlaveState:
     u: list                  # the inputs as set
     y: list                  # the outputs last computed
     time: float
-    stale: bool              # the outputs must be recomputed before the next get
+    outputs_stale: bool      # the outputs must be recomputed before the next get
     initialised: bool
     par: dict                # the parameters as set
-    mdl: Model | None        # the model built from them (None: to be built)
-    fresh: list              # per input: set since the last step (else held over it)
+    model: Model | None      # the model built from them (None: to be built)
+    input_set: list          # per input: set since the last step (else held over it)
     last_step: float         # size of the last step taken
 
     # computed from the other fields (the outputs and whether they are up to date): not part of a cache key
-    DERIVED: ClassVar[frozenset] = frozenset({"y", "stale"})
+    DERIVED: ClassVar[frozenset] = frozenset({"y", "outputs_stale"})
 
     @classmethod
     def of(cls, slave) -> "SlaveState":
@@ -112,7 +112,7 @@ class PressBehaviour(Component):
             raise TypeError(f"{cls.__name__}: tunable names no parameter of {cls.model.__name__}: {unknown[0]!r}")
         self._par = {s.name: s.default for s in self._param_specs}
         self._u = [v.start for v in self._io if v.causality == "input"]
-        self._fresh = [True] * len(self._u)  # input set since the last step (else held over it)
+        self._input_set = [True] * len(self._u)  # input set since the last step (else held over it)
         self._last_step = 0.0                # size of the last step taken (do_step)
         names = [v.name for v in self._io if v.causality == "input"]
         # (position, velocity) input indices of the motion-input ports the model advances over a step
@@ -124,9 +124,9 @@ class PressBehaviour(Component):
         self._y = [0.0] * len(cls.model.outputs)
         self._x = np.zeros(len(cls.model.states))
         self._time = 0.0
-        self._mdl: Model | None = None
+        self._model: Model | None = None
         self._initialised = False
-        self._stale = True  # outputs must be recomputed before the next get
+        self._outputs_stale = True  # outputs must be recomputed before the next get
         self._register()
         # fast paths of the value access (_get_outputs, _set_inputs)
         n_in = len(cls.model.inputs)
@@ -134,7 +134,7 @@ class PressBehaviour(Component):
                            if io.causality == "output" and v.name == io.name}
         self._in_by_vr = {vr: i for vr, v in self.vars.items() for i, io in enumerate(self._io)
                           if io.causality == "input" and v.name == io.name}
-        self._D = (None, None)  # (key, feed-through block) of the last directional derivative
+        self._feedthrough_cache = (None, None)  # (key, feed-through block) of the last directional derivative
         if cls.model.provides_output_jacobian():
             offer_to_loader(self.instance_name, self.directional_derivative)
 
@@ -149,17 +149,17 @@ class PressBehaviour(Component):
                 raise RuntimeError(f"{self.instance_name}: parameter {name} is fixed after initialisation")
             if self._initialised and value == self._par[name]:
                 return   # a held value set again (a master sets its signals at every step): nothing changes
-            before = (self._par[name], self._mdl)
+            before = (self._par[name], self._model)
             self._par[name] = value
-            self._mdl = None
-            self._stale = True
+            self._model = None
+            self._outputs_stale = True
             if self._initialised:
                 # a tunable parameter during the run: the model is rebuilt at once from the present state, so a
                 # refused value fails this call (fmus.refusal) and the instance keeps the value it had
                 try:
                     self._build_model()
                 except RuntimeError:
-                    self._par[name], self._mdl = before
+                    self._par[name], self._model = before
                     raise
         return set_
 
@@ -169,13 +169,13 @@ class PressBehaviour(Component):
     def _in_setter(self, i):
         def set_(value):
             self._u[i] = value
-            self._fresh[i] = True
-            self._stale = True
+            self._input_set[i] = True
+            self._outputs_stale = True
         return set_
 
     def _out_getter(self, i):
         def get():
-            if self._stale:
+            if self._outputs_stale:
                 self._refresh()
             return self._y[i]
         return get
@@ -197,7 +197,7 @@ class PressBehaviour(Component):
             idx = [out[vr] for vr in vrs]
         except KeyError:
             return None
-        if self._stale and idx:
+        if self._outputs_stale and idx:
             self._refresh()
         y = self._y
         return [y[i] for i in idx]
@@ -209,12 +209,12 @@ class PressBehaviour(Component):
         for vr in vrs:
             if vr not in inp:
                 return False
-        u, fresh = self._u, self._fresh
+        u, fresh = self._u, self._input_set
         for vr, value in zip(vrs, values):
             i = inp[vr]
             u[i] = value
             fresh[i] = True
-            self._stale = True
+            self._outputs_stale = True
         return True
 
     # -- behaviour ---------------------------------------------------------------------------------------
@@ -224,23 +224,23 @@ class PressBehaviour(Component):
         raise RuntimeError(line)
 
     def _build_model(self) -> Model:
-        if self._mdl is None:
+        if self._model is None:
             cls = type(self).model
             try:
-                self._mdl = cls(cls.Params.from_mapping(self._par))
+                self._model = cls(cls.Params.from_mapping(self._par))
             except ParameterError as e:
                 # the refusal for programs (fmus.refusal: its own log category), then the line for people
                 refusal = Refusal.of(e, next((s.unit for s in self._param_specs if s.name == e.name), ""))
                 self.log(refusal.to_message(), self._OK, category=REFUSAL_CATEGORY)
                 self._fail(refusal.sentence())
-        return self._mdl
+        return self._model
 
     def _refresh(self) -> None:
         mdl = self._build_model()
         if not self._initialised:
             self._x = np.asarray(mdl.initial_state(self._u), dtype=float)
         self._y = [float(v) for v in mdl.output(self._time, self._x, self._inputs_now())]
-        self._stale = False
+        self._outputs_stale = False
 
     def _inputs_now(self) -> list:
         """The inputs as the model saw them at the slave's time: a motion-input position not set since the last
@@ -255,7 +255,7 @@ class PressBehaviour(Component):
         if not (self._initialised and self._advanced):
             return u
         u = list(u)
-        h, fresh = self._last_step, self._fresh
+        h, fresh = self._last_step, self._input_set
         for ip, iw in self._advanced:
             if not fresh[ip]:   # held over the last step: the model advanced it by h
                 u[ip] += u[iw] * h
@@ -294,19 +294,19 @@ class PressBehaviour(Component):
         u = self._inputs_now()
         mdl = self._build_model()    # a new object after a parameter changed
         key = self._state_type.key(self)
-        if self._D[0] == key:
-            return self._D[1]
+        if self._feedthrough_cache[0] == key:
+            return self._feedthrough_cache[1]
         if not self._initialised:
             D = self._initial_feedthrough(mdl)
-            self._D = (key, D)
+            self._feedthrough_cache = (key, D)
             return D
         D = np.asarray(mdl.output_jacobian(self._time, self._x, u), dtype=float)
         if self._advanced:
             h = self._last_step
             for ip, iw in self._advanced:
-                if not self._fresh[ip]:     # u_now[ip] = u[ip] + h * u[iw]
+                if not self._input_set[ip]:     # u_now[ip] = u[ip] + h * u[iw]
                     D[:, iw] += h * D[:, ip]
-        self._D = (key, D)
+        self._feedthrough_cache = (key, D)
         return D
 
     def _initial_feedthrough(self, mdl: Model) -> np.ndarray:
@@ -338,7 +338,7 @@ class PressBehaviour(Component):
         mdl = self._build_model()
         self._x = np.asarray(mdl.initial_state(self._u), dtype=float)
         self._initialised = True
-        self._stale = True
+        self._outputs_stale = True
 
     def _check_inputs(self) -> None:
         """Every input finite and within the min/max its modelDescription declares, else the refused parameter's
@@ -358,15 +358,15 @@ class PressBehaviour(Component):
 
     def do_step(self, current_time, step_size):
         self._check_inputs()
-        x = self._mdl.advance(current_time, step_size, self._x, self._u)
+        x = self._model.advance(current_time, step_size, self._x, self._u)
         if not math.isfinite(sum(x.tolist())) and not np.all(np.isfinite(x)):  # the sum alone may overflow
             bad = type(self).model.states[int(np.argmin(np.isfinite(x)))].name
             self._fail(f"state {bad} became non-finite in the step from t = {current_time:.9g} s, h = {step_size:.3g} s")
         self._x = x
         self._last_step = step_size
-        self._fresh = [False] * len(self._u)
+        self._input_set = [False] * len(self._u)
         self._time = current_time + step_size
-        self._stale = True
+        self._outputs_stale = True
         return True
 
     # -- FMU state (rollback): SlaveState ----------------------------------------------------------------------

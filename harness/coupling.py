@@ -2,10 +2,10 @@
 
 Two vectors carry every Real value the master passes on:
 
-``y``  the signal vector: every Real output of every instance, instance after instance (``Inst.sl`` is an
+``y``  the signal vector: every Real output of every instance, instance after instance (``Inst.output_slice`` is an
        instance's slice, ``signal_index`` maps ``Instance.variable`` to its position);
-``u``  the held-input vector: every connected Real input, instance after instance, ``u = fac * y[src] + off``
-       (``Inst.isl`` is an instance's slice; ``Inst.src``/``fac``/``off``/``held`` are views over it).
+``u``  the held-input vector: every connected Real input, instance after instance, ``u = factor * y[src] + offset``
+       (``Inst.input_slice`` is an instance's slice; ``Inst.src``/``factor``/``offset``/``held`` are views over it).
 
 Connections of Integer, Boolean, String and Enumeration variables have no place in either vector: they are
 listed in ``discrete`` as (source instance, variable, target instance, variable, value table or None) and
@@ -22,14 +22,15 @@ from harness.errors import SimulationError
 
 
 class Inst:
-    """Prepared coupling data of one instance (built once).  ``isl`` is its slice of the held-input vector
-    ``u`` (``held``, ``src``, ``fac``, ``off`` are views of the layout's arrays over it); ``sl`` its slice of
-    the signal vector ``y``; ``links`` the same ``(src, fac, off)`` per input as plain numbers (for the
-    exchange at a communication point, where a drive's few inputs are cheaper in floats than in numpy);
+    """Prepared coupling data of one instance (built once).  ``input_slice`` is its slice of the held-input
+    vector ``u`` (``held``, ``src``, ``factor``, ``offset`` are views of the layout's arrays over it);
+    ``output_slice`` its slice of the signal vector ``y``; ``links`` the same ``(src, factor, offset)`` per input
+    as plain numbers (for the exchange at a communication point, where a drive's few inputs are cheaper in floats
+    than in numpy);
     ``pos_idx`` the positions (in its inputs) of bond positions it advances itself; ``feedthrough`` whether
     any connected input reaches an output directly."""
-    __slots__ = ("name", "fmu", "sl", "isl", "out", "inp", "src", "fac", "off", "held", "links", "feedthrough",
-                 "interp", "input_pos", "pos_idx")
+    __slots__ = ("name", "fmu", "output_slice", "input_slice", "out", "inp", "src", "factor", "offset", "held", "links",
+                 "feedthrough", "interp", "input_pos", "pos_idx")
 
     def __init__(self, name, fmu):
         self.name, self.fmu = name, fmu
@@ -42,8 +43,8 @@ class Layout:
     signal_names: list[str]          # 'Instance.output' of every entry of y
     signal_index: dict[str, int]
     src: np.ndarray                  # per entry of u: index into y
-    fac: np.ndarray
-    off: np.ndarray
+    factor: np.ndarray
+    offset: np.ndarray
     u: np.ndarray
     discrete: list[tuple]            # (source FMU, variable, target FMU, variable, mapping) of non-Real connections
 
@@ -58,7 +59,7 @@ def layout(fmus: dict, connections, mds: dict, interpolate: bool) -> Layout:
     for name, fmu in fmus.items():
         it = Inst(name, fmu)
         outs = [v.name for v in fmu.md.modelVariables if v.causality == "output" and v.type == "Real"]
-        it.sl = slice(len(names), len(names) + len(outs))
+        it.output_slice = slice(len(names), len(names) + len(outs))
         it.out = fmu.reals(outs)
         names.extend(f"{name}.{o}" for o in outs)
         index[name] = len(insts)
@@ -75,24 +76,25 @@ def layout(fmus: dict, connections, mds: dict, interpolate: bool) -> Layout:
         by_target[c.target.split(".", 1)[0]].append(c)
     ordered = [c for it in insts for c in by_target[it.name]]
     src = np.array([signal_index[c.source] for c in ordered], dtype=np.intp)
-    fac = np.array([float(c.factor) for c in ordered])
-    off = np.array([float(c.offset) for c in ordered])
+    factor = np.array([float(c.factor) for c in ordered])
+    offset = np.array([float(c.offset) for c in ordered])
     u = np.zeros(len(ordered))
     start = 0
     for it in insts:
         cs = by_target[it.name]
-        it.isl = slice(start, start + len(cs))
+        it.input_slice = slice(start, start + len(cs))
         start += len(cs)
         it.inp = it.fmu.reals([c.target.split(".", 1)[1] for c in cs])
         it.input_pos = {c.target.split(".", 1)[1]: k for k, c in enumerate(cs)}
-        it.src, it.fac, it.off, it.held = src[it.isl], fac[it.isl], off[it.isl], u[it.isl]
-        it.links = list(zip(it.src.tolist(), it.fac.tolist(), it.off.tolist()))
+        part = it.input_slice
+        it.src, it.factor, it.offset, it.held = src[part], factor[part], offset[part], u[part]
+        it.links = list(zip(it.src.tolist(), it.factor.tolist(), it.offset.tolist()))
         deps = graph.direct_dependencies(mds[it.name])
         ft = {d for ds in deps.values() for d in ds}
         it.feedthrough = any(c.target.split(".", 1)[1] in ft for c in cs)
         it.interp = it.fmu.can_interpolate_inputs and interpolate
         it.pos_idx = np.zeros(0, dtype=np.intp)
-    return Layout(insts, index, names, signal_index, src, fac, off, u, discrete)
+    return Layout(insts, index, names, signal_index, src, factor, offset, u, discrete)
 
 
 def discrete_refresh(discrete: list[tuple]) -> tuple[list[tuple], list[tuple]]:

@@ -33,7 +33,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 from harness.model import System, model_description, resolve_fmu
 
 HERE = Path(__file__).resolve().parent
@@ -78,12 +78,12 @@ def _packable(name: str, path: Path) -> None:
     with zipfile.ZipFile(path) as z:
         names = z.namelist()
     if md.fmiVersion != "2.0" or md.coSimulation is None:
-        raise SystemError_(f"member {name} ({path.name}) cannot be packed into a drive FMU: it is FMI "
-                           f"{md.fmiVersion} {'co-simulation' if md.coSimulation else 'model exchange'}; "
-                           f"a drive FMU runs FMI 2.0 co-simulation members")
+        raise SystemDescriptionError(f"member {name} ({path.name}) cannot be packed into a drive FMU: it is FMI "
+                                     f"{md.fmiVersion} {'co-simulation' if md.coSimulation else 'model exchange'}; "
+                                     f"a drive FMU runs FMI 2.0 co-simulation members")
     if not any(n.startswith(f"binaries/{PLATFORM}/") and n.endswith(".so") for n in names):
-        raise SystemError_(f"member {name} ({path.name}) cannot be packed into a drive FMU: it has no binary "
-                           f"for {PLATFORM} (binaries/{PLATFORM}/*.so)")
+        raise SystemDescriptionError(f"member {name} ({path.name}) cannot be packed into a drive FMU: it has no binary "
+                                     f"for {PLATFORM} (binaries/{PLATFORM}/*.so)")
 
 
 def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, dict[str, Path]]:
@@ -92,12 +92,13 @@ def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, 
     from fmus.units import BASE_UNITS
 
     if system.experiment is None:
-        raise SystemError_(f"system {system.name} has no default experiment: a drive FMU runs its declared "
-                           f"master and step")
+        raise SystemDescriptionError(f"system {system.name} has no default experiment: a drive FMU runs its declared "
+                                     f"master and step")
     exp = system.experiment
     if exp.step_control not in (None, "none"):
-        raise SystemError_(f"system {system.name}: step control {exp.step_control!r} cannot run inside a drive "
-                           f"FMU (fixed-step masters only)")
+        raise SystemDescriptionError(f"system {system.name}: step control {exp.step_control!r} cannot run inside a "
+                                     f"drive "
+                                     f"FMU (fixed-step masters only)")
     paths = {i.name: resolve_fmu(i.fmu) for i in system.instances}
     for name, p in paths.items():
         _packable(name, p)
@@ -105,8 +106,9 @@ def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, 
     system.validate(mds)
     for c in system.connections:
         if c.mapping is not None:
-            raise SystemError_(f"system {system.name}: connection {c.source} -> {c.target} maps values; a drive "
-                               f"FMU takes Real connections only")
+            raise SystemDescriptionError(f"system {system.name}: connection {c.source} -> {c.target} maps values; a "
+                                         f"drive "
+                                         f"FMU takes Real connections only")
     parameters, inputs, units = [], [], set()
 
     def unit_of(v) -> str:
@@ -117,8 +119,9 @@ def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, 
             if v.causality != "parameter":
                 continue
             if v.type not in ("Real", "Integer"):
-                raise SystemError_(f"member {inst.name}: parameter {v.name} is {v.type}; a drive FMU offers Real "
-                                   f"and Integer parameters")
+                raise SystemDescriptionError(f"member {inst.name}: parameter {v.name} is {v.type}; a drive FMU offers "
+                                             f"Real "
+                                             f"and Integer parameters")
             value = inst.parameters.get(v.name, v.start)
             value = int(value) if v.type == "Integer" else float(value)
             u = unit_of(v) if v.type == "Real" else ""
@@ -141,7 +144,7 @@ def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, 
         inst, _, var = ref.partition(".")
         v = next((x for x in mds[inst].modelVariables if x.name == var), None) if inst in mds else None
         if v is None or v.causality != "output" or v.type != "Real":
-            raise SystemError_(f"drive FMU output {ref}: not a Real output of a member of {system.name}")
+            raise SystemDescriptionError(f"drive FMU output {ref}: not a Real output of a member of {system.name}")
         u = unit_of(v)
         units.add(u)
         outs.append({"name": ref, "unit": u, "description": f"{inst}: {v.description or var}"})
@@ -157,7 +160,7 @@ def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, 
     units.discard("")
     unknown = sorted(u for u in units if u not in BASE_UNITS)
     if unknown:
-        raise SystemError_(f"system {system.name}: unit(s) {', '.join(unknown)} not in fmus.units.BASE_UNITS")
+        raise SystemDescriptionError(f"system {system.name}: unit(s) {', '.join(unknown)} not in fmus.units.BASE_UNITS")
     spec = {
         "name": system.name,
         "description": (system.description or system.name).strip().splitlines()[0],
@@ -263,13 +266,13 @@ def export_fmu(system: System, out: str | Path, outputs: list[str] | None = None
     from fmus.build import add_loader, compile_loader
 
     if not isinstance(system, System):
-        raise SystemError_(f"export_fmu: expected a System, got {type(system).__name__} (harness.export_fmu "
-                           f"takes a name)")
+        raise SystemDescriptionError(f"export_fmu: expected a System, got {type(system).__name__} (harness.export_fmu "
+                                     f"takes a name)")
     out = Path(out)
     if out.suffix.lower() != ".fmu":
-        raise SystemError_(f"{out}: a drive FMU must end in .fmu")
+        raise SystemDescriptionError(f"{out}: a drive FMU must end in .fmu")
     if fmi_version not in SLAVES:
-        raise SystemError_(f"drive FMU: FMI version {fmi_version!r} is not built (allowed: 2, 3)")
+        raise SystemDescriptionError(f"drive FMU: FMI version {fmi_version!r} is not built (allowed: 2, 3)")
     if fmi_version == 3:
         from pythonfmu3.builder import FmuBuilder
     else:

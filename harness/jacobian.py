@@ -40,7 +40,7 @@ and measures how good the Jacobian still is.
 
 ``J_G`` is assembled from per-FMU blocks (:func:`assemble`)::
 
-    y(t+h) = A u + D v,    v = C y + off   (the inputs set at t+h to refresh feed-through outputs)
+    y(t+h) = A u + D v,    v = C y + offset   (the inputs set at t+h to refresh feed-through outputs)
     dy = (I - D C)^-1 A du,      J_G = W (I - D C)^-1 A = diag(theta) S,   S = C (I - D C)^-1 A
 
 * ``A_i`` (outputs x held inputs of FMU i): the step's sensitivity through the FMU's state, estimated by rollback
@@ -85,7 +85,7 @@ def motion_held(inst, bond) -> list[int]:
     """Indices in the held-input vector of the motion (position and speed) held at ``bond``'s motion-input port,
     an input port of the master's instance ``inst``."""
     port = bond.motion_in.split(".", 1)[1]
-    return [inst.isl.start + k for v, k in inst.input_pos.items() if v.rsplit(".", 1) in
+    return [inst.input_slice.start + k for v, k in inst.input_pos.items() if v.rsplit(".", 1) in
             ([port, "phi"], [port, "w"], [port, "s"], [port, "v"])]
 
 
@@ -135,13 +135,13 @@ def step_sensitivity(fmu, inp, out, start_state, held: np.ndarray, point: np.nda
     return A
 
 
-def assemble(A: np.ndarray, D: np.ndarray, src: np.ndarray, fac: np.ndarray) -> np.ndarray:
+def assemble(A: np.ndarray, D: np.ndarray, src: np.ndarray, factor: np.ndarray) -> np.ndarray:
     """``S = C (I - D C)^-1 A`` (held inputs x held inputs): how the inputs recomputed from the outputs at t+h
     (``v = C y``, ``C[k, src_k] = fac_k``) respond to the held inputs.  ``J_G = diag(c) S`` with ``c`` the
     weight of the sample at t+h in each input's held value (:func:`target_weights`)."""
     n_y = A.shape[0]
     C = np.zeros((src.size, n_y))
-    C[np.arange(src.size), src] = fac
+    C[np.arange(src.size), src] = factor
     M = np.linalg.solve(np.eye(n_y) - D @ C, A)
     return C @ M
 

@@ -131,7 +131,7 @@ class Master:
         self.signal_names, self.signal_index = lay.signal_names, lay.signal_index
         self.y = np.zeros(len(lay.signal_names))
         self.history = History(len(lay.signal_names), self.history_depth())
-        self.src, self.fac, self.off, self.u = lay.src, lay.fac, lay.off, lay.u
+        self.src, self.factor, self.offset, self.u = lay.src, lay.factor, lay.offset, lay.u
         self._discrete = lay.discrete
         self._discrete_chain: list[tuple] = []  # passed after the others, in order (coupling.discrete_refresh)
         if self.refreshes_discrete and lay.discrete:
@@ -150,9 +150,10 @@ class Master:
                 if var in it.input_pos and var in it.fmu.advanced_positions:
                     it.pos_idx = np.append(it.pos_idx, it.input_pos[var]).astype(np.intp)
         # the same positions in u, for the held inputs of all instances at once (_hold_all)
-        self._advanced_positions = np.concatenate([it.pos_idx + it.isl.start for it in self.insts]).astype(np.intp)
+        self._advanced_positions = np.concatenate([it.pos_idx + it.input_slice.start
+                                                   for it in self.insts]).astype(np.intp)
         self._advanced_positions_src = self.src[self._advanced_positions]
-        self._links = [link for it in self.insts for link in it.links]  # (src, fac, off) of every entry of u
+        self._links = [link for it in self.insts for link in it.links]  # (src, factor, offset) of every entry of u
         self._advanced_positions_list = self._advanced_positions.tolist()
         self._batched = [it for it in self.insts if it.inp.n and not it.interp]
         self._interp = [it for it in self.insts if it.inp.n and it.interp]
@@ -208,12 +209,13 @@ class Master:
             tr = f"{a_inst}.{a_port}.v" in self.signal_index
             _, v, e = ("s", "v", "f") if tr else ("phi", "w", "tau")
             try:
-                rows.append((ia.isl.start + ia.input_pos[f"{a_port}.{e}"],
+                rows.append((ia.input_slice.start + ia.input_pos[f"{a_port}.{e}"],
                              self.signal_index[f"{a_inst}.{a_port}.{v}"],
-                             ib.isl.start + ib.input_pos[f"{b_port}.{v}"],
+                             ib.input_slice.start + ib.input_pos[f"{b_port}.{v}"],
                              self.signal_index[f"{b_inst}.{b_port}.{e}"]))
             except KeyError as err:
-                raise SystemDescriptionError(f"bond {b.label}: variable {err.args[0]} is not part of the bond's connections")
+                raise SystemDescriptionError(f"bond {b.label}: variable {err.args[0]} is not part of the bond's "
+                                             f"connections")
             self.bond_labels.append(b.label)
         self._bonds = [tuple(r) for r in rows]
         self.bond_log = np.zeros((3, len(rows)))  # rows P_out, P_in [W] over the last step, energy error [J]
@@ -249,7 +251,7 @@ class Master:
             dst.set_value(dv, coupling.passed_value(link, src.get_value(sv), t))
 
     def _read(self, it: _Inst) -> None:
-        self.y[it.sl] = it.fmu.get(it.out)
+        self.y[it.output_slice] = it.fmu.get(it.out)
 
     def _read_all(self, t: float) -> None:
         """Every instance's outputs at t, then one history sample of all of them (Jacobi family)."""
@@ -261,10 +263,10 @@ class Master:
 
     @staticmethod
     def _set_point_inputs(it: _Inst, values: list) -> None:
-        """Inputs of ``it`` at a communication point, fac * y + off from ``values`` (``y`` as a list), in plain
+        """Inputs of ``it`` at a communication point, factor * y + offset from ``values`` (``y`` as a list), in plain
         floats: the same products and sums as on arrays, without an array for a drive's few inputs."""
         if it.links:
-            it.fmu.set_list(it.inp, [fac * values[src] + off for src, fac, off in it.links])
+            it.fmu.set_list(it.inp, [factor * values[src] + offset for src, factor, offset in it.links])
 
     def _set_held_inputs(self, it: _Inst, t: float, h: float) -> None:
         """Inputs of ``it`` for the step [t, t+h] from the source histories (see harness.extrapolation)."""
@@ -272,10 +274,10 @@ class Master:
             return
         if it.interp:
             value, ders = self.extrapolation.at_start(self.history, it.src, t)
-            it.held[:] = it.fac * value + it.off
+            it.held[:] = it.factor * value + it.offset
             it.fmu.set(it.inp, it.held)
             for order, d in enumerate(ders, start=1):
-                it.fmu.set_input_derivatives(it.inp, order, it.fac * d)
+                it.fmu.set_input_derivatives(it.inp, order, it.factor * d)
         else:
             it.held[:] = self._held_values(it, t, h)
             it.fmu.set(it.inp, it.held)
@@ -293,8 +295,8 @@ class Master:
         """:meth:`_hold_all` on arrays: the general case and the reference of :meth:`_hold_all_floats`
         (tests/test_harness_masters.py runs with the arrays only and compares bit for bit)."""
         u = self.u
-        np.multiply(self.fac, self.extrapolation.held(self.history, self.src, t, h), out=u)
-        u += self.off
+        np.multiply(self.factor, self.extrapolation.held(self.history, self.src, t, h), out=u)
+        u += self.offset
         pos = self._advanced_positions
         hist = self.history
         newest = hist.newest  # no source has a sample newer than t: the held position IS the start sample
@@ -303,10 +305,10 @@ class Master:
             newer = hist.t[0, src] > t
             if self.extrapolation.order or newer.any():
                 start = np.where(newer, hist.y[1, src], hist.y[0, src])
-                u[pos] = self.fac[pos] * start + self.off[pos]
+                u[pos] = self.factor[pos] * start + self.offset[pos]
         values = u.tolist()
         for it in self._batched:
-            it.fmu.set_list(it.inp, values[it.isl])
+            it.fmu.set_list(it.inp, values[it.input_slice])
         for it in self._interp:
             self._set_held_inputs(it, t, h)
 
@@ -314,7 +316,7 @@ class Master:
         """:meth:`_hold_all` in plain floats for its common case: every source's newest sample is at t and the
         history is full, extrapolation order 0 or 1 (a drive's few dozen inputs are cheaper as floats than
         through numpy's fancy indexing).  The same operations in the same order as the array path
-        (:meth:`harness.extrapolation.Polynomial.held`, then ``fac * held + off``), so the same values bit for
+        (:meth:`harness.extrapolation.Polynomial.held`, then ``factor * held + offset``), so the same values bit for
         bit; an advanced position (:meth:`_held_values`) takes the start sample ``y0``."""
         hist = self.history
         y0 = hist.y[0].tolist()
@@ -331,21 +333,21 @@ class Master:
         values = [f * v + o for (_, f, o), v in zip(links, held)]
         self.u[:] = values
         for it in self._batched:
-            it.fmu.set_list(it.inp, values[it.isl])
+            it.fmu.set_list(it.inp, values[it.input_slice])
 
     def _held_values(self, it: _Inst, t: float, h: float) -> np.ndarray:
         """Held inputs of ``it`` over [t, t+h]: the extrapolation's value (harness.extrapolation), except for
         the position of a power bond (phi or s at a motion-input port) that the FMU declares it advances
         itself with the held speed over the step (fmus.slave.PressSlave.advances_position): it gets the
         position at the step START (for Gauss-Seidel the sample at t, not the newer one at t+h)."""
-        held = it.fac * self.extrapolation.held(self.history, it.src, t, h) + it.off
+        held = it.factor * self.extrapolation.held(self.history, it.src, t, h) + it.offset
         if it.pos_idx.size:
             src = it.src[it.pos_idx]
             newer = self.history.t[0, src] > t
             if self.extrapolation.order == 0 and not newer.any():
                 return held  # the start sample IS the held value (bit for bit the same expression)
             start = np.where(newer, self.history.y[1, src], self.history.y[0, src])
-            held[it.pos_idx] = it.fac[it.pos_idx] * start + it.off[it.pos_idx]
+            held[it.pos_idx] = it.factor[it.pos_idx] * start + it.offset[it.pos_idx]
         return held
 
     def _exchange(self, t: float) -> None:
@@ -363,14 +365,14 @@ class Master:
             it = insts[arg]
             if op == "visit":
                 self._set_point_inputs(it, values)
-            values[it.sl] = it.fmu.get_list(it.out)
+            values[it.output_slice] = it.fmu.get_list(it.out)
         y[:] = values
         self.history.push_all(t, y)
 
     def _solve_loop(self, group: list[int], t: float) -> None:
         """Resolve an algebraic loop among ``group`` at a communication point (iterative master)."""
         members = [self.insts[i] for i in group]
-        u0 = np.concatenate([it.fac * self.y[it.src] + it.off for it in members])
+        u0 = np.concatenate([it.factor * self.y[it.src] + it.offset for it in members])
 
         def g(u):
             k = 0
@@ -380,7 +382,7 @@ class Master:
                 k += n
             for it in members:
                 self._read(it)
-            return np.concatenate([it.fac * self.y[it.src] + it.off for it in members])
+            return np.concatenate([it.factor * self.y[it.src] + it.offset for it in members])
 
         where = (f"algebraic loop {' / '.join(it.name for it in members)} at t = {t:.9g} s")
         _u, _gu, n = solve_fixed_point(g, u0, self.iteration, self.tol, where)
@@ -626,9 +628,9 @@ class GaussSeidel(Master):
                 # inputs AT t+h (newest samples, or the polynomial at t+h for sources not yet stepped), not
                 # the midpoint values held over the step -- otherwise a rigid link hands a midpoint value on
                 # as the end value and the coupling drops to first order
-                it.fmu.set(it.inp, it.fac * self.extrapolation.value(self.history, it.src, t_next) + it.off)
+                it.fmu.set(it.inp, it.factor * self.extrapolation.value(self.history, it.src, t_next) + it.offset)
             self._read(it)
-            self.history.push(it.sl, t_next, self.y[it.sl])
+            self.history.push(it.output_slice, t_next, self.y[it.output_slice])
         self._exchange(t_next)
 
 
@@ -675,12 +677,12 @@ class Iterative(Master):
             self.u[:] = u
             values = u.tolist()
             for it in coupled:
-                it.fmu.set_list(it.inp, values[it.isl])
+                it.fmu.set_list(it.inp, values[it.input_slice])
             self._step_fmus(self.insts, t, h, no_prior_state=False)
             self._exchange(t_next)
             out = np.empty_like(u)
             for it in coupled:
-                out[it.isl] = self._held_values(it, t, h)
+                out[it.input_slice] = self._held_values(it, t, h)
             return out
 
         _u, _gu, n = solve_fixed_point(g, u0, self.iteration, self.tol, f"coupled step at t = {t:.9g} s")
@@ -700,9 +702,10 @@ class InterfaceJacobian(Master):
     def _prepare(self) -> None:
         fixed = [f"{it.name} ({it.fmu.md.modelName})" for it in self.insts if not it.fmu.can_get_set_state]
         if fixed:
-            raise SystemDescriptionError(f"master 'jacobian' takes each step twice and estimates its Jacobians by rollback, "
-                               f"but {', '.join(fixed)} cannot roll back (no canGetAndSetFMUstate): use "
-                               f"master='jacobi' or 'gauss-seidel' for such FMUs")
+            raise SystemDescriptionError(f"master 'jacobian' takes each step twice and estimates its Jacobians by "
+                                         f"rollback, "
+                                         f"but {', '.join(fixed)} cannot roll back (no canGetAndSetFMUstate): use "
+                                         f"master='jacobi' or 'gauss-seidel' for such FMUs")
         # per power bond: the held effort and the held motion (not the positions the FMU advances itself), whose
         # weights of the sample at t+h follow their loop gains at each estimate (harness.jacobian.target_weights)
         pos = set(self._advanced_positions.tolist())
@@ -722,14 +725,14 @@ class InterfaceJacobian(Master):
         """G: the held inputs recomputed from the history whose newest sample is at t+h: ``(1 - theta) y(t) +
         theta y(t+h)`` of each source (harness.jacobian.target_weights)."""
         y = self.history.y
-        return self.fac * (self.theta * y[0, self.src] + (1.0 - self.theta) * y[1, self.src]) + self.off
+        return self.factor * (self.theta * y[0, self.src] + (1.0 - self.theta) * y[1, self.src]) + self.offset
 
     def _take(self, t: float, h: float, t_next: float, u: np.ndarray) -> np.ndarray:
         """Step every FMU on held inputs ``u``, make the outputs consistent at t+h; return G(u) - u."""
         self.u[:] = u
         values = u.tolist()
         for it in self._batched:
-            it.fmu.set_list(it.inp, values[it.isl])
+            it.fmu.set_list(it.inp, values[it.input_slice])
         self._step_fmus(self.insts, t, h, no_prior_state=False)
         self._exchange(t_next)
         return self._implicit_inputs(t, h) - u
@@ -737,19 +740,20 @@ class InterfaceJacobian(Master):
     def _estimate(self, t: float, h: float, u0: np.ndarray) -> None:
         """Interface Jacobians around the predictor (FMUs at t+h after the step on ``u0``, outputs in ``y``)."""
         states = self._slots["ij"][0]
-        point = self.fac * self.y[self.src] + self.off
+        point = self.factor * self.y[self.src] + self.offset
         n_y, n_u = len(self.y), len(u0)
         A, D = np.zeros((n_y, n_u)), np.zeros((n_y, n_u))
         for it, state in zip(self.insts, states):
             if not it.inp.n:
                 continue
-            v = point[it.isl] if it.feedthrough else None
+            v = point[it.input_slice] if it.feedthrough else None
             if v is not None:
-                D[it.sl, it.isl] = jacobian.feedthrough_block(it.fmu, it.inp, it.out, v)
-            A[it.sl, it.isl] = jacobian.step_sensitivity(it.fmu, it.inp, it.out, state, u0[it.isl], v,
-                                                         self.y[it.sl], t, h, step=self._stepper(it))
+                D[it.output_slice, it.input_slice] = jacobian.feedthrough_block(it.fmu, it.inp, it.out, v)
+            A[it.output_slice, it.input_slice] = jacobian.step_sensitivity(
+                it.fmu, it.inp, it.out, state, u0[it.input_slice], v, self.y[it.output_slice], t, h,
+                step=self._stepper(it))
         try:
-            S = jacobian.assemble(A, D, self.src, self.fac)
+            S = jacobian.assemble(A, D, self.src, self.factor)
         except np.linalg.LinAlgError:  # I - D C: the outputs' feed-through loop has no unique solution
             outs = jacobian.singular_direction(np.eye(n_y) - D @ self._output_links())
             raise self._singular(t, [k for o in outs for k in np.flatnonzero(self.src == o).tolist()],
@@ -764,16 +768,16 @@ class InterfaceJacobian(Master):
         return lambda t, h: self._step_fmus(one, t, h, no_prior_state=False)
 
     def _output_links(self) -> np.ndarray:
-        """``C`` of :func:`harness.jacobian.assemble`: held inputs x outputs, ``fac`` at each input's source."""
+        """``C`` of :func:`harness.jacobian.assemble`: held inputs x outputs, ``factor`` at each input's source."""
         C = np.zeros((len(self.src), len(self.y)))
-        C[np.arange(len(self.src)), self.src] = self.fac
+        C[np.arange(len(self.src)), self.src] = self.factor
         return C
 
     def _held_name(self, k: int) -> str:
         """``instance.input`` of entry ``k`` of the held-input vector."""
         for it in self.insts:
-            if it.isl.start <= k < it.isl.stop:
-                return f"{it.name}.{list(it.input_pos)[k - it.isl.start]}"
+            if it.input_slice.start <= k < it.input_slice.stop:
+                return f"{it.name}.{list(it.input_pos)[k - it.input_slice.start]}"
         return f"held input {k}"
 
     def _singular(self, t: float, held: list[int], what: str) -> SingularCoupling:

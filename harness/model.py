@@ -18,7 +18,7 @@ import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 from harness.fmi.cache import model_description  # noqa: F401 (the one modelDescription cache, re-exported)
 from harness.specs import AccuracySpec, ChartSpec, PrecisionSpec, QuantitySpec, Scenario, Scene, StabilitySpec
 
@@ -36,7 +36,7 @@ class SystemWarning(UserWarning):
 def _split(ref: str, what: str) -> tuple[str, str]:
     inst, dot, var = str(ref).partition(".")
     if not dot or not inst or not var:
-        raise SystemError_(f"{what} {ref!r} must be written 'Instance.variable'")
+        raise SystemDescriptionError(f"{what} {ref!r} must be written 'Instance.variable'")
     return inst, var
 
 
@@ -148,8 +148,8 @@ class System:
         for inst in self.instances:
             if inst.name == name:
                 return inst
-        raise SystemError_(f"system {self.name}: unknown instance {name!r} "
-                           f"(instances: {', '.join(i.name for i in self.instances)})")
+        raise SystemDescriptionError(f"system {self.name}: unknown instance {name!r} "
+                                     f"(instances: {', '.join(i.name for i in self.instances)})")
 
     def on_fmus(self, folder: str | Path) -> "System":
         """The same system with each instance's FMU, named by its model (the catalog's), taken from ``folder``
@@ -182,30 +182,30 @@ class System:
 
     def validate(self, model_descriptions: dict, parameters: dict | None = None) -> list[str]:
         """Check the system against the FMUs (``model_descriptions``: instance name -> fmpy model
-        description).  Raises :class:`SystemError_` on the first error; returns the warnings (also issued
+        description).  Raises :class:`SystemDescriptionError` on the first error; returns the warnings (also issued
         as :class:`SystemWarning`).  ``parameters``: extra ``{"Instance.param": value}`` to check."""
         names = [i.name for i in self.instances]
         seen = set()
         for n in names:
             if n in seen:
-                raise SystemError_(f"system {self.name}: instance name {n!r} is used twice")
+                raise SystemDescriptionError(f"system {self.name}: instance name {n!r} is used twice")
             if "." in n or not n:
-                raise SystemError_(f"system {self.name}: instance name {n!r} must be non-empty without '.'")
+                raise SystemDescriptionError(f"system {self.name}: instance name {n!r} must be non-empty without '.'")
             seen.add(n)
         variables = {i: {v.name: v for v in model_descriptions[i].modelVariables} for i in names}
 
         def lookup(ref: str, what: str):
             inst, var = _split(ref, what)
             if inst not in variables:
-                raise SystemError_(f"{what} {ref}: unknown instance {inst!r}{_did_you_mean(inst, variables)}")
+                raise SystemDescriptionError(f"{what} {ref}: unknown instance {inst!r}{_did_you_mean(inst, variables)}")
             v = variables[inst].get(var)
             if v is None:
                 # a parameter's name is closer to what --set means than an output's
                 own = variables[inst].values()
                 close = _did_you_mean(var, [x.name for x in own if x.causality == "parameter"]) or \
                     _did_you_mean(var, [x.name for x in own])
-                raise SystemError_(f"{what} {ref}: FMU {model_descriptions[inst].modelName} of instance "
-                                   f"{inst} has no variable {var!r}{close}")
+                raise SystemDescriptionError(f"{what} {ref}: FMU {model_descriptions[inst].modelName} of instance "
+                                             f"{inst} has no variable {var!r}{close}")
             return v
 
         for inst in self.instances:
@@ -223,45 +223,47 @@ class System:
             dst = lookup(c.target, "connection target")
             where = f"connection {c.source} -> {c.target}"
             if src.causality != "output":
-                raise SystemError_(f"{where}: causality mismatch: source {c.source} is {src.causality}, "
-                                   f"not an output")
+                raise SystemDescriptionError(f"{where}: causality mismatch: source {c.source} is {src.causality}, "
+                                             f"not an output")
             if dst.causality != "input":
-                raise SystemError_(f"{where}: causality mismatch: target {c.target} is {dst.causality}, "
-                                   f"not an input")
+                raise SystemDescriptionError(f"{where}: causality mismatch: target {c.target} is {dst.causality}, "
+                                             f"not an input")
             # Integer and Enumeration values are both integers (FMI 2.0 passes both through fmi2SetInteger;
             # OMSimulator connects them)
             if src.type != dst.type and {src.type, dst.type} != {"Integer", "Enumeration"}:
-                raise SystemError_(f"{where}: type mismatch: {c.source} is {src.type} but {c.target} is "
-                                   f"{dst.type} (connected variables must have the same type)")
+                raise SystemDescriptionError(f"{where}: type mismatch: {c.source} is {src.type} but {c.target} is "
+                                             f"{dst.type} (connected variables must have the same type)")
             if src.type != "Real" and (c.factor != 1 or c.offset != 0):
-                raise SystemError_(f"{where}: factor = {c.factor!r}, offset = {c.offset!r}: a linear "
-                                   f"transformation applies to Real variables only, not to {src.type} "
-                                   f"(allowed: factor 1, offset 0)")
+                raise SystemDescriptionError(f"{where}: factor = {c.factor!r}, offset = {c.offset!r}: a linear "
+                                             f"transformation applies to Real variables only, not to {src.type} "
+                                             f"(allowed: factor 1, offset 0)")
             if c.mapping is not None:
                 _check_mapping(c.mapping, src.type, where)
             if c.target in targets:
-                raise SystemError_(f"input {c.target} is connected twice: from {targets[c.target]} and "
-                                   f"from {c.source}")
+                raise SystemDescriptionError(f"input {c.target} is connected twice: from {targets[c.target]} and "
+                                             f"from {c.source}")
             targets[c.target] = c.source
             for attr in ("factor", "offset"):
                 value = getattr(c, attr)
                 if not isinstance(value, (int, float)) or value != value or value in (float("inf"), float("-inf")):
-                    raise SystemError_(f"{where}: {attr} = {value!r} must be a finite number")
+                    raise SystemDescriptionError(f"{where}: {attr} = {value!r} must be a finite number")
             su, du = _unit(src), _unit(dst)
             if su and du and su != du and not c.unit_conversion:
-                raise SystemError_(f"{where}: unit mismatch: {c.source} is in {su} but {c.target} is in {du} "
-                                   f"(declare unit_conversion=True with the converting factor/offset)")
+                raise SystemDescriptionError(f"{where}: unit mismatch: {c.source} is in {su} but {c.target} is in {du} "
+                                             f"(declare unit_conversion=True with the converting factor/offset)")
         for ref, why in self.free_inputs.items():
             v = lookup(ref, "free input")
             if v.causality != "input":
-                raise SystemError_(f"system {self.name}: free_inputs names {ref}, which is {v.causality}, not an "
-                                   f"input")
+                raise SystemDescriptionError(f"system {self.name}: free_inputs names {ref}, which is {v.causality}, "
+                                             f"not an "
+                                             f"input")
             if ref in targets:
-                raise SystemError_(f"system {self.name}: free_inputs names {ref}, but it is connected from "
-                                   f"{targets[ref]}: remove it from free_inputs or the connection")
+                raise SystemDescriptionError(f"system {self.name}: free_inputs names {ref}, but it is connected from "
+                                             f"{targets[ref]}: remove it from free_inputs or the connection")
             if not isinstance(why, str) or not why.strip():
-                raise SystemError_(f"system {self.name}: free_inputs[{ref!r}] = {why!r}: say why its start value "
-                                   f"is right (a non-empty text)")
+                raise SystemDescriptionError(f"system {self.name}: free_inputs[{ref!r}] = {why!r}: say why its start "
+                                             f"value "
+                                             f"is right (a non-empty text)")
         # an input given a value (a binding, an SSP connector value, --set) holds that value on purpose
         given = {f"{i.name}.{p}" for i in self.instances for p in i.parameters} | set(parameters or {})
         warns = []
@@ -280,7 +282,7 @@ class System:
 
 
     def _refuse(self, lookup, parameters: dict | None) -> None:
-        """Raise SystemError_ in one line when the parameter values (the system's, overridden by
+        """Raise SystemDescriptionError in one line when the parameter values (the system's, overridden by
         ``parameters``) make one of the system's :class:`Refusal` combinations."""
         values = {f"{i.name}.{p}": v for i in self.instances for p, v in i.parameters.items()}
         values.update(parameters or {})
@@ -297,7 +299,7 @@ class System:
                 taken[ref] = have
             else:
                 given = " with ".join(f"{ref} = {v!r}" for ref, v in taken.items())
-                raise SystemError_(f"system {self.name}: {given} is refused: {r.why}; use {r.instead}")
+                raise SystemDescriptionError(f"system {self.name}: {given} is refused: {r.why}; use {r.instead}")
 
 
 def _unit(v) -> str:
@@ -311,15 +313,17 @@ def _check_mapping(mapping, kind: str, where: str) -> None:
     """A connection's value table (:class:`Connection` ``mapping``) fits its variables' type: integers for
     Integer and Enumeration, booleans (or 0/1) for Boolean; none on Real or String."""
     if kind not in ("Integer", "Enumeration", "Boolean"):
-        raise SystemError_(f"{where}: a value mapping applies to Integer, Enumeration and Boolean connections, "
-                           f"not to {kind} (use factor/offset on a Real connection)")
+        raise SystemDescriptionError(f"{where}: a value mapping applies to Integer, Enumeration and Boolean "
+                                     f"connections, "
+                                     f"not to {kind} (use factor/offset on a Real connection)")
     if not isinstance(mapping, dict) or not mapping:
-        raise SystemError_(f"{where}: mapping = {mapping!r} must be a non-empty dict {{source value: target value}}")
+        raise SystemDescriptionError(f"{where}: mapping = {mapping!r} must be a non-empty dict {{source value: target "
+                                     f"value}}")
     for k, v in mapping.items():
         if not (_fits(k, kind) and _fits(v, kind)):
             allowed = "booleans" if kind == "Boolean" else "integers"
-            raise SystemError_(f"{where}: mapping entry {k!r} -> {v!r}: {kind} connections map {allowed} to "
-                               f"{allowed}")
+            raise SystemDescriptionError(f"{where}: mapping entry {k!r} -> {v!r}: {kind} connections map {allowed} to "
+                                         f"{allowed}")
 
 
 def _fits(value, kind: str) -> bool:
@@ -330,20 +334,20 @@ def _fits(value, kind: str) -> bool:
 
 def _check_parameter(v, ref: str, value) -> None:
     if v.causality not in ("parameter", "input") or v.variability == "constant":
-        raise SystemError_(f"parameter {ref}: the variable has causality {v.causality} and variability "
-                           f"{v.variability}; only parameters (and inputs) can be set")
+        raise SystemDescriptionError(f"parameter {ref}: the variable has causality {v.causality} and variability "
+                                     f"{v.variability}; only parameters (and inputs) can be set")
     if v.type == "Real":
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise SystemError_(f"parameter {ref} = {value!r} must be a number")
+            raise SystemDescriptionError(f"parameter {ref} = {value!r} must be a number")
     elif v.type in ("Integer", "Enumeration"):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or int(value) != value:
-            raise SystemError_(f"parameter {ref} = {value!r} must be an integer")
+            raise SystemDescriptionError(f"parameter {ref} = {value!r} must be an integer")
     elif v.type == "Boolean":
         if not isinstance(value, (bool, int)) or value not in (0, 1):
-            raise SystemError_(f"parameter {ref} = {value!r} must be a Boolean (allowed: true/false, 1/0)")
+            raise SystemDescriptionError(f"parameter {ref} = {value!r} must be a Boolean (allowed: true/false, 1/0)")
     elif v.type == "String":
         if not isinstance(value, str):
-            raise SystemError_(f"parameter {ref} = {value!r} must be a string")
+            raise SystemDescriptionError(f"parameter {ref} = {value!r} must be a string")
 
 
 # -- FMU resolution ---------------------------------------------------------------------------------------------
@@ -392,7 +396,7 @@ def resolve_fmu(fmu: str | Path) -> Path:
     if s.lower().endswith(".fmu") or os.sep in s or "/" in s:
         p = Path(s)
         if not p.is_file():
-            raise SystemError_(f"FMU file {p} does not exist")
+            raise SystemDescriptionError(f"FMU file {p} does not exist")
         return p
     script = component_module(s)
     out = fmu_dir()
@@ -400,12 +404,12 @@ def resolve_fmu(fmu: str | Path) -> Path:
     if script is None:
         if path.is_file():
             return path
-        raise SystemError_(f"unknown FMU model {s!r}: no {path} and no class {s} in fmus/components/pd_*.py")
+        raise SystemDescriptionError(f"unknown FMU model {s!r}: no {path} and no class {s} in fmus/components/pd_*.py")
     if not path.is_file() or _sources_newer_than(path, script):
         from fmus.build import main as build_main
 
         if build_main(["--out", str(out), "--only", script.stem]) != 0 or not path.is_file():
-            raise SystemError_(f"building FMU {s} from {script.name} failed (see stderr)")
+            raise SystemDescriptionError(f"building FMU {s} from {script.name} failed (see stderr)")
     return path
 
 

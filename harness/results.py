@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 
 
 class KeptInAttrs:
@@ -86,9 +86,10 @@ def _states_of_silent(master) -> list[str]:
     if silent and not master.signal_names and not columns:
         it = silent[0]
         named = [v.name for v in it.fmu.md.modelVariables][:6]
-        raise SystemError_(f"instance {it.name} ({it.fmu.md.modelName}) has no outputs and no continuous local "
-                           f"variables to record: ask for variables with output=[...] (CLI: --output), e.g. "
-                           f"{', '.join(f'{it.name}.{n}' for n in named) or 'none: it declares no variable'}")
+        raise SystemDescriptionError(f"instance {it.name} ({it.fmu.md.modelName}) has no outputs and no continuous "
+                                     f"local "
+                                     f"variables to record: ask for variables with output=[...] (CLI: --output), e.g. "
+                                     f"{', '.join(f'{it.name}.{n}' for n in named) or 'none: it declares no variable'}")
     return columns
 
 
@@ -119,11 +120,12 @@ class Recorder:
                 continue
             inst, dot, var = c.partition(".")
             if not dot or inst not in master.index:
-                raise SystemError_(f"output {c!r}: unknown instance {inst!r} (write 'Instance.variable')")
+                raise SystemDescriptionError(f"output {c!r}: unknown instance {inst!r} (write 'Instance.variable')")
             fmu = master.insts[master.index[inst]].fmu
             v = fmu.variables.get(var)
             if v is None:
-                raise SystemError_(f"output {c!r}: FMU {fmu.md.modelName} of instance {inst} has no variable {var!r}")
+                raise SystemDescriptionError(f"output {c!r}: FMU {fmu.md.modelName} of instance {inst} has no "
+                                             f"variable {var!r}")
             if v.type != "Real":
                 self._typed.append((fmu, var, k, v.type, []))
                 continue
@@ -197,7 +199,7 @@ def parquet_engine() -> str | None:
 
 def result_format(path: str | Path, option: str = "--out") -> str:
     """``"csv"`` or ``"parquet"`` from ``path``'s suffix; any other suffix, or .parquet without an engine, is a
-    one-line :class:`SystemError_` naming the option, the path and the suffixes this installation writes."""
+    one-line :class:`SystemDescriptionError` naming the option, the path and the suffixes this installation writes."""
     path = Path(path)
     suffix = path.suffix.lower()
     engine = parquet_engine()
@@ -205,32 +207,34 @@ def result_format(path: str | Path, option: str = "--out") -> str:
     if suffix == ".csv" or (suffix == ".parquet" and engine):
         return suffix[1:]
     if suffix == ".parquet":
-        raise SystemError_(f"{option} {path}: Parquet needs pyarrow or fastparquet, neither is installed; use .csv")
-    raise SystemError_(f"{option} {path}: unknown result format {path.suffix or '(no suffix)'!r}: use {allowed}")
+        raise SystemDescriptionError(f"{option} {path}: Parquet needs pyarrow or fastparquet, neither is installed; "
+                                     f"use .csv")
+    raise SystemDescriptionError(f"{option} {path}: unknown result format {path.suffix or '(no suffix)'!r}: use "
+                                 f"{allowed}")
 
 
 def check_writable(path: str | Path, option: str, folder: bool = False) -> Path:
     """Before a run: ``path`` (a file, or with ``folder`` a folder to write into) can be written.  A missing
     folder is made (as ``sweep`` does); a folder that cannot be made or written, or a path of the wrong kind,
-    is a one-line :class:`SystemError_` naming the option and the path, so nothing is computed for a result
+    is a one-line :class:`SystemDescriptionError` naming the option and the path, so nothing is computed for a result
     that could not be kept.  Returns the path."""
     path = Path(path)
     where = path if folder else path.parent
     if not folder and path.is_dir():
-        raise SystemError_(f"{option} {path}: is a folder, give a file name")
+        raise SystemDescriptionError(f"{option} {path}: is a folder, give a file name")
     blocking = next((a for a in (where, *where.parents) if a.exists() and not a.is_dir()), None)
     if blocking is not None:
-        raise SystemError_(f"{option} {path}: {blocking} is a file, not a folder")
+        raise SystemDescriptionError(f"{option} {path}: {blocking} is a file, not a folder")
     try:
         where.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise SystemError_(f"{option} {path}: cannot create folder {where}: {e.strerror or e}") from None
+        raise SystemDescriptionError(f"{option} {path}: cannot create folder {where}: {e.strerror or e}") from None
     probe = where / f".{path.name}.probe"
     try:
         probe.write_text("")
         probe.unlink()
     except OSError as e:
-        raise SystemError_(f"{option} {path}: folder {where} is not writable: {e.strerror or e}") from None
+        raise SystemDescriptionError(f"{option} {path}: folder {where} is not writable: {e.strerror or e}") from None
     return path
 
 

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 from harness.specs import Change, Requirement, Scenario
 
 RPM = 2 * math.pi / 60
@@ -70,15 +70,16 @@ def find(system, name_or_file) -> Scenario:
     names = [sc.name for sc in system.scenarios]
     close = difflib.get_close_matches(text, names, n=3, cutoff=0.5)
     hint = f"did you mean {', '.join(close)}? " if close else ""
-    raise SystemError_(f"system {system.name}: no scenario {text!r}: {hint}its scenarios: {', '.join(names) or 'none'} "
-                       f"(or give a .yaml/.json scenario file)")
+    raise SystemDescriptionError(f"system {system.name}: no scenario {text!r}: {hint}its scenarios: "
+                                 f"{', '.join(names) or 'none'} "
+                                 f"(or give a .yaml/.json scenario file)")
 
 
 def read(path: str | Path) -> Scenario:
     """A scenario from a YAML or JSON file (the module docstring's form)."""
     path = Path(path)
     if not path.is_file():
-        raise SystemError_(f"scenario file {path} does not exist")
+        raise SystemDescriptionError(f"scenario file {path} does not exist")
     try:
         if path.suffix.lower() == ".json":
             data = json.loads(path.read_text())
@@ -87,51 +88,56 @@ def read(path: str | Path) -> Scenario:
 
             data = yaml.safe_load(path.read_text())
     except Exception as e:  # a malformed file: one line naming it
-        raise SystemError_(f"scenario file {path}: cannot be read ({type(e).__name__}: {str(e).splitlines()[0]})") from None
+        raise SystemDescriptionError(f"scenario file {path}: cannot be read ({type(e).__name__}: "
+                                     f"{str(e).splitlines()[0]})") from None
     if not isinstance(data, dict):
-        raise SystemError_(f"scenario file {path}: a mapping with name, question, kind, stop_time, parameters "
-                           f"and changes is needed, not {type(data).__name__}")
+        raise SystemDescriptionError(f"scenario file {path}: a mapping with name, question, kind, stop_time, "
+                                     f"parameters "
+                                     f"and changes is needed, not {type(data).__name__}")
     known = {"name", "question", "kind", "stop_time", "parameters", "changes", "accuracy"}
     unknown = sorted(set(data) - known)
     if unknown:
-        raise SystemError_(f"scenario file {path}: unknown key {unknown[0]!r} (keys: {', '.join(sorted(known))})")
+        raise SystemDescriptionError(f"scenario file {path}: unknown key {unknown[0]!r} (keys: "
+                                     f"{', '.join(sorted(known))})")
 
     def number(value, key: str) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise SystemError_(f"scenario file {path}: {key} = {value!r} is not a finite number")
+            raise SystemDescriptionError(f"scenario file {path}: {key} = {value!r} is not a finite number")
         return float(value)
 
     changes = data.get("changes") or []
     if not isinstance(changes, list):
-        raise SystemError_(f"scenario file {path}: changes must be a list of {{time, variable, value, ramp}}")
+        raise SystemDescriptionError(f"scenario file {path}: changes must be a list of {{time, variable, value, ramp}}")
     parsed = []
     for k, c in enumerate(changes):
         where = f"changes[{k}]"
         if not isinstance(c, dict) or not {"time", "variable", "value"} <= set(c) or set(c) - {"time", "variable",
                                                                                                "value", "ramp"}:
-            raise SystemError_(f"scenario file {path}: {where} = {c!r}: give time, variable, value and optionally "
-                               f"ramp")
+            raise SystemDescriptionError(f"scenario file {path}: {where} = {c!r}: give time, variable, value and "
+                                         f"optionally "
+                                         f"ramp")
         parsed.append(Change(number(c["time"], f"{where}.time"), str(c["variable"]),
                              number(c["value"], f"{where}.value"), number(c.get("ramp", 0.0), f"{where}.ramp")))
     parameters = data.get("parameters") or {}
     if not isinstance(parameters, dict):
-        raise SystemError_(f"scenario file {path}: parameters must map Instance.parameter to a value")
+        raise SystemDescriptionError(f"scenario file {path}: parameters must map Instance.parameter to a value")
     if "stop_time" not in data:
-        raise SystemError_(f"scenario file {path}: stop_time [s] is missing")
+        raise SystemDescriptionError(f"scenario file {path}: stop_time [s] is missing")
     accuracy = data.get("accuracy") or []
     if not isinstance(accuracy, list):
-        raise SystemError_(f"scenario file {path}: accuracy must be a list of {{name, quantity, tolerance, unit, "
-                           f"relative}}")
+        raise SystemDescriptionError(f"scenario file {path}: accuracy must be a list of {{name, quantity, tolerance, "
+                                     f"unit, "
+                                     f"relative}}")
     requirements = []
     for k, a in enumerate(accuracy):
         where = f"accuracy[{k}]"
         if not isinstance(a, dict) or not {"name", "quantity", "tolerance"} <= set(a) or set(a) - {
                 "name", "quantity", "tolerance", "unit", "relative", "where"}:
-            raise SystemError_(f"scenario file {path}: {where} = {a!r}: give name, quantity, tolerance and "
-                               f"optionally unit, relative, where")
+            raise SystemDescriptionError(f"scenario file {path}: {where} = {a!r}: give name, quantity, tolerance and "
+                                         f"optionally unit, relative, where")
         tolerance = number(a["tolerance"], f"{where}.tolerance")
         if tolerance < 0:
-            raise SystemError_(f"scenario file {path}: {where}.tolerance = {tolerance:g} is negative")
+            raise SystemDescriptionError(f"scenario file {path}: {where}.tolerance = {tolerance:g} is negative")
         requirements.append(Requirement(str(a["name"]), str(a["quantity"]), tolerance, str(a.get("unit", "")),
                                         bool(a.get("relative", False)), a.get("where")))
     return Scenario(str(data.get("name", path.stem)), str(data.get("question", "")), str(data.get("kind", "load")),
@@ -144,20 +150,21 @@ def check(system, scenario: Scenario, step: float, stop_time: float) -> None:
     """The scenario's own rules (module docstring), before the run."""
     where = f"system {system.name}, scenario {scenario.name}"
     if scenario.kind not in Scenario.KINDS:
-        raise SystemError_(f"{where}: kind {scenario.kind!r} is not one of {', '.join(Scenario.KINDS)}")
+        raise SystemDescriptionError(f"{where}: kind {scenario.kind!r} is not one of {', '.join(Scenario.KINDS)}")
     last_end: dict[str, float] = {}
     for c in sorted(scenario.changes, key=lambda c: c.time):
         what = f"{where}: change of {c.variable} at t = {c.time:g} s"
         if c.ramp < 0.0:
-            raise SystemError_(f"{what}: ramp = {c.ramp:g} s is negative (0 is a step)")
+            raise SystemDescriptionError(f"{what}: ramp = {c.ramp:g} s is negative (0 is a step)")
         if not 0.0 <= c.time < stop_time:
-            raise SystemError_(f"{what}: outside the run [0, {stop_time:g}) s")
+            raise SystemDescriptionError(f"{what}: outside the run [0, {stop_time:g}) s")
         points = c.time / step
         if abs(points - round(points)) > 1e-6:
-            raise SystemError_(f"{what}: not a communication point of the {step:g} s step (a whole multiple of it "
-                               f"is, e.g. {round(points) * step:g} s)")
+            raise SystemDescriptionError(f"{what}: not a communication point of the {step:g} s step (a whole multiple "
+                                         f"of it "
+                                         f"is, e.g. {round(points) * step:g} s)")
         if c.time < last_end.get(c.variable, -math.inf):
-            raise SystemError_(f"{what}: starts before its previous ramp ends at {last_end[c.variable]:g} s")
+            raise SystemDescriptionError(f"{what}: starts before its previous ramp ends at {last_end[c.variable]:g} s")
         last_end[c.variable] = c.time + c.ramp
 
 
@@ -215,7 +222,8 @@ def check_ranges(system, scenario: Scenario, origin: str) -> None:
         lo = -math.inf if getattr(v, "min", None) in (None, "") else float(v.min)
         hi = math.inf if getattr(v, "max", None) in (None, "") else float(v.max)
         if not lo <= c.value <= hi:
-            raise SystemError_(f"{origin}: system {system.name}, scenario {scenario.name}: change of {c.variable} at "
+            raise SystemDescriptionError(f"{origin}: system {system.name}, scenario {scenario.name}: change of "
+                                         f"{c.variable} at "
                                f"t = {c.time:g} s: value {c.value:g} is outside the range [{lo:g}, {hi:g}] that FMU "
                                f"{md.modelName} of instance {inst} declares for {var}")
 
@@ -248,7 +256,8 @@ def prepare(system, scenario, options: dict) -> tuple[Scenario, dict]:
         origin = f"scenario file {scenario}"
     options = dict(options)
     if options.pop("input", None) is not None:
-        raise SystemError_(f"scenario {sc.name} drives the inputs itself: give input signals or a scenario, not both")
+        raise SystemDescriptionError(f"scenario {sc.name} drives the inputs itself: give input signals or a scenario, "
+                                     f"not both")
     stop_time = options.pop("stop_time", None) or sc.stop_time
     step = options.get("step") or options.get("step_size") or system.experiment.step
     check(system, sc, step, stop_time)

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.clock import NS
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 
 __all__ = ["Signals", "read_table", "full_name"]
 
@@ -51,12 +51,12 @@ def read_table(source) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     if isinstance(source, (str, Path)):
         path = Path(source)
         if not path.is_file():
-            raise SystemError_(f"input file {path} does not exist")
+            raise SystemDescriptionError(f"input file {path} does not exist")
         try:
             source = pd.read_csv(path, skipinitialspace=True)
         except Exception as e:  # an empty or unreadable file: one line naming it
-            raise SystemError_(f"input file {path}: cannot be read as CSV ({type(e).__name__}: "
-                               f"{' '.join(str(e).split())})") from None
+            raise SystemDescriptionError(f"input file {path}: cannot be read as CSV ({type(e).__name__}: "
+                                         f"{' '.join(str(e).split())})") from None
         where = f"input file {path}"
     else:
         where = "input"
@@ -67,28 +67,28 @@ def read_table(source) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     elif isinstance(source, np.ndarray) and source.dtype.names:
         columns = {str(n): np.asarray(source[n]) for n in source.dtype.names}
     else:
-        raise SystemError_(f"{where}: {type(source).__name__} is not an input table: give a structured numpy "
+        raise SystemDescriptionError(f"{where}: {type(source).__name__} is not an input table: give a structured numpy "
                            f"array (fmpy.simulate_fmu's input), a pandas DataFrame or a CSV file, with a 'time' "
                            f"column and one column per input")
     if "time" not in columns:
-        raise SystemError_(f"{where}: no 'time' column (columns: {', '.join(columns) or 'none'}); the table "
-                           f"has a 'time' column [s] and one column per input")
+        raise SystemDescriptionError(f"{where}: no 'time' column (columns: {', '.join(columns) or 'none'}); the table "
+                                     f"has a 'time' column [s] and one column per input")
     try:
         times = np.asarray(columns.pop("time"), dtype=float)
     except (TypeError, ValueError):
-        raise SystemError_(f"{where}: the 'time' column holds values that are not numbers") from None
+        raise SystemDescriptionError(f"{where}: the 'time' column holds values that are not numbers") from None
     if times.size == 0:
-        raise SystemError_(f"{where}: the table has no rows")
+        raise SystemDescriptionError(f"{where}: the table has no rows")
     if not np.isfinite(times).all():
         k = int(np.argmax(~np.isfinite(times)))
-        raise SystemError_(f"{where}: time = {float(times[k])!r} in row {k + 1} is not a finite number [s]")
+        raise SystemDescriptionError(f"{where}: time = {float(times[k])!r} in row {k + 1} is not a finite number [s]")
     back = np.flatnonzero(np.diff(times) < 0)
     if back.size:
         k = int(back[0]) + 1
-        raise SystemError_(f"{where}: the time column decreases in row {k + 1} ({float(times[k])!r} s after "
-                           f"{float(times[k - 1])!r} s); it must not (two rows at the same time are a step)")
+        raise SystemDescriptionError(f"{where}: the time column decreases in row {k + 1} ({float(times[k])!r} s after "
+                                     f"{float(times[k - 1])!r} s); it must not (two rows at the same time are a step)")
     if not columns:
-        raise SystemError_(f"{where}: no column besides 'time': one column per input is needed")
+        raise SystemDescriptionError(f"{where}: no column besides 'time': one column per input is needed")
     return times, columns
 
 
@@ -104,28 +104,28 @@ def _typed(values: np.ndarray, v, ref: str, times: np.ndarray, origin: str = "",
         if isinstance(x, str) and v.type == "Boolean" and x.strip().lower() in ("true", "false"):
             x = x.strip().lower() == "true"
         if isinstance(x, str) or x is None:
-            raise SystemError_(f"{where}: not a number ({v.name} is {v.type})")
+            raise SystemDescriptionError(f"{where}: not a number ({v.name} is {v.type})")
         x = float(x) if v.type == "Real" else x
         if not math.isfinite(float(x)):
-            raise SystemError_(f"{where}: not a finite number")
+            raise SystemDescriptionError(f"{where}: not a finite number")
         if v.type in ("Integer", "Enumeration"):
             if float(x) != int(x):
-                raise SystemError_(f"{where}: not an integer ({v.name} is {v.type})")
+                raise SystemDescriptionError(f"{where}: not an integer ({v.name} is {v.type})")
             x = int(x)
         elif v.type == "Boolean":
             if x not in (0, 1):
-                raise SystemError_(f"{where}: not a Boolean (allowed: true/false, 1/0)")
+                raise SystemDescriptionError(f"{where}: not a Boolean (allowed: true/false, 1/0)")
             x = bool(x)
         lo, hi = getattr(v, "min", None), getattr(v, "max", None)
         lo = -math.inf if lo in (None, "") else float(lo)
         hi = math.inf if hi in (None, "") else float(hi)
         if v.type != "Boolean" and not lo <= float(x) <= hi:
-            raise SystemError_(f"{where}: outside the range [{lo:g}, {hi:g}] that {fmu} declares for "
-                               f"{v.name}")
+            raise SystemDescriptionError(f"{where}: outside the range [{lo:g}, {hi:g}] that {fmu} declares for "
+                                         f"{v.name}")
         items = getattr(getattr(v, "declaredType", None), "items", None) if v.type == "Enumeration" else None
         if items and x not in {int(i.value) for i in items}:
-            raise SystemError_(f"{where}: not one of the values of its enumeration ("
-                               f"{', '.join(f'{i.value} = {i.name}' for i in items)})")
+            raise SystemDescriptionError(f"{where}: not one of the values of its enumeration ("
+                                         f"{', '.join(f'{i.value} = {i.name}' for i in items)})")
         out.append(x)
     return out
 
@@ -152,8 +152,9 @@ class Signals:
             ref = full_name(system, column)
             inst, _, var = ref.partition(".")
             if inst not in model_descriptions:
-                raise SystemError_(f"input signal {column!r}: unknown instance {inst!r}{_nearest(inst, names)} "
-                                   f"(instances: {', '.join(names)}; write 'Instance.variable')")
+                raise SystemDescriptionError(f"input signal {column!r}: unknown instance "
+                                             f"{inst!r}{_nearest(inst, names)} "
+                                             f"(instances: {', '.join(names)}; write 'Instance.variable')")
             md = model_descriptions[inst]
             variables = {v.name: v for v in md.modelVariables}
             inputs = [v.name for v in md.modelVariables if v.causality == "input"]
@@ -162,23 +163,27 @@ class Signals:
             v = variables.get(var)
             if v is None:
                 near = _nearest(var, inputs) or _nearest(var, list(variables))
-                raise SystemError_(f"input signal {column!r}: FMU {md.modelName} of instance {inst} has no "
-                                   f"variable {var!r}{near}; {listed}")
+                raise SystemDescriptionError(f"input signal {column!r}: FMU {md.modelName} of instance {inst} has no "
+                                             f"variable {var!r}{near}; {listed}")
             tunable = v.causality == "parameter" and v.variability == "tunable"
             if v.causality == "parameter" and not tunable:
-                raise SystemError_(f"input signal {column!r}: parameter {var} of instance {inst} is not tunable "
+                raise SystemDescriptionError(f"input signal {column!r}: parameter {var} of instance {inst} is not "
+                                             f"tunable "
                                    f"(its FMU declares variability {v.variability!r}): it cannot change during the "
                                    f"run; set it before the run (start_values, --set), or drive a free input or a "
                                    f"tunable parameter ({listed})")
             if v.causality != "input" and not tunable:
                 article = "an" if v.causality[:1] in "aeiou" else "a"
-                raise SystemError_(f"input signal {column!r}: {var} of instance {inst} is {article} {v.causality}, "
+                raise SystemDescriptionError(f"input signal {column!r}: {var} of instance {inst} is {article} "
+                                             f"{v.causality}, "
                                    f"not an input; a signal drives inputs and tunable parameters only ({listed})")
             if ref in targets:
-                raise SystemError_(f"input signal {column!r}: input {ref} is connected from {targets[ref]}; a "
-                                   f"signal drives a free input only ({listed})")
+                raise SystemDescriptionError(f"input signal {column!r}: input {ref} is connected from {targets[ref]}; "
+                                             f"a "
+                                             f"signal drives a free input only ({listed})")
             if ref in seen:
-                raise SystemError_(f"input signal {column!r}: input {ref} is given twice (also as {seen[ref]!r})")
+                raise SystemDescriptionError(f"input signal {column!r}: input {ref} is given twice (also as "
+                                             f"{seen[ref]!r})")
             seen[ref] = column
             continuous = v.type == "Real" and v.variability not in ("discrete", "tunable")
             self.columns.append((inst, var, continuous, _typed(np.asarray(values), v, ref, times, origin,

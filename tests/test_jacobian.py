@@ -241,7 +241,7 @@ def test_a_singular_interface_jacobian_stops_the_run_in_one_line_naming_the_bond
 
     system = load("two_inertia").on_fmus(fmu_dir)
     if where == "correction":     # J_G = I: the corrector's matrix I - theta S with theta = 1 vanishes
-        monkeypatch.setattr(ij, "assemble", lambda A, D, src, fac: np.eye(len(src)))
+        monkeypatch.setattr(ij, "assemble", lambda A, D, src, factor: np.eye(len(src)))
         monkeypatch.setattr(ij, "target_weights", lambda n, bonds, S, positions: np.ones(n))
     else:                         # I - D C singular: the outputs' feed-through loop has no unique solution
         real = np.linalg.solve

@@ -15,7 +15,7 @@ from fmus.slave_core import SlaveState
 from input_ranges import fold
 
 # attributes a step may change that are not state: the cache keyed by the state itself
-NOT_STATE = {"_D"}
+NOT_STATE = {"_feedthrough_cache"}
 CATALOG = catalog()
 
 

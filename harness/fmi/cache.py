@@ -29,7 +29,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 
 _DESCRIPTIONS: dict[tuple[str, float], object] = {}
 _NATIVE_TYPES: dict[int, dict[str, str]] = {}   # id(model description) -> variable name -> FMI 3.0 type
@@ -44,7 +44,7 @@ def model_description(path: str | Path):
 
     p = Path(path).resolve()
     if not p.is_file():
-        raise SystemError_(f"FMU file {p} does not exist")
+        raise SystemDescriptionError(f"FMU file {p} does not exist")
     key = (str(p), p.stat().st_mtime)
     if key not in _DESCRIPTIONS:
         try:
@@ -52,7 +52,8 @@ def model_description(path: str | Path):
         except Exception as e:
             problems = getattr(e, "problems", None)
             if not problems:
-                raise SystemError_(f"{p}: not a readable FMU ({type(e).__name__}: {e})".splitlines()[0]) from None
+                raise SystemDescriptionError(f"{p}: not a readable FMU ({type(e).__name__}: "
+                                             f"{e})".splitlines()[0]) from None
             # readable but not valid (e.g. a variable name declared twice): libcosim and Ecos load such FMUs,
             # so does the master, saying so in one line; a variable whose name is not unique cannot be used
             # (harness.fmi.fmu.Instance.var names it)
@@ -60,7 +61,8 @@ def model_description(path: str | Path):
             try:
                 md = read_model_description(str(p), validate=False)
             except Exception:  # not even loadable without validation: its problems are the one line
-                raise SystemError_(f"{p.name}: modelDescription.xml is not valid and cannot be loaded ({said})") \
+                raise SystemDescriptionError(f"{p.name}: modelDescription.xml is not valid and cannot be loaded "
+                                             f"({said})") \
                     from None
             warnings.warn(InvalidModelDescription(
                 f"{p.name}: modelDescription.xml is not valid ({'; '.join(' '.join(x.split()) for x in problems)}); "
@@ -189,7 +191,7 @@ _TERMINAL_PARTS = {"TerminalMemberVariable", "Annotations", "TerminalGraphicalRe
 def terminals(path: str | Path) -> dict[str, Terminal]:
     """Terminal name -> :class:`Terminal` of the top-level terminals an FMU declares in
     ``terminalsAndIcons/terminalsAndIcons.xml`` (FMI 3.0, section 2.4.9); empty for an FMU without that file
-    (FMI 1.0 and 2.0 have none).  An unreadable file is a one-line :class:`SystemError_` naming the FMU."""
+    (FMI 1.0 and 2.0 have none).  An unreadable file is a one-line :class:`SystemDescriptionError` naming the FMU."""
     from xml.etree import ElementTree as ET
 
     p = Path(path).resolve()
@@ -202,11 +204,12 @@ def terminals(path: str | Path) -> dict[str, Terminal]:
             _TERMINALS[key] = {}
             return _TERMINALS[key]
         except (zipfile.BadZipFile, OSError) as e:
-            raise SystemError_(f"{p}: not a readable FMU ({e})") from None
+            raise SystemDescriptionError(f"{p}: not a readable FMU ({e})") from None
         try:
             root = ET.fromstring(text)
         except ET.ParseError as e:
-            raise SystemError_(f"{p}!terminalsAndIcons/terminalsAndIcons.xml: not well-formed XML ({e})") from None
+            raise SystemDescriptionError(f"{p}!terminalsAndIcons/terminalsAndIcons.xml: not well-formed XML "
+                                         f"({e})") from None
         out = {}
         for t in root.findall("Terminals/Terminal"):
             others = sorted({c.tag for c in t} - _TERMINAL_PARTS)
@@ -268,7 +271,7 @@ def model_exchange_only(path: str | Path) -> Path:
     p = Path(path).resolve()
     md = model_description(p)
     if md.modelExchange is None:
-        raise SystemError_(f"{p}: the FMU has no Model Exchange interface (FMI {md.fmiVersion})")
+        raise SystemDescriptionError(f"{p}: the FMU has no Model Exchange interface (FMI {md.fmiVersion})")
     st = p.stat()
     digest = hashlib.sha1(f"{p}|{st.st_mtime_ns}|{st.st_size}".encode()).hexdigest()[:16]
     out = cache_dir() / "_me" / digest / p.name

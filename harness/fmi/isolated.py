@@ -128,7 +128,7 @@ class IsolatedInstance(FMUInstance):
         self._conn = None
         self._blocks: dict[int, tuple] = {}
         self._pending: list = []     # sets not sent yet: they travel with the next call (one round trip less)
-        self._fresh: dict | None = None   # every block's values after the last step, until anything else is sent
+        self._fresh_values: dict | None = None   # every block's values after the last step, until anything else is sent
         parent, child = socket.socketpair()
         env = dict(os.environ)
         root = str(Path(__file__).resolve().parents[2])   # this checkout of the toolkit wins in the child too
@@ -153,7 +153,7 @@ class IsolatedInstance(FMUInstance):
         if self.failed or self._conn is None:
             raise FMUError(self.name, function, self.time, None, detail="the instance failed before")
         pending, self._pending = self._pending, []
-        self._fresh = None
+        self._fresh_values = None
         try:
             self._conn.send((pending, op, args))
             ready = self._conn.poll(self.timeout if wait is None else wait)
@@ -253,7 +253,7 @@ class IsolatedInstance(FMUInstance):
     def get(self, block: RealBlock):
         if block.n:
             key = self._block(block)
-            fresh = self._fresh
+            fresh = self._fresh_values
             block.values[:] = fresh[key] if fresh is not None and key in fresh else \
                 self._ask(f"{self._prefix}GetReal", "get", key)
         return block.values
@@ -265,7 +265,7 @@ class IsolatedInstance(FMUInstance):
         if block.n:
             key = self._block(block)
             self._pending.append((key, block.values.tolist()))
-            self._fresh = None
+            self._fresh_values = None
 
     def get_list(self, block: RealBlock) -> list:
         return self.get(block).tolist() if block.n else []
@@ -296,7 +296,7 @@ class IsolatedInstance(FMUInstance):
     def do_step(self, t: float, h: float, no_prior_state: bool = False) -> None:
         self.time = t
         fresh = self._ask(f"{self._prefix}DoStep(h = {h:.6g} s)", "do_step", t, h, no_prior_state)
-        self._fresh = fresh
+        self._fresh_values = fresh
         self.time = t + h
 
     # -- FMU state (rollback): the state stays in the child, the parent holds its number --------------------------

@@ -16,7 +16,7 @@ that does not converge) stop it with a one-line message naming the time, the ins
 FMI call.  With ``on_error="return"`` (default) the result up to the last good communication point is
 returned with ``attrs["complete"] = False`` and ``attrs["error"]`` (and a :class:`RunWarning` is issued);
 ``on_error="raise"`` raises :class:`~harness.errors.SimulationError` whose ``partial`` is that DataFrame.
-Errors in the system description (:class:`~harness.errors.SystemError_`) are always raised before the run.
+Errors in the system description (:class:`~harness.errors.SystemDescriptionError`) are always raised before the run.
 
 """
 
@@ -132,7 +132,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
 
     Ctrl-C raises :class:`RunInterrupted` (a KeyboardInterrupt) whose ``partial`` is the result so far,
     marked ``attrs["complete"] = False``, ``attrs["interrupted"] = True``.  Errors in the description or the
-    arguments raise :class:`~harness.errors.SystemError_` before the run."""
+    arguments raise :class:`~harness.errors.SystemDescriptionError` before the run."""
     if other_names:
         moved = _renamed(other_names, dict(step=step, tolerance=tolerance, start_values=start_values,
                                            output=output))

@@ -15,8 +15,8 @@ def load(x) -> System:
     """A :class:`System` from a module name in ``systems/`` (its ``SYSTEM``; ``"bed_drive"``, also written
     ``"bed_drive.py"`` or ``"systems/bed_drive.py"``), the path of any Python file that defines ``SYSTEM``, an
     .ssp/.ssd file or an SSP unpacked into a folder (holding SystemStructure.ssd), a bare .fmu (run alone,
-    :func:`_fmu_system`), or itself.  Anything else is a :class:`~harness.errors.SystemError_` in one line naming
-    what was given and the known systems (with the closest name when it looks misspelt)."""
+    :func:`_fmu_system`), or itself.  Anything else is a :class:`~harness.errors.SystemDescriptionError` in one
+    line naming what was given and the known systems (with the closest name when it looks misspelt)."""
     if isinstance(x, System):
         return x
     s = str(x)

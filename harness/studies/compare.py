@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 
 
 @dataclass(frozen=True)
@@ -40,15 +40,17 @@ def parse_variant(text: str) -> Variant:
 
     label, colon, rest = str(text).partition(":")
     if not colon or not label.strip():
-        raise SystemError_(f"--variant {text!r}: expected 'LABEL: Instance.param=VALUE ...' or 'LABEL: FILE.csv'")
+        raise SystemDescriptionError(f"--variant {text!r}: expected 'LABEL: Instance.param=VALUE ...' or 'LABEL: "
+                                     f"FILE.csv'")
     items = rest.split()
     if len(items) == 1 and "=" not in items[0]:
         path = Path(items[0])
         if path.suffix.lower() not in (".csv", ".parquet"):
-            raise SystemError_(f"--variant {text!r}: {items[0]} is neither Instance.param=VALUE nor a result file "
-                               f"(.csv, .parquet)")
+            raise SystemDescriptionError(f"--variant {text!r}: {items[0]} is neither Instance.param=VALUE nor a "
+                                         f"result file "
+                                         f"(.csv, .parquet)")
         if not path.is_file():
-            raise SystemError_(f"--variant {text!r}: result file {path} does not exist")
+            raise SystemDescriptionError(f"--variant {text!r}: result file {path} does not exist")
         return Variant(label.strip(), result=path)
     return Variant(label.strip(), parse_sets(items))
 
@@ -60,12 +62,13 @@ def check(system, variants: list[Variant]) -> None:
     from harness.run import split_parameters
 
     if len(variants) < 2:
-        raise SystemError_(f"compare {system.name}: give at least two variants (--variant 'LABEL: I.p=V ...'; a "
-                           f"variant with no values is the drive as declared)")
+        raise SystemDescriptionError(f"compare {system.name}: give at least two variants (--variant 'LABEL: I.p=V "
+                                     f"...'; a "
+                                     f"variant with no values is the drive as declared)")
     seen = set()
     for v in variants:
         if v.label in seen:
-            raise SystemError_(f"compare {system.name}: variant label {v.label!r} is given twice")
+            raise SystemDescriptionError(f"compare {system.name}: variant label {v.label!r} is given twice")
         seen.add(v.label)
     mds = {inst.name: model_description(resolve_fmu(inst.fmu)) for inst in system.instances}
     for v in variants:
@@ -250,7 +253,8 @@ def compare(system, variants, **options) -> Comparison:
             df.attrs["variant"] = ", ".join(f"{k} = {x:g}" if isinstance(x, (int, float)) else f"{k} = {x}"
                                             for k, x in v.start_values.items()) or "the drive as declared"
             if not df.attrs.get("complete", True):
-                raise SystemError_(f"compare {system.name}: variant {v.label!r} stopped: {df.attrs.get('error')}")
+                raise SystemDescriptionError(f"compare {system.name}: variant {v.label!r} stopped: "
+                                             f"{df.attrs.get('error')}")
         results[v.label] = df
     return Comparison(system, results)
 

@@ -94,15 +94,16 @@ def candidate_table(candidates: list[Candidate]) -> pd.DataFrame:
 
 def find_scene(system, name: str | None = None) -> Scene:
     """The scene ``name`` of ``system``, or its default scene when ``name`` is None."""
-    from harness.errors import SystemError_
+    from harness.errors import SystemDescriptionError
 
     scenes = {s.name: s for s in getattr(system, "scenes", [])}
     key = name if name is not None else getattr(system, "default_scene", None)
     if key is None:
-        raise SystemError_(f"system {system.name} has no default scene: name one of "
-                           f"{', '.join(sorted(scenes)) or '(none)'}")
+        raise SystemDescriptionError(f"system {system.name} has no default scene: name one of "
+                                     f"{', '.join(sorted(scenes)) or '(none)'}")
     if key not in scenes:
-        raise SystemError_(f"system {system.name} has no scene {key!r}; known: {', '.join(sorted(scenes)) or 'none'}")
+        raise SystemDescriptionError(f"system {system.name} has no scene {key!r}; known: "
+                                     f"{', '.join(sorted(scenes)) or 'none'}")
     return scenes[key]
 
 

@@ -24,7 +24,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from harness.errors import SystemError_
+from harness.errors import SystemDescriptionError
 
 WEAK = 0.1    # elasticity d ln Q / d ln p below which the parameter barely governs the quantity
 
@@ -45,11 +45,11 @@ class Target:
 def parse_target(text: str) -> Target:
     m = re.fullmatch(r"\s*([A-Za-z_][\w]*)\s*(<=|>=)\s*([-+0-9.eE]+)\s*", str(text))
     if not m:
-        raise SystemError_(f"--target {text!r}: expected 'QUANTITY <= VALUE' or 'QUANTITY >= VALUE'")
+        raise SystemDescriptionError(f"--target {text!r}: expected 'QUANTITY <= VALUE' or 'QUANTITY >= VALUE'")
     try:
         value = float(m.group(3))
     except ValueError:
-        raise SystemError_(f"--target {text!r}: {m.group(3)!r} is not a number") from None
+        raise SystemDescriptionError(f"--target {text!r}: {m.group(3)!r} is not a number") from None
     return Target(m.group(1), m.group(2), value)
 
 
@@ -182,7 +182,8 @@ def _sent(system, given):
             return given.name
     except Exception:  # noqa: BLE001 (no loadable name: refused below)
         pass
-    raise SystemError_(f"size {given.name} on a dask scheduler: the workers load the drive by its name or file, "
+    raise SystemDescriptionError(f"size {given.name} on a dask scheduler: the workers load the drive by its name or "
+                                 f"file, "
                        f"and this System differs from the one {given.name!r} loads; give the name or file, with "
                        f"start_values for the changed parameters")
 
@@ -224,8 +225,9 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
     p0 = _current(system, parameter)
     lo, hi = bracket if bracket is not None else (p0 / 4.0, p0 * 4.0)
     if not (0.0 < lo < hi) or not all(map(math.isfinite, (lo, hi))):
-        raise SystemError_(f"size {system.name}: bracket [{lo:g}, {hi:g}] of {parameter} must be two positive "
-                           f"increasing values (the drive's value is {p0:g})")
+        raise SystemDescriptionError(f"size {system.name}: bracket [{lo:g}, {hi:g}] of {parameter} must be two "
+                                     f"positive "
+                                     f"increasing values (the drive's value is {p0:g})")
     check_target(system, target)
     base = dict(options.pop("start_values", None) or {})
     result = Sizing(parameter, target, (lo, hi), system=system)
@@ -235,11 +237,11 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         def quantities_at(ps: list[float]) -> list[float]:
             todo = [p for p in dict.fromkeys(ps) if p not in result.runs]
             if len(result.runs) + len(todo) > max_runs:
-                raise SystemError_(f"size {system.name}: {max_runs} runs used without settling {parameter}; "
-                                   f"runs: {_runs(result.runs)}")
+                raise SystemDescriptionError(f"size {system.name}: {max_runs} runs used without settling {parameter}; "
+                                             f"runs: {_runs(result.runs)}")
             for p, run in zip(todo, submit([(ref, parameter, target.quantity, base, options, p) for p in todo])):
                 if run["error"]:
-                    raise SystemError_(f"size {system.name}: {run['error']}")
+                    raise SystemDescriptionError(f"size {system.name}: {run['error']}")
                 frames[p], result.runs[p] = run["frame"], run["value"]
             return [result.runs[p] for p in ps]
 
@@ -295,8 +297,8 @@ def check_target(system, target: Target) -> None:
     names = quantities(system, pd.DataFrame(index=pd.Index([], name="time"))).names
     if target.quantity not in names:
         close = difflib.get_close_matches(target.quantity, names, n=3)
-        raise SystemError_(f"size {system.name}: no quantity {target.quantity!r}"
-                           + (f" (did you mean {', '.join(close)}?)" if close else
+        raise SystemDescriptionError(f"size {system.name}: no quantity {target.quantity!r}"
+                                     + (f" (did you mean {', '.join(close)}?)" if close else
                               f" (quantities: {', '.join(names) or 'none declared'})"))
 
 
@@ -317,8 +319,9 @@ def _current(system, parameter: str) -> float:
     found = {v.name: v for v in md.modelVariables if v.causality == "parameter"}
     if name not in found:
         close = difflib.get_close_matches(name, list(found), n=3)
-        raise SystemError_(f"size {system.name}: FMU {md.modelName} of instance {inst} has no parameter {name!r}"
-                           + (f" (did you mean {', '.join(close)}?)" if close else ""))
+        raise SystemDescriptionError(f"size {system.name}: FMU {md.modelName} of instance {inst} has no parameter "
+                                     f"{name!r}"
+                                     + (f" (did you mean {', '.join(close)}?)" if close else ""))
     given = dict(system.instance(inst).parameters).get(name)
     return float(given if given is not None else found[name].start)
 
