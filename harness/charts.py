@@ -26,6 +26,8 @@ from harness import qoi
 from harness.specs import Panel
 
 _ZONE_COLOURS = ("#2ca02c", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b")
+# font sizes [pt] of the panels' text, drawn by the panels and measured by the layout (_finish)
+TITLE_PT, LABEL_PT, SUPTITLE_PT, XLABEL_PAD = 8.5, 7, 9, 1
 DPI = 110   # of the run charts' PNGs, and of their figures: the layout's text measures are then the PNG's own
 
 
@@ -171,10 +173,10 @@ def _draw_panel(ax, x, df, panel: Panel, units: dict, rows=slice(None)) -> None:
         ax.plot(x, y[rows] / 10.0 ** power, lw=0.9, label=label)
     unit = ", ".join(sorted({u for (_, u), _ in drawn}))
     unit = f"1e{power} {unit}" if power else unit
-    ax.set_title("\n".join(textwrap.wrap(f"{panel.title} [{unit}]", 95)), fontsize=8.5, loc="left",
+    ax.set_title("\n".join(textwrap.wrap(f"{panel.title} [{unit}]", 95)), fontsize=TITLE_PT, loc="left",
                  y=1.0)   # placed, not re-placed at each drawing after measuring the y axis (nothing above the panels)
-    ax.set_ylabel(f"[{unit}]", fontsize=7)
-    ax.tick_params(labelsize=7, labelbottom=True)
+    ax.set_ylabel(f"[{unit}]", fontsize=LABEL_PT)
+    ax.tick_params(labelsize=LABEL_PT, labelbottom=True)
     ax.ticklabel_format(axis="y", style="plain", useOffset=False)
     ax.grid(alpha=0.3)
     if len(panel.columns) > 1:
@@ -240,11 +242,11 @@ def _finish(fig, axes, n: int, key_rows: int) -> None:
 
     tick = (rcParams["xtick.major.size"] + rcParams["xtick.major.pad"]) * pt
     line = 1.2 * pt                                                   # a line of text per point of font size
-    below = tick + 7 * line + 1 * pt + 7 * line + 3 * pt              # x tick labels, the x label (labelpad 1)
+    below = tick + LABEL_PT * line + XLABEL_PAD * pt + LABEL_PT * line + 3 * pt   # x tick labels, the x label
     above = [rcParams["axes.titlepad"] * pt + 3 * pt
-             + max(ax.get_title(loc="left").count("\n") + 1 for ax in shown[r * ncol:(r + 1) * ncol]) * 8.5 * line
+             + max(ax.get_title(loc="left").count("\n") + 1 for ax in shown[r * ncol:(r + 1) * ncol]) * TITLE_PT * line
              for r in range(nrow)]
-    top = 0.02 * height_in + 9 * line + 4 * pt + above[0]              # the suptitle (at 0.98, top-aligned)
+    top = 0.02 * height_in + SUPTITLE_PT * line + 4 * pt + above[0]   # the suptitle (at 0.98, top-aligned)
     bottom = below + 4 * pt + ((0.3 + 0.18 * key_rows) if key_rows else 0.0)
     gap_v = below + max(above[1:], default=0.0)
     panel_h = (height_in - top - bottom - (nrow - 1) * gap_v) / nrow
@@ -257,13 +259,13 @@ def _finish(fig, axes, n: int, key_rows: int) -> None:
         lo, hi = sorted(ax.get_ylim())
         locs = [v for v in ax.yaxis.get_majorticklocs() if lo - 1e-9 * (hi - lo) <= v <= hi + 1e-9 * (hi - lo)]
         labels = ax.yaxis.get_major_formatter().format_ticks(locs)
-        left_of[c] = max(left_of[c], tick + max((text_width(s, 7) for s in labels), default=0.0)
-                         + rcParams["axes.labelpad"] * pt + 7 * line + 3 * pt)
+        left_of[c] = max(left_of[c], tick + max((text_width(s, LABEL_PT) for s in labels), default=0.0)
+                         + rcParams["axes.labelpad"] * pt + LABEL_PT * line + 3 * pt)
         legend = ax.get_legend()
         if legend is not None:
             right_of[c] = max(right_of[c], (legend.get_window_extent(renderer).x1 - ax.bbox.x1) / fig.dpi + 3 * pt)
-        title_of[c] = max(title_of[c], text_width(ax.get_title(loc="left"), 8.5))
-    overhang = text_width("0.000", 7) / 2 + 3 * pt                     # the last x tick label, centred on the edge
+        title_of[c] = max(title_of[c], text_width(ax.get_title(loc="left"), TITLE_PT))
+    overhang = text_width("0.000", LABEL_PT) / 2 + 3 * pt   # the last x tick label, centred on the edge
     left = left_of[0] + 2 * pt
     right = max(right_of[-1], overhang)
     gap_h = max((max(right_of[c], overhang) + left_of[c + 1] for c in range(ncol - 1)), default=0.0)
@@ -297,7 +299,7 @@ def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path, svg: boo
             ax.text(a, y - 0.025, f" scene {name}", transform=ax.get_xaxis_transform(), fontsize=6,
                     va="top", color="0.2", bbox=dict(facecolor="white", edgecolor="none", alpha=0.7, pad=0.5))
             barred = True
-        ax.set_xlabel("time [s]", fontsize=7, labelpad=1)
+        ax.set_xlabel("time [s]", fontsize=LABEL_PT, labelpad=XLABEL_PAD)
         ax.set_xlim(t[0], t[-1])
     key = _zone_key(zone_spans)
     startup = _startup(df)
@@ -310,7 +312,7 @@ def _time_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path, svg: boo
     if barred:
         key.append(("time window a scene reads (bar at the top)", dict(color="0.3")))
     _key(fig, key)
-    fig.suptitle(f"{system.name} over time: {_status(df)}", fontsize=9)
+    fig.suptitle(f"{system.name} over time: {_status(df)}", fontsize=SUPTITLE_PT)
     _finish(fig, axes, len(panels), -(-len(key) // 3))
     return save_figure(fig, out_dir / system.name, dpi=DPI, svg=svg)
 
@@ -382,11 +384,12 @@ def _cycle_chart(system, df: pd.DataFrame, panels, zones, out_dir: Path, svg: bo
         ax.set_xticks(np.arange(0.0, 361.0, 45.0))
         what = ("crank angle [deg]" if math.isclose(spec.cycle_angle, 2 * math.pi)
                 else "machine cycle [deg, 360 per cycle]")
-        ax.set_xlabel(what + (f" from the {spec.origin_name}" if spec.origin_name else ""), fontsize=7, labelpad=1)
+        ax.set_xlabel(what + (f" from the {spec.origin_name}" if spec.origin_name else ""), fontsize=LABEL_PT,
+                      labelpad=XLABEL_PAD)
     key = _zone_key(zone_spans)
     _key(fig, key)
     fig.suptitle(f"{system.name}, one machine cycle: cycle {k + 1} (t = {t[0]:.3g} to {t[-1]:.3g} s), "
-                 f"{_status(df)}", fontsize=9)
+                 f"{_status(df)}", fontsize=SUPTITLE_PT)
     _finish(fig, axes, len(panels), -(-len(key) // 3))
     return save_figure(fig, out_dir / f"{system.name}_cycle", dpi=DPI, svg=svg)
 

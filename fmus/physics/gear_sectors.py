@@ -279,7 +279,7 @@ def solve_sectors(task: SectorTask, use: tuple[str, ...] | str = DEFAULT_SET, st
     the other four: with data that over-determine (25) inconsistently the solution is marked infeasible
     and the message names the unmet conditions.  Given quantities out of range (:data:`GIVEN_RANGES`)
     raise ValueError."""
-    from scipy import optimize   # here: every FMU imports this module, and scipy.optimize costs a run 0.8 s CPU
+    from scipy import optimize   # here: every FMU imports this module, and scipy.optimize is slow to import
 
     bad_given = out_of_range(task)
     if bad_given is not None:

@@ -83,7 +83,7 @@ def closing_braking_delta0(p: GearSectorsParams, bracket: tuple[float, float]) -
     lo, hi = (closure(b) for b in bracket)
     if not lo * hi < 0.0:
         raise ValueError(f"delta0_brk bracket {bracket}: closures {lo:.4g}, {hi:.4g} have one sign")
-    from scipy import optimize   # here: every FMU imports this module, and scipy.optimize costs a run 0.8 s CPU
+    from scipy import optimize   # here: every FMU imports this module, and scipy.optimize is slow to import
 
     d0 = optimize.brentq(closure, *bracket, xtol=1e-13)
     law = GearSectorsModel(replace(p, delta0_brk=d0)).law

@@ -448,7 +448,7 @@ class Monolithic:
         # each state's error is judged against its largest magnitude so far (rtol of it, atol at least): a speed
         # that comes to rest after running (a held brake) is not asked to 1e-10 absolute, below the roundoff of
         # the stiff springs' forces on large angles, where Radau's Newton iteration stalls at steps of microseconds
-        scale = np.abs(x)
+        scale = np.zeros_like(x)
         self.rhs_evaluations = 0
         while k_next <= n_steps:
             while rows and rows[0] <= round(t * NS):
