@@ -108,8 +108,6 @@ def discrete_refresh(discrete: list[tuple]) -> tuple[list[tuple], list[tuple]]:
     ``sampled``: every source is read before any target is set, as libcosim and Ecos pass such values.
     Outputs without declared dependencies are taken as sampled (FMI 2.0's "may depend on every input" is
     an assumption, :meth:`harness.masters.Master._assume_sampled`)."""
-    import networkx as nx
-
     def declared(fmu, output: str) -> set[str]:
         for u in fmu.md.outputs:
             if u.variable.name == output and u.dependencies is not None:
@@ -117,15 +115,16 @@ def discrete_refresh(discrete: list[tuple]) -> tuple[list[tuple], list[tuple]]:
         return set()
 
     set_by = {(id(dst), dv): k for k, (_, _, dst, dv, _) in enumerate(discrete)}
-    g = nx.DiGraph()
+    g = graph.Digraph()
     for k, (src, sv, *_) in enumerate(discrete):
         for d in declared(src, sv):
             j = set_by.get((id(src), d))
             if j is not None:
                 g.add_edge(j, k)
-    g.remove_nodes_from([k for comp in nx.strongly_connected_components(g) if len(comp) > 1 for k in comp])
-    chained = {k for k in g.nodes if g.in_degree(k)}
-    order = [k for k in nx.lexicographical_topological_sort(g) if k in chained]
+    g.remove_nodes([k for comp in graph.strongly_connected_components(g)
+                    if len(comp) > 1 or comp[0] in g.succ[comp[0]] for k in comp])
+    chained = {k for k, d in g.in_degrees().items() if d}
+    order = [k for k in graph.lexicographical_topological_sort(g) if k in chained]
     return [c for k, c in enumerate(discrete) if k not in chained], [discrete[k] for k in order]
 
 
@@ -157,8 +156,6 @@ def exchange_plan(groups: list[list[int]], insts: list[Inst], connections, mds: 
     in topological order of the variable graph and an instance is visited again only when one of its outputs
     depends on a value that became final after its last visit; so each output is read last with final
     inputs, and no instance is visited more often than that needs."""
-    import networkx as nx
-
     plan: list[tuple] = []
     for k, group in enumerate(groups):
         if k in loop_groups:
@@ -168,7 +165,7 @@ def exchange_plan(groups: list[list[int]], insts: list[Inst], connections, mds: 
             plan.append(("visit" if insts[group[0]].feedthrough else "read", group[0]))
             continue
         names = {insts[i].name: i for i in group}
-        g = nx.DiGraph()
+        g = graph.Digraph()
         deps: dict[str, list[str]] = {}
         for i in group:
             it = insts[i]
@@ -186,7 +183,7 @@ def exchange_plan(groups: list[list[int]], insts: list[Inst], connections, mds: 
         first: dict[int, int] = {}
         order = {n: j for j, n in enumerate(sorted(g.nodes))}
         system_order = {insts[i].name: r for r, i in enumerate(group)}
-        for node in nx.lexicographical_topological_sort(
+        for node in graph.lexicographical_topological_sort(
                 g, key=lambda n: (system_order[n.split(".", 1)[0]], order[n])):
             i = names[node.split(".", 1)[0]]
             ready = max((final[s] for s in deps.get(node, ())), default=-1)

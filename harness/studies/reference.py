@@ -48,11 +48,11 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import networkx as nx
 import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
+from harness import graph
 from harness.clock import NS
 from harness.model import model_name
 
@@ -342,8 +342,7 @@ class Monolithic:
 
     def _evaluation_order(self) -> list[int]:
         """Instance indices in the order their outputs must be evaluated (SCCs repeated len(SCC) times)."""
-        g = nx.DiGraph()
-        g.add_nodes_from(range(len(self.models)))
+        g = graph.Digraph(range(len(self.models)))
         for dst, wires in enumerate(self.wires):
             ft = self.classes[dst].feedthrough
             for j, w in enumerate(wires):
@@ -351,9 +350,7 @@ class Monolithic:
                 if w is not None and any(name in deps for deps in ft.values()):
                     g.add_edge(w.src, dst)
         order = []
-        cond = nx.condensation(g)
-        for comp in nx.topological_sort(cond):
-            members = sorted(cond.nodes[comp]["members"])
+        for members in graph.condensation_order(g):
             order.extend(members * len(members))
         return order
 
