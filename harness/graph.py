@@ -125,7 +125,7 @@ def lexicographical_topological_sort(g: Digraph, key: Callable | None = None) ->
     """The nodes of ``g`` with every edge pointing forward; among the nodes ready at a time, the one with the
     smallest ``key(node)`` first (``key=None``: the node itself), equal keys in ``g``'s node order (the
     tie-breaking of ``networkx.lexicographical_topological_sort``).  A cycle (a self-loop too) raises
-    :class:`CycleError` naming the nodes on or behind it."""
+    :class:`CycleError` naming the nodes on it or after it."""
     if key is None:
         def key(n):
             return n
@@ -144,7 +144,7 @@ def lexicographical_topological_sort(g: Digraph, key: Callable | None = None) ->
                 heapq.heappush(ready, (key(m), position[m]))
     if len(order) < len(nodes):
         left = [n for n, d in waiting.items() if d > 0]
-        raise CycleError(f"no topological order: the graph has a cycle; nodes on or after it: "
+        raise CycleError(f"no topological order: the graph has a cycle; nodes on it or after it: "
                          f"{', '.join(map(str, left))}", left)
     return order
 
