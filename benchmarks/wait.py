@@ -4,6 +4,8 @@ Times whole commands as a person types them, each in a process of its own (start
 
 * ``python -m harness --help``;
 * ``python -m harness run SYSTEM --quiet-quantities`` (the summary line only);
+* the same with the charts drawn in the command's own process, one after the other (no chart workers,
+  :mod:`harness.chartworkers`), for comparison;
 * ``python -m harness run SYSTEM --plot DIR`` (summary, quantities table and both charts): the goal line,
   its wall time at most ``GOAL`` times the run's own stepping time (``attrs["wall_time"]``: the FMUs'
   initialisation and the steps, as the command prints it).
@@ -13,9 +15,10 @@ processes on a loaded machine than the wall time), the stepping time the command
 whole / stepping by wall time and by CPU time.  ``--pin`` runs every command on CPU 0 (``taskset -c 0``), so
 the command's own threads do not spread over cores.  The median over ``--repeat`` runs is shown.
 
-``--stages``: the CPU time of each stage of ``run SYSTEM --plot`` (imports, loading the drive, opening the FMUs,
-the stepping, the quantities, the charts) in one process, and the total against the stepping's own CPU time
-(``attrs["cpu_time"]``): on a loaded machine the wall times stretch with the load, CPU times much less.
+``--stages``: the CPU and wall time of each stage of ``run SYSTEM --plot`` (imports, loading the drive, opening
+the FMUs, the stepping, the quantities, the charts, drawn by the chart workers as the command does) in one
+process, and the total against the stepping's own CPU and wall time (``attrs["cpu_time"]``,
+``attrs["wall_time"]``): on a loaded machine the wall times stretch with the load, CPU times much less.
 """
 from __future__ import annotations
 
@@ -57,12 +60,19 @@ def stepping(stdout: str) -> float:
     return float(found.group(1))
 
 
+# the run command with its charts drawn in its own process, one after the other (no chart workers): the
+# comparison for the workers' gain, side by side in one session
+IN_PROCESS = [sys.executable, "-c", "import sys; from harness import chartworkers; chartworkers.available_cpus = "
+              "lambda: 1; from harness.__main__ import main; sys.exit(main(sys.argv[1:]))"]
+
+
 def measure(system: str, repeat: int, pin: bool) -> list[dict]:
     py = [sys.executable, "-m", "harness"]
     rows = []
     with tempfile.TemporaryDirectory(prefix="wait-") as tmp:
         cases = [("--help", py + ["--help"], False),
                  (f"run {system} (summary only)", py + ["run", system, "--quiet-quantities"], True),
+                 (f"run {system} --plot, charts in process", IN_PROCESS + ["run", system, "--plot", tmp], True),
                  (f"run {system} --plot (summary, quantities, charts)", py + ["run", system, "--plot", tmp], True)]
         for label, argv, is_run in cases:
             walls, cpus, steps = [], [], []
@@ -98,35 +108,48 @@ def lines(rows: list[dict], pin: bool, repeat: int) -> list[str]:
 
 
 STAGES_CHILD = r"""
-import json, sys, tempfile, time
-T = time.process_time
-marks = [("interpreter start-up", T())]
+import json, os, sys, tempfile, time
+marks = [("interpreter start-up", time.process_time(), time.perf_counter())]
+def mark(name):
+    marks.append((name, time.process_time(), time.perf_counter()))
+from harness import chartworkers
+chartworkers.start_early()                       # as the run command does with --plot
 import harness.run as run
-marks.append(("imports of the run command", T()))
+mark("imports of the run command")
 system = run.load(sys.argv[1])
-marks.append(("loading the drive", T()))
+workers = chartworkers.for_run()
+mark("loading the drive")
 df = run.simulate(system, options=run.RunOptions(progress=None))
-marks.append(("simulate", T()))
+mark("simulate")
 df.attrs["quantities"].table()
-marks.append(("quantities table", T()))
+mark("quantities table")
 from harness.charts import plot_result
 with tempfile.TemporaryDirectory() as d:
-    plot_result(system, df, d)
-marks.append(("charts (two figures, PNG)", T()))
-out, prev = [], 0.0
-for name, t in marks:
-    out.append((name, t - prev))
-    prev = t
+    plot_result(system, df, d, workers=workers)
+    drawn = workers.drawn if workers is not None else 0
+    if workers is not None:
+        workers.close()
+mark("charts (two figures, PNG)")
+t0 = marks[0][2] - marks[0][1]                    # wall clock at process start (its CPU so far as wall)
+out, cpu0, wall0 = [], 0.0, t0
+for name, cpu, wall in marks:
+    out.append((name, cpu - cpu0, wall - wall0))
+    cpu0, wall0 = cpu, wall
 step = df.attrs.get("cpu_time", df.attrs["wall_time"])   # a tree before cpu_time: the wall time
-i = [n for n, _ in out].index("simulate")
-out[i:i + 1] = [("simulate: opening the FMUs, results", out[i][1] - step), ("simulate: initialisation and steps", step)]
-print(json.dumps({"stages": out, "stepping_cpu": step, "total": prev}))
+i = [n for n, *_ in out].index("simulate")
+out[i:i + 1] = [("simulate: opening the FMUs, results", out[i][1] - step, out[i][2] - df.attrs["wall_time"]),
+                ("simulate: initialisation and steps", step, df.attrs["wall_time"])]
+kids = os.times()
+print(json.dumps({"stages": out, "stepping_cpu": step, "stepping_wall": df.attrs["wall_time"],
+                  "total": marks[-1][1], "total_wall": marks[-1][2] - t0, "drawn_by_workers": drawn,
+                  "workers_cpu": kids.children_user + kids.children_system}))
 """
 
 
 def stages(system: str, pin: bool) -> dict:
-    """CPU time [s] of each stage of ``run SYSTEM --plot`` in a process of its own (the run command's steps
-    called one by one): robust to other processes, which stretch wall times but hardly CPU times."""
+    """CPU and wall time [s] of each stage of ``run SYSTEM --plot`` in a process of its own (the run command's
+    steps called one by one, its chart workers too): the CPU times are robust to other processes, which stretch
+    wall times but hardly CPU times."""
     import json
 
     argv = [sys.executable, "-c", STAGES_CHILD, system]
@@ -135,10 +158,18 @@ def stages(system: str, pin: bool) -> dict:
 
 
 def stage_lines(found: dict) -> list[str]:
-    out = ["CPU time by stage of run --plot (one process; the stepping's own CPU time from attrs['cpu_time'])"]
-    out += [f"  {name:<44} {t:6.2f} s" for name, t in found["stages"]]
-    out.append(f"  {'total':<44} {found['total']:6.2f} s = {found['total'] / found['stepping_cpu']:.1f}x the "
-               f"stepping's CPU time (goal <= {GOAL:g}x)")
+    out = ["by stage of run --plot (one process; the stepping's own times from attrs['cpu_time'], ['wall_time'])",
+           f"  {'':<44} {'CPU':>8} {'wall':>8}"]
+    out += [f"  {name:<44} {cpu:6.2f} s {wall:6.2f} s" for name, cpu, wall in found["stages"]]
+    out.append(f"  {'total':<44} {found['total']:6.2f} s {found['total_wall']:6.2f} s = "
+               f"{found['total'] / found['stepping_cpu']:.1f}x the stepping's CPU time, "
+               f"{found['total_wall'] / found['stepping_wall']:.1f}x its wall time (goal <= {GOAL:g}x)")
+    if found["drawn_by_workers"]:
+        out.append(f"  the charts: {found['drawn_by_workers']} figures drawn by chart workers while this process "
+                   f"waited (charts' wall time above); the workers' CPU time {found['workers_cpu']:.2f} s "
+                   f"(their imports overlap the stepping)")
+    else:
+        out.append("  the charts: drawn in this process (one CPU available: no chart workers)")
     return out
 
 

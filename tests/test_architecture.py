@@ -22,6 +22,7 @@ LAYERS = [
          "harness.observers",
          "harness.qoi")),                                         # system model and masters
     (4, ("harness", "harness.run", "harness.signals", "harness.ssp", "harness.charts",   # run / ssp (lazy API)
+         "harness.chartdraw", "harness.chartworkers",             # drawing a chart; processes that draw them
          "harness.run.systems", "harness.run.parameters", "harness.run.interrupts",   # the run package, by job
          "harness.run.simulation", "harness.run.cli",
          "harness.htmlreport",                                    # the HTML report's page and a run's sections

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness import charts, load, simulate
+from harness import chartdraw, charts, load, simulate
 from harness.model import SystemWarning
 
 
@@ -49,7 +49,7 @@ def figures(monkeypatch):
         made[Path(stem).name] = fig
         return [Path(f"{stem}.png")] + ([Path(f"{stem}.svg")] if svg else [])
 
-    monkeypatch.setattr(charts, "save_figure", keep)
+    monkeypatch.setattr(chartdraw, "save_figure", keep)
     return made
 
 
@@ -208,7 +208,7 @@ def test_a_tiny_signal_carries_its_power_of_ten_in_the_unit_and_ports_are_titled
     t = np.linspace(0.0, 1.0, 11)
     df = pd.DataFrame({"press.sync_error": 1.4e-5 * np.sin(6 * t)}, index=t)
     fig, ax = plt.subplots()
-    charts._draw_panel(ax, t, df, Panel("Synchronisation error", ("press.sync_error",)), {"press.sync_error": "m"})
+    chartdraw.draw_panel(ax, t, df, Panel("Synchronisation error", ("press.sync_error",)), {"press.sync_error": "m"})
     fig.canvas.draw()
     assert ax.get_ylabel() == "[1e-6 m]" and ax.yaxis.get_offset_text().get_text() == ""
     assert max(abs(v) for v in ax.get_lines()[0].get_ydata()) == pytest.approx(14.0, rel=0.01)

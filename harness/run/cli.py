@@ -119,20 +119,20 @@ def _check_targets(args) -> None:
         check_report_path(args.report)
 
 
-def _plot(system, df, folder: Path, svg: bool = False) -> list[Path]:
+def _plot(system, df, folder: Path, svg: bool = False, workers=None) -> list[Path]:
     """The run's charts in ``folder`` (the PNGs are returned; ``svg``: also as SVG); an incomplete run's under
     ``<name>.partial.png`` (``.svg``), so they never replace the charts of a complete run (drawn beside,
-    renamed)."""
+    renamed).  ``workers``: :class:`harness.chartworkers.ChartWorkers` drawing the figures side by side."""
     import os
     import tempfile
 
     from harness.charts import plot_result
 
     if df.attrs.get("complete", True):
-        return [p for p in plot_result(system, df, folder, svg) if p.suffix == ".png"]
+        return [p for p in plot_result(system, df, folder, svg, workers) if p.suffix == ".png"]
     with tempfile.TemporaryDirectory(dir=folder, prefix=".partial-chart-") as tmp:
         paths = []
-        for drawn in plot_result(system, df, tmp, svg):
+        for drawn in plot_result(system, df, tmp, svg, workers):
             paths.append(Path(folder) / f"{drawn.stem}.partial{drawn.suffix}")
             os.replace(drawn, paths[-1])
     return [p for p in paths if p.suffix == ".png"]
@@ -154,6 +154,25 @@ def _divergence_hint(a: dict) -> str:
 def run_cli(args) -> int:
     system = load(args.system)  # a wrong name first: no folder is made for it
     _check_targets(args)
+    workers = _chart_workers(args)
+    try:
+        return _run(system, args, workers)
+    finally:
+        if workers is not None:
+            workers.close()
+
+
+def _chart_workers(args):
+    """The processes that draw the charts while this process steps (:func:`harness.chartworkers.for_run`);
+    None without ``--plot``."""
+    if args.plot is None:
+        return None
+    from harness import chartworkers
+
+    return chartworkers.for_run()
+
+
+def _run(system, args, workers) -> int:
     status = 0
     try:
         with warnings.catch_warnings():
@@ -194,7 +213,7 @@ def run_cli(args) -> int:
             import dataclasses
 
             system = dataclasses.replace(system, name=f"{system.name}_{a['scenario']}")
-        charts = _plot(system, df, args.plot, getattr(args, "svg", False))
+        charts = _plot(system, df, args.plot, getattr(args, "svg", False), workers)
         where += "; chart " + ", ".join(str(p) for p in charts)
         from harness.charts import cycle_chart_missing
 

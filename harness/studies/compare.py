@@ -146,7 +146,8 @@ class Comparison:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from harness.charts import _values, last_revolution, save_figure
+        from harness.chartdraw import save_figure, values as _values
+        from harness.charts import last_revolution
 
         spec = getattr(self.system, "chart", None)
         if spec is None or spec.crank_angle is None:
