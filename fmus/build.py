@@ -11,8 +11,10 @@ model's derivatives).
 Each FMU is built from its declaration ``fmus/components/pd_<name>.py`` plus the runtime part of the
 ``fmus`` package (the base slave, units and the pure equations in ``fmus/physics``), the FMU's module written
 from the declaration's class name (:func:`fmu_module`: the declaration's source is copied, never edited), bundled under
-names unique to the FMU's code (``pd_<name>_<hash>``, ``fmus_<hash>``: :func:`stage_isolated`), so FMUs
-of any toolkit version load, unload and reload side by side in one process.  On Linux the host loader
+build-unique names (:func:`stage_isolated`): the runtime as the package ``fmus_<runtime hash>``, one name for every
+FMU of a build, so a process imports it once for all of them; the declaration in it and the FMU's module as
+``pd_<name>_<hash>``, the hash over the declaration and the runtime.  So FMUs of any toolkit version load, unload
+and reload side by side in one process.  On Linux the host loader
 (``fmus/loader/pressdrive_loader.c``, for FMI 3.0 ``pressdrive_loader3.c``, compiled here) goes in front of
 pythonfmu's (pythonfmu3's) wrapper, so the FMU also loads in hosts that do not run Python (:func:`add_loader`).
 The modelDescription is written completely by the base slave (units, ModelStructure with dependencies,
