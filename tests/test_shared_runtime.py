@@ -105,3 +105,41 @@ def test_a_second_fmu_finds_its_declaration_after_the_first_ones_folder_is_gone(
     """)
     # the second FourBar is the first one's code: its declaration module is the one imported from "a" already
     assert out.split() == ["RackBed", "b", "FourBar", "a", "1"]
+
+
+def test_two_builds_of_different_runtimes_run_side_by_side(fmu_dir, tmp_path, monkeypatch):
+    """A Gain built from a runtime whose physics doubles the output names another package than this build's:
+    both FMUs in one system (in process and through FMI), each with its own runtime."""
+    import shutil
+
+    copy = tmp_path / "root"
+    shutil.copytree(build.ROOT / "fmus", copy / "fmus", ignore=shutil.ignore_patterns("__pycache__", "docs"))
+    physics = copy / "fmus" / "physics" / "testing.py"
+    text = physics.read_text(encoding="utf-8")
+    old = "return (min(p.limit, max(-p.limit, y)), float(x[0]))"
+    assert text.count(old) == 1
+    physics.write_text(text.replace(old, "return (2.0 * min(p.limit, max(-p.limit, y)), float(x[0]))"),
+                       encoding="utf-8")
+    monkeypatch.setattr(build, "ROOT", copy)
+    out = tmp_path / "out"
+    out.mkdir()
+    other = build.build_one(copy / "fmus" / "components" / "pd_gain.py", out)
+    doubling = build.runtime_hash()
+    monkeypatch.undo()
+    assert doubling != build.runtime_hash()
+    ours = fmu_dir / "Gain.fmu"
+    result = _run_script(f"""
+        import sys
+        from harness import simulate
+        from harness.model import Connection, Experiment, Instance, System
+        from harness.run import RunOptions
+        system = System("runtimes", instances=[Instance("v1", {str(ours)!r}, {{"k": 3.0, "offset": 1.0}}),
+                                               Instance("v2", {str(other)!r}, {{"k": 3.0, "offset": 1.0}})],
+                        connections=[Connection("v1.y", "v2.u")], experiment=Experiment(stop_time=0.003, step=1e-3))
+        for in_process in (False, True):
+            df = simulate(system, master="jacobi", on_error="raise", options=RunOptions(in_process=in_process))
+            print(df["v1.y"].iloc[-1], df["v2.y"].iloc[-1])
+        print(len([m for m in sys.modules if m.startswith("fmus_") and "." not in m]))
+    """)
+    # v1.y = 3*0 + 1 = 1 feeds v2.u; v2.y = 2*(3*1 + 1) = 8 with the doubling runtime
+    assert result.split() == ["1.0", "8.0", "1.0", "8.0", "2"]
