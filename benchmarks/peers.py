@@ -21,8 +21,9 @@ Tools, and what was found about them (libcosimpy 0.0.6 / libcosim 0.11, ecospy 0
   in a separate process, should that ever be needed.
 * **Loading.**  libcosim unzips every FMU into its own temporary folder, and Ecos likewise; both
   ``dlclose`` the FMU library and DELETE the folder when the run ends.  The toolkit's FMUs survive that:
-  each carries its code under a package name of its own (``fmus_<hash>``) and imports all of it when
-  instantiated, so nothing is imported later from a deleted folder (``tests/test_hosts.py`` runs whole SSPs
+  each carries its code under its build's package name (``fmus_<hash>``, one import for the FMUs of one build;
+  its declaration found in its own folder) and imports all of it when instantiated, so nothing is imported
+  later from a deleted folder (``tests/test_hosts.py`` runs whole SSPs
   one after the other in one process under both tools).  Our fmpy loop never unloads a library
   (``fmi2FreeInstance`` only; fmpy's ``freeInstance()`` would unload it) and never frees an instance
   after an error: pythonfmu reports any Python exception as fmi2Fatal, after which FMI allows no call, and

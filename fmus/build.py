@@ -11,8 +11,10 @@ model's derivatives).
 Each FMU is built from its declaration ``fmus/components/pd_<name>.py`` plus the runtime part of the
 ``fmus`` package (the base slave, units and the pure equations in ``fmus/physics``), the FMU's module written
 from the declaration's class name (:func:`fmu_module`: the declaration's source is copied, never edited), bundled under
-names unique to the FMU's code (``pd_<name>_<hash>``, ``fmus_<hash>``: :func:`stage_isolated`), so FMUs
-of any toolkit version load, unload and reload side by side in one process.  On Linux the host loader
+build-unique names (:func:`stage_isolated`): the runtime as the package ``fmus_<runtime hash>``, one name for every
+FMU of a build, so a process imports it once for all of them; the declaration in it and the FMU's module as
+``pd_<name>_<hash>``, the hash over the declaration and the runtime.  So FMUs of any toolkit version load, unload
+and reload side by side in one process.  On Linux the host loader
 (``fmus/loader/pressdrive_loader.c``, for FMI 3.0 ``pressdrive_loader3.c``, compiled here) goes in front of
 pythonfmu's (pythonfmu3's) wrapper, so the FMU also loads in hosts that do not run Python (:func:`add_loader`).
 The modelDescription is written completely by the base slave (units, ModelStructure with dependencies,
@@ -123,57 +125,85 @@ def runtime_files(fmi_version: int | None = None, model_exchange: bool = False) 
     return files
 
 
-def code_hash(script: Path, fmi_version: int = 2, model_exchange: bool = False) -> str:
-    """Digest of everything an FMU's Python code consists of: its declaration and the runtime sources."""
-    h = hashlib.sha1(script.read_bytes())
-    if model_exchange:
-        h.update(b"model exchange")
+def runtime_hash(fmi_version: int = 2, model_exchange: bool = False) -> str:
+    """Digest of the runtime sources an FMU of this FMI version (and interface) packs, the name of its runtime
+    package ``fmus_<hash>``: the same for every FMU of one build, different for any other runtime."""
+    h = hashlib.sha1(b"model exchange" if model_exchange else b"")
     for f in runtime_files(fmi_version, model_exchange):
         h.update(str(f.relative_to(ROOT)).encode())
         h.update(f.read_bytes())
     return h.hexdigest()[:12]
 
 
-def stage_isolated(script: Path, dest: Path, fmi_version: int = 2, model_exchange: bool = False) -> tuple[Path, Path]:
-    """The FMU's code under names unique to this build: the package ``fmus_<hash>`` (the runtime and the
-    declaration, ``components/pd_<name>.py``) and the FMU's module ``<script>_<hash>`` (:func:`fmu_module`).
+def code_hash(script: Path, fmi_version: int = 2, model_exchange: bool = False) -> str:
+    """Digest of everything an FMU's Python code consists of: its declaration and the runtime sources."""
+    h = hashlib.sha1(script.read_bytes())
+    h.update(runtime_hash(fmi_version, model_exchange).encode())
+    return h.hexdigest()[:12]
 
-    Every FMU bundles the runtime package; under one shared name a host process would keep the first copy
-    it imported (from a folder the host may have deleted since) for every later FMU, and two toolkit versions
-    would silently share it.  The package, the declaration included, imports itself relatively; only the FMU's
-    module names it.  That module ends by importing every module of the package, so nothing is imported lazily
-    later (a function's own ``from .x import y`` then finds ``x`` in ``sys.modules`` even after the host deleted
-    the folder it came from)."""
+
+def stage_isolated(script: Path, dest: Path, fmi_version: int = 2, model_exchange: bool = False) -> tuple[Path, Path]:
+    """The FMU's code under names unique to its build: the runtime package ``fmus_<runtime hash>``
+    (:func:`runtime_hash`), the declaration in it as ``components/<script>_<hash>.py`` and the FMU's module
+    ``<script>_<hash>`` (:func:`fmu_module`), ``<hash>`` over the declaration and the runtime (:func:`code_hash`).
+
+    Every FMU bundles the runtime package, under a name that only its runtime sources decide: the FMUs of one
+    build name the same package, so a host process imports it once for all of them (the first FMU's copy), while
+    FMUs of another toolkit version name another package and never share it.  The declaration's name is unique
+    to the declaration and the runtime, so two builds of one runtime with different declarations are two modules.
+    When the package is already imported, from another FMU's folder (which the host may have deleted since), the
+    FMU's module puts its own ``components`` folder first on the package's ``components.__path__`` before it
+    imports its declaration, so the declaration always comes from the FMU's own folder.  The package, the
+    declaration included, imports itself relatively; only the FMU's module names it.  That module ends by
+    importing every module of the package, so nothing is imported lazily later (a function's own
+    ``from .x import y`` then finds ``x`` in ``sys.modules`` even after the host deleted the folder it came
+    from).  The shared modules hold no state that depends on which FMU imported them: caches are keyed by value
+    or by class (the runtime's ``lru_cache`` functions), per instance (``last_call``) or by thread (the loader bridge)."""
     digest = code_hash(script, fmi_version, model_exchange)
-    package = f"fmus_{digest}"
+    package = f"fmus_{runtime_hash(fmi_version, model_exchange)}"
+    module = f"{script.stem}_{digest}"
     pkg = stage_runtime(dest, package, fmi_version, model_exchange)
-    shutil.copy2(script, pkg / "components" / script.name)
+    shutil.copy2(script, pkg / "components" / f"{module}.py")
     names = declared_classes(script)
     if len(names) != 1:
         raise RuntimeError(f"{script.name}: expected one class deriving from {DECLARATION_BASE}, found {len(names)}")
-    text = fmu_module(package, script.stem, names[0], fmi_version, model_exchange)
+    text = fmu_module(package, module, names[0], fmi_version, model_exchange, source=script.name)
     modules = sorted(".".join(f.relative_to(dest).with_suffix("").parts).removesuffix(".__init__")
                      for f in pkg.rglob("*.py"))
     text += ("\n\n# every module of the bundled package, imported now (fmus/build.py: stage_isolated)\n"
              + "".join(f"import {m}  # noqa: E402,F401\n" for m in modules))
-    staged = dest / f"{script.stem}_{digest}.py"
+    staged = dest / f"{module}.py"
     staged.write_text(text, encoding="utf-8")
     return staged, pkg
 
 
-def fmu_module(package: str, module: str, name: str, fmi_version: int = 2, model_exchange: bool = False) -> str:
+def fmu_module(package: str, module: str, name: str, fmi_version: int = 2, model_exchange: bool = False,
+               source: str | None = None) -> str:
     """The source of an FMU's module: the FMU class ``name`` as the declaration ``<package>.components.<module>``
     on the base slave of the variant (:mod:`fmus.slave`, :mod:`fmus.slave3` or :mod:`fmus.slave3_me`), the class
-    each of those modules' ``fmu_class`` makes in process.  An FMI 3.0 class statement also names pythonfmu3's
-    ``Fmi3Slave``, already a base of the FMI 3.0 slave: pythonfmu3's builder finds the FMU class by that word."""
+    each of those modules' ``fmu_class`` makes in process.  The module first puts its own folder's
+    ``<package>/components`` on the package's ``components.__path__`` (in front): the package may have been
+    imported from another FMU's folder (:func:`stage_isolated`).  An FMI 3.0 class statement also names pythonfmu3's
+    ``Fmi3Slave``, already a base of the FMI 3.0 slave: pythonfmu3's builder finds the FMU class by that word.
+    ``source``: the declaration's file name, for the docstring (default ``<module>.py``)."""
     base = "slave3_me" if model_exchange else Path(SLAVE_MODULE[fmi_version]).stem
     variant = ("FMI 3.0 model exchange" if model_exchange else f"FMI {fmi_version}.0 co-simulation")
-    lines = [f'"""{name} (fmus/components/{module}.py) as an {variant} FMU; written by fmus/build.py."""',
-             f"from {package}.components.{module} import {name} as _Declaration",
-             f"from {package}.{base} import PressSlave"]
+    source = source or f"{module}.py"
+    lines = [f'"""{name} (fmus/components/{source}) as an {variant} FMU; written by fmus/build.py."""',
+             "import os as _os",
+             "",
+             f"import {package}.components as _components",
+             "",
+             "# the runtime package may come from another FMU of this build (fmus/build.py: stage_isolated): this",
+             "# FMU's declaration is in its own folder",
+             f"_own = _os.path.join(_os.path.dirname(_os.path.abspath(__file__)), {package!r}, 'components')",
+             "if _own not in _components.__path__:",
+             "    _components.__path__.insert(0, _own)",
+             f"from {package}.components.{module} import {name} as _Declaration  # noqa: E402",
+             f"from {package}.{base} import PressSlave  # noqa: E402"]
     bases = "_Declaration, PressSlave"
     if fmi_version == 3:
-        lines.append("from pythonfmu3 import Fmi3Slave")
+        lines.append("from pythonfmu3 import Fmi3Slave  # noqa: E402")
         bases += ", Fmi3Slave"
     lines += ["", "", f"class {name}({bases}):", f'    """{name}: the declaration on the {variant} base slave."""']
     return "\n".join(lines) + "\n"

@@ -376,12 +376,12 @@ def model_name(fmu: str | Path) -> str:
 
 def _sources_newer_than(fmu: Path, script: Path) -> bool:
     """Whether a source the FMU packs changed after it was built: its declaration, every part of the fmus
-    package an FMU carries (``fmus.build.RUNTIME``: the slaves of both FMI versions, units, physics) and the
-    host loader."""
+    package an FMU carries (``fmus.build.RUNTIME``: the slaves of both FMI versions, units, physics), the
+    host loader and the build, which writes the FMU's module and names its bundled code."""
     from fmus.build import runtime_files
 
     t = fmu.stat().st_mtime
-    sources = [script, *(ROOT / "fmus" / "loader").glob("*.c"), *runtime_files()]
+    sources = [script, ROOT / "fmus" / "build.py", *(ROOT / "fmus" / "loader").glob("*.c"), *runtime_files()]
     return any(s.stat().st_mtime > t for s in sources if s.exists())
 
 

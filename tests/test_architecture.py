@@ -166,7 +166,7 @@ def test_checker_finds_a_circle_and_relative_imports(tmp_path):
 
 
 def test_the_runtime_package_bundled_into_fmus_imports_itself_only_relatively():
-    """Every FMU bundles fmus/{__init__,slave,units}.py and fmus/physics under a name of its own (fmus_<hash>,
+    """Every FMU bundles fmus/{__init__,slave,units}.py and fmus/physics under its build's name (fmus_<hash>,
     fmus/build.py): an absolute ``fmus.`` import there would load the developer's package (or nothing, in a
     host without it) instead of the FMU's own copy."""
     from fmus.build import RUNTIME

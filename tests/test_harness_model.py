@@ -187,7 +187,7 @@ def test_cli_failure_is_one_line_without_traceback(fmu_dir, tmp_path):
     assert r.stderr.strip().splitlines()[-1].startswith("error: master = 'bogus'")
 
 
-@pytest.mark.parametrize("part", ["slave_core.py", "slave.py", "units.py", "physics/contact.py"])
+@pytest.mark.parametrize("part", ["slave_core.py", "slave.py", "units.py", "physics/contact.py", "build.py"])
 def test_an_fmu_is_stale_when_any_part_it_packs_changed(tmp_path, part):
     """A change to the shared slave core (split out for FMI 3.0) left build/fmus stale and old code ran
     silently: every part of fmus.build.RUNTIME counts, as the declaration does."""

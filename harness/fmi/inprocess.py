@@ -102,8 +102,9 @@ def _import_script(unzip_dir: Path) -> ModuleType:
 def _import_script_from(unzip_dir: Path) -> ModuleType:
     """:func:`_import_script`'s import.  It runs with Python's bytecode cache on even where the process
     turns it off (``PYTHONDONTWRITEBYTECODE``): the extracted folder is the toolkit's own cache
-    (:func:`harness.fmi.cache.unzipped`), so each FMU's code is compiled once, not on every run (each FMU
-    carries its own copy of the physics; docs/performance.md measures what this saves)."""
+    (:func:`harness.fmi.cache.unzipped`), so each FMU's code is compiled once, not on every run (the FMUs of a
+    build share their runtime package, imported from the first one's folder; docs/performance.md measures what
+    this saves)."""
     resources = unzip_dir / "resources"
     script = (resources / "slavemodule.txt").read_text().strip().splitlines()[0].strip()
     file = resources / f"{script}.py"
