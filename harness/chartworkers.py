@@ -163,8 +163,7 @@ def for_run() -> ChartWorkers | None:
     """The run command's chart workers, one per figure: those :func:`start_early` started, completed (handed
     over once), else new ones; None with one CPU available (the figures are then drawn in the command's
     process, one after the other, as the workers could only take turns with it)."""
-    global _early
-    found, _early = _early, None
+    found = take()
     if found is None and available_cpus() < 2:
         return None
     return (found or ChartWorkers(0)).grow(FIGURES)
