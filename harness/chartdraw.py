@@ -47,7 +47,9 @@ def save_figure(fig, stem: str | Path, dpi: float | None = None, svg: bool = Tru
     """Write ``fig`` as ``<stem>.png`` and ``<stem>.svg`` (a ``.png``/``.svg`` suffix of ``stem`` is dropped
     first; the folder is made), close it and return the paths.  ``dpi``: of the PNG (None: matplotlib's
     default); the SVG is vector.  ``svg=False``: the PNG only (each format is a full drawing of the figure).
-    The one figure saver of the toolkit (charts, studies, benchmarks)."""
+    The one figure saver of the toolkit (charts, studies, benchmarks).  Each file is written beside its place
+    and moved there whole, so an interrupted drawing never leaves a torn chart under the chart's name."""
+    import os
     import sys
 
     stem = Path(stem)
@@ -56,7 +58,13 @@ def save_figure(fig, stem: str | Path, dpi: float | None = None, svg: bool = Tru
     stem.parent.mkdir(parents=True, exist_ok=True)
     paths = [stem.with_name(stem.name + ext) for ext in ((".png", ".svg") if svg else (".png",))]
     for p in paths:
-        fig.savefig(p, dpi=dpi if dpi is not None else "figure")
+        part = p.with_name(f".{p.name}.part")
+        try:
+            fig.savefig(part, format=p.suffix[1:], dpi=dpi if dpi is not None else "figure")
+            os.replace(part, p)
+        except BaseException:
+            part.unlink(missing_ok=True)
+            raise
     if "matplotlib.pyplot" in sys.modules:      # a figure pyplot made (studies): pyplot lets it go
         sys.modules["matplotlib.pyplot"].close(fig)
     return paths

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -99,3 +100,17 @@ def test_the_run_command_ends_its_workers(fmu_dir, tmp_path, monkeypatch, capsys
     assert main(["run", "no_such_drive", "--plot", str(tmp_path)]) == 1
     assert started and not [pid for pid in started if _alive(pid)]
     assert "no_such_drive" in capsys.readouterr().err
+
+
+def test_an_interrupted_drawing_leaves_no_torn_chart(tmp_path, monkeypatch):
+    from matplotlib.figure import Figure as MplFigure
+
+    def torn(self, fname, **kw):               # half a file written, then Ctrl-C
+        Path(fname).write_bytes(b"\x89PNG\r\n")
+        raise KeyboardInterrupt
+
+    fig = MplFigure()
+    monkeypatch.setattr(MplFigure, "savefig", torn)
+    with pytest.raises(KeyboardInterrupt):
+        chartdraw.save_figure(fig, tmp_path / "chart", svg=False)
+    assert list(tmp_path.iterdir()) == []
