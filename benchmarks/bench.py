@@ -20,7 +20,7 @@ from benchmarks import cofmupy
 from benchmarks.cases import CASES, check_columns, ssp_folder
 from benchmarks.launch import run_config
 from benchmarks.runners import CONVENTIONS, HARNESS_TOOLS, SAME_ALGORITHM, TOOLS
-from harness.charts import save_figure
+from harness.reporting.charts import save_figure
 
 ROOT = Path(__file__).resolve().parents[1]
 MODES = ("pinned", "unpinned")

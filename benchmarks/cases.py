@@ -115,7 +115,7 @@ CASES = {
 
 def check_columns(system: System) -> list[str]:
     """'Instance.output' of every Real output without direct feed-through."""
-    from harness import graph
+    from harness.master import graph
     from harness.model import model_description, resolve_fmu
 
     cols = []

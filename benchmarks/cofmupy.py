@@ -200,7 +200,7 @@ def _check_connections(connections, variables: dict) -> None:
 def _check_one_group(names: list[str], connections) -> None:
     """CoFmuPy steps strongly connected groups in topological order, Gauss-Seidel BETWEEN them: it is the
     jacobi-sampled algorithm only if no connection runs from one group to another."""
-    from harness import graph
+    from harness.master import graph
 
     g = graph.Digraph(names, ((_split_ref(c.source)[0], _split_ref(c.target)[0]) for c in connections))
     group = {n: k for k, comp in enumerate(graph.strongly_connected_components(g)) for n in comp}

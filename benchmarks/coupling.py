@@ -214,7 +214,7 @@ def work_precision_chart(name: str, table, verdicts, stem: Path) -> list[Path]:
     import matplotlib.pyplot as plt
 
     from harness import load
-    from harness.charts import save_figure
+    from harness.reporting.charts import save_figure
 
     reqs = load(name).accuracy.requirements
     series = []   # (label, marker, [(time, worst, step)])

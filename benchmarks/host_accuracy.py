@@ -77,7 +77,7 @@ def unavailable(host: str) -> str | None:
                     "it with ../shared/tools/omsimulator/install where that folder exists")
         return None
     if host.startswith("harness:"):
-        from harness.masters import MASTERS
+        from harness.master import MASTERS
 
         return None if host.split(":", 1)[1] in MASTERS else f"{host}: no such master"
     return f"{host}: unknown host (one of {', '.join(HOSTS)})"
@@ -270,7 +270,7 @@ def columns_of(system) -> list[str]:
     its ``where``)."""
     from harness.studies.accuracy import accuracy_spec
 
-    from harness import qoi
+    from harness.reporting import qoi
 
     found: list[str] = []
     for req in accuracy_spec(system).requirements:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.clock import NS
+from harness.master.clock import NS
 
 TOOLS = ("jacobi", "jacobi-sampled", "jacobi-sampled-fmi", "gauss-seidel", "iterative", "libcosim", "ecos",
          "cofmupy", "fmpy", "ctypes")
@@ -111,9 +111,9 @@ def _initialised_master(folder: Path, step: float, n: int):
     """The harness's jacobi-sampled master, built and initialised exactly as ``simulate`` does (so the floors
     start from the same consistent point); the floors then step it with their own loops."""
     from harness import load
-    from harness.extrapolation import Polynomial
+    from harness.master.extrapolation import Polynomial
     from harness.fmi.fmu import FMU
-    from harness.masters import JacobiSampled
+    from harness.master import JacobiSampled
     from harness.model import model_description, resolve_fmu
     from harness.run import split_parameters
 

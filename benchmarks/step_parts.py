@@ -170,11 +170,11 @@ def measure(spec: dict) -> dict:
 PARTS = (
     ("divergence watch", ("divergence.py", None)),
     ("recording", ("results.py", None), ("observers.py", "on_step")),
-    ("held inputs (extrapolation)", ("masters.py", "_hold"), ("extrapolation.py", None)),
-    ("outputs read, history (exchange)", ("masters.py", "_read"), ("masters.py", "_exchange"),
+    ("held inputs (extrapolation)", ("loop.py", "_hold"), ("extrapolation.py", None)),
+    ("outputs read, history (exchange)", ("loop.py", "_read"), ("loop.py", "_exchange"),
      ("extrapolation.py", "push")),
-    ("bonds' power and energy", ("masters.py", "_bond_step")),
-    ("finite and range check", ("masters.py", "_check")),
+    ("bonds' power and energy", ("loop.py", "_bond_step")),
+    ("finite and range check", ("loop.py", "_check")),
     ("calls into the FMUs (in-process layer, stand-ins)", ("inprocess.py", None), ("step_parts.py", None)),
 )
 
@@ -193,7 +193,7 @@ def _profile(folder, case, columns, variant, top: int = 10) -> dict:
     import cProfile
     import pstats
 
-    from harness.masters import Master
+    from harness.master import Master
 
     profiler = cProfile.Profile(time.process_time)
     run = Master.run

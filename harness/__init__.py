@@ -3,10 +3,11 @@
     from harness import load, simulate
     df = simulate(load("two_inertia"), stop_time=1.0, step=1e-3, master="gauss-seidel", extrapolation=1)
 
-Modules: :mod:`harness.model` (the system as data), :mod:`harness.fmi.fmu` (checked FMU wrapper),
-:mod:`harness.graph` (dependency graphs, loops), :mod:`harness.masters` (jacobi, gauss-seidel, iterative),
-:mod:`harness.extrapolation`, :mod:`harness.stepcontrol` (richardson, ecco), :mod:`harness.results`,
-:mod:`harness.run` (``simulate`` and the ``run`` CLI command).  Heavy imports happen on first use.
+The packages, by concern (ARCHITECTURE.md): :mod:`harness.fmi` (checked FMU wrappers of every kind),
+:mod:`harness.model` (the system as data), :mod:`harness.master` (the masters: one stepping loop, the methods
+by name, their parts), :mod:`harness.run` (``load``, ``simulate`` and the ``run`` command), :mod:`harness.ssp`,
+:mod:`harness.reporting` (engineering quantities, charts, the HTML report), :mod:`harness.export` (a drive as one
+FMU), :mod:`harness.studies`, :mod:`harness.synthesis`.  Heavy imports happen on first use.
 """
 from __future__ import annotations
 
@@ -15,13 +16,13 @@ __all__ = ["load", "simulate", "simulate_scenario", "RunOptions", "bond_energy",
 
 
 def report(result, path, system=None):
-    """Write one self-contained HTML page of ``result`` at ``path`` (:mod:`harness.htmlreport`) and return its
+    """Write one self-contained HTML page of ``result`` at ``path`` (:mod:`harness.reporting.htmlreport`) and return its
     path: a run's result (the DataFrame of :func:`simulate`; ``system``: the drive, default: the one the run
     names), or a study's result that writes its own page (:func:`harness.studies.compare.compare`'s comparison,
     :func:`harness.studies.size.size`'s sizing; a sweep's table: :func:`harness.studies.sweep.report`)."""
     import pandas as pd
 
-    from harness.htmlreport import check_report_path, write_run_report
+    from harness.reporting.htmlreport import check_report_path, write_run_report
 
     check_report_path(path)
     if hasattr(result, "report") and not isinstance(result, pd.DataFrame):
@@ -36,8 +37,8 @@ def report(result, path, system=None):
 
 def export_fmu(system, out, outputs=None, fmi_version: int = 2):
     """Write ``system`` (a name in systems/, a .py or .ssp file, or a System) as one co-simulation FMU of the
-    whole drive at ``out`` (:func:`harness.drive_fmu.export_fmu`) and return its path."""
-    from harness.drive_fmu import export_fmu as export
+    whole drive at ``out`` (:func:`harness.export.drive_fmu.export_fmu`) and return its path."""
+    from harness.export.drive_fmu import export_fmu as export
     from harness.run import load
 
     return export(load(system), out, outputs=outputs, fmi_version=fmi_version)
@@ -53,7 +54,7 @@ def __getattr__(name):
 
         return getattr(results, name)
     if name == "MASTERS":
-        from harness.masters import MASTERS
+        from harness.master import MASTERS
 
         return MASTERS
     raise AttributeError(f"module 'harness' has no attribute {name!r}")

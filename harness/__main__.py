@@ -200,18 +200,7 @@ def _main(argv: list[str], debug: bool) -> int:
         # warnings (e.g. an unconnected input of a shipped drive) as one line each, without source lines
         warnings.showwarning = lambda message, category, *a, **k: print(
             f"warning: {str(message).splitlines()[0] if str(message) else category.__name__}", file=sys.stderr)
-    charts = _command(argv) == "run" and any(a == "--plot" or a.startswith("--plot=") for a in argv)
-    if charts:   # the run's chart workers import Matplotlib on another CPU while this process imports and steps
-        from harness import chartworkers
-
-        chartworkers.start_early()
-    try:
-        return _parse_and_run(argv, debug)
-    finally:
-        if charts:   # workers the command did not take (it stopped before its run): ended
-            left = chartworkers.take()
-            if left is not None:
-                left.close()
+    return _parse_and_run(argv, debug)
 
 
 def _parse_and_run(argv: list[str], debug: bool) -> int:

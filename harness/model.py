@@ -133,8 +133,8 @@ class System:
     precision: PrecisionSpec | None = None    # the work-precision study's quantity and grid (harness.specs)
     stability: StabilitySpec | None = None    # the stability map's coupling parameter (harness.specs)
     accuracy: AccuracySpec | None = None      # the accuracy it must meet, in engineering terms (harness.specs)
-    chart: ChartSpec | None = None    # the run chart's signals, shaded zones and crank angle (harness.charts)
-    quantities: QuantitySpec | None = None   # the engineering quantities printed after a run (harness.quantities)
+    chart: ChartSpec | None = None    # the run chart's signals, shaded zones and crank angle (harness.reporting.charts)
+    quantities: QuantitySpec | None = None   # the engineering quantities printed after a run (harness.reporting.quantities)
     # inputs left unconnected on purpose, "Instance.input" -> why its start value is right; any other
     # unconnected input is warned about (validate), so a forgotten connection is never silent
     free_inputs: dict[str, str] = field(default_factory=dict)

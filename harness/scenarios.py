@@ -270,9 +270,9 @@ def prepare(system, scenario, options: dict) -> tuple[Scenario, dict]:
 
 # -- the transient's quantities ----------------------------------------------------------------------------------
 def transient(system, scenario: Scenario, df: pd.DataFrame):
-    """The quantities of the transient (:class:`harness.quantities.Quantities`, rows over the scenario's kind):
+    """The quantities of the transient (:class:`harness.reporting.quantities.Quantities`, rows over the scenario's kind):
     see the module docstring; a quantity the run does not reach is None with a note saying why."""
-    from harness.quantities import Row, detect_cycles
+    from harness.reporting.quantities import Row, detect_cycles
 
     spec = system.quantities
     over = scenario.kind
@@ -383,8 +383,8 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
 
 
 def _transient_table(title: str, *args):
-    """A :class:`harness.quantities.Quantities` of a transient: its rows under the scenario's own heading."""
-    from harness.quantities import Quantities
+    """A :class:`harness.reporting.quantities.Quantities` of a transient: its rows under the scenario's own heading."""
+    from harness.reporting.quantities import Quantities
 
     table = Quantities(*args)
     table.heading = lambda: title

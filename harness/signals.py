@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.clock import NS
+from harness.master.clock import NS
 from harness.errors import SystemDescriptionError
 
 __all__ = ["Signals", "read_table", "full_name"]

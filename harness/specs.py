@@ -8,10 +8,10 @@
   (:mod:`harness.studies.stability`);
 * :class:`ChartSpec`: what the run chart shows -- the signals with their meaning, the parts of the machine
   cycle to shade (:class:`Zone`) and the main shaft's angle for the chart over one cycle
-  (:mod:`harness.charts`);
+  (:mod:`harness.reporting.charts`);
 * :class:`QuantitySpec`: the engineering quantities of the drive over its steady machine cycles -- its main
   shaft, its motor, the loads of its parts (:class:`Load`) and its own questions (:class:`Answer`)
-  (:mod:`harness.quantities`).
+  (:mod:`harness.reporting.quantities`).
 
 They are fields of :class:`harness.model.System` (``scenes``, ``precision``, ``stability``, ``chart``,
 ``quantities``), so adding a drive touches one file.
@@ -27,7 +27,7 @@ from typing import Callable
 class Scene:
     name: str
     question: str
-    quantity: str                 # harness.qoi expression
+    quantity: str                 # harness.reporting.qoi expression
     tolerance: float              # admissible |error| of the quantity (absolute, in its own unit) ...
     relative: bool = True         # ... or relative to the full model's value when True
     stop_time: float | None = None
@@ -87,7 +87,7 @@ class Panel:
 @dataclass(frozen=True)
 class Zone:
     """A part of the machine cycle shaded on the charts (the printing zone, a dwell): the samples where
-    ``where`` holds, a :mod:`harness.qoi` expression with one truth value per sample, e.g.
+    ``where`` holds, a :mod:`harness.reporting.qoi` expression with one truth value per sample, e.g.
     ``between(r["bed.bed.s"], 0.08, 0.24) & (r["bed.bed.v"] > 0)``.  Declared from the system's own
     numbers, so the shading moves with them."""
     label: str
@@ -115,7 +115,7 @@ class Requirement:
     """One accuracy a press engineer states for a drive, checked against the monolithic reference
     (:mod:`harness.studies.accuracy`).
 
-    ``quantity``: a :mod:`harness.qoi` expression.  One value per sample (``r["bed.bed.s"]``): compared sample by
+    ``quantity``: a :mod:`harness.reporting.qoi` expression.  One value per sample (``r["bed.bed.s"]``): compared sample by
     sample at the run's communication points (the reference interpolated there), only where ``where`` (a
     per-sample qoi expression, evaluated on the reference) holds; error = max |run - reference|.  Any other
     value (a scalar such as ``peak(...)``, or a list of event instants): compared as it is, element by
@@ -150,7 +150,7 @@ class Load:
     """A load one part of the drive carries (a joint, contact, mesh, rack or shaft): ``column`` is its result
     column, ``what`` says what it is in the press's words.  Reported as ``<name>_peak`` (max |x|, static
     sizing) and ``<name>_range`` (max - min, fatigue) over the steady cycles and ``<name>_startup_peak`` over
-    the start-up (:mod:`harness.quantities`)."""
+    the start-up (:mod:`harness.reporting.quantities`)."""
     name: str
     column: str
     what: str
@@ -158,10 +158,10 @@ class Load:
 
 @dataclass(frozen=True)
 class Answer:
-    """A drive's own question, answered over its steady cycles (:mod:`harness.quantities`).  ``kind``:
+    """A drive's own question, answered over its steady cycles (:mod:`harness.reporting.quantities`).  ``kind``:
 
     * ``peak`` (max |x|), ``max``, ``min``, ``mean`` (time mean), ``rms``, ``range`` (max - min) of
-      ``columns[0]`` over the steady samples where ``where`` holds (a :mod:`harness.qoi` expression with
+      ``columns[0]`` over the steady samples where ``where`` holds (a :mod:`harness.reporting.qoi` expression with
       one truth value per sample; None: all);
     * ``fluctuation``: per steady cycle (max - min) / (time mean) of the speed ``columns[0]`` where
       ``where`` holds (the spread of a speed through a zone), the largest over the cycles;
@@ -186,7 +186,7 @@ class Answer:
 
 @dataclass(frozen=True)
 class QuantitySpec:
-    """The engineering quantities of a drive, printed after every run (:mod:`harness.quantities`).
+    """The engineering quantities of a drive, printed after every run (:mod:`harness.reporting.quantities`).
 
     The machine cycle is ``cycle_angle`` [rad] of the main shaft's cumulative angle ``shaft_angle``, counted
     from ``cycle_origin`` [rad] (``cycle_name`` says what one cycle is: "revolution of the main shaft", "block

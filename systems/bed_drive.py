@@ -166,7 +166,7 @@ SYSTEM = System(
         # effort through the rigid differential and cam arrives a step late); the exported SSP declares it
         # (tests/test_host_accuracy.py)
         sampled_host_step=1e-4),
-    # The run chart (harness.charts): the seed's quantities over time and over one turn of the main shaft from
+    # The run chart (harness.reporting.charts): the seed's quantities over time and over one turn of the main shaft from
     # the start of the working stroke, the printing zone shaded where the bed is in it on the working stroke
     chart=ChartSpec(
         panels=(
@@ -185,7 +185,7 @@ SYSTEM = System(
         crank_angle="flywheel.crank.phi", cycle_origin=PHI_START, origin_name="start of the working stroke"),
 )
 
-# The engineering quantities printed after a run (harness.quantities): over the steady turns of the main shaft
+# The engineering quantities printed after a run (harness.reporting.quantities): over the steady turns of the main shaft
 # from the start of the working stroke; the speed fluctuation on the crank side of the main shaft (the four-bar
 # and the cam sit there), and on the flywheel and the motor for comparison (the belt and the shaft between them)
 SYSTEM.quantities = QuantitySpec(

@@ -100,7 +100,7 @@ SYSTEM = System(
 )
 
 
-# The run chart (harness.charts): the head's swing over one turn of the crank from the start of its forward
+# The run chart (harness.reporting.charts): the head's swing over one turn of the crank from the start of its forward
 # stroke, the dwell shaded where the crank is in it (the groove law centres it on the base four-bar's extended
 # dead centre: groove.kulisa_law), read from the feeder's own parameters
 _feeder = SYSTEM.instance("feeder").parameters
@@ -120,7 +120,7 @@ SYSTEM.chart = ChartSpec(
                 f'between((r["flywheel.crank.phi"] - {DWELL_START!r}) % {2 * math.pi!r}, 0.0, {_feeder["dwell"]!r})'),),
     crank_angle="flywheel.crank.phi", cycle_origin=_base["phi_start"], origin_name="start of the forward stroke")
 
-# The engineering quantities printed after a run (harness.quantities): over the steady turns of the crank from
+# The engineering quantities printed after a run (harness.reporting.quantities): over the steady turns of the crank from
 # the start of the head's forward stroke; the take-ups of the stone-pin clearance, as the seed asks
 SYSTEM.quantities = QuantitySpec(
     shaft_angle="flywheel.crank.phi", shaft_speed="flywheel.crank.w",

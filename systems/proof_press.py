@@ -91,7 +91,7 @@ SYSTEM = System(
         "it to the flywheel shaft; omega ~ sqrt(c_cyl / J_cyl)"),
 )
 
-# The engineering quantities printed after a run (harness.quantities): over the steady turns of the main shaft;
+# The engineering quantities printed after a run (harness.reporting.quantities): over the steady turns of the main shaft;
 # the seed's aim, the cylinder rolling on the bed without slip while printing
 SYSTEM.quantities = QuantitySpec(
     shaft_angle="flywheel.crank.phi", shaft_speed="flywheel.crank.w",
@@ -114,7 +114,7 @@ SYSTEM.quantities = QuantitySpec(
     ),
 )
 
-# The run chart (harness.charts): over one turn of the main shaft, the printing (synchronous) phase shaded
+# The run chart (harness.reporting.charts): over one turn of the main shaft, the printing (synchronous) phase shaded
 SYSTEM.chart = ChartSpec(
     panels=(
         Panel("Bed position s", ("press.bed.s",)),

@@ -118,7 +118,7 @@ SYSTEM = System(
         "the linkage; omega ~ sqrt(C_red (1/J_red + 1/(J_drive + J_flywheel))), the seed's eq. (11) mode"),
 )
 
-# The engineering quantities printed after a run (harness.quantities): over the steady turns of the knife's
+# The engineering quantities printed after a run (harness.reporting.quantities): over the steady turns of the knife's
 # crank (one plunge each) from crank angle 0; the seed's questions, the knife shaft's twist and the cutting torque
 SYSTEM.quantities = QuantitySpec(
     shaft_angle="shaft.crank.phi", shaft_speed="shaft.crank.w",
@@ -147,7 +147,7 @@ SYSTEM.quantities = QuantitySpec(
     ),
 )
 
-# The run chart (harness.charts): over one plunge (a turn of the crank from crank angle 0), the cut shaded
+# The run chart (harness.reporting.charts): over one plunge (a turn of the crank from crank angle 0), the cut shaded
 SYSTEM.chart = ChartSpec(
     panels=(
         Panel("Knife crank (rocker) speed", ("linkage.rocker.w",)),

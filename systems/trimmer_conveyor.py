@@ -83,7 +83,7 @@ SYSTEM = System(
                             steps=(2e-4, 4e-4, 8e-4, 1.6e-3), columns=("drive.crank.w", "drive.shaft_twist")),
 )
 
-# The engineering quantities printed after a run (harness.quantities): one machine cycle is one block pitch of
+# The engineering quantities printed after a run (harness.reporting.quantities): one machine cycle is one block pitch of
 # the conveyors (PITCH / R_PULLEY of the drive shaft's angle); the article's quantity, the trimming moment
 SYSTEM.quantities = QuantitySpec(
     shaft_angle="drive.crank.phi", shaft_speed="drive.crank.w",
@@ -103,7 +103,7 @@ SYSTEM.quantities = QuantitySpec(
     ),
 )
 
-# The run chart (harness.charts): over one block pitch in machine degrees (360 per pitch), shaded where a fourth
+# The run chart (harness.reporting.charts): over one block pitch in machine degrees (360 per pitch), shaded where a fourth
 # block's edge is in the cutting zone with the other three
 SYSTEM.chart = ChartSpec(
     panels=(

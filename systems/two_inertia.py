@@ -16,7 +16,7 @@ SYSTEM = System(
         Instance("b", "SpringInertia", {"J": 0.02, "c": 100.0, "d": 0.0}),  # J [kg.m2], c [N.m/rad], d [N.m.s/rad]
     ],
     bonds=[bond("a.flange", "b.drive")],
-    # The interface-Jacobian master (harness.jacobian): stable at any step here, second order where the step
+    # The interface-Jacobian master (harness.master.jacobian): stable at any step here, second order where the step
     # resolves the spring; Jacobi with zero-order hold, the textbook setup, grows at every step
     # (`--master jacobi --extrapolation 0`: stopped as diverged at 0.7 s)
     experiment=Experiment(stop_time=1.0, step=1e-3, master="jacobian", extrapolation=1),

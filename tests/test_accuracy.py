@@ -98,7 +98,8 @@ def test_bed_drive_search_names_the_cheapest_run_that_meets_every_requirement():
 def test_fmu_steps_count_every_do_step():
     """jacobi: one fmi2DoStep per FMU and step; jacobian: two per FMU and step, plus one per held input at each
     Jacobian estimate, plus the steps taken again."""
-    from harness import masters, simulate
+    from harness import simulate
+    from harness import master as masters
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

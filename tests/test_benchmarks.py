@@ -418,19 +418,3 @@ def test_scopes_quick_prints_both_scopes_for_every_tool(tmp_path):
     assert set(swept) == {"harness", *[p for p in scopes.SWEEP_PEERS if host_accuracy.unavailable(p) is None]}
     assert all(float(r["min_s"]) > 0 and r["mode"] == "pinned" for r in swept.values()), swept
     assert sum(f"SCOPE: {scopes.SWEEP_SCOPE}" in line for line in proc.stdout.splitlines()) == 1
-
-
-def test_the_wait_benchmark_reads_the_stepping_time_a_run_prints(fmu_dir, capsys):
-    """benchmarks.wait takes the stepping time from the run's summary line: it must find it there (a changed
-    line would otherwise stop the benchmark, or worse, be read wrong)."""
-    from benchmarks.wait import lines, stepping
-    from harness.__main__ import main
-
-    assert main(["run", "two_inertia", "--stop-time", "0.01", "--quiet-quantities"]) == 0
-    out = capsys.readouterr().out
-    printed = float(out.split(" steps in ")[1].split(" s;")[0])
-    assert stepping(out) == printed > 0
-    rows = [dict(case="--help", wall=1.0, cpu=0.5),
-            dict(case="run", wall=4.0, cpu=2.0, stepping=1.0, ratio_wall=4.0, ratio_cpu=2.0)]
-    assert lines(rows, False, 1)[-1].startswith("  goal: run with summary and charts <= 3x its stepping time: "
-                                                "4.0x by wall time, missed")

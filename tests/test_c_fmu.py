@@ -565,7 +565,7 @@ def test_ring_jacobian_master_reaches_the_trapezoidal_fixed_point(c_fmu):
     """A foreign C FMU under the interface-Jacobian master (Jacobians by rollback and perturbation): no power
     bonds, so the fixed point is the trapezoid, which the iterative master reaches by iterating to 1e-13;
     the single Newton correction of a linear pair lands on it, and stays second order."""
-    from harness.masters import IterationOptions
+    from harness.master import IterationOptions
     from harness.run import RunOptions
 
     stop, h = 1.0, 2e-3

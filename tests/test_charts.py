@@ -1,4 +1,4 @@
-"""The run chart (``run ... --plot DIR``, harness/charts.py) as a press engineer reads it: panels titled by the
+"""The run chart (``run ... --plot DIR``, harness/reporting/charts.py) as a press engineer reads it: panels titled by the
 signal and its meaning with its unit, time ticks on every panel, the zones the system declares shaded where
 the result puts them, and a second chart over one machine cycle against the crank angle.
 
@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness import chartdraw, charts, load, simulate
+from harness import load, simulate
+from harness.reporting import chartdraw, charts
 from harness.model import SystemWarning
 
 

@@ -73,7 +73,8 @@ def test_trimmer_conveyor_moment_is_the_cutting_work_per_pitch(fmu_dir):
     work over whole pitches, 2 w h L_c r/(s eta), to 0.5 %; the speed stays within 5 % of the set 1.8 m/s."""
     import warnings
 
-    from harness import load, qoi, simulate
+    from harness import load, simulate
+    from harness.reporting import qoi
 
     s = load("trimmer_conveyor")
     s = s.on_fmus(fmu_dir)

@@ -18,7 +18,8 @@ import pytest
 
 from fmus import build as build_fmus
 from fmus.build import catalog
-from harness import jacobian, load, simulate
+from harness import load, simulate
+from harness.master import jacobian
 from harness.errors import FMUError
 from harness.fmi import open_instance
 from harness.fmi.inprocess import InProcessFMU

@@ -1,4 +1,4 @@
-"""The divergence detector (harness/divergence.py) on the two stability maps and the issue's cases.
+"""The divergence detector (harness/master/divergence.py) on the two stability maps and the issue's cases.
 
 Stable points: every (value, master, order) of both maps at the largest step the map judged stable and a little
 below it must run to the end.  Unstable points: clearly beyond the boundary (x1.25 on both maps; on the bed-drive
@@ -17,7 +17,7 @@ import pandas as pd
 import pytest
 
 from harness import simulate
-from harness.divergence import DivergenceDetector, DivergenceOptions, Diverged, replay
+from harness.master.divergence import DivergenceDetector, DivergenceOptions, Diverged, replay
 from harness.studies import stability as st
 
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "images"
@@ -231,7 +231,7 @@ def test_a_load_that_jumps_is_not_divergence_but_sustained_creation_is():
 
 def test_spine_knife_cut_under_sampled_coupling_runs_to_the_end(fmu_dir, monkeypatch):
     """The benchmark's spine_knife case (jacobi-sampled, hold, 5e-5 s) was stopped as diverged when the cut began
-    at 0.025 s, though it makes the Jacobi run's cut (the one-off of the jump: harness.divergence)."""
+    at 0.025 s, though it makes the Jacobi run's cut (the one-off of the jump: harness.master.divergence)."""
     from harness import load
 
     monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))

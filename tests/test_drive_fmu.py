@@ -1,4 +1,4 @@
-"""The whole drive as one co-simulation FMU (``python -m harness export DRIVE X.fmu``, harness.drive_fmu).
+"""The whole drive as one co-simulation FMU (``python -m harness export DRIVE X.fmu``, harness.export.drive_fmu).
 
 * It validates with FMPy, offers the drive's parameters with its values as start values, units and descriptions,
   its free inputs and the signals of its engineering quantities, and says that no output depends on an input
@@ -27,7 +27,7 @@ import pytest
 
 from benchmarks import host_accuracy as ha
 from harness import load
-from harness.drive_fmu import export_fmu
+from harness.export.drive_fmu import export_fmu
 from harness.errors import SystemError_
 from harness.model import Connection, Experiment, Instance, System
 from harness.run import simulate, system_names
@@ -352,7 +352,7 @@ def test_the_drive_fmu_beside_another_fmu_in_an_ssp(drive_fmus, fmu_dir, tmp_pat
 # ------------------------------------------------------------------ FMPy's simulate_ssp without a parameter set
 def test_exported_ssp_carries_each_instances_values_in_its_fmu(fmu_dir, tmp_path):
     """Each instance's FMU in the exported SSP is a copy that starts from the instance's values by itself
-    (harness.ssp_start_values): FMPy's simulate_ssp, given no parameter set, no longer runs the FMUs' defaults
+    (harness.ssp.start_values): FMPy's simulate_ssp, given no parameter set, no longer runs the FMUs' defaults
     (before: the crank at -1.75e4 rad/s by 1 ms).  What is left is its first step, which hands every input 0.0."""
     from fmpy.validation import validate_fmu
 
@@ -453,7 +453,7 @@ def test_a_hosts_coarse_step_reads_the_feeders_take_up_instants_on_the_drives_ow
     """The feeder's FMU offers feeder.impact_count.rise_time beside the counter: FMPy at a 1 ms importer step
     reads every take-up instant in 0.2-0.6 s equal to harness run's at the drive's own 0.2 ms step (from its
     1 ms samples alone they are up to 1 ms late: the feeder missed its accuracy so)."""
-    from harness import qoi
+    from harness.reporting import qoi
 
     fmu = drive_fmus("feeder_gto52")
     names = [v.name for v in _md(fmu).modelVariables]

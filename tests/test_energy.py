@@ -137,6 +137,6 @@ def test_free_free_zero_order_hold_energy_growth_is_reported(fmu_dir):
     assert e[-1] > 0 and np.all(np.diff(e) > 0), e
     assert drift[-1] > 0 and np.all(np.diff(drift[k]) > 0)
     assert 0.3 < ce.iloc[-1] / drift[-1] < 3.0            # same energy, up to the estimate of B's side
-    # the master's own bookkeeping (harness.masters, written independently) agrees with the reconstruction
+    # the master's own bookkeeping (harness.master, written independently) agrees with the reconstruction
     log = bond_energy(df)
     np.testing.assert_allclose(ce.to_numpy(), log["energy_error"].to_numpy(), rtol=1e-9, atol=1e-12)

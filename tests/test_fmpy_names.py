@@ -111,7 +111,7 @@ def test_unprefixed_names_only_where_one_fmu_makes_them_unambiguous(fmu_dir):
 
 
 def test_simulate_docstring_names_every_master():
-    from harness.masters import MASTERS
+    from harness.master import MASTERS
 
     doc = simulate.__doc__
     missing = [m for m in MASTERS if f'``"{m}"``' not in doc]

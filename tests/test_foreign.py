@@ -20,7 +20,7 @@ import pytest
 
 from harness import simulate
 from harness.errors import SystemError_
-from harness.masters import AssumptionWarning
+from harness.master import AssumptionWarning
 from harness.model import Connection, Experiment, Instance, System
 from harness.ssp import export_ssp
 from benchmarks import peers

@@ -34,7 +34,7 @@ _COUNT = itertools.count()
 
 def _own_errors():
     from harness.errors import HarnessError
-    from harness.qoi import QoIError
+    from harness.reporting.qoi import QoIError
     from harness.studies.sweep_checks import SweepError
 
     return (HarnessError, SweepError, QoIError)

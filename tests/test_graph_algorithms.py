@@ -1,4 +1,4 @@
-"""harness.graph's own graph algorithms against networkx as the oracle (random digraphs with self-loops and
+"""harness.master.graph's own graph algorithms against networkx as the oracle (random digraphs with self-loops and
 cycles), the system-level orders against their former networkx formulation, and the run path without
 networkx."""
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from harness import coupling, graph
+from harness.master import coupling, graph
 
 MAX_NODES = 40
 

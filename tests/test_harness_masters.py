@@ -7,7 +7,7 @@ from scipy.linalg import expm
 
 from harness import bond_energy, simulate
 from harness.errors import AlgebraicLoopError, SimulationError
-from harness.masters import MASTERS, IterationOptions, Jacobi
+from harness.master import MASTERS, IterationOptions, Jacobi
 from harness.model import Connection, Instance, System, bond
 from harness.run import RunOptions
 
@@ -185,7 +185,7 @@ def test_bond_energy_follows_its_definition_and_sign(fmu_dir):
 def test_held_inputs_in_floats_equal_the_arrays(master, order, monkeypatch):
     """The held inputs' fast path in plain floats (Master._hold_all_floats) gives the array path's values bit for
     bit: the same run with the arrays only is the same result (and the fast path was taken)."""
-    from harness.masters import Master
+    from harness.master import Master
     from harness.run import load
 
     calls = []

@@ -15,7 +15,7 @@ import pytest
 
 from harness import simulate
 from harness.errors import SystemError_
-from harness.masters import MASTERS
+from harness.master import MASTERS
 from harness.model import Connection, Experiment, Instance, System
 from harness.signals import Signals
 

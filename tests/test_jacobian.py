@@ -1,4 +1,4 @@
-"""The ``jacobian`` master (interface-Jacobian coupling, harness.jacobian): its one-step map against the closed
+"""The ``jacobian`` master (interface-Jacobian coupling, harness.master.jacobian): its one-step map against the closed
 form, its stability region against theory, its Jacobians against finite differences of the whole coupled step,
 and what it refuses."""
 from __future__ import annotations
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from harness import simulate
-from harness import jacobian as ij
-from harness.masters import InterfaceJacobian
+from harness.master import jacobian as ij
+from harness.master import InterfaceJacobian
 from harness.studies.stability import theory as th
 from harness.studies.stability.measured import is_unstable, measured_boundary, two_inertia_run
 
@@ -60,7 +60,7 @@ def test_two_inertia_follows_the_closed_form_one_step_map(fmu_dir, order):
 
 
 def test_theory_the_shift_damps_at_every_step_and_vanishes_at_small_steps():
-    """The closed form's claims (harness.jacobian): with exact subsystems the oscillating mode of the undamped
+    """The closed form's claims (harness.master.jacobian): with exact subsystems the oscillating mode of the undamped
     pair decays at every step, far beyond Jacobi's limit, most where the bond's loop gain is of order one
     (omega h 2 to 12) and hardly at small steps, where the shift fades with the gain and the coupling is the
     trapezoid (no first-order damping); with RK4 subsystems the step is limited only near their own bound
@@ -95,7 +95,7 @@ def test_measured_stability_boundary_matches_theory(fmu_dir):
 
 def test_assembled_jacobian_equals_finite_differences_of_the_coupled_step(monkeypatch):
     """On the bed drive (six FMUs, rigid feed-through differential, power bonds), the Jacobian the master
-    assembles from per-FMU blocks (harness.jacobian.assemble) is the derivative of the whole coupled step
+    assembles from per-FMU blocks (harness.master.jacobian.assemble) is the derivative of the whole coupled step
     G(u) - u, taken by differencing complete steps (every FMU stepped, outputs made consistent)."""
     found = {}
     original = InterfaceJacobian._step_impl

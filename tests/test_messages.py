@@ -156,7 +156,7 @@ def test_pressdrive_help_names_itself_and_every_option_has_a_default():
     for opt in ("--stop-time", "--step", "--master", "--extrapolation", "--step-control", "--tolerance", "--set",
                 "--output", "--out", "--units", "--plot"):
         assert opt in out
-    from harness.masters import MASTERS
+    from harness.master import MASTERS
     flat = "".join(out.split())  # wrapped lines may break at a hyphen
     assert all(name in flat for name in MASTERS), flat   # the help names every master it accepts (jacobian too)
     from harness.__main__ import _DefaultsFormatter, build_parser

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.masters import MASTERS
+from harness.master import MASTERS
 
 ROOT = Path(__file__).resolve().parents[1]
 HOWTO = ROOT / "docs" / "howto"
@@ -30,7 +30,7 @@ def code_of(page: str) -> str:
 
 @pytest.mark.parametrize("page", PAGES)
 def test_page_example_runs(page, monkeypatch):
-    monkeypatch.setattr("harness.masters.MASTERS", dict(MASTERS))  # the page's registration stays in the test
+    monkeypatch.setattr("harness.master.MASTERS", dict(MASTERS))  # the page's registration stays in the test
     namespace: dict = {"__name__": f"howto_{page}"}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

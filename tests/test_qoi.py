@@ -1,4 +1,4 @@
-"""Quantities of interest (harness.qoi): every function against an independent numpy/closed-form value."""
+"""Quantities of interest (harness.reporting.qoi): every function against an independent numpy/closed-form value."""
 from __future__ import annotations
 
 import math
@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from harness import qoi
+from harness.reporting import qoi
 
 N = 1001
 T = np.linspace(0.0, 1.0, N)

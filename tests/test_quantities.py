@@ -1,4 +1,4 @@
-"""The engineering quantities of a run (harness.quantities): the cycle boundaries and the start-up rule on
+"""The engineering quantities of a run (harness.reporting.quantities): the cycle boundaries and the start-up rule on
 synthetic signals, every shipped drive's quantities against values computed here from the result columns with
 plain numpy (other code than the module's: np.interp for the boundaries, sample loops, np.trapezoid), the
 too-short run, the command line's table and JSON."""
@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from harness import quantities as qm
+from harness.reporting import quantities as qm
 from harness.run import load, simulate
 
 RPM = 2 * math.pi / 60

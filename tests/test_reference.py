@@ -144,7 +144,7 @@ def test_bed_drive_convergence_orders_with_rigid_links(master, extrapolation, th
     outputs feed straight through from their motion inputs.  Gauss-Seidel hands each FMU's sample at t+h to
     the FMUs stepped after it; a feed-through FMU must compute that sample from its inputs AT t+h, not from
     the midpoint values it held over the step, or the order with extrapolation falls to 1 (it did: errors
-    4.5e-6, 9.2e-6, 1.9e-5 m of bed position at 5e-5, 1e-4, 2e-4 s before harness.masters.GaussSeidel
+    4.5e-6, 9.2e-6, 1.9e-5 m of bed position at 5e-5, 1e-4, 2e-4 s before harness.master.GaussSeidel
     re-set the point inputs).  Steps stay at or below the default 2e-4 s, where every method is stable."""
     system = load("bed_drive")
     orders = _orders(system, {}, 0.08, [2e-4, 1e-4, 5e-5], master, extrapolation,

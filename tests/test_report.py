@@ -1,4 +1,4 @@
-"""The HTML report (harness.htmlreport; run, compare, size and sweep ``--report``): its content checked against
+"""The HTML report (harness.reporting.htmlreport; run, compare, size and sweep ``--report``): its content checked against
 the run it reports, its self-containment, the refusals before any run, and the page opened in a real headless
 browser (Debian's chromium) whose images must have loaded."""
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from harness import htmlreport as h
+from harness.reporting import htmlreport as h
 from harness.model import model_description, resolve_fmu
 from harness.run import RunOptions, load, simulate
 

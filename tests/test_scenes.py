@@ -14,7 +14,8 @@ import warnings
 import pandas as pd
 import pytest
 
-from harness import load, qoi, simulate
+from harness import load, simulate
+from harness.reporting import qoi
 from harness.run import system_names
 from harness.studies import scenes
 from harness.__main__ import main

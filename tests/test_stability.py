@@ -23,7 +23,7 @@ METHODS = [(m, q) for m in ("jacobi", "gauss-seidel") for q in (0, 1, 2)]
 FREE = TwoInertia()  # systems/two_inertia.py: free-free, undamped
 
 
-# -- an independent co-simulation of the physics models (test code, written from harness.extrapolation) -----
+# -- an independent co-simulation of the physics models (test code, written from harness.master.extrapolation) -----
 def _poly_at(ts, ys, te):
     """Lagrange polynomial through (ts, ys) at te."""
     val = 0.0

@@ -63,10 +63,10 @@ def test_parts_and_floor_from_the_variants():
 
 def test_profile_parts_name_the_master_pieces():
     assert step_parts._part("divergence.py", "update") == "divergence watch"
-    assert step_parts._part("masters.py", "_hold_all_floats") == "held inputs (extrapolation)"
-    assert step_parts._part("masters.py", "_read_all") == "outputs read, history (exchange)"
-    assert step_parts._part("masters.py", "_bond_step") == "bonds' power and energy"
-    assert step_parts._part("masters.py", "run") == "the loop and the rest"
+    assert step_parts._part("loop.py", "_hold_all_floats") == "held inputs (extrapolation)"
+    assert step_parts._part("loop.py", "_read_all") == "outputs read, history (exchange)"
+    assert step_parts._part("loop.py", "_bond_step") == "bonds' power and energy"
+    assert step_parts._part("loop.py", "run") == "the loop and the rest"
 
 
 def test_sweep_parts_summary_and_report():

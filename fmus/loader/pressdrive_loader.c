@@ -456,6 +456,25 @@ done:
     return rc;
 }
 
+/* Python and the wrapper ready, once per process (either FMI version's instantiation calls it): 0 when ready,
+ * else -1 with the reason in err; ``step``: where prepare() puts the wrapper's doStep symbol (read after it,
+ * for clear_wrapper_state_first_at_exit) */
+static int ensure_ready(char *err, size_t n, void *const *step) {
+    int rc = 0;
+    pthread_mutex_lock(&lock);
+    if (!ready) {
+        err[0] = 0;
+        if (prepare(err, n) != 0) {
+            rc = -1;
+        } else {
+            clear_wrapper_state_first_at_exit(*step);
+            ready = 1;
+        }
+    }
+    pthread_mutex_unlock(&lock);
+    return rc;
+}
+
 /* ------------------------------------------------------------------------------------------ FMI 2.0 API */
 #ifndef PRESSDRIVE_FMI3
 EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
@@ -465,18 +484,10 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
                                      fmi2String resourceLocation, const fmi2CallbackFunctions *functions,
                                      fmi2Boolean visible, fmi2Boolean loggingOn) {
     char err[2 * PATH_MAX + 512];
-    pthread_mutex_lock(&lock);
-    if (!ready) {
-        err[0] = 0;
-        if (prepare(err, sizeof err) != 0) {
-            pthread_mutex_unlock(&lock);
-            log_error(functions, instanceName, err);
-            return NULL;
-        }
-        clear_wrapper_state_first_at_exit(p_fmi2DoStep);
-        ready = 1;
+    if (ensure_ready(err, sizeof err, &p_fmi2DoStep) != 0) {
+        log_error(functions, instanceName, err);
+        return NULL;
     }
-    pthread_mutex_unlock(&lock);
     clear_offer();
     fmi2Component c = ((fmi2Component (*)(fmi2String, fmi2Type, fmi2String, fmi2String, const fmi2CallbackFunctions *,
                                           fmi2Boolean, fmi2Boolean))p_fmi2Instantiate)(

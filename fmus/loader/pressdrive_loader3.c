@@ -46,19 +46,11 @@
 /* Python and the wrapper ready (once per process); else the one error line through the host's logger */
 static int ready3(fmi3String instance, fmi3InstanceEnvironment env, fmi3LogMessageCallback log) {
     char err[2 * PATH_MAX + 512];
-    pthread_mutex_lock(&lock);
-    if (!ready) {
-        err[0] = 0;
-        if (prepare(err, sizeof err) != 0) {
-            pthread_mutex_unlock(&lock);
-            if (log) log(env, fmi3Error, "logStatusError", err);
-            else fprintf(stderr, "%s: %s\n", instance ? instance : "pressdrive FMU", err);
-            return 0;
-        }
-        clear_wrapper_state_first_at_exit(p_fmi3DoStep);  /* pressdrive_loader.c: why */
-        ready = 1;
+    if (ensure_ready(err, sizeof err, &p_fmi3DoStep) != 0) {
+        if (log) log(env, fmi3Error, "logStatusError", err);
+        else fprintf(stderr, "%s: %s\n", instance ? instance : "pressdrive FMU", err);
+        return 0;
     }
-    pthread_mutex_unlock(&lock);
     return 1;
 }
 

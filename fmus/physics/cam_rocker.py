@@ -61,13 +61,12 @@ phi(t) = crank.phi + crank.w*(t - t0).  State: gamma, omega, v_impact, impacts, 
 three are discrete memory updated in ``advance``); level 3 adds rho_s, rho_rate and the groove joint's
 v_impact, impacts and contact flag.
 
-Why one module of about 800 lines: it holds one job, the CamRocker FMU's model, one ``Model`` class whose
-levels share its state vector, kinematics G(phi) and geometry (lever, stone radius, roller) and hand over to
-each other (level 2's 1-D play is level 3's conrod joint with the stone frozen; every level's output and
-Jacobian read the same kinematics).  The equations that stand alone already live apart: the laws of motion
-(fmus.physics.laws), the groove (groove), the contact laws (contact), the integrators (integrate); what is
-left is the coupling of those for each level, which a split by level would have to pass back and forth as
-private state.
+The model is one ``Model`` class whose levels share its state vector, kinematics G(phi) and geometry (lever,
+stone radius, roller); the two levels with their own integration live beside it as mixins of that class:
+:class:`fmus.physics.cam_rocker_kv.KelvinVoigtPin` (level 2 with the Kelvin-Voigt law: exponential steps and
+located contact events) and :class:`fmus.physics.cam_rocker_stone.SlidingStone` (level 3: the stone as a body
+with two joints).  The equations that stand alone live apart: the laws of motion (fmus.physics.laws), the
+groove (groove), the contact laws (contact), the integrators (integrate).
 """
 from __future__ import annotations
 
@@ -79,12 +78,11 @@ import numpy as np
 
 from . import contact, groove, integrate
 from .base import Model, ParameterError, Params, Signal, last_call, param
+from .cam_rocker_kv import EXP_STEP_PHASE, KelvinVoigtPin
+from .cam_rocker_stone import SlidingStone
 from .laws import LAW_NAMES, TWO_PI, DwellCycle, get_law
 
 DEG = math.pi / 180.0
-EXP_STEP_PHASE = 0.5         # level 2, Kelvin-Voigt: exponential step x contact frequency (rad)
-EVENT_TOLERANCE = 1e-10      # [s] width to which a contact event is located inside a step
-MAX_EVENTS_PER_STEP = 64     # beyond it (a chattering contact) the steps go on without locating
 
 
 @dataclass(frozen=True)
@@ -156,7 +154,7 @@ class CamRockerParams(Params):
                 raise ParameterError("swing", self.swing, f"follower would pass the line of centres (psi0 = {psi0:.4g} rad)")
 
 
-class CamRockerModel(Model):
+class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
     Params = CamRockerParams
     # level 2 with the Kelvin-Voigt law: exponential steps between located contact events (False: the RK4
     # sub-steps of the other laws, kept as the comparison of tests/test_cam_rocker.py)
@@ -387,219 +385,6 @@ class CamRockerModel(Model):
             x[2] = abs(pen_dot)
 
     # -- level 3: the stone on the slot with two clearances ---------------------------------------------
-    def _frame(self, phi: float, w: float) -> tuple:
-        """What level 3's joints take from the crank angle alone (a pure function of phi and w, so
-        ``_advance_two_clearances`` evaluates it once per distinct sub-step time): the crank pin A and its
-        velocity terms, the profile point B_g and its unit normal n_g."""
-        p = self.p
-        r = p.crank_radius
-        cp, sp = math.cos(phi), math.sin(phi)
-        g, g1, _ = self.kinematics(phi)
-        rk, rk1, _ = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
-        cg, sg = math.cos(g), math.sin(g)
-        tx, ty = rk1 * cg - rk * g1 * sg, rk1 * sg + rk * g1 * cg       # profile tangent dB_g/dphi / r
-        tn = math.hypot(tx, ty)
-        nx, ny = (-ty / tn, tx / tn) if tn > 0.0 else (-sg, cg)
-        return r * (cp - p.lambda1), r * sp, r * w * sp, r * w * cp, r * rk * cg, r * rk * sg, nx, ny
-
-    def _joints(self, phi: float, w: float, gamma: float, omega: float, rho: float, rho_rate: float, x,
-                frame=None):
-        """The two joints of level 3 at crank angle phi: (F_p, F_g, (Fx, Fy), e_c, (d_p, d_p rate), (d_g, d_g rate)).
-
-        F_p, F_g are the contact laws' signed forces along the conrod direction e_c (from crank pin A to B)
-        and the profile normal n_g; (Fx, Fy) their sum on the stone.  ``frame`` is ``_frame(phi, w)`` when
-        the caller has it."""
-        p = self.p
-        ax, ay, rws, rwc, gx, gy, nx, ny = frame or self._frame(phi, w)
-        c, s = math.cos(gamma), math.sin(gamma)
-        bx, by = rho * c, rho * s
-        vbx, vby = rho_rate * c - rho * omega * s, rho_rate * s + rho * omega * c
-        dx, dy = bx - ax, by - ay
-        dist = math.hypot(dx, dy)
-        ex, ey = dx / dist, dy / dist
-        d_p = dist - p.lambda2 * p.crank_radius
-        d_p_rate = ex * (vbx + rws) + ey * (vby - rwc)
-        d_g = (bx - gx) * nx + (by - gy) * ny
-        d_g_rate = vbx * nx + vby * ny                                   # B_g moves along the profile
-        j_t = p.rocker_inertia + p.stone_mass * rho * rho
-
-        def reduced_mass(ux, uy):
-            eu, en = ux * c + uy * s, -ux * s + uy * c
-            return 1.0 / (eu * eu / p.stone_mass + en * en * rho * rho / j_t)
-
-        k_p = 1.0 / (1.0 / p.contact_stiffness + rho * rho / p.stiffness)
-        f_p = contact.contact_force(d_p, d_p_rate, p.clearance, k_p, p.contact_law, p.restitution,
-                                    x[2] if x[4] != 0.0 else abs(d_p_rate), reduced_mass(ex, ey), p.contact_exponent)
-        f_g = contact.contact_force(d_g, d_g_rate, p.groove_clearance, p.groove_stiffness, p.contact_law,
-                                    p.restitution, x[7] if x[9] != 0.0 else abs(d_g_rate), reduced_mass(nx, ny),
-                                    p.contact_exponent)
-        return f_p, f_g, (f_p * ex + f_g * nx, f_p * ey + f_g * ny), (ex, ey), (d_p, d_p_rate), (d_g, d_g_rate)
-
-    def _accelerations(self, phi, w, tau_load, gamma, omega, rho, rho_rate, x, frame=None) -> tuple[float, float]:
-        """(d omega/dt, d2 rho_s/dt2) of level 3."""
-        p = self.p
-        _, _, (fx, fy), _, _, _ = self._joints(phi, w, gamma, omega, rho, rho_rate, x, frame)
-        c, s = math.cos(gamma), math.sin(gamma)
-        f_n, f_u = -fx * s + fy * c, fx * c + fy * s
-        m = p.stone_mass
-        return ((tau_load + rho * f_n - 2.0 * m * rho * rho_rate * omega) / (p.rocker_inertia + m * rho * rho),
-                f_u / m + rho * omega * omega)
-
-    def _update_joints(self, phi: float, w: float, x: np.ndarray, frame=None) -> None:
-        _, _, _, _, (d_p, d_p_rate), (d_g, d_g_rate) = self._joints(phi, w, x[0], x[1], x[5], x[6], x, frame)
-        for (d, rate, play), (v, n, flag) in (((d_p, d_p_rate, self.p.clearance), (2, 3, 4)),
-                                              ((d_g, d_g_rate, self.p.groove_clearance), (7, 8, 9))):
-            pen, pen_rate, side = contact.penetration(d, rate, play)
-            if side == 0.0:
-                x[flag] = 0.0
-            elif x[flag] == 0.0:
-                x[flag], x[n], x[v] = 1.0, x[n] + 1.0, abs(pen_rate)
-
-    def _advance_two_clearances(self, t0, h, x, u):
-        n = integrate.substeps(h, self.max_substep)
-        dt = h / n
-        phi0, w, tau = u[0], u[1], u[2]
-        # _frame per crank angle, once: RK4's mid stages share one, a sub-step's end is the next start
-        frame = functools.cache(lambda phi: self._frame(phi, w))
-
-        def acc(t, gamma, omega, rho, rho_rate):
-            phi = phi0 + w * (t - t0)
-            return self._accelerations(phi, w, tau, gamma, omega, rho, rho_rate, x, frame(phi))
-
-        for i in range(n):
-            t = t0 + i * dt
-            phi = phi0 + w * (t - t0)
-            self._update_joints(phi, w, x, frame(phi))
-            x[0], x[1], x[5], x[6] = integrate.rk4_two(acc, t, dt, x[0], x[1], x[5], x[6])
-        phi = phi0 + w * h
-        self._update_joints(phi, w, x, frame(phi))
-        return x
-
-    # -- level 2, Kelvin-Voigt contact: exponential steps between located contact events ---------------------
-    def _kv_coefficients(self, phi: float, w: float) -> tuple:
-        """(G, G' w, k R^2, c R^2, k R clearance/2) of the Kelvin-Voigt play at crank angle phi, then the rates
-        in time at crank speed w of all but the first (G's is G' w itself): the contact torque on a wall
-        ``mode`` is k R^2 (G - gamma) + c R^2 (G' w - omega) - mode k R clearance/2.  The values are those of
-        :meth:`_kin` and :meth:`_pin_stiffness` (the same operations); the rates come from G'' and the lever's
-        rate R' in closed form, with
-        dk/dR = -2 k^2 R / stiffness (the transmission in series with the contact) and
-        c R^2 = 2 zeta sqrt(k J) |R|."""
-        p = self.p
-        g, g1, g2 = self.kinematics(phi)
-        if p.mechanism == 0:
-            rho, rho1 = groove.stone_radius_rate_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
-            R, r_t = p.crank_radius * rho, p.crank_radius * rho1 * w
-        else:
-            R, r_t = p.follower_arm, 0.0
-        k, m = self._pin_stiffness(R)
-        c = contact.kelvin_voigt_damping(k, m, p.restitution)
-        kr2, cr2 = k * R * R, c * R * R
-        k_r = -2.0 * k * k * R / p.stiffness
-        cr2_r = 0.5 * cr2 * k_r / k + (cr2 / R if R != 0.0 else 0.0)
-        return (g, g1 * w, kr2, cr2, 0.5 * k * R * p.clearance,
-                g2 * w * w, (k_r * R * R + 2.0 * k * R) * r_t, cr2_r * r_t, 0.5 * p.clearance * (k_r * R + k) * r_t)
-
-    def _kv_mode(self, gamma, omega, co) -> tuple[float, float]:
-        """(side, mode) of the Kelvin-Voigt play at one instant (``co``: _kv_coefficients): side = the wall
-        touched (geometric, +1/-1, 0), mode = the wall that pushes (side, unless the no-pull force is clipped
-        to 0 there: then 0)."""
-        g, gw, kr2, cr2, krh, _, _, _, _ = co
-        qr = kr2 * (g - gamma)                      # k R q, with q = R (G - gamma)
-        if qr > krh:
-            side = 1.0
-        elif qr < -krh:
-            side = -1.0
-        else:
-            return 0.0, 0.0
-        torque = qr - side * krh + cr2 * (gw - omega)   # R times the wall's force k pen + c pen_dot, signed
-        return side, (side if side * torque > 0.0 else 0.0)
-
-    def _kv_acceleration(self, gamma, omega, tau, co, mode) -> float:
-        """Rocker acceleration [rad/s2] with the Kelvin-Voigt play held in ``mode`` (0 free, +1/-1 pushing on
-        that wall; the force law extended linearly beyond the mode's bounds, so that the step's Jacobian and
-        time derivative are smooth)."""
-        if mode == 0.0:
-            return tau / self.p.rocker_inertia
-        g, gw, kr2, cr2, krh, _, _, _, _ = co
-        return (kr2 * (g - gamma) + cr2 * (gw - omega) - mode * krh + tau) / self.p.rocker_inertia
-
-    def _kv_jet(self, gamma, omega, tau, co, mode):
-        """(acceleration, its derivatives in gamma, omega and time) of :meth:`_kv_acceleration` at one instant,
-        in closed form (exprb32_pair's ``jet``); None where the lever's rate is not finite (the stone at the end
-        of its groove's reach): the step then takes differences."""
-        a0 = self._kv_acceleration(gamma, omega, tau, co, mode)
-        if mode == 0.0:
-            return a0, 0.0, 0.0, 0.0
-        J = self.p.rocker_inertia
-        g, gw, kr2, cr2, _, gw_t, kr2_t, cr2_t, krh_t = co
-        a_t = (kr2_t * (g - gamma) + kr2 * gw + cr2_t * (gw - omega) + cr2 * gw_t - mode * krh_t) / J
-        return (a0, -kr2 / J, -cr2 / J, a_t) if math.isfinite(a_t) else None
-
-    def _advance_kelvin_voigt(self, t0, h, x, u):
-        """Level 2 with the Kelvin-Voigt law: exponential Rosenbrock steps (integrate.exprb32_pair) of
-        (gamma, omega) in the contact mode of the step's start, at most EXP_STEP_PHASE / omega_c long (the
-        contact mode exact on its linearisation); when the mode (free, clipped or pushing on a wall) or the
-        wall touched differs at the step's end, the change is located by bisection of the step to
-        EVENT_TOLERANCE, the step is taken up to it in the old mode and the contact memory is updated there
-        (onset: impacts + 1, v_impact = the penetration rate; separation: flag 0).  A change that comes and
-        goes within one step is not seen (as at RK4's sub-step boundaries)."""
-        phi0, w, tau = u[0], u[1], u[2]
-        at_angle = functools.cache(lambda phi: self._kv_coefficients(phi, w))   # once per crank angle
-
-        def coefficients(t):
-            return at_angle(phi0 + w * (t - t0))
-
-        def step(t, dt, gamma, omega, mode):
-            def acc(tt, g, om):
-                return self._kv_acceleration(g, om, tau, coefficients(tt), mode)
-            jet = self._kv_jet(gamma, omega, tau, coefficients(t), mode)
-            return integrate.exprb32_pair(acc, t, dt, gamma, omega, jet)
-
-        def onset_speed(t, gamma, omega):
-            g, gw = coefficients(t)[:2]
-            return abs(self.lever(phi0 + w * (t - t0), g) * (gw - omega))
-
-        x = np.array(x, dtype=float)
-        gamma, omega = float(x[0]), float(x[1])
-        n = integrate.substeps(h, self._exp_step)
-        events = 0
-        t, i = t0, 0
-        while i < n:
-            t_end = t0 + (i + 1) * h / n if i < n - 1 else t0 + h
-            if t_end - t <= 1e-3 * EVENT_TOLERANCE:  # a change located at the sub-step's very end: none of it left
-                t, i = t_end, i + 1
-                continue
-            side, mode = self._kv_mode(gamma, omega, coefficients(t))
-            g1, o1 = step(t, t_end - t, gamma, omega, mode)
-            side1, mode1 = self._kv_mode(g1, o1, coefficients(t_end))
-            if (side1, mode1) == (side, mode) or events >= MAX_EVENTS_PER_STEP:
-                gamma, omega, t, i = g1, o1, t_end, i + 1
-                if side1 == 0.0:
-                    x[4] = 0.0
-                elif x[4] == 0.0:       # (only after MAX_EVENTS_PER_STEP): an onset seen at the boundary
-                    x[4], x[3], x[2] = 1.0, x[3] + 1.0, onset_speed(t, gamma, omega)
-                continue
-            lo, hi = 0.0, t_end - t        # the change lies in (lo, hi]: bisection on the step length
-            while hi - lo > EVENT_TOLERANCE:
-                mid = 0.5 * (lo + hi)
-                gm, om = step(t, mid, gamma, omega, mode)
-                if self._kv_mode(gm, om, coefficients(t + mid)) == (side, mode):
-                    lo = mid
-                else:
-                    hi = mid
-            gamma, omega = step(t, hi, gamma, omega, mode)
-            t += hi
-            events += 1
-            side1, _ = self._kv_mode(gamma, omega, coefficients(t))
-            if side1 == 0.0:
-                x[4] = 0.0
-            elif side == 0.0:              # onset on a wall
-                x[4], x[3], x[2] = 1.0, x[3] + 1.0, onset_speed(t, gamma, omega)
-            elif side1 != side:            # straight through the play within the located instant
-                x[3] += 1.0
-        x[0], x[1] = gamma, omega
-        return x
-
     def advance(self, t0, h, x, u):
         """RK4 on equal sub-steps of (gamma, omega) in plain floats (integrate.rk4_pair: the numbers of
         integrate.rk4 without an array per stage); at fidelity 2 the contact memory is updated at every
@@ -669,82 +454,6 @@ class CamRockerModel(Model):
             if contact.energy_speed(pen, k, m_eff, p.contact_exponent) <= v0:
                 F_rate = 0.0
         return F, F_d, F_rate, F_m
-
-    def _two_clearance_jacobian(self, x, u, D) -> None:
-        """Rows crank.tau, pin_force and groove_force of level 3's D (the states' outputs have slope 0, the
-        pressure angle's row is set by the caller).  With the stone's pose (gamma, omega, rho_s, its rate) held:
-        * the conrod eye: A = r (cos phi - lambda1, sin phi) moves at A' = r (-sin, cos), so d_p' = -e.A' and
-          e' = -(A' - (e.A') e)/|B - A|; the eye's rate e.(v_B - v_A) moves with e' and v_A' = -w A, and with
-          crank.w through -e.A'; the reduced mass 1/((e.u)^2/m_s + (rho_s e.n)^2/J_t) with e;
-        * the groove: B_g moves along its own tangent, so d_g' = (B - B_g).n_g' and (d_g rate)' = v_B.n_g'
-          (no crank.w in either); n_g = (-t_y, t_x)/|t| turns with the profile tangent
-          t = rho' u + rho G' n, t' = (rho'' - rho G'^2) u + (2 rho' G' + rho G'') n (groove.stone_slopes_scalar's
-          rho''), n_g' = (I - n_g n_g^T)(-t'_y, t'_x)/|t|; its reduced mass with n_g;
-        * each force's slopes in its play, rate and reduced mass: :meth:`_force_slopes`;
-        * crank.tau = -F_p r (cos(phi) e_y - sin(phi) e_x)."""
-        p = self.p
-        phi, w = float(u[0]), float(u[1])
-        r, ms = p.crank_radius, p.stone_mass
-        gamma, omega, rho, rho_rate = float(x[0]), float(x[1]), float(x[5]), float(x[6])
-        frame = self._frame(phi, w)
-        ax, ay, rws, rwc, gx, gy, nx, ny = frame
-        c, s_ = math.cos(gamma), math.sin(gamma)
-        bx, by = rho * c, rho * s_
-        vbx, vby = rho_rate * c - rho * omega * s_, rho_rate * s_ + rho * omega * c
-        jt = p.rocker_inertia + ms * rho * rho
-
-        def mass_and_slope(ex, ey, ex1, ey1):
-            eu, en = ex * c + ey * s_, -ex * s_ + ey * c
-            eu1, en1 = ex1 * c + ey1 * s_, -ex1 * s_ + ey1 * c
-            m = 1.0 / (eu * eu / ms + en * en * rho * rho / jt)
-            return m, -m * m * (2.0 * eu * eu1 / ms + 2.0 * en * en1 * rho * rho / jt)
-
-        # the conrod eye
-        cp, sp = math.cos(phi), math.sin(phi)
-        dx, dy = bx - ax, by - ay
-        dist = math.hypot(dx, dy)
-        ex, ey = dx / dist, dy / dist
-        a1x, a1y = -r * sp, r * cp                     # dA/dphi
-        ea1 = ex * a1x + ey * a1y
-        ex1, ey1 = -(a1x - ea1 * ex) / dist, -(a1y - ea1 * ey) / dist
-        rvx, rvy = vbx + rws, vby - rwc                # v_B - v_A
-        d_p = dist - p.lambda2 * r
-        rate_p = ex * rvx + ey * rvy
-        rate_p_phi = ex1 * rvx + ey1 * rvy + ex * (r * w * cp) + ey * (r * w * sp)   # -e.v_A', v_A' = -w A_rel
-        rate_p_w = -ea1
-        k_p = 1.0 / (1.0 / p.contact_stiffness + rho * rho / p.stiffness)
-        m_p, m_p_phi = mass_and_slope(ex, ey, ex1, ey1)
-        F_p, Fp_d, Fp_rate, Fp_m = self._force_slopes(d_p, rate_p, p.clearance, k_p, m_p, x[2], x[4])
-        dF_p = (Fp_d * (-ea1) + Fp_rate * rate_p_phi + Fp_m * m_p_phi, Fp_rate * rate_p_w)
-        lever = r * (cp * ey - sp * ex)
-        lever_phi = r * (-sp * ey - cp * ex + cp * ey1 - sp * ex1)
-        D[0, :2] = (-(dF_p[0] * lever + F_p * lever_phi), -dF_p[1] * lever)
-        if F_p != 0.0:
-            D[5, :2] = (math.copysign(1.0, F_p) * dF_p[0], math.copysign(1.0, F_p) * dF_p[1])
-        # the roller in the groove
-        g, g1, g2 = self.kinematics(phi)
-        rk, rk1, _ = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
-        rk2, _ = groove.stone_slopes_scalar(phi, g, g1, g2, p.lambda1, p.lambda2, self.branch)
-        cg, sg = math.cos(g), math.sin(g)
-        tx, ty = rk1 * cg - rk * g1 * sg, rk1 * sg + rk * g1 * cg
-        tn = math.hypot(tx, ty)
-        if tn > 0.0:
-            tu, tnn = rk2 - rk * g1 * g1, 2.0 * rk1 * g1 + rk * g2          # t' in the slot's (u, n) basis
-            t1x, t1y = tu * cg - tnn * sg, tu * sg + tnn * cg
-            wx, wy = -t1y / tn, t1x / tn
-            wn = wx * nx + wy * ny
-            nx1, ny1 = wx - wn * nx, wy - wn * ny
-        else:                                          # the fallback normal (-sin G, cos G) turns with G
-            nx1, ny1 = -cg * g1, -sg * g1
-        d_g = (bx - gx) * nx + (by - gy) * ny
-        rate_g = vbx * nx + vby * ny
-        m_g, m_g_phi = mass_and_slope(nx, ny, nx1, ny1)
-        F_g, Fg_d, Fg_rate, Fg_m = self._force_slopes(d_g, rate_g, p.groove_clearance, p.groove_stiffness, m_g,
-                                                      x[7], x[9])
-        dF_g = (Fg_d * ((bx - gx) * nx1 + (by - gy) * ny1) + Fg_rate * (vbx * nx1 + vby * ny1)
-                + Fg_m * m_g_phi)
-        if F_g != 0.0:
-            D[8, 0] = math.copysign(1.0, F_g) * dF_g
 
     def output_jacobian(self, t, x, u):
         """d outputs / d (crank.phi, crank.w, rocker.tau) in closed form at every fidelity, from :meth:`output`'s

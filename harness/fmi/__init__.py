@@ -90,7 +90,7 @@ def _me_only(path) -> bool:
 
 
 def release(master, fmus: dict) -> None:
-    """End a run's FMUs: the master that took them (any :class:`harness.masters.Master`) terminates and frees them;
+    """End a run's FMUs: the master that took them (any :class:`harness.master.Master`) terminates and frees them;
     where none was made (an FMU or the master's constructor failed), each FMU is freed on its own."""
     if master is not None:
         master.terminate()

@@ -128,15 +128,11 @@ class FMU(FMUInstance):
                 self._check(e.status, "fmi2GetReal")
         return block.values
 
-    def set(self, block: RealBlock, values=None) -> None:
-        """Write ``values`` (or the block's own buffer, if None) to the block's variables."""
-        if values is not None:
-            block.values[:] = values
-        if block.n:
-            try:
-                self._set_real(self.c, block.vr, block.n, block.buf)
-            except FMICallException as e:
-                self._check(e.status, "fmi2SetReal")
+    def _write_reals(self, block: RealBlock) -> None:
+        try:
+            self._set_real(self.c, block.vr, block.n, block.buf)
+        except FMICallException as e:
+            self._check(e.status, "fmi2SetReal")
 
     def get_list(self, block: RealBlock) -> list:
         """The block's variables as a list of floats (same values as :meth:`get`)."""

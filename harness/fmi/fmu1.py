@@ -76,11 +76,8 @@ class FMU1(FMUInstance):
             block.values[:] = self._call("fmiGetReal", self._slave.getReal, block.refs)
         return block.values
 
-    def set(self, block: RealBlock, values=None) -> None:
-        if values is not None:
-            block.values[:] = values
-        if block.n:
-            self._call("fmiSetReal", self._slave.setReal, block.refs, block.values.tolist())
+    def _write_reals(self, block: RealBlock) -> None:
+        self._call("fmiSetReal", self._slave.setReal, block.refs, block.values.tolist())
 
     def get_list(self, block: RealBlock) -> list:
         return list(self._call("fmiGetReal", self._slave.getReal, block.refs)) if block.n else []

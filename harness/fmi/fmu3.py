@@ -192,11 +192,8 @@ class FMU3(FMUInstance):
             self._reals("fmi3GetFloat64", block)
         return block.values
 
-    def set(self, block: RealBlock, values=None) -> None:
-        if values is not None:
-            block.values[:] = values
-        if block.n:
-            self._reals("fmi3SetFloat64", block)
+    def _write_reals(self, block: RealBlock) -> None:
+        self._reals("fmi3SetFloat64", block)
 
     def get_list(self, block: RealBlock) -> list:
         if not block.n:

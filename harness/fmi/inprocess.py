@@ -241,15 +241,11 @@ class InProcessFMU(FMUInstance):
                 self._fail("fmi2GetReal", e)
         return block.values
 
-    def set(self, block: RealBlock, values=None) -> None:
-        """Write ``values`` (or the block's own buffer, if None) to the block's variables."""
-        if values is not None:
-            block.values[:] = values
-        if block.n:
-            try:
-                self._set_real(block.refs, block.values.tolist())
-            except Exception as e:
-                self._fail("fmi2SetReal", e)
+    def _write_reals(self, block: RealBlock) -> None:
+        try:
+            self._set_real(block.refs, block.values.tolist())
+        except Exception as e:
+            self._fail("fmi2SetReal", e)
 
     def get_list(self, block: RealBlock) -> list:
         """The block's variables as a list of floats (same values as :meth:`get`)."""

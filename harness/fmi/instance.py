@@ -112,6 +112,18 @@ class FMUInstance:
         self.failed = False
         self.time: float | None = None
 
+    # -- values ----------------------------------------------------------------------------------------------
+    def set(self, block: RealBlock, values=None) -> None:
+        """Write ``values`` (or the block's own buffer, if None) to the block's variables (:meth:`_write_reals`)."""
+        if values is not None:
+            block.values[:] = values
+        if block.n:
+            self._write_reals(block)
+
+    def _write_reals(self, block: RealBlock) -> None:
+        """Send the block's buffer to its variables (each way of running an FMU has its own)."""
+        raise NotImplementedError
+
     # -- checking ----------------------------------------------------------------------------------------------
     @property
     def last_error(self) -> str:

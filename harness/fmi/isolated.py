@@ -258,14 +258,10 @@ class IsolatedInstance(FMUInstance):
                 self._ask(f"{self._prefix}GetReal", "get", key)
         return block.values
 
-    def set(self, block: RealBlock, values=None) -> None:
+    def _write_reals(self, block: RealBlock) -> None:
         """Kept and sent with the next call (an FMU's error in it is raised by that call, with its own words)."""
-        if values is not None:
-            block.values[:] = values
-        if block.n:
-            key = self._block(block)
-            self._pending.append((key, block.values.tolist()))
-            self._fresh_values = None
+        self._pending.append((self._block(block), block.values.tolist()))
+        self._fresh_values = None
 
     def get_list(self, block: RealBlock) -> list:
         return self.get(block).tolist() if block.n else []

@@ -15,7 +15,7 @@ from harness.fmi.status import _LABELS
 # -- log capture ------------------------------------------------------------------------------------------------
 # One logger for every instance (fmpy's native proxy formats the variadic message first); messages are routed
 # to the wrapper by instance name.  fmpy's proxy holds ONE Python logger for the whole process, and a drive FMU
-# loaded in this process brings its own copy of this module (harness.drive_fmu), which installs its logger: so
+# loaded in this process brings its own copy of this module (harness.export.drive_fmu), which installs its logger: so
 # the routing table is one for the process (a fixed entry in sys.modules), and whichever copy's logger the proxy
 # holds finds every copy's instances.
 _ROUTES = sys.modules.setdefault("_pressdrive_fmi_log_routes",

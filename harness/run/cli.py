@@ -8,8 +8,8 @@ import warnings
 from pathlib import Path
 
 from harness.errors import HarnessError, SystemDescriptionError
-from harness.masters import MASTERS
-from harness.quantities import json_path
+from harness.master import MASTERS
+from harness.reporting.quantities import json_path
 from harness.run.interrupts import RunInterrupted, RunWarning
 from harness.run.systems import load
 from harness.run.parameters import parse_sets
@@ -114,25 +114,25 @@ def _check_targets(args) -> None:
     elif getattr(args, "svg", False):
         raise HarnessError("--svg needs --plot DIR: the SVG is written beside each chart's PNG")
     if getattr(args, "report", None) is not None:
-        from harness.htmlreport import check_report_path
+        from harness.reporting.htmlreport import check_report_path
 
         check_report_path(args.report)
 
 
-def _plot(system, df, folder: Path, svg: bool = False, workers=None) -> list[Path]:
+def _plot(system, df, folder: Path, svg: bool = False) -> list[Path]:
     """The run's charts in ``folder`` (the PNGs are returned; ``svg``: also as SVG); an incomplete run's under
     ``<name>.partial.png`` (``.svg``), so they never replace the charts of a complete run (drawn beside,
-    renamed).  ``workers``: :class:`harness.chartworkers.ChartWorkers` drawing the figures side by side."""
+    renamed)."""
     import os
     import tempfile
 
-    from harness.charts import plot_result
+    from harness.reporting.charts import plot_result
 
     if df.attrs.get("complete", True):
-        return [p for p in plot_result(system, df, folder, svg, workers) if p.suffix == ".png"]
+        return [p for p in plot_result(system, df, folder, svg) if p.suffix == ".png"]
     with tempfile.TemporaryDirectory(dir=folder, prefix=".partial-chart-") as tmp:
         paths = []
-        for drawn in plot_result(system, df, tmp, svg, workers):
+        for drawn in plot_result(system, df, tmp, svg):
             paths.append(Path(folder) / f"{drawn.stem}.partial{drawn.suffix}")
             os.replace(drawn, paths[-1])
     return [p for p in paths if p.suffix == ".png"]
@@ -154,25 +154,10 @@ def _divergence_hint(a: dict) -> str:
 def run_cli(args) -> int:
     system = load(args.system)  # a wrong name first: no folder is made for it
     _check_targets(args)
-    workers = _chart_workers(args)
-    try:
-        return _run(system, args, workers)
-    finally:
-        if workers is not None:
-            workers.close()
+    return _run(system, args)
 
 
-def _chart_workers(args):
-    """The processes that draw the charts while this process steps (:func:`harness.chartworkers.for_run`);
-    None without ``--plot``."""
-    if args.plot is None:
-        return None
-    from harness import chartworkers
-
-    return chartworkers.for_run()
-
-
-def _run(system, args, workers) -> int:
+def _run(system, args) -> int:
     status = 0
     try:
         with warnings.catch_warnings():
@@ -213,15 +198,15 @@ def _run(system, args, workers) -> int:
             import dataclasses
 
             system = dataclasses.replace(system, name=f"{system.name}_{a['scenario']}")
-        charts = _plot(system, df, args.plot, getattr(args, "svg", False), workers)
+        charts = _plot(system, df, args.plot, getattr(args, "svg", False))
         where += "; chart " + ", ".join(str(p) for p in charts)
-        from harness.charts import cycle_chart_missing
+        from harness.reporting.charts import cycle_chart_missing
 
         missing = cycle_chart_missing(system, df) if system.chart is not None else ""
         if missing:  # a drive that has a cycle chart says why this run has none
             where += f"; no cycle chart: {missing}"
     if getattr(args, "report", None) is not None:
-        from harness.htmlreport import write_run_report
+        from harness.reporting.htmlreport import write_run_report
 
         page = args.report if a["complete"] else partial_path(args.report)   # never over a complete run's page
         where += f"; report {write_run_report(system, df, page, charts)}"
@@ -255,6 +240,6 @@ def _isolation(args):
 
 
 def _halved(a: dict) -> str:
-    """' (N taken in halves, ...)' where the jacobian master halved steps (harness.jacobian.needs_halving)."""
+    """' (N taken in halves, ...)' where the jacobian master halved steps (harness.master.jacobian.needs_halving)."""
     n = a.get("halved_steps") or 0
     return f" ({n} taken again in halves where the coupling's correction did not converge)" if n else ""

@@ -9,7 +9,7 @@ experiment (then: master ``jacobi``, extrapolation 0, fixed step).  Further opti
 (iteration of the ``iterative`` master, step-control limits, blow-up limit, progress bar, FMU logging).
 
 (:func:`simulate`'s argument checks and the assembly of its result; the loop is
-:meth:`harness.masters.Master.run`, input signals live in :mod:`harness.signals`.)
+:meth:`harness.master.Master.run`, input signals live in :mod:`harness.signals`.)
 
 Failures during the run (an FMU error, a non-finite output, an output beyond the blow-up limit, an iteration
 that does not converge) stop it with a one-line message naming the time, the instance and the variable or
@@ -30,19 +30,20 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.divergence import Diverged, DivergenceOptions, DivergenceWatch
+from harness.master.divergence import Diverged, DivergenceOptions, DivergenceWatch
 from harness.errors import BlowUp, FMUError, SimulationError, SystemDescriptionError
 from harness.errors import ParameterRefused  # an FMU refused a parameter value (typed, fmus.refusal)
 from harness.errors import interruption
-from harness.extrapolation import extrapolation as make_extrapolation
+from harness.master.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import FMUInstance, open_instance, release
-from harness.masters import NS, ConvergenceError, IterationOptions, master_class
+from harness.master import ConvergenceError, IterationOptions, master_class
+from harness.master.clock import NS
 from harness.model import model_description, resolve_fmu
-from harness.observers import ProgressBar, Recording
-from harness.quantities import quantities
+from harness.master.observers import ProgressBar, Recording
+from harness.reporting.quantities import quantities
 from harness.results import Recorder
 from harness.signals import Signals, full_name
-from harness.stepcontrol import StepOptions, step_control as make_step_control
+from harness.master.stepcontrol import StepOptions, step_control as make_step_control
 from harness.run.interrupts import RunInterrupted, RunWarning
 from harness.run.systems import load
 from harness.run.parameters import _positive, _renamed, split_parameters
@@ -58,12 +59,12 @@ class RunOptions:
     ``in_process``: how pythonfmu FMUs are called (:func:`harness.fmi.open_instance`: None runs every
     pythonfmu FMU whose script imports here in this process, the others through FMI with one warning; True
     requires it; False calls every FMU through FMI).  Results are the same bit for bit; only the cost differs.
-    ``divergence``: thresholds of the divergence detector on the power bonds (:mod:`harness.divergence`);
+    ``divergence``: thresholds of the divergence detector on the power bonds (:mod:`harness.master.divergence`);
     None switches it off.  ``isolate``: run FMUs in child processes of their own (:mod:`harness.fmi.isolated`:
     True or "foreign" every FMU not built by the toolkit, "all" every FMU, or an ``Isolation`` with its
     per-call timeout), so a crash or hang inside an FMU call stops the run in one line and keeps its rows;
     None/False (default) runs every FMU in this process.  ``observers``: further
-    :class:`harness.observers.Observer` objects the run loop calls, after the recording and the divergence watch
+    :class:`harness.master.observers.Observer` objects the run loop calls, after the recording and the divergence watch
     (docs/howto/add-an-observer.md)."""
     iteration: IterationOptions = field(default_factory=IterationOptions)
     steps: StepOptions = field(default_factory=StepOptions)
@@ -103,7 +104,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     * ``output_interval`` [s]: record every this often (a whole multiple of the step, fixed step only;
       default: every communication point); the end of the run is always recorded.
     * ``master``: ``"jacobi"`` (fallback), ``"jacobi-sampled"``, ``"gauss-seidel"``, ``"iterative"`` or
-      ``"jacobian"`` (:data:`harness.masters.MASTERS`).
+      ``"jacobian"`` (:data:`harness.master.MASTERS`).
     * ``extrapolation``: order of the held inputs, 0 (hold, fallback), 1 or 2 (polynomial at the step midpoint).
     * ``step_control``: None/``"none"`` (fixed step, fallback), ``"richardson"`` or ``"ecco"``.
     * ``tolerance`` or ``relative_tolerance`` [-]: passed to the FMUs (fmi2SetupExperiment), and the
@@ -261,7 +262,7 @@ def _output_interval(output_interval, step: float, step_ns: int, step_control) -
 
 def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info, system, signals=None):
     """Initialize ``m`` and run it over ``span`` = (start, stop, step, recording interval) [ns] in the one run
-    loop (:meth:`harness.masters.Master.run`), with the recording, the divergence watch and the progress bar as
+    loop (:meth:`harness.master.Master.run`), with the recording, the divergence watch and the progress bar as
     its observers and ``signals`` (a :class:`~harness.signals.Signals`) as its inputs; the result, marked as it
     ended, with the ``system``'s engineering quantities."""
     wall, cpu = _time.perf_counter(), _time.process_time()

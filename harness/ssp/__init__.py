@@ -9,15 +9,15 @@ Split by job; every name below is importable from ``harness.ssp`` itself:
                               initialization);
 ``harness.ssp.format``        the namespaces and type names both directions share.
 
-Units and parameter mappings live in :mod:`harness.ssp_values`, the per-instance FMU copies with start values
-in :mod:`harness.ssp_start_values`.
+Units and parameter mappings live in :mod:`harness.ssp.values`, the per-instance FMU copies with start values
+in :mod:`harness.ssp.start_values`.
 """
 from harness.ssp.export import build_ssd, export_ssp, host_step, register
 from harness.ssp.format import (FMU_TYPE, OSP_ANNOTATION, OWN_ANNOTATION, PARAMETER_MAPPING_TYPE, PARAMETER_SET,
                                 PARAMETER_SET_TYPE)
 from harness.ssp.read import NESTED, _Reader, load_ssp
 from harness.ssp.start_values import consistent_inputs
-from harness.ssp_values import NS, _q
+from harness.ssp.values import NS, _q
 
 __all__ = ["export_ssp", "build_ssd", "host_step", "load_ssp", "consistent_inputs", "register", "NS", "NESTED",
            "FMU_TYPE", "OSP_ANNOTATION", "OWN_ANNOTATION", "PARAMETER_SET", "PARAMETER_SET_TYPE",

@@ -29,7 +29,7 @@ from harness.errors import SystemDescriptionError
 from harness.model import System, model_description, resolve_fmu
 from harness.ssp.format import FMU_TYPE, OSP_ANNOTATION, OWN_ANNOTATION, PARAMETER_SET
 from harness.ssp.start_values import consistent_inputs
-from harness.ssp_values import _q
+from harness.ssp.values import _q
 
 
 def _num(value) -> str:
@@ -45,13 +45,13 @@ def export_ssp(system: System, out: str | Path) -> Path:
     if out.suffix.lower() != ".ssp":
         raise SystemDescriptionError(f"{out}: an SSP archive must end in .ssp")
     from harness.results import check_writable
-    from harness.ssp_start_values import copy_with_start_values
+    from harness.ssp.start_values import copy_with_start_values
 
     check_writable(out, "export")   # one line before the work for a place that cannot be written
     fmu_paths = {inst.name: resolve_fmu(inst.fmu) for inst in system.instances}
     starts = consistent_inputs(system)
     # each instance of a toolkit FMU gets a copy that starts from the instance's values by itself, for hosts
-    # that apply no parameter binding (FMPy's simulate_ssp): harness.ssp_start_values
+    # that apply no parameter binding (FMPy's simulate_ssp): harness.ssp.start_values
     sources, packed = {}, {}
     for inst in system.instances:
         p = fmu_paths[inst.name]
@@ -239,7 +239,7 @@ def _run_export(args) -> int:
 
     suffix = Path(args.out).suffix.lower()
     if suffix == ".fmu":
-        from harness.drive_fmu import export_fmu
+        from harness.export.drive_fmu import export_fmu
 
         out = export_fmu(load(args.system), args.out, outputs=args.output, fmi_version=args.fmi_version)
     elif suffix == ".ssp":

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from xml.etree import ElementTree as ET
 
-from harness.ssp_values import NS
+from harness.ssp.values import NS
 
 for _prefix, _uri in NS.items():
     ET.register_namespace(_prefix, _uri)

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness import qoi
+from harness.reporting import qoi
 from harness.specs import AccuracySpec, Requirement
 from harness.studies.trial import StudyInterrupted, keep_interrupted, trial, write_complete
 
@@ -251,7 +251,7 @@ def register(study_subparsers) -> None:
 
 
 def _methods(items) -> list[tuple[str, int]]:
-    from harness.masters import MASTERS
+    from harness.master import MASTERS
 
     out = []
     for item in items:

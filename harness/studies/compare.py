@@ -4,7 +4,7 @@ and :func:`compare`.
 A variant is a label and the parameter values it changes (``"heavy flywheel: flywheel.J_flywheel=16"``; no
 values: the drive as declared), or a saved result file (``"measured: results/bed_drive.csv"``, a CSV or Parquet
 written by ``run --out``).  Every variant is run with the same method and stop time (the drive's default
-experiment unless given); the engineering quantities of each (:mod:`harness.quantities`) go into one table with,
+experiment unless given); the engineering quantities of each (:mod:`harness.reporting.quantities`) go into one table with,
 beside each variant after the first, its difference from the first and the percent change.  ``--plot DIR``
 draws the drive's cycle-chart signals of every variant over its last steady machine cycle, overlaid against the
 crank angle (``DIR/<drive>_compare.png``).
@@ -146,8 +146,8 @@ class Comparison:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from harness.chartdraw import save_figure, values as _values
-        from harness.charts import last_revolution
+        from harness.reporting.chartdraw import save_figure, values as _values
+        from harness.reporting.charts import last_revolution
 
         spec = getattr(self.system, "chart", None)
         if spec is None or spec.crank_angle is None:
@@ -193,10 +193,10 @@ class Comparison:
 
 
     def report(self, path: str | Path, charts: list[Path] | None = None) -> Path:
-        """One self-contained HTML page of the comparison (:mod:`harness.htmlreport`): the variants, the
+        """One self-contained HTML page of the comparison (:mod:`harness.reporting.htmlreport`): the variants, the
         side-by-side table, the overlaid chart (``charts``: PNGs already drawn, else drawn here), the drive as
         declared, the method and the versions; returns its path."""
-        from harness import htmlreport as h
+        from harness.reporting import htmlreport as h
 
         keep = None
         if charts is None:
@@ -235,7 +235,7 @@ def compare(system, variants, **options) -> Comparison:
     """Run every variant of ``system`` (a name in systems/ or a System; variants as :class:`Variant` or
     ``"LABEL: ..."`` strings) with :func:`harness.run.simulate` and ``options`` (the same for all) and return the
     :class:`Comparison`.  A variant's ``start_values`` go over ``options["start_values"]``."""
-    from harness.quantities import quantities
+    from harness.reporting.quantities import quantities
     from harness.results import read_csv
     from harness.run import load, simulate
 
@@ -297,7 +297,7 @@ def _cli(args) -> int:
     if args.plot is not None:
         check_writable(args.plot, "--plot", folder=True)
     if args.report is not None:
-        from harness.htmlreport import check_report_path
+        from harness.reporting.htmlreport import check_report_path
 
         check_report_path(args.report)
     check(system, variants)

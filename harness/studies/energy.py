@@ -37,14 +37,14 @@ This definition coincides with the master's own bond log (:func:`harness.results
 the motion-output side's speed is linear over the step (an inertia under a held torque).
 
 Held values are NOT in a result (B's recorded inputs are its point values after the exchange), so they are
-reconstructed with the masters' rule (:mod:`harness.extrapolation`): extrapolation order 0 holds the newest
+reconstructed with the masters' rule (:mod:`harness.master.extrapolation`): extrapolation order 0 holds the newest
 sample; order q >= 1 the degree-q polynomial through the newest q+1 samples evaluated at the step midpoint
 (degree reduced while fewer samples exist).  Which samples are "known" depends on the master:
 
 * ``jacobi``: both sides use samples up to ``t_k``;
 * ``gauss-seidel``: the side that steps first uses samples up to ``t_k``, the second one includes the first
   one's new sample at ``t_k+1``; ``first="out"`` (default: the motion-output side has no direct
-  feed-through in a force-displacement split, so :func:`harness.graph.stepping_order` puts it first);
+  feed-through in a force-displacement split, so :func:`harness.master.graph.stepping_order` puts it first);
 * ``iterative``: the converged held values use the samples up to ``t_k+1`` on both sides.
 
 ``master`` and ``order`` default to ``df.attrs["master"]`` and ``df.attrs["extrapolation"]`` (set by

@@ -24,7 +24,7 @@ Choices:
 * A run that stops early (blow-up, FMU error) is kept in the CSV with ``complete = False`` and no metrics,
   and is left out of the chart (the legend counts the failures of each method).
 * Variable-step methods start from the finest fixed step; their step lies in [step/1000, 100*step]
-  (:class:`harness.stepcontrol.StepOptions` defaults).
+  (:class:`harness.master.stepcontrol.StepOptions` defaults).
 
 The quantity of interest of each system and the study's default grid are declared with the system
 (``System.precision``, a :class:`harness.specs.PrecisionSpec` in ``systems/<name>.py``).
@@ -41,7 +41,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.charts import save_figure
+from harness.reporting.charts import save_figure
 from harness.run import declared
 from harness.specs import PrecisionSpec
 from harness.studies.metrics import METRICS, error_metrics
@@ -105,10 +105,10 @@ def precision_study(system, stop_time: float | None = None, steps=None, toleranc
                     parameters: dict | None = None, reference_step: float | None = None,
                     reference_options: dict | None = None, progress=None) -> Study:
     """Run the grid and measure it (module docstring).  ``progress``: callable taking one line of text."""
-    from harness.masters import MASTERS
+    from harness.master import MASTERS
     from harness.studies.reference import component_classes, reference
     from harness.run import load
-    from harness.stepcontrol import STEP_CONTROLS
+    from harness.master.stepcontrol import STEP_CONTROLS
 
     system = load(system)
     spec = precision_spec(system)

@@ -52,8 +52,8 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
-from harness import graph
-from harness.clock import NS
+from harness.master import graph
+from harness.master.clock import NS
 from harness.model import model_name
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -1,7 +1,7 @@
 """Scenes: a question asked of a press drive, answered with the coarsest model that still answers it.
 
 A scene (declared as data in a ``systems/`` module, ``SYSTEM.scenes``) names a quantity of interest (a
-:mod:`harness.qoi` expression), a tolerance and a time window (``stop_time`` may shorten the run).
+:mod:`harness.reporting.qoi` expression), a tolerance and a time window (``stop_time`` may shorten the run).
 :func:`choose` then
 
 1. runs the full model (every component at its highest ``fidelity``, at the scene's step) with a method that
@@ -40,8 +40,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness import qoi
-from harness.charts import save_figure
+from harness.reporting import qoi
+from harness.reporting.charts import save_figure
 from harness.specs import Scene  # noqa: F401 (declared with the systems; re-exported)
 from harness.studies.trial import (StudyInterrupted, keep_interrupted, one_line, partial_csv, trial,
                                    write_complete)

@@ -1,7 +1,7 @@
 """A part sized to a target: ``python -m harness size DRIVE --vary I.p --target "QUANTITY <= VALUE"`` and
 :func:`size`.
 
-The engineering quantity (:mod:`harness.quantities`) is computed from a co-simulation run of the drive for each
+The engineering quantity (:mod:`harness.reporting.quantities`) is computed from a co-simulation run of the drive for each
 value of the parameter tried.  First the bracket: the quantity at both ends of ``--range`` (default: a quarter
 and four times the drive's value).  Where the target is met at one end and missed at the other, Brent's method
 finds the value where the quantity crosses the target (to ``--xtol`` of the range, runs reused); the answer is
@@ -68,10 +68,10 @@ class Sizing:
     verifying: object = field(default=None, repr=False)   # the run at the answer (its DataFrame), None without one
 
     def report(self, path, charts: list | None = None):
-        """One self-contained HTML page of the sizing (:mod:`harness.htmlreport`): the answer, the runs tried
+        """One self-contained HTML page of the sizing (:mod:`harness.reporting.htmlreport`): the answer, the runs tried
         (with a chart of the quantity over the parameter and the target), the verifying run's quantities and
         charts, the drive, the method and the versions; returns its path."""
-        from harness import htmlreport as h
+        from harness.reporting import htmlreport as h
 
         keeps = []
         try:
@@ -91,7 +91,7 @@ class Sizing:
             if self.verifying is not None:
                 df = self.verifying
                 if charts is None and len(df):
-                    from harness.charts import plot_result
+                    from harness.reporting.charts import plot_result
 
                     charts, keep = h.render_charts(lambda d: plot_result(self.system, df, d), None)
                     keeps.append(keep)
@@ -119,7 +119,7 @@ class Sizing:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from harness.charts import save_figure
+        from harness.reporting.charts import save_figure
 
         ps = sorted(self.runs)
         fig, ax = plt.subplots(figsize=(6.5, 3.2))
@@ -140,7 +140,7 @@ def run_at(system, parameter: str, quantity: str, start_values: dict, options: d
     quantity, "error": one line or "", "frame": the result}``; never raises (the client raises the error).
     ``system``: a :class:`~harness.model.System`, a drive's name or a shipped file
     (:mod:`harness.studies.sweep_cluster`, loaded once per worker process)."""
-    from harness.quantities import quantities
+    from harness.reporting.quantities import quantities
     from harness.run import load, simulate
     from harness.studies.sweep_cluster import SystemFile, system_on_worker
 
@@ -292,7 +292,7 @@ def check_target(system, target: Target) -> None:
     """The target names a quantity the drive reports (its names from the drive's declaration, before any run)."""
     import pandas as pd
 
-    from harness.quantities import quantities
+    from harness.reporting.quantities import quantities
 
     names = quantities(system, pd.DataFrame(index=pd.Index([], name="time"))).names
     if target.quantity not in names:
@@ -363,7 +363,7 @@ def _cli(args) -> int:
     _current(system, args.vary)
     check_target(system, target)
     if args.report is not None:
-        from harness.htmlreport import check_report_path
+        from harness.reporting.htmlreport import check_report_path
 
         check_report_path(args.report)
     if args.scheduler:

@@ -15,7 +15,7 @@ A sweep is described by a YAML or JSON file::
       ranges: {rpm: [100, 200]}
     set:                                # parameters of the run, as expressions of the sweep variables
       feeder.w0: "rpm * 2 * pi / 60"    # a sweep variable named like "Instance.param" is set directly
-    outputs:                            # quantities of interest (harness.qoi expressions)
+    outputs:                            # quantities of interest (harness.reporting.qoi expressions)
       peak_contact_force: 'peak(r["fourbar.contact_force"])'
     plot:                               # optional: charts written by ``sweep ... --plot DIR``
       x: alpha_c                        # a column of the result (sweep variable, output or set:...)
@@ -57,8 +57,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness import qoi
-from harness.charts import save_figure
+from harness.reporting import qoi
+from harness.reporting.charts import save_figure
 from harness.studies.sweep_checks import SweepError  # noqa: F401 (defined below this module, re-exported)
 from harness.studies.trial import one_line, trial
 
@@ -466,7 +466,7 @@ def _run_cli(args) -> int:
     out = Path(args.out or Path("results") / f"sweep_{Path(args.system).stem}.csv")
     preflight(args.system, spec, out, workers, local=args.scheduler is None)
     if getattr(args, "report", None) is not None:
-        from harness.htmlreport import check_report_path
+        from harness.reporting.htmlreport import check_report_path
 
         check_report_path(args.report)
     if args.scheduler:
@@ -523,11 +523,11 @@ ROWS_SHOWN = 400   # a report's table shows at most this many points (the result
 
 def report(df: pd.DataFrame, spec: SweepSpec, path: str | Path, system: str, charts: list[Path] | None = None,
            result_file: str | Path | None = None) -> Path:
-    """One self-contained HTML page of a sweep (:mod:`harness.htmlreport`): what was swept (variables, set
+    """One self-contained HTML page of a sweep (:mod:`harness.reporting.htmlreport`): what was swept (variables, set
     expressions, quantities of interest, run settings), the table of points, the chart of the spec's ``plot:``
     section (``charts``: PNGs already drawn, else drawn here), the drive as declared and the versions with the
     points' run time; returns its path.  ``system``: the system's name or file, as given to :func:`run_sweep`."""
-    from harness import htmlreport as h
+    from harness.reporting import htmlreport as h
     from harness.run import load
 
     drive = load(system)

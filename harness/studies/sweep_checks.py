@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness import qoi
+from harness.reporting import qoi
 from harness.studies.trial import partial_csv as partial_path  # the point log of an unfinished sweep
 
 

@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 
 from fmus.physics.takeup import ALPHA_Y_CLASSICAL, TakeUpParams, simulate
-from harness.charts import save_figure
+from harness.reporting.charts import save_figure
 from harness.studies.trial import StudyInterrupted, keep_interrupted, write_complete
 
 ROOT = Path(__file__).resolve().parents[2]          # the source tree (default input paths work from any folder)

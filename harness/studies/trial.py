@@ -42,7 +42,7 @@ def study_options(n_steps: int):
     have 2 x ``min_blocks`` of them.  (Not the default of :func:`harness.simulate`: a short run of a drive
     starting from rest, a few dozen steps of its own default step, grows by x10 in its first milliseconds.)"""
     from harness import RunOptions
-    from harness.divergence import DivergenceOptions
+    from harness.master.divergence import DivergenceOptions
 
     d = DivergenceOptions()
     if n_steps >= 2 * d.min_blocks * d.block:

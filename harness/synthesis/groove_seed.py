@@ -179,7 +179,7 @@ def least_pressure(a, law: str, dwell_deg: float, samples: int = 41) -> tuple[fl
 def fig2(stage: groove.RockerSlider, stem) -> list:
     """Seed Fig. 2, the calculation scheme of the rocker-slider contour, at the stroke's two ends."""
     import matplotlib.pyplot as plt
-    from harness.charts import save_figure
+    from harness.reporting.charts import save_figure
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     R, e = stage.R, stage.e
@@ -213,7 +213,7 @@ def fig4(stage: groove.RockerSlider, stem) -> list:
     """Seed Fig. 4: the rocker's acceleration invariant against k for the harmonic carriage laws we can build,
     each beside the power-type form C[1 - (2k)^n] with the n fitted to it (the seed's "of the type")."""
     import matplotlib.pyplot as plt
-    from harness.charts import save_figure
+    from harness.reporting.charts import save_figure
 
     k = np.linspace(0.0, 1.0, 1001)
     fig, ax = plt.subplots(figsize=(7, 4.5))
@@ -250,7 +250,7 @@ def fig7(a, lam2: float, stem) -> list:
     """Seed Fig. 7: kulisa angle and acceleration invariant of the LCSM (1) and the base four-bar (2).  The seed
     draws it for law 1,5, which it does not define: ours for K0 and C0 (:data:`LAWS`)."""
     import matplotlib.pyplot as plt
-    from harness.charts import save_figure
+    from harness.reporting.charts import save_figure
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
     runs = []

@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from harness.charts import save_figure
+from harness.reporting.charts import save_figure
 from harness.studies.trial import StudyInterrupted, quiet_simulate, study_options
 from harness.studies.stability.theory import (MASTER_NAMES, TwoInertia, _as_params, _check_h, _master, _order,
                                               orders_for, stability_boundary)

@@ -9,7 +9,7 @@ from typing import Mapping
 
 import numpy as np
 
-from harness.charts import save_figure
+from harness.reporting.charts import save_figure
 from harness.run import declared
 from harness.specs import StabilitySpec
 from harness.studies.trial import StudyInterrupted, one_line, quiet_simulate, study_options
@@ -145,7 +145,7 @@ class PressRun:
 
     def __init__(self, system, master: str, order: int, parameters: Mapping | None = None,
                  duration: float = 0.1, fmu_dir=None, tol: float = 1.0, reference=None):
-        from harness.masters import master_class
+        from harness.master import master_class
 
         self.system = _with_fmu_dir(system, fmu_dir)
         self.master = master_class(master).name
@@ -245,7 +245,7 @@ def press_stability_table(system: str, sweep: str | None = None, values=None, ma
     import pandas as pd
 
     from harness import load
-    from harness.masters import master_class
+    from harness.master import master_class
 
     if system not in PRESS_STUDIES:
         raise ValueError(f"system {system!r} has no stability study: use one of "

@@ -15,18 +15,18 @@ force-displacement coupling:
 Amplification matrix
 --------------------
 :func:`amplification_matrix` is the exact one-step map ``z_{k+1} = M z_k`` of the coupled discrete system
-as the masters of :mod:`harness.masters` compute it.  ``z_k = [x_k, x_{k-1}, ..., x_{k-q}]`` stacks the
+as the masters of :mod:`harness.master` compute it.  ``z_k = [x_k, x_{k-1}, ..., x_{k-q}]`` stacks the
 coupled state ``x = (phi1, w1, phi2, w2)`` at the last ``q + 1`` communication points (``q`` = the
 extrapolation order): the coupling outputs are linear functions of the consistent state (``tau_k`` is ``b``'s
 output evaluated with the point inputs at ``t_k``), so the output history of the extrapolation is the state
 history.  The extra dimensions only add eigenvalues 0.
 
-* Held inputs (see :mod:`harness.extrapolation`): order 0 holds the newest sample; order ``q >= 1`` holds
+* Held inputs (see :mod:`harness.master.extrapolation`): order 0 holds the newest sample; order ``q >= 1`` holds
   the degree-``q`` polynomial through the newest ``q + 1`` samples evaluated at the step MIDPOINT
   ``t_k + h/2``.  The weights are Lagrange weights computed from the nodes (:func:`lagrange_weights`).
   The reduced degree of the first ``q`` steps is a start-up transient and does not enter ``M``.
 * ``jacobi``: both FMUs hold values extrapolated from the samples at ``t_k, t_{k-1}, ...``.
-* ``gauss-seidel``: the FMU without direct feed-through goes first (``harness.graph.stepping_order``), i.e.
+* ``gauss-seidel``: the FMU without direct feed-through goes first (``harness.master.graph.stepping_order``), i.e.
   ``a`` (Inertia) steps on the torque extrapolated from ``t_k, t_{k-1}, ...``; then ``b`` (SpringInertia)
   holds the motion polynomial through ``a``'s NEW sample at ``t_{k+1}`` and ``t_k, ...`` (order 0: the new
   value itself; order >= 1: interpolation at the midpoint).
@@ -324,10 +324,10 @@ def amplification_matrix(params, h: float, master: str = "jacobi", order: int = 
 
 
 def _bond_shift(p: TwoInertia, mapA, mapB) -> float:
-    """The shift s of theta on the pair's one bond, as the master computes it (harness.jacobian.target_weights):
+    """The shift s of theta on the pair's one bond, as the master computes it (harness.master.jacobian.target_weights):
     THETA_SHIFT * min(1, loop gain), the gain being max |S_kk| of ``S = C (I - D C)^-1 A`` over the held
     inputs ``u = (tau [a], phi_in, w_in [b])`` with outputs ``y = (phi1, w1, tau)`` at the step end."""
-    from harness.jacobian import THETA_SHIFT, assemble, bond_gain
+    from harness.master.jacobian import THETA_SHIFT, assemble, bond_gain
 
     (_, GA), (_, GB) = mapA, mapB
     row = p.torque_row()                                  # tau = row . (phi1, w1, phi2, w2)
@@ -341,7 +341,7 @@ def _bond_shift(p: TwoInertia, mapA, mapB) -> float:
 
 
 def _implicit_matrix(p: TwoInertia, mapA, mapB) -> np.ndarray:
-    """One-step map ``x_{k+1} = M x_k`` of the ``jacobian`` master's fixed point (harness.jacobian): each held
+    """One-step map ``x_{k+1} = M x_k`` of the ``jacobian`` master's fixed point (harness.master.jacobian): each held
     input is ``(1 - theta) y_k + theta y_{k+1}`` of its source, with ``theta = 1/2 + s`` for the torque that
     ``a`` (motion-output side) holds and ``1/2 - s`` for the motion that ``b`` holds (``s``:
     :func:`_bond_shift`), solved for x_{k+1}.  For FMUs linear over a step (these two) the master's one

@@ -4,8 +4,8 @@
 browser, offline: the charts are inline PNG images (base64 ``data:`` URIs), the styles inline, no script and
 nothing fetched from the network.  A run's page holds
 
-* the engineering quantities with their units (:mod:`harness.quantities`), the start-up rule in the heading;
-* the charts (over time and over one machine cycle, :mod:`harness.charts`);
+* the engineering quantities with their units (:mod:`harness.reporting.quantities`), the start-up rule in the heading;
+* the charts (over time and over one machine cycle, :mod:`harness.reporting.charts`);
 * the drive: every instance with its FMU and fidelity, and every parameter whose value differs from its FMU's
   declared default (set by the drive, or by the run), with the default beside it;
 * the method: master, extrapolation, step, step control, tolerance, stop time, steps, and whether it is the
@@ -157,7 +157,7 @@ def versions_section(page: Page, run_time: list[tuple[str, float | str]]) -> Non
 
 
 def quantities_section(page: Page, q, heading: str = "Engineering quantities") -> None:
-    """The engineering quantities (a :class:`harness.quantities.Quantities`): value, unit, over, meaning."""
+    """The engineering quantities (a :class:`harness.reporting.quantities.Quantities`): value, unit, over, meaning."""
     if q is None or not q.rows:
         page.section(heading, para("the drive declares no engineering quantities"))
         return
@@ -317,7 +317,7 @@ def write_run_report(system, df, path: str | Path, charts: list[Path] | None = N
     temporary folder)."""
     keep = None
     if charts is None and len(df):
-        from harness.charts import plot_result
+        from harness.reporting.charts import plot_result
 
         charts, keep = render_charts(lambda d: plot_result(system, df, d), None)
     try:

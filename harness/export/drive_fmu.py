@@ -2,7 +2,7 @@
 
 The FMU (FMI 2.0 with pythonfmu, or FMI 3.0 with pythonfmu3: ``fmi_version``) carries the drive's member FMUs
 (FMI 2.0 in both) and runs the drive's declared master, input extrapolation and step inside each ``doStep`` (the
-slave: :mod:`harness.drive_slave`, :mod:`harness.drive_slave3`).  It is built from
+slave: :mod:`harness.export.drive_slave`, :mod:`harness.export.drive_slave3`).  It is built from
 the same declarations as the component FMUs (``fmus/build.py``):
 
 * its code is the slave plus the harness modules it imports, under names unique to this build
@@ -36,7 +36,8 @@ from pathlib import Path
 from harness.errors import SystemDescriptionError
 from harness.model import System, model_description, resolve_fmu
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parent      # harness/export
+HARNESS = HERE.parent                          # harness/: the bundled package's root
 PLATFORM = "linux64"
 _COLUMN = re.compile(r"""(?:r\[|rise_times\()\s*["']([^"']+)["']""")
 
@@ -87,7 +88,7 @@ def _packable(name: str, path: Path) -> None:
 
 
 def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, dict[str, Path]]:
-    """The drive as data for the slave (:class:`harness.drive_slave.DriveSlave` ``spec``) and the member FMU
+    """The drive as data for the slave (:class:`harness.export.drive_slave.DriveSlave` ``spec``) and the member FMU
     files by instance."""
     from fmus.units import BASE_UNITS
 
@@ -183,7 +184,7 @@ def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, 
 def harness_modules(start: Path = HERE / "drive_slave.py") -> list[Path]:
     """The harness source files the slave needs: ``start`` and every harness module it imports, transitively
     (also imports inside functions), with the packages' ``__init__.py``."""
-    root = HERE.parent
+    root = HARNESS.parent
     seen: set[Path] = set()
     todo = [start]
     while todo:
@@ -205,7 +206,7 @@ def harness_modules(start: Path = HERE / "drive_slave.py") -> list[Path]:
                 for k in range(1, len(parts) + 1):
                     base = root.joinpath(*parts[:k])
                     for cand in (base.with_suffix(".py"), base / "__init__.py"):
-                        if cand == HERE / "__init__.py":
+                        if cand == HARNESS / "__init__.py":
                             continue   # the package's lazy API (run, studies): the FMU gets an empty one
                         if cand.is_file() and cand not in seen:
                             todo.append(cand)
@@ -227,32 +228,32 @@ def stage(system: System, dest: Path, outputs: list[str] | None = None,
     files = harness_modules(HERE / slave_file)
     h = hashlib.sha1(json.dumps(spec, sort_keys=True).encode() + str(fmi_version).encode())
     for f in files:
-        h.update(str(f.relative_to(HERE.parent)).encode())
+        h.update(str(f.relative_to(HARNESS.parent)).encode())
         h.update(f.read_bytes())
     digest = h.hexdigest()[:12]
     package = f"harness_{digest}"
     for f in files:
-        target = dest / package / f.relative_to(HERE)
+        target = dest / package / f.relative_to(HARNESS)
         target.parent.mkdir(parents=True, exist_ok=True)
         target.write_text(_rename(f.read_text(encoding="utf-8"), package), encoding="utf-8")
-    (dest / package / "__init__.py").write_text('"""The harness modules a drive FMU runs (harness.drive_fmu)."""\n',
+    (dest / package / "__init__.py").write_text('"""The harness modules a drive FMU runs (harness.export.drive_fmu)."""\n',
                                                 encoding="utf-8")
     members = dest / "members"
     members.mkdir()
     for p in sorted(set(paths.values())):
         shutil.copy2(p, members / p.name)
     cls = model_class_name(system)
-    modules = sorted(".".join((Path(package) / f.relative_to(HERE)).with_suffix("").parts).removesuffix(".__init__")
-                     for f in files + [HERE / "__init__.py"])
+    modules = sorted(".".join((Path(package) / f.relative_to(HARNESS)).with_suffix("").parts).removesuffix(".__init__")
+                     for f in files + [HARNESS / "__init__.py"])
     text = (f'"""Drive FMU {cls}: the drive {system.name} with the toolkit\'s master inside '
-            f'(harness.drive_slave)."""\n'
-            f"import json\n\nfrom {package}.{slave_file[:-3]} import {slave_class}\n"
+            f'(harness.export.drive_slave)."""\n'
+            f"import json\n\nfrom {package}.export.{slave_file[:-3]} import {slave_class}\n"
             + ("from pythonfmu3 import Fmi3Slave  # noqa: F401 (pythonfmu3 finds the class by this word)\n"
                if fmi_version == 3 else "") +
             f"\nSPEC = {json.dumps(json.dumps(spec))}\n\n\n"
             f"class {cls}({slave_class}{', Fmi3Slave' if fmi_version == 3 else ''}):\n"
             f"    spec = json.loads(SPEC)\n\n\n"
-            "# every module of the bundled package, imported now (harness.drive_fmu: stage)\n"
+            "# every module of the bundled package, imported now (harness.export.drive_fmu: stage)\n"
             + "".join(f"import {m}  # noqa: E402,F401\n" for m in modules))
     script = dest / f"{system.name}_fmu_{digest}.py"
     script.write_text(text, encoding="utf-8")

@@ -1,4 +1,4 @@
-"""Observers of a run: what watches the loop of :meth:`harness.masters.Master.run` without steering it.
+"""Observers of a run: what watches the loop of :meth:`harness.master.Master.run` without steering it.
 
 An :class:`Observer` is told of the run's start, each input event, each accepted communication point and the
 end (libcosim's observer habit).  It may read the master (``y``, ``bond_log``, ``t_ns``, the counters) and its
@@ -8,7 +8,7 @@ observers, in the order the loop calls them:
 
 :class:`Recording`                  the result rows (a :class:`harness.results.Recorder`), at the start and at
                                     every recording point;
-:class:`harness.divergence.DivergenceWatch`  the divergence detector on the power bonds;
+:class:`harness.master.divergence.DivergenceWatch`  the divergence detector on the power bonds;
 :class:`ProgressBar`                a tqdm bar on stderr.
 
 The power bonds' energy bookkeeping (``Master.bond_log``) is not an observer: it is part of each master step
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import sys
 
-from harness.clock import NS
+from harness.master.clock import NS
 
 __all__ = ["Observer", "Recording", "ProgressBar"]
 

@@ -1,8 +1,7 @@
-"""Co-simulation masters: one stepping loop, one ``_step_impl`` per method (scipy.integrate._ivp style).
+"""THE stepping loop of every co-simulation master (scipy.integrate._ivp style): the base class :class:`Master`.
 
-(About 830 lines on purpose: the loop, the contract of a method, its hooks and the five methods read together in
-one file; the coupling layout lives in :mod:`harness.coupling`, the loop's parts in extrapolation, stepcontrol,
-graph, iteration (the fixed-point solvers), jacobian (the interface Jacobians) and observers.)
+The methods are its subclasses, one module per family (:mod:`harness.master.explicit`,
+:mod:`harness.master.iterative`, :mod:`harness.master.implicit`), registered by name in :mod:`harness.master`.
 
 The base class :class:`Master` owns the coupling data (prepared once: value-reference blocks, a signal
 vector ``y`` of every Real output, the connection index arrays, the extrapolation :class:`History`), the
@@ -10,16 +9,16 @@ communication-point exchange, rollback snapshots, failure checks, the power-bond
 loop.  A method only says how one communication step ``[t, t+h]`` is taken:
 
 ``jacobi``        every FMU steps on inputs computed from the outputs known at ``t`` (in parallel in principle);
-``gauss-seidel``  FMUs step one after the other in :func:`harness.graph.stepping_order` (outputs without
+``gauss-seidel``  FMUs step one after the other in :func:`harness.master.graph.stepping_order` (outputs without
                   direct feed-through first); each uses the newest outputs, including those already at ``t+h``;
 ``iterative``     the step is repeated with get/set-FMU-state rollback until the held inputs are a fixed point
                   (fixed-point, Anderson-accelerated or Newton iteration; :class:`IterationOptions`); the same
                   solver resolves algebraic loops at each communication point;
 ``jacobian``      a Jacobi prediction, one Newton correction of the held inputs with interface Jacobians toward
-                  an implicit fixed point, and the step again on the corrected inputs (:mod:`harness.jacobian`).
+                  an implicit fixed point, and the step again on the corrected inputs (:mod:`harness.master.jacobian`).
 
 At every communication point the outputs are made consistent (:meth:`Master._exchange`): instances are
-evaluated in the direct-feed-through order of :func:`harness.graph.evaluation_order`; an instance with
+evaluated in the direct-feed-through order of :func:`harness.master.graph.evaluation_order`; an instance with
 feed-through gets the point values of its sources before its outputs are read.  A feed-through cycle (an
 algebraic loop) is detected when the master is built: ``jacobi`` and ``gauss-seidel`` refuse it
 (:class:`AlgebraicLoopError` naming the loop), ``iterative`` solves it.  A loop that exists only because
@@ -37,15 +36,15 @@ from typing import ClassVar
 
 import numpy as np
 
-from harness import coupling, graph, jacobian
-from harness.clock import NS
-from harness.coupling import Inst as _Inst
-from harness.errors import (AlgebraicLoopError, BlowUp, FMUError, SimulationError, SingularCoupling,
+from harness.errors import (AlgebraicLoopError, BlowUp, FMUError, SimulationError,
                             SystemDescriptionError)
-from harness.extrapolation import DEPTH, History, Polynomial
-from harness.iteration import ConvergenceError, IterationOptions, solve_fixed_point
+from harness.master import coupling, graph
+from harness.master.clock import NS
+from harness.master.coupling import Inst as _Inst
+from harness.master.extrapolation import DEPTH, History, Polynomial
+from harness.master.iteration import IterationOptions, solve_fixed_point
 
-__all__ = ["MASTERS", "Master", "master_class", "ConvergenceError", "IterationOptions", "AssumptionWarning"]
+__all__ = ["Master", "AssumptionWarning"]
 
 
 class AssumptionWarning(UserWarning):
@@ -71,9 +70,9 @@ class Master:
                             coupling layout is ready then); it may refuse FMUs (``SystemDescriptionError``).
 
     **The loop** (:meth:`run`): per communication step, input signals are applied, the step-control strategy
-    (:mod:`harness.stepcontrol`) calls :meth:`step` once or more (rolling back with :meth:`snapshot` /
+    (:mod:`harness.master.stepcontrol`) calls :meth:`step` once or more (rolling back with :meth:`snapshot` /
     :meth:`restore` between attempts), and each accepted point goes to the observers
-    (:class:`harness.observers.Observer`: recording, divergence watch, progress bar).  :meth:`step` passes the
+    (:class:`harness.master.observers.Observer`: recording, divergence watch, progress bar).  :meth:`step` passes the
     non-Real connections, calls ``_step_impl``, checks the outputs, books the power bonds' energy and moves
     ``t_ns``.
 
@@ -122,7 +121,7 @@ class Master:
         self.mds = mds
         self.groups = graph.evaluation_order(self.connections, mds)
         self.loops = loops
-        # the signal vector y, the held-input vector u and the non-Real connections (harness.coupling)
+        # the signal vector y, the held-input vector u and the non-Real connections (harness.master.coupling)
         lay = coupling.layout(fmus, self.connections, mds, self.extrapolation.order > 0)
         self.insts, self.index = lay.insts, lay.index
         if not self.input_derivatives:
@@ -162,7 +161,7 @@ class Master:
         self.t_ns = 0
         self.steps = 0       # accepted communication steps (run)
         self.iterations = 0  # total iterations (iterative master)
-        self.halvings = 0    # steps taken again as two halves (jacobian master: harness.jacobian.needs_halving)
+        self.halvings = 0    # steps taken again as two halves (jacobian master: harness.master.jacobian.needs_halving)
         self.fmu_steps = 0   # do_step calls made, summed over the FMUs (only _step_fmus adds to it)
         self._prepare()
 
@@ -236,12 +235,12 @@ class Master:
     def _pass_discrete(self, t: float) -> None:
         """Integer, Boolean, String and Enumeration connections: each target input takes its source's value
         at the current communication point ``t`` (through the connection's value mapping if it has one,
-        :func:`harness.coupling.passed_value`) and holds it over the step (no extrapolation), as libcosim
+        :func:`harness.master.coupling.passed_value`) and holds it over the step (no extrapolation), as libcosim
         and Ecos pass such values.  A master that refreshes feed-through
         (``refreshes_discrete``: ``jacobi``, ``iterative``) passes them at the END of each step, so a
         feed-through output is recorded with its input of the same point, and then passes the connections
         whose source declares a direct dependency on a value just set, in chain order
-        (:func:`harness.coupling.discrete_refresh`); the others pass them at the start of the step."""
+        (:func:`harness.master.coupling.discrete_refresh`); the others pass them at the start of the step."""
         values = [src.get_value(sv) for src, sv, *_ in self._discrete]  # every source first: a target
         for link, value in zip(self._discrete, values):                # may feed one through
             _, _, dst, dv, _ = link
@@ -269,7 +268,7 @@ class Master:
             it.fmu.set_list(it.inp, [factor * values[src] + offset for src, factor, offset in it.links])
 
     def _set_held_inputs(self, it: _Inst, t: float, h: float) -> None:
-        """Inputs of ``it`` for the step [t, t+h] from the source histories (see harness.extrapolation)."""
+        """Inputs of ``it`` for the step [t, t+h] from the source histories (see harness.master.extrapolation)."""
         if not it.inp.n:
             return
         if it.interp:
@@ -316,7 +315,7 @@ class Master:
         """:meth:`_hold_all` in plain floats for its common case: every source's newest sample is at t and the
         history is full, extrapolation order 0 or 1 (a drive's few dozen inputs are cheaper as floats than
         through numpy's fancy indexing).  The same operations in the same order as the array path
-        (:meth:`harness.extrapolation.Polynomial.held`, then ``factor * held + offset``), so the same values bit for
+        (:meth:`harness.master.extrapolation.Polynomial.held`, then ``factor * held + offset``), so the same values bit for
         bit; an advanced position (:meth:`_held_values`) takes the start sample ``y0``."""
         hist = self.history
         y0 = hist.y[0].tolist()
@@ -336,7 +335,7 @@ class Master:
             it.fmu.set_list(it.inp, values[it.input_slice])
 
     def _held_values(self, it: _Inst, t: float, h: float) -> np.ndarray:
-        """Held inputs of ``it`` over [t, t+h]: the extrapolation's value (harness.extrapolation), except for
+        """Held inputs of ``it`` over [t, t+h]: the extrapolation's value (harness.master.extrapolation), except for
         the position of a power bond (phi or s at a motion-input port) that the FMU declares it advances
         itself with the held speed over the step (fmus.slave.PressSlave.advances_position): it gets the
         position at the step START (for Gauss-Seidel the sample at t, not the newer one at t+h)."""
@@ -484,13 +483,13 @@ class Master:
 
     def run(self, controller, stop_ns: int, observers=(), inputs=None) -> int:
         """THE run loop: communication steps from ``t_ns`` (after :meth:`initialize`) to ``stop_ns``, each taken
-        by ``controller.advance`` (:mod:`harness.stepcontrol`, starting with its ``step_ns``).  ``inputs``
+        by ``controller.advance`` (:mod:`harness.master.stepcontrol`, starting with its ``step_ns``).  ``inputs``
         (None or a :class:`harness.signals.Signals`): applied at each point before the step (``apply(t_ns)``),
         the point's outputs made consistent again when a signal drives an instance that feeds others, and at
         one of its ``step_times`` the history restarted (no coupling signal is extrapolated across an event) and
         a variable step control restarted from its first step; a variable step also ends on each of the inputs'
         row times (``next_time``).
-        ``observers`` (:class:`harness.observers.Observer`) see the start, each input event, each accepted point
+        ``observers`` (:class:`harness.master.observers.Observer`) see the start, each input event, each accepted point
         and the end, in the order given; ``on_end`` runs however the run ends.  Returns the time reached [ns]."""
         observers = list(observers)
         t_ns = self.t_ns
@@ -581,266 +580,3 @@ class Master:
         for it in self.insts:
             it.fmu.free()
         self._slots.clear()
-
-
-class Jacobi(Master):
-    """Every FMU steps on inputs extrapolated from the outputs at t; outputs with declared feed-through are
-    refreshed with the new inputs at each communication point (Real and non-Real)."""
-    name = "jacobi"
-    refreshes_discrete = True
-
-    def history_depth(self) -> int:
-        return self.extrapolation.order + 1  # every source's newest sample is at t: the polynomial's nodes
-
-    def _step_impl(self, t, h, t_next):
-        self._hold_all(t, h)
-        self._step_fmus(self.insts, t, h, no_prior_state=True)
-        self._outputs_at(t_next)
-
-    _outputs_at = Master._exchange  # consistent outputs at t+h: feed-through refreshed with the new inputs
-
-
-class JacobiSampled(Jacobi):
-    """Jacobi as libcosim, Ecos and FMPy's ``simulate_ssp`` do it: outputs are sampled right after
-    ``fmi2DoStep`` and passed on at the next step; an output with direct feed-through is NOT refreshed with
-    the new inputs at the communication point (``jacobi`` does refresh it, which is more accurate).  Use it
-    to compare with those tools step for step."""
-    name = "jacobi-sampled"
-    refreshes_discrete = False
-    _outputs_at = Master._read_all  # the outputs as they are right after the step, Real feed-through too
-
-
-class GaussSeidel(Master):
-    """FMUs step in dependency order; each uses the newest outputs (samples at t+h where available)."""
-    name = "gauss-seidel"
-
-    def _prepare(self) -> None:
-        order = graph.stepping_order(self.connections, self.mds)
-        self.order = [self.insts[self.index[n]] for n in order]
-
-    def _step_impl(self, t, h, t_next):
-        point = self.extrapolation.order >= 1
-        for it in self.order:
-            self._set_held_inputs(it, t, h)
-            self._step_fmus((it,), t, h, no_prior_state=True)
-            if point and it.feedthrough and it.inp.n:
-                # the FMUs after this one take its sample at t+h as exact: a feed-through output must see its
-                # inputs AT t+h (newest samples, or the polynomial at t+h for sources not yet stepped), not
-                # the midpoint values held over the step -- otherwise a rigid link hands a midpoint value on
-                # as the end value and the coupling drops to first order
-                it.fmu.set(it.inp, it.factor * self.extrapolation.value(self.history, it.src, t_next) + it.offset)
-            self._read(it)
-            self.history.push(it.output_slice, t_next, self.y[it.output_slice])
-        self._exchange(t_next)
-
-
-class Iterative(Master):
-    """Each step is repeated with rollback until the held inputs are a fixed point: u = G(u), where G takes
-    the step on held inputs u and returns the held inputs computed from the resulting outputs at t+h (their
-    polynomial through the newest samples at the step midpoint, or the end value for order 0).  Converged,
-    this is the implicit (order 0) or trapezoidal (order >= 1) coupling.  Algebraic loops at communication
-    points are solved with the same iteration."""
-    name = "iterative"
-    solves_loops = True
-    refreshes_discrete = True
-    input_derivatives = False  # the iteration converges the held (midpoint) values
-
-    def _prepare(self) -> None:
-        # without fmi2GetFMUstate/fmi2SetFMUstate a step cannot be repeated: each step is then taken once on
-        # the held inputs (the explicit coupling of jacobi), while algebraic loops at communication points,
-        # which need no rollback, are still solved -- said once, naming the FMUs
-        fixed = [f"{it.name} ({it.fmu.md.modelName})" for it in self.insts if not it.fmu.can_get_set_state]
-        self.rolls_back = not fixed
-        if fixed:
-            warnings.warn(f"master 'iterative': {', '.join(fixed)} cannot roll back (no canGetAndSetFMUstate): "
-                          f"each step is taken once on the held inputs; algebraic loops at communication points "
-                          f"are still solved", AssumptionWarning, stacklevel=3)
-
-    def needs_rollback(self) -> bool:
-        return self.rolls_back
-
-    def _step_impl(self, t, h, t_next):
-        coupled = self._batched
-        self._hold_all(t, h)
-        if not self.rolls_back:
-            self._step_fmus(self.insts, t, h, no_prior_state=True)
-            self._exchange(t_next)
-            return
-        u0 = self.u.copy()
-        self.snapshot("iterate")
-        first = [True]
-
-        def g(u):
-            if not first[0]:
-                self.restore("iterate")
-            first[0] = False
-            self.u[:] = u
-            values = u.tolist()
-            for it in coupled:
-                it.fmu.set_list(it.inp, values[it.input_slice])
-            self._step_fmus(self.insts, t, h, no_prior_state=False)
-            self._exchange(t_next)
-            out = np.empty_like(u)
-            for it in coupled:
-                out[it.input_slice] = self._held_values(it, t, h)
-            return out
-
-        _u, _gu, n = solve_fixed_point(g, u0, self.iteration, self.tol, f"coupled step at t = {t:.9g} s")
-        self.iterations += n
-
-
-class InterfaceJacobian(Master):
-    """Linearly implicit coupling through interface Jacobians (:mod:`harness.jacobian`): a Jacobi prediction,
-    one Newton correction of the held inputs toward an implicit, dissipative fixed point with Jacobians that
-    are re-estimated only when they have changed, and the step taken again on the corrected inputs.  Stable
-    where a stiff mode spans FMUs; two FMU steps per communication step.  Needs fmi2Get/SetFMUstate; non-Real
-    connections are passed as by ``jacobi`` and take no part in the correction."""
-    name = "jacobian"
-    refreshes_discrete = True
-    input_derivatives = False  # the correction is on the held (midpoint) values
-
-    def _prepare(self) -> None:
-        fixed = [f"{it.name} ({it.fmu.md.modelName})" for it in self.insts if not it.fmu.can_get_set_state]
-        if fixed:
-            raise SystemDescriptionError(f"master 'jacobian' takes each step twice and estimates its Jacobians by "
-                                         f"rollback, "
-                                         f"but {', '.join(fixed)} cannot roll back (no canGetAndSetFMUstate): use "
-                                         f"master='jacobi' or 'gauss-seidel' for such FMUs")
-        # per power bond: the held effort and the held motion (not the positions the FMU advances itself), whose
-        # weights of the sample at t+h follow their loop gains at each estimate (harness.jacobian.target_weights)
-        pos = set(self._advanced_positions.tolist())
-        held = [jacobian.motion_held(self.insts[self.index[b.motion_in.split(".", 1)[0]]], b) for b in self.bonds]
-        self._bond_inputs = [(b[0], [k for k in m if k not in pos]) for b, m in zip(self._bonds, held)]
-        self.theta = jacobian.target_weights(len(self.u), self._bond_inputs, None, self._advanced_positions)
-        self.jacobian: np.ndarray | None = None  # S of harness.jacobian.assemble, for the step size self._jac_h
-        self._jac_h, self._jacobian_stale = 0.0, True
-        # Jacobian estimates (one extra FMU step per held input each) and steps taken again with fresh Jacobians
-        # because the correction did not contract (the halved steps: Master.halvings)
-        self.estimates = self.retries = 0
-
-    def needs_rollback(self) -> bool:
-        return True
-
-    def _implicit_inputs(self, t: float, h: float) -> np.ndarray:
-        """G: the held inputs recomputed from the history whose newest sample is at t+h: ``(1 - theta) y(t) +
-        theta y(t+h)`` of each source (harness.jacobian.target_weights)."""
-        y = self.history.y
-        return self.factor * (self.theta * y[0, self.src] + (1.0 - self.theta) * y[1, self.src]) + self.offset
-
-    def _take(self, t: float, h: float, t_next: float, u: np.ndarray) -> np.ndarray:
-        """Step every FMU on held inputs ``u``, make the outputs consistent at t+h; return G(u) - u."""
-        self.u[:] = u
-        values = u.tolist()
-        for it in self._batched:
-            it.fmu.set_list(it.inp, values[it.input_slice])
-        self._step_fmus(self.insts, t, h, no_prior_state=False)
-        self._exchange(t_next)
-        return self._implicit_inputs(t, h) - u
-
-    def _estimate(self, t: float, h: float, u0: np.ndarray) -> None:
-        """Interface Jacobians around the predictor (FMUs at t+h after the step on ``u0``, outputs in ``y``)."""
-        states = self._slots["ij"][0]
-        point = self.factor * self.y[self.src] + self.offset
-        n_y, n_u = len(self.y), len(u0)
-        A, D = np.zeros((n_y, n_u)), np.zeros((n_y, n_u))
-        for it, state in zip(self.insts, states):
-            if not it.inp.n:
-                continue
-            v = point[it.input_slice] if it.feedthrough else None
-            if v is not None:
-                D[it.output_slice, it.input_slice] = jacobian.feedthrough_block(it.fmu, it.inp, it.out, v)
-            A[it.output_slice, it.input_slice] = jacobian.step_sensitivity(
-                it.fmu, it.inp, it.out, state, u0[it.input_slice], v, self.y[it.output_slice], t, h,
-                step=self._stepper(it))
-        try:
-            S = jacobian.assemble(A, D, self.src, self.factor)
-        except np.linalg.LinAlgError:  # I - D C: the outputs' feed-through loop has no unique solution
-            outs = jacobian.singular_direction(np.eye(n_y) - D @ self._output_links())
-            raise self._singular(t, [k for o in outs for k in np.flatnonzero(self.src == o).tolist()],
-                                 "the feed-through of the outputs at the step's end") from None
-        self.jacobian, self._jac_h, self._jacobian_stale = S, h, False
-        self.theta = jacobian.target_weights(len(u0), self._bond_inputs, self.jacobian, self._advanced_positions)
-        self.estimates += 1
-
-    def _stepper(self, it: _Inst):
-        """``step(t, h)`` of one instance through :meth:`_step_fmus` (counted), for harness.jacobian."""
-        one = (it,)
-        return lambda t, h: self._step_fmus(one, t, h, no_prior_state=False)
-
-    def _output_links(self) -> np.ndarray:
-        """``C`` of :func:`harness.jacobian.assemble`: held inputs x outputs, ``factor`` at each input's source."""
-        C = np.zeros((len(self.src), len(self.y)))
-        C[np.arange(len(self.src)), self.src] = self.factor
-        return C
-
-    def _held_name(self, k: int) -> str:
-        """``instance.input`` of entry ``k`` of the held-input vector."""
-        for it in self.insts:
-            if it.input_slice.start <= k < it.input_slice.stop:
-                return f"{it.name}.{list(it.input_pos)[k - it.input_slice.start]}"
-        return f"held input {k}"
-
-    def _singular(self, t: float, held: list[int], what: str) -> SingularCoupling:
-        """The one-line stop of a singular interface Jacobian at the step from ``t``: names the power bond whose held
-        effort or motion carries the singular direction ``held`` (held-input indices, largest first), else the
-        connection's input."""
-        names = [self._held_name(k) for k in held[:3]]
-        bonds = [label for k in held for label, (effort, motion), b in
-                 zip(self.bond_labels, self._bond_inputs, self._bonds) if k in (effort, *motion, b[2])]
-        bond = bonds[0] if bonds else None
-        where = f"on power bond {bond}" if bond else (f"on input {', '.join(names)}" if names else "")
-        return SingularCoupling(
-            f"t = {t:.9g} s: master 'jacobian': the interface Jacobian is singular {where} ({what} has no unique "
-            f"solution; held values in its singular direction: {', '.join(names) or 'none found'}): this step "
-            f"cannot be coupled by this scheme; use another step, or master 'jacobi' or 'gauss-seidel'",
-            time=t, bond=bond)
-
-    def _step_impl(self, t, h, t_next, depth: int = 0):
-        """One step of the scheme; a step whose correction does not contract even with fresh Jacobians (a contact
-        made or lost within it) is taken again as two halves, at most MAX_HALVINGS deep (jacobian.needs_halving)."""
-        self._hold_all(t, h)
-        u0 = self.u.copy()
-        self.snapshot("ij")
-        for attempt in (0, 1):
-            r0 = self._take(t, h, t_next, u0)
-            fresh = self._jacobian_stale or self._jac_h != h
-            if fresh:
-                self._estimate(t, h, u0)
-                r0 = self._implicit_inputs(t, h) - u0  # with the new theta, from the same predictor
-            M = np.eye(len(u0)) - self.theta[:, None] * self.jacobian
-            try:
-                du = np.linalg.solve(M, r0)
-            except np.linalg.LinAlgError:  # the corrector's matrix: no unique correction of the held inputs
-                raise self._singular(t, jacobian.singular_direction(M), "the Newton correction") from None
-            self.restore("ij")
-            r1 = self._take(t, h, t_next, u0 + du)
-            scale = np.abs(u0) + np.abs(r0) + 1e-9
-            rho = jacobian.contraction(r0, r1, scale)
-            self._jacobian_stale = rho > jacobian.CONTRACTION
-            if fresh and depth < jacobian.MAX_HALVINGS and h * NS >= 1.5 and jacobian.needs_halving(rho, r1, scale):
-                self.restore("ij")
-                self.halvings += 1
-                t_ns, h_ns = round(t * NS), round(h * NS)
-                for a, b in ((t_ns, t_ns + h_ns // 2), (t_ns + h_ns // 2, t_ns + h_ns)):
-                    self._step_impl(a / NS, (b - a) / NS, b / NS, depth + 1)
-                return
-            if rho <= jacobian.CONTRACTION or fresh or attempt:
-                return
-            self.retries += 1
-            self.restore("ij")
-
-
-MASTERS: dict[str, type[Master]] = {"jacobi": Jacobi, "jacobi-sampled": JacobiSampled, "gauss-seidel": GaussSeidel,
-                                    "iterative": Iterative, "jacobian": InterfaceJacobian}
-
-
-def master_class(name: str) -> type[Master]:
-    key = str(name).strip().lower().replace("_", "-")
-    key = {"gauss seidel": "gauss-seidel", "gaussseidel": "gauss-seidel", "gs": "gauss-seidel"}.get(key, key)
-    if key not in MASTERS:
-        import difflib
-
-        close = difflib.get_close_matches(key, list(MASTERS), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise SystemDescriptionError(f"master = {name!r} is not admissible{hint}: must be one of {', '.join(MASTERS)}")
-    return MASTERS[key]

@@ -1,6 +1,6 @@
 """The FMI 3.0 slave of a whole-drive FMU (pythonfmu3; ``export DRIVE X.fmu --fmi-version 3``).
 
-The behaviour is :class:`harness.drive_slave.DriveBehaviour`'s (the members stay FMI 2.0 FMUs, run in-process by
+The behaviour is :class:`harness.export.drive_slave.DriveBehaviour`'s (the members stay FMI 2.0 FMUs, run in-process by
 the same master); this class registers the variables as FMI 3.0 types (Real ``Float64``, Integer ``Int32``,
 the independent variable ``time`` last) and writes FMI 3.0's ModelStructure (``Output``/``InitialUnknown`` by
 value reference).
@@ -12,7 +12,7 @@ from xml.etree.ElementTree import Element, SubElement
 from pythonfmu3 import (Fmi3Causality, Fmi3Initial, Fmi3Slave, Fmi3Status, Fmi3StepResult, Fmi3Variability,
                         Float64, Int32)
 
-from harness.drive_slave import DriveBehaviour
+from harness.export.drive_slave import DriveBehaviour
 
 CO_SIMULATION = {"needsExecutionTool": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
                  "canSerializeFMUState": "false", "canHandleVariableCommunicationStepSize": "true"}
@@ -29,29 +29,11 @@ class DriveSlave3(DriveBehaviour, Fmi3Slave):
         super().__init__(**kwargs)
         self.description = type(self).spec["description"]
 
+    _TYPES = dict(integer=Int32, real=Float64, causality=Fmi3Causality, variability=Fmi3Variability,
+                  initial=Fmi3Initial, unit=True)
+
     def _register(self) -> None:
-        spec = type(self).spec
-        for p in spec["parameters"]:
-            if p["type"] == "Integer":
-                self.register_variable(Int32(p["name"], causality=Fmi3Causality.calculatedParameter,
-                                             variability=Fmi3Variability.fixed, initial=Fmi3Initial.approx,
-                                             description=p["description"], getter=self._getter(p["name"])),
-                                       nested=False)
-            else:
-                self.register_variable(Float64(p["name"], causality=Fmi3Causality.parameter,
-                                               variability=Fmi3Variability.fixed, description=p["description"],
-                                               unit=p["unit"] or None, getter=self._getter(p["name"]),
-                                               setter=self._par_setter(p["name"])), nested=False)
-        for i in spec["inputs"]:
-            self.register_variable(Float64(i["name"], causality=Fmi3Causality.input,
-                                           variability=Fmi3Variability.continuous, description=i["description"],
-                                           unit=i["unit"] or None, getter=self._getter(i["name"]),
-                                           setter=self._in_setter(i)), nested=False)
-        for o in spec["outputs"]:
-            self.register_variable(Float64(o["name"], causality=Fmi3Causality.output,
-                                           variability=Fmi3Variability.continuous, description=o["description"],
-                                           unit=o["unit"] or None, getter=self._out_getter(o["name"])),
-                                   nested=False)
+        super()._register()
         self.register_variable(Float64("time", causality=Fmi3Causality.independent,
                                        variability=Fmi3Variability.continuous, description="simulation time",
                                        unit="s", getter=self._time_now), nested=False)
@@ -76,14 +58,7 @@ class DriveSlave3(DriveBehaviour, Fmi3Slave):
             u = SubElement(defs, "Unit", name=name)
             SubElement(u, "BaseUnit", {k: str(x) for k, x in base.items()})
         root.insert(list(root).index(cs) + 1, defs)
-        e = spec["experiment"]
-        de = root.find("DefaultExperiment")
-        if de is None:
-            de = Element("DefaultExperiment")
-            root.insert(list(root).index(root.find("ModelVariables")), de)
-        de.set("startTime", "0.0")
-        de.set("stopTime", repr(float(e["stop_time"])))
-        de.set("stepSize", repr(float(e["step"])))
+        self._default_experiment(root)
         vr = {v.name: v.value_reference for v in self.vars.values()}
         root.remove(root.find("ModelStructure"))
         structure = SubElement(root, "ModelStructure")

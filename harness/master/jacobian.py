@@ -1,5 +1,5 @@
 """Interface Jacobians of a co-simulation step: how each FMU's outputs at the end of a communication step
-respond to the inputs it holds over the step (the ``jacobian`` master, :class:`harness.masters.InterfaceJacobian`).
+respond to the inputs it holds over the step (the ``jacobian`` master, :class:`harness.master.InterfaceJacobian`).
 
 The scheme (linearly implicit coupling; Schweizer, Li and Lu's implicit predictor/corrector coupling with
 approximated interface Jacobians, where one corrector step is taken)
@@ -72,7 +72,7 @@ import numpy as np
 CONTRACTION = 0.2   # refresh the Jacobians when a corrector leaves more than this share of the predictor's residual
 THETA_SHIFT = 0.1    # largest shift of theta from 1/2 on a bond's effort / motion (module docstring: why and cost)
 MAX_HALVINGS = 4     # a step is halved at most this often (to 1/16 of it) where its correction does not contract
-HALVING_RESIDUAL = 1e-3   # ... and leaves more than this share of the held values (harness.jacobian.needs_halving)
+HALVING_RESIDUAL = 1e-3   # ... and leaves more than this share of the held values (harness.master.jacobian.needs_halving)
 RELATIVE_PERTURBATION = 1e-6   # forward-difference perturbation, relative to max(1, |input|)
 
 

@@ -1,6 +1,6 @@
 """Fixed-point solvers of the coupling: the options of the ``iterative`` master and the one solver of
 ``u = g(u)`` (fixed-point, Anderson-accelerated or Newton iteration) that it uses for coupled steps and
-algebraic loops (moved out of :mod:`harness.masters` to keep the stepping loop readable)."""
+algebraic loops (moved out of :mod:`harness.master` to keep the stepping loop readable)."""
 from __future__ import annotations
 
 import math

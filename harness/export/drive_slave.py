@@ -1,4 +1,4 @@
-"""The slave of a whole-drive FMU (``python -m harness export DRIVE FILE.fmu``, :mod:`harness.drive_fmu`).
+"""The slave of a whole-drive FMU (``python -m harness export DRIVE FILE.fmu``, :mod:`harness.export.drive_fmu`).
 
 A drive FMU is a pythonfmu co-simulation FMU whose slave runs the toolkit's own master inside: its resources
 carry the drive's member FMUs (``resources/members/<Model>.fmu``) and a private copy of the harness's modules
@@ -45,13 +45,13 @@ from xml.etree.ElementTree import Element, SubElement
 from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Status
 
-from harness.clock import NS
+from harness.master.clock import NS
 from harness.errors import HarnessError
-from harness.extrapolation import extrapolation as make_extrapolation
+from harness.master.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import open_instance
-from harness.masters import master_class
-from harness.observers import Observer
-from harness.stepcontrol import FixedStep
+from harness.master import master_class
+from harness.master.observers import Observer
+from harness.master.stepcontrol import FixedStep
 from harness.model import Bond, Connection, Experiment, Instance, System
 
 
@@ -132,8 +132,48 @@ class DriveBehaviour:
             self._values[i["name"]] = i["start"]
         self._register()
 
+    # the exporter's variable types, set by a version's class: ``integer``, ``real`` (the variable classes),
+    # ``causality``, ``variability``, ``initial`` (its enums) and ``unit`` (True: a Real takes its unit when
+    # registered, as pythonfmu3's do; False: to_xml writes it)
+    _TYPES: dict = {}
+
     def _register(self) -> None:
-        raise NotImplementedError
+        """Every drive parameter, input and output as a variable of the exporter's types (``_TYPES``), in the
+        spec's order (their value references)."""
+        T, spec = self._TYPES, type(self).spec
+        C, V = T["causality"], T["variability"]
+
+        def unit(v: dict) -> dict:
+            return {"unit": v["unit"] or None} if T["unit"] else {}
+
+        for p in spec["parameters"]:
+            if p["type"] == "Integer":
+                var = T["integer"](p["name"], causality=C.calculatedParameter, variability=V.fixed,
+                                   initial=T["initial"].approx, description=p["description"],
+                                   getter=self._getter(p["name"]))
+            else:
+                var = T["real"](p["name"], causality=C.parameter, variability=V.fixed, description=p["description"],
+                                getter=self._getter(p["name"]), setter=self._par_setter(p["name"]), **unit(p))
+            self.register_variable(var, nested=False)
+        for i in spec["inputs"]:
+            self.register_variable(T["real"](i["name"], causality=C.input, variability=V.continuous,
+                                             description=i["description"], getter=self._getter(i["name"]),
+                                             setter=self._in_setter(i), **unit(i)), nested=False)
+        for o in spec["outputs"]:
+            self.register_variable(T["real"](o["name"], causality=C.output, variability=V.continuous,
+                                             description=o["description"], getter=self._out_getter(o["name"]),
+                                             **unit(o)), nested=False)
+
+    def _default_experiment(self, root: Element) -> None:
+        """The drive's experiment as the model description's DefaultExperiment (start, stop, its own step)."""
+        e = type(self).spec["experiment"]
+        de = root.find("DefaultExperiment")
+        if de is None:
+            de = Element("DefaultExperiment")
+            root.insert(list(root).index(root.find("ModelVariables")), de)
+        de.set("startTime", "0.0")
+        de.set("stopTime", repr(float(e["stop_time"])))
+        de.set("stepSize", repr(float(e["step"])))
 
 
     # -- variables -----------------------------------------------------------------------------------------
@@ -290,27 +330,8 @@ class DriveBehaviour:
 class DriveSlave(DriveBehaviour, Fmi2Slave):
     """The FMI 2.0 drive slave (pythonfmu); a subclass sets ``spec`` (module docstring)."""
 
-    def _register(self) -> None:
-        spec = type(self).spec
-        for p in spec["parameters"]:
-            if p["type"] == "Integer":
-                self.register_variable(Integer(p["name"], causality=Fmi2Causality.calculatedParameter,
-                                               variability=Fmi2Variability.fixed, initial=Fmi2Initial.approx,
-                                               description=p["description"], getter=self._getter(p["name"])),
-                                       nested=False)
-            else:
-                self.register_variable(Real(p["name"], causality=Fmi2Causality.parameter,
-                                            variability=Fmi2Variability.fixed, description=p["description"],
-                                            getter=self._getter(p["name"]), setter=self._par_setter(p["name"])),
-                                       nested=False)
-        for i in spec["inputs"]:
-            self.register_variable(Real(i["name"], causality=Fmi2Causality.input,
-                                        variability=Fmi2Variability.continuous, description=i["description"],
-                                        getter=self._getter(i["name"]), setter=self._in_setter(i)), nested=False)
-        for o in spec["outputs"]:
-            self.register_variable(Real(o["name"], causality=Fmi2Causality.output,
-                                        variability=Fmi2Variability.continuous, description=o["description"],
-                                        getter=self._out_getter(o["name"])), nested=False)
+    _TYPES = dict(integer=Integer, real=Real, causality=Fmi2Causality, variability=Fmi2Variability,
+                  initial=Fmi2Initial, unit=False)
 
     # -- model description ---------------------------------------------------------------------------------
     def to_xml(self, model_options=dict()) -> Element:
@@ -338,14 +359,7 @@ class DriveSlave(DriveBehaviour, Fmi2Slave):
             SubElement(u, "BaseUnit", {k: str(x) for k, x in base.items()})
         if len(defs):
             root.insert(pos, defs)
-        e = spec["experiment"]
-        de = root.find("DefaultExperiment")
-        if de is None:
-            de = Element("DefaultExperiment")
-            root.insert(list(root).index(root.find("ModelVariables")), de)
-        de.set("startTime", "0.0")
-        de.set("stopTime", repr(float(e["stop_time"])))
-        de.set("stepSize", repr(float(e["step"])))
+        self._default_experiment(root)
         root.remove(root.find("ModelStructure"))
         structure = SubElement(root, "ModelStructure")
         if self._outputs:

@@ -1,10 +1,9 @@
-"""Drawing the run charts (:mod:`harness.charts` decides what to draw): a :class:`Figure` holds everything one
+"""Drawing the run charts (:mod:`harness.reporting.charts` decides what to draw): a :class:`Figure` holds everything one
 figure needs -- its panels, the arrays they draw, the shaded zones, the scene windows and the titles -- as plain
 values, and :func:`draw` turns it into a PNG (and SVG).
 
 This module imports numpy and Matplotlib only (pandas and the system's declarations stay in
-:mod:`harness.charts`): a chart worker (:mod:`harness.chartworkers`) imports it while a run steps and draws a
-figure sent to it when the run ends.
+:mod:`harness.reporting.charts`): a figure is plain data, drawn the same from a run, a study or a test.
 """
 from __future__ import annotations
 

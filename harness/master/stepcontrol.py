@@ -3,7 +3,7 @@
 Each strategy implements ``advance(master, t_ns, h_ns, stop_ns) -> (t_new_ns, h_next_ns)``: take one
 ACCEPTED communication step from ``t_ns`` (possibly after rejected attempts rolled back with FMU state) and
 propose the next step; its ``step_ns`` is the first step.  Times are integer nanoseconds.  It is called by the
-one run loop, :meth:`harness.masters.Master.run`, and takes steps only through ``master.step``.
+one run loop, :meth:`harness.master.Master.run`, and takes steps only through ``master.step``.
 
 ``FixedStep`` (default)   every step the same (the last one shortened to land on the stop time).
 ``StepDoubling``          Richardson extrapolation error estimate as in PyFMI's Master: one step of h and two
@@ -29,7 +29,7 @@ import numpy as np
 
 from harness.errors import SimulationError, StepDiscarded, SystemDescriptionError
 
-from harness.clock import NS
+from harness.master.clock import NS
 
 
 @dataclass

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness import graph
+from harness.master import graph
 from harness.errors import SimulationError
 
 
@@ -51,7 +51,7 @@ class Layout:
 
 def layout(fmus: dict, connections, mds: dict, interpolate: bool) -> Layout:
     """The layout of ``fmus`` (name -> instance) coupled by ``connections``; ``mds`` the dependency view of each
-    instance's model description (:func:`harness.graph.direct_dependencies`); ``interpolate``: whether the
+    instance's model description (:func:`harness.master.graph.direct_dependencies`); ``interpolate``: whether the
     master hands input derivatives to the FMUs that can take them."""
     insts: list[Inst] = []
     index: dict[str, int] = {}
@@ -107,7 +107,7 @@ def discrete_refresh(discrete: list[tuple]) -> tuple[list[tuple], list[tuple]]:
     feed-through does.  The others (and any cycle among the chained, which no refresh can order) are
     ``sampled``: every source is read before any target is set, as libcosim and Ecos pass such values.
     Outputs without declared dependencies are taken as sampled (FMI 2.0's "may depend on every input" is
-    an assumption, :meth:`harness.masters.Master._assume_sampled`)."""
+    an assumption, :meth:`harness.master.Master._assume_sampled`)."""
     def declared(fmu, output: str) -> set[str]:
         for u in fmu.md.outputs:
             if u.variable.name == output and u.dependencies is not None:

@@ -12,7 +12,7 @@
 
 What to draw is the system's (``harness.specs.ChartSpec``); a system that declares nothing gets the speed and
 effort of every power bond, titled by the FMUs' own variable descriptions.  Angles are drawn in degrees.
-This module decides what each figure shows (:func:`figures`); :mod:`harness.chartdraw` draws it.
+This module decides what each figure shows (:func:`figures`); :mod:`harness.reporting.chartdraw` draws it.
 """
 from __future__ import annotations
 
@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness import qoi
-from harness.chartdraw import Figure, draw, save_figure  # noqa: F401 (save_figure: the one figure saver, here for the studies)
+from harness.reporting import qoi
+from harness.reporting.chartdraw import Figure, draw, save_figure  # noqa: F401 (save_figure: the one figure saver, here for the studies)
 from harness.specs import Panel
 
 
@@ -151,7 +151,7 @@ def _time_figure(system, df: pd.DataFrame, panels, zones) -> Figure:
 
 
 def _startup(df: pd.DataFrame) -> float | None:
-    """The end of the start-up [s] (:mod:`harness.quantities`: the first steady cycle's start), None without
+    """The end of the start-up [s] (:mod:`harness.reporting.quantities`: the first steady cycle's start), None without
     one."""
     q = df.attrs.get("quantities")
     steady = getattr(getattr(q, "cycles", None), "steady", None)
@@ -213,21 +213,17 @@ def _cycle_figure(system, df: pd.DataFrame, panels, zones) -> Figure | None:
 
 
 def figures(system, df: pd.DataFrame) -> list[Figure]:
-    """The run's charts as :class:`harness.chartdraw.Figure` s, ready to draw: over time, then (where the system
+    """The run's charts as :class:`harness.reporting.chartdraw.Figure` s, ready to draw: over time, then (where the system
     declares its crank angle and the run completed a machine cycle) over one cycle."""
     panels, zones = _panels(system, df), _zones(system, df)
     cycle = _cycle_figure(system, df, panels, zones)
     return [_time_figure(system, df, panels, zones)] + ([cycle] if cycle is not None else [])
 
 
-def plot_result(system, df: pd.DataFrame, out_dir: str | Path, svg: bool = False, workers=None) -> list[Path]:
+def plot_result(system, df: pd.DataFrame, out_dir: str | Path, svg: bool = False) -> list[Path]:
     """Write ``<out_dir>/<system>.png`` (over time) and, where the system declares its crank angle and the run
     completed a revolution, ``<system>_cycle.png`` (over one machine cycle); ``svg=True``: each also as
     ``.svg`` (vector, for a document; a second full drawing of each figure, so not by default).  Returns the
-    paths, the time chart's first.  ``workers``: :class:`harness.chartworkers.ChartWorkers` that draw the
-    figures side by side in processes of their own (None: drawn here, one after the other)."""
+    paths, the time chart's first."""
     out_dir = Path(out_dir)
-    planned = figures(system, df)
-    if workers is not None:
-        return workers.draw(planned, out_dir, svg)
-    return [p for f in planned for p in draw(f, out_dir, svg)]
+    return [p for f in figures(system, df) for p in draw(f, out_dir, svg)]

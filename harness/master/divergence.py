@@ -81,8 +81,8 @@ from collections import deque
 from dataclasses import dataclass
 
 from harness.errors import SimulationError
-from harness.clock import NS
-from harness.observers import Observer
+from harness.master.clock import NS
+from harness.master.observers import Observer
 
 
 class Diverged(SimulationError):
@@ -377,7 +377,7 @@ class DivergenceDetector:
 
 
 class DivergenceWatch(Observer):
-    """The detector as an observer of the run loop (:class:`harness.observers.Observer`): fed every accepted
+    """The detector as an observer of the run loop (:class:`harness.master.observers.Observer`): fed every accepted
     point; raises :class:`Diverged` to stop the run; at a completed end keeps the detector's verdict in
     ``suspect`` ('' if none)."""
 
@@ -402,7 +402,7 @@ class DivergenceWatch(Observer):
 
 
 def for_master(master, options: DivergenceOptions | None = None) -> DivergenceDetector:
-    """A detector for the bonds of a :class:`harness.masters.Master`."""
+    """A detector for the bonds of a :class:`harness.master.Master`."""
     efforts, nominal = [], []
     for (_, w_out, _, tau_out) in master._bonds:
         inst, var = master.signal_names[tau_out].split(".", 1)

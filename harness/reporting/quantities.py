@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness import qoi
+from harness.reporting import qoi
 from harness.results import KeptInAttrs
 from harness.specs import Answer, QuantitySpec
 
