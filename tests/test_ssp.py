@@ -330,6 +330,47 @@ def test_ssv_value_in_an_unconvertible_unit_is_refused(folder, value, units, mes
 
 
 
+# units of a factor other than 1 and an offset: the FMU's variables in them and the values in the others, both ways.
+# Expected numbers from the units' definitions: degC = K - 273.15, mm = 1e-3 m, rpm = 2 pi / 60 rad/s.
+SCALED_UNITS = {"K": 'K="1"', "degC": 'K="1" offset="273.15"', "m": 'm="1"', "mm": 'm="1" factor="0.001"',
+                "rad/s": 'rad="1" s="-1"', "rpm": 'rad="1" s="-1" factor="0.10471975511965977"'}
+CONVERSIONS = [  # (the FMU variable's unit, the value as written, its unit, the value in the variable's unit)
+    ("degC", 300.0, "K", 300.0 - 273.15), ("K", 25.0, "degC", 25.0 + 273.15),
+    ("mm", 0.002, "m", 2.0), ("m", 1500.0, "mm", 1.5),
+    ("rpm", 2 * np.pi, "rad/s", 60.0), ("rad/s", 60.0, "rpm", 2 * np.pi),
+    ("degC", 77.0, "degF", 25.0),   # degF = 5/9 K + 255.372..: both ends scaled and offset
+]
+
+
+def scaled_unit_fmu(path, units: dict) -> None:
+    """An FMI 2.0 archive holding only a modelDescription: one fixed parameter per unit (``x_<unit>``) and the
+    UnitDefinitions; enough for the SSP reader, which converts by the FMU's declared units."""
+    defs = "".join(f'<Unit name="{u}"><BaseUnit {b}/></Unit>' for u, b in units.items())
+    variables = "".join(f'<ScalarVariable name="x_{u}" valueReference="{k}" causality="parameter" '
+                        f'variability="fixed" initial="exact"><Real start="0" unit="{u}"/></ScalarVariable>'
+                        for k, u in enumerate(units))
+    md = ('<?xml version="1.0" encoding="UTF-8"?><fmiModelDescription fmiVersion="2.0" modelName="Scaled" '
+          'guid="{5ca1ed00-0000-0000-0000-000000000000}"><CoSimulation modelIdentifier="Scaled"/>'
+          f'<UnitDefinitions>{defs}</UnitDefinitions><ModelVariables>{variables}</ModelVariables>'
+          '<ModelStructure/></fmiModelDescription>')
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("modelDescription.xml", md)
+
+
+@pytest.mark.parametrize("target,value,unit,expected", CONVERSIONS)
+def test_values_convert_into_and_out_of_scaled_and_offset_units(tmp_path, target, value, unit, expected):
+    """A Real value in a unit of another factor and offset than its FMU variable's is converted,
+    value_SI = factor * value + offset on both ends; the source unit from the .ssv's ssv:Units."""
+    (tmp_path / "resources").mkdir()
+    defs = {**SCALED_UNITS, "degF": 'K="1" factor="0.5555555555555556" offset="255.37222222222223"'}
+    scaled_unit_fmu(tmp_path / "resources" / "Scaled.fmu", {k: v for k, v in defs.items() if k != "degF"})
+    units = "".join(f'<ssc:Unit name="{u}"><ssc:BaseUnit {b}/></ssc:Unit>' for u, b in defs.items() if u == unit)
+    (tmp_path / "v.ssv").write_text(ssv_with_units({f"x_{target}": (value, unit)}, units))
+    (tmp_path / "s.ssd").write_text(ssd(comp("a", "resources/Scaled.fmu", '<ssd:ParameterBindings>'
+                                             '<ssd:ParameterBinding source="v.ssv"/></ssd:ParameterBindings>')))
+    assert load_ssp(tmp_path / "s.ssd").instance("a").parameters[f"x_{target}"] == pytest.approx(expected, rel=1e-12)
+
+
 # ------------------------------------------------------------------------------------------- issue 33: the rest of SSP
 def test_ssp_given_as_an_unpacked_folder(folder):
     (folder / "a.ssv").write_text(ssv({"J": 0.02, "w0": 1.5}))

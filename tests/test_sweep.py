@@ -197,7 +197,7 @@ def test_cli_one_command_writes_csv_and_charts(tmp_path):
 RESUMABLE = {k: v for k, v in TINY.items() if k != "plot"}
 
 
-def _cli_sweep(tmp_path, spec_data, *extra):
+def _cli_sweep(tmp_path, spec_data, *extra, system="two_inertia"):
     import contextlib
     import io
 
@@ -206,18 +206,18 @@ def _cli_sweep(tmp_path, spec_data, *extra):
     grid = write_yaml(tmp_path / "s.yaml", spec_data)
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        rc = main(["sweep", "two_inertia", "--grid", str(grid), "--workers", "0", "--out", str(tmp_path / "r.csv"),
+        rc = main(["sweep", str(system), "--grid", str(grid), "--workers", "0", "--out", str(tmp_path / "r.csv"),
                    *extra])
     return rc, out.getvalue(), err.getvalue()
 
 
-def _partial_of_a_finished_sweep(tmp_path, data=RESUMABLE):
+def _partial_of_a_finished_sweep(tmp_path, data=RESUMABLE, system="two_inertia"):
     """The partial file a sweep leaves just before it writes its result (every point logged)."""
     from harness.studies.sweep_checks import PointLog, identity, partial_path
 
     spec = sweep.parse_spec(data, str(tmp_path / "s.yaml"))
-    log = PointLog(partial_path(tmp_path / "r.csv"), spec, resume=False, identity=identity("two_inertia", spec))
-    full = sweep.run_sweep("two_inertia", spec, workers=0, progress=False, log=log)
+    log = PointLog(partial_path(tmp_path / "r.csv"), spec, resume=False, identity=identity(str(system), spec))
+    full = sweep.run_sweep(str(system), spec, workers=0, progress=False, log=log)
     return log.path, full
 
 
@@ -238,18 +238,62 @@ def test_resume_runs_a_torn_last_row_again(tmp_path, cut):
     pd.testing.assert_frame_equal(_without_wall(df), _without_wall(full), check_exact=True, check_dtype=False)
 
 
-@pytest.mark.parametrize("change, field", [({"stop_time": 0.01}, "stop_time"),
-                                           ({"grid": {"b.c": [50.0, 200.0], "w": [1.0, 3.0]}}, "points"),
-                                           ({"master": "gauss-seidel"}, "master")])
-def test_resume_refuses_a_partial_file_of_other_settings(tmp_path, change, field):
-    path, _ = _partial_of_a_finished_sweep(tmp_path)
-    before = path.read_text()
-    rc, out, err = _cli_sweep(tmp_path, dict(RESUMABLE, **change), "--resume")
+# every field of the sweep's identity (harness.studies.sweep_checks.identity) and a change of the spec that moves
+# it; "system" (a file's SHA-256) and "version" (the toolkit's) change outside the spec, in the test below
+IDENTITY_CHANGES = {
+    "points": {"grid": {"b.c": [50.0, 200.0], "w": [1.0, 3.0]}},
+    "set": {"set": {"a.w0": "w * 2.5"}},
+    "outputs": {"outputs": {"w_end": 'final(r["a.flange.w"])'}},
+    "stop_time": {"stop_time": 0.01},
+    "step": {"step": 5e-4},
+    "master": {"master": "gauss-seidel"},
+    "extrapolation": {"extrapolation": 1},
+    "system": None,
+    "version": None,
+}
+
+
+def test_every_field_of_the_identity_has_a_refusal_case():
+    from harness.studies.sweep_checks import identity
+
+    assert set(identity("two_inertia", sweep.parse_spec(RESUMABLE))) == set(IDENTITY_CHANGES)
+
+
+def _refused(tmp_path, path, field, before, rc, out, err):
     assert rc == 1 and out == ""
     line = err.strip()
     assert "\n" not in line and line.startswith("error: --resume: ") and f": {field} " in line, line
     assert "run without --resume" in line
     assert path.read_text() == before            # the kept points are not touched
+
+
+@pytest.mark.parametrize("field", [f for f, change in IDENTITY_CHANGES.items() if change is not None])
+def test_resume_refuses_a_partial_file_of_other_settings(tmp_path, field):
+    path, _ = _partial_of_a_finished_sweep(tmp_path)
+    before = path.read_text()
+    _refused(tmp_path, path, field, before,
+             *_cli_sweep(tmp_path, dict(RESUMABLE, **IDENTITY_CHANGES[field]), "--resume"))
+
+
+def test_resume_refuses_another_toolkit_version_and_another_file_of_the_same_name(tmp_path, monkeypatch, fmu_dir):
+    import zipfile
+
+    from harness import load
+    from harness.ssp import export_ssp
+    from harness.studies import sweep_checks
+
+    ssp = export_ssp(load("two_inertia").on_fmus(fmu_dir), tmp_path / "t.ssp")
+    path, _ = _partial_of_a_finished_sweep(tmp_path, system=ssp)
+    before = path.read_text()
+    assert _cli_sweep(tmp_path, RESUMABLE, "--resume", system=ssp)[0] == 0         # the same: resumed
+    path, _ = _partial_of_a_finished_sweep(tmp_path, system=ssp)
+    before = path.read_text()
+    with monkeypatch.context() as m:
+        m.setattr(sweep_checks, "toolkit_version", lambda: "0.0.0+another")
+        _refused(tmp_path, path, "version", before, *_cli_sweep(tmp_path, RESUMABLE, "--resume", system=ssp))
+    with zipfile.ZipFile(ssp, "a") as z:         # the same archive but for its comment: other bytes
+        z.comment = b"edited"
+    _refused(tmp_path, path, "system", before, *_cli_sweep(tmp_path, RESUMABLE, "--resume", system=ssp))
 
 
 def test_resume_of_a_finished_sweep_has_nothing_to_do(tmp_path):
