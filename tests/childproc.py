@@ -29,3 +29,16 @@ def wait_for_cpu(p: subprocess.Popen, seconds: float, *, at_least: float = 8.0, 
             return
         assert waited < timeout, f"the child used less than {seconds} s of CPU in {timeout} s"
         time.sleep(0.1)
+
+
+# the command line of a child that runs ``python -m harness`` as where neither Parquet engine is installed (the
+# test extras install fastparquet): both names are None in sys.modules, so neither finds nor imports
+_NO_PARQUET = ("import runpy, sys; sys.modules.update(pyarrow=None, fastparquet=None); sys.argv[0] = 'harness'; "
+               "runpy.run_module('harness', run_name='__main__')")
+
+
+def harness_command(parquet: bool = True) -> list[str]:
+    """``[python, -m, harness]``, or with ``parquet=False`` the same as where no Parquet engine is installed."""
+    import sys
+
+    return [sys.executable, *(("-m", "harness") if parquet else ("-c", _NO_PARQUET))]

@@ -1,4 +1,4 @@
-"""Shared fixtures: the FMUs are built once per test session into a temporary folder."""
+"""Shared fixtures: the toolkit's FMUs, built once and shared by every worker and session (tests/build_cache.py)."""
 from __future__ import annotations
 
 import sys
@@ -10,13 +10,28 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="session")
-def fmu_dir(tmp_path_factory) -> Path:
-    """Every FMU of the toolkit, built by build_fmus.py (with its fmpy validation)."""
-    from fmus import build as build_fmus
+def fmu_dir() -> Path:
+    """Every FMU of the toolkit as FMI 2.0, built by build_fmus.py (with its fmpy validation). Read only:
+    shared by every test (copy an FMU to change it)."""
+    from build_cache import toolkit_fmus
 
-    out = tmp_path_factory.mktemp("fmus")
-    assert build_fmus.main(["--out", str(out)]) == 0, "build_fmus.py failed (see stderr)"
-    return out
+    return toolkit_fmus(2)
+
+
+@pytest.fixture(scope="session")
+def fmu3_dir() -> Path:
+    """Every FMU of the toolkit as FMI 3.0 co-simulation FMUs (build_fmus.py --fmi-version 3). Read only."""
+    from build_cache import toolkit_fmus
+
+    return toolkit_fmus(3)
+
+
+@pytest.fixture(scope="session")
+def me_dir() -> Path:
+    """Every FMU of the toolkit as FMI 3.0 model exchange FMUs (--fmi-version 3 --model-exchange). Read only."""
+    from build_cache import toolkit_fmus
+
+    return toolkit_fmus(3, model_exchange=True)
 
 
 # -- process exit ---------------------------------------------------------------------------------------------

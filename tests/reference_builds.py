@@ -1,15 +1,15 @@
 """What the tests of the Modelica Reference-FMUs share (tests/test_reference_fmus.py, test_fmi_content.py,
-test_ssp_connections.py): their one build from the pinned sources in tests/reference_fmus, the system of all
-six, and a run with the FMUs' warnings silenced.  A helper module, not a test file: it holds no test."""
+test_ssp_connections.py, test_fmi3_arrays.py, test_input_signals.py): their one build from the pinned sources in
+tests/reference_fmus (cached for every worker and session, tests/build_cache.py; a failed build fails), the system
+of all six, and a run with the FMUs' warnings silenced.  A helper module, not a test file: it holds no test."""
 from __future__ import annotations
 
 import shutil
-import subprocess
+import tempfile
 import warnings
 from pathlib import Path
 
-import pytest
-
+from build_cache import BuildError, cached, compiler, run, tool, version_line
 from harness import simulate
 from harness.model import Connection, Experiment, Instance, System
 
@@ -24,26 +24,26 @@ def quiet(system, **kw):
         return simulate(system, **kw)
 
 
-def build_reference_fmus(out: Path, version: int) -> dict[str, Path]:
-    """The Reference-FMUs of tests/reference_fmus built with cmake for FMI ``version`` into ``out``: model name
-    -> .fmu.  Skips, saying why, without cmake, a C compiler or the sources, or when the build fails."""
-    if shutil.which("cmake") is None:
-        pytest.skip("cmake is not installed: cannot build the Reference-FMUs")
-    if shutil.which("cc") is None and shutil.which("gcc") is None:
-        pytest.skip("no C compiler (cc/gcc): cannot build the Reference-FMUs")
-    if not (SOURCES / "CMakeLists.txt").is_file():
-        pytest.skip(f"no Reference-FMUs sources in {SOURCES}")
-    # gcc 12+ flags a strncpy in Resource/model.c (FMI 3.0 only) under the sources' own -Werror
-    for cmd in (["cmake", str(SOURCES), f"-DFMI_VERSION={version}", "-DCMAKE_BUILD_TYPE=Release",
-                 "-DCMAKE_C_FLAGS=-Wno-error=stringop-truncation"], ["cmake", "--build", ".", "-j", "2"]):
-        r = subprocess.run(cmd, cwd=out, capture_output=True, text=True)
-        if r.returncode != 0:
-            pytest.skip(f"building the Reference-FMUs failed ({' '.join(cmd[:2])}): {r.stderr.strip()[-300:]}")
-    fmus = {p.stem: p for p in (out / "fmus").glob("*.fmu")}
-    missing = [m for m in MODELS if m not in fmus]
-    if missing:
-        pytest.skip(f"the Reference-FMUs build made no {', '.join(missing)}")
-    return fmus
+def reference_fmus(version: int) -> dict[str, Path]:
+    """The Reference-FMUs of tests/reference_fmus built with cmake for FMI ``version``: model name -> .fmu (every
+    model the sources hold, :data:`MODELS` among them, and StateSpace and Clocks for FMI 3.0)."""
+    cmake, cc = tool("cmake", "build the Reference-FMUs (tests/reference_fmus)"), compiler()
+
+    def make(out: Path) -> None:
+        with tempfile.TemporaryDirectory(prefix="reference_fmus_") as work:
+            # gcc 12+ flags a strncpy in Resource/model.c (FMI 3.0 only) under the sources' own -Werror
+            run([cmake, SOURCES, f"-DFMI_VERSION={version}", "-DCMAKE_BUILD_TYPE=Release", f"-DCMAKE_C_COMPILER={cc}",
+                 "-DCMAKE_C_FLAGS=-Wno-error=stringop-truncation"], "cmake (configure the Reference-FMUs)", cwd=work)
+            run([cmake, "--build", ".", "-j", "2"], "cmake --build (the Reference-FMUs)", cwd=work)
+            built = sorted((Path(work) / "fmus").glob("*.fmu"))
+            missing = [m for m in MODELS + (("StateSpace",) if version == 3 else ()) if m not in {f.stem for f in built}]
+            if missing:
+                raise BuildError(f"the Reference-FMUs build made no {', '.join(missing)}")
+            for f in built:
+                shutil.copy2(f, out / f.name)
+
+    folder = cached(f"reference-fmus{version}", [SOURCES, version_line(cmake), version_line(cc)], make)
+    return {p.stem: p for p in folder.glob("*.fmu")}
 
 
 def reference_system(fmus: dict, *, float_chain: bool = True, feedthrough: bool = True,

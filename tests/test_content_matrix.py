@@ -1,6 +1,6 @@
 """benchmarks/content_matrix.py (issue 33's table): a cell is judged from a run, never written in.
 
-The cheap kind is the vendored FMI 1.0 identity FMU (nothing to build); FMPy is installed with the toolkit.
+The cheap kind is the vendored FMI 1.0 identity FMU (nothing to build); FMPy is a dependency of the toolkit.
 """
 from __future__ import annotations
 
@@ -12,7 +12,6 @@ from benchmarks import content_matrix as cm
 
 
 def test_fmi1_kind_runs_in_ours_and_fmpy_and_the_cell_is_measured(tmp_path):
-    pytest.importorskip("fmpy")
     rows = cm.matrix(["fmi1-cs"], ["ours", "fmpy"], tmp_path, timeout=120)
     assert len(rows) == 1
     row = rows[0]

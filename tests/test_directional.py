@@ -6,7 +6,6 @@ Python; per instance, after a reset and from another thread; the ``jacobian`` ma
 its results by perturbation; FMUs without them refused in one line and still run."""
 from __future__ import annotations
 
-import sys
 import types
 import warnings
 import xml.etree.ElementTree as ET
@@ -16,7 +15,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fmus import build as build_fmus
 from fmus.build import catalog
 from harness import load, simulate
 from harness.master import jacobian
@@ -35,13 +33,6 @@ BASES = (0.2, 1.1, 2.0, -0.6)
 # at t = 0, its entry ramp then half way); the components without feed-through (the torques only drive states)
 PARAMETERS = {"TorqueLoad": {"c": 40.0, "d": 0.3, "T_coulomb": 2.0}, "KnifeLoad": {"t_block": -1e-3}}
 NO_FEEDTHROUGH = {"Inertia", "FlywheelShaft", "ParallelShafts"}
-
-
-@pytest.fixture(scope="session")
-def fmu3_dir(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("fmus3_dd")
-    assert build_fmus.main(["--fmi-version", "3", "--out", str(out)]) == 0, "build_fmus.py failed (see stderr)"
-    return out
 
 
 def _point(inputs: list, base: float) -> np.ndarray:
@@ -346,19 +337,13 @@ def test_bad_directional_derivative_calls_are_refused_in_one_line(fmu_dir, in_pr
         inst.free()
 
 
-def test_fmu_without_directional_derivatives_is_refused_and_perturbed(tmp_path):
+def test_fmu_without_directional_derivatives_is_refused_and_perturbed():
     """A plain pythonfmu FMU (no providesDirectionalDerivative): the wrapper refuses the call in one line and the
     jacobian master's feed-through block falls back to forward differences."""
-    import subprocess
+    from foreign_builds import plain_lag
 
-    exe = Path(sys.executable).with_name("pythonfmu")
-    if not exe.is_file():
-        pytest.skip("pythonfmu command not installed")
-    r = subprocess.run([str(exe), "build", "-f", str(Path(__file__).parent / "foreign" / "plain_lag.py"), "-d",
-                        str(tmp_path)], capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
     for in_process in (True, False):
-        inst = open_instance(tmp_path / "PlainLag.fmu", f"lag{int(in_process)}", in_process=in_process)
+        inst = open_instance(plain_lag(), f"lag{int(in_process)}", in_process=in_process)
         try:
             assert not inst.provides_directional_derivative
             inst.setup(0.0)
@@ -525,16 +510,13 @@ int main(int argc, char **argv) {
 
 @pytest.fixture(scope="module")
 def dd_host(tmp_path_factory) -> Path:
-    import os
-    import shutil
     import subprocess
 
+    from build_cache import compiler
+
     folder = tmp_path_factory.mktemp("dd_host")
-    cc = os.environ.get("CC", "cc")
-    if shutil.which(cc) is None:
-        pytest.skip(f"no C compiler {cc!r} to build the test host")
     (folder / "dd_host.c").write_text(C_HOST)
-    r = subprocess.run([cc, "-O2", "-o", str(folder / "dd_host"), str(folder / "dd_host.c"), "-ldl", "-lm"],
+    r = subprocess.run([compiler(), "-O2", "-o", str(folder / "dd_host"), str(folder / "dd_host.c"), "-ldl", "-lm"],
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     return folder / "dd_host"

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from reference_builds import build_reference_fmus, quiet
+from reference_builds import quiet, reference_fmus
 from harness.model import Connection, Experiment, Instance, System
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -22,11 +22,8 @@ STOP, STEP = 1.0, 0.1
 
 
 @pytest.fixture(scope="module")
-def statespace(tmp_path_factory) -> Path:
-    fmus = build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_3a"), 3)
-    if "StateSpace" not in fmus:
-        pytest.skip("the Reference-FMUs build made no StateSpace")
-    return fmus["StateSpace"]
+def statespace() -> Path:
+    return reference_fmus(3)["StateSpace"]
 
 
 def _fmpy(fmu: Path, start_values=None):

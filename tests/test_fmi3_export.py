@@ -35,18 +35,8 @@ from fmus import build as build_fmus
 from fmus import reference
 from fmus.reference import standard_run
 
-pytest.importorskip("pythonfmu3")
-
 CATALOG = build_fmus.catalog()                       # model name -> declaration pd_<name>.py
 TOLERANCE = 1e-9                                     # of the output's range over the standard run
-
-
-@pytest.fixture(scope="module")
-def fmu3_dir(tmp_path_factory) -> Path:
-    """Every FMU of the toolkit as FMI 3.0, built by build_fmus.py --fmi-version 3 (with fmpy's validation)."""
-    out = tmp_path_factory.mktemp("fmus3")
-    assert build_fmus.main(["--fmi-version", "3", "--out", str(out)]) == 0, "build_fmus.py failed (see stderr)"
-    return out
 
 
 def declaration_class(name: str) -> type:
@@ -570,11 +560,10 @@ def _clean_env(**extra) -> dict:
 @pytest.fixture(scope="module")
 def c_host(tmp_path_factory) -> Path:
     """tests/c_host3/fmi3_host.c compiled: a C program that runs an FMI 3.0 co-simulation FMU, no Python in it."""
+    from build_cache import compiler
+
     out = tmp_path_factory.mktemp("c_host3") / "fmi3_host"
-    cc = os.environ.get("CC", "cc")
-    if shutil.which(cc) is None:
-        pytest.skip(f"no C compiler {cc!r} to build the test host")
-    r = subprocess.run([cc, "-O2", "-o", str(out), str(HOST), "-ldl"], capture_output=True, text=True)
+    r = subprocess.run([compiler(), "-O2", "-o", str(out), str(HOST), "-ldl"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     return out
 

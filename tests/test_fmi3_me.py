@@ -44,18 +44,9 @@ from fmpy.validation import validate_fmu
 from fmus import build as build_fmus
 from test_fmi3_export import CATALOG, deviation, fresh_standard_run, standard_run_setup
 
-pytest.importorskip("pythonfmu3")
-
 TOLERANCE = 1e-4    # of each output's range: the co-simulation run's own integration error (module docstring)
 RTOL = 1e-10        # CVODE's relative tolerance in fmpy
 CONVERGED_LIMIT = 1e-2   # a converged ME run against a co-simulation run with unlocated or coarse events
-
-@pytest.fixture(scope="module")
-def me_dir(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("fmus3me")
-    assert build_fmus.main(["--fmi-version", "3", "--model-exchange", "--out", str(out)]) == 0, "build failed"
-    return out
-
 
 def _md(fmu: Path) -> ET.Element:
     with zipfile.ZipFile(fmu) as z:

@@ -31,18 +31,12 @@ import pytest
 
 from harness.errors import FMUError
 from harness.model import Connection, Experiment, Instance, System
-from reference_builds import build_reference_fmus, quiet, reference_system
+from build_cache import BuildError, cached, compiler, run
+from reference_builds import quiet, reference_fmus, reference_system
 
 HERE = Path(__file__).resolve().parent
 MASTERS = ("jacobi", "jacobi-sampled", "gauss-seidel", "iterative")
 REFERENCE = ("BouncingBall", "Dahlquist", "Feedthrough", "Resource", "Stair", "VanDerPol")
-
-
-def _cc() -> str:
-    cc = shutil.which("cc") or shutil.which("gcc")
-    if cc is None:
-        pytest.skip("no C compiler (cc/gcc): cannot build the FMI 1.0 test FMU")
-    return cc
 
 
 @pytest.fixture(scope="session")
@@ -51,10 +45,10 @@ def identity1(tmp_path_factory) -> Path:
     src = HERE / "fmi1_string"
     out = tmp_path_factory.mktemp("fmi1_string")
     lib = out / "Identity1.so"
-    r = subprocess.run([_cc(), "-shared", "-fPIC", "-O1", "-fvisibility=hidden", "-o", str(lib),
+    r = subprocess.run([compiler(), "-shared", "-fPIC", "-O1", "-fvisibility=hidden", "-o", str(lib),
                         str(src / "identity.c")], capture_output=True, text=True)
     if r.returncode != 0:
-        pytest.skip(f"compiling tests/fmi1_string/identity.c failed: {r.stderr.strip()[-300:]}")
+        pytest.fail(f"compiling tests/fmi1_string/identity.c failed: {r.stderr.strip()[-600:]}", pytrace=False)
     fmu = out / "Identity1.fmu"
     with zipfile.ZipFile(fmu, "w") as z:
         z.write(src / "modelDescription.xml", "modelDescription.xml")
@@ -95,13 +89,13 @@ def test_fmi1_string_passes_a_chain_of_two_connections_unchanged(identity1, mast
 
 # ------------------------------------------------------------------------------------------------ FMI 3.0
 @pytest.fixture(scope="session")
-def reference3(tmp_path_factory) -> dict[str, Path]:
-    return build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_3"), 3)
+def reference3() -> dict[str, Path]:
+    return reference_fmus(3)
 
 
 @pytest.fixture(scope="session")
-def reference2(tmp_path_factory) -> dict[str, Path]:
-    return build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_2"), 2)
+def reference2() -> dict[str, Path]:
+    return reference_fmus(2)
 
 
 def assert_agrees(df: pd.DataFrame, ref: pd.DataFrame, prefix: str, rtol: float, what: str) -> int:
@@ -188,27 +182,31 @@ def test_fmi3_clock_variables_in_a_co_simulation_fmu_are_refused(reference3, tmp
 
 
 # ------------------------------------------------------------------------------------------------ pythonfmu3
-def _pythonfmu3_build(out: Path, script: str, model: str) -> Path:
-    pytest.importorskip("pythonfmu3")
+def _pythonfmu3_build(script: str, model: str) -> Path:
+    """tests/pythonfmu3/<script> built by ``python -m pythonfmu3 build`` (shared, tests/build_cache.py; pythonfmu3 is
+    a dependency: a failed build fails)."""
     import sys
+    from importlib import metadata
 
-    r = subprocess.run([sys.executable, "-m", "pythonfmu3", "build", "-f", str(HERE / "pythonfmu3" / script),
-                        "-d", str(out)], capture_output=True, text=True)
-    fmu = out / f"{model}.fmu"
-    if r.returncode != 0 or not fmu.is_file():
-        pytest.skip(f"pythonfmu3 build of {script} failed: {r.stderr.strip()[-300:]}")
-    return fmu
+    def make(out: Path) -> None:
+        run([sys.executable, "-m", "pythonfmu3", "build", "-f", HERE / "pythonfmu3" / script, "-d", out],
+            f"pythonfmu3 build of {script}")
+        if not (out / f"{model}.fmu").is_file():
+            raise BuildError(f"pythonfmu3 build of {script} made no {model}.fmu")
 
-
-@pytest.fixture(scope="session")
-def pythonslave3(tmp_path_factory) -> Path:
-    return _pythonfmu3_build(tmp_path_factory.mktemp("pythonfmu3"), "pythonslave.py", "PythonSlave")
+    return cached(f"pythonfmu3-{model}", [HERE / "pythonfmu3" / script, metadata.version("pythonfmu3")],
+                  make) / f"{model}.fmu"
 
 
 @pytest.fixture(scope="session")
-def pythonslave3_me(tmp_path_factory) -> Path:
+def pythonslave3() -> Path:
+    return _pythonfmu3_build("pythonslave.py", "PythonSlave")
+
+
+@pytest.fixture(scope="session")
+def pythonslave3_me() -> Path:
     """pythonfmu3's Model Exchange test slave: Dahlquist's x' = -k x, x(0) = 1, k = 1."""
-    return _pythonfmu3_build(tmp_path_factory.mktemp("pythonfmu3_me"), "pythonslaveMX.py", "Dahlquist")
+    return _pythonfmu3_build("pythonslaveMX.py", "Dahlquist")
 
 
 def test_pythonfmu3_model_exchange_fmu_matches_fmpy_and_the_exact_solution(pythonslave3_me):

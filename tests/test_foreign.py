@@ -9,9 +9,6 @@ once, loops at communication points solved), saying so once.
 """
 from __future__ import annotations
 
-import shutil
-import subprocess
-import sys
 import warnings
 from pathlib import Path
 
@@ -24,7 +21,7 @@ from harness.master import AssumptionWarning
 from harness.model import Connection, Experiment, Instance, System
 from harness.ssp import export_ssp
 from benchmarks import peers
-from foreign_builds import build_plain_lag
+from foreign_builds import build_plain, plain_fmu, plain_lag
 
 HERE = Path(__file__).parent
 N_RING = 6
@@ -32,8 +29,8 @@ STOP, STEP = 2.0, 0.01
 
 
 @pytest.fixture(scope="session")
-def plain_lag_fmu(tmp_path_factory) -> Path:
-    return build_plain_lag(tmp_path_factory.mktemp("plain_fmu"))
+def plain_lag_fmu() -> Path:
+    return plain_lag()
 
 
 def ring(fmu: Path, n: int = N_RING) -> System:
@@ -134,22 +131,9 @@ def test_ring_agrees_with_peer_tools(ring_ssp, tool):
 
 
 # ----------------------------------------------------------------------------- Integer, Boolean, String variables
-def build_plain(script: str, model: str, out: Path) -> Path:
-    exe = Path(sys.executable).with_name("pythonfmu")
-    if not exe.is_file():
-        pytest.skip("pythonfmu command not installed")
-    r = subprocess.run([str(exe), "build", "-f", str(HERE / "foreign" / script), "-d", str(out)],
-                       capture_output=True, text=True)
-    fmu = out / f"{model}.fmu"
-    if r.returncode != 0 or not fmu.is_file():
-        pytest.skip(f"pythonfmu build of {script} failed: {r.stderr.strip()[-300:]}")
-    return fmu
-
-
 @pytest.fixture(scope="module")
-def typed_system(tmp_path_factory) -> System:
-    out = tmp_path_factory.mktemp("typed_fmus")
-    stairs, tally = build_plain("plain_stairs.py", "Stairs", out), build_plain("plain_tally.py", "Tally", out)
+def typed_system() -> System:
+    stairs, tally = plain_fmu("plain_stairs.py", "Stairs"), plain_fmu("plain_tally.py", "Tally")
     return System("typed", [Instance("st", str(stairs), {"every": 2}),
                             Instance("ta", str(tally), {"bonus": 0.5, "label": "counted"})],
                   [Connection("st.n", "ta.n"), Connection("st.odd", "ta.odd")],
@@ -260,18 +244,12 @@ class {cls}(Fmi2Slave):
 def test_two_plain_fmus_built_from_scripts_of_one_file_name_run_in_one_system(tmp_path):
     """pythonfmu's C wrapper imports a script under its own file name, so in one process the first such
     module wins; the in-process path imports each FMU's script under a name of its own."""
-    exe = Path(sys.executable).with_name("pythonfmu")
-    if not exe.is_file():
-        pytest.skip("pythonfmu command not installed")
     fmus = {}
     for cls, rate in (("RampUp", 2.0), ("RampDown", -1.0)):
         folder = tmp_path / cls
         folder.mkdir()
         (folder / "plain_ramp.py").write_text(RAMP.format(cls=cls, rate=rate))
-        r = subprocess.run([str(exe), "build", "-f", str(folder / "plain_ramp.py"), "-d", str(folder)],
-                           capture_output=True, text=True)
-        assert r.returncode == 0, r.stderr[-500:]
-        fmus[cls] = folder / f"{cls}.fmu"
+        fmus[cls] = build_plain(folder / "plain_ramp.py", cls, folder)
     system = System("ramps", [Instance("up", str(fmus["RampUp"])), Instance("down", str(fmus["RampDown"]))], [],
                     experiment=Experiment(stop_time=1.0, step=0.25))
     df, _ = run(system, "jacobi")
@@ -333,30 +311,18 @@ def test_an_output_outside_its_declared_range_stops_the_run_in_one_line(plain_la
     assert "PlainLag" in err
 
 
-def _plain(tmp_path_factory, script: str, model: str) -> Path:
-    out = tmp_path_factory.mktemp(model)
-    exe = Path(sys.executable).with_name("pythonfmu")
-    if not exe.is_file():
-        pytest.skip("pythonfmu command not installed")
-    r = subprocess.run([str(exe), "build", "-f", str(HERE / "foreign" / script), "-d", str(out)],
-                       capture_output=True, text=True)
-    if r.returncode != 0 or not (out / f"{model}.fmu").is_file():
-        pytest.skip(f"pythonfmu build failed: {r.stderr.strip()[-300:]}")
-    return out / f"{model}.fmu"
-
-
-def test_an_fmu_without_outputs_records_its_states(tmp_path_factory):
+def test_an_fmu_without_outputs_records_its_states():
     """Issue 33: an FMU with no outputs gave an empty result; its continuous local variables (its states, as a
     plain model declares them) are recorded instead."""
-    fmu = _plain(tmp_path_factory, "plain_decay.py", "PlainDecay")
+    fmu = plain_fmu("plain_decay.py", "PlainDecay")
     s = System("decay", [Instance("d", str(fmu))], experiment=Experiment(stop_time=0.5, step=0.05))
     df, _ = run(s, "jacobi")
     assert list(df.columns) == ["d.x"]
     np.testing.assert_allclose(df["d.x"].to_numpy(), (1 - 0.05 / 0.5) ** np.arange(11), rtol=1e-12)
 
 
-def test_an_fmu_with_nothing_to_record_says_what_to_ask_for(tmp_path_factory):
-    fmu = _plain(tmp_path_factory, "plain_quiet.py", "PlainQuiet")
+def test_an_fmu_with_nothing_to_record_says_what_to_ask_for():
+    fmu = plain_fmu("plain_quiet.py", "PlainQuiet")
     s = System("quiet", [Instance("q", str(fmu))], experiment=Experiment(stop_time=0.5, step=0.05))
     with pytest.raises(SystemError_) as e:
         run(s, "jacobi")

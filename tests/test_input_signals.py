@@ -4,8 +4,6 @@ held or interpolated as FMPy's ``Input`` does (the Reference-FMUs' Feedthrough);
 connection under every master; the refusals, each one line before the run."""
 from __future__ import annotations
 
-import shutil
-import subprocess
 import warnings
 from pathlib import Path
 
@@ -19,7 +17,7 @@ from harness.master import MASTERS
 from harness.model import Connection, Experiment, Instance, System
 from harness.signals import Signals
 
-from foreign_builds import build_plain_lag
+from foreign_builds import plain_lag
 
 ROOT = Path(__file__).resolve().parents[1]
 H = 1e-2
@@ -118,20 +116,10 @@ def test_rows_at_one_time_and_the_table_ends_follow_fmpys_input():
 
 # -- every FMI type, against FMPy: the Reference-FMUs' Feedthrough --------------------------------------------------
 @pytest.fixture(scope="module")
-def feedthrough(tmp_path_factory) -> Path:
-    sources = ROOT / "tests" / "reference_fmus"
-    if shutil.which("cmake") is None or not (shutil.which("cc") or shutil.which("gcc")):
-        pytest.skip("cmake or a C compiler is missing: cannot build the Reference-FMUs' Feedthrough")
-    build = tmp_path_factory.mktemp("feedthrough_build")
-    for cmd in (["cmake", str(sources), "-DFMI_VERSION=2", "-DCMAKE_BUILD_TYPE=Release"],
-                ["cmake", "--build", ".", "--target", "Feedthrough"]):
-        r = subprocess.run(cmd, cwd=build, capture_output=True, text=True)
-        if r.returncode != 0:
-            pytest.skip(f"building Feedthrough failed ({' '.join(cmd[:2])}): {r.stderr.strip()[-300:]}")
-    fmu = build / "fmus" / "Feedthrough.fmu"
-    if not fmu.is_file():
-        pytest.skip("the Reference-FMUs build made no Feedthrough.fmu")
-    return fmu
+def feedthrough() -> Path:
+    from reference_builds import reference_fmus   # the one build of tests/reference_fmus
+
+    return reference_fmus(2)["Feedthrough"]
 
 
 TYPED = np.array([(0.0, 0.0, 0.0, 0, False, 1), (0.25, 1.0, 1.0, 2, True, 2), (0.5, 0.0, 0.5, 2, True, 2),
@@ -271,7 +259,7 @@ def test_a_foreign_fmus_declared_input_range_is_honoured(tmp_path):
     inside runs, one outside is refused in one line naming the FMU, instance, variable, value and range."""
     import zipfile
 
-    built = build_plain_lag(tmp_path)
+    built = plain_lag()
     fmu = tmp_path / "RangedLag.fmu"
     with zipfile.ZipFile(built) as src, zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as dst:
         for item in src.infolist():
@@ -317,7 +305,7 @@ def test_a_tunable_parameter_changes_mid_run_through_set_real(tmp_path):
     """A foreign FMU's tunable parameter (plain pythonfmu's lag, k declared tunable) stepped at 1 s by a signal:
     set between communication steps and held, the lag follows explicit Euler with k before and after exactly;
     its fixed-parameter counterpart in our FMUs is refused (the Gain case above)."""
-    fmu = build_plain_lag(tmp_path)
+    fmu = plain_lag()
     h, t_e = 0.01, 1.0
     system = System("lag", [Instance("lag", str(fmu))], [], experiment=Experiment(stop_time=2.0, step=h))
     signal = pd.DataFrame({"time": [0.0, t_e, t_e, 2.0], "lag.u": [1.0] * 4, "lag.k": [-0.5, -0.5, 2.0, 2.0]})

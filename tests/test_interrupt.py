@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -25,8 +26,8 @@ def _sigint_as_a_terminal_sends_it():
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def _start(args, cwd):
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
+def _start(args, cwd, **env_extra):
+    env = dict(os.environ, PYTHONUNBUFFERED="1", **env_extra)
     return subprocess.Popen([sys.executable, "-m", "harness", *args], cwd=cwd, env=env, text=True,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             preexec_fn=_sigint_as_a_terminal_sends_it)
@@ -53,15 +54,18 @@ def test_sigint_during_a_run_writes_the_finished_part_marked(tmp_path):
     assert "Traceback" not in stderr
 
 
+# a sweep that cannot finish before the test lets it (tests/foreign/plain_gate.py): its points k > 0 run through,
+# the point k = -1 waits in its first step while the gate file exists.  The test interrupts the sweep once the 3
+# free points are on disk, by that event: nothing it does races the sweep's end.  One held point, so one of two
+# dask workers stays free for the others; the held point is stopped by the signal long before the 60 s after which
+# the isolation of a foreign FMU (harness.fmi.isolated.DEFAULT_TIMEOUT) would fail it as hanging
 SPEC = """\
-system: two_inertia
-stop_time: 0.5
-step: 1.0e-4
-master: gauss-seidel
+stop_time: 0.05
+step: 0.01
 grid:
-  b.c: [50.0, 60.0, 70.0, 80.0, 90.0, 100.0, 110.0, 120.0, 130.0, 140.0, 150.0, 160.0, 170.0, 180.0]
+  PlainGate.k: [1.0, 2.0, 3.0, -1.0]
 outputs:
-  w_end: 'final(r["a.flange.w"])'
+  y_end: 'final(r["PlainGate.y"])'
 """
 
 
@@ -71,38 +75,49 @@ def test_sigint_during_a_sweep_keeps_every_finished_point_and_resume_skips_them(
     point is on disk, no worker process is left running and no semaphore is reported leaked."""
     import psutil
 
+    from foreign_builds import plain_fmu
+
+    fmu = plain_fmu("plain_gate.py", "PlainGate")
     spec = tmp_path / "s.yaml"
     spec.write_text(SPEC)
     out = tmp_path / "s.csv"
     partial = tmp_path / "s.partial.csv"
-    p = _start(["sweep", "two_inertia", "--grid", str(spec), "--workers", workers, "--out", str(out)], ROOT)
-    deadline = time.time() + 180
-    while _lines(partial) < 3 and time.time() < deadline and p.poll() is None:  # header + 2 points
-        time.sleep(0.2)
+    gate = tmp_path / "gate"
+    gate.write_text("closed")
+    p = _start(["sweep", str(fmu), "--grid", str(spec), "--workers", workers, "--out", str(out)], ROOT,
+               PRESSDRIVE_TEST_GATE=str(gate))
+    # an event, not a time: the header and the 3 free points (600 s: only a broken sweep waits so long)
+    deadline = time.monotonic() + 600
+    while _lines(partial) < 4 and p.poll() is None:
+        assert time.monotonic() < deadline, "the 3 free points were not written in 600 s"
+        time.sleep(0.05)
     assert p.poll() is None, p.communicate()
     children = psutil.Process(p.pid).children(recursive=True)
     assert workers == "0" or len(children) >= 2, children  # the dask worker processes
     p.send_signal(signal.SIGINT)
-    stdout, stderr = p.communicate(timeout=90)
+    # the gate opens after the signal: a dask worker in the held point finishes it, so the cluster closes as after
+    # any Ctrl-C; the sweep never records it (the interrupt is pending in it before any of its code runs again)
+    gate.unlink()
+    stdout, stderr = p.communicate(timeout=300)
     assert p.returncode == 130, (stdout, stderr)
-    gone, alive = psutil.wait_procs(children, timeout=30)
+    gone, alive = psutil.wait_procs(children, timeout=60)
     assert not alive, [c.cmdline() for c in alive]
     assert "leaked" not in stderr, stderr
     assert not out.exists()
     kept = pd.read_csv(partial)
-    assert 2 <= len(kept) < 14 and (kept["error"].isna() | (kept["error"] == "")).all()
+    assert sorted(kept["PlainGate.k"]) == [1.0, 2.0, 3.0] and (kept["error"].isna() | (kept["error"] == "")).all()
     lines = stderr.strip().splitlines()
-    assert len(lines) == 1 and f"{len(kept)} of 14 points finished and kept in {partial}" in lines[0], stderr
-    # resume: only the missing points run; the final file has every point once, in the spec's order
-    r = subprocess.run([sys.executable, "-m", "harness", "sweep", "two_inertia", "--grid", str(spec), "--workers",
+    assert len(lines) == 1 and f"3 of 4 points finished and kept in {partial}" in lines[0], stderr
+    # resume: only the missing point runs; the final file has every point once, in the spec's order
+    r = subprocess.run([sys.executable, "-m", "harness", "sweep", str(fmu), "--grid", str(spec), "--workers",
                         "0", "--out", str(out), "--resume"], cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
-    assert f"({len(kept)} taken from s.partial.csv)" in r.stdout
+    assert "(3 taken from s.partial.csv)" in r.stdout
     df = pd.read_csv(out)
-    assert list(df["b.c"]) == [50.0 + 10 * k for k in range(14)]
-    assert not partial.exists()
-    merged = df.set_index("b.c").loc[kept["b.c"], "w_end"].to_numpy()
-    assert (merged == kept["w_end"].to_numpy()).all()   # the kept points were not run again
+    assert list(df["PlainGate.k"]) == [1.0, 2.0, 3.0, -1.0] and not partial.exists()
+    np.testing.assert_allclose(df["y_end"], df["PlainGate.k"] * 0.05, rtol=1e-12)   # y = k t at t = 0.05 s
+    merged = df.set_index("PlainGate.k").loc[kept["PlainGate.k"], "y_end"].to_numpy()
+    assert (merged == kept["y_end"].to_numpy()).all()   # the kept points were not run again
 
 
 @pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="watches the child's start-up in /proc")

@@ -172,9 +172,9 @@ def test_fmus_without_state_support_are_refused_in_one_line(tmp_path):
     from harness.errors import SystemError_
     from harness.model import Connection, Experiment, Instance, System
 
-    from foreign_builds import build_plain_lag
+    from foreign_builds import plain_lag
 
-    fmu = build_plain_lag(tmp_path)
+    fmu = plain_lag()
     s = System("pair", [Instance("a", str(fmu)), Instance("b", str(fmu))],
                [Connection("a.y", "b.u"), Connection("b.y", "a.u")], experiment=Experiment(1.0, 0.1))
     with pytest.raises(SystemError_) as e:

@@ -11,6 +11,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from childproc import harness_command
 from harness import RunOptions, simulate
 from harness.results import read_csv, to_csv
 
@@ -33,9 +34,10 @@ def built_fmus():
             resolve_fmu(inst.fmu)
 
 
-def cli(*args, cwd=ROOT):
-    r = subprocess.run([sys.executable, "-m", "harness", *map(str, args)], cwd=cwd, capture_output=True,
-                       text=True, timeout=600)
+def cli(*args, cwd=ROOT, parquet=True):
+    """``python -m harness ARGS``; ``parquet=False``: as where neither Parquet engine is installed."""
+    r = subprocess.run([*harness_command(parquet), *map(str, args)], cwd=cwd, capture_output=True, text=True,
+                       timeout=600)
     return r.returncode, r.stdout, r.stderr
 
 
@@ -134,14 +136,12 @@ def test_sweep_system_key_must_match(tmp_path):
 
 
 def test_parquet_without_pyarrow_fails_before_the_first_point(tmp_path):
-    from harness.results import parquet_engine
-
-    if parquet_engine():   # the run command's check: pyarrow or fastparquet (sweep asked for pyarrow alone)
-        pytest.skip(f"{parquet_engine()} is installed: Parquet can be written")
+    """The run command's check (pyarrow or fastparquet), in a child told that neither is installed (the test
+    extras install fastparquet)."""
     spec = tmp_path / "s.yaml"
     spec.write_text(SPEC)
     rc, _, err = cli("sweep", "two_inertia", "--grid", spec, "--workers", "0", "--out", tmp_path / "x.parquet",
-                     cwd=tmp_path)
+                     cwd=tmp_path, parquet=False)
     assert rc == 1 and "Parquet needs pyarrow" in one_line(err)
     assert not list(tmp_path.glob("*.csv"))
 

@@ -4,20 +4,12 @@ from __future__ import annotations
 
 import pytest
 
-from fmus import build as build_fmus
 from fmus.refusal import CATEGORY, Refusal
 from harness.errors import FMUError, ParameterRefused
 from harness.fmi import open_instance
 from harness.fmi.fmu import ERROR
 
 J_REFUSED = Refusal("J", -1.0, "kg.m2", "must be > 0 kg.m2", low=0.0, high=None, low_open=True, choices=None)
-
-
-@pytest.fixture(scope="module")
-def fmu3_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("fmus3_refusal")
-    assert build_fmus.main(["--fmi-version", "3", "--out", str(out), "--only", "pd_inertia"]) == 0
-    return out
 
 
 def _refused(path, in_process):

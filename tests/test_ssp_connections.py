@@ -32,10 +32,10 @@ HEAD = ('<?xml version="1.0" encoding="UTF-8"?>\n<ssd:SystemStructureDescription
 
 
 @pytest.fixture(scope="module")
-def ref2(tmp_path_factory) -> dict[str, Path]:
-    from reference_builds import build_reference_fmus   # the one build of tests/reference_fmus (or skip)
+def ref2() -> dict[str, Path]:
+    from reference_builds import reference_fmus   # the one build of tests/reference_fmus
 
-    return build_reference_fmus(tmp_path_factory.mktemp("reference_fmus_2"), 2)
+    return reference_fmus(2)
 
 
 def quiet(system, **kw):
@@ -211,14 +211,9 @@ def test_a_bad_map_entry_in_the_ssd_is_named(ref2, tmp_path):
 # import reads the FMUs' terminals: a hand-written .ssd may connect two flanges by their terminal names, and
 # plain member connections that make up a flange pair become a bond even without this toolkit's annotation.
 @pytest.fixture(scope="module")
-def pair3(tmp_path_factory) -> Path:
-    """Inertia and SpringInertia as FMI 3.0 FMUs (with their flange terminals), built by build_fmus.py."""
-    from fmus import build as build_fmus
-
-    out = tmp_path_factory.mktemp("fmus3_pair")
-    assert build_fmus.main(["--fmi-version", "3", "--out", str(out), "--only", "pd_inertia",
-                            "pd_spring_inertia"]) == 0
-    return out
+def pair3(fmu3_dir) -> Path:
+    """Inertia and SpringInertia (among the others) as FMI 3.0 FMUs with their flange terminals."""
+    return fmu3_dir
 
 
 def two_inertia_on(folder: Path) -> System:
@@ -298,13 +293,9 @@ def test_member_connections_of_two_flange_terminals_become_the_bond_without_the_
 
 
 @pytest.fixture(scope="module")
-def all3(tmp_path_factory) -> Path:
-    """Every component as an FMI 3.0 FMU (fmpy's validation is tests/test_fmi3_export.py's business)."""
-    from fmus import build as build_fmus
-
-    out = tmp_path_factory.mktemp("fmus3_all")
-    assert build_fmus.main(["--fmi-version", "3", "--out", str(out), "--no-validate"]) == 0
-    return out
+def all3(fmu3_dir) -> Path:
+    """Every component as an FMI 3.0 FMU."""
+    return fmu3_dir
 
 
 @pytest.mark.parametrize("name", ["feeder_gto52", "bed_drive", "spine_knife", "proof_press"])
