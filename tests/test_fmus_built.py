@@ -120,9 +120,12 @@ def test_a_non_physical_parameter_is_an_fmi_error_with_a_clear_log_line(fmu, cap
 
 
 def test_many_instances_in_one_process(fmu_dir):
-    """Several instances of every FMU alive together, freed, and created again (pythonfmu refcount bug)."""
+    """Several instances of every FMU alive together, freed, and created again (pythonfmu refcount bug): each
+    instance steps from its own default start to the same outputs as its siblings of the same FMU, alive at the
+    same time, and as the instances of the first round (no state shared or left behind)."""
+    rounds = []
     for _round in range(2):
-        alive = []
+        alive, outputs = [], {}
         for module in SCRIPTS:
             cls = component_class(module)
             for k in range(3):
@@ -131,7 +134,13 @@ def test_many_instances_in_one_process(fmu_dir):
                 s.enterInitializationMode()
                 s.exitInitializationMode()
                 s.doStep(0.0, 1e-3)
+                refs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+                outputs.setdefault(cls.__name__, []).append(s.getReal(refs))
                 alive.append(s)
+        for name, got in outputs.items():
+            assert got[1] == got[0] and got[2] == got[0], name
         for s in alive:
             s.terminate()
             s.freeInstance()
+        rounds.append(outputs)
+    assert rounds[1] == rounds[0] and len(rounds[0]) == len(SCRIPTS)
