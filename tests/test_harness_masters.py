@@ -197,3 +197,32 @@ def test_held_inputs_in_floats_equal_the_arrays(master, order, monkeypatch):
     monkeypatch.setattr(Master, "_hold_all_floats", Master._hold_all_arrays)
     arrays = simulate(load("two_inertia"), **kw)
     assert np.array_equal(ref.values, arrays.values)
+
+
+@pytest.mark.parametrize("master, extrapolation", [("jacobi", 0), ("jacobi", 1), ("gauss-seidel", 0),
+                                                   ("gauss-seidel", 1), ("iterative", 1)])
+def test_a_linear_transformation_gives_the_same_run_wherever_along_a_chain_it_is_applied(fmu_dir, master,
+                                                                                         extrapolation):
+    """Inertia a (sped up by tau_drive) -> Gain g (y = 2 u, feed-through) -> Inertia b (driven by the torque):
+    b's torque 6 w_a + 1 made once by 3 w_a + 0.5 into g, once by 3 y_g + 1 out of g (unit_conversion declared).
+    Under each master's own path for setting inputs (Gauss-Seidel with extrapolation sets a feed-through FMU's
+    inputs again at t + h for the FMUs after it), b moves the same to rounding, and g.u is 3 w_a + 0.5 of the
+    same row at every point."""
+    import warnings
+
+    def run(into_g, out_of_g):
+        system = System("chain", [Instance("a", fmu_dir / "Inertia.fmu", {"J": JA, "w0": W0, "tau_drive": 0.02}),
+                                  Instance("g", fmu_dir / "Gain.fmu", {"k": 2.0}),
+                                  Instance("b", fmu_dir / "Inertia.fmu", {"J": JB})],
+                        [Connection("a.flange.w", "g.u", *into_g, unit_conversion=True),
+                         Connection("g.y", "b.flange.tau", *out_of_g, unit_conversion=True)])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return simulate(system, 0.05, 1e-2, master=master, extrapolation=extrapolation, on_error="raise",
+                            outputs=["a.flange.w", "g.u", "b.flange.phi", "b.flange.w"])
+
+    before, after = run((3.0, 0.5), (1.0, 0.0)), run((1.0, 0.0), (3.0, 1.0))
+    assert len(before) == 6 and before["b.flange.w"].iloc[-1] > 1.0          # b is driven: 6 w_a + 1 > 0
+    np.testing.assert_allclose(before["g.u"], 3.0 * before["a.flange.w"] + 0.5, rtol=1e-14)
+    np.testing.assert_allclose(before[["b.flange.phi", "b.flange.w"]], after[["b.flange.phi", "b.flange.w"]],
+                               rtol=1e-12)
