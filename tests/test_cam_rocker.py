@@ -8,7 +8,6 @@ from fmpy.fmi2 import FMU2Slave
 
 from fmus.physics import laws as L
 from fmus.physics.cam_rocker import CamRockerModel, CamRockerParams
-from fmus.physics.base import ParameterError
 
 W = 2 * math.pi * 150 / 60   # 150 rpm (seed 000: 100-200 rpm)
 
@@ -301,15 +300,6 @@ def test_a_contact_change_located_at_a_sub_steps_very_end_ends_that_sub_step():
     ref = m.advance(0.536, 0.0005, x0.copy(), u)              # the same interval in two halves: the same motion
     ref = m.advance(0.5365, 0.0005, ref, [u[0] + u[1] * 0.0005, u[1], u[2]])
     assert abs(x[0] - ref[0]) < 1e-3 * abs(x0[0] - ref[0]) + 1e-9, (x[0], ref[0])
-
-
-def test_bad_parameters_name_the_parameter():
-    with pytest.raises(ParameterError, match="lambda2"):
-        CamRockerModel(CamRockerParams(lambda2=3.0))
-    with pytest.raises(ParameterError, match="phase_return"):
-        CamRockerModel(CamRockerParams(mechanism=1, phase_forward=4.0, phase_return=3.0))
-    with pytest.raises(ParameterError, match="fidelity.*mechanism 0"):
-        CamRockerModel(CamRockerParams(mechanism=1, fidelity=3))
 
 
 def test_built_fmu_matches_the_model(fmu_dir):

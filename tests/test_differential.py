@@ -81,20 +81,6 @@ def test_planet_speed_eq13_and_sun_mesh():
     assert (o["planet_speed"] - wc) / (o["sun.w"] - wc) == pytest.approx(-zs / zp)
 
 
-@pytest.mark.parametrize("kw, name", [(dict(z_ring=70), "z_ring"),
-                                      (dict(n_planets=5), "n_planets"),
-                                      (dict(n_planets=6), "n_planets"),
-                                      (dict(efficiency=1.2), "efficiency")])
-def test_gear_checks_name_the_parameter(kw, name):
-    with pytest.raises(ParameterError, match=f"parameter {name} = "):
-        Model(P(**kw))
-
-
-def test_neighbourhood_message():
-    with pytest.raises(ParameterError, match="neighbourhood"):
-        Model(P(n_planets=6))      # 96/6 = 16 assembles, but 48*sin(30 deg) = 24 < 26
-
-
 def _run(model, u, t_end, h=1e-3):
     x = model.initial_state(u)
     t = 0.0

@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from fmus.physics.base import ParameterError
 from fmus.physics.flywheel_shaft import FlywheelShaftModel, FlywheelShaftParams
 from test_fmus_built import open_fmu
 
@@ -107,13 +106,6 @@ def test_rigid_level_equals_compliant_level_with_a_very_stiff_shaft():
     np.testing.assert_allclose(elastic[1:, 6], rigid[1:, 6], rtol=1e-4, atol=1e-3)   # shaft torque
     assert np.all(rigid[:, 7] == 0.0) and np.all(np.abs(elastic[:, 7]) < 1e-6)
     np.testing.assert_array_equal(rigid[:, 0], rigid[:, 2])
-
-
-def test_bad_parameters_are_named():
-    with pytest.raises(ParameterError, match="psi = 13.0"):
-        FlywheelShaftModel(FlywheelShaftParams(psi=13.0))
-    with pytest.raises(ParameterError, match="d = 0.0"):
-        FlywheelShaftModel(FlywheelShaftParams(d=0.0))
 
 
 # -- tier 2: the built FMU ---------------------------------------------------------------------------------

@@ -214,15 +214,6 @@ def test_fidelity2_driven_linkage_separates_and_impacts():
     assert np.max(np.abs(y[:, 1] - rigid[:, 1])) < 5e-3    # still follows the linkage
 
 
-def test_bad_parameters_name_the_parameter():
-    with pytest.raises(ParameterError, match="rocker_length = 5"):
-        FourBarModel(FourBarParams(rocker_length=5.0))
-    with pytest.raises(ParameterError, match="crank_length"):
-        FourBarModel(FourBarParams(crank_length=0.3))
-    with pytest.raises(ParameterError, match="friction_ratio"):
-        FourBarModel(FourBarParams(friction_ratio=1.0))
-
-
 # -- tier 2: the built FMU through fmpy -------------------------------------------------------------------
 
 def _open(fmu_dir, params, name="fb"):

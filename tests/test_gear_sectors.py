@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from fmus.physics import gear_sectors as gs
-from fmus.physics.base import ParameterError
 
 ROOT = Path(__file__).resolve().parents[1]
 GEOMS = [(0.3, 0.3, 1.0, 0.8), (0.4, 0.3, 1.2, 1.0), (0.25, 0.35, 1.5, 0.7)]
@@ -287,15 +286,6 @@ def test_stiff_cylinder_tends_to_the_rigid_law():
         errs.append((worst, sync))
     assert errs[1][0] < errs[0][0] / 20 and errs[1][0] < 1e-4
     assert 0 < errs[1][1] < errs[0][1]
-
-
-def test_parameter_errors_name_the_parameter():
-    with pytest.raises(ParameterError, match="parameter phi3 = 0.5"):
-        gs.GearSectorsModel(gs.GearSectorsParams(phi3=0.5))
-    with pytest.raises(ParameterError, match="parameter J_cyl = -1"):
-        gs.GearSectorsModel(gs.GearSectorsParams(J_cyl=-1.0))
-    with pytest.raises(ParameterError, match="no feasible sector synthesis"):
-        gs.GearSectorsModel(gs.GearSectorsParams(v1=5.0))
 
 
 # ------------------------------------------------------------------------------------------ CLI

@@ -11,7 +11,6 @@ import pytest
 from scipy.integrate import quad
 
 from fmus.physics import knife as kn
-from fmus.physics.base import ParameterError
 
 ROOT = Path(__file__).resolve().parents[1]
 F = (150.0, 260.0, 280.0, 120.0)
@@ -143,13 +142,6 @@ def test_knife_load_moment_follows_the_crank_angle():
     full = m.output(t, (), (2.5, 60.0))[1]
     assert half == pytest.approx(0.5 * full)
     assert m.output(0.05, (), (2.5, 60.0))[1] == 0.0      # block not yet there
-
-
-def test_knife_load_parameter_errors():
-    with pytest.raises(ParameterError, match="parameter T_cut = 0"):
-        kn.KnifeLoadModel(kn.KnifeLoadParams(T_cut=0.0))
-    with pytest.raises(ParameterError, match="parameter phi_s"):
-        kn.KnifeLoadModel(kn.KnifeLoadParams(phi_s=math.pi))
 
 
 # ------------------------------------------------------------------------------------------ CLI

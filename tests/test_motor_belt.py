@@ -43,13 +43,6 @@ def test_kloss_torque_is_rated_at_rated_slip_and_peaks_at_breakdown(params):
     assert 1 - best.x / params.w_sync == pytest.approx(s_k, rel=1e-4)
 
 
-def test_bad_parameters_are_named():
-    with pytest.raises(ParameterError, match="w_rated"):
-        MotorBeltModel(MotorBeltParams(w_rated=200.0, w_sync=157.0))
-    with pytest.raises(ParameterError, match="breakdown_ratio = 1.0"):
-        MotorBeltModel(MotorBeltParams(breakdown_ratio=1.0))
-
-
 def cosimulate(motor: MotorBeltModel, load: InertiaModel, h: float, T: float):
     """Motor -> belt -> driven pulley (an inertia with a constant load torque), exchanged every h."""
     xm = motor.initial_state((0.0, load.p.w0, *RUNNING))
