@@ -59,7 +59,8 @@ MUTATIONS = (
              "fmus/physics/base.py", "if not meta.get(\"low_open\") and not value >= low:",
              "if not meta.get(\"low_open\") and value < low - 1e300:",
              ("tests/test_fmus_built.py", "-k", "non_physical")),
-    Mutation("explicit-factor", "Jacobi and Gauss-Seidel drop a connection's linear factor",
+    Mutation("explicit-factor", "Gauss-Seidel drops a connection's factor where it sets a feed-through FMU's "
+             "inputs again at t + h (no test saw it: the new chain test does)",
              "harness/master/explicit.py",
              "it.fmu.set(it.inp, it.factor * self.extrapolation.value(self.history, it.src, t_next) + it.offset)",
              "it.fmu.set(it.inp, self.extrapolation.value(self.history, it.src, t_next) + it.offset)",
@@ -82,6 +83,10 @@ MUTATIONS = (
     Mutation("foreign-fmu-script", "a pythonfmu test script no longer builds (was a skip)",
              "tests/foreign/plain_decay.py", "from pythonfmu import", "import pythonfmu_missing\nfrom pythonfmu import",
              ("tests/test_foreign.py", "-k", "without_outputs")),
+    # -- more of our own -------------------------------------------------------------------------------------
+    Mutation("extrapolation-midpoint", "extrapolated inputs held at the step's end instead of its midpoint",
+             "harness/master/extrapolation.py", "        te = t + 0.5 * h\n", "        te = t + h\n",
+             ("tests/test_harness_masters.py", "-k", "global_error_order")),
 )
 
 
