@@ -9,19 +9,33 @@ import signal
 import sys
 
 
+# the signals that interrupted this command (SIGINT, SIGTERM): an interrupt raised inside an extension module's
+# start-up may come out as another error (numpy's reports an ImportError), which is then still an interrupt
+_RECEIVED: list[int] = []
+
+
 def _on_sigterm(signum, frame):
     """SIGTERM as an interrupt (:func:`_sigterm_as_interrupt`); a second one while the first's work is saved is
     ignored.  Imports nothing heavy: it may fire inside any import of the start-up."""
     from harness.errors import Terminated
 
+    _RECEIVED.append(signum)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     raise Terminated("terminated (SIGTERM)")
+
+
+def _on_sigint(signum, frame):
+    """Ctrl-C as Python's own handler takes it (KeyboardInterrupt), remembered (:data:`_RECEIVED`)."""
+    _RECEIVED.append(signum)
+    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":   # from the first line on: a SIGTERM while the command starts gets the usual message
     from harness.errors import Terminated as _Terminated  # noqa: F401 (imported before the handler can fire)
 
     signal.signal(signal.SIGTERM, _on_sigterm)
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:   # not where Ctrl-C is ignored
+        signal.signal(signal.SIGINT, _on_sigint)
 
 import argparse  # noqa: E402
 
@@ -181,6 +195,7 @@ def _command(argv: list[str]) -> str | None:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    _RECEIVED.clear()
     argv, debug = _debug_anywhere(argv)
     argv = (["--debug"] if debug else []) + argv
     before = _sigterm_as_interrupt()
@@ -216,6 +231,12 @@ def _parse_and_run(argv: list[str], debug: bool) -> int:
         print(how, file=sys.stderr)
         return status
     except Exception as e:  # one line, no traceback
+        if _RECEIVED:   # a signal's interrupt that came out as this error (inside an extension's start-up)
+            from harness.errors import Terminated, interruption
+
+            status, how = interruption(Terminated() if _RECEIVED[-1] == signal.SIGTERM else KeyboardInterrupt())
+            print(how, file=sys.stderr)
+            return status
         if debug:
             raise
         from harness.errors import HarnessError

@@ -142,3 +142,22 @@ def test_a_signal_while_the_command_starts_gets_the_usual_message(tmp_path, sig,
     assert p.returncode == status, (p.returncode, err)
     assert err.strip() == words, err
     assert not (tmp_path / "x.csv").exists()
+
+
+@pytest.mark.parametrize("sig, status, words", [(signal.SIGTERM, 143, "terminated (SIGTERM)"),
+                                                (signal.SIGINT, 130, "interrupted (Ctrl-C)")])
+def test_an_interrupt_an_import_reports_as_another_error_is_still_the_interrupt(monkeypatch, capsys, sig, status,
+                                                                                 words):
+    """The test above, made certain: a signal that lands inside numpy's C start-up comes out as an ImportError
+    ("IMPORTANT: PLEASE READ THIS ..."; seen under load); the command still reports the signal, not the error."""
+    import harness.__main__ as cli
+
+    def numpy_like_import(*args, **kwargs):
+        try:
+            (cli._on_sigterm if sig == signal.SIGTERM else cli._on_sigint)(sig, None)
+        except KeyboardInterrupt:
+            raise ImportError("IMPORTANT: PLEASE READ THIS FOR ADVICE ON HOW TO SOLVE THIS ISSUE!") from None
+
+    monkeypatch.setattr(cli, "build_parser", numpy_like_import)
+    assert cli.main(["run", "two_inertia"]) == status
+    assert capsys.readouterr().err.strip() == words
