@@ -17,7 +17,6 @@ from __future__ import annotations
 import importlib
 import json
 import os
-import shutil
 import subprocess
 import sys
 import textwrap
@@ -33,6 +32,7 @@ from fmpy.validation import validate_fmu
 
 from fmus import build as build_fmus
 from fmus import reference
+from test_hosts import clean_env  # the environment of a host without Python
 from fmus.reference import standard_run
 
 CATALOG = build_fmus.catalog()                       # model name -> declaration pd_<name>.py
@@ -549,14 +549,6 @@ def test_fmi3_fmus_load_free_and_load_again_under_fmpy(fmu3_dir):
 HOST = Path(__file__).parent / "c_host3" / "fmi3_host.c"
 
 
-def _clean_env(**extra) -> dict:
-    """A process environment without anything that would point a host at Python."""
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith(("PYTHON", "PRESSDRIVE_", "VIRTUAL_ENV", "LD_PRELOAD"))}
-    env.update(extra)
-    return env
-
-
 @pytest.fixture(scope="module")
 def c_host(tmp_path_factory) -> Path:
     """tests/c_host3/fmi3_host.c compiled: a C program that runs an FMI 3.0 co-simulation FMU, no Python in it."""
@@ -588,7 +580,7 @@ def test_every_fmi3_fmu_runs_in_a_c_host_without_python_like_fmpy(fmu3_dir, c_ho
         md = read_model_description(str(fmu))
         inputs = {v.name: 0.1 * (i + 1) for i, v in enumerate(v for v in md.modelVariables if v.causality == "input")}
         outputs = [v.name for v in md.modelVariables if v.causality == "output"]
-        r = _run_in_c_host(c_host, fmu, tmp_path, 100, inputs, outputs, _clean_env())
+        r = _run_in_c_host(c_host, fmu, tmp_path, 100, inputs, outputs, clean_env())
         assert r.returncode == 0, f"{name}: exit {r.returncode}: {(r.stdout + r.stderr)[-800:]}"
         got = dict(line.split() for line in r.stdout.splitlines() if not line.startswith("LOG"))
         ref = simulate_fmu(str(fmu), stop_time=0.1, step_size=1e-3, output_interval=1e-3, start_values=inputs,
@@ -599,62 +591,13 @@ def test_every_fmi3_fmu_runs_in_a_c_host_without_python_like_fmpy(fmu3_dir, c_ho
             assert abs(float(got[vr[o]]) - want) <= 1e-9 * max(abs(want), 1.0), (name, o, got[vr[o]], want)
 
 
-def _omsimulator_cli() -> Path | None:
-    for candidate in (Path(sys.executable).parent / "OMSimulator", shutil.which("OMSimulator")):
-        if candidate and Path(candidate).is_file():
-            return Path(candidate)
-    return None
-
-
-@pytest.mark.interop
-def test_omsimulator_cli_runs_every_fmi3_fmu_like_fmpy(fmu3_dir, tmp_path):
-    """OMSimulator's command-line tool, a C++ process without Python, in an environment that names no Python:
-    every FMI 3.0 FMU (inputs at their start values) over 50 steps of 1 ms equals fmpy to 1e-9 of max(|y|, 1)."""
-    import pandas as pd
-
-    cli = _omsimulator_cli()
-    if cli is None:
-        pytest.skip("OMSimulator's command-line tool is not installed in this environment (install it with "
-                    "../shared/tools/omsimulator/install where that folder exists)")
-    stop, step = 0.05, 1e-3
-    for name in sorted(CATALOG):
-        fmu = fmu3_dir / f"{name}.fmu"
-        r = subprocess.run([str(cli), str(fmu), f"--stopTime={stop}", f"--stepSize={step}",
-                            f"--resultFile={name}.csv"], cwd=tmp_path, env=_clean_env(), capture_output=True,
-                           text=True, timeout=300)
-        text = r.stdout + r.stderr
-        assert r.returncode == 0 and "error" not in text.lower(), f"{name}: {text[-800:]}"
-        oms = pd.read_csv(tmp_path / f"{name}.csv", skipinitialspace=True)
-        oms.columns = [c.strip().strip('"') for c in oms.columns]
-        # the FMU's own independent variable 'time' comes after OMSimulator's: pandas names it time.1
-        oms = oms.drop(columns=["time.1"], errors="ignore").groupby("time").last()
-        ref = pd.DataFrame(simulate_fmu(str(fmu), stop_time=stop, step_size=step,
-                                        output_interval=step)).set_index("time")
-        cols = [c for c in ref.columns if c in oms.columns]
-        assert cols and len(oms) == len(ref), (name, cols, len(oms), len(ref))
-        scale = np.maximum(ref[cols].abs().max().to_numpy(), 1.0)
-        worst = np.abs(oms[cols].to_numpy() - ref[cols].to_numpy()).max(axis=0) / scale
-        assert worst.max() <= 1e-9, f"{name}: {cols[int(np.argmax(worst))]} differs by {worst.max():.3g}"
-
-
 def test_a_missing_python_environment_is_one_clear_fmi3_error(fmu3_dir, c_host, tmp_path):
     r = _run_in_c_host(c_host, fmu3_dir / "FourBar.fmu", tmp_path, 1, {}, ["crank.tau"],
-                       _clean_env(PRESSDRIVE_LIBPYTHON="/nonexistent/libpython3.so"))
+                       clean_env(PRESSDRIVE_LIBPYTHON="/nonexistent/libpython3.so"))
     assert r.returncode == 3 and "NOINSTANCE" in r.stdout, r.stdout + r.stderr
     errors = [line for line in r.stdout.splitlines() if line.startswith("LOG 3 logStatusError")]
     assert len(errors) == 1 and "no libpython at '/nonexistent/libpython3.so'" in errors[0]
     assert "PRESSDRIVE_LIBPYTHON" in errors[0] and "pythonfmu3" in errors[0]
-
-
-def test_every_fmi3_fmu_carries_the_loader_and_the_recorded_python(fmu3_dir):
-    for name in sorted(CATALOG):
-        with zipfile.ZipFile(fmu3_dir / f"{name}.fmu") as z:
-            names = set(z.namelist())
-            assert {f"binaries/x86_64-linux/{name}.so", f"binaries/x86_64-linux/{name}_pythonfmu3.so",
-                    "resources/pressdrive_python.txt"} <= names, name
-            config = dict(line.split("=", 1) for line in
-                          z.read("resources/pressdrive_python.txt").decode().splitlines())
-        assert config["version"] == f"{sys.version_info.major}.{sys.version_info.minor}"
 
 
 def test_a_missing_exporter_is_one_line_and_builds_nothing(tmp_path, monkeypatch, capsys):
