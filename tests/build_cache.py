@@ -3,9 +3,11 @@
 Each build lives in ``build/test-cache/<kind>-<key>/``, ``<key>`` a digest of everything the build reads: its
 source files (every byte, by relative path), the tools and their versions, this Python.  A change of any of them
 is another key, so a cached build is never stale; a key's first user builds it under a file lock (the other
-workers wait for it, then use it) into a private folder that is moved into place whole, and the builds of older
-keys of the same kind are removed then.  A build that fails FAILS the tests that need it, naming the command
-and its last error lines: these are the project's own fixtures, and a broken one must not pass as skipped.
+workers wait for it, then use it) into a private folder that is moved into place whole, and the builds of other
+keys of the same kind that nobody used for a day are removed then (not sooner: another virtualenv, such as
+.ci/run's lowest-FMPy one, or a session started before a source changed may still use theirs).  A build that
+fails FAILS the tests that need it, naming the command and its last error lines: these are the project's own
+fixtures, and a broken one must not pass as skipped.
 
 A helper module, not a test file: it holds no test.
 """
@@ -17,6 +19,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Callable, Iterable
 
@@ -25,6 +28,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 CACHE = ROOT / "build" / "test-cache"
 DONE = ".complete"
+PRUNE_AFTER_S = 86400.0   # a build of another key is removed once unused for a day (never while a session uses it)
 
 
 class BuildError(RuntimeError):
@@ -86,14 +90,17 @@ def cached(kind: str, inputs: Iterable, build: Callable[[Path], None]) -> Path:
     inputs = [kind, sys.version, *inputs]
     final = CACHE / f"{kind}-{_digest(inputs)}"
     if (final / DONE).is_file():
+        os.utime(final / DONE)                    # in use: not pruned (below) for another day
         return final
     CACHE.mkdir(parents=True, exist_ok=True)
     with open(CACHE / f"{kind}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)          # released when the file closes, also if this process dies
         if (final / DONE).is_file():
             return final
-        for old in CACHE.glob(f"{kind}-*"):
-            shutil.rmtree(old, ignore_errors=True)
+        for old in CACHE.glob(f"{kind}-*"):       # builds of other keys unused for a day (another virtualenv's,
+            done = old / DONE                     # such as .ci/run's lowest-FMPy one, or older sources)
+            if not done.is_file() or time.time() - done.stat().st_mtime > PRUNE_AFTER_S:
+                shutil.rmtree(old, ignore_errors=True)
         work = CACHE / f".{final.name}.{os.getpid()}"
         shutil.rmtree(work, ignore_errors=True)
         work.mkdir()

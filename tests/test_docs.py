@@ -236,6 +236,11 @@ def parse_only(command: str) -> None:
 
 def run_and_check(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
     """Run ``command`` as the page shows it and compare its output with the shown lines."""
+    check(page, command, shown, *run_command(command, scratch, fmu_dir, monkeypatch, capsys))
+
+
+def run_command(command, scratch, fmu_dir, monkeypatch, capsys) -> tuple[int, str, str]:
+    """(exit status, stdout, stderr) of ``command`` run as a page shows it, in ``scratch``."""
     monkeypatch.chdir(scratch)
     monkeypatch.setenv("PRESSDRIVE_FMU_DIR", str(fmu_dir))
     monkeypatch.setenv("MPLBACKEND", "Agg")
@@ -258,6 +263,11 @@ def run_and_check(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
         done = subprocess.run(argv, capture_output=True, text=True, timeout=3600,
                               env=dict(os.environ, PYTHONPATH=str(ROOT)))
         status, out, err = done.returncode, done.stdout, done.stderr
+    return status, out, err
+
+
+def check(page, command, shown, status, out, err) -> None:
+    """The exit status the page states (0 unless ``# exits N``) and the output it shows."""
     stated = re.search(r"#.*\bexits (\d+)", command)           # a documented refusal, e.g. size's 2
     expected = (int(stated.group(1)),) if stated else (0, None)
     assert status in expected, f"{page}: {command!r} exited {status}:\n{err[-2000:]}"
@@ -277,11 +287,54 @@ def test_every_command_on_a_page_runs(page, command, shown, scratch, fmu_dir, mo
     run_and_check(page, command, shown, scratch, fmu_dir, monkeypatch, capsys)
 
 
+def _same_command(examples) -> list[list[tuple]]:
+    """The examples grouped by the command they run (its words, the comment left out), in page order."""
+    groups: dict = {}
+    for page, command, shown in examples:
+        groups.setdefault(tuple(shlex.split(command, comments=True)), []).append((page, command, shown))
+    return list(groups.values())
+
+
+SLOW_GROUPS = _same_command(SLOW_EXAMPLES)
+
+
+def shipped_study_sweep(command: str) -> Path | None:
+    """The shipped sweep study (systems/studies/*.yaml) a ``python -m harness sweep`` command runs whole, or None."""
+    argv = harness_argv(command) or []
+    if argv[:1] != ["sweep"] or "--grid" not in argv:
+        return None
+    spec = ROOT / argv[argv.index("--grid") + 1]
+    return spec if spec.parent == ROOT / "systems" / "studies" else None
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("page, command, shown", SLOW_EXAMPLES, ids=[f"{p}:{c[:60]}" for p, c, _ in SLOW_EXAMPLES])
-def test_every_slow_command_on_a_page_runs(page, command, shown, scratch, fmu_dir, monkeypatch, capsys):
-    """The ``# slow`` commands, run and their shown output checked (``-m slow``)."""
-    run_and_check(page, command, shown, scratch, fmu_dir, monkeypatch, capsys)
+@pytest.mark.parametrize("group", SLOW_GROUPS, ids=[f"{g[0][0]}:{g[0][1][:60]}" for g in SLOW_GROUPS])
+def test_every_slow_command_on_a_page_runs(group, scratch, fmu_dir, monkeypatch, capsys):
+    """The ``# slow`` commands, run and their shown output checked (``-m slow``).  A command shown on several
+    pages (the tutorial's compare and size are the how-to's) runs once, and each page's shown output and stated
+    exit status are checked against that run.  A sweep of a whole shipped study (the pages show no output of
+    one: the command regenerates a figure's data, 96 runs and more) is the command tests/test_sweep_studies_cli.py
+    runs on the same spec with its grid cut to two points, charts included: the part the page adds, the
+    command as written, is checked by the command line's parser here."""
+    page, command, _ = group[0]
+    study = shipped_study_sweep(command)
+    if study is not None:
+        import test_sweep_studies_cli
+
+        parse_only(command)
+        assert study in test_sweep_studies_cli.STUDIES and all(not shown for _, _, shown in group), (page, command)
+        return
+    status, out, err = run_command(command, scratch, fmu_dir, monkeypatch, capsys)
+    for page, command, shown in group:
+        check(page, command, shown, status, out, err)
+
+
+def test_a_command_shown_on_two_pages_is_run_once_for_both():
+    """The grouping above: the tutorial's compare and size commands are the how-to's, comments aside."""
+    groups = {g[0][1].split("#")[0].strip(): [page for page, _, _ in g] for g in SLOW_GROUPS}
+    compare = next(c for c in groups if c.startswith("python -m harness compare bed_drive"))
+    assert sorted(groups[compare]) == ["docs/howto/compare-and-size.md", "docs/tutorial.md"]
+    assert sum(len(g) for g in SLOW_GROUPS) == len(SLOW_EXAMPLES) > len(SLOW_GROUPS)
 
 
 def test_the_readme_python_example_runs(fmu_dir, monkeypatch, capsys):

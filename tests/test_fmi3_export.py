@@ -14,12 +14,9 @@ previous inputs still set, so its ``step_finished`` callback sets ``u_{k+1}`` an
 """
 from __future__ import annotations
 
+import functools
 import importlib
-import json
-import os
-import subprocess
 import sys
-import textwrap
 import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
@@ -32,7 +29,6 @@ from fmpy.validation import validate_fmu
 
 from fmus import build as build_fmus
 from fmus import reference
-from test_hosts import clean_env  # the environment of a host without Python
 from fmus.reference import standard_run
 
 CATALOG = build_fmus.catalog()                       # model name -> declaration pd_<name>.py
@@ -142,8 +138,10 @@ def standard_run_setup(name: str):
     return seen["model"], seen["h"], seen["n"], seen["u"]
 
 
+@functools.lru_cache(maxsize=None)
 def simulate_standard_run(fmu: Path, name: str) -> np.ndarray:
-    """fmpy.simulate_fmu of the FMU through the standard run (module docstring); rows (t, outputs...)."""
+    """fmpy.simulate_fmu of the FMU through the standard run (module docstring); rows (t, outputs...).  Run once
+    per FMU and shared by the tests of this file (read only): three tests compare it with three references."""
     model, h, n, u = standard_run_setup(name)
     inputs = list(model.inputs)
     outputs = list(model.outputs)
@@ -169,7 +167,15 @@ def simulate_standard_run(fmu: Path, name: str) -> np.ndarray:
     res = simulate_fmu(str(fmu), start_time=0.0, stop_time=n * h, step_size=h, output_interval=h,
                        start_values=start, input=signals, output=outputs,
                        step_finished=resample_after_setting_the_next_inputs)
-    return np.column_stack([res["time"]] + [res[o] for o in outputs])
+    rows = np.column_stack([res["time"]] + [res[o] for o in outputs])
+    rows.flags.writeable = False
+    return rows
+
+
+@functools.lru_cache(maxsize=None)
+def csv_digits(name: str) -> int:
+    """The significant digits the component's reference.csv is written with (its script's format)."""
+    return reference.digits(reference.fresh(CATALOG[name].stem.removeprefix("pd_"))[2])
 
 
 def reference_rows(name: str) -> tuple[list[str], np.ndarray]:
@@ -186,11 +192,14 @@ def deviation(run: np.ndarray, ref: np.ndarray) -> np.ndarray:
     return np.max(np.abs(run - ref), axis=0) / scale
 
 
+@functools.lru_cache(maxsize=None)
 def fresh_standard_run(name: str) -> np.ndarray:
     """The standard run of the pure model (fmus.reference.standard_run, no FMU): what reference.csv holds, at
-    full precision, for the model as it is now."""
+    full precision, for the model as it is now (computed once per component, read only)."""
     model, h, n, u = standard_run_setup(name)
-    return np.array(standard_run(model, lambda k, t: u[k], h, n), dtype=float)
+    rows = np.array(standard_run(model, lambda k, t: u[k], h, n), dtype=float)
+    rows.flags.writeable = False
+    return rows
 
 
 @pytest.mark.parametrize("name", sorted(CATALOG))
@@ -219,7 +228,7 @@ def test_fmpy_simulates_the_fmi3_fmu_through_the_standard_run_of_its_reference_c
     assert np.all(np.isfinite(run))
     span = np.ptp(ref, axis=0)
     scale = np.where(span > 0, span, np.maximum(np.max(np.abs(ref), axis=0), 1e-300))
-    rounding = 10.0 ** (1 - reference.digits(reference.fresh(CATALOG[name].stem.removeprefix("pd_"))[2]))
+    rounding = 10.0 ** (1 - csv_digits(name))
     excess = (np.abs(run - ref) - rounding * np.abs(ref)) / scale
     worst = np.unravel_index(int(np.argmax(excess)), excess.shape)
     assert excess[worst] <= TOLERANCE, (f"{name}: {header[worst[1]]} at t = {ref[worst[0], 0]:g} off by "
@@ -320,133 +329,6 @@ def test_the_master_knows_which_positions_an_fmi3_fmu_advances(fmu3_dir):
     assert advanced_positions(Path(extract(str(fmu3_dir / "FourBar.fmu")))) == {"crank.phi"}
 
 
-# -- OMSimulator (a host nobody here wrote; its Python API: the FMUs' wrapper needs the Python of the process) ----
-def _omsimulator_missing() -> str | None:
-    try:
-        import OMSimulator  # noqa: F401
-    except Exception as e:
-        return (f"OMSimulator's Python API is not installed ({type(e).__name__}); install it with "
-                f"../shared/tools/omsimulator/install where that folder exists")
-    return None
-
-
-def _run_script(code: str) -> str:
-    """Run ``code`` in a fresh interpreter and return its stdout; it leaves with os._exit once everything is
-    printed (tearing an interpreter down with a peer tool's FMU instances alive has aborted: tests/conftest.py)."""
-    code = textwrap.dedent(code) + "\nimport os as _os, sys as _sys\n_sys.stdout.flush(); _os._exit(0)\n"
-    r = subprocess.run([sys.executable, "-c", code], cwd=build_fmus.ROOT, capture_output=True, text=True,
-                       timeout=600, env={**os.environ, "PRESSDRIVE_NORMAL_EXIT": "1"})
-    assert r.returncode == 0, f"exit {r.returncode}: {(r.stdout + r.stderr)[-1500:]}"
-    return r.stdout
-
-
-@pytest.mark.interop
-def test_omsimulator_runs_every_fmi3_fmu_like_fmpy(fmu3_dir, tmp_path):
-    """Each FMI 3.0 FMU alone in OMSimulator 3.0 (its inputs at their start values) over 50 steps of 1 ms: every
-    output it records equals fmpy's run of the same FMU to 1e-9 of max(|output|, 1)."""
-    reason = _omsimulator_missing()
-    if reason:
-        pytest.skip(reason)
-    out = _run_script(f"""
-        import json
-        from pathlib import Path
-        import numpy as np, pandas as pd
-        from fmpy import simulate_fmu
-        from OMSimulator import SSP, CRef
-        stop, step, result = 0.05, 1e-3, {{}}
-        for fmu in sorted(Path({str(fmu3_dir)!r}).glob("*.fmu")):
-            m = SSP()
-            m.addResource(str(fmu), new_name=f"resources/{{fmu.name}}")
-            m.addComponent(CRef("default", "c"), f"resources/{{fmu.name}}")
-            im = m.instantiate()
-            csv = Path({str(tmp_path)!r}) / f"{{fmu.stem}}.csv"
-            im.setResultFile(str(csv)); im.setFixedStepSize(step); im.setStopTime(stop)
-            im.initialize(); im.simulate(); im.terminate(); im.delete()
-            oms = pd.read_csv(csv, skipinitialspace=True)
-            oms.columns = [c.strip().strip('"') for c in oms.columns]
-            # the FMU's own independent variable is recorded as default.c.time beside OMSimulator's time
-            oms = oms.drop(columns=["default.c.time"], errors="ignore")
-            oms.columns = [c.removeprefix("default.c.") for c in oms.columns]
-            oms = oms.groupby("time").last()   # OMSimulator writes each point before and after the input update
-            ref = pd.DataFrame(simulate_fmu(str(fmu), stop_time=stop, step_size=step,
-                                            output_interval=step)).set_index("time")
-            cols = [c for c in ref.columns if c in oms.columns]
-            rows = len(oms) == len(ref)
-            scale = np.maximum(ref[cols].abs().max().to_numpy(), 1.0)
-            error = np.abs(oms[cols].to_numpy() - ref[cols].to_numpy()).max(axis=0) / scale if rows else None
-            worst = float(error.max()) if rows else None
-            result[fmu.stem] = [len(cols), rows, worst]
-        print(json.dumps(result))
-    """)
-    result = json.loads(out.strip().splitlines()[-1])
-    assert sorted(result) == sorted(CATALOG)
-    for name, (n_cols, same_rows, worst) in result.items():
-        assert n_cols >= 1 and same_rows, (name, n_cols, same_rows)
-        assert worst <= 1e-9, f"{name}: OMSimulator differs from fmpy by {worst:.3g}"
-
-
-# OMSimulator 3.0 takes these FMI 3.0 FMUs' outputs as depending on every input (their Output/InitialUnknown
-# dependencies are those of the FMI 2.0 builds, read by fmpy as such; the FMI 2.0 builds of the same drives have
-# no loop there), finds an algebraic loop (feeder_gto52 9 of 30 variables, bed_drive 18 of 78) and solves it with
-# KINSOL, which asks for directional derivatives the FMUs do not provide, unless told to use finite differences.
-# Tried without effect: value references equal to 1-based indices, no empty dependency list, dependenciesKind,
-# initial="calculated" on the outputs, no independent variable.  With finite differences it iterates the loop
-# every step: bed_drive then differs from the Jacobi run by 3.4e-2 of a range (measured), the others agree.
-_NO_DD = "--directionalDerivatives=false"
-_OMS_CASES = [pytest.param("two_inertia", ""), pytest.param("feeder_gto52", _NO_DD),
-              pytest.param("bed_drive", _NO_DD, marks=pytest.mark.xfail(strict=True, reason=(
-                  "OMSimulator iterates the loop it sees among the FMI 3.0 FMUs (see above): 3.4e-2 of a range "
-                  "from the Jacobi run, measured"))),
-              pytest.param("spine_knife", _NO_DD), pytest.param("proof_press", _NO_DD)]
-
-
-@pytest.mark.interop
-@pytest.mark.parametrize("name,options", _OMS_CASES)
-def test_omsimulator_runs_the_ssp_of_a_drive_made_of_fmi3_fmus(name, options, fmu3_dir, fmu_dir, tmp_path):
-    """The drive exported as SSP (harness.ssp.export_ssp) from its FMI 3.0 FMUs, run by OMSimulator's API over
-    20 steps: every value at the end equals the master's Jacobi zero-order-hold run of the FMI 2.0 FMUs to 1e-9
-    of its range (OMSimulator's own master is a Jacobi that refreshes feed-through outputs).  ``options``: the
-    OMSimulator command-line options the drive needs (above)."""
-    reason = _omsimulator_missing()
-    if reason:
-        pytest.skip(reason)
-    out = _run_script(f"""
-        import json, warnings
-        from pathlib import Path
-        from harness import load, simulate
-        from harness.ssp import export_ssp
-        from OMSimulator import SSP, CRef, capi
-
-        for option in {options!r}.split():
-            capi.Capi.setCommandLineOption(option)
-
-        def on(folder):
-            return load({name!r}).on_fmus(folder)
-
-        s3 = on({str(fmu3_dir)!r})
-        ssp = export_ssp(s3, Path({str(tmp_path)!r}) / "drive.ssp")
-        step = s3.experiment.step
-        stop = 20 * step
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            ref = simulate(on({str(fmu_dir)!r}), stop_time=stop, step=step, master="jacobi", extrapolation=0,
-                           on_error="raise")
-        im = SSP(str(ssp)).instantiate()
-        im.setFixedStepSize(step); im.setStopTime(stop); im.setResultFile({str(tmp_path / 'oms.mat')!r})
-        im.initialize(); im.simulate()
-        errors = {{}}
-        for c in ref.columns:
-            inst, var = c.split(".", 1)
-            value = im.getValue(CRef(s3.name, inst, var))
-            errors[c] = abs(value - ref[c].iloc[-1]) / max(float(ref[c].abs().max()), 1e-2)
-        im.terminate(); im.delete()
-        print(json.dumps(errors))
-    """)
-    errors = json.loads(out.strip().splitlines()[-1])
-    worst = max(errors, key=errors.get)
-    assert len(errors) >= 2 and errors[worst] <= 1e-9, f"{name}: {worst} differs by {errors[worst]:.3g}"
-
-
 # -- behaviour over FMI 3.0 calls -------------------------------------------------------------------------------
 def _open3(fmu: Path, instance: str = "inst"):
     md = read_model_description(str(fmu))
@@ -516,88 +398,6 @@ def test_many_fmi3_instances_in_one_process(fmu3_dir):
         for s in alive:
             s.terminate()
             s.freeInstance()
-
-
-def test_fmi3_fmus_load_free_and_load_again_under_fmpy(fmu3_dir):
-    """fmpy.simulate_fmu unpacks each FMU into a temporary folder and deletes it afterwards: the FMUs share their
-    build's runtime package (fmus_<hash>, imported from the first FMU's folder), each finds its own declaration in
-    its own folder, and a module only a function imports (CamRocker's law 8 imports the seed-004 carrier law) is
-    found after its folder is gone."""
-    law8 = {"mechanism": 1, "swing": 0.6981317007977318, "law": 8, "law_return": 0, "law_km": 0.246176}
-    order = ["FourBar", "CamRocker", "FourBar", "RackBed", "CamRocker", "MotorBelt"]
-    out = _run_script(f"""
-        import os, sys
-        from fmpy import simulate_fmu
-        for name in {order!r}:
-            r = simulate_fmu(os.path.join({str(fmu3_dir)!r}, name + ".fmu"), stop_time=0.01, step_size=1e-3)
-            print(name, len(r))
-        r = simulate_fmu(os.path.join({str(fmu3_dir)!r}, "CamRocker.fmu"), stop_time=0.002, step_size=1e-4,
-                         output_interval=1e-4,
-                         start_values={law8!r})
-        print("law8", len(r))
-        print("declarations", len([m for m in sys.modules if m.startswith("fmus_") and ".components.pd_" in m]))
-        print("packages", sorted(m for m in sys.modules if m.startswith("fmus_") and "." not in m))
-    """)
-    lines = out.splitlines()
-    assert [line.split()[0] for line in lines[:-3]] == order
-    assert lines[-3] == "law8 21"
-    assert lines[-2] == "declarations 4"          # one declaration per distinct FMU
-    assert lines[-1].count("fmus_") == 1          # one runtime package for the whole build
-
-
-# -- hosts without Python: the FMI 3.0 host loader (fmus/loader/pressdrive_loader3.c) ------------------------------
-HOST = Path(__file__).parent / "c_host3" / "fmi3_host.c"
-
-
-@pytest.fixture(scope="module")
-def c_host(tmp_path_factory) -> Path:
-    """tests/c_host3/fmi3_host.c compiled: a C program that runs an FMI 3.0 co-simulation FMU, no Python in it."""
-    from build_cache import compiler
-
-    out = tmp_path_factory.mktemp("c_host3") / "fmi3_host"
-    r = subprocess.run([compiler(), "-O2", "-o", str(out), str(HOST), "-ldl"], capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    return out
-
-
-def _run_in_c_host(c_host: Path, fmu: Path, where: Path, steps: int, inputs: dict, outputs: list, env: dict):
-    folder = Path(extract(str(fmu), unzipdir=str(where / fmu.stem)))
-    md = read_model_description(str(fmu))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    args = [str(c_host), str(folder / "binaries" / "x86_64-linux" / f"{fmu.stem}.so"), str(folder / "resources"),
-            md.guid, str(steps), "0.001", ",".join(f"{vr[k]}={v!r}" for k, v in inputs.items()),
-            ",".join(str(vr[o]) for o in outputs)]
-    return subprocess.run(args, capture_output=True, text=True, env=env, timeout=300)
-
-
-def test_every_fmi3_fmu_runs_in_a_c_host_without_python_like_fmpy(fmu3_dir, c_host, tmp_path):
-    """The loader finds the recorded Python, initialises it with the recorded environment and hands every call
-    to pythonfmu3's wrapper: each FMU, its inputs held at 0.1, 0.2, ... over 100 steps of 1 ms, gives fmpy's
-    outputs (fmpy's steps are differences of multiples of 1 ms, the host's exactly 1 ms: 1e-9 of max(|y|, 1)).
-    The host exits normally (status 0: pythonfmu3's wrapper no longer corrupts the heap at exit)."""
-    for name in sorted(CATALOG):
-        fmu = fmu3_dir / f"{name}.fmu"
-        md = read_model_description(str(fmu))
-        inputs = {v.name: 0.1 * (i + 1) for i, v in enumerate(v for v in md.modelVariables if v.causality == "input")}
-        outputs = [v.name for v in md.modelVariables if v.causality == "output"]
-        r = _run_in_c_host(c_host, fmu, tmp_path, 100, inputs, outputs, clean_env())
-        assert r.returncode == 0, f"{name}: exit {r.returncode}: {(r.stdout + r.stderr)[-800:]}"
-        got = dict(line.split() for line in r.stdout.splitlines() if not line.startswith("LOG"))
-        ref = simulate_fmu(str(fmu), stop_time=0.1, step_size=1e-3, output_interval=1e-3, start_values=inputs,
-                           output=outputs)
-        vr = {v.name: str(v.valueReference) for v in md.modelVariables}
-        for o in outputs:
-            want = float(ref[o][-1])
-            assert abs(float(got[vr[o]]) - want) <= 1e-9 * max(abs(want), 1.0), (name, o, got[vr[o]], want)
-
-
-def test_a_missing_python_environment_is_one_clear_fmi3_error(fmu3_dir, c_host, tmp_path):
-    r = _run_in_c_host(c_host, fmu3_dir / "FourBar.fmu", tmp_path, 1, {}, ["crank.tau"],
-                       clean_env(PRESSDRIVE_LIBPYTHON="/nonexistent/libpython3.so"))
-    assert r.returncode == 3 and "NOINSTANCE" in r.stdout, r.stdout + r.stderr
-    errors = [line for line in r.stdout.splitlines() if line.startswith("LOG 3 logStatusError")]
-    assert len(errors) == 1 and "no libpython at '/nonexistent/libpython3.so'" in errors[0]
-    assert "PRESSDRIVE_LIBPYTHON" in errors[0] and "pythonfmu3" in errors[0]
 
 
 def test_a_missing_exporter_is_one_line_and_builds_nothing(tmp_path, monkeypatch, capsys):
