@@ -307,6 +307,25 @@ def shipped_study_sweep(command: str) -> Path | None:
     return spec if spec.parent == ROOT / "systems" / "studies" else None
 
 
+def _scene_of(system: str, scene: str) -> bool:
+    from harness import load
+    from harness.run import system_names
+
+    return system in system_names() and scene in [s.name for s in load(system).scenes]
+
+
+# slow page commands that show no output and that a slow test runs as written (its --out aside) and checks
+# further: the page's command runs there, once.  The condition names the test's case, so a renamed case fails here.
+RUN_BY_TESTS = {
+    ("study", "stability", "bed_drive"): ("tests/test_stability.py::test_full_press_map_cli",
+                                          lambda: '["study", "stability", "bed_drive"' in (ROOT / "tests" / "test_stability.py").read_text()),
+    ("study", "precision", "bed_drive"): ("tests/test_precision.py::test_default_study_of_every_system[bed_drive]",
+                                          lambda: "bed_drive" in __import__("harness.studies.precision", fromlist=["x"]).PRECISION),
+    ("scene", "bed_drive", "bed_stroke"): ("tests/test_scenes.py::test_every_scene_of_a_system_and_two_choose_different_models"
+                                           "[bed_drive]", lambda: _scene_of("bed_drive", "bed_stroke")),
+}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("group", SLOW_GROUPS, ids=[f"{g[0][0]}:{g[0][1][:60]}" for g in SLOW_GROUPS])
 def test_every_slow_command_on_a_page_runs(group, scratch, fmu_dir, monkeypatch, capsys):
@@ -315,8 +334,14 @@ def test_every_slow_command_on_a_page_runs(group, scratch, fmu_dir, monkeypatch,
     exit status are checked against that run.  A sweep of a whole shipped study (the pages show no output of
     one: the command regenerates a figure's data, 96 runs and more) is the command tests/test_sweep_studies_cli.py
     runs on the same spec with its grid cut to two points, charts included: the part the page adds, the
-    command as written, is checked by the command line's parser here."""
+    command as written, is checked by the command line's parser here.  So is a command :data:`RUN_BY_TESTS`
+    names: a slow test runs it as written and checks its results further."""
     page, command, _ = group[0]
+    covered = RUN_BY_TESTS.get(tuple(harness_argv(command) or ()))
+    if covered is not None:
+        parse_only(command)
+        assert covered[1]() and all(not shown for _, _, shown in group), (page, command, covered[0])
+        return
     study = shipped_study_sweep(command)
     if study is not None:
         import test_sweep_studies_cli
