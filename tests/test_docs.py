@@ -249,6 +249,9 @@ def run_command(command, scratch, fmu_dir, monkeypatch, capsys) -> tuple[int, st
         import warnings
 
         from harness.__main__ import main
+        from reference_cache import sharing
+
+        sharing(monkeypatch)         # a monolithic reference another test computes too: once (tests/reference_cache.py)
 
         monkeypatch.setattr(warnings, "showwarning", warnings.showwarning)   # main() sets its own
         capsys.readouterr()

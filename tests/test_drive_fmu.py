@@ -33,7 +33,6 @@ from harness.model import Connection, Experiment, Instance, System
 from harness.run import simulate, system_names
 from harness.ssp import export_ssp
 from harness.studies.accuracy import accuracy_spec, check
-from harness.studies.reference import reference
 
 ROOT = Path(__file__).resolve().parents[1]
 TIMEOUT = 600.0
@@ -55,9 +54,12 @@ def drive_fmus(fmu_dir, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def bed_reference():
+    """The bed drive's accuracy reference (computed once for every test that asks: tests/reference_cache.py)."""
+    from reference_cache import shared
+
     system = load("bed_drive")
     spec = accuracy_spec(system)
-    return reference(system, stop_time=spec.stop_time, step=spec.reference_step)
+    return shared("reference")(system, stop_time=spec.stop_time, step=spec.reference_step)
 
 
 def _script(code: str, timeout: float = TIMEOUT) -> str:

@@ -29,7 +29,12 @@ MEASURED = [  # (drive, scenario, master, order, step): the cheapest of the ladd
 
 @pytest.mark.slow
 @pytest.mark.parametrize("drive, scenario, master, order, step", MEASURED)
-def test_the_measured_method_meets_the_scenarios_declared_accuracy(drive, scenario, master, order, step):
+def test_the_measured_method_meets_the_scenarios_declared_accuracy(drive, scenario, master, order, step, monkeypatch):
+    """The scenario's monolithic reference is computed once for this test and the transients page's commands of
+    the same scenario (tests/reference_cache.py)."""
+    from reference_cache import sharing
+
+    sharing(monkeypatch)
     system = load(drive)
     table = search_scenario(system, scenario, methods=((master, order),), steps=(step,))
     assert len(table) == 1 and bool(table["meets"].iloc[0]), table.to_dict("records")

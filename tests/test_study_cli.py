@@ -31,9 +31,13 @@ def test_the_lists_hold_every_drive_that_declares_a_study():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ACCURACY)
-def test_accuracy_study_of_every_drive(name, tmp_path, capsys):
+def test_accuracy_study_of_every_drive(name, tmp_path, capsys, monkeypatch):
     """The ladder at the drive's default step and twice it, every default method: a row per run, each judged by
-    every requirement, and the cheapest that meets the accuracy named (the default method meets it at its step)."""
+    every requirement, and the cheapest that meets the accuracy named (the default method meets it at its step).
+    The drive's monolithic reference is the one the other tests use (computed once: tests/reference_cache.py)."""
+    from reference_cache import sharing
+
+    sharing(monkeypatch)
     system = load(name)
     h = system.experiment.step
     assert main(["study", "accuracy", name, "--steps", str(h), str(2 * h), "--out", str(tmp_path)]) == 0, \
