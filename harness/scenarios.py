@@ -349,30 +349,9 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
                 f"{100 * SETTLED:g} % of the final speed", "" if settled else "not settled within the run")
         loads(t_e)
     elif scenario.kind == "stop":
-        w_e = at(w, t_e)
-        moving = np.flatnonzero((t >= t_e) & (np.abs(w) > STOPPED * abs(w_e)))
-        stopped = t[-1] >= t_e and (moving.size == 0 or moving[-1] < len(t) - 1)
-        if stopped and w_e != 0.0:
-            k = moving[-1] + 1 if moving.size else int(np.searchsorted(t, t_e))
-            row("stopping_time", t[k] - t_e, "s", f"from the first change until the main shaft stays below "
-                f"{100 * STOPPED:g} % of its speed then ({w_e / RPM:.4g} rpm)")
-            row("stopping_angle", math.degrees(abs(angle[k] - at(angle, t_e))), "deg",
-                "main-shaft angle turned in that time")
-        else:
-            row("stopping_time", None, "s", "time to stop", "the main shaft does not stop within the run")
-        if scenario.watch is not None:
-            x = df[scenario.watch].to_numpy(dtype=float)
-            done = np.flatnonzero(cycles.bounds[1:] <= t_e)
-            if done.size:
-                k = int(done[-1])
-                prior = (t >= cycles.bounds[k]) & (t <= cycles.bounds[k + 1])
-                later = t >= t_e
-                unit = df.attrs.get("units", {}).get(scenario.watch, "")
-                row("overrun", max(0.0, x[later].max() - x[prior].max(), x[prior].min() - x[later].min()), unit,
-                    f"how far {scenario.watch} moves past the range it swept in the last cycle before the stop")
-            else:
-                row("overrun", None, "", f"overrun of {scenario.watch}", "no complete cycle before the stop")
-        loads(t_e)
+        from harness.reporting.stops import stop_rows
+
+        stop_rows(system, scenario, df, spec, cycles, t_e, row, loads)
     else:  # load
         w_e = at(w, t_e)
         later = t >= t_e

@@ -206,6 +206,8 @@ class QuantitySpec:
     loads: tuple[Load, ...] = ()
     answers: tuple[Answer, ...] = ()
     settle: float = 1e-3
+    brakes: tuple[tuple[str, str, str, str], ...] = ()   # (name, torque column, speed column, what): a stop's
+    # brakes whose energy it reports (harness.reporting.stops); empty: the motor's rotor brake
 
 
 @dataclass(frozen=True)
@@ -225,7 +227,9 @@ class Scenario:
     rest, a brake's torque), ``changes`` drive its free inputs over time, ``stop_time`` [s] is its run.
     ``kind`` names what the transient quantities measure: ``startup`` (from rest to speed), ``speed_change``,
     ``stop`` (an emergency stop from the first change on) or ``load`` (a load step, e.g. a jam); ``watch``: the
-    tool's position column (the bed, the knife) whose overrun a stop reports.  ``accuracy``: what the
+    tool's position column (the bed, the knife) whose overrun a stop reports.  A stop runs past ``stop_time`` until
+the drive has settled (``settle_hold`` [s] at rest), up to ``settle_limit`` [s] (:mod:`harness.run.settling`).
+``accuracy``: what the
     scenario's question needs against the monolithic reference (``study accuracy DRIVE --scenario NAME``,
     :func:`harness.studies.accuracy.search_scenario`): :class:`Requirement` whose ``quantity`` is a transient
     quantity's name (``stopping_time``, ``shaft_torque_peak``: compared as a number) or a qoi expression."""
@@ -237,5 +241,7 @@ class Scenario:
     parameters: tuple[tuple[str, float], ...] = ()
     watch: str | None = None
     accuracy: tuple[Requirement, ...] = ()
+    settle_hold: float | None = None     # s: a stop is settled after this long at rest (None: 0.25 s)
+    settle_limit: float | None = None    # s: a stop's run goes on to at most this (None: 4 x stop_time)
 
     KINDS = ("startup", "speed_change", "stop", "load")

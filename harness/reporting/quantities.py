@@ -200,8 +200,9 @@ class Quantities(KeptInAttrs):
     Immutable once made; copies are the object itself (cheap in ``df.attrs``)."""
 
     def __init__(self, system: str, rows: list[Row], cycles: Cycles | None, shaft: str = "",
-                 cycle_name: str = ""):
+                 cycle_name: str = "", scope: str = ""):
         self.system, self.rows, self.cycles, self.shaft, self.cycle_name = system, tuple(rows), cycles, shaft, cycle_name
+        self.scope = scope   # the part of the run they are taken over, in words ('' : the whole run)
 
     @property
     def names(self) -> list[str]:
@@ -230,12 +231,13 @@ class Quantities(KeptInAttrs):
         c = self.cycles
         if c is None:
             return f"{self.system}: no engineering quantities declared"
+        scope = f" ({self.scope})" if self.scope else ""
         if c.steady is None:
-            return f"{self.system}: {c.reason}"
+            return f"{self.system}{scope}: {c.reason}"
         a, b = c.steady
         first = c.first_steady + 1
         which = f"cycle {first}" if c.n_steady == 1 else f"cycles {first}-{len(c.means)}"
-        return (f"{self.system}: engineering quantities over the steady {which} of {len(c.means)} complete "
+        return (f"{self.system}: engineering quantities over the steady {which} of {len(c.means)} complete{scope} "
                 f"(t = {a:.4g} to {b:.4g} s); start-up: t < {a:.4g} s\n"
                 f"  one cycle: {self.cycle_name}; shaft speeds on the {self.shaft}\n"
                 f"  {c.rule()}")
@@ -249,8 +251,12 @@ class Quantities(KeptInAttrs):
             return lines[0]
         reason = self.cycles.reason if self.cycles is not None else ""
         silent = [r.name for r in self.rows if reason and r.note == reason]   # said once, in the heading
+        notes = [r.note for r in self.rows if r.value is None and r.note and r.note != reason]
+        shared = [n for n in dict.fromkeys(notes) if notes.count(n) >= 3]     # said once, below the table
+        grouped = {n: [r.name for r in self.rows if r.value is None and r.note == n] for n in shared}
+        quiet = set(silent) | {name for names in grouped.values() for name in names}
         shown = [(r.name, _format(r.value) if r.value is not None else "-", r.unit or "-", r.over,
-                  r.what + (f" [{r.note}]" if r.note else "")) for r in self.rows if r.name not in silent]
+                  r.what + (f" [{r.note}]" if r.note else "")) for r in self.rows if r.name not in quiet]
         w = [max(len(s[i]) for s in shown + [("quantity", "value", "unit", "over", "")]) for i in range(4)]
         head = f"  {'quantity':<{w[0]}}  {'value':>{w[1]}}  {'unit':<{w[2]}}  {'over':<{w[3]}}  meaning"
         lines += [head, "  " + "-" * (len(head) - 2)]
@@ -263,11 +269,15 @@ class Quantities(KeptInAttrs):
         if silent:
             lines.append(textwrap.fill(f"  no value, for the reason above: {', '.join(silent)}", width,
                                        subsequent_indent="    "))
+        for note, names in grouped.items():
+            lines.append(textwrap.fill(f"  no value ({note}): {', '.join(names)}", width, subsequent_indent="    "))
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
         c = self.cycles
         out = {"system": self.system, "heading": self.heading()}
+        if self.scope:
+            out["scope"] = self.scope
         if c is not None:
             out["cycles"] = {"what": self.cycle_name, "shaft": self.shaft,
                              "bounds_s": [float(b) for b in c.bounds],
@@ -328,7 +338,7 @@ def parameter(system, df: pd.DataFrame, instance: str, name: str):
     return None
 
 
-def quantities(system, df: pd.DataFrame) -> Quantities:
+def quantities(system, df: pd.DataFrame, scope: str = "") -> Quantities:
     """The engineering quantities of ``system`` (a :class:`~harness.model.System`; ``harness.load(name)`` for
     a name) from its result ``df`` (module docstring).  A system that declares none gets an empty table that
     says so; a quantity whose column the result lacks (``output=`` left it out) or that is zero throughout gets
@@ -344,7 +354,7 @@ def quantities(system, df: pd.DataFrame) -> Quantities:
         cycles = detect_cycles(t, df[spec.shaft_angle].to_numpy(dtype=float), spec.cycle_origin, spec.cycle_angle,
                                spec.settle, spec.cycle_name)
     rows = _Computer(system, spec, df, t, cycles).rows()
-    return Quantities(system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
+    return Quantities(system.name, rows, cycles, spec.shaft_name, spec.cycle_name, scope)
 
 
 class _Computer:
@@ -358,6 +368,28 @@ class _Computer:
         end = steady[0] if steady is not None else t[-1] if t.size else 0.0
         self.startup = _Window(t, t[0] if t.size else 0.0, end)
         self.startup_over = "start-up" if steady is not None else "whole run"
+        self.at_speed = self._starts_at_speed()
+
+    def _starts_at_speed(self) -> str:
+        """Why the run's beginning is no start from rest ('' when it is one): its main shaft turns at the first
+        sample at more than 1 % of its first cycle's mean speed (or of its largest speed)."""
+        col = self.spec.shaft_speed
+        if col not in self.df.columns or not self.t.size:
+            return ""
+        w = self.col(col)
+        ref = abs(float(self.c.means[0])) if len(self.c.means) else float(np.max(np.abs(w)))
+        if abs(w[0]) <= 0.01 * ref:
+            return ""
+        return (f"the run starts at speed ({abs(w[0]) / RPM:.4g} rpm at t = {self.t[0]:g} s), not from rest: a "
+                f"start from rest is the drive's startup scenario (run DRIVE --scenario startup)")
+
+    def _startup(self, name, unit, what, column):
+        """A start-up peak of ``column``: None with the reason where the run does not start from rest."""
+        if self.at_speed:
+            self.out.append(Row(name, None, unit, self.startup_over, what, self.at_speed))
+            return
+        self.add(name, unit, self.startup_over, what, lambda: _reduce("peak", *self.on(self.startup, column)),
+                 (column,))
 
     # a row whose value could not be had, with the reason
     def _missing(self, column: str) -> str:
@@ -453,8 +485,8 @@ class _Computer:
                  lambda: _reduce("max", *self.on(self.steady, power)), (power,))
         self.add("energy_per_cycle", "J", "steady", "electrical energy drawn per steady machine cycle",
                  lambda: _integral(*self.on(self.steady, power)) / self.c.n_steady, (power,))
-        self.add("motor_torque_startup_peak", "N.m", self.startup_over, "max |T| of the motor during the start-up",
-                 lambda: _reduce("peak", *self.on(self.startup, torque)), (torque,))
+        self._startup("motor_torque_startup_peak", "N.m", "max |T| of the motor during the start-up from rest",
+                      torque)
 
     def _load(self, load):
         c = load.column
@@ -467,8 +499,7 @@ class _Computer:
                  lambda: _reduce("peak", *self.on(self.steady, c)), (c,))
         self.add(f"{load.name}_range", unit, "steady", "max - min (fatigue)",
                  lambda: _reduce("range", *self.on(self.steady, c)), (c,))
-        self.add(f"{load.name}_startup_peak", unit, self.startup_over, "peak |x| during the start-up",
-                 lambda: _reduce("peak", *self.on(self.startup, c)), (c,))
+        self._startup(f"{load.name}_startup_peak", unit, "peak |x| during the start-up from rest", c)
 
     # -- the drives' own answers -------------------------------------------------------------------------------
     def _mask(self, where: str | None) -> np.ndarray:
