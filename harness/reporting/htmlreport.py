@@ -161,9 +161,23 @@ def quantities_section(page: Page, q, heading: str = "Engineering quantities") -
     if q is None or not q.rows:
         page.section(heading, para("the drive declares no engineering quantities"))
         return
-    rows = [[r.name, r.value, r.unit or "-", r.over, r.what + (f" [{r.note}]" if r.note else "")] for r in q.rows]
+    judged = getattr(q, "verdicts", {}) or {}
+    rows = [[r.name, r.value, r.unit or "-", r.over, r.what + (f" [{r.note}]" if r.note else "")]
+            + ([f"{judged[r.name].word} ({judged[r.name].op} {judged[r.name].limit:g})" if r.name in judged else ""]
+               if judged else []) for r in q.rows]
     page.section(heading, f"<pre>{esc(q.heading())}</pre>",
-                 table(["quantity", "value", "unit", "over", "meaning"], rows, numeric={1}))
+                 table(["quantity", "value", "unit", "over", "meaning"] + (["limit"] if judged else []), rows,
+                       numeric={1}))
+
+
+def limits_section(page: Page, verdicts, source: str = "") -> None:
+    """The verdicts of ``--limits`` (:mod:`harness.reporting.limits`): quantity, value, limit, pass or FAIL."""
+    failed = sum(not v.passed for v in verdicts)
+    rows = [[v.quantity, v.value, v.unit or "-", f"{v.op} {v.limit:g}", v.word,
+             v.where + (f" [{v.note}]" if v.note else "")] for v in verdicts]
+    page.section("Limits", para(f"{len(verdicts) - failed} of {len(verdicts)} limits met"
+                                + (f", {failed} FAILED" if failed else "") + (f" ({source})" if source else "")),
+                 table(["quantity", "value", "unit", "limit", "verdict", "from"], rows, numeric={1}))
 
 
 def _fmu_variables(system) -> dict:
@@ -281,6 +295,8 @@ def run_page(system, df, charts: list[Path] | None = None, title: str | None = N
     page = Page(title or f"{system.name}: run report",
                 f"{len(df)} points to t = {t_end:.6g} s, master {a.get('master')}, step {a.get('step', 0):g} s"
                 f"{status}")
+    if a.get("limits"):
+        limits_section(page, a["limits"])
     quantities_section(page, a.get("quantities"))
     if a.get("transient") is not None:
         quantities_section(page, a["transient"], heading=f"Transient quantities ({a.get('scenario')})")
@@ -339,4 +355,4 @@ def check_report_path(path: str | Path) -> Path:
 
 
 __all__ = ["Page", "run_page", "write_run_report", "check_report_path", "table", "frame_table", "image", "para",
-           "quantities_section", "drive_section", "method_section", "versions_section", "render_charts"]
+           "quantities_section", "limits_section", "drive_section", "method_section", "versions_section", "render_charts"]

@@ -204,6 +204,8 @@ class Quantities(KeptInAttrs):
         self.system, self.rows, self.cycles, self.shaft, self.cycle_name = system, tuple(rows), cycles, shaft, cycle_name
         self.scope = scope   # the part of the run they are taken over, in words ('' : the whole run)
 
+    verdicts: dict = {}   # quantity -> harness.reporting.limits.Verdict, where --limits judged this table
+
     @property
     def names(self) -> list[str]:
         return [r.name for r in self.rows]
@@ -255,8 +257,11 @@ class Quantities(KeptInAttrs):
         shared = [n for n in dict.fromkeys(notes) if notes.count(n) >= 3]     # said once, below the table
         grouped = {n: [r.name for r in self.rows if r.value is None and r.note == n] for n in shared}
         quiet = set(silent) | {name for names in grouped.values() for name in names}
+        judged = self.verdicts
+        quiet -= set(judged)          # a quantity under a limit keeps its own line
         shown = [(r.name, _format(r.value) if r.value is not None else "-", r.unit or "-", r.over,
-                  r.what + (f" [{r.note}]" if r.note else "")) for r in self.rows if r.name not in quiet]
+                  (f"[{judged[r.name].word} {judged[r.name].op} {judged[r.name].limit:g}] " if r.name in judged
+                   else "") + r.what + (f" [{r.note}]" if r.note else "")) for r in self.rows if r.name not in quiet]
         w = [max(len(s[i]) for s in shown + [("quantity", "value", "unit", "over", "")]) for i in range(4)]
         head = f"  {'quantity':<{w[0]}}  {'value':>{w[1]}}  {'unit':<{w[2]}}  {'over':<{w[3]}}  meaning"
         lines += [head, "  " + "-" * (len(head) - 2)]
@@ -286,6 +291,10 @@ class Quantities(KeptInAttrs):
                              "steady_s": None if c.steady is None else list(c.steady),
                              "rule": c.rule(), "no_steady_reason": c.reason}
         out["quantities"] = [asdict(r) for r in self.rows]
+        for r in out["quantities"]:
+            v = self.verdicts.get(r["name"])
+            if v is not None:
+                r["limit"] = {"op": v.op, "value": v.limit, "verdict": v.word}
         return out
 
     def write_json(self, path: str | Path) -> Path:

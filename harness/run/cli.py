@@ -83,6 +83,11 @@ def register(subparsers) -> None:
                         "charts (inline), the drive (instances, fidelities, parameters changed from their "
                         "defaults), the method with the drive's declared accuracy, versions and run time; checked "
                         "before the run (default: none)")
+    p.add_argument("--limits", type=Path, default=None, metavar="FILE.yaml",
+                   help="judge the run's quantities against limits: a YAML mapping 'quantity: \"<= VALUE\"' (the "
+                        "--target syntax of size); each is marked pass or FAIL in the printed table, the JSON "
+                        "(FILE.limits.json beside --out) and the report; exit status 3 after writing everything "
+                        "when any limit fails (default: no limits)")
     p.add_argument("--quiet-quantities", action="store_true",
                    help="do not print the table of the drive's engineering quantities after the run (default: "
                         "printed; with --out they are written beside the result as FILE.quantities.json "
@@ -154,7 +159,47 @@ def _divergence_hint(a: dict) -> str:
 def run_cli(args) -> int:
     system = load(args.system)  # a wrong name first: no folder is made for it
     _check_targets(args)
+    args.limit_list = _read_limits(system, args)
     return _run(system, args)
+
+
+def _read_limits(system, args) -> list:
+    """The ``--limits`` file read and, in a plain run (whose quantity names are known before it), its names
+    checked: refused in one line before the run."""
+    if getattr(args, "limits", None) is None:
+        return []
+    from harness.reporting import limits
+
+    found = limits.read(args.limits)
+    if not getattr(args, "scenario", None):
+        limits.check_names(found, expected_names(system), f"limits file {args.limits}", f"drive {system.name}")
+    return found
+
+
+def expected_names(system) -> list[str]:
+    """The names of the quantities a plain run of ``system`` gives (from an empty result)."""
+    import pandas as pd
+
+    from harness.reporting.quantities import quantities
+
+    return quantities(system, pd.DataFrame(index=pd.Index([], name="time", dtype=float))).names
+
+
+def _judge(args, df, out) -> tuple[str, bool]:
+    """The ``--limits`` verdicts on the run's quantities: marked in its tables, written beside ``out``; (the
+    printed table, whether any failed)."""
+    from harness.reporting import limits
+
+    a = df.attrs
+    tables = ([(a["scenario"], a["transient"])] if a.get("transient") is not None else []) + [("steady",
+                                                                                                a["quantities"])]
+    verdicts = limits.judge(args.limit_list, tables)
+    for where, q in tables:
+        limits.mark(q, verdicts, where)
+    a["limits"] = verdicts
+    if out is not None:
+        limits.write_json(verdicts, str(args.limits), limits.json_path(out))
+    return limits.table(verdicts, f"limits of {args.limits}"), any(not v.passed for v in verdicts)
 
 
 def _run(system, args) -> int:
@@ -183,6 +228,7 @@ def _run(system, args) -> int:
     out = args.out
     if out is not None and not a["complete"]:
         out = partial_path(out)
+    judged, failed = _judge(args, df, out) if getattr(args, "limit_list", None) else ("", False)
     if out is not None:
         from harness.results import write_result
 
@@ -223,6 +269,12 @@ def _run(system, args) -> int:
         print(a["quantities"].table())
     if a.get("transient") is not None:
         print(a["transient"].table())
+    if judged:
+        print(judged)
+    if failed:
+        from harness.reporting.limits import FAILED
+
+        return FAILED
     return 0
 
 
