@@ -154,6 +154,35 @@ class Load:
     name: str
     column: str
     what: str
+    slope: float = 5.0    # Wohler slope m of its damage-equivalent range (5: machined shafts)
+
+
+@dataclass(frozen=True)
+class Shaft:
+    """A solid round shaft whose torque is the :class:`Load` ``load``: its shear stress tau = 16 T / (pi d^3)
+    [MPa], peak and damage-equivalent, from the diameter the instance parameter ``diameter``
+    (``"Instance.parameter"`` [m]) holds; ``share``: the share of the load's torque one shaft carries (0.5 for
+    two equal shafts in parallel)."""
+    load: str
+    diameter: str
+    share: float = 1.0
+
+
+@dataclass(frozen=True)
+class Belt:
+    """A belt whose torque on a pulley is the :class:`Load` ``load``; the pulley's pitch diameter is the instance
+    parameter ``diameter`` (``"Instance.parameter"`` [m]).  Its transmittable torque on that pulley
+    T = F_1 (1 - exp(-mu' beta)) r (Euler-Eytelwein, :func:`harness.reporting.fatigue.belt_capacity`):
+    ``tight_force`` F_1 [N] the allowable tight-side force of the belt(s), ``mu`` the friction coefficient,
+    ``wrap`` beta [deg] on the pulley that slips first, ``groove`` the V-groove's angle [deg] (0: flat belt);
+    ``source`` says where the numbers come from."""
+    load: str
+    diameter: str
+    tight_force: float
+    mu: float
+    wrap: float
+    groove: float = 0.0
+    source: str = ""
 
 
 @dataclass(frozen=True)
@@ -195,7 +224,9 @@ class QuantitySpec:
     (relative) of the cycle before's and every later cycle's is too; what comes before is the start-up.
 
     ``motor``: the MotorBelt instance whose torque, electrical power and rating are reported (None: none);
-    ``loads``: every joint, contact, mesh, rack and shaft load; ``answers``: the drive's own questions."""
+    ``loads``: every joint, contact, mesh, rack and shaft load; ``answers``: the drive's own questions;
+    ``shafts``: the shear stress of the shafts among the loads; ``belts``: the belts' transmittable torque and
+    slip margin."""
     shaft_angle: str
     shaft_speed: str
     shaft_name: str
@@ -206,6 +237,8 @@ class QuantitySpec:
     loads: tuple[Load, ...] = ()
     answers: tuple[Answer, ...] = ()
     settle: float = 1e-3
+    shafts: tuple[Shaft, ...] = ()
+    belts: tuple[Belt, ...] = ()
     brakes: tuple[tuple[str, str, str, str], ...] = ()   # (name, torque column, speed column, what): a stop's
     # brakes whose energy it reports (harness.reporting.stops); empty: the motor's rotor brake
 

@@ -36,8 +36,8 @@ import math
 
 from fmus.physics import knife as kn
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import (AccuracySpec, Answer, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement, Scene,
-                           StabilitySpec, Zone)
+from harness.specs import (AccuracySpec, Answer, Belt, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement,
+                           Scene, Shaft, StabilitySpec, Zone)
 from systems import jam, motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
@@ -145,6 +145,12 @@ SYSTEM.quantities = QuantitySpec(
                "delta at the drive end (shaft.pulley.w, the V-belt's pulley), w_mean the cycle's time mean",
                scale=100.0),
     ),
+    # the two parallel shafts' stress (each carries half the torque); the motor belt's slip margin: two SPZ V-belts
+    # (assumed: the seed's motor is rigid), 500 N allowable tight-side force each, mu 0.3 in a 34 deg groove, 164.2
+    # deg of wrap on the 100 mm motor pulley at a 0.5 m centre distance (pi - 2 asin((0.2375 - 0.1) / 1))
+    shafts=(Shaft("shaft_torque", "shaft.d", share=0.5),),
+    belts=(Belt("belt_torque", "motor.d_driven_pulley", tight_force=1000.0, mu=0.3, wrap=164.2, groove=34.0,
+                source="two SPZ belts, assumed"),),
 )
 
 # The run chart (harness.reporting.charts): over one plunge (a turn of the crank from crank angle 0), the cut shaded

@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness.reporting import qoi
+from harness.reporting import fatigue, qoi
 from harness.results import KeptInAttrs
 from harness.specs import Answer, QuantitySpec
 
@@ -461,6 +461,10 @@ class _Computer:
             self._motor(s.motor)
         for load in s.loads:
             self._load(load)
+        for shaft in s.shafts:
+            self._shaft(shaft)
+        for belt in s.belts:
+            self._belt(belt)
         for ans in s.answers:
             self._answer(ans)
         return self.out
@@ -509,6 +513,63 @@ class _Computer:
         self.add(f"{load.name}_range", unit, "steady", "max - min (fatigue)",
                  lambda: _reduce("range", *self.on(self.steady, c)), (c,))
         self._startup(f"{load.name}_startup_peak", unit, "peak |x| during the start-up from rest", c)
+        self.add(f"{load.name}_damage_equivalent", unit, "steady",
+                 f"damage-equivalent range per machine cycle, (sum n_i S_i^m / N_c)^(1/m), Wohler slope m = "
+                 f"{load.slope:g}: rainflow count (ASTM E1049) over the steady cycles",
+                 lambda: self._damage(c, load.slope), (c,))
+
+    def _damage(self, column: str, slope: float, scale: float = 1.0) -> float:
+        t, x, on = self.on(self.steady, column)
+        return fatigue.damage_equivalent(scale * x[on], self.c.n_steady, slope)
+
+    def _load_of(self, name: str, what: str):
+        load = next((ld for ld in self.spec.loads if ld.name == name), None)
+        if load is None:
+            raise ValueError(f"system {self.system.name}: {what} names no declared load {name!r} (loads: "
+                             f"{', '.join(ld.name for ld in self.spec.loads)})")
+        return load
+
+    def _value(self, key: str) -> float:
+        inst, _, name = key.partition(".")
+        v = parameter(self.system, self.df, inst, name)
+        if v is None:
+            raise _NoValue(f"no value of {key}")
+        return float(v)
+
+    def _shaft(self, shaft):
+        load = self._load_of(shaft.load, "a shaft")
+        c = load.column
+
+        def stress(kind: str) -> float:
+            d = self._value(shaft.diameter)
+            if kind == "peak":
+                torque = _reduce("peak", *self.on(self.steady, c))
+                return float(fatigue.shear_stress(torque * shaft.share, d)) / 1e6
+            return self._damage(c, load.slope, float(fatigue.shear_stress(shaft.share, d)) / 1e6)
+
+        each = f"; {shaft.share:g} of the torque in each shaft" if shaft.share != 1.0 else ""
+        self.add(f"{load.name}_shear_stress_peak", "MPa", "steady",
+                 f"tau = 16 T / (pi d^3) at the peak torque, d = {shaft.diameter}{each}", lambda: stress("peak"), (c,))
+        self.add(f"{load.name}_shear_stress_damage_equivalent", "MPa", "steady",
+                 f"damage-equivalent shear stress range per machine cycle (Wohler slope m = {load.slope:g}; "
+                 f"d = {shaft.diameter}{each})", lambda: stress("range"), (c,))
+
+    def _belt(self, belt):
+        load = self._load_of(belt.load, "a belt")
+        c = load.column
+
+        def capacity() -> float:
+            return fatigue.belt_capacity(belt.tight_force, belt.mu, math.radians(belt.wrap),
+                                         0.5 * self._value(belt.diameter), math.radians(belt.groove))
+
+        kind = f"V-belt, groove {belt.groove:g} deg" if belt.groove else "flat belt"
+        self.add(f"{load.name}_transmittable", "N.m", "rating",
+                 f"largest torque the belt transmits on the pulley of {belt.diameter} before it slips: F_1 (1 - "
+                 f"exp(-mu' beta)) r ({kind}; F_1 = {belt.tight_force:g} N, mu = {belt.mu:g}, beta = "
+                 f"{belt.wrap:g} deg{'; ' + belt.source if belt.source else ''})", capacity)
+        self.add(f"{load.name}_slip_margin", "1", "steady",
+                 "transmittable torque / peak belt torque over the steady cycles: > 1 the belt holds",
+                 lambda: capacity() / _reduce("peak", *self.on(self.steady, c)), (c,))
 
     # -- the drives' own answers -------------------------------------------------------------------------------
     def _mask(self, where: str | None) -> np.ndarray:
