@@ -178,7 +178,7 @@ SYSTEM = System(
             Panel("Torques on the main shaft", ("flywheel.shaft_torque", "fourbar.crank.tau", "cam.crank.tau"),
                   ("transmitted by the shaft", "four-bar crank", "disc cam")),
             Panel("Rack mesh force on the bed", ("bed.mesh_force",)),
-            Panel("Motor torque", ("motor.motor_torque",), cycle=False),
+            Panel("Motor torque", ("motor.motor_torque",)),
             Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
         ),
         zones=(Zone(f"printing zone: bed at {PRINT_ZONE[0]:g} to {PRINT_ZONE[1]:g} m on the working stroke", IN_ZONE),),

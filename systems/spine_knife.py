@@ -162,6 +162,7 @@ SYSTEM.chart = ChartSpec(
               ("shaft.shaft_torque", "knife.knife.tau"), ("delivered by both shafts", "cutting load on the knife")),
         Panel("Feed force of the book block F_T", ("knife.feed_force",)),
         Panel("Crank speed (knife side of the driving shaft)", ("shaft.crank.w",)),
+        Panel("Motor torque", ("motor.motor_torque",)),
         Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
     ),
     zones=(Zone(f"cut: crank angle {math.degrees(PHI_S):g} to 180 deg", 'r["knife.cutting"] > 0'),),

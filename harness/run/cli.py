@@ -71,10 +71,11 @@ def register(subparsers) -> None:
                         "pandas.read_csv(FILE, header=[0, 1], index_col=0); Parquet keeps the units in its "
                         "metadata); default: names only")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
-                   help="write charts of the run: DIR/<system>.png (the system's signals over time) and, "
-                        "where the system declares its crank angle, DIR/<system>_cycle.png (over the last "
-                        "complete crank revolution); <name>.partial.png for a run that stopped early "
-                        "(default: no chart)")
+                   help="write charts of the run, named after --out (x.csv -> DIR/x.png; without --out after "
+                        "the system, <system>[_<scenario>].png): the signals over time and, where the system "
+                        "declares its crank angle, DIR/x_cycle.png (over the last complete crank revolution) and "
+                        "DIR/x_polar.png (joint forces against the crank angle); a stop's DIR/x_stop.png; "
+                        "<name>.partial.png for a run that stopped early (default: no chart)")
     p.add_argument("--svg", action="store_true",
                    help="with --plot: also write each chart as SVG (vector, for a document) beside its PNG "
                         "(default: PNG only; the SVG is a second drawing of each chart)")
@@ -124,7 +125,7 @@ def _check_targets(args) -> None:
         check_report_path(args.report)
 
 
-def _plot(system, df, folder: Path, svg: bool = False) -> list[Path]:
+def _plot(system, df, folder: Path, svg: bool = False, stem: str | None = None) -> list[Path]:
     """The run's charts in ``folder`` (the PNGs are returned; ``svg``: also as SVG); an incomplete run's under
     ``<name>.partial.png`` (``.svg``), so they never replace the charts of a complete run (drawn beside,
     renamed)."""
@@ -134,10 +135,10 @@ def _plot(system, df, folder: Path, svg: bool = False) -> list[Path]:
     from harness.reporting.charts import plot_result
 
     if df.attrs.get("complete", True):
-        return [p for p in plot_result(system, df, folder, svg) if p.suffix == ".png"]
+        return [p for p in plot_result(system, df, folder, svg, stem) if p.suffix == ".png"]
     with tempfile.TemporaryDirectory(dir=folder, prefix=".partial-chart-") as tmp:
         paths = []
-        for drawn in plot_result(system, df, tmp, svg):
+        for drawn in plot_result(system, df, tmp, svg, stem):
             paths.append(Path(folder) / f"{drawn.stem}.partial{drawn.suffix}")
             os.replace(drawn, paths[-1])
     return [p for p in paths if p.suffix == ".png"]
@@ -244,7 +245,8 @@ def _run(system, args) -> int:
             import dataclasses
 
             system = dataclasses.replace(system, name=f"{system.name}_{a['scenario']}")
-        charts = _plot(system, df, args.plot, getattr(args, "svg", False))
+        charts = _plot(system, df, args.plot, getattr(args, "svg", False),
+                       stem=Path(args.out).stem if args.out is not None else None)
         where += "; chart " + ", ".join(str(p) for p in charts)
         from harness.reporting.charts import cycle_chart_missing
 

@@ -336,6 +336,8 @@ def simulate_scenario(system, scenario, **options) -> pd.DataFrame:
     df = simulate(system, **options)
     df.attrs["scenario"] = sc.name
     df.attrs["stop_time_asked"] = asked
+    if sc.kind == "stop" and sc.changes:
+        df.attrs["stop_command"] = min(c.time for c in sc.changes)
     if sc.kind != "startup" and sc.changes and len(df):   # the steady cycles are those before the first change
         first = min(c.time for c in sc.changes)
         df.attrs["quantities"] = quantities(system, df.loc[:first],
