@@ -83,3 +83,34 @@ def test_overrun_only_for_a_tool_that_dwells_or_reverses():
     t = np.linspace(0, 1, 101)
     assert stops.reverses(np.sin(2 * np.pi * t)) and not stops.reverses(t + 0.1 * np.sin(2 * np.pi * t))
     assert stops.reverses(np.minimum(t, 0.5))          # a dwell
+
+
+def test_duty_cycle_equivalent_torque_against_numpy():
+    """harness duty: T_eq = sqrt((N_s int_start T^2 + N_e int_stop T^2 + t_run T_rms^2) / (N_s t_s + N_e t_e + t_run
+    + K t_rest)) recomputed with numpy from the three runs it made (facts: the motor's thermal duty)."""
+    from harness.studies.duty import Duty, duty
+    from systems import motor_scenarios
+
+    system, _ = _flywheel()
+    system.experiment = Experiment(stop_time=0.6, step=2e-4, master="jacobi", extrapolation=1)
+    system.scenarios = motor_scenarios(system, {"load.w0": 0.0}, change_at=0.3, stop_time=1.2)
+    table = duty(system, Duty(starts=30, stops=12, running=0.5, cooling_at_rest=0.5))
+    runs = table.runs
+    t_of = lambda df: df.index.to_numpy()  # noqa: E731
+    tq = lambda df: df["motor.motor_torque"].to_numpy()  # noqa: E731
+    steady = runs["steady"].attrs["quantities"].cycles.steady
+    t = t_of(runs["steady"])
+    on = (t >= steady[0]) & (t <= steady[1])
+    rms = math.sqrt(np.trapezoid(tq(runs["steady"])[on] ** 2, t[on]) / (steady[1] - steady[0]))
+    up, down = runs["startup"], runs["estop"]
+    a = up.attrs["quantities"].cycles.steady[0]
+    on = t_of(up) <= a
+    start_sq = np.trapezoid(tq(up)[on] ** 2, t_of(up)[on])
+    c, s = down.attrs["stop_command"], down.attrs["transient"]["settle_time"]
+    on = (t_of(down) >= c) & (t_of(down) <= c + s)
+    stop_sq = np.trapezoid(tq(down)[on] ** 2, t_of(down)[on])
+    busy = 30 * a + 12 * s
+    t_eq = math.sqrt((30 * start_sq + 12 * stop_sq + 1800 * rms ** 2) / (busy + 1800 + 0.5 * (1800 - busy)))
+    assert table["duty_torque_rms"] == pytest.approx(t_eq, rel=1e-3)
+    assert table["duty_torque_rms_to_rated"] == pytest.approx(t_eq / T_RATED, rel=1e-3)
+    assert table["brake_power_mean"] == pytest.approx(12 * down.attrs["transient"]["brake_energy"] / 3600)
