@@ -114,3 +114,18 @@ def test_duty_cycle_equivalent_torque_against_numpy():
     assert table["duty_torque_rms"] == pytest.approx(t_eq, rel=1e-3)
     assert table["duty_torque_rms_to_rated"] == pytest.approx(t_eq / T_RATED, rel=1e-3)
     assert table["brake_power_mean"] == pytest.approx(12 * down.attrs["transient"]["brake_energy"] / 3600)
+
+
+def test_size_the_brake_for_a_stopping_angle():
+    """size --scenario: the brake torque that stops the flywheel within 200 deg, against the closed form
+    T_b = J w^2 (1 - 0.01^2) / (2 ratio (theta - w t_d)) (facts: brake sizing, to the 1 % band)."""
+    from harness.studies.size import size
+
+    system, stop = _flywheel()
+    found = size(system, "motor.holding_torque", "stopping_angle <= 200", (15.0, 60.0), xtol=1e-2, scenario=stop)
+    speed = found.verifying.attrs["transient"]["speed_at_command"] * RPM
+    j = J_LOAD + J_MOTOR * RATIO ** 2
+    theta = math.radians(200.0)
+    closed = j * speed ** 2 * (1 - stops.BAND ** 2) / (2 * RATIO * (theta - speed * DELAY))
+    assert found.answer == pytest.approx(closed, rel=1e-2)
+    assert found.verified <= 200.0
