@@ -19,7 +19,8 @@ With w_e the main shaft's speed at the stop command t_e (the scenario's first ch
 * ``overrun``: how far the tool (the scenario's ``watch`` column) moves past the range it swept in the last
   complete cycle before the command, only for a tool that dwells or reverses within a cycle (a bed, a
   rocker); a tool that turns through whole revolutions has no such range, so no overrun;
-* the peak loads of the stop, ``<load>_peak`` [their unit]: the largest |value| from t_e to settled.
+* the peak loads of the stop, ``<load>_peak`` [their unit]: the largest |value| from t_e to settled; each
+  declared belt's ``<load>_slip_margin`` in the stop: its transmittable torque over that peak (< 1: it slips).
 """
 from __future__ import annotations
 
@@ -129,6 +130,25 @@ def stop_rows(system, scenario, df, spec, cycles, t_e: float, row, loads) -> Non
     if scenario.watch is not None:
         _overrun(df, scenario.watch, cycles, t, t_e, end, row)
     loads(t_e, end)
+    _belts(system, spec, df, on, row)
+
+
+def _belts(system, spec, df, on, row) -> None:
+    """Each declared belt's slip margin in the stop: its transmittable torque (Euler-Eytelwein,
+    :func:`harness.reporting.fatigue.belt_capacity`) over its peak torque from the command to settled."""
+    from harness.reporting.fatigue import belt_capacity
+    from harness.reporting.quantities import parameter
+
+    for belt in getattr(spec, "belts", ()):
+        load = next((ld for ld in spec.loads if ld.name == belt.load), None)
+        if load is None or load.column not in df.columns or not on.any():
+            continue
+        inst, _, name = belt.diameter.partition(".")
+        capacity = belt_capacity(belt.tight_force, belt.mu, math.radians(belt.wrap),
+                                 0.5 * float(parameter(system, df, inst, name)), math.radians(belt.groove))
+        peak = float(np.max(np.abs(df[load.column].to_numpy(dtype=float)[on])))
+        row(f"{load.name}_slip_margin", capacity / peak if peak > 0 else None, "1",
+            f"transmittable torque ({capacity:.4g} N.m) / peak belt torque in the stop: < 1 the belt slips")
 
 
 def _overrun(df, watch: str, cycles, t, t_e: float, end: float, row) -> None:

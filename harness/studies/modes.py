@@ -105,7 +105,12 @@ class Modes:
         ax.axvspan((1 - NEAR) * self.speed, (1 + NEAR) * self.speed, color="C1", alpha=0.1,
                    label=f"+-{100 * NEAR:g} %: exciting orders (red)")
         ax.set_xlim(0, n[-1])
-        ax.set_ylim(0, top)
+        low = min([m.frequency for m in self.modes] or [1.0])
+        if top / low > 20:          # modes decades apart: a log scale shows each against the orders
+            ax.set_yscale("log")
+            ax.set_ylim(low / 2, top)
+        else:
+            ax.set_ylim(0, top)
         ax.set_xlabel("main-shaft speed [rpm]")
         ax.set_ylabel("frequency [Hz]")
         ax.set_title(f"{self.system}: Campbell diagram (modes against the main shaft's orders 1-{orders})")
