@@ -1,5 +1,5 @@
-"""The motor's thermal check over a duty cycle the engineer states: ``python -m harness duty DRIVE --starts N
---stops N [--running SHARE] [--cooling-at-rest K]``, :func:`duty`.
+"""The motor's thermal check over a duty cycle the engineer states: ``python -m harness duty DRIVE
+--starts-per-hour N --stops-per-hour N [--running SHARE] [--cooling-at-rest K]``, :func:`duty`.
 
 Three runs of the drive give the pieces (facts: "The motor's thermal duty"): its default run (the steady cycles'
 motor torque T_rms, :mod:`harness.reporting.quantities`), its ``startup`` scenario (from rest to its first steady
@@ -40,7 +40,7 @@ class Duty:
     cooling_at_rest: float = 0.5
 
     def check(self) -> None:
-        for name, v in (("--starts", self.starts), ("--stops", self.stops)):
+        for name, v in (("--starts-per-hour", self.starts), ("--stops-per-hour", self.stops)):
             if not (math.isfinite(v) and v >= 0):
                 raise SystemDescriptionError(f"{name} {v:g}: give a number of events per hour >= 0")
         if self.running is not None and not 0.0 <= self.running <= 1.0:
@@ -124,8 +124,10 @@ def register(subparsers) -> None:
                     "torque over the hour you state into an equivalent RMS torque against the rated torque, and "
                     "the brake's mean thermal load.")
     p.add_argument("system", help="system name in systems/ (e.g. bed_drive) or a .py file defining SYSTEM")
-    p.add_argument("--starts", type=float, required=True, metavar="N", help="starts from rest per hour")
-    p.add_argument("--stops", type=float, required=True, metavar="N", help="emergency stops per hour")
+    p.add_argument("--starts-per-hour", dest="starts", type=float, required=True, metavar="N",
+                   help="starts from rest per hour")
+    p.add_argument("--stops-per-hour", dest="stops", type=float, required=True, metavar="N",
+                   help="emergency stops per hour")
     p.add_argument("--running", type=float, default=None, metavar="SHARE",
                    help="share of the hour the press runs at speed, 0 to 1 (default: all the starts and stops "
                         "leave)")
