@@ -357,6 +357,10 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
         later = t >= t_e
         row("speed_drop", 100 * (1 - np.min(np.abs(w[later])) / abs(w_e)) if w_e else None, "%",
             "largest drop of the main-shaft speed after the load step, of its speed then")
+        if spec.motor is not None:
+            from harness.reporting.stops import overload_rows
+
+            overload_rows(system, spec.motor, df, later, row)
         loads(t_e)
     return _transient_table(title, system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
 

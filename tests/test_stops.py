@@ -129,3 +129,29 @@ def test_size_the_brake_for_a_stopping_angle():
     closed = j * speed ** 2 * (1 - stops.BAND ** 2) / (2 * RATIO * (theta - speed * DELAY))
     assert found.answer == pytest.approx(closed, rel=1e-2)
     assert found.verified <= 200.0
+
+
+def test_a_jam_names_the_motors_overload_and_pull_out():
+    """A load step's motor verdicts against the Kloss curve's closed forms: M_k = 2.2 T_rated, s_k = s_n (2.2 +
+    sqrt(2.2^2 - 1)) (fmus/physics/motor_belt.py's rating), on a made-up result of bed_drive's motor."""
+    import pandas as pd
+
+    from harness.run import load
+
+    system = load("bed_drive")
+    m = system.instance("motor").parameters
+    m_k = 2.2 * m["P_rated"] / m["w_rated"]
+    s_n = 1 - m["w_rated"] / m["w_sync"]
+    s_k = s_n * (2.2 + math.sqrt(2.2 ** 2 - 1))
+    for torque, slip, words in ((0.5 * m_k, 0.5 * s_k, ("within the margin", "on the stable branch")),
+                                (0.9 * m_k, 1.5 * s_k, ("OVERLOAD", "PULLED OUT"))):
+        t = np.linspace(0, 1, 11)
+        df = pd.DataFrame({"motor.motor_torque": np.full(11, torque),
+                           "motor.motor_speed": np.full(11, (1 - slip) * m["w_sync"])}, index=pd.Index(t))
+        rows = {}
+        stops.overload_rows(system, "motor", df, t >= 0.5,
+                            lambda name, value, unit, what, note="": rows.setdefault(name, (value, what)))
+        assert rows["motor_torque_peak_to_breakdown"][0] == pytest.approx(torque / m_k)
+        assert rows["motor_slip_peak"][0] == pytest.approx(100 * slip)
+        assert rows["motor_torque_peak_to_breakdown"][1].startswith(words[0])
+        assert rows["motor_slip_peak"][1].startswith(words[1])

@@ -167,3 +167,29 @@ def _overrun(df, watch: str, cycles, t, t_e: float, end: float, row) -> None:
         return
     later = (t >= t_e) & (t <= end)
     row("overrun", max(0.0, x[later].max() - x[prior].max(), x[prior].min() - x[later].min()), unit, what)
+
+
+OVERLOAD = 0.8    # the overload margin: a motor's peak torque stays below this share of its breakdown torque
+
+
+def overload_rows(system, motor: str, df, on, row) -> None:
+    """A load step's (a jam's) verdict on the motor over the samples where ``on`` holds: its peak torque over its
+    breakdown torque against the margin :data:`OVERLOAD`, and its largest slip against its breakdown slip s_k
+    (past it the motor is pulled out: it stalls), each named in its meaning."""
+    from fmus.physics.motor_belt import MotorBeltModel, MotorBeltParams
+    from harness.reporting.quantities import parameter
+
+    torque, speed = f"{motor}.motor_torque", f"{motor}.motor_speed"
+    if torque not in df.columns or speed not in df.columns or not on.any():
+        return
+    values = {s.name: parameter(system, df, motor, s.name) for s in MotorBeltParams.specs()}
+    model = MotorBeltModel(MotorBeltParams.from_mapping({k: v for k, v in values.items() if v is not None}))
+    ratio = float(np.max(np.abs(df[torque].to_numpy(dtype=float)[on]))) / model.M_k
+    word = "OVERLOAD" if ratio > OVERLOAD else "within the margin"
+    row("motor_torque_peak_to_breakdown", ratio, "1",
+        f"{word}: peak motor torque after the step over its breakdown torque ({model.M_k:.4g} N.m; margin "
+        f"{OVERLOAD:g})")
+    slip = 1.0 - float(np.min(df[speed].to_numpy(dtype=float)[on])) / model.p.w_sync
+    pulled = "PULLED OUT (the motor stalls)" if slip > model.s_k else "on the stable branch"
+    row("motor_slip_peak", 100.0 * slip, "%", f"{pulled}: largest slip after the step, against the breakdown slip "
+        f"s_k = {100.0 * model.s_k:.3g} %")
