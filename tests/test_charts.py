@@ -179,12 +179,18 @@ def test_run_plot_writes_and_names_both_charts(fmu_dir, tmp_path, monkeypatch, c
     monkeypatch.setattr(warnings, "showwarning", warnings.showwarning)   # main() sets its own
     assert main(["run", "bed_drive", "--stop-time", "1.05", "--plot", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["bed_drive.png", "bed_drive_cycle.png"]   # PNG only
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bed_drive.png", "bed_drive_cycle.png",
+                                                          "bed_drive_polar.png"]   # PNG only
     assert str(tmp_path / "bed_drive.png") in out and str(tmp_path / "bed_drive_cycle.png") in out
     svg = tmp_path / "svg"
     assert main(["run", "bed_drive", "--stop-time", "1.05", "--plot", str(svg), "--svg", "--quiet-quantities"]) == 0
     assert sorted(p.name for p in svg.iterdir()) == ["bed_drive.png", "bed_drive.svg", "bed_drive_cycle.png",
-                                                     "bed_drive_cycle.svg"]
+                                                     "bed_drive_cycle.svg", "bed_drive_polar.png",
+                                                     "bed_drive_polar.svg"]
+    # named after --out: two runs into one folder keep their charts apart
+    assert main(["run", "bed_drive", "--stop-time", "1.05", "--plot", str(svg), "--out", str(tmp_path / "x.csv"),
+                 "--quiet-quantities"]) == 0
+    assert {"x.png", "x_cycle.png", "x_polar.png", "bed_drive.png"} <= {p.name for p in svg.iterdir()}
     assert (svg / "bed_drive_cycle.svg").read_text().lstrip().startswith("<?xml")
 
 

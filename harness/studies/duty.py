@@ -134,8 +134,10 @@ def register(subparsers) -> None:
     p.add_argument("--cooling-at-rest", type=float, default=0.5, metavar="K",
                    help="the motor's cooling at standstill relative to running (default: 0.5, self-ventilated)")
     p.add_argument("--limits", type=Path, default=None, metavar="FILE.yaml",
-                   help="judge the duty's rows against limits (as run --limits); exit status 3 when any fails")
-    p.add_argument("--out", type=Path, default=None, metavar="FILE.json", help="write the rows as JSON")
+                   help="judge the duty's rows against limits (as run --limits); exit status 3 when any fails "
+                        "(default: no limits)")
+    p.add_argument("--out", type=Path, default=None, metavar="FILE.json",
+                   help="write the rows as JSON (default: printed only)")
     p.set_defaults(func=_cli)
 
 
