@@ -31,8 +31,10 @@ SYSTEM = System(
     free_inputs={**motor_inputs(),
                  "flywheel.clutch_brake": "the clutch-brake's command: 0 (clutch closed, brake released) unless a "
                                           "scenario stops the press"},
-    precision=base.SYSTEM.precision,
-    stability=base.SYSTEM.stability,
+    # the bed drive's questions: with the clutch closed the drive is the bed drive's, bit for bit
+    # (tests/test_clutch_brake.py), so its scenes are answered there (tests/test_scenes.py runs them once)
+    scenes=list(base.SYSTEM.scenes),
+    default_scene=base.SYSTEM.default_scene,
 )
 SYSTEM.chart = base.SYSTEM.chart
 SYSTEM.quantities = dataclasses.replace(
