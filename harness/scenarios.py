@@ -35,7 +35,6 @@ loads during the stop; for a ``load`` step the speed drop and the peak loads aft
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -43,7 +42,7 @@ import numpy as np
 import pandas as pd
 
 from harness.errors import SystemDescriptionError
-from harness.specs import Change, Requirement, Scenario
+from harness.specs import Change, Requirement, Scenario, load_file
 
 RPM = 2 * math.pi / 60
 REACHED = 0.95      # start-up: the share of the final speed that counts as "up to speed"
@@ -78,18 +77,7 @@ def find(system, name_or_file) -> Scenario:
 def read(path: str | Path) -> Scenario:
     """A scenario from a YAML or JSON file (the module docstring's form)."""
     path = Path(path)
-    if not path.is_file():
-        raise SystemDescriptionError(f"scenario file {path} does not exist")
-    try:
-        if path.suffix.lower() == ".json":
-            data = json.loads(path.read_text())
-        else:
-            import yaml
-
-            data = yaml.safe_load(path.read_text())
-    except Exception as e:  # a malformed file: one line naming it
-        raise SystemDescriptionError(f"scenario file {path}: cannot be read ({type(e).__name__}: "
-                                     f"{str(e).splitlines()[0]})") from None
+    data = load_file(path, "scenario file")
     if not isinstance(data, dict):
         raise SystemDescriptionError(f"scenario file {path}: a mapping with name, question, kind, stop_time, "
                                      f"parameters "

@@ -23,6 +23,28 @@ from dataclasses import dataclass
 from typing import Callable
 
 
+def load_file(path, what: str):
+    """The data of a YAML (or, by its suffix, JSON) file a user hands in (a scenario, limits), refused in one line
+    naming ``what`` and the file when it is missing or cannot be read."""
+    import json
+    from pathlib import Path
+
+    from harness.errors import SystemDescriptionError
+
+    path = Path(path)
+    if not path.is_file():
+        raise SystemDescriptionError(f"{what} {path} does not exist")
+    try:
+        if path.suffix.lower() == ".json":
+            return json.loads(path.read_text())
+        import yaml
+
+        return yaml.safe_load(path.read_text())
+    except Exception as e:  # a malformed file: one line naming it
+        raise SystemDescriptionError(f"{what} {path}: cannot be read ({type(e).__name__}: "
+                                     f"{str(e).splitlines()[0]})") from None
+
+
 @dataclass
 class Scene:
     name: str

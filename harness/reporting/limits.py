@@ -81,19 +81,10 @@ def parse_condition(quantity: str, text, origin: str) -> Limit:
 
 def read(path: str | Path) -> list[Limit]:
     """The limits of a YAML or JSON file (module docstring), refused in one line naming the file."""
-    path = Path(path)
-    if not path.is_file():
-        raise SystemDescriptionError(f"limits file {path} does not exist")
-    try:
-        if path.suffix.lower() == ".json":
-            data = json.loads(path.read_text())
-        else:
-            import yaml
+    from harness.specs import load_file
 
-            data = yaml.safe_load(path.read_text())
-    except Exception as e:  # a malformed file: one line naming it
-        raise SystemDescriptionError(f"limits file {path}: cannot be read ({type(e).__name__}: "
-                                     f"{str(e).splitlines()[0]})") from None
+    path = Path(path)
+    data = load_file(path, "limits file")
     if not isinstance(data, dict) or not data:
         raise SystemDescriptionError(f"limits file {path}: a mapping 'quantity: \"<= VALUE\"' is needed, not "
                                      f"{type(data).__name__ if data is not None else 'an empty file'}")
