@@ -28,6 +28,8 @@ import numpy as np
 from harness.errors import SystemDescriptionError
 
 HOUR = 3600.0
+NAMES = ("startup_torque_rms", "stop_torque_rms", "motor_torque_rms", "duty_torque_rms", "motor_torque_rated",
+         "duty_torque_rms_to_rated", "brake_energy_per_stop", "brake_power_mean")   # the rows, in order
 
 
 @dataclass(frozen=True)
@@ -111,6 +113,7 @@ def duty(system, stated: Duty, **options):
         Row("brake_power_mean", None if energy is None else energy * stated.stops / HOUR, "W", "duty",
             "the brake's mean thermal load: energy per stop times stops per hour"),
     ]
+    assert tuple(r.name for r in rows) == NAMES
     table = Quantities(system.name, rows, None, spec.shaft_name, spec.cycle_name)
     table.heading = lambda: f"{system.name}: the motor's thermal duty, {duty_text}"
     table.runs = {"steady": plain, "startup": up, "estop": down}     # the three runs it was taken from
@@ -149,6 +152,7 @@ def _cli(args) -> int:
     if args.out is not None:
         check_writable(args.out, "--out")
     found = limits.read(args.limits) if args.limits is not None else []
+    limits.check_names(found, list(NAMES), f"limits file {args.limits}", "duty")
     stated = Duty(args.starts, args.stops, args.running, args.cooling_at_rest)
     stated.check()
     table = duty(args.system, stated, options=RunOptions(progress=None))
