@@ -320,6 +320,9 @@ def _scene_of(system: str, scene: str) -> bool:
 # slow page commands that show no output and that a slow test runs as written (its --out aside) and checks
 # further: the page's command runs there, once.  The condition names the test's case, so a renamed case fails here.
 RUN_BY_TESTS = {
+    ("study", "stability", "two_inertia"): ("tests/test_study_cli.py::test_stability_map_of_the_two_inertia_benchmark_"
+                                            "measured", lambda: '["study", "stability", "two_inertia", "--out"'
+                                            in (ROOT / "tests" / "test_study_cli.py").read_text()),
     ("study", "stability", "bed_drive"): ("tests/test_stability.py::test_full_press_map_cli",
                                           lambda: '["study", "stability", "bed_drive"' in (ROOT / "tests" / "test_stability.py").read_text()),
     ("study", "precision", "bed_drive"): ("tests/test_precision.py::test_default_study_of_every_system[bed_drive]",

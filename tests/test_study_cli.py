@@ -66,8 +66,9 @@ def test_stability_map_of_every_drive(name, tmp_path, capsys):
 
 @pytest.mark.slow
 def test_stability_map_of_the_two_inertia_benchmark_measured(tmp_path, capsys):
-    """Theory and bisection on runs (``--quick`` is theory only): one inertia ratio."""
-    assert main(["study", "stability", "two_inertia", "--values", "1", "--out", str(tmp_path)]) == 0, \
-        capsys.readouterr().err
+    """Theory and bisection on runs (``--quick`` is theory only): the default study, the command docs/stability.md
+    shows, run once, here (tests/test_docs.py: RUN_BY_TESTS), instead of one inertia ratio here (``--values 1``)
+    and the whole study for the page."""
+    assert main(["study", "stability", "two_inertia", "--out", str(tmp_path)]) == 0, capsys.readouterr().err
     table = pd.read_csv(tmp_path / "stability_two_inertia_inertia.csv")
     assert len(table) > 0 and (tmp_path / "stability_two_inertia_inertia.png").stat().st_size > 1000
