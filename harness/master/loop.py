@@ -43,6 +43,7 @@ from harness.master.clock import NS
 from harness.master.coupling import Inst as _Inst
 from harness.master.extrapolation import DEPTH, History, Polynomial
 from harness.master.iteration import IterationOptions, solve_fixed_point
+from harness.master.multirate import Rates
 
 __all__ = ["Master", "AssumptionWarning"]
 
@@ -99,6 +100,7 @@ class Master:
     solves_loops: ClassVar[bool] = False
     refreshes_discrete: ClassVar[bool] = False  # pass non-Real feed-through chains within a point (Jacobi)
     input_derivatives: ClassVar[bool] = True   # False: held values only (iterated or corrected methods)
+    multirate: ClassVar[bool] = False   # True: instances may step at their own rates (_step_rates)
 
     def __init__(self, fmus: dict, connections, bonds=(), extrapolation: Polynomial | None = None,
                  iteration: IterationOptions | None = None, tolerance: float | None = None,
@@ -163,6 +165,7 @@ class Master:
         self.iterations = 0  # total iterations (iterative master)
         self.halvings = 0    # steps taken again as two halves (jacobian master: harness.master.jacobian.needs_halving)
         self.fmu_steps = 0   # do_step calls made, summed over the FMUs (only _step_fmus adds to it)
+        self.rates: Rates | None = None   # instances at their own rates (use_rates; None: every one at the step)
         self._prepare()
 
     def _prepare(self) -> None:
@@ -194,6 +197,64 @@ class Master:
     def history_depth(self) -> int:
         """Samples of each output the master keeps for its held inputs (all that any method needs)."""
         return DEPTH
+
+    # -- each FMU at its own rate (harness.master.multirate) -----------------------------------------------------
+    def use_rates(self, rates: dict[str, int]) -> None:
+        """Step the instances of ``rates`` (name -> whole multiple of the base step, > 1) at their own rates;
+        the others at the base step.  A master that cannot (``multirate`` False) refuses in one line naming it and
+        the instances; no rate above 1 leaves the master as it was (the single-rate path, bit for bit)."""
+        slow = {n: r for n, r in rates.items() if r > 1}
+        if not slow:
+            return
+        if not self.multirate:
+            able = ", ".join(n for n, c in _multirate_masters().items())
+            listed = ", ".join(f"{n} (every {r} steps)" for n, r in slow.items())
+            raise SystemDescriptionError(f"master {self.name!r} cannot step instances at their own rates: {listed}; "
+                                         f"use one of {able}, or give every instance the base step")
+        self.rates = Rates(self, slow)
+
+    @property
+    def fresh(self) -> set | None:
+        """The instances at a communication point of their own at the master's time (None: every one)."""
+        return None if self.rates is None else self.rates.fresh
+
+    def _step_rates(self, t_ns: int, h_ns: int) -> None:
+        """One base step with instances at their own rates (a multirate method implements it)."""
+        raise NotImplementedError
+
+    def _exchange_some(self, t: float, which: list[int]) -> None:
+        """:meth:`_exchange` restricted to the instances ``which`` (at a point of their own at ``t``): the others'
+        outputs keep their last samples."""
+        chosen = set(which)
+        y = self.y
+        values = y.tolist()
+        insts = self.insts
+        for op, arg in self._plan:
+            if arg not in chosen:
+                continue
+            it = insts[arg]
+            if op == "visit":
+                self._set_point_inputs(it, values)
+            values[it.output_slice] = it.fmu.get_list(it.out)
+        y[:] = values
+        for k in which:
+            sl = insts[k].output_slice
+            self.history.push(sl, t, y[sl])
+
+    def _pass_discrete_rates(self) -> None:
+        """:meth:`_pass_discrete` under rates: only the connections whose two ends' rates both divide the base
+        steps taken (:meth:`harness.master.multirate.Rates.discrete_now`)."""
+        now = self.rates.discrete_now()
+        n = len(self._discrete)
+        sampled = [(link, ok) for link, ok in zip(self._discrete, now[:n])]
+        values = [src.get_value(sv) if ok else None for (src, sv, *_), ok in sampled]
+        for (link, ok), value in zip(sampled, values):
+            if ok:
+                link[2].set_value(link[3], coupling.passed_value(link, value, self.t_ns / NS))
+        for link, ok in zip(self._discrete_chain, now[n:]):
+            if ok:
+                src, sv, dst, dv, _ = link
+                dst.set_value(dv, coupling.passed_value(link, src.get_value(sv), self.t_ns / NS))
 
     # -- power bonds -------------------------------------------------------------------------------------------
     def _prepare_bonds(self, bonds) -> None:
@@ -417,7 +478,10 @@ class Master:
         """Consistent outputs at communication point t again, after inputs were set from outside the coupling
         (input signals, :mod:`harness.signals`): an output that depends directly on such an input passes its
         new value on in this step, not one step late."""
-        self._exchange(t)
+        if self.rates is not None:
+            self._exchange_some(t, self.rates.starting(self.t_ns))
+        else:
+            self._exchange(t)
         self._y_list = None
 
     def coupling_signals(self) -> np.ndarray:
@@ -452,16 +516,28 @@ class Master:
         self._check(t)
         self._y_list = None
         self.t_ns = start_ns
+        if self.rates is not None:
+            self.rates.start(start_ns)
+            self.u[:] = self.factor * self.y[self.src] + self.offset   # every connection passes at the start
 
     def step(self, t_ns: int, h_ns: int) -> None:
         """One communication step from t_ns (must be the current time) of h_ns nanoseconds."""
         t, h, t_next = t_ns / NS, h_ns / NS, (t_ns + h_ns) / NS
         y0 = self._y_list if self._y_list is not None else self.y.tolist()
-        if self._discrete and not self.refreshes_discrete:
-            self._pass_discrete(t)  # values sampled at t, held over the step
-        self._step_impl(t, h, t_next)
-        if self._discrete and self.refreshes_discrete:
-            self._pass_discrete(t_next)  # refreshed at t_next, as Real feed-through is, before the point is recorded
+        if self.rates is not None:
+            discrete = bool(self._discrete or self._discrete_chain)
+            if discrete and not self.refreshes_discrete:
+                self._pass_discrete_rates()
+            self._step_rates(t_ns, h_ns)
+            if discrete and self.refreshes_discrete:
+                self.t_ns = t_ns + h_ns
+                self._pass_discrete_rates()
+        else:
+            if self._discrete and not self.refreshes_discrete:
+                self._pass_discrete(t)  # values sampled at t, held over the step
+            self._step_impl(t, h, t_next)
+            if self._discrete and self.refreshes_discrete:
+                self._pass_discrete(t_next)  # refreshed at t_next, as Real feed-through is, before the point is recorded
         y = self._y_list = self.y.tolist()
         self._check(t_next, y)
         if self._bonds:
@@ -493,6 +569,8 @@ class Master:
         and the end, in the order given; ``on_end`` runs however the run ends.  Returns the time reached [ns]."""
         observers = list(observers)
         t_ns = self.t_ns
+        if self.rates is not None:
+            self.rates.stop_ns = stop_ns
         refresh = inputs is not None and any(c.source.split(".", 1)[0] in inputs.instances
                                              for c in self.connections)
         completed = False
@@ -580,3 +658,14 @@ class Master:
         for it in self.insts:
             it.fmu.free()
         self._slots.clear()
+
+
+def _multirate_masters() -> dict:
+    """The defined masters that hold rates, by name (subclasses of :class:`Master` with ``multirate``)."""
+    found, todo = {}, list(Master.__subclasses__())
+    while todo:
+        cls = todo.pop(0)
+        if cls.multirate:
+            found.setdefault(cls.name, cls)
+        todo.extend(cls.__subclasses__())
+    return found

@@ -38,6 +38,7 @@ from harness.master.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import FMUInstance, open_instance, release
 from harness.master import ConvergenceError, IterationOptions, master_class
 from harness.master.clock import NS
+from harness.master.multirate import rates_of
 from harness.model import model_description, resolve_fmu
 from harness.master.observers import ProgressBar, Recording
 from harness.reporting.quantities import quantities
@@ -185,6 +186,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
                                      f"stop_time = {stop_time!r} s" if start_ns else
                                      f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
     sample_ns = _output_interval(output_interval, step, step_ns, step_control)
+    rates = rates_of(system.instances, step_ns, f"system {system.name}")   # each FMU at its own rate
     cls = master_class(master)
     extra = make_extrapolation(extrapolation)
     params = split_parameters(system, start_values)
@@ -207,11 +209,20 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
             fmus[inst.name] = open_instance(paths[inst.name], inst.name, opts.logging, opts.in_process,
                                             isolate=opts.isolate)
         m = cls(fmus, connections, system.bonds, extra, opts.iteration, tolerance, opts.blowup)
-        controller = make_step_control(step_control, m, step_ns, tolerance, opts.steps)
-        if not controller.variable and (stop_ns - start_ns) % step_ns:
+        m.use_rates(rates)
+        controller = make_step_control(step_control, m, step_ns, tolerance, _step_options(opts, exp))
+        if m.rates is not None and controller.variable:
+            raise SystemDescriptionError(f"step_control = {controller.name!r} varies the step, but instances "
+                                         f"{', '.join(rates)} step at their own rates (a whole multiple of a fixed "
+                                         f"base step): use a fixed step, or give every instance the base step")
+        if not controller.variable:
             for name, f in fmus.items():
-                if not f.can_vary_step:
-                    raise SystemDescriptionError(f"stop_time = {stop_time!r} s is not a multiple of step = {step!r} "
+                own = rates.get(name, 1) * step_ns
+                if (stop_ns - start_ns) % own and not f.can_vary_step:
+                    raise SystemDescriptionError(f"stop_time = {stop_time!r} s is not a multiple of instance "
+                                                 f"{name}'s step {own / NS!r} s and it cannot take a shorter last "
+                                                 f"step" if own != step_ns else
+                                                 f"stop_time = {stop_time!r} s is not a multiple of step = {step!r} "
                                                  f"s and instance {name} cannot take a shorter last step")
         n_rows = -(-(stop_ns - start_ns) // sample_ns) + 1 if not controller.variable else 1024
         rec = Recorder(m, output, n_rows)
@@ -222,10 +233,21 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
                     tolerance=tolerance, output_interval=sample_ns / NS, inputs=signals.names if signals else [],
                     units=column_units(fmus, rec.columns))
         info["start_values"] = {k: (v.item() if hasattr(v, "item") else v) for k, v in (start_values or {}).items()}
+        if m.rates is not None:
+            info["rates"] = dict(rates)   # instance -> its step as a multiple of the base step
         return _run(m, controller, rec, params, (start_ns, stop_ns, step_ns, sample_ns), tolerance, on_error, opts,
                     info, system, signals)
     finally:
         release(m, fmus)
+
+
+def _step_options(opts: RunOptions, exp):
+    """The step-control options: the run's, or where it leaves them at their defaults those the system's
+    experiment declares (an OSP EccoConfiguration, :mod:`harness.osp`)."""
+    declared = getattr(exp, "step_options", None) if exp is not None else None
+    if declared and opts.steps == StepOptions():
+        return StepOptions(**declared)
+    return opts.steps
 
 
 def column_units(fmus: dict, columns: list[str]) -> dict[str, str]:
