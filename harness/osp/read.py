@@ -16,9 +16,11 @@ What is read, and what it becomes (a :class:`~harness.model.System`):
   defined in its ``UnitDefinitions``), else the FMU's.  Where the two differ the connection converts
   (value_SI = factor * value + offset on each side); units of different dimensions, or a unit without a
   definition, are refused in one line naming the connection and both units.
-* ``powerBond`` connections whose variables are a toolkit port's (``<port>.w``/``.tau``, ``.v``/``.f``) become a
-  :class:`~harness.model.Bond` (the position travels with it), so the divergence watch and ECCO step control see
-  them; other power bonds stay plain connections, said once in a warning.
+* A toolkit power bond (ports ``<port>.phi/.w/.tau`` or ``.s/.v/.f``) becomes a :class:`~harness.model.Bond` (the
+  position connection goes with it), so the divergence watch and ECCO step control see it, where the file
+  joins its speed and effort by a ``VariableGroupConnection`` of two mechanical port groups
+  (``AngularMechanicalPort``, ``LinearMechanicalPort``) or by the two connections of one ``powerBond``; other
+  port groups stay plain connections, other ``powerBond`` connections too, said once in a warning.
 * ``BaseStepSize`` (libcosim's default 0.1 s when absent), ``StartTime``, ``EndTime``; ``Algorithm`` ``fixedStep``
   (the schema's default) runs with ``jacobi-sampled``, the harness master that samples as libcosim does; ``ecco``
   with the harness's ECCO step control (:mod:`harness.master.stepcontrol`), its ``EccoConfiguration`` the
@@ -398,6 +400,9 @@ class _Reader:
                 out += made
                 if c.get("powerBond"):
                     bonds.setdefault(c.get("powerBond"), []).extend(made)
+                elif kind == "VariableGroupConnection" and all(
+                        self.group(*end, where).kind.endswith("MechanicalPort") for end in (a, b)):
+                    bonds[f"\0{k}"] = made   # a port group pair: a bond if it joins toolkit ports
             elif kind == "SignalGroupConnection":
                 raise self.fail(f"{where}: signal group connections feed OSP's VectorSum function, which the harness "
                                 f"does not offer")
@@ -441,7 +446,8 @@ class _Reader:
         for name, members in named.items():
             bond = _as_bond(members, targets)
             if bond is None:
-                plain.append(name)
+                if not name.startswith("\0"):
+                    plain.append(name)
                 continue
             bonds.append(bond)
             used.update(id(c) for c in bond_members(bond, targets))

@@ -9,12 +9,19 @@ per model, which libcosim finds beside the FMU.  In them:
   ``Torque`` and an ``AngularVelocity`` group) or ``LinearMechanicalPort`` (``Force``, ``LinearVelocity``) with
   its position as an ``AngularDisplacement`` (``LinearDisplacement``) group, the variables in the FMU's units,
   defined in the description's ``UnitDefinitions``;
-* each power bond is its three connections: the position plainly, the speed and the effort as the two
-  ``VariableConnection`` elements of one ``powerBond`` (each variable with its causality), so that libcosim's ECCO
-  algorithm sees the bond;
+* each power bond connects the two ports' groups: with ``fixedStep`` one ``VariableGroupConnection`` of the
+  two mechanical port groups (effort one way, speed the other, matched in order) and one of their position
+  groups; with ``ecco`` its position as a plain ``VariableConnection`` and its speed and effort as the two
+  ``VariableConnection`` elements of one ``powerBond``, each variable with its causality, as libcosim's ECCO
+  algorithm takes a bond (it reads no causality from group connections).  libcosim 0.11 loads a file with at
+  most ONE ``powerBond`` (its uniqueness check runs inside the loop that adds the bonds: "The number of
+  powerbonds (1) is not equal to the number of unique power bond names (3)"), so an ECCO export of a drive with
+  more bonds is a correct file libcosim 0.11 refuses;
 * a connection with a factor or an offset (a unit conversion of the system) goes through one of OSP's
   ``LinearTransformation`` functions; an Integer or Boolean value table has no OSP form and is refused;
-* ``BaseStepSize`` is the system's step, ``StartTime``/``EndTime`` its experiment's, ``Algorithm`` ``fixedStep``
+* ``BaseStepSize`` is the step a host that samples outputs after each step takes (libcosim, Ecos:
+  :func:`harness.ssp.host_step`, the drive's ``sampled_host_step`` where it declares one, else its experiment's
+  step; each instance's own step must be a whole multiple of it), ``StartTime``/``EndTime`` its experiment's, ``Algorithm`` ``fixedStep``
   (or ``ecco`` with an ``EccoConfiguration`` of the harness's ECCO defaults and the experiment's options).
 
 Elements are written in the order libcosim's schema (``OspSystemStructure.xsd`` 0.1) requires.
@@ -26,8 +33,11 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from harness.errors import SystemDescriptionError
+from harness.master.clock import NS
+from harness.master.multirate import rates_of
 from harness.model import System, model_description, resolve_fmu
 from harness.osp.read import MODEL_DESCRIPTION, STRUCTURE
+from harness.ssp.export import host_step
 
 NS_STRUCTURE = "http://opensimulationplatform.com/MSMI/OSPSystemStructure"
 NS_MODEL = "https://open-simulation-platform.com/OspModelDescription/1.0.1"
@@ -108,7 +118,9 @@ def structure_xml(system: System, sources: dict[str, str], mds: dict, stop_time:
     if exp is None or exp.step is None:
         raise SystemDescriptionError(f"system {system.name}: no step to write as BaseStepSize (give the system a "
                                      f"default experiment with a step)")
-    ET.SubElement(root, "BaseStepSize").text = _number(exp.step)
+    base = host_step(system)
+    rates_of(system.instances, int(round(base * NS)), f"export --format osp: system {system.name}")
+    ET.SubElement(root, "BaseStepSize").text = _number(base)
     if algorithm not in ("fixedStep", "ecco"):
         raise SystemDescriptionError(f"algorithm = {algorithm!r}: OSP's are fixedStep and ecco")
     ET.SubElement(root, "Algorithm").text = algorithm
@@ -126,13 +138,22 @@ def structure_xml(system: System, sources: dict[str, str], mds: dict, stop_time:
                               *_typed(variables[name].type, value))
     functions = ET.Element("Functions")
     conns = ET.Element("Connections")
-    bonded = {}
+    bonded, grouped = {}, set()
     for b in system.bonds:
         tr = system.bond_is_translational(b, mds)
         p, w, e = PORTS[tr][:3]
-        bonded[f"{b.motion_in}.{w}"] = (b.label, f"{b.motion_out}.{w}", "output", "input")
-        bonded[f"{b.motion_out}.{e}"] = (b.label, f"{b.motion_in}.{e}", "output", "input")
+        if algorithm == "ecco":
+            bonded[f"{b.motion_in}.{w}"] = bonded[f"{b.motion_out}.{e}"] = b.label
+            continue
+        for suffix in ("", ".position"):
+            gc = ET.SubElement(conns, "VariableGroupConnection")
+            for port in (b.motion_out, b.motion_in):
+                inst, name = port.split(".", 1)
+                ET.SubElement(gc, "VariableGroup", {"simulator": inst, "name": name + suffix})
+        grouped.update(c.target for c in b.connections(tr))
     for k, c in enumerate(system.all_connections(mds)):
+        if c.target in grouped:
+            continue
         if c.mapping is not None:
             raise SystemDescriptionError(f"system {system.name}: connection {c.source} -> {c.target} has a value table "
                                          f"{c.mapping!r}, which OSP cannot express (its connections pass values "
@@ -147,7 +168,7 @@ def structure_xml(system: System, sources: dict[str, str], mds: dict, stop_time:
                 ET.SubElement(sc, "Variable", dict(zip(("simulator", "name"), end.split(".", 1))))
             continue
         bond = bonded.get(c.target)
-        vc = ET.SubElement(conns, "VariableConnection", {"powerBond": bond[0]} if bond else {})
+        vc = ET.SubElement(conns, "VariableConnection", {"powerBond": bond} if bond else {})
         for end, causality in ((c.source, "output"), (c.target, "input")):
             attrs = dict(zip(("simulator", "name"), end.split(".", 1)))
             if bond:

@@ -134,6 +134,8 @@ def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] |
                 if v.type == "Real" and v.unit:
                     attrs["unit"] = v.unit
                 ET.SubElement(p, _q(f"ssv:{v.type}"), attrs)
+        if inst.step is not None:   # its own step, as libcosim reads it (harness.master.multirate)
+            ET.SubElement(_annotation(comp, OSP_ANNOTATION), _q("osp:StepSizeHint"), {"value": _num(float(inst.step))})
     # SSP 1.0's schema wants at least one ssd:Connection in ssd:Connections: a system of one FMU has none
     conn_el = ET.SubElement(sys_el, _q("ssd:Connections")) if connections else None
     for c in connections:
@@ -224,8 +226,16 @@ def register(subparsers) -> None:
                                           "co-simulation FMU of the whole drive (OUT.fmu: its FMUs inside, run by "
                                           "the drive's own master and step in each fmi2DoStep) for tools that "
                                           "import single FMUs.")
-    p.add_argument("system", help="system module name in systems/, or a .ssp/.ssd file")
-    p.add_argument("out", type=Path, help="output file: .ssp (SSP archive) or .fmu (one FMU of the drive)")
+    p.add_argument("system", help="system module name in systems/, a .ssp/.ssd file or an OspSystemStructure.xml")
+    p.add_argument("out", type=Path, help="output file: .ssp (SSP archive) or .fmu (one FMU of the drive); with "
+                                          "--format osp a folder")
+    p.add_argument("--format", choices=("ssp", "fmu", "osp"), default=None,
+                   help="what to write: ssp, fmu, or osp (OSP's OspSystemStructure.xml with an "
+                        "OspModelDescription per FMU and the FMUs, into the folder OUT: harness.osp.write); "
+                        "default: from OUT's suffix")
+    p.add_argument("--algorithm", choices=("fixedStep", "ecco"), default="fixedStep",
+                   help="--format osp: the OSP algorithm the file declares (ecco: libcosim's energy-conservation "
+                        "step control over the drive's power bonds); default fixedStep")
     p.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
                    help="FMI version of a drive FMU (.fmu): 2 (pythonfmu) or 3 (pythonfmu3); default 2")
     p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
@@ -238,6 +248,15 @@ def _run_export(args) -> int:
     from harness import load
 
     suffix = Path(args.out).suffix.lower()
+    if args.format == "osp":
+        from harness.osp.write import export_osp
+
+        if args.output:
+            raise SystemDescriptionError(f"--output applies to a drive FMU (.fmu), not to --format osp")
+        print(f"wrote {export_osp(load(args.system), args.out, algorithm=args.algorithm)}")
+        return 0
+    if args.format is not None and suffix != f".{args.format}":
+        raise SystemDescriptionError(f"--format {args.format}: {args.out} must end in .{args.format}")
     if suffix == ".fmu":
         from harness.export.drive_fmu import export_fmu
 
