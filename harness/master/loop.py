@@ -101,6 +101,7 @@ class Master:
     refreshes_discrete: ClassVar[bool] = False  # pass non-Real feed-through chains within a point (Jacobi)
     input_derivatives: ClassVar[bool] = True   # False: held values only (iterated or corrected methods)
     multirate: ClassVar[bool] = False   # True: instances may step at their own rates (_step_rates)
+    checkpointed: ClassVar[tuple] = ()  # a method's own attributes a checkpoint keeps (harness.master.saved)
 
     def __init__(self, fmus: dict, connections, bonds=(), extrapolation: Polynomial | None = None,
                  iteration: IterationOptions | None = None, tolerance: float | None = None,
@@ -557,7 +558,7 @@ class Master:
             it.fmu.do_step(t, h, no_prior_state=no_prior_state)
         self.fmu_steps += len(insts)
 
-    def run(self, controller, stop_ns: int, observers=(), inputs=None) -> int:
+    def run(self, controller, stop_ns: int, observers=(), inputs=None, first_ns: int | None = None) -> int:
         """THE run loop: communication steps from ``t_ns`` (after :meth:`initialize`) to ``stop_ns``, each taken
         by ``controller.advance`` (:mod:`harness.master.stepcontrol`, starting with its ``step_ns``).  ``inputs``
         (None or a :class:`harness.signals.Signals`): applied at each point before the step (``apply(t_ns)``),
@@ -566,7 +567,9 @@ class Master:
         a variable step control restarted from its first step; a variable step also ends on each of the inputs'
         row times (``next_time``).
         ``observers`` (:class:`harness.master.observers.Observer`) see the start, each input event, each accepted point
-        and the end, in the order given; ``on_end`` runs however the run ends.  Returns the time reached [ns]."""
+        and the end, in the order given; ``on_end`` runs however the run ends.  ``first_ns``: the first step
+        (default the controller's; a run resumed from a checkpoint takes the step proposed when it stopped).
+        Returns the time reached [ns]; the controller's ``next_ns`` is the step it proposes next."""
         observers = list(observers)
         t_ns = self.t_ns
         if self.rates is not None:
@@ -577,7 +580,7 @@ class Master:
         try:
             for o in observers:
                 o.on_start(self, t_ns)
-            h_ns = controller.step_ns
+            h_ns = controller.step_ns if first_ns is None else first_ns
             while t_ns < stop_ns:
                 if inputs is not None:
                     inputs.apply(t_ns)
@@ -595,6 +598,7 @@ class Master:
                 t_prev = t_ns
                 until = stop_ns if event_ns is None else min(stop_ns, event_ns)
                 t_ns, h_ns = controller.advance(self, t_ns, h_ns, until)
+                controller.next_ns = h_ns
                 self.steps += 1
                 for o in observers:
                     o.on_step(self, t_prev, t_ns)

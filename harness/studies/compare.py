@@ -275,6 +275,9 @@ def register(subparsers) -> None:
     p.add_argument("--step", type=float, default=None, metavar="SECONDS",
                    help="communication step [s] (default: the drive's)")
     p.add_argument("--master", default=None, help="master of every run (default: the drive's)")
+    p.add_argument("--from-checkpoint", type=Path, default=None, metavar="FILE",
+                   help="every variant continues this checkpoint of the drive (`run --checkpoint`): a shared "
+                        "start-up run once, each variant's values set at its time (default: each from the start)")
     p.add_argument("--out", type=Path, default=None, metavar="FILE.csv",
                    help="write the side-by-side table as CSV (default: printed only)")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
@@ -302,7 +305,7 @@ def _cli(args) -> int:
         check_report_path(args.report)
     check(system, variants)
     result = compare(system, variants, stop_time=args.stop_time, step=args.step, master=args.master,
-                     options=RunOptions(progress=None))
+                     options=RunOptions(progress=None), from_checkpoint=getattr(args, "from_checkpoint", None))
     print(result.table())
     if args.out is not None:
         result.frame().to_csv(args.out)
