@@ -135,4 +135,17 @@ def run_osp_libcosim(path, stop_time: float, outputs: list, scenario=None) -> pd
     return df
 
 
-__all__ = ["run_osp_libcosim"]
+def run_harness(path, scenario=None, **options) -> pd.DataFrame:
+    """The harness on the same file, warnings silenced (for :func:`benchmarks.peers.run_isolated`: a fresh process
+    loads each FMU's library afresh, as libcosim does; an FMU that keeps state in its globals, as OSP's dp-ship
+    ThMPC and DPController do, would otherwise continue from an earlier run in the same process)."""
+    import warnings
+
+    from harness.run import simulate, simulate_scenario
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return simulate(path, **options) if scenario is None else simulate_scenario(path, scenario, **options)
+
+
+__all__ = ["run_osp_libcosim", "run_harness"]

@@ -356,6 +356,17 @@ def _check_parameter(v, ref: str, value) -> None:
             raise SystemDescriptionError(f"parameter {ref} = {value!r} must be a string")
 
 
+def host_step(system: "System") -> float:
+    """The step an SSP or OSP export declares to other hosts (its OSP step): the drive's ``sampled_host_step`` where it
+    declares one below its experiment's step -- libcosim, Ecos and FMPy read outputs right after each step and
+    hold them, and need a smaller step than the harness's own master to meet the drive's accuracy --
+    else the experiment's step.  The harness's own step goes in the ``pd:Experiment`` annotation."""
+    step = float(system.experiment.step)
+    accuracy = getattr(system, "accuracy", None)
+    sampled = getattr(accuracy, "sampled_host_step", None)
+    return min(step, float(sampled)) if sampled else step
+
+
 # -- FMU resolution ---------------------------------------------------------------------------------------------
 
 

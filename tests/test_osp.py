@@ -13,6 +13,7 @@
 """
 from __future__ import annotations
 
+import json
 import shutil
 import warnings
 from dataclasses import replace
@@ -28,7 +29,8 @@ from harness.osp import load_osp
 from harness.osp.write import export_osp
 
 OSP = Path(__file__).parent / "osp"
-RATES = {"Observer": "0.08", "Reference Generator": "0.12", "Thrust Allocation": "0.16"}   # 2, 3, 4 base steps
+RATES = {"Observer": "0.08", "Reference Generator": "0.16", "Thrust Allocation": "0.12"}   # 2, 4, 3 base steps:
+# the allocation (3) feeds the observer (2): libcosim passes its value at multiples of 6 only
 
 
 def _libcosim_or_skip():
@@ -55,8 +57,10 @@ def _quiet_run(path, **kw):
 def _fresh_run(path, **kw):
     """dp-ship's ThMPC and DPController keep state in their libraries' globals (both declare
     canBeInstantiatedOnlyOncePerProcess="false"): a second run in one process continues from the first (2954 N
-    apart at 4.8 s).  libcosim loads each FMU from a fresh copy; here each FMU runs in a process of its own."""
-    return _quiet_run(path, isolate="all", **kw)
+    apart at 4.8 s).  libcosim loads each FMU from a fresh copy; here each run is in a fresh process."""
+    from benchmarks.osp_peers import run_harness
+
+    return peers.run_isolated(run_harness, path, **kw)
 
 
 def _largest_difference(ref, df, cols) -> tuple[float, str]:
@@ -92,12 +96,12 @@ def test_dp_ship_agrees_with_libcosim_at_one_rate_and_at_their_own(tmp_path):
     run_osp_libcosim = _libcosim_or_skip()
     one = _copy(tmp_path, "dp-ship")
     own = _with_rates(one)
-    assert [i.step for i in load_osp(own).instances] == [None, 0.08, 0.12, 0.16, None]
+    assert [i.step for i in load_osp(own).instances] == [None, 0.08, 0.16, 0.12, None]
     stop = 2.4   # a whole number of every step (0.04, 0.08, 0.12, 0.16 s)
     base = _fresh_run(one, stop_time=stop)
     rated = _fresh_run(own, stop_time=stop)
     cols = [c for c in base.columns if base[c].dtype == np.float64]
-    # fewer FMU steps: 60 of each FMU at the base step; 30, 20, 15 of the three
+    # fewer FMU steps: 60 of each FMU at the base step; 30, 15, 20 of the three
     assert base.attrs["fmu_steps"] == 5 * 60 and rated.attrs["fmu_steps"] == 2 * 60 + 30 + 20 + 15
     for path, df in ((one, base), (own, rated)):
         ref = peers.run_isolated(run_osp_libcosim, path, stop, cols)
@@ -207,3 +211,46 @@ def test_a_step_that_is_no_multiple_of_the_base_step_is_refused(tmp_path):
         _quiet_run(path, stop_time=0.1)
     msg = str(e.value)
     assert "\n" not in msg and "instance mass: step = 0.025 s is not a whole multiple of the base step 0.01 s" in msg
+
+
+# -- libcosim's scenario files -----------------------------------------------------------------------------------
+HAND = OSP / "hand_scenario.json"   # every action on an unconnected input, a connected input and an output; end
+
+
+@pytest.mark.interop
+@pytest.mark.parametrize("end", [True, pytest.param(False, marks=pytest.mark.slow)], ids=["with-end", "without-end"])
+def test_a_scenario_file_runs_as_in_libcosim(tmp_path, end):
+    """The allocation's Fxg is overridden by the event at 0.8 s: from the output read after the step from 0.8 s
+    (0.84 s) until the scenario's cleanup, at its end (1.6 s) or, without one, one step after its last event
+    (1.2 s), which removes it from the read after that step."""
+    run_osp_libcosim = _libcosim_or_skip()
+    path = _copy(tmp_path, "dp-ship")
+    scenario = json.loads(HAND.read_text())
+    if not end:
+        del scenario["end"]
+    file = tmp_path / "scenario.json"
+    file.write_text(json.dumps(scenario))
+    df = _fresh_run(path, scenario=file, stop_time=2.0)
+    cols = [c for c in df.columns if df[c].dtype == np.float64]
+    overridden = df.index[df["Thrust Allocation.Fxg"] == 1000.0]
+    last = 1.6 if end else 1.24
+    assert overridden.min() == pytest.approx(0.84) and overridden.max() == pytest.approx(last)
+    assert len(overridden) == round((last - 0.84) / 0.04) + 1
+    ref = peers.run_isolated(run_osp_libcosim, path, 2.0, cols, scenario=file)
+    err, col = _largest_difference(ref, df, cols)
+    assert err <= 1e-9, f"{col} differs from libcosim by {err:.3g} of its range"
+
+
+def test_scenario_files_are_checked_against_the_system():
+    from harness.run import simulate_scenario
+
+    demo = OSP / "dp-ship" / "scenarios"
+    with pytest.raises(SystemDescriptionError) as e:
+        simulate_scenario(OSP / "dp-ship" / "OspSystemStructure.xml", demo / "faulty.json", stop_time=0.08)
+    msg = str(e.value)   # OSP's own file with "a couple of errors": the first is named
+    assert "\n" not in msg and "event 8: model Reference Generator (ReferenceGenerator) has no variable 'hello'" in msg
+    from harness.osp.scenario import LibcosimScenario
+
+    north = LibcosimScenario(demo / "move north.json")
+    assert north.end == 700 and [(e.instance, e.variable, e.action) for e in north.events] == [
+        ("Reference Generator", "x_wp", "override"), ("Reference Generator", "x_tp", "override")]

@@ -208,7 +208,7 @@ class Master:
         if not slow:
             return
         if not self.multirate:
-            able = ", ".join(n for n, c in _multirate_masters().items())
+            able = ", ".join(sorted(_multirate_masters()))
             listed = ", ".join(f"{n} (every {r} steps)" for n, r in slow.items())
             raise SystemDescriptionError(f"master {self.name!r} cannot step instances at their own rates: {listed}; "
                                          f"use one of {able}, or give every instance the base step")

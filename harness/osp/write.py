@@ -35,9 +35,8 @@ from xml.etree import ElementTree as ET
 from harness.errors import SystemDescriptionError
 from harness.master.clock import NS
 from harness.master.multirate import rates_of
-from harness.model import System, model_description, resolve_fmu
+from harness.model import System, host_step, model_description, resolve_fmu
 from harness.osp.read import MODEL_DESCRIPTION, STRUCTURE
-from harness.ssp.export import host_step
 
 NS_STRUCTURE = "http://opensimulationplatform.com/MSMI/OSPSystemStructure"
 NS_MODEL = "https://open-simulation-platform.com/OspModelDescription/1.0.1"

@@ -249,14 +249,25 @@ class Resume:
         if watch is not None and run["watch"] is not None:
             watch.detector, watch.start_ns = run["watch"]["detector"], run["watch"]["start_ns"]
         saved = self.head["parameters"]
-        changed = False
+        t = self.t_ns / NS
+        changed = []
         for it in master.insts:
+            it.fmu.time = t
             for name, value in parameters.get(it.name, {}).items():
-                if saved.get(it.name, {}).get(name) != _plain(value):
-                    it.fmu.set_value(name, value)
-                    changed = True
+                before = saved.get(it.name, {}).get(name)
+                if before == _plain(value):
+                    continue
+                v = it.fmu.variables[name]
+                if v.causality == "parameter" and v.variability != "tunable":
+                    raise SystemDescriptionError(f"checkpoint {self.path}: {it.name}.{name} = {value!r} differs from "
+                                                 f"its {before!r} there, and its FMU fixes it at initialization "
+                                                 f"(variability {v.variability}): it cannot change at t = {t:g} s; "
+                                                 f"run from the start to change it")
+                changed.append((it.fmu, name, value))
+        for fmu, name, value in changed:
+            fmu.set_value(name, value)
         if changed:
-            master.refresh(self.t_ns / NS)
+            master.refresh(t)
 
     def first_ns(self, controller) -> int | None:
         return getattr(controller, "next_ns", None)

@@ -26,7 +26,7 @@ from xml.etree import ElementTree as ET
 
 from fmus.units import BASE_UNITS
 from harness.errors import SystemDescriptionError
-from harness.model import System, model_description, resolve_fmu
+from harness.model import System, host_step, model_description, resolve_fmu  # host_step: public here too
 from harness.ssp.format import FMU_TYPE, OSP_ANNOTATION, OWN_ANNOTATION, PARAMETER_SET
 from harness.ssp.start_values import consistent_inputs
 from harness.ssp.values import _q
@@ -195,17 +195,6 @@ def _value_table(parent: ET.Element, table: dict, boolean: bool) -> None:
     el = ET.SubElement(parent, _q(f"ssc:{'Boolean' if boolean else 'Integer'}MappingTransformation"))
     for k, v in table.items():
         ET.SubElement(el, _q("ssc:MapEntry"), {"source": text(k), "target": text(v)})
-
-
-def host_step(system: System) -> float:
-    """The step the SSP declares to other hosts (the OSP annotation): the drive's ``sampled_host_step`` where it
-    declares one below its experiment's step -- libcosim, Ecos and FMPy read outputs right after each step and
-    hold them, and need a smaller step than the harness's own master to meet the drive's accuracy --
-    else the experiment's step.  The harness's own step goes in the ``pd:Experiment`` annotation."""
-    step = float(system.experiment.step)
-    accuracy = getattr(system, "accuracy", None)
-    sampled = getattr(accuracy, "sampled_host_step", None)
-    return min(step, float(sampled)) if sampled else step
 
 
 def _annotation(parent: ET.Element, kind: str) -> ET.Element:
