@@ -38,8 +38,34 @@ class Jacobi(Master):
         self._outputs_of((t_ns + h_ns) / NS, done)
 
     def _hold_starting(self, t, starting, steps):
+        """:meth:`_set_held_inputs` of the instances starting a step of their own, in plain floats for orders 0
+        and 1 (the same operations as :meth:`harness.master.extrapolation.Polynomial.held` and
+        :meth:`_held_values`: each source's newest samples, none newer than t; an advanced position takes its
+        newest sample)."""
+        order = self.extrapolation.order
+        if order > 1 or any(self.insts[i].interp for i in starting):
+            for i in starting:
+                self._set_held_inputs(self.insts[i], t, steps[i] / NS)
+            return
+        hist = self.history
+        y0 = hist.y[0].tolist()
+        if order:
+            y1, t0, t1, n = hist.y[1].tolist(), hist.t[0].tolist(), hist.t[1].tolist(), hist.n.tolist()
         for i in starting:
-            self._set_held_inputs(self.insts[i], t, steps[i] / NS)
+            it = self.insts[i]
+            if not it.inp.n:
+                continue
+            if order == 0:
+                held = [y0[s] for s, _, _ in it.links]
+            else:
+                te = t + 0.5 * (steps[i] / NS)
+                held = [y0[s] + (te - t0[s]) / (t0[s] - t1[s]) * (y0[s] - y1[s]) if n[s] > 1 else y0[s]
+                        for s, _, _ in it.links]
+                for k in it.pos_idx.tolist():
+                    held[k] = y0[it.links[k][0]]
+            values = [f * v + o for (_, f, o), v in zip(it.links, held)]
+            it.held[:] = values
+            it.fmu.set_list(it.inp, values)
 
     _outputs_of = Master._exchange_some
 
@@ -71,9 +97,9 @@ class JacobiSampled(Jacobi):
         """The outputs right after the step; then every connection whose two ends' rates divide the base steps
         taken passes its value."""
         for i in done:
-            it = self.insts[i]
-            self._read(it)
-            self.history.push(it.output_slice, t, self.y[it.output_slice])
+            self._read(self.insts[i])
+        for sl in self.rates.ranges(done):
+            self.history.push(sl, t, self.y[sl])
         mask = self.rates.transfer_mask()
         self.u[mask] = self.factor[mask] * self.y[self.src[mask]] + self.offset[mask]
 

@@ -238,8 +238,7 @@ class Master:
                 self._set_point_inputs(it, values)
             values[it.output_slice] = it.fmu.get_list(it.out)
         y[:] = values
-        for k in which:
-            sl = insts[k].output_slice
+        for sl in self.rates.ranges(which):
             self.history.push(sl, t, y[sl])
 
     def _pass_discrete_rates(self) -> None:

@@ -91,6 +91,8 @@ class Rates:
         self.discrete_lcm = [math.lcm(self.r[index[id(link[0])]], self.r[index[id(link[2])]])
                              for link in master._discrete + master._discrete_chain]
         self.names = [it.name for it in insts]
+        self._slices = [it.output_slice for it in insts]
+        self._ranges: dict[tuple, list] = {}   # the signals of a set of instances, as few slices (cached per set)
 
     def start(self, start_ns: int) -> None:
         self.k = 0
@@ -119,6 +121,24 @@ class Rates:
         done = [i for i, end in enumerate(self.ends) if end == t_next_ns]
         self.fresh = {self.names[i] for i in done}
         return done
+
+    def ranges(self, which: list[int]) -> list[slice]:
+        """The entries of ``y`` of the instances ``which`` as the fewest slices (adjacent instances' slices
+        joined; cached per set)."""
+        key = tuple(which)
+        found = self._ranges.get(key)
+        if found is None:
+            found = []
+            for i in sorted(which):
+                sl = self._slices[i]
+                if sl.stop == sl.start:
+                    continue
+                if found and found[-1].stop == sl.start:
+                    found[-1] = slice(found[-1].start, sl.stop)
+                else:
+                    found.append(sl)
+            self._ranges[key] = found
+        return found
 
     def transfer_mask(self) -> np.ndarray:
         """The entries of ``u`` whose connection passes a value at this base step (libcosim's rule; always at

@@ -3,7 +3,8 @@
 The folder gets ``OspSystemStructure.xml``, each FMU (``<Model>.fmu``) and one ``<Model>_OspModelDescription.xml``
 per model, which libcosim finds beside the FMU.  In them:
 
-* every instance is a ``Simulator`` with its parameters as ``InitialValues`` and, when it has its own step
+* every instance is a ``Simulator`` with its parameters as ``InitialValues`` (and the start values of the inputs
+  the system leaves free on purpose, ``System.free_inputs``) and, when it has its own step
   (:mod:`harness.master.multirate`), its ``stepSize``;
 * every toolkit port of an FMU (``<port>.phi/.w/.tau`` or ``.s/.v/.f``) is an ``AngularMechanicalPort`` (a
   ``Torque`` and an ``AngularVelocity`` group) or ``LinearMechanicalPort`` (``Force``, ``LinearVelocity``) with
@@ -129,10 +130,15 @@ def structure_xml(system: System, sources: dict[str, str], mds: dict, stop_time:
         if inst.step is not None:
             attrs["stepSize"] = _number(inst.step)
         sim = ET.SubElement(sims, "Simulator", attrs)
-        if inst.parameters:
+        variables = {v.name: v for v in mds[inst.name].modelVariables}
+        values = dict(inst.parameters)
+        for ref in system.free_inputs:   # an input left free on purpose keeps its start value: said so explicitly
+            owner, _, name = ref.partition(".")
+            if owner == inst.name and name not in values and variables[name].start is not None:
+                values[name] = _start(variables[name])
+        if values:
             ivs = ET.SubElement(sim, "InitialValues")
-            variables = {v.name: v for v in mds[inst.name].modelVariables}
-            for name, value in inst.parameters.items():
+            for name, value in values.items():
                 ET.SubElement(ET.SubElement(ivs, "InitialValue", {"variable": name}),
                               *_typed(variables[name].type, value))
     functions = ET.Element("Functions")
@@ -179,6 +185,16 @@ def structure_xml(system: System, sources: dict[str, str], mds: dict, stop_time:
     if algorithm == "ecco":
         root.append(_ecco(exp))
     return root
+
+
+def _start(v):
+    """A variable's start value as the model description gives it, in its type."""
+    text = str(v.start)
+    if v.type == "Real":
+        return float(text)
+    if v.type == "Boolean":
+        return text.lower() in ("true", "1")
+    return text if v.type == "String" else int(text)
 
 
 def _typed(kind: str, value) -> tuple:
