@@ -120,6 +120,9 @@ class Experiment:
     # options of the variable-step control (harness.master.stepcontrol.StepOptions' fields by name, e.g. an OSP
     # EccoConfiguration's: harness.osp); None: the controller's defaults
     step_options: dict | None = None
+    # instance -> its own step as a whole multiple of this experiment's step (harness.master.multirate): taken by
+    # a run with this experiment's master and step; a run with another step or master steps every FMU at its step
+    rates: dict | None = None
 
 
 @dataclass

@@ -125,3 +125,13 @@ def test_an_ssp_keeps_each_instance_step(pair, tmp_path):
 
     back = load_ssp(export_ssp(_with_steps(pair, b=2 * H), tmp_path / "pair.ssp"))
     assert [(i.name, i.step) for i in back.instances] == [("a", None), ("b", 2 * H)]
+
+
+def test_an_experiments_rates_go_with_its_master_and_step(pair):
+    declared = replace(pair, experiment=replace(pair.experiment, master="jacobi", step=H, rates={"b": 2}))
+    assert simulate(declared, stop_time=STOP).attrs["rates"] == {"b": 2}
+    assert "rates" not in simulate(declared, stop_time=STOP, step=H / 2).attrs          # another step
+    assert "rates" not in simulate(declared, stop_time=STOP, master="gauss-seidel").attrs   # another master
+    wrong = replace(declared, experiment=replace(declared.experiment, rates={"c": 2}))
+    with pytest.raises(SystemDescriptionError, match="experiment rates c=2: must name an instance"):
+        simulate(wrong, stop_time=STOP)

@@ -30,6 +30,7 @@ Elements are written in the order libcosim's schema (``OspSystemStructure.xsd`` 
 from __future__ import annotations
 
 import shutil
+from dataclasses import replace
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
@@ -119,16 +120,20 @@ def structure_xml(system: System, sources: dict[str, str], mds: dict, stop_time:
         raise SystemDescriptionError(f"system {system.name}: no step to write as BaseStepSize (give the system a "
                                      f"default experiment with a step)")
     base = host_step(system)
-    rates_of(system.instances, int(round(base * NS)), f"export --format osp: system {system.name}")
+    steps = [replace(i, step=i.step if i.step is not None else (exp.rates or {}).get(i.name, 1) * exp.step)
+             for i in system.instances]
+    rates_of(steps, int(round(base * NS)), f"export --format osp: system {system.name}")
     ET.SubElement(root, "BaseStepSize").text = _number(base)
     if algorithm not in ("fixedStep", "ecco"):
         raise SystemDescriptionError(f"algorithm = {algorithm!r}: OSP's are fixedStep and ecco")
     ET.SubElement(root, "Algorithm").text = algorithm
     sims = ET.SubElement(root, "Simulators")
+    declared = {n: r * exp.step for n, r in (exp.rates or {}).items() if r > 1}   # the experiment's own rates
     for inst in system.instances:
         attrs = {"name": inst.name, "source": sources[inst.name]}
-        if inst.step is not None:
-            attrs["stepSize"] = _number(inst.step)
+        own = inst.step if inst.step is not None else declared.get(inst.name)
+        if own is not None:
+            attrs["stepSize"] = _number(own)
         sim = ET.SubElement(sims, "Simulator", attrs)
         variables = {v.name: v for v in mds[inst.name].modelVariables}
         values = dict(inst.parameters)

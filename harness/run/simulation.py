@@ -195,7 +195,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
                                      f"stop_time = {stop_time!r} s" if start_ns else
                                      f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
     sample_ns = _output_interval(output_interval, step, step_ns, step_control)
-    rates = rates_of(system.instances, step_ns, f"system {system.name}")   # each FMU at its own rate
+    rates = {**_declared_rates(system, master, step_ns), **rates_of(system.instances, step_ns,
+                                                                      f"system {system.name}")}   # own rates
     request = Checkpoint.of(checkpoint)
     resume = Resume(from_checkpoint) if from_checkpoint is not None else None
     cls = master_class(master)
@@ -253,7 +254,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
             settings = dict(master=cls.name, extrapolation=extra.order, step_ns=step_ns, step_control=controller.name,
                             tolerance=tolerance, start_ns=start_ns, sample_ns=sample_ns, output=list(rec.columns),
                             inputs=None if signals is None else [signals.names, signals_digest(signals)],
-                            options=repr((opts.iteration, opts.steps, opts.blowup, opts.divergence)))
+                            options=repr((opts.iteration, opts.steps, opts.blowup, opts.divergence)),
+                            rates=dict(rates))
             head = manifest(system, paths, settings, params)
             if resume is not None:
                 resume.check(head, stop_ns)
@@ -265,6 +267,20 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
                     info, system, signals, (writer, resume))
     finally:
         release(m, fmus)
+
+
+def _declared_rates(system, master: str, step_ns: int) -> dict:
+    """The rates of the system's experiment (``Experiment.rates``) when the run takes its master and step."""
+    exp = system.experiment
+    if exp is None or not exp.rates or master_class(master) is not master_class(exp.master) \
+            or step_ns != int(round(exp.step * NS)):
+        return {}
+    names = {i.name for i in system.instances}
+    for name, rate in exp.rates.items():
+        if name not in names or isinstance(rate, bool) or not isinstance(rate, int) or rate < 1:
+            raise SystemDescriptionError(f"system {system.name}: experiment rates {name}={rate!r}: must name an "
+                                         f"instance ({', '.join(sorted(names))}) with a whole number >= 1")
+    return {n: r for n, r in exp.rates.items() if r > 1}
 
 
 def _step_options(opts: RunOptions, exp):

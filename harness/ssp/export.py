@@ -167,7 +167,8 @@ def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] |
     if exp is not None:
         ET.SubElement(own, _q("pd:Experiment"), {k: str(v) for k, v in (
             ("master", exp.master), ("extrapolation", exp.extrapolation), ("stepControl", exp.step_control),
-            ("tolerance", exp.tolerance), ("step", _num(float(exp.step)) if exp.step else None)) if v is not None})
+            ("tolerance", exp.tolerance), ("step", _num(float(exp.step)) if exp.step else None),
+            ("rates", " ".join(f"{k}={v}" for k, v in exp.rates.items()) if exp.rates else None)) if v is not None})
     units_el = ET.SubElement(root, _q("ssd:Units"))
     for name in sorted(used_units):
         u = ET.SubElement(units_el, _q("ssc:Unit"), {"name": name})

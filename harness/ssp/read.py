@@ -591,5 +591,12 @@ class _Reader(Bindings):
             step = float(extra["step"])
         return Experiment(stop_time=float(stop) if stop is not None else None, step=step,
                           master=extra.get("master", "jacobi"), extrapolation=int(extra.get("extrapolation", 0)),
-                          step_control=extra.get("stepControl"),
+                          step_control=extra.get("stepControl"), rates=_rates(extra.get("rates")),
                           tolerance=float(extra["tolerance"]) if "tolerance" in extra else None, start_time=start)
+
+
+def _rates(text: str | None) -> dict | None:
+    """The experiment's rates as the toolkit's annotation writes them (``"trim=25 motor=2"``)."""
+    if not text:
+        return None
+    return {k: int(v) for k, v in (item.split("=", 1) for item in text.split())}
