@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 from harness.errors import SystemDescriptionError
-from benchmarks.peers import _libcosim, _libcosim_error, _split
+from benchmarks.peers import _libcosim, _libcosim_error, libcosim_targets
 
 NS_STRUCTURE = "http://opensimulationplatform.com/MSMI/OSPSystemStructure"
 
@@ -97,15 +97,7 @@ def run_osp_libcosim(path, stop_time: float, outputs: list, scenario=None) -> pd
             execution = execution_cls.from_osp_config_file(str(config))
         except AssertionError as e:
             raise _libcosim_error("load OspSystemStructure", f"{p}:") from e
-        slaves = {info.name.decode(): info.index for info in execution.slave_infos()}
-        refs = {i: {v.name.decode(): v.reference for v in execution.slave_variables(i)
-                    if v.type == enums.CosimVariableType.REAL.value} for i in slaves.values()}
-        targets = []
-        for column in outputs:
-            inst, var = _split(column, list(slaves))
-            if var not in refs[slaves[inst]]:
-                raise SystemDescriptionError(f"{inst}: no Real variable {var!r} to record")
-            targets.append((slaves[inst], refs[slaves[inst]][var]))
+        targets = libcosim_targets(execution, enums, outputs)
         observer = observer_cls.create_time_series(buffer_size=max_steps + 1)
         if not execution.add_observer(observer):
             raise _libcosim_error("add observer")

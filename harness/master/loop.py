@@ -226,20 +226,9 @@ class Master:
     def _exchange_some(self, t: float, which: list[int]) -> None:
         """:meth:`_exchange` restricted to the instances ``which`` (at a point of their own at ``t``): the others'
         outputs keep their last samples."""
-        chosen = set(which)
-        y = self.y
-        values = y.tolist()
-        insts = self.insts
-        for op, arg in self._plan:
-            if arg not in chosen:
-                continue
-            it = insts[arg]
-            if op == "visit":
-                self._set_point_inputs(it, values)
-            values[it.output_slice] = it.fmu.get_list(it.out)
-        y[:] = values
+        self._run_plan(self.rates.plan(self._plan, which), t)
         for sl in self.rates.ranges(which):
-            self.history.push(sl, t, y[sl])
+            self.history.push(sl, t, self.y[sl])
 
     def _pass_discrete_rates(self) -> None:
         """:meth:`_pass_discrete` under rates: only the connections whose two ends' rates both divide the base
@@ -413,10 +402,16 @@ class Master:
     def _exchange(self, t: float) -> None:
         """Consistent outputs at communication point t (the plan of :func:`exchange_plan`); pushes them to the
         history."""
+        self._run_plan(self._plan, t)
+        self.history.push_all(t, self.y)
+
+    def _run_plan(self, plan: list, t: float) -> None:
+        """Evaluate an exchange plan at ``t`` into ``y``: visit (set the point inputs of) and read each instance in
+        turn, solve each algebraic loop."""
         y = self.y
         values = y.tolist()
         insts = self.insts
-        for op, arg in self._plan:
+        for op, arg in plan:
             if op == "loop":
                 y[:] = values
                 self._solve_loop(arg, t)
@@ -427,7 +422,6 @@ class Master:
                 self._set_point_inputs(it, values)
             values[it.output_slice] = it.fmu.get_list(it.out)
         y[:] = values
-        self.history.push_all(t, y)
 
     def _solve_loop(self, group: list[int], t: float) -> None:
         """Resolve an algebraic loop among ``group`` at a communication point (iterative master)."""

@@ -122,6 +122,16 @@ class Rates:
         self.fresh = {self.names[i] for i in done}
         return done
 
+    def plan(self, plan: list, which: list[int]) -> list:
+        """The steps of an exchange plan (:func:`harness.master.coupling.exchange_plan`) that concern the instances
+        ``which`` (cached per set)."""
+        key = ("plan", tuple(which))
+        found = self._ranges.get(key)
+        if found is None:
+            chosen = set(which)
+            found = self._ranges[key] = [(op, arg) for op, arg in plan if isinstance(arg, int) and arg in chosen]
+        return found
+
     def ranges(self, which: list[int]) -> list[slice]:
         """The entries of ``y`` of the instances ``which`` as the fewest slices (adjacent instances' slices
         joined; cached per set)."""

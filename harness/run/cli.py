@@ -95,17 +95,18 @@ def register(subparsers) -> None:
                         "of its own: a crash or a hang inside one of its calls stops the run in one line naming "
                         "the instance, the FMI call and the time, and the rows computed so far are kept "
                         "(default: every FMU in this process)")
-    p.add_argument("--checkpoint", type=Path, default=None, metavar="FILE",
-                   help="write the whole run's state to FILE (every FMU's serialized state, the master's, the rows "
-                        "so far) at --checkpoint-at, and run on; `run SYSTEM --from-checkpoint FILE` continues from "
-                        "it, bit for bit (default: none)")
-    p.add_argument("--checkpoint-at", type=float, default=None, metavar="SECONDS",
-                   help="with --checkpoint: the time [s] (the first communication point at or after it; "
-                        "default: the stop time)")
-    p.add_argument("--from-checkpoint", type=Path, default=None, metavar="FILE",
-                   help="continue the run from a checkpoint FILE of the same system, toolkit and FMUs, with the "
-                        "same options (--set values that differ are set at its time); the result holds its rows "
-                        "and the new ones (default: start from the beginning)")
+    checkpoints = {   # option: (type, metavar, help)
+        "--checkpoint": (Path, "FILE", "write the whole run's state to FILE (every FMU's serialized state, the "
+                                       "master's, the rows so far) at --checkpoint-at, and run on; `run SYSTEM "
+                                       "--from-checkpoint FILE` continues from it, bit for bit (default: none)"),
+        "--checkpoint-at": (float, "SECONDS", "with --checkpoint: the time [s] (the first communication point at "
+                                              "or after it; default: the stop time)"),
+        "--from-checkpoint": (Path, "FILE", "continue the run from a checkpoint FILE of the same system, toolkit "
+                                            "and FMUs, with the same options (--set values that differ are set at "
+                                            "its time); the result holds its rows and the new ones (default: start "
+                                            "from the beginning)")}
+    for option, (kind, metavar, text) in checkpoints.items():
+        p.add_argument(option, type=kind, default=None, metavar=metavar, help=text)
     p.add_argument("--isolate-timeout", type=float, default=None, metavar="SECONDS",
                    help="with --isolate: the longest one FMU call may take before its process is killed and "
                         "the run stops (default: 60 s)")
