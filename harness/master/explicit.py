@@ -79,12 +79,12 @@ class JacobiSampled(Jacobi):
     refreshes_discrete = False
     _outputs_at = Master._read_all  # the outputs as they are right after the step, Real feed-through too
 
-    def use_rates(self, rates):
+    def use_rates(self, rates, step_ns=None):
         if self.extrapolation.order and any(r > 1 for r in rates.values()):
             raise SystemDescriptionError(f"master 'jacobi-sampled' holds each value a connection passed, as libcosim "
                                          f"does: with instances at their own rates it takes extrapolation 0, not "
                                          f"{self.extrapolation.order} (use master 'jacobi' to extrapolate)")
-        super().use_rates(rates)
+        super().use_rates(rates, step_ns)
 
     def _hold_starting(self, t, starting, steps):
         """libcosim's rule: each input holds the value its connection passed last (harness.master.multirate)."""

@@ -200,9 +200,9 @@ class Master:
         return DEPTH
 
     # -- each FMU at its own rate (harness.master.multirate) -----------------------------------------------------
-    def use_rates(self, rates: dict[str, int]) -> None:
-        """Step the instances of ``rates`` (name -> whole multiple of the base step, > 1) at their own rates;
-        the others at the base step.  A master that cannot (``multirate`` False) refuses in one line naming it and
+    def use_rates(self, rates: dict[str, int], step_ns: int | None = None) -> None:
+        """Step the instances of ``rates`` (name -> whole multiple of the base step ``step_ns``, > 1) at their own
+        rates; the others at the base step.  A master that cannot (``multirate`` False) refuses in one line naming it and
         the instances; no rate above 1 leaves the master as it was (the single-rate path, bit for bit)."""
         slow = {n: r for n, r in rates.items() if r > 1}
         if not slow:
@@ -212,7 +212,7 @@ class Master:
             listed = ", ".join(f"{n} (every {r} steps)" for n, r in slow.items())
             raise SystemDescriptionError(f"master {self.name!r} cannot step instances at their own rates: {listed}; "
                                          f"use one of {able}, or give every instance the base step")
-        self.rates = Rates(self, slow)
+        self.rates = Rates(self, slow, step_ns)
 
     @property
     def fresh(self) -> set | None:
@@ -452,10 +452,12 @@ class Master:
                 it.fmu.free_state(old[0][k])
             states.append(it.fmu.get_state())
         self._slots[slot] = (states, self.y.copy(), self.history.snapshot(), self.u.copy(),
-                             self.bond_log.copy(), self.t_ns)
+                             self.bond_log.copy(), self.t_ns, None if self.rates is None else self.rates.state())
 
     def restore(self, slot: str = "step") -> None:
-        states, y, hist, u, bonds, t_ns = self._slots[slot]
+        states, y, hist, u, bonds, t_ns, rates = self._slots[slot]
+        if rates is not None:
+            self.rates.set_state(rates)
         for it, s in zip(self.insts, states):
             it.fmu.set_state(s)
         self.y[:] = y
@@ -490,8 +492,11 @@ class Master:
         inputs and outputs."""
         t = start_ns / NS
         stop = stop_ns / NS if stop_ns is not None else None
-        for it in self.insts:
-            it.fmu.setup(t, stop, tolerance)
+        for i, it in enumerate(self.insts):
+            own = stop   # an instance at its own rate ends its last own step at or after the run's stop
+            if self.rates is not None and stop_ns is not None and self.rates.r[i] > 1 and self.rates.step_ns:
+                own = self.rates.stop_of(i, start_ns, stop_ns) / NS
+            it.fmu.setup(t, own, tolerance)
             for k, v in (parameters or {}).get(it.name, {}).items():
                 it.fmu.set_value(k, v)
         for it in self.insts:
@@ -565,8 +570,6 @@ class Master:
         Returns the time reached [ns]; the controller's ``next_ns`` is the step it proposes next."""
         observers = list(observers)
         t_ns = self.t_ns
-        if self.rates is not None:
-            self.rates.stop_ns = stop_ns
         refresh = inputs is not None and any(c.source.split(".", 1)[0] in inputs.instances
                                              for c in self.connections)
         completed = False

@@ -28,9 +28,10 @@ name) do with them:
 * Integer, Boolean, String and Enumeration connections pass at the base steps that are multiples of both
   ends' rates, under every master.
 
-Master time stays integer nanoseconds: an instance's step ends at ``t_ns + rate * h_ns`` (its last step is cut
-at the stop time, refused for an FMU that cannot vary its step).  The run's step control must be fixed: a
-variable step under rates is refused.
+Master time stays integer nanoseconds: an instance's step ends at ``t_ns + rate * h_ns``.  A slow instance's last
+step may reach past the stop time, as in libcosim: the run ends at its stop time, and the slow instance's values
+there are those of its last own point (its FMU is set up with the end of that step as its stop time).  The run's
+step control must be fixed: a variable step under rates is refused.
 """
 from __future__ import annotations
 
@@ -72,12 +73,12 @@ class Rates:
     time its current step ends (== the master's time: it is at a point of its own); ``fresh``: names of the
     instances at a point of their own at the master's time (the recorder reads only those)."""
 
-    def __init__(self, master, rates: dict[str, int]):
+    def __init__(self, master, rates: dict[str, int], step_ns: int | None = None):
         insts = master.insts
+        self.step_ns = step_ns   # the base step (None: not known; each FMU's stop time is then the run's)
         self.r = [int(rates.get(it.name, 1)) for it in insts]
         self.k = 0
         self.ends = [0] * len(insts)
-        self.stop_ns: int | None = None
         self.fresh = {it.name for it in insts}
         owner = np.empty(len(master.y), dtype=np.intp)   # instance of every entry of y
         for i, it in enumerate(insts):
@@ -103,17 +104,19 @@ class Rates:
         return [i for i, end in enumerate(self.ends) if end == t_ns]
 
     def begin(self, t_ns: int, h_ns: int) -> tuple[list[int], dict[int, int]]:
-        """The instances starting a step at ``t_ns`` and each one's step [ns]: ``rate * h_ns``, cut at the
-        stop time."""
+        """The instances starting a step at ``t_ns`` and each one's step [ns]: ``rate * h_ns``."""
         starting = self.starting(t_ns)
         steps = {}
         for i in starting:
-            h = self.r[i] * h_ns
-            if self.stop_ns is not None:
-                h = min(h, self.stop_ns - t_ns)
-            steps[i] = h
+            steps[i] = h = self.r[i] * h_ns
             self.ends[i] = t_ns + h
         return starting, steps
+
+    def stop_of(self, i: int, start_ns: int, stop_ns: int) -> int:
+        """The end of instance ``i``'s last own step of a run from ``start_ns`` to ``stop_ns`` [ns] (its FMU's stop
+        time: that step may reach past the run's)."""
+        own = self.r[i] * self.step_ns
+        return start_ns + -(-(stop_ns - start_ns) // own) * own
 
     def finish(self, t_next_ns: int) -> list[int]:
         """Count the base step; the instances whose step ends at ``t_next_ns``."""
@@ -161,10 +164,9 @@ class Rates:
 
     # -- checkpoints ---------------------------------------------------------------------------------------------
     def state(self) -> dict:
-        return {"k": self.k, "ends": list(self.ends), "fresh": sorted(self.fresh), "stop_ns": self.stop_ns}
+        return {"k": self.k, "ends": list(self.ends), "fresh": sorted(self.fresh)}
 
     def set_state(self, state: dict) -> None:
         self.k = int(state["k"])
         self.ends = [int(e) for e in state["ends"]]
         self.fresh = set(state["fresh"])
-        self.stop_ns = state["stop_ns"]

@@ -222,7 +222,7 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
             fmus[inst.name] = open_instance(paths[inst.name], inst.name, opts.logging, opts.in_process,
                                             isolate=opts.isolate)
         m = cls(fmus, connections, system.bonds, extra, opts.iteration, tolerance, opts.blowup)
-        m.use_rates(rates)
+        m.use_rates(rates, step_ns)
         if hasattr(signals, "attach"):   # a libcosim scenario acts on the master's coupling (harness.osp.scenario)
             signals.attach(m)
         controller = make_step_control(step_control, m, step_ns, tolerance, _step_options(opts, exp))
@@ -230,14 +230,10 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
             raise SystemDescriptionError(f"step_control = {controller.name!r} varies the step, but instances "
                                          f"{', '.join(rates)} step at their own rates (a whole multiple of a fixed "
                                          f"base step): use a fixed step, or give every instance the base step")
-        if not controller.variable:
+        if not controller.variable and (stop_ns - start_ns) % step_ns:
             for name, f in fmus.items():
-                own = rates.get(name, 1) * step_ns
-                if (stop_ns - start_ns) % own and not f.can_vary_step:
-                    raise SystemDescriptionError(f"stop_time = {stop_time!r} s is not a multiple of instance "
-                                                 f"{name}'s step {own / NS!r} s and it cannot take a shorter last "
-                                                 f"step" if own != step_ns else
-                                                 f"stop_time = {stop_time!r} s is not a multiple of step = {step!r} "
+                if not f.can_vary_step:
+                    raise SystemDescriptionError(f"stop_time = {stop_time!r} s is not a multiple of step = {step!r} "
                                                  f"s and instance {name} cannot take a shorter last step")
         n_rows = -(-(stop_ns - start_ns) // sample_ns) + 1 if not controller.variable else 1024
         rec = Recorder(m, output, n_rows)
