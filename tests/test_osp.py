@@ -284,3 +284,16 @@ def test_each_drive_exported_as_osp_meets_its_accuracy_in_libcosim_and_agrees_wi
     ref.attrs["complete"] = True
     checks = check(system, ref, reference(system, stop_time=spec.stop_time, step=spec.reference_step))
     assert all(c.ok for c in checks), "; ".join(f"{c.name} {c.error:.3g} of {c.tolerance:g}" for c in checks)
+
+
+def test_ecco_is_read_as_the_harness_ecco_step_control(fmu_dir, tmp_path):
+    out = export_osp(load("two_inertia").on_fmus(fmu_dir), tmp_path / "pair", algorithm="ecco")
+    text = out.read_text()
+    assert text.count('powerBond="a.flange-&gt;b.drive"') == 2 and "<EccoConfiguration>" in text
+    exp = load(out).experiment
+    assert exp.step_control == "ecco" and exp.master == "jacobi-sampled"
+    # the EccoConfiguration written from the harness's ECCO defaults (harness.master.stepcontrol.Ecco) comes back
+    assert exp.step_options == dict(safety=0.99, min_step=1e-6, max_step=0.1, min_factor=0.2, max_factor=1.5, kP=0.2,
+                                    kI=0.15, rtol=1e-4, atol=1e-4)
+    df = simulate(out, stop_time=0.05, master="jacobi", extrapolation=1)
+    assert df.attrs["complete"] and df.attrs["step_control"] == "ecco"

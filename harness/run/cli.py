@@ -18,7 +18,8 @@ from harness.run.simulation import RunOptions, partial_path, simulate, simulate_
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "run", help="run a system (name in systems/, a .py file defining SYSTEM, or .ssp/.ssd) and write its result",
+        "run", help="run a system (name in systems/, a .py file defining SYSTEM, .ssp/.ssd or an OspSystemStructure.xml) "
+                    "and write its result",
         description="Co-simulate a system and write the result as CSV or Parquet (time in s, one column per "
                     "Instance.variable). --out and --plot are checked before the run. A run that stops early "
                     "(divergence, FMU failure, Ctrl-C, SIGTERM) writes what it computed to OUT.partial.csv and "
@@ -27,7 +28,7 @@ def register(subparsers) -> None:
                     "those of harness.simulate(): --start-time is start_time, --set fills start_values, "
                     "--output is output, --input is input.")
     p.add_argument("system", help="system name in systems/ (e.g. bed_drive; `list` shows them), a .py file "
-                                  "defining SYSTEM, or an .ssp/.ssd file")
+                                  "defining SYSTEM, an .ssp/.ssd file or an OspSystemStructure.xml (or its folder)")
     p.add_argument("--start-time", type=float, default=None, metavar="SECONDS",
                    help="start time [s] (default: the system's default experiment, else 0)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",

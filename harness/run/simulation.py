@@ -247,6 +247,9 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
         writer = None
         if request is not None or resume is not None:
             refuse_unserializable(fmus, f"system {system.name}")
+            if hasattr(signals, "attach"):
+                raise SystemDescriptionError(f"system {system.name}: a checkpoint does not keep where a libcosim "
+                                             f"scenario is (its events run, its actions): run it from the start")
             settings = dict(master=cls.name, extrapolation=extra.order, step_ns=step_ns, step_control=controller.name,
                             tolerance=tolerance, start_ns=start_ns, sample_ns=sample_ns, output=list(rec.columns),
                             inputs=None if signals is None else [signals.names, signals_digest(signals)],

@@ -209,8 +209,9 @@ def _annotation(parent: ET.Element, kind: str) -> ET.Element:
 # CLI
 # --------------------------------------------------------------------------------------------------------
 def register(subparsers) -> None:
-    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included) or as one "
-                                             "co-simulation FMU (.fmu)",
+    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included), as one "
+                                             "co-simulation FMU (.fmu) or as OSP's OspSystemStructure.xml "
+                                             "(--format osp)",
                               description="Write a system as an SSP 1.0 archive (OUT.ssp: its FMUs, their "
                                           "connections and parameter values) for other FMI/SSP tools, or as one "
                                           "co-simulation FMU of the whole drive (OUT.fmu: its FMUs inside, run by "
