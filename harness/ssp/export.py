@@ -236,7 +236,7 @@ def register(subparsers) -> None:
 
 
 def _run_export(args) -> int:
-    from harness import load
+    from harness.run import load
 
     suffix = Path(args.out).suffix.lower()
     if args.format == "osp":
