@@ -62,8 +62,10 @@ MUTATIONS = (
     Mutation("explicit-factor", "Gauss-Seidel drops a connection's factor where it sets a feed-through FMU's "
              "inputs again at t + h (no test saw it: the new chain test does)",
              "harness/master/explicit.py",
-             "it.fmu.set(it.inp, it.factor * self.extrapolation.value(self.history, it.src, t_next) + it.offset)",
-             "it.fmu.set(it.inp, self.extrapolation.value(self.history, it.src, t_next) + it.offset)",
+             "coupling drops to first order\n"
+             "                it.fmu.set(it.inp, it.factor * self.extrapolation.value(self.history, it.src, t_next)",
+             "coupling drops to first order\n"
+             "                it.fmu.set(it.inp, self.extrapolation.value(self.history, it.src, t_next)",
              ("tests/test_harness_masters.py", "-k", "wherever_along_a_chain")),
     Mutation("quantity-rms", "the motor's RMS torque computed as the mean absolute torque",
              "harness/reporting/quantities.py", "return math.sqrt(_time_mean(t, x * x, on))",
