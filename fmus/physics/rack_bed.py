@@ -133,7 +133,7 @@ class RackBedModel(EndStop, Model):
             return math.inf
         w_mesh = math.sqrt(p.c_mesh / p.m_T)
         rate = (p.d_mesh + p.d_visc + (self.F_coulomb + p.F_print) / p.v_reg) / p.m_T
-        limit = min(0.25 / w_mesh, 0.5 / rate)
+        limit = min(0.25 / w_mesh, 0.5 / rate if rate > 0.0 else math.inf)   # a bed without damping or friction
         return min(limit, self.stop_substep(p.m_T, p.c_mesh, p.d_mesh + p.d_visc)) if self.has_stop else limit
 
     def initial_state(self, u):
