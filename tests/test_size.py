@@ -86,3 +86,37 @@ def test_sizing_on_a_dask_cluster_gives_the_serial_answer_from_the_same_runs():
     assert spread.runs == serial.runs and spread.answer == serial.answer and spread.message == serial.message
     assert spread.verifying.equals(serial.verifying)
     assert spread.verifying.attrs["quantities"]["motor_torque_rms_to_rated"] == serial.verified
+
+
+@pytest.mark.parametrize("op, q_lo, q_hi, upward", [
+    ("<=", 3.0, 2.0, True),     # met at neither end, the quantity falls as the parameter rises: the answer above
+    ("<=", 2.0, 3.0, False),    # met at neither, rising: below
+    ("<=", 0.3, 0.2, False),    # met at both, falling: the boundary (where it gets worse) below
+    ("<=", 0.2, 0.3, True),     # met at both, rising: above
+    (">=", 3.0, 2.0, True),     # met at both (>= 1), falling: worse above
+    (">=", 0.3, 0.2, False),    # met at neither, falling: better below
+    ("<=", 2.0, 2.0, None),     # flat: no way to widen
+])
+def test_the_default_bracket_widens_towards_the_answer(op, q_lo, q_hi, upward):
+    from harness.studies.size import _outward
+
+    assert _outward(parse_target(f"q {op} 1"), q_lo, q_hi) is upward
+
+
+@pytest.mark.slow
+def test_a_target_outside_the_default_bracket_is_found_by_widening_it():
+    """The trimmer's motor_torque_rms / rated torque falls as 1 / P_rated (its motor is an ideal speed source): a
+    target a tenth of the drive's value lies at ten times its rating, outside the default bracket (a quarter to
+    four times it); the bracket widens to sixteen times and finds P0 r0 / target (closed form), and says so."""
+    from harness import simulate
+    from harness.studies.size import _current
+
+    system = load("trimmer_conveyor")
+    p0 = _current(system, "motor.P_rated")
+    r0 = simulate(system, stop_time=1.2).attrs["quantities"]["motor_torque_rms_to_rated"]
+    found = size(system, "motor.P_rated", f"motor_torque_rms_to_rated <= {r0 / 10!r}", xtol=1e-4, stop_time=1.2)
+    assert found.answer == pytest.approx(10 * p0, rel=2e-3)
+    assert found.bracket == pytest.approx((4 * p0, 16 * p0)) and "the bracket widened from" in found.message
+    beyond = size(system, "motor.P_rated", f"motor_torque_rms_to_rated <= {r0 / 100!r}", stop_time=1.2)
+    assert beyond.answer is None and max(beyond.runs) == pytest.approx(64 * p0)    # the stated limit
+    assert f"in [{p0 / 4:g}, {64 * p0:g}] meets" in beyond.message

@@ -131,13 +131,13 @@ def jam_rows(system, scenario, df, spec, row, loads) -> None:
     why = ("" if t_b is not None else
            f"not blocked within the run (to t = {t[-1]:.4g} s): the main shaft does not stay at rest for {hold:g} s "
            + ("(the tool rebounds off the end stop, which cannot pull: a catch, stop_catch = 1, holds it)"
-              if not model.p.stop_catch else "(it still rings)"))
+              if not model.p.stop_catch else "(the drive still swings against the held tool)"))
     row("blocked_time", None if t_b is None else t_b - t_j, "s",
         f"from the jam until the main shaft stays at rest ({rest}, seen for {hold:g} s): the drive blocked", why)
     if t_b is None and t[-1] - t_j >= hold:
         end = t >= t[-1] - hold
         row("speed_swing_at_end", float(np.max(np.abs(w[end]))) / RPM, "rpm",
-            f"largest |main-shaft speed| over the run's last {hold:g} s: the drive, held at the tool, still swings")
+            f"largest |main-shaft speed| over the run's last {hold:g} s: the drive has not come to rest")
     force, unit = ("stop_torque", "N.m") if rotation else ("stop_force", "N")
     after = t >= t_j
     row(f"{force}_peak", float(np.max(np.abs(load[after]))), unit,
