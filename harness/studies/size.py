@@ -460,7 +460,9 @@ def register(subparsers) -> None:
     p.add_argument("--target", required=True, metavar="'QUANTITY <= VALUE'",
                    help="the engineering quantity's target (names as `run` prints them)")
     p.add_argument("--range", nargs=2, type=float, default=None, metavar=("LOW", "HIGH"),
-                   help="the bracket searched (default: a quarter and four times the drive's value)")
+                   help="the bracket searched, as given (default: a quarter and four times the drive's value, "
+                        "widened four times further on the answer's side where the target holds at both ends or at "
+                        "neither, up to 64 times the drive's value either way)")
     p.add_argument("--xtol", type=float, default=1e-3, metavar="SHARE",
                    help="the answer's tolerance as a share of the bracket (default 1e-3)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
