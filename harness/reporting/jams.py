@@ -9,9 +9,9 @@ component's own law (:meth:`~fmus.physics.contact.EndStop.stop_load`) at the rec
 names (``stop_signals``), with the catch's memory from the coordinate's history.  With t_j the instant the tool
 reaches the stop (after the stop was set; linear interpolation) and w_j the main shaft's speed then:
 
-* ``jam_time`` [s], ``speed_at_jam`` [rpm];
+* ``jam_time`` [s], ``speed_at_jam`` [rpm] (at the last point before it);
 * ``time_to_block`` [s]: from t_j to the main shaft's first standstill (|w| <= 1 % of its speed when the stop
-  was set, the band of the run's own watch); ``blocked_time`` [s]: from t_j until it stays there (seen for the
+  was set, the band of the run's own watch, or its first zero: :func:`first_standstill`); ``blocked_time`` [s]: from t_j until it stays there (seen for the
   hold, 0.25 s), the drive blocked; None with the reason where the run does not get there (a tool that rebounds
   off an end stop that cannot pull; a drive that keeps swinging against the held tool), and then
   ``speed_swing_at_end`` [rpm], the largest |w| over the run's last hold;
@@ -49,8 +49,10 @@ def stops_set(system, scenario) -> list[tuple[str, float, float]]:
     return list(out.values())
 
 
-def stop_model(system, df, instance: str, stiffness: float):
-    """The instance's model (:mod:`fmus.physics`) with the run's parameters and the stop's ``stiffness``."""
+def stop_model(system, scenario, df, instance: str, stiffness: float):
+    """The instance's model (:mod:`fmus.physics`) with the run's parameters (its start values, else the
+    scenario's, else the drive's; a result without start values, e.g. the monolithic reference's, takes the
+    scenario's) and the stop's ``stiffness``."""
     from fmus.build import catalog
     from harness.model import model_name
     from harness.reporting.quantities import parameter
@@ -58,6 +60,11 @@ def stop_model(system, df, instance: str, stiffness: float):
     name = model_name(system.instance(instance).fmu)
     cls = getattr(importlib.import_module(f"fmus.components.{catalog()[name].stem}"), name).model
     values = {s.name: parameter(system, df, instance, s.name) for s in cls.Params.specs()}
+    given = df.attrs.get("start_values") or {}
+    for ref, value in scenario.parameters:
+        inst, _, name = ref.partition(".")
+        if inst == instance and ref not in given and name in values:
+            values[name] = value
     values["stop_stiffness"] = stiffness
     return cls(cls.Params.from_mapping({k: v for k, v in values.items() if v is not None}))
 
@@ -73,6 +80,20 @@ def stop_series(model, df, instance: str, t: np.ndarray, t_set: float) -> tuple[
     caught = np.maximum.accumulate((pen > 0.0) & (t >= t_set)) if model.p.stop_catch else np.zeros(t.size, bool)
     load = np.array([model.stop_load(a, b, float(c)) if k >= t_set else 0.0 for a, b, c, k in zip(q, v, caught, t)])
     return pen, load
+
+
+def first_standstill(t: np.ndarray, w: np.ndarray, start: int, band: float) -> float | None:
+    """The first instant at or after sample ``start`` at which the speed is at rest: |w| reaches ``band``
+    (:func:`harness.reporting.stops.first_inside`) or w changes sign between two samples (the zero crossing,
+    linear interpolation), whichever comes first: a tool stopped dead rings on its stop faster than the samples,
+    so its speed may cross zero between two points outside the band."""
+    inside = first_inside(t, w, start, band)
+    flips = np.flatnonzero(np.sign(w[start + 1:]) * np.sign(w[start:-1]) < 0)
+    if not flips.size:
+        return inside
+    k = start + int(flips[0])
+    crossing = float(t[k] + w[k] / (w[k] - w[k + 1]) * (t[k + 1] - t[k]))
+    return crossing if inside is None else min(inside, crossing)
 
 
 def held_mean(x: np.ndarray) -> float:
@@ -91,7 +112,7 @@ def jam_rows(system, scenario, df, spec, row, loads) -> None:
             "instance's stop_stiffness above 0 in its parameters or changes)")
         return
     instance, stiffness, t_set = found[0]
-    model = stop_model(system, df, instance, stiffness)
+    model = stop_model(system, scenario, df, instance, stiffness)
     series = stop_series(model, df, instance, t, t_set)
     if series is None:
         row("jam_time", None, "s", "instant the tool reaches the stop", f"the result lacks {instance}'s "
@@ -99,8 +120,7 @@ def jam_rows(system, scenario, df, spec, row, loads) -> None:
         return
     pen, load = series
     q_name = f"{instance}.{model.stop_signals[0]}"
-    units = df.attrs.get("units", {})
-    q_unit = units.get(q_name, "")
+    q_unit = next(s.unit for s in type(model.p).specs() if s.name == "stop_position")
     rotation = q_unit == "rad"
     where = f"{q_name} at {model.p.stop_position:.6g} {q_unit}".rstrip()
     k_set = int(np.searchsorted(t, t_set, side="left"))
@@ -117,15 +137,15 @@ def jam_rows(system, scenario, df, spec, row, loads) -> None:
     k = k_set + int(past[0])
     t_j = float(t[k]) if k == 0 else float(t[k - 1] + (0.0 - pen[k - 1]) / (pen[k] - pen[k - 1]) * (t[k] - t[k - 1]))
     w = df[spec.shaft_speed].to_numpy(dtype=float)
-    w_j, w_set = float(np.interp(t_j, t, w)), float(np.interp(t_set, t, w))
+    w_j, w_set = float(w[max(k - 1, 0)]), float(np.interp(t_set, t, w))
     row("jam_time", t_j, "s", f"instant the tool reaches the stop ({where}, set at t = {t_set:g} s)")
-    row("speed_at_jam", w_j / RPM, "rpm", "main-shaft speed when the tool reaches the stop")
+    row("speed_at_jam", w_j / RPM, "rpm", "main-shaft speed at the last point before the tool reaches the stop")
     band = BAND * abs(w_set)     # as the run's own watch (harness.run.settling): the speed when the stop was set
     rest = f"|w| <= {100 * BAND:g} % of its speed when the stop was set ({band / RPM:.3g} rpm)"
     hold = scenario.settle_hold if scenario.settle_hold is not None else HOLD
-    t_s = first_inside(t, w, k, band) if band else None
-    row("time_to_block", None if t_s is None else t_s - t_j, "s",
-        f"from the jam to the main shaft's first standstill ({rest})",
+    t_s = first_standstill(t, w, k, band) if band else None
+    row("time_to_block", None if t_s is None else max(t_s - t_j, 0.0), "s",
+        f"from the jam to the main shaft's first standstill ({rest}, or its speed's first zero)",
         "" if t_s is not None else f"the main shaft does not come to rest within the run (to t = {t[-1]:.4g} s)")
     t_b = settled_at(t, w, k, band, hold) if t_s is not None else None
     why = ("" if t_b is not None else
