@@ -101,8 +101,8 @@ def test_without_a_stop_the_components_step_as_before():
                           RackBedModel(RackBedParams(stop_position=1e6)).advance(0.0, 1e-3, x, (0.3, 2.0))[:2])
     shaft = ParallelShaftsModel(ParallelShaftsParams())
     shaft_far = ParallelShaftsModel(ParallelShaftsParams(stop_stiffness=1e6, **far))
-    x = shaft.initial_state((0.0, 0.0, 0.0))
-    assert np.array_equal(shaft.advance(0.0, 5e-5, x, (3.0, -2.0, 0.0)), shaft_far.advance(0.0, 5e-5, x, (3.0, -2.0, 0.0)))
+    x, u = shaft.initial_state((0.0, 0.0, 0.0)), (3.0, -2.0, 0.0)
+    assert np.array_equal(shaft.advance(0.0, 5e-5, x, u), shaft_far.advance(0.0, 5e-5, x, u))
 
 
 def test_the_blocked_knife_drive_holds_the_stalled_motor():

@@ -283,9 +283,10 @@ class ParallelShaftsModel(EndStop, Model):
             dissipation = self.b1 * (q1d * q1d + q2d * q2d) + p.belt_damping * qbd * qbd
         if self.has_stop:                # the stop's elastic energy, and the power its damping takes
             energy = self.stop_energy(x[2], x[6])
-            if energy > 0.0:
+            if energy > 0.0:             # the damping's share of the stop's load, times the knife's speed
+                elastic = p.stop_stiffness * self.stop_penetration(x[2])
                 potential += energy
-                dissipation += (-self.stop_load(x[2], x[3], x[6]) - p.stop_stiffness * self.stop_penetration(x[2])) * x[3]
+                dissipation += (-self.stop_load(x[2], x[3], x[6]) - elastic) * x[3]
         return (x[0], x[1], x[2], x[3], x[2], x[3], torque, q1, q2, qb, kinetic, potential, dissipation)
 
     def output_jacobian(self, t, x, u):

@@ -7,14 +7,14 @@ the run was asked to be.
 The stop's load is not an output of the FMU (a default run's columns stay those without a stop): it is the
 component's own law (:meth:`~fmus.physics.contact.EndStop.stop_load`) at the recorded coordinate and rate it
 names (``stop_signals``), with the catch's memory from the coordinate's history.  With t_j the instant the tool
-reaches the stop (after the stop was set; linear interpolation) and w_j the main shaft's speed then:
+reaches the stop (after the stop was set; linear interpolation) and w_j the main shaft's speed just before:
 
 * ``jam_time`` [s], ``speed_at_jam`` [rpm] (at the last point before it);
 * ``time_to_block`` [s]: from t_j to the main shaft's first standstill (|w| <= 1 % of its speed when the stop
-  was set, the band of the run's own watch, or its first zero: :func:`first_standstill`); ``blocked_time`` [s]: from t_j until it stays there (seen for the
-  hold, 0.25 s), the drive blocked; None with the reason where the run does not get there (a tool that rebounds
-  off an end stop that cannot pull; a drive that keeps swinging against the held tool), and then
-  ``speed_swing_at_end`` [rpm], the largest |w| over the run's last hold;
+  was set, the band of the run's own watch, or its first zero: :func:`first_standstill`); ``blocked_time``
+  [s]: from t_j until it stays there (seen for the hold, 0.25 s), the drive blocked; None with the reason where
+  the run does not get there (a tool that rebounds off an end stop that cannot pull; a drive that keeps swinging
+  against the held tool), and then ``speed_swing_at_end`` [rpm], the largest |w| over the run's last hold;
 * ``stop_force_peak`` (``stop_torque_peak`` on a rotation): the largest load of the stop on the tool from t_j on;
   ``stop_force_held``: the stop's load on the blocked drive (its mean over the hold after blocked, Hann-weighted:
   :func:`held_mean`), and ``motor_torque_held``, the motor's then (its stall torque, which the drive's torque
