@@ -73,35 +73,7 @@ typedef struct {
 #define PRESSDRIVE_EXPORTER "pythonfmu"
 #endif
 
-/* ---------------------------------------------------------------------------------------- configuration */
-static char cfg_version[32], cfg_libpython[PATH_MAX], cfg_home[PATH_MAX], cfg_path[8 * PATH_MAX];
-
-static void strip(char *s) {
-    size_t n = strlen(s);
-    while (n && (s[n - 1] == '\n' || s[n - 1] == '\r' || s[n - 1] == ' ')) s[--n] = 0;
-}
-
-static void read_config(const char *file) {
-    FILE *f = fopen(file, "r");
-    char line[8 * PATH_MAX + 32];
-    if (!f) return;
-    while (fgets(line, sizeof line, f)) {
-        char *eq = strchr(line, '=');
-        if (!eq) continue;
-        *eq = 0;
-        strip(eq + 1);
-        if (!strcmp(line, "version")) snprintf(cfg_version, sizeof cfg_version, "%s", eq + 1);
-        else if (!strcmp(line, "libpython")) snprintf(cfg_libpython, sizeof cfg_libpython, "%s", eq + 1);
-        else if (!strcmp(line, "home")) snprintf(cfg_home, sizeof cfg_home, "%s", eq + 1);
-        else if (!strcmp(line, "path")) snprintf(cfg_path, sizeof cfg_path, "%s", eq + 1);
-    }
-    fclose(f);
-}
-
-static const char *setting(const char *env, const char *recorded) {
-    const char *v = getenv(env);
-    return (v && *v) ? v : recorded;
-}
+#include "pressdrive_python.c"        /* the Python the FMU runs on: found, started, checked */
 
 /* ------------------------------------------------------------------------------------------ the wrapper */
 #ifndef PRESSDRIVE_FMI3
@@ -147,6 +119,8 @@ static struct {
     const char *(*utf8)(PyObject *);
     void (*decref)(PyObject *);
     int (*callable)(PyObject *);
+    PyObject *(*dict_item)(PyObject *, const char *);
+    PyObject *(*call_function)(PyObject *, const char *, ...);
     int bound;
 } api;
 
@@ -185,102 +159,57 @@ static void clear_wrapper_state_first_at_exit(void *symbol) {
     if (clear) atexit(clear);
 }
 
-static int file_exists(const char *p) {
-    struct stat st;
-    return p && *p && stat(p, &st) == 0;
-}
+/* the FMU's root folder (<root>/binaries/<platform>/X.so) and this binary's folder */
+static char self[PATH_MAX], root[PATH_MAX], bindir[PATH_MAX];
 
-/* append s to a Python single-quoted literal in out */
-static void py_literal(char *out, size_t n, const char *s) {
-    size_t k = strlen(out);
-    if (k + 2 >= n) return;
-    out[k++] = '\'';
-    for (; *s && k + 4 < n; s++) {
-        if (*s == '\'' || *s == '\\') out[k++] = '\\';
-        out[k++] = *s;
-    }
-    out[k++] = '\'';
-    out[k] = 0;
-}
-
-/* Python present and initialised, then the wrapper loaded; 0 on success, else err holds one line. */
-static int prepare(char *err, size_t n) {
+static int locate(char *err, size_t n) {
     Dl_info info;
-    char self[PATH_MAX], root[PATH_MAX], wrapper[PATH_MAX], config[PATH_MAX + 64];
-    if (!dladdr((void *)&prepare, &info) || !info.dli_fname || !realpath(info.dli_fname, self)) {
+    if (!dladdr((void *)&locate, &info) || !info.dli_fname || !realpath(info.dli_fname, self)) {
         snprintf(err, n, "pressdrive loader: cannot find its own file");
         return -1;
     }
     snprintf(root, sizeof root, "%s", self);
-    for (int i = 0; i < 3; i++) { /* <root>/binaries/linux64/X.so */
+    for (int i = 0; i < 3; i++) {
         char *d = dirname(root);
         memmove(root, d, strlen(d) + 1);
+        if (i == 0) snprintf(bindir, sizeof bindir, "%s", root);
     }
+    return 0;
+}
+
+/* Python present, of an allowed version and initialised (pressdrive_python.c); 0, else err holds one line. */
+static int prepare(char *err, size_t n) {
+    char config[PATH_MAX + 64], chosen[2 * PATH_MAX + 64];
+    enum origin origin;
+    if (locate(err, n) != 0) return -1;
     snprintf(config, sizeof config, "%s/resources/pressdrive_python.txt", root);
     read_config(config);
-    const char *libpython = setting("PRESSDRIVE_LIBPYTHON", cfg_libpython);
-    const char *home = setting("PRESSDRIVE_PYTHONHOME", cfg_home);
-    const char *path = setting("PRESSDRIVE_PYTHONPATH", cfg_path);
-
-    void *py = RTLD_DEFAULT;
-    if (!dlsym(RTLD_DEFAULT, "Py_IsInitialized")) {
-        if (!file_exists(libpython)) {
-            snprintf(err, n, "the Python environment this FMU was built for is gone: no libpython at '%s' "
-                     "(set PRESSDRIVE_LIBPYTHON to a libpython%s, PRESSDRIVE_PYTHONHOME and PRESSDRIVE_PYTHONPATH "
-                     "to an environment with numpy, scipy and " PRESSDRIVE_EXPORTER ")", libpython, cfg_version);
-            return -1;
-        }
-        py = dlopen(libpython, RTLD_NOW | RTLD_GLOBAL);
-        if (!py) {
-            snprintf(err, n, "cannot load libpython '%s' (%s); set PRESSDRIVE_LIBPYTHON", libpython, dlerror());
-            return -1;
-        }
-    }
+    if (!cfg.minimum[0]) snprintf(cfg.minimum, sizeof cfg.minimum, "%s", cfg.version);
+    void *py = find_python(bindir, chosen, sizeof chosen, &origin, err, n);
+    if (!py) return -1;
     python = py;
     const char *(*get_version)(void) = (const char *(*)(void))dlsym(py, "Py_GetVersion");
     int (*is_initialized)(void) = (int (*)(void))dlsym(py, "Py_IsInitialized");
     if (!get_version || !is_initialized) {
-        snprintf(err, n, "'%s' is not a libpython (no Py_GetVersion); set PRESSDRIVE_LIBPYTHON", libpython);
+        snprintf(err, n, "%s is not a libpython (no Py_GetVersion)", chosen);
         return -1;
     }
-    const char *version = get_version();
-    size_t lv = strlen(cfg_version);
-    if (lv && (strncmp(version, cfg_version, lv) != 0 || version[lv] != '.')) {
-        snprintf(err, n, "this FMU was built for Python %s, the process runs Python %.20s", cfg_version, version);
+    char version[32];
+    snprintf(version, sizeof version, "%s", get_version());
+    version[strcspn(version, " ")] = 0;
+    if (version_number(version) < version_number(cfg.minimum)) {
+        snprintf(err, n, "this FMU needs Python %s or newer; the Python of %s is %s: %s", cfg.minimum, chosen,
+                 version, origin == FROM_HOST ? "run it from a newer Python (e.g. a virtualenv of Python 3.12 with "
+                 "fmpy)" : "set PRESSDRIVE_LIBPYTHON to the libpython of a newer Python");
         return -1;
     }
-    if (!is_initialized()) {
-        if (!file_exists(home)) {
-            snprintf(err, n, "the Python environment this FMU was built for is gone: no Python home '%s' "
-                     "(set PRESSDRIVE_PYTHONHOME)", home);
-            return -1;
-        }
-        wchar_t *(*decode)(const char *, size_t *) = (wchar_t *(*)(const char *, size_t *))dlsym(py, "Py_DecodeLocale");
-        void (*set_home)(const wchar_t *) = (void (*)(const wchar_t *))dlsym(py, "Py_SetPythonHome");
-        void (*init)(int) = (void (*)(int))dlsym(py, "Py_InitializeEx");
-        int (*run)(const char *) = (int (*)(const char *))dlsym(py, "PyRun_SimpleString");
-        void *(*save_thread)(void) = (void *(*)(void))dlsym(py, "PyEval_SaveThread");
-        if (!decode || !set_home || !init || !run || !save_thread) {
-            snprintf(err, n, "libpython '%s' lacks the embedding API", libpython);
-            return -1;
-        }
-        static wchar_t *whome; /* must outlive the interpreter */
-        whome = decode(home, NULL);
-        set_home(whome);
-        init(0);
-        static char script[16 * PATH_MAX];
-        snprintf(script, sizeof script, "import site, sys\nfor _p in ");
-        py_literal(script, sizeof script, path);
-        strncat(script, ".split(':'):\n    if _p: site.addsitedir(_p)\nimport " PRESSDRIVE_EXPORTER "\n",
-                sizeof script - strlen(script) - 1);
-        int rc = run(script);
-        save_thread();
-        if (rc != 0) {
-            snprintf(err, n, "the Python environment this FMU was built for is gone or incomplete: importing "
-                     PRESSDRIVE_EXPORTER " from '%s' failed (traceback on stderr; set PRESSDRIVE_PYTHONPATH)", path);
-            return -1;
-        }
-    }
+    if (!is_initialized() && start_python(py, origin, bindir, chosen, err, n) != 0) return -1;
+    return 0;
+}
+
+/* the exporter's wrapper, shipped next to this binary as <modelIdentifier>_<exporter>.so, loaded and resolved */
+static int load_wrapper(char *err, size_t n) {
+    char wrapper[PATH_MAX + 32];
     snprintf(wrapper, sizeof wrapper, "%s", self);
     size_t k = strlen(wrapper);
     if (k > 3 && !strcmp(wrapper + k - 3, ".so")) wrapper[k - 3] = 0;
@@ -308,7 +237,8 @@ static int bind_api(void) {
     BIND(size, "PySequence_Size") BIND(item, "PySequence_GetItem") BIND(as_double, "PyFloat_AsDouble")
     BIND(occurred, "PyErr_Occurred") BIND(fetch, "PyErr_Fetch") BIND(clear, "PyErr_Clear")
     BIND(str, "PyObject_Str") BIND(utf8, "PyUnicode_AsUTF8") BIND(decref, "Py_DecRef")
-    BIND(callable, "PyCallable_Check")
+    BIND(callable, "PyCallable_Check") BIND(dict_item, "PyDict_GetItemString")
+    BIND(call_function, "PyObject_CallFunction")
 #undef BIND
     api.bound = 1;
     return 1;
@@ -456,6 +386,38 @@ done:
     return rc;
 }
 
+/* resources/pressdrive_check.py (fmus/hostcheck.py): what the FMU's code needs, checked in the Python found by
+ * prepare() before the wrapper runs any of it: "" when everything is there, else one line for err.  The script runs
+ * in a namespace of its own (runpy.run_path), so nothing of it stays in the host's modules. */
+static int run_check(char *err, size_t n) {
+    char script[PATH_MAX + 64], resources[PATH_MAX + 16];
+    snprintf(script, sizeof script, "%s/resources/pressdrive_check.py", root);
+    snprintf(resources, sizeof resources, "%s/resources", root);
+    if (!file_exists(script)) return 0;   /* an FMU without its check (not built by this toolkit's build) */
+    if (!bind_api()) {
+        snprintf(err, n, "the Python of this process lacks a function of its C API the loader calls");
+        return -1;
+    }
+    int rc = -1, g = api.gil_ensure();
+    PyObject *runpy = api.import("runpy"), *ns = NULL, *answer = NULL;
+    if (runpy) ns = api.call_method(runpy, "run_path", "s", script);
+    PyObject *check = ns ? api.dict_item(ns, "check") : NULL;   /* borrowed */
+    if (check) answer = api.call_function(check, "s", resources);
+    const char *text = answer ? api.utf8(answer) : NULL;
+    if (!text) {
+        char why[512];
+        python_error(why, sizeof why);
+        snprintf(err, n, "this FMU's check of its Python (resources/pressdrive_check.py) failed: %s", why);
+    } else if (*text) {
+        snprintf(err, n, "%s", text);
+    } else {
+        rc = 0;
+    }
+    decref(answer); decref(ns); decref(runpy);
+    api.gil_release(g);
+    return rc;
+}
+
 /* Python and the wrapper ready, once per process (either FMI version's instantiation calls it): 0 when ready,
  * else -1 with the reason in err; ``step``: where prepare() puts the wrapper's doStep symbol (read after it,
  * for clear_wrapper_state_first_at_exit) */
@@ -464,7 +426,7 @@ static int ensure_ready(char *err, size_t n, void *const *step) {
     pthread_mutex_lock(&lock);
     if (!ready) {
         err[0] = 0;
-        if (prepare(err, n) != 0) {
+        if (prepare(err, n) != 0 || run_check(err, n) != 0 || load_wrapper(err, n) != 0) {
             rc = -1;
         } else {
             clear_wrapper_state_first_at_exit(*step);
