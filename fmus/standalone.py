@@ -40,26 +40,49 @@ FOLDER = "python"     # binaries/<platform>/python
 # the C library's own libraries: every Linux machine has them, in the version of its C library
 SYSTEM = ("libc.so", "libm.so", "libpthread.so", "libdl.so", "librt.so", "libutil.so", "ld-linux", "linux-vdso",
           "libgcc_s.so", "libstdc++.so")
-# parts of numpy an FMU never runs: tests, headers, build and typing tools
-NUMPY_SKIPPED = {"tests", "f2py", "distutils", "_pyinstaller", "include", "lib", "doc", "typing", "testing"}
+# parts of numpy an FMU never runs (where a module of the FMU imports one of them, it still goes in): its tests,
+# its build tools, its typing stubs and the SIMD test module
+NUMPY_SKIPPED = {"tests", "f2py", "distutils", "_pyinstaller", "typing", "testing"}
+NUMPY_SKIPPED_FILES = {"_simd"}
 _ANALYSE = r'''
 import glob, json, os, runpy, sys, tempfile, zipfile
+from xml.etree import ElementTree as ET
 resources, check = sys.argv[1], sys.argv[2]
 names = json.loads(sys.stdin.read())
 kept = []
 message = runpy.run_path(check)["check"](resources)
 for member in sorted(glob.glob(os.path.join(resources, "members", "*.fmu"))):
     kept.append(tempfile.TemporaryDirectory(prefix="pressdrive_member_"))
-    where = kept[-1].name
     with zipfile.ZipFile(member) as z:
-        z.extractall(where)
-    own = os.path.join(where, "resources")
+        z.extractall(kept[-1].name)
+    own = os.path.join(kept[-1].name, "resources")
     sys.path.insert(0, own)
     with open(os.path.join(own, "slavemodule.txt")) as f:
         __import__(f.readline().strip())
 for name in names:
     try:
         __import__(name)
+    except Exception:
+        pass
+# the slave run as its wrapper runs it, a few calls of each kind, whatever they answer: what it imports lazily
+root = ET.parse(os.path.join(os.path.dirname(resources), "modelDescription.xml")).getroot()
+de = root.find("DefaultExperiment")
+h = float(de.get("stepSize", "1e-3")) if de is not None else 1e-3
+with open(os.path.join(resources, "slavemodule.txt")) as f:
+    module = sys.modules[f.readline().strip()]
+try:
+    slave = getattr(module, root.get("modelName"))(instance_name="analysis", resources=resources, logger=None,
+                                                   visible=False)
+except Exception:
+    slave = None
+calls = [] if slave is None else [lambda: slave.setup_experiment(0.0), slave.enter_initialization_mode,
+                                  slave.exit_initialization_mode]
+calls += [] if slave is None else [lambda: [v.getter() for v in slave.vars.values() if v.getter is not None],
+                                   lambda: slave.do_step(0.0, h), lambda: slave.do_step(h, h),
+                                   slave._get_fmu_state, slave.terminate]
+for call in calls:
+    try:
+        call()
     except Exception:
         pass
 files = {n: getattr(m, "__file__", None) for n, m in list(sys.modules.items())}
@@ -158,21 +181,21 @@ def _needed_libraries(files: list[Path]) -> list[Path]:
 
 
 def _numpy_files(files: dict[str, str]) -> list[tuple[Path, str]]:
-    """(file, path under site-packages) of numpy's subpackages the FMU imports, and its wheel's libraries."""
+    """(file, path under site-packages) of numpy (:data:`NUMPY_SKIPPED` left out, unless the FMU imports it) and
+    its wheel's libraries."""
     import numpy
 
     top = Path(numpy.__file__).resolve().parent
     site_dir = top.parent
-    packages = {Path(f).resolve().parent for n, f in files.items() if n.split(".")[0] == "numpy"}
-    out = []
-    for pkg in sorted(packages):
-        for f in sorted(pkg.iterdir()):
-            if f.is_file() and f.suffix in (".py", ".so"):
-                out.append((f, str(f.relative_to(site_dir))))
+    imported = {Path(f).resolve() for n, f in files.items() if n.split(".")[0] == "numpy"}
+    # numpy whole but for its tests and tools: it imports its subpackages on first use of an attribute
+    # (np.ctypeslib, np.random, ...), which no import statement of the FMU's code names
+    out = [(f, str(f.relative_to(site_dir))) for f in sorted(top.rglob("*"))
+           if f.is_file() and f.suffix in (".py", ".so") and f.name.split(".")[0] not in NUMPY_SKIPPED_FILES]
     libs = site_dir / "numpy.libs"
     if libs.is_dir():
         out += [(f, str(f.relative_to(site_dir))) for f in sorted(libs.iterdir()) if f.is_file()]
-    return [(f, rel) for f, rel in out if not (set(Path(rel).parts) & NUMPY_SKIPPED)]
+    return [(f, rel) for f, rel in out if f in imported or not (set(Path(rel).parts) & NUMPY_SKIPPED)]
 
 
 def runtime(fmi_version: int, files: dict[str, str], cache: Path | None = None) -> tuple[Carried, Path]:
@@ -192,6 +215,8 @@ def runtime(fmi_version: int, files: dict[str, str], cache: Path | None = None) 
         p = Path(f).resolve()
         if p.is_relative_to(stdlib) and "site-packages" not in p.parts:
             chosen.append((p, f"lib/python{version}/{p.relative_to(stdlib)}"))
+    # every codec: the interpreter looks one up by the name of the machine's locale (the file system's encoding)
+    chosen += [(f, f"lib/python{version}/encodings/{f.name}") for f in sorted((stdlib / "encodings").glob("*.py"))]
     chosen += [(f, f"lib/python{version}/site-packages/{rel}") for f, rel in _numpy_files(files)]
     chosen = sorted(set(chosen), key=lambda x: x[1])
     extensions = [f for f, _ in chosen if f.suffix == ".so"]

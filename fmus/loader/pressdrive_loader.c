@@ -37,6 +37,7 @@
 #include <libgen.h>
 #include <limits.h>
 #include <pthread.h>
+#include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -139,6 +140,103 @@ static size_t n_derivatives = 0, cap_derivatives = 0;
 static void log_error(const fmi2CallbackFunctions *cb, fmi2String instance, const char *msg) {
     if (cb && cb->logger) cb->logger(cb->componentEnvironment, instance, 3, "logStatusError", "%s", msg);
     else fprintf(stderr, "%s: %s\n", instance ? instance : "pressdrive FMU", msg);
+}
+#endif
+
+/* -------------------------------------------------------------- the logger between the wrapper and the host */
+/* pythonfmu's wrappers report a Python exception through the host's logger with a NULL category (cppfmu's
+ * PyLogger): a host that makes a string of it dies there (OMSimulator 3.0: "terminate called after throwing an
+ * instance of 'std::logic_error': basic_string: construction from null", measured on a drive FMU whose
+ * initialisation raised).  And with the host's debug logging off they pass nothing on, errors included (FMPy's
+ * simulate_fmu then says "fmi2ExitInitializationMode failed" and no more).  So the wrapper gets this loader's
+ * logger, always with logging on, and the loader hands the host one "%s" line per message, with the instance
+ * name, the category (the status's own where the wrapper gave none) and the text never NULL and on one line:
+ * every warning and error, and the rest only while the host asked for debug logging.  One Shim per instance holds
+ * the host's callbacks, from instantiation to fmi*FreeInstance. */
+typedef struct Shim {
+    void *instance;                               /* the wrapper's instance (NULL while it is being made) */
+    int host_logging;                             /* the host's debug logging (fmi*Instantiate, fmi*SetDebugLogging) */
+    struct Shim *next;
+    fmi2CallbackFunctions host2, mine2;           /* FMI 2.0: the host's callbacks, and the wrapper's copy */
+    void *env3, *log3, *update3;                  /* FMI 3.0: the host's environment, logger, intermediate update */
+} Shim;
+
+static Shim *shims = NULL;
+
+static const char *status_category(int status) {
+    static const char *names[] = {"logAll", "logStatusWarning", "logStatusDiscard", "logStatusError",
+                                  "logStatusFatal", "logStatusPending"};
+    return status >= 0 && status <= 5 ? names[status] : "logAll";
+}
+
+static Shim *new_shim(void) {
+    Shim *s = calloc(1, sizeof *s);
+    if (!s) return NULL;
+    pthread_mutex_lock(&lock);
+    s->next = shims, shims = s;
+    pthread_mutex_unlock(&lock);
+    return s;
+}
+
+/* the instance the wrapper made with this shim (NULL: it made none, the shim goes) */
+static void bind_shim(Shim *s, void *instance) {
+    if (!s) return;
+    pthread_mutex_lock(&lock);
+    s->instance = instance;
+    pthread_mutex_unlock(&lock);
+}
+
+/* the host's debug logging of ``instance``, recorded (the wrapper keeps logging everything) */
+static void host_logging(void *instance, int on) {
+    pthread_mutex_lock(&lock);
+    for (Shim *p = shims; p; p = p->next)
+        if (p->instance == instance) p->host_logging = on;
+    pthread_mutex_unlock(&lock);
+}
+
+/* the message as one line of text; 0 when the host does not want it (a debug message with its logging off) */
+static int shim_text(const Shim *s, int status, char *text) {
+    for (char *c = text; *c; c++)
+        if (*c == '\n' || *c == '\r') *c = ' ';
+    return status > 0 || !s || s->host_logging;
+}
+
+static void drop_shim(void *instance) {
+    Shim *gone = NULL;
+    pthread_mutex_lock(&lock);
+    for (Shim **p = &shims; *p; p = &(*p)->next)
+        if ((*p)->instance == instance) { gone = *p; *p = gone->next; break; }
+    pthread_mutex_unlock(&lock);
+    free(gone);
+}
+
+#ifndef PRESSDRIVE_FMI3
+static void shim_logger2(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String category,
+                         fmi2String message, ...) {
+    Shim *s = env;
+    char text[8192];
+    va_list ap;
+    va_start(ap, message);
+    vsnprintf(text, sizeof text, message ? message : "", ap);
+    va_end(ap);
+    if (!shim_text(s, status, text)) return;
+    if (s && s->host2.logger)
+        s->host2.logger(s->host2.componentEnvironment, name ? name : "", status,
+                        category ? category : status_category(status), "%s", text);
+    else
+        fprintf(stderr, "%s: %s\n", name ? name : "pressdrive FMU", text);
+}
+
+/* the callbacks the wrapper gets for an instance: the host's, with this loader's logger (NULL: out of memory) */
+static Shim *shim2(const fmi2CallbackFunctions *host, int logging) {
+    Shim *s = host ? new_shim() : NULL;
+    if (!s) return NULL;
+    s->host_logging = logging;
+    s->host2 = *host;
+    s->mine2 = *host;
+    s->mine2.logger = shim_logger2;
+    s->mine2.componentEnvironment = s;
+    return s;
 }
 #endif
 
@@ -451,9 +549,12 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
         return NULL;
     }
     clear_offer();
+    Shim *shim = shim2(functions, loggingOn);
     fmi2Component c = ((fmi2Component (*)(fmi2String, fmi2Type, fmi2String, fmi2String, const fmi2CallbackFunctions *,
                                           fmi2Boolean, fmi2Boolean))p_fmi2Instantiate)(
-        instanceName, fmuType, guid, resourceLocation, functions, visible, loggingOn);
+        instanceName, fmuType, guid, resourceLocation, shim ? &shim->mine2 : functions, visible, shim ? 1 : loggingOn);
+    bind_shim(shim, c);
+    if (!c) drop_shim(NULL);
     keep_offer(c, instanceName, functions, NULL, NULL);
     return c;
 }
@@ -461,11 +562,17 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
 #define FWD(name, params, args) \
     EXPORT fmi2Status name params { return ((fmi2Status (*) params)p_##name) args; }
 
-FWD(fmi2SetDebugLogging, (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cats[]), (c, on, n, cats))
+/* recorded for the loader's logger; the wrapper keeps logging every category (see "the logger between ...") */
+EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cats[]) {
+    host_logging(c, on);
+    return ((fmi2Status (*)(fmi2Component, fmi2Boolean, size_t, const fmi2String *))p_fmi2SetDebugLogging)(
+        c, 1, on ? n : 0, on ? cats : NULL);
+}
 EXPORT void fmi2FreeInstance(fmi2Component c) {
     if (!c || !p_fmi2FreeInstance) return;
     drop_offer(c);
     ((void (*)(fmi2Component))p_fmi2FreeInstance)(c);
+    drop_shim(c);
 }
 FWD(fmi2SetupExperiment, (fmi2Component c, fmi2Boolean tolDef, fmi2Real tol, fmi2Real t0, fmi2Boolean stopDef, fmi2Real t1),
     (c, tolDef, tol, t0, stopDef, t1))

@@ -44,6 +44,12 @@ def system_of(spec: dict, members: str) -> System:
 
 
 
+def _reason(err: Exception) -> str:
+    """An error as one line: the harness's own as it says it, anything else with its type."""
+    text = " ".join(str(err).split())
+    return text if isinstance(err, HarnessError) else f"{type(err).__name__}: {text}"
+
+
 class _CounterRises(Observer):
     """The instant each event counter the drive offers (``<counter>.rise_time``) last rose, on the drive's own
     steps: at every accepted point the counter compared with its value at the previous one."""
@@ -227,9 +233,9 @@ class DriveBehaviour:
             m = master_class(e["master"])(self._fmus, system.all_connections(mds), system.bonds,
                                           make_extrapolation(e["extrapolation"]))
             m.initialize(int(round(start * NS)), None if stop is None else int(round(stop * NS)), tol, params)
-        except HarnessError as err:
+        except Exception as err:   # a member's refusal, or the machine's (a member that cannot be unpacked): one line
             self._release()
-            self._fail(f"initialization failed: {' '.join(str(err).split())}")
+            self._fail(f"initialization failed: {_reason(err)}")
         self._master, self._dirty = m, False
         return m
 
@@ -269,8 +275,8 @@ class DriveBehaviour:
         try:
             # the master's one loop, in the drive's own steps; each counter's last rise read at every one
             m.run(FixedStep(self._step_ns), end, observers=(_CounterRises(self),))
-        except HarnessError as err:
-            self._fail(f"t = {m.t_ns / NS:.9g} s: {' '.join(str(err).split())}")
+        except Exception as err:
+            self._fail(f"t = {m.t_ns / NS:.9g} s: {_reason(err)}")
         return True
 
     @classmethod
