@@ -2,8 +2,8 @@
 
     python colleague_fmpy.py jobs.json results.json
 
-jobs.json: a list of {"fmu", "stop", "step", "fmi_type"}; results.json: per FMU file name, its result as
-{column: [values]} or {"error": one line}.  The builder runs this same file with its own Python, the colleague with
+jobs.json: a list of {"fmu", "stop", "step", "fmi_type"}; results.json: per FMU (its path in jobs.json), its result
+as {column: [values]} or {"error": one line}, and under "_versions" the Python and numpy that ran them.  The builder runs this same file with its own Python, the colleague with
 theirs (a virtualenv of another Python version with nothing but fmpy), so the two are compared value for value.
 Standard library and fmpy only: the colleague has nothing else.  A script, not a test module.
 """
@@ -17,7 +17,9 @@ from fmpy import simulate_fmu
 def main(jobs_file: str, results_file: str) -> None:
     with open(jobs_file, encoding="utf-8") as f:
         jobs = json.load(f)
-    out = {}
+    import numpy
+
+    out = {"_versions": {"python": sys.version.split()[0], "numpy": numpy.__version__}}
     for job in jobs:
         try:
             r = simulate_fmu(job["fmu"], stop_time=job["stop"], step_size=job["step"], output_interval=job["step"],

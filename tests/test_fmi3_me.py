@@ -51,10 +51,8 @@ RTOL = 1e-10        # CVODE's relative tolerance in fmpy
 CONVERGED_LIMIT = 1e-2   # a converged ME run against a co-simulation run with unlocated or coarse events
 
 @pytest.fixture(scope="module")
-def me_dir(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("fmus3me")
-    assert build_fmus.main(["--fmi-version", "3", "--model-exchange", "--out", str(out)]) == 0, "build failed"
-    return out
+def me_dir(fmu3me_dir) -> Path:
+    return fmu3me_dir
 
 
 def _md(fmu: Path) -> ET.Element:
