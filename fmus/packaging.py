@@ -198,6 +198,10 @@ def finish(fmu: Path, fmi_version: int, loader: Path | None, carried: Carried | 
                 zout.writestr(zin.getinfo(n), md)
             elif n != "documentation/index.html":
                 zout.writestr(zin.getinfo(n), data)
+                if carried is not None and n.startswith("resources/") and n.endswith(".py"):
+                    from fmus.standalone import compiled, compiled_name   # the carried Python's own .pyc
+
+                    zout.writestr(compiled_name(n), compiled(data, n.removeprefix("resources/")))
         zout.writestr("resources/pressdrive_python.txt", python_config(carried))
         zout.writestr("resources/requirements.txt", requirements(extra))
         zout.write(HERE / "hostcheck.py", f"resources/{CHECK}")

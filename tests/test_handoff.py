@@ -212,7 +212,7 @@ def non_python_hosts(c_hosts, work: Path) -> dict:
         platform = "linux64" if version == 2 else "x86_64-linux"
         me = [] if md.coSimulation is not None else ["me"]
         token = md.guid if version == 2 else md.instantiationToken
-        return [f"./fmi{version}_host", f"{folder}/binaries/{platform}/{Path(fmu).stem.split('_')[0]}.so",
+        return [f"./fmi{version}_host", f"{folder}/binaries/{platform}/{model_identifier(md)}.so",
                 f"{folder}/resources", token, str(steps), repr(h), "", outputs, *me]
 
     hosts = {"c host": c_host}
@@ -228,6 +228,10 @@ def non_python_hosts(c_hosts, work: Path) -> dict:
             "./fmusim", "--stop-time", repr(steps * h), "--output-interval", repr(h), "--output-file",
             f"{fmu}.fmusim.csv", fmu]
     return hosts
+
+
+def model_identifier(md) -> str:
+    return (md.coSimulation or md.modelExchange).modelIdentifier
 
 
 def unpacked(fmu: Path) -> Path:

@@ -1,0 +1,200 @@
+"""Issue 58, hosts without Python: standalone FMUs (``build_fmus.py --standalone``, ``harness export DRIVE X.fmu
+--standalone``) carry the builder's Python and numpy, trimmed to what the FMU imports, and run on a machine with no
+Python at all (tests/colleague.py, python="none") in every host without Python at hand: the toolkit's C hosts
+(FMI 2.0, FMI 3.0 co-simulation and model exchange), OMSimulator's command line (FMI 2.0 and 3.0 co-simulation:
+it refuses FMI 3.0 model exchange, "Unsupported FMI version: 3") and fmusim where installed (``PRESSDRIVE_FMUSIM``
+or ``fmusim`` on PATH; tests/test_handoff.py).  Each run equals the FMU's run on the builder's machine, FMPy's
+(model exchange: its forward Euler at the C host's step), to 1e-9 of max(|y|, 1) at every communication point
+(the hosts' time doubles differ, and OMSimulator writes 12 digits, as in tests/test_hosts.py).
+
+The default run takes one FMU of each kind (FMI 2.0, FMI 3.0 co-simulation, FMI 3.0 model exchange, a drive as
+FMI 2.0 and 3.0); the slow suite takes every FMU the toolkit writes.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import colleague
+from test_handoff import MACHINE, _check_documented, model_identifier, non_python_hosts, unpacked
+
+ROOT = Path(__file__).resolve().parents[1]
+STEPS, STEP = 20, 1e-3
+ONE_OF_EACH = {"fmi2": ("cam_rocker",), "fmi3": ("gear_sectors",), "fmi3me": ("fourbar",), "drives": ("bed_drive",)}
+EVERY = {"fmi2": None, "fmi3": None, "fmi3me": None,
+         "drives": ("bed_drive", "feeder_gto52", "proof_press", "spine_knife", "trimmer_conveyor")}
+VARIANTS = {"fmi2": ["--fmi-version", "2"], "fmi3": ["--fmi-version", "3"],
+            "fmi3me": ["--fmi-version", "3", "--model-exchange"]}
+
+
+def build_standalone(fmu_dir: Path, out: Path, which: dict) -> dict[str, int]:
+    """The standalone FMUs of ``which`` (variant -> declarations, None: all; "drives" -> drive names) built into
+    ``out``: file name -> FMI version."""
+    from fmus import build as build_fmus
+    from harness import load
+    from harness.export.drive_fmu import export_fmu
+
+    from fmus.standalone import unavailable
+
+    reason = unavailable()
+    if reason:
+        pytest.skip(reason)
+    made = {}
+    for variant, flags in VARIANTS.items():
+        folder = out / variant
+        only = ["--only", *which[variant]] if which[variant] else []
+        assert build_fmus.main([*flags, "--standalone", "--no-validate", "--out", str(folder), *only]) == 0
+        for f in sorted(folder.glob("*.fmu")):
+            made[f"{variant}_{f.name}"] = 2 if variant == "fmi2" else 3
+            f.rename(out / f"{variant}_{f.name}")
+    for name in which["drives"]:
+        for version in (2, 3):
+            export_fmu(load(name).on_fmus(fmu_dir), out / f"drive{version}_{name}.fmu", fmi_version=version,
+                       standalone=True)
+            made[f"drive{version}_{name}.fmu"] = version
+    return made
+
+
+def outputs_of(fmu: Path) -> str:
+    from fmpy import read_model_description
+
+    return ",".join(str(v.valueReference) for v in read_model_description(str(fmu)).modelVariables
+                    if v.causality == "output")
+
+
+def colleague_runs(work: Path, made: dict, hosts: dict) -> dict:
+    """Each FMU in each host on the colleague's machine without any Python: (host, FMU) -> {column: final value}
+    (the C hosts' printed outputs, by name) or {column: [values]} (the others' result files)."""
+    import csv
+
+    from fmpy import read_model_description
+
+    out = {}
+    for fmu, version in made.items():
+        unpacked(work / fmu)
+        names = {str(v.valueReference): v.name for v in read_model_description(str(work / fmu)).modelVariables}
+        for host, argv in hosts.items():
+            if host == "OMSimulator" and "fmi3me_" in fmu:
+                continue   # OMSimulator 3.0's command line: "Unsupported FMI version: 3" for model exchange
+            r = colleague.run(argv(fmu, version, STEPS, STEP, outputs_of(work / fmu)), work, python="none")
+            text = r.stdout + r.stderr
+            assert r.returncode == 0 and "error" not in text.lower(), (host, fmu, text[-2000:])
+            if host == "c host":
+                out[host, fmu] = {names[vr]: float(v) for vr, v in (line.split() for line in r.stdout.splitlines()
+                                                                      if not line.startswith("LOG"))}
+                continue
+            result = work / f"{fmu}.{'oms' if host == 'OMSimulator' else 'fmusim'}.csv"
+            with open(result, newline="") as f:
+                rows = list(csv.reader(f, skipinitialspace=True))
+            result.unlink()
+            # OMSimulator writes each communication point twice (before and after the input update): the last counts
+            last = {float(row[0]): row for row in rows[1:]}
+            out[host, fmu] = {c: [float(last[t][k]) for t in sorted(last)] for k, c in enumerate(rows[0])
+                              if c != "time" or k == 0}
+    return out
+
+
+def check_standalone(fmu_dir: Path, c_hosts: dict, work: Path, which: dict) -> None:
+    """Build ``which`` standalone, run each FMU in every host without Python on a machine without Python, and
+    compare with FMPy's run of the same FMU on the builder's machine (model exchange: FMPy's forward Euler at the
+    C host's step)."""
+    if MACHINE:
+        pytest.skip(MACHINE)
+    made = build_standalone(fmu_dir, work, which)
+    theirs = colleague_runs(work, made, non_python_hosts(c_hosts, work))
+    jobs = [{"fmu": f, "stop": STEPS * STEP, "step": STEP, "fmi_type": "ModelExchange" if "fmi3me_" in f else None,
+             "solver": "Euler"} for f in made]
+    (work / "jobs.json").write_text(json.dumps(jobs))
+    shutil.copy2(ROOT / "tests" / "colleague_fmpy.py", work)
+    r = subprocess.run([sys.executable, "colleague_fmpy.py", "jobs.json", "fmpy.json"], cwd=work, capture_output=True,
+                       text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-1500:]
+    fmpy = json.loads((work / "fmpy.json").read_text())
+    hosts = {host for host, _ in theirs}
+    for fmu in made:
+        builder = fmpy[fmu]
+        assert "error" not in builder, builder
+        ran = [h for h in sorted(hosts) if (h, fmu) in theirs]
+        assert len(ran) >= min(len(hosts), 1 if "fmi3me_" in fmu else 2), (fmu, ran)
+        for host in ran:
+            compared = [c for c in theirs[host, fmu] if c in builder and c != "time"]
+            assert len(compared) >= 2, (host, fmu, sorted(theirs[host, fmu])[:5])   # every output FMPy recorded
+            for column in compared:
+                value = theirs[host, fmu][column]
+                want = builder[column] if isinstance(value, list) else builder[column][-1]
+                assert np.shape(value) == np.shape(want), (host, fmu, column)
+                diff = float(np.max(np.abs(np.array(value) - np.array(want))))
+                assert diff <= 1e-9 * max(float(np.max(np.abs(want))), 1.0), (host, fmu, column, value, want)
+
+
+@pytest.mark.interop
+def test_one_standalone_fmu_of_each_kind_runs_without_any_python(fmu_dir, c_hosts, tmp_path):
+    """One FMU of each kind (module docstring) in every host without Python at hand, on a machine without any
+    Python: the builder's output byte for byte, and the C hosts' FMPy's to 1e-9."""
+    check_standalone(fmu_dir, c_hosts, tmp_path, ONE_OF_EACH)
+
+
+@pytest.mark.slow
+@pytest.mark.interop
+def test_every_standalone_fmu_runs_without_any_python(fmu_dir, c_hosts, tmp_path):
+    """The 14 components as FMI 2.0, FMI 3.0 co-simulation and model exchange, the five drives as FMI 2.0 and 3.0:
+    every one standalone, as the default test checks one of each kind."""
+    check_standalone(fmu_dir, c_hosts, tmp_path, EVERY)
+
+
+def test_a_standalone_fmu_carries_its_python_trimmed_and_says_so(fmu_dir, tmp_path):
+    """What the FMU carries: the builder's libpython, the standard library it imports (no tkinter, unittest,
+    asyncio or test package), numpy without its tests, the libraries the extension modules need; a loader that
+    links no libpython (no undefined Py symbol); documentation that says it carries Python, needsExecutionTool
+    false; fmpy's validation passes."""
+    from fmpy.validation import validate_fmu
+
+    made = build_standalone(fmu_dir, tmp_path, {"fmi2": ("gain",), "fmi3": ("gain",), "fmi3me": ("gain",),
+                                                "drives": ()})
+    version = f"{sys.version_info.major}.{sys.version_info.minor}"
+    for fmu, fmi_version in made.items():
+        path = tmp_path / fmu
+        assert validate_fmu(str(path)) == [], fmu
+        _check_documented(path, fmi_version, standalone=True)
+        platform = "linux64" if fmi_version == 2 else "x86_64-linux"
+        with zipfile.ZipFile(path) as z:
+            names = z.namelist()
+            config = dict(line.split("=", 1) for line in z.read("resources/pressdrive_python.txt").decode().splitlines())
+        carried = f"binaries/{platform}/python/"
+        assert config["standalone"] == "python" and f"{carried}lib/{config['soname']}" in names
+        assert all(f"{carried}lib/{lib}" in names for lib in config["preload"].split())
+        stdlib = {n.removeprefix(f"{carried}lib/python{version}/").split("/")[0] for n in names
+                  if n.startswith(f"{carried}lib/python{version}/")}
+        assert {"os.py", "encodings", "json", "site-packages", "lib-dynload"} <= stdlib
+        assert not {"tkinter", "unittest", "asyncio", "test", "idlelib", "ensurepip"} & stdlib
+        assert not [n for n in names if "/numpy/" in n and "/tests/" in n]
+        from fmpy import read_model_description
+
+        loader = unpacked(path) / "binaries" / platform / f"{model_identifier(read_model_description(str(path)))}.so"
+        undefined = subprocess.run(["nm", "-D", "--undefined-only", str(loader)], capture_output=True, text=True)
+        assert undefined.returncode == 0 and " Py" not in undefined.stdout, undefined.stdout
+
+
+def test_a_python_that_cannot_be_carried_is_refused_in_one_line(monkeypatch, capsys, tmp_path):
+    """A Python built without a shared libpython (--enable-shared) cannot be carried: build_fmus says so in one
+    line and builds nothing; the CLI refuses --standalone for an SSP in one line."""
+    import sysconfig
+
+    from fmus import build as build_fmus
+
+    real = sysconfig.get_config_var
+    monkeypatch.setattr(sysconfig, "get_config_var", lambda name: 0 if name == "Py_ENABLE_SHARED" else real(name))
+    assert build_fmus.main(["--standalone", "--only", "gain", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "built without --enable-shared" in err[0] and not list(tmp_path.iterdir())
+    monkeypatch.undo()
+    r = subprocess.run([sys.executable, "-m", "harness", "export", "two_inertia", str(tmp_path / "x.ssp"),
+                        "--standalone"], capture_output=True, text=True, cwd=ROOT)
+    assert r.returncode != 0 and "--standalone applies to a drive FMU (.fmu)" in r.stderr, r.stderr[-800:]
