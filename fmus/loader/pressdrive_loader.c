@@ -3,19 +3,20 @@
  * pythonfmu's stock wrapper needs the symbols of libpython but does not link it, so it loads only into a
  * process that already runs Python.  This small library stands in front of it (built by fmus/build.py):
  *
- *   - on the first fmi2Instantiate it makes sure Python is there: if the host has no Python symbols, it
- *     dlopen()s the libpython recorded at build time (resources/pressdrive_python.txt, overridable by
- *     PRESSDRIVE_LIBPYTHON) with RTLD_GLOBAL; if Python is not initialised, it sets the recorded home
- *     (PRESSDRIVE_PYTHONHOME), initialises it without signal handlers, adds the recorded site folders
- *     (PRESSDRIVE_PYTHONPATH, ':'-separated) with site.addsitedir, imports pythonfmu from there and
- *     releases the GIL (the wrapper takes it with PyGILState_Ensure on every call, from any thread);
+ *   - on the first fmi2Instantiate it makes sure a Python of an allowed version is there and started
+ *     (pressdrive_python.c: the host's own; a standalone FMU's own interpreter; PRESSDRIVE_LIBPYTHON; the
+ *     builder's libpython where it still is; any libpython3.x the dynamic linker finds), then checks in it what
+ *     the FMU's code needs (resources/pressdrive_check.py, fmus/hostcheck.py: requirements.txt and the FMU's own
+ *     module) before any model code runs;
  *   - it then loads pythonfmu's wrapper, shipped next to it as <modelIdentifier>_pythonfmu.so, with
- *     RTLD_LOCAL and forwards every fmi2* call to it;
- *   - if that environment is gone it logs one fmi2Error line through the host's FMI logger, naming what is
- *     missing and the variable to set, and fmi2Instantiate returns NULL.
+ *     RTLD_LOCAL and forwards every fmi2* call to it, with its own logger between the wrapper and the host
+ *     ("the logger between the wrapper and the host" below: no NULL string reaches the host, warnings and
+ *     errors pass with debug logging off);
+ *   - when a piece is missing it logs one fmi2Error line through the host's FMI logger (whether or not debug
+ *     logging is on), naming what is missing and how to supply it, and fmi2Instantiate returns NULL.
  *
- * A host that already runs Python (FMPy, libcosimpy, ecospy, the harness) is left alone: Python is found
- * initialised and nothing but the forwarding happens.
+ * A host that already runs Python (FMPy, libcosimpy, ecospy, the harness) keeps its Python: the loader only
+ * checks its version and the FMU's needs in it, then forwards.
  *
  * Directional derivatives: pythonfmu's wrappers answer fmi2GetDirectionalDerivative (fmi3...) "not supported".
  * The loader answers them itself from the slave: a toolkit slave, while the wrapper constructs it, offers its

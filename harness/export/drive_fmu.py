@@ -8,7 +8,7 @@ the same declarations as the component FMUs (``fmus/build.py``):
 * its code is the slave plus the harness modules it imports, under names unique to this build
   (``harness_<hash>``, like the component FMUs' ``fmus_<hash>``), so two versions load side by side;
 * ``resources/members/<Model>.fmu``: the member FMUs, run in the host's Python by the in-process path;
-* the host loader goes in front of pythonfmu's wrapper (``fmus.build.add_loader``), so hosts without Python
+* the host loader goes in front of pythonfmu's wrapper (``fmus.build.finish``), so hosts without Python
   (OMSimulator's command line) load it as they load the component FMUs;
 * its interface: every member parameter as ``Instance.parameter`` with the drive's value as start value, unit
   and description (Real ones settable before initialisation, ``fixed``; the Integer ones, fidelities, laws,
