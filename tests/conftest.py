@@ -58,7 +58,7 @@ def drive_fmus(fmu_dir, tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def c_hosts(tmp_path_factory) -> dict:
-    """tests/c_host2/fmi2_host.c and tests/c_host3/fmi3_host.c compiled: C programs that run an FMU, no Python in
+    """tests/c_hosts/fmi2_host.c and tests/c_hosts/fmi3_host.c compiled: C programs that run an FMU, no Python in
     them (FMI version -> program)."""
     import os
     import shutil
@@ -71,7 +71,7 @@ def c_hosts(tmp_path_factory) -> dict:
     hosts = {}
     for version in (2, 3):
         hosts[version] = out / f"fmi{version}_host"
-        r = subprocess.run([cc, "-O2", "-o", str(hosts[version]), str(ROOT / "tests" / f"c_host{version}" /
+        r = subprocess.run([cc, "-O2", "-o", str(hosts[version]), str(ROOT / "tests" / "c_hosts" /
                                                                       f"fmi{version}_host.c"), "-ldl"],
                            capture_output=True, text=True)
         assert r.returncode == 0, r.stderr

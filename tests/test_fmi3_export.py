@@ -559,7 +559,7 @@ def _clean_env(**extra) -> dict:
 
 @pytest.fixture(scope="module")
 def c_host(c_hosts) -> Path:
-    """tests/c_host3/fmi3_host.c compiled (conftest: c_hosts): a C program that runs an FMI 3.0 FMU, no Python in it."""
+    """tests/c_hosts/fmi3_host.c compiled (conftest: c_hosts): a C program that runs an FMI 3.0 FMU, no Python in it."""
     return c_hosts[3]
 
 
