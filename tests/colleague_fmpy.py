@@ -2,7 +2,7 @@
 
     python colleague_fmpy.py jobs.json results.json
 
-jobs.json: a list of {"fmu", "stop", "step", "fmi_type", "solver" (model exchange: "CVode" or "Euler")};
+jobs.json: a list of {"fmu", "stop", "step", "fmi_type"};
 results.json: per FMU (its path in jobs.json), its result as {column: [values]} or {"error": one line}, and under
 "_versions" the Python and numpy that ran them.  The builder runs this same file with its own Python, the colleague with
 theirs (a virtualenv of another Python version with nothing but fmpy), so the two are compared value for value.
@@ -24,7 +24,7 @@ def main(jobs_file: str, results_file: str) -> None:
     for job in jobs:
         try:
             r = simulate_fmu(job["fmu"], stop_time=job["stop"], step_size=job["step"], output_interval=job["step"],
-                             fmi_type=job.get("fmi_type"), solver=job.get("solver", "CVode"))
+                             fmi_type=job.get("fmi_type"))
             out[job["fmu"]] = {n: r[n].tolist() for n in r.dtype.names}
         except Exception as e:   # one line per FMU; the others still run
             out[job["fmu"]] = {"error": " ".join(f"{type(e).__name__}: {e}".split())}

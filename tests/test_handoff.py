@@ -314,3 +314,57 @@ def test_pythonfmu_deploy_installs_what_the_fmu_needs(fmu_dir):
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "Unable to find requirement file" not in r.stdout + r.stderr
+
+
+# ------------------------------------------------------------------------------------------ the drive FMU's own code
+def test_the_drive_fmus_reader_reads_what_fmpy_reads(fmu_dir, drive_fmus):
+    """harness.fmi.description (the modelDescription reader a drive FMU carries: no FMPy, no lxml) against FMPy's
+    on every component FMU and a drive FMU: the same variables with every attribute the harness reads, the same
+    capabilities and the same output dependencies."""
+    from fmpy import read_model_description
+
+    from harness.fmi.description import read
+
+    attrs = ("name", "valueReference", "type", "causality", "variability", "initial", "start", "unit", "min", "max",
+             "nominal", "description", "declaredType")
+    caps = ("modelIdentifier", "canHandleVariableCommunicationStepSize", "canInterpolateInputs",
+            "canGetAndSetFMUstate", "providesDirectionalDerivative", "needsExecutionTool")
+    for fmu in [*sorted(fmu_dir.glob("*.fmu")), drive_fmus("bed_drive", 2)]:
+        theirs, ours = read_model_description(str(fmu)), read(fmu)
+        assert (ours.modelName, ours.guid, ours.fmiVersion) == (theirs.modelName, theirs.guid, theirs.fmiVersion)
+        assert [getattr(ours.coSimulation, c) for c in caps] == [getattr(theirs.coSimulation, c) for c in caps]
+        assert ours.modelExchange is None and theirs.modelExchange is None
+        assert len(ours.modelVariables) == len(theirs.modelVariables) > 0
+        for a, b in zip(ours.modelVariables, theirs.modelVariables):
+            for k in attrs:
+                x, y = getattr(a, k), getattr(b, k)
+                if k == "declaredType":
+                    x, y = getattr(x, "unit", None), getattr(y, "unit", None)
+                assert x == y, (fmu.name, a.name, k, x, y)
+        for mine, fmpys in ((ours.outputs, theirs.outputs), (ours.initialUnknowns, theirs.initialUnknowns)):
+            assert [(u.variable.name, None if u.dependencies is None else [d.name for d in u.dependencies])
+                    for u in mine] == [(u.variable.name, None if u.dependencies is None else
+                                        [d.name for d in u.dependencies]) for u in fmpys], fmu.name
+
+
+def test_the_drive_fmu_imports_nothing_of_the_toolkit_or_fmpy(fmu_dir, tmp_path):
+    """What a drive FMU's own package imports when it is imported (every module-level import of every file in it):
+    the standard library, numpy, its exporter (pythonfmu or pythonfmu3, which the FMU carries) and itself; not
+    fmpy, scipy, lxml, pandas, networkx, nor the toolkit's own harness or fmus."""
+    import ast
+
+    from harness import load
+    from harness.export.drive_fmu import stage
+
+    for version in (2, 3):
+        script, (package, _), _ = stage(load("bed_drive").on_fmus(fmu_dir), tmp_path / f"v{version}",
+                                        fmi_version=version)
+        found = set()
+        for f in [script, *package.rglob("*.py")]:
+            for node in ast.parse(f.read_text()).body:
+                if isinstance(node, ast.Import):
+                    found.update(a.name.split(".")[0] for a in node.names)
+                elif isinstance(node, ast.ImportFrom) and node.level == 0:
+                    found.add(node.module.split(".")[0])
+        foreign = {m for m in found if m not in sys.stdlib_module_names} - {"numpy", package.name}
+        assert foreign == {"pythonfmu" if version == 2 else "pythonfmu3"}, (version, foreign)
