@@ -51,8 +51,8 @@ import math
 
 from fmus.physics import bed_law, fourbar, fourbar_synthesis
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import (AccuracySpec, Answer, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement, Scene,
-                           StabilitySpec, Zone)
+from harness.specs import (AccuracySpec, Answer, Belt, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement,
+                           Scene, Shaft, StabilitySpec, Zone)
 from systems import motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
@@ -178,7 +178,7 @@ SYSTEM = System(
             Panel("Torques on the main shaft", ("flywheel.shaft_torque", "fourbar.crank.tau", "cam.crank.tau"),
                   ("transmitted by the shaft", "four-bar crank", "disc cam")),
             Panel("Rack mesh force on the bed", ("bed.mesh_force",)),
-            Panel("Motor torque", ("motor.motor_torque",), cycle=False),
+            Panel("Motor torque", ("motor.motor_torque",)),
             Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
         ),
         zones=(Zone(f"printing zone: bed at {PRINT_ZONE[0]:g} to {PRINT_ZONE[1]:g} m on the working stroke", IN_ZONE),),
@@ -216,6 +216,12 @@ SYSTEM.quantities = QuantitySpec(
         Answer("speed_fluctuation_motor", "fluctuation", ("motor.motor_speed",), "%",
                "delta of the motor rotor (motor.motor_speed), w_mean the cycle's time mean", scale=100.0),
     ),
+    # the main shaft's stress from its diameter; the belt's slip margin: three SPZ V-belts (assumed: the seed gives
+    # no drive data), 500 N allowable tight-side force each, mu 0.3 in a 34 deg groove, 125.9 deg of wrap on the
+    # 40 mm motor pulley at a 1 m centre distance (pi - 2 asin((0.95 - 0.04) / 2))
+    shafts=(Shaft("shaft_torque", "flywheel.d"),),
+    belts=(Belt("belt_torque", "motor.d_driven_pulley", tight_force=1500.0, mu=0.3, wrap=125.9, groove=34.0,
+                source="three SPZ belts, assumed"),),
 )
 
 # The transients the drive is sized by (harness.scenarios): start-up from rest, a speed change through the supply

@@ -490,12 +490,15 @@ class Master:
         a variable step control restarted from its first step; a variable step also ends on each of the inputs'
         row times (``next_time``).
         ``observers`` (:class:`harness.master.observers.Observer`) see the start, each input event, each accepted point
-        and the end, in the order given; ``on_end`` runs however the run ends.  Returns the time reached [ns]."""
+        and the end, in the order given; ``on_end`` runs however the run ends; one that can finish the run
+        (``can_finish``) ends it, complete, after the step where it sets ``finished``.  Returns the time reached
+        [ns]."""
         observers = list(observers)
         t_ns = self.t_ns
         refresh = inputs is not None and any(c.source.split(".", 1)[0] in inputs.instances
                                              for c in self.connections)
         completed = False
+        enders = [o for o in observers if o.can_finish]
         try:
             for o in observers:
                 o.on_start(self, t_ns)
@@ -520,6 +523,8 @@ class Master:
                 self.steps += 1
                 for o in observers:
                     o.on_step(self, t_prev, t_ns)
+                if enders and any(o.finished for o in enders):   # an observer ends the run here, complete
+                    break
             completed = True
         finally:
             for o in observers:

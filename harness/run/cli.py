@@ -71,10 +71,11 @@ def register(subparsers) -> None:
                         "pandas.read_csv(FILE, header=[0, 1], index_col=0); Parquet keeps the units in its "
                         "metadata); default: names only")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
-                   help="write charts of the run: DIR/<system>.png (the system's signals over time) and, "
-                        "where the system declares its crank angle, DIR/<system>_cycle.png (over the last "
-                        "complete crank revolution); <name>.partial.png for a run that stopped early "
-                        "(default: no chart)")
+                   help="write charts of the run, named after --out (x.csv -> DIR/x.png; without --out after "
+                        "the system, <system>[_<scenario>].png): the signals over time and, where the system "
+                        "declares its crank angle, DIR/x_cycle.png (over the last complete crank revolution) and "
+                        "DIR/x_polar.png (joint forces against the crank angle); a stop's DIR/x_stop.png; "
+                        "<name>.partial.png for a run that stopped early (default: no chart)")
     p.add_argument("--svg", action="store_true",
                    help="with --plot: also write each chart as SVG (vector, for a document) beside its PNG "
                         "(default: PNG only; the SVG is a second drawing of each chart)")
@@ -83,6 +84,11 @@ def register(subparsers) -> None:
                         "charts (inline), the drive (instances, fidelities, parameters changed from their "
                         "defaults), the method with the drive's declared accuracy, versions and run time; checked "
                         "before the run (default: none)")
+    p.add_argument("--limits", type=Path, default=None, metavar="FILE.yaml",
+                   help="judge the run's quantities against limits: a YAML mapping 'quantity: \"<= VALUE\"' (the "
+                        "--target syntax of size); each is marked pass or FAIL in the printed table, the JSON "
+                        "(FILE.limits.json beside --out) and the report; exit status 3 after writing everything "
+                        "when any limit fails (default: no limits)")
     p.add_argument("--quiet-quantities", action="store_true",
                    help="do not print the table of the drive's engineering quantities after the run (default: "
                         "printed; with --out they are written beside the result as FILE.quantities.json "
@@ -119,7 +125,7 @@ def _check_targets(args) -> None:
         check_report_path(args.report)
 
 
-def _plot(system, df, folder: Path, svg: bool = False) -> list[Path]:
+def _plot(system, df, folder: Path, svg: bool = False, stem: str | None = None) -> list[Path]:
     """The run's charts in ``folder`` (the PNGs are returned; ``svg``: also as SVG); an incomplete run's under
     ``<name>.partial.png`` (``.svg``), so they never replace the charts of a complete run (drawn beside,
     renamed)."""
@@ -129,10 +135,10 @@ def _plot(system, df, folder: Path, svg: bool = False) -> list[Path]:
     from harness.reporting.charts import plot_result
 
     if df.attrs.get("complete", True):
-        return [p for p in plot_result(system, df, folder, svg) if p.suffix == ".png"]
+        return [p for p in plot_result(system, df, folder, svg, stem) if p.suffix == ".png"]
     with tempfile.TemporaryDirectory(dir=folder, prefix=".partial-chart-") as tmp:
         paths = []
-        for drawn in plot_result(system, df, tmp, svg):
+        for drawn in plot_result(system, df, tmp, svg, stem):
             paths.append(Path(folder) / f"{drawn.stem}.partial{drawn.suffix}")
             os.replace(drawn, paths[-1])
     return [p for p in paths if p.suffix == ".png"]
@@ -154,7 +160,47 @@ def _divergence_hint(a: dict) -> str:
 def run_cli(args) -> int:
     system = load(args.system)  # a wrong name first: no folder is made for it
     _check_targets(args)
+    args.limit_list = _read_limits(system, args)
     return _run(system, args)
+
+
+def _read_limits(system, args) -> list:
+    """The ``--limits`` file read and, in a plain run (whose quantity names are known before it), its names
+    checked: refused in one line before the run."""
+    if getattr(args, "limits", None) is None:
+        return []
+    from harness.reporting import limits
+
+    found = limits.read(args.limits)
+    if not getattr(args, "scenario", None):
+        limits.check_names(found, expected_names(system), f"limits file {args.limits}", f"drive {system.name}")
+    return found
+
+
+def expected_names(system) -> list[str]:
+    """The names of the quantities a plain run of ``system`` gives (from an empty result)."""
+    import pandas as pd
+
+    from harness.reporting.quantities import quantities
+
+    return quantities(system, pd.DataFrame(index=pd.Index([], name="time", dtype=float))).names
+
+
+def _judge(args, df, out) -> tuple[str, bool]:
+    """The ``--limits`` verdicts on the run's quantities: marked in its tables, written beside ``out``; (the
+    printed table, whether any failed)."""
+    from harness.reporting import limits
+
+    a = df.attrs
+    tables = ([(a["scenario"], a["transient"])] if a.get("transient") is not None else []) + [("steady",
+                                                                                                a["quantities"])]
+    verdicts = limits.judge(args.limit_list, tables)
+    for where, q in tables:
+        limits.mark(q, verdicts, where)
+    a["limits"] = verdicts
+    if out is not None:
+        limits.write_json(verdicts, str(args.limits), limits.json_path(out))
+    return limits.table(verdicts, f"limits of {args.limits}"), any(not v.passed for v in verdicts)
 
 
 def _run(system, args) -> int:
@@ -183,6 +229,7 @@ def _run(system, args) -> int:
     out = args.out
     if out is not None and not a["complete"]:
         out = partial_path(out)
+    judged, failed = _judge(args, df, out) if getattr(args, "limit_list", None) else ("", False)
     if out is not None:
         from harness.results import write_result
 
@@ -198,7 +245,8 @@ def _run(system, args) -> int:
             import dataclasses
 
             system = dataclasses.replace(system, name=f"{system.name}_{a['scenario']}")
-        charts = _plot(system, df, args.plot, getattr(args, "svg", False))
+        charts = _plot(system, df, args.plot, getattr(args, "svg", False),
+                       stem=Path(args.out).stem if args.out is not None else None)
         where += "; chart " + ", ".join(str(p) for p in charts)
         from harness.reporting.charts import cycle_chart_missing
 
@@ -223,6 +271,12 @@ def _run(system, args) -> int:
         print(a["quantities"].table())
     if a.get("transient") is not None:
         print(a["transient"].table())
+    if judged:
+        print(judged)
+    if failed:
+        from harness.reporting.limits import FAILED
+
+        return FAILED
     return 0
 
 

@@ -330,10 +330,36 @@ def simulate_scenario(system, scenario, **options) -> pd.DataFrame:
 
     system = load(system)
     sc, options = scenarios.prepare(system, scenario, options)
+    asked = options["stop_time"]
+    if sc.kind == "stop" and sc.changes and system.quantities is not None:
+        options = _until_settled(system, sc, options)
     df = simulate(system, **options)
     df.attrs["scenario"] = sc.name
+    df.attrs["stop_time_asked"] = asked
+    if sc.kind == "stop" and sc.changes:
+        df.attrs["stop_command"] = min(c.time for c in sc.changes)
+    if sc.kind != "startup" and sc.changes and len(df):   # the steady cycles are those before the first change
+        first = min(c.time for c in sc.changes)
+        df.attrs["quantities"] = quantities(system, df.loc[:first],
+                                            scope=f"before the scenario's first change at t = {first:g} s")
     df.attrs["transient"] = scenarios.transient(system, sc, df)
     return df
+
+
+def _until_settled(system, sc, options: dict) -> dict:
+    """A stop's run options: on past its stop time until the drive has settled, up to its limit
+    (:mod:`harness.run.settling`)."""
+    import dataclasses
+
+    from harness.run.settling import HOLD, LIMIT, Settling
+
+    asked = options["stop_time"]
+    limit = max(asked, sc.settle_limit if sc.settle_limit is not None else LIMIT * sc.stop_time)
+    command = min(c.time for c in sc.changes)
+    watch = Settling(system.quantities.shaft_speed, round(command * NS), round(asked * NS),
+                     sc.settle_hold if sc.settle_hold is not None else HOLD)
+    opts = options.get("options") or RunOptions()
+    return {**options, "stop_time": limit, "options": dataclasses.replace(opts, observers=(*opts.observers, watch))}
 
 
 def partial_path(path: Path) -> Path:

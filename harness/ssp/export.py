@@ -238,7 +238,7 @@ def register(subparsers) -> None:
 
 
 def _run_export(args) -> int:
-    from harness import load
+    from harness.run import load
 
     suffix = Path(args.out).suffix.lower()
     if suffix == ".fmu":

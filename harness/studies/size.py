@@ -2,8 +2,12 @@
 :func:`size`.
 
 The engineering quantity (:mod:`harness.reporting.quantities`) is computed from a co-simulation run of the drive for each
-value of the parameter tried.  First the bracket: the quantity at both ends of ``--range`` (default: a quarter
-and four times the drive's value).  Where the target is met at one end and missed at the other, Brent's method
+value of the parameter tried; without ``--stop-time`` each run goes on to its first steady machine cycle
+(:class:`harness.run.settling.Steady`: three complete cycles at least, at most ``STEADY_LIMIT`` = 8 times the
+drive's default stop time); with ``--scenario`` each run is that transient (a stop runs until settled) and the
+target names one of its quantities (``stopping_angle``).  First the bracket: the quantity at both ends of
+``--range`` (default: a quarter and four times the drive's value, inside the range its FMU declares, each end
+moved halfway towards the drive's value while the FMU refuses it, e.g. a rated speed above the synchronous).  Where the target is met at one end and missed at the other, Brent's method
 finds the value where the quantity crosses the target (to ``--xtol`` of the range, runs reused); the answer is
 the boundary value on the side that meets it (the smallest value when the quantity falls as the parameter
 rises under ``<=``, the largest when it rises), verified by a run at it.  Where the target is met at both ends
@@ -150,11 +154,21 @@ def run_at(system, parameter: str, quantity: str, start_values: dict, options: d
             if key not in _LOADED:
                 _LOADED[key] = load(system_on_worker(system))
             system = _LOADED[key]
-        df = simulate(system, start_values={**start_values, parameter: value}, **options)
+        options = dict(options)
+        scenario = options.pop("scenario", None)
+        if options.pop("until_steady", False):
+            options = _until_steady(system, options)
+        if scenario is not None:
+            from harness.run import simulate_scenario
+
+            df = simulate_scenario(system, scenario, start_values={**start_values, parameter: value}, **options)
+        else:
+            df = simulate(system, start_values={**start_values, parameter: value}, **options)
         if not df.attrs.get("complete", True):
             return dict(value=None, frame=None, error=f"the run at {parameter} = {value:g} stopped: "
                                                       f"{df.attrs.get('error')}")
-        q = quantities(system, df)
+        q = df.attrs["transient"] if scenario is not None and quantity in df.attrs["transient"] else \
+            df.attrs["quantities"] if scenario is not None else quantities(system, df)
         found = q[quantity]
         if found is None or not isinstance(found, (int, float)):
             return dict(value=None, frame=None, error=f"{quantity} has no value at {parameter} = {value:g}: "
@@ -167,6 +181,22 @@ def run_at(system, parameter: str, quantity: str, start_values: dict, options: d
 
 
 _LOADED: dict = {}   # drive name or file digest -> System, per worker process
+STEADY_LIMIT = 8.0   # a sizing run without a stop time goes on to a steady cycle, at most this many times the drive's
+
+
+def _until_steady(system, options: dict) -> dict:
+    """A run's options that end it at its first steady cycle (:class:`harness.run.settling.Steady`), at most
+    :data:`STEADY_LIMIT` times the drive's stop time."""
+    import dataclasses
+
+    from harness.run import RunOptions
+    from harness.run.settling import Steady
+
+    spec = system.quantities
+    watch = Steady(spec.shaft_angle, spec.cycle_origin, spec.cycle_angle, spec.settle)
+    opts = options.get("options") or RunOptions()
+    return {**options, "stop_time": STEADY_LIMIT * system.experiment.stop_time,
+            "options": dataclasses.replace(opts, observers=(*opts.observers, watch))}
 
 
 def _sent(system, given):
@@ -223,12 +253,19 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
     system = load(system)
     target = target if isinstance(target, Target) else parse_target(target)
     p0 = _current(system, parameter)
-    lo, hi = bracket if bracket is not None else (p0 / 4.0, p0 * 4.0)
+    if "scenario" in options:            # the scenario's own value (a brake's torque) is the drive's value there
+        from harness.scenarios import find
+
+        p0 = float(dict(find(system, options["scenario"]).parameters).get(parameter, p0))
+    if options.get("stop_time") is None and "scenario" not in options and system.quantities is not None:
+        options["until_steady"] = True          # each run to its first steady cycle (at most STEADY_LIMIT x)
+    lo, hi = bracket if bracket is not None else _admissible(system, parameter, p0, options)
     if not (0.0 < lo < hi) or not all(map(math.isfinite, (lo, hi))):
         raise SystemDescriptionError(f"size {system.name}: bracket [{lo:g}, {hi:g}] of {parameter} must be two "
                                      f"positive "
                                      f"increasing values (the drive's value is {p0:g})")
-    check_target(system, target)
+    if "scenario" not in options:
+        check_target(system, target)
     base = dict(options.pop("start_values", None) or {})
     result = Sizing(parameter, target, (lo, hi), system=system)
     frames = {}
@@ -288,6 +325,37 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         return result
 
 
+def _admissible(system, parameter: str, p0: float, options: dict) -> tuple[float, float]:
+    """The default bracket: a quarter and four times the drive's value, inside the range the FMU declares for the
+    parameter, each end moved halfway (geometrically) towards the drive's value while the FMU refuses it (a rated
+    speed above the synchronous one), at most 12 times; each end tried by a run of one step."""
+    from harness.fmi.cache import model_description
+    from harness.model import resolve_fmu
+    from harness.run import simulate
+
+    inst, _, name = parameter.partition(".")
+    v = next(v for v in model_description(resolve_fmu(system.instance(inst).fmu)).modelVariables if v.name == name)
+    low = float(v.min) if getattr(v, "min", None) not in (None, "") else -math.inf
+    high = float(v.max) if getattr(v, "max", None) not in (None, "") else math.inf
+    import warnings
+
+    from harness.run import RunWarning
+
+    ends = []
+    for end in (max(p0 / 4.0, low), min(p0 * 4.0, high)):
+        for _ in range(12):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RunWarning)      # a refused value is the answer sought here
+                one = simulate(system, stop_time=system.experiment.step, step=system.experiment.step,
+                               start_values={**(options.get("start_values") or {}), parameter: end},
+                               options=options.get("options"))
+            if not one.attrs.get("bad_input"):
+                break
+            end = math.sqrt(end * p0)
+        ends.append(end)
+    return ends[0], ends[1]
+
+
 def check_target(system, target: Target) -> None:
     """The target names a quantity the drive reports (its names from the drive's declaration, before any run)."""
     import pandas as pd
@@ -342,7 +410,12 @@ def register(subparsers) -> None:
     p.add_argument("--xtol", type=float, default=1e-3, metavar="SHARE",
                    help="the answer's tolerance as a share of the bracket (default 1e-3)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
-                   help="stop time [s] of every run (default: the drive's default experiment)")
+                   help="stop time [s] of every run (default: each run goes on to its first steady machine cycle, "
+                        "three complete cycles at least, at most 8 times the drive's default stop time)")
+    p.add_argument("--scenario", default=None, metavar="NAME|FILE",
+                   help="size through a transient: each run is the scenario (a stop runs until settled) and the "
+                        "target names one of its quantities (e.g. --vary motor.holding_torque --target "
+                        "'stopping_angle <= 60' --scenario estop) (default: a plain run's quantities)")
     p.add_argument("--set", action="append", default=[], metavar="Instance.param=VALUE",
                    help="other parameter values, the same in every run")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -361,7 +434,8 @@ def _cli(args) -> int:
     system = load(args.system)
     target = parse_target(args.target)
     _current(system, args.vary)
-    check_target(system, target)
+    if args.scenario is None:
+        check_target(system, target)
     if args.report is not None:
         from harness.reporting.htmlreport import check_report_path
 
@@ -370,9 +444,10 @@ def _cli(args) -> int:
         from harness.studies.sweep_cluster import check_scheduler
 
         check_scheduler(args.scheduler)   # one line for a wrong address, before any run
+    more = {"scenario": args.scenario} if args.scenario else {}
     result = size(args.system, args.vary, target, tuple(args.range) if args.range else None, xtol=args.xtol,
                   scheduler=args.scheduler, stop_time=args.stop_time, start_values=parse_sets(args.set),
-                  options=RunOptions(progress=None))
+                  options=RunOptions(progress=None), **more)
     print(result.message)
     print(f"runs ({args.vary} -> {target.quantity}): {_runs(result.runs)}")
     if args.report is not None:
