@@ -34,10 +34,8 @@ import importlib
 import io
 import os
 import shutil
-import site
 import subprocess
 import sys
-import sysconfig
 import tempfile
 import zipfile
 from pathlib import Path
