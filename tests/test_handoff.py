@@ -4,8 +4,8 @@ The colleague's machine is a private mount namespace (tests/colleague.py: the ch
 the temporary folder and ~/.cache hidden; for hosts without Python also pyenv's and the builder's Pythons, or
 every Python).  Measured there:
 
-* **FMPy of another Python** (a virtualenv of Python 3.10, 3.12 or 3.13 with nothing but fmpy): every FMU (the 14
-  components as FMI 2.0, FMI 3.0 co-simulation and FMI 3.0 model exchange, every shipped drive as FMI 2.0 and 3.0)
+* **FMPy of another Python** (a virtualenv of Python 3.10, 3.12 or 3.13 with nothing but fmpy): every FMU (every
+  component as FMI 2.0, FMI 3.0 co-simulation and FMI 3.0 model exchange, every shipped drive as FMI 2.0 and 3.0)
   runs, and its result equals the builder's FMPy run value for value: bit for bit where the colleague's numpy is
   the builder's, else to 1e-9 of each column's size (the proof_press drive differed by 1.4e-10 under numpy 2.5.5
   and 2.2.6 against the builder's 2.4.6, and not at all under 2.4.6 in Python 3.12: numpy's OpenBLAS).
@@ -32,6 +32,7 @@ import numpy as np
 import pytest
 
 import colleague
+from fmus.build import catalog
 from harness.run import system_names
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -118,7 +119,7 @@ def test_every_fmu_runs_in_fmpy_of_another_python_as_for_the_builder(everything,
     failed = {k: v["error"] for k, v in theirs.items() if "error" in v}
     assert not failed, failed
     same_numpy = theirs["_versions"]["numpy"] == builder["_versions"]["numpy"]
-    assert set(theirs) == set(builder) and len(builder) == 1 + 3 * 14 + 2 * len(DRIVES)
+    assert set(theirs) == set(builder) and len(builder) == 1 + 3 * len(catalog()) + 2 * len(DRIVES)
     for fmu, result in builder.items():
         if fmu == "_versions" or result == theirs[fmu]:
             continue
@@ -246,14 +247,16 @@ def unpacked(fmu: Path) -> Path:
 
 @pytest.mark.interop
 @pytest.mark.parametrize("python", ["system", "none"])
-def test_hosts_without_python_are_told_in_one_line_what_is_missing(fmu_dir, fmu3_dir, c_hosts, tmp_path, python):
-    """A (not standalone) FMU in every host without Python at hand, on a machine with only the system's Python
-    ("system": pyenv's and the builder's gone; the loader finds the system's libpython, which has no numpy here)
-    or none at all: one error line naming what is missing and how to supply it; the host ends by itself (no abort,
-    no segfault; OMSimulator and fmusim report the failed instantiation, the C hosts exit 3)."""
+def test_hosts_without_python_are_told_in_one_line_what_is_missing(fmu_dir, fmu3_dir, drive_fmus, c_hosts, tmp_path,
+                                                                   python):
+    """A (not standalone) component FMU and drive FMU in every host without Python at hand, on a machine with only
+    the system's Python ("system": pyenv's and the builder's gone; the loader finds the system's libpython, which
+    has no numpy here) or none at all: one error line naming what is missing and how to supply it; the host ends
+    by itself (no abort, no segfault; OMSimulator and fmusim report the failed instantiation, the C hosts exit 3)."""
     _machine()
     for folder, version in ((fmu_dir, 2), (fmu3_dir, 3)):
         unpacked(shutil.copy2(folder / "Gain.fmu", tmp_path / f"Gain_{version}.fmu"))
+        unpacked(shutil.copy2(drive_fmus("bed_drive", version), tmp_path / f"BedDrive_{version}.fmu"))
     system = colleague.system_python()
     if python == "none" or system is None:
         expected = r"no Python for this FMU: .* or use this FMU exported with --standalone"
@@ -262,13 +265,37 @@ def test_hosts_without_python_are_told_in_one_line_what_is_missing(fmu_dir, fmu3
     else:
         expected = r"this FMU needs numpy>=1\.26,<3, which does not import in Python 3\.\d+\.\d+ at .*PRESSDRIVE_PYTHONPATH"
     for name, argv in non_python_hosts(c_hosts, tmp_path).items():
-        for version in (2, 3):
-            r = colleague.run(argv(f"Gain_{version}.fmu", version, 10, 1e-3), tmp_path, python=python)
+        for fmu, version in (("Gain_2.fmu", 2), ("Gain_3.fmu", 3), ("BedDrive_2.fmu", 2), ("BedDrive_3.fmu", 3)):
+            r = colleague.run(argv(fmu, version, 10, 1e-3), tmp_path, python=python)
             text = r.stdout + r.stderr
-            assert r.returncode not in SIGNALS and "terminate called" not in text, (name, version, text[-1500:])
+            assert r.returncode not in SIGNALS and "terminate called" not in text, (name, fmu, text[-1500:])
             if name == "c host":
-                assert r.returncode == 3 and "NOINSTANCE" in r.stdout, (name, version, text[-1500:])
+                assert r.returncode == 3 and "NOINSTANCE" in r.stdout, (name, fmu, text[-1500:])
             _one_line(text, expected)
+
+
+@pytest.mark.interop
+def test_a_drive_that_cannot_start_says_why_and_leaves_the_host_standing(drive_fmus, c_hosts, tmp_path):
+    """A drive FMU whose initialisation raises (its members cannot be unpacked: PRESSDRIVE_CACHE is not a folder)
+    in every host without Python at hand, on the builder's machine: the drive's one line says why, and the host
+    ends by itself.  Before the loader's logger stood between pythonfmu's wrapper and the host, OMSimulator's
+    command line aborted here (the wrapper logs the exception with a NULL category: "terminate called after
+    throwing an instance of 'std::logic_error'")."""
+    import os
+
+    hosts = non_python_hosts(c_hosts, tmp_path)
+    env = {**{k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV"))},
+           "PRESSDRIVE_CACHE": "/proc/nonexistent"}
+    for version in (2, 3):
+        fmu = f"BedDrive_{version}.fmu"
+        unpacked(shutil.copy2(drive_fmus("bed_drive", version), tmp_path / fmu))
+        for name, argv in hosts.items():
+            cmd = [str(tmp_path / c) if c.startswith("./") else c.replace("/mnt/work", str(tmp_path))
+                   for c in argv(fmu, version, 10, 1e-3)]
+            r = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+            text = r.stdout + r.stderr
+            assert r.returncode not in SIGNALS and "terminate called" not in text, (name, fmu, text[-1500:])
+            _one_line(text, r"drive bed_drive \(.*\): initialization failed: FileNotFoundError: .*/proc/nonexistent")
 
 
 # ------------------------------------------------------------------------------------------ what the FMU says
@@ -301,7 +328,7 @@ def test_every_fmu_says_what_its_host_needs(fmu_dir, fmu3_dir, fmu3me_dir, drive
     is needed), and binaries for linux64 (x86_64-linux) only: pythonfmu's stock Windows wrapper is not shipped."""
     for folder, version in ((fmu_dir, 2), (fmu3_dir, 3), (fmu3me_dir, 3)):
         fmus = sorted(folder.glob("*.fmu"))
-        assert len(fmus) == 14
+        assert len(fmus) == len(catalog())
         for fmu in fmus:
             _check_documented(fmu, version)
     for version in (2, 3):

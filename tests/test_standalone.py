@@ -155,7 +155,7 @@ def test_one_standalone_fmu_of_each_kind_runs_without_any_python(fmu_dir, c_host
 @pytest.mark.slow
 @pytest.mark.interop
 def test_every_standalone_fmu_runs_without_any_python(fmu_dir, c_hosts, tmp_path):
-    """The 14 components as FMI 2.0, FMI 3.0 co-simulation and model exchange, every shipped drive as FMI 2.0 and
+    """Every component as FMI 2.0, FMI 3.0 co-simulation and model exchange, every shipped drive as FMI 2.0 and
     3.0: every one standalone, as the default test checks one of each kind."""
     check_standalone(fmu_dir, c_hosts, tmp_path, EVERY)
 
