@@ -396,3 +396,29 @@ def test_the_drive_fmu_imports_nothing_of_the_toolkit_or_fmpy(fmu_dir, tmp_path)
                     found.add(node.module.split(".")[0])
         foreign = {m for m in found if m not in sys.stdlib_module_names} - {"numpy", package.name}
         assert foreign == {"pythonfmu" if version == 2 else "pythonfmu3"}, (version, foreign)
+
+
+def test_the_check_names_what_is_missing(tmp_path, monkeypatch):
+    """fmus/hostcheck.py in this Python: a requirement that does not import, one at a version outside its range,
+    and a module of the FMU that raises on import are each one line naming it; a complete FMU is ""."""
+    import runpy
+
+    check = runpy.run_path(str(ROOT / "fmus" / "hostcheck.py"))["check"]
+    (tmp_path / "slavemodule.txt").write_text("pd_probe_fmu\n")
+    (tmp_path / "pd_probe_fmu.py").write_text("import numpy\n")
+    (tmp_path / "requirements.txt").write_text("numpy>=1.26,<3\n# a comment\n\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert check(str(tmp_path)) == ""
+    (tmp_path / "requirements.txt").write_text("numpy>=99\n")
+    line = check(str(tmp_path))
+    assert line.startswith("this FMU needs numpy>=99; Python 3.") and f"numpy {np.__version__}" in line
+    assert "-m pip install 'numpy>=99'" in line and "\n" not in line
+    (tmp_path / "requirements.txt").write_text("pressdrive-absent-module>=1.0\n")
+    line = check(str(tmp_path))
+    assert "this FMU needs pressdrive-absent-module>=1.0, which does not import" in line
+    assert "No module named 'pressdrive_absent_module'" in line
+    (tmp_path / "requirements.txt").write_text("numpy\n")
+    (tmp_path / "pd_probe_fmu2.py").write_text("raise RuntimeError('the model cannot start\\nat all')\n")
+    (tmp_path / "slavemodule.txt").write_text("pd_probe_fmu2\n")
+    line = check(str(tmp_path))
+    assert line.endswith("RuntimeError: the model cannot start at all") and "this FMU's code does not import" in line
