@@ -108,13 +108,17 @@ def host_runs(work: Path, made: dict, hosts: dict, colleague_machine: bool = Tru
 
 
 def check_standalone(fmu_dir: Path, c_hosts: dict, work: Path, which: dict) -> None:
-    """Build ``which`` standalone, run each FMU in every host without Python on a machine without Python, and
-    compare with the FMU's run on the builder's machine: FMPy's for co-simulation (to 1e-9), the same host's for
-    model exchange (bit for bit: each host integrates in its own way; the C host's forward Euler ignores the
-    events FMPy's handles, measured 1.3e-8 apart on ParallelShafts)."""
+    """Build ``which`` standalone (fmpy's validation passes on each), run each FMU in every host without Python on a
+    machine without Python, and compare with the FMU's run on the builder's machine: FMPy's for co-simulation (to
+    1e-9), the same host's for model exchange (bit for bit: each host integrates in its own way; the C host's
+    forward Euler ignores the events FMPy's handles, measured 1.3e-8 apart on ParallelShafts)."""
     if MACHINE:
         pytest.skip(MACHINE)
+    from fmpy.validation import validate_fmu
+
     made = build_standalone(fmu_dir, work, which)
+    invalid = {f: problems for f in made if (problems := validate_fmu(str(work / f)))}
+    assert not invalid, invalid
     hosts = non_python_hosts(c_hosts, work)
     theirs = host_runs(work, made, hosts)
     me = {f: v for f, v in made.items() if "fmi3me_" in f}
