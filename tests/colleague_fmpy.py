@@ -16,18 +16,19 @@ from fmpy import simulate_fmu
 
 
 def main(jobs_file: str, results_file: str) -> None:
-    with open(jobs_file, encoding="utf-8") as f:
-        jobs = json.load(f)
     import numpy
 
+    with open(jobs_file, encoding="utf-8") as f:
+        jobs = json.load(f)
     out = {"_versions": {"python": sys.version.split()[0], "numpy": numpy.__version__}}
-    for job in jobs:
-        try:
-            r = simulate_fmu(job["fmu"], stop_time=job["stop"], step_size=job["step"], output_interval=job["step"],
-                             fmi_type=job.get("fmi_type"))
-            out[job["fmu"]] = {n: r[n].tolist() for n in r.dtype.names}
-        except Exception as e:   # one line per FMU; the others still run
-            out[job["fmu"]] = {"error": " ".join(f"{type(e).__name__}: {e}".split())}
+    for job in [None, *jobs]:   # the file written before the first FMU and after each
+        if job is not None:
+            try:
+                r = simulate_fmu(job["fmu"], stop_time=job["stop"], step_size=job["step"],
+                                 output_interval=job["step"], fmi_type=job.get("fmi_type"))
+                out[job["fmu"]] = {n: r[n].tolist() for n in r.dtype.names}
+            except Exception as e:   # one line per FMU; the others still run
+                out[job["fmu"]] = {"error": " ".join(f"{type(e).__name__}: {e}".split())}
         with open(results_file, "w", encoding="utf-8") as f:
             json.dump(out, f)
     sys.stdout.flush()
