@@ -41,12 +41,14 @@ class _Version(argparse._VersionAction):
 COMMANDS = (
     ("list", "list the shipped systems with their descriptions"),
     ("show", "show a system: instances, bonds, scenes and every variable with its unit"),
-    ("run", "run a system (name in systems/, a .py file defining SYSTEM, or .ssp/.ssd) and write its result"),
+    ("run", "run a system (name in systems/, a .py file defining SYSTEM, .ssp/.ssd or an OspSystemStructure.xml) and "
+            "write its result"),
     ("compare", "two or more designs of a drive side by side: their engineering quantities and charts"),
     ("size", "size one parameter of a drive to an engineering-quantity target"),
     ("modes", "the drive's torsional natural frequencies, mode shapes and exciting orders"),
     ("duty", "the motor's thermal check over a duty cycle: starts and stops per hour"),
-    ("export", "write a system as an SSP 1.0 archive (FMUs included) or as one co-simulation FMU (.fmu)"),
+    ("export", "write a system as an SSP 1.0 archive (FMUs included), as one co-simulation FMU (.fmu) or as OSP's "
+               "OspSystemStructure.xml (--format osp)"),
     ("synth", "mechanism synthesis and analysis tools of the seeds"),
     ("study", "numerical studies (stability, precision)"),
     ("scene", "answer a scene's question with the coarsest adequate model"),

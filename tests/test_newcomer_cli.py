@@ -161,7 +161,7 @@ def test_any_python_file_defining_system(tmp_path):
 
 
 @pytest.mark.parametrize("given, expected", [
-    ("g.txt", "system 'g.txt' is neither a system name nor a .py, .ssp or .ssd file"),
+    ("g.txt", "system 'g.txt' is neither a system name nor a .py, .ssp, .ssd or OspSystemStructure.xml file"),
     ("bed_drvie", "unknown system 'bed_drvie' (did you mean 'bed_drive'?)"),
     ("nothing_here.py", "system file 'nothing_here.py' does not exist"),
 ])

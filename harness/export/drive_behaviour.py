@@ -232,6 +232,7 @@ class DriveBehaviour:
                 self._fmus[inst.name] = InProcessFMU(inst.fmu, inst.name, logging_on=False)
             m = master_class(e["master"])(self._fmus, system.all_connections(mds), system.bonds,
                                           make_extrapolation(e["extrapolation"]))
+            m.use_rates(e.get("rates") or {}, self._step_ns)   # each member at its own rate, as the drive's run
             m.initialize(int(round(start * NS)), None if stop is None else int(round(stop * NS)), tol, params)
         except Exception as err:   # a member's refusal, or the machine's (a member that cannot be unpacked): one line
             self._release()

@@ -34,6 +34,7 @@ import zipfile
 from pathlib import Path
 
 from harness.errors import SystemDescriptionError
+from harness.master.clock import NS
 from harness.model import System, model_description, resolve_fmu
 
 HERE = Path(__file__).resolve().parent      # harness/export
@@ -89,6 +90,15 @@ def _packable(name: str, path: Path) -> None:
         raise SystemDescriptionError(f"member {name} ({path.name}) cannot be packed into a drive FMU: it is not a "
                                      f"pythonfmu FMU, and a drive FMU runs its members in its own Python (in process), "
                                      f"so that it needs nothing of its host but numpy")
+
+
+def _rates(system: System) -> dict:
+    """Each instance's own rate inside the drive FMU (harness.master.multirate): its own step, or its experiment's
+    rate, as a multiple of the drive's step."""
+    from harness.master.multirate import rates_of
+
+    step_ns = int(round(system.experiment.step * NS))
+    return {**(system.experiment.rates or {}), **rates_of(system.instances, step_ns, f"system {system.name}")}
 
 
 def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, dict[str, Path]]:
@@ -177,7 +187,7 @@ def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, 
         "bonds": [{"motion_out": b.motion_out, "motion_in": b.motion_in,
                    "translational": system.bond_is_translational(b, mds)} for b in system.bonds],
         "experiment": {"stop_time": float(exp.stop_time), "step": float(exp.step), "master": exp.master,
-                       "extrapolation": int(exp.extrapolation)},
+                       "extrapolation": int(exp.extrapolation), "rates": _rates(system)},
         "parameters": parameters, "inputs": inputs, "outputs": outs,
         "units": {u: BASE_UNITS[u] for u in sorted(units)},
         "rollback": all(bool(mds[n].coSimulation.canGetAndSetFMUstate) for n in mds),

@@ -18,7 +18,8 @@ from harness.run.simulation import RunOptions, partial_path, simulate, simulate_
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "run", help="run a system (name in systems/, a .py file defining SYSTEM, or .ssp/.ssd) and write its result",
+        "run", help="run a system (name in systems/, a .py file defining SYSTEM, .ssp/.ssd or an OspSystemStructure.xml) "
+                    "and write its result",
         description="Co-simulate a system and write the result as CSV or Parquet (time in s, one column per "
                     "Instance.variable). --out and --plot are checked before the run. A run that stops early "
                     "(divergence, FMU failure, Ctrl-C, SIGTERM) writes what it computed to OUT.partial.csv and "
@@ -27,7 +28,7 @@ def register(subparsers) -> None:
                     "those of harness.simulate(): --start-time is start_time, --set fills start_values, "
                     "--output is output, --input is input.")
     p.add_argument("system", help="system name in systems/ (e.g. bed_drive; `list` shows them), a .py file "
-                                  "defining SYSTEM, or an .ssp/.ssd file")
+                                  "defining SYSTEM, an .ssp/.ssd file or an OspSystemStructure.xml (or its folder)")
     p.add_argument("--start-time", type=float, default=None, metavar="SECONDS",
                    help="start time [s] (default: the system's default experiment, else 0)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
@@ -101,6 +102,18 @@ def register(subparsers) -> None:
                         "of its own: a crash or a hang inside one of its calls stops the run in one line naming "
                         "the instance, the FMI call and the time, and the rows computed so far are kept "
                         "(default: every FMU in this process)")
+    checkpoints = {   # option: (type, metavar, help)
+        "--checkpoint": (Path, "FILE", "write the whole run's state to FILE (every FMU's serialized state, the "
+                                       "master's, the rows so far) at --checkpoint-at, and run on; `run SYSTEM "
+                                       "--from-checkpoint FILE` continues from it, bit for bit (default: none)"),
+        "--checkpoint-at": (float, "SECONDS", "with --checkpoint: the time [s] (the first communication point at "
+                                              "or after it; default: the stop time)"),
+        "--from-checkpoint": (Path, "FILE", "continue the run from a checkpoint FILE of the same system, toolkit "
+                                            "and FMUs, with the same options (--set values that differ are set at "
+                                            "its time); the result holds its rows and the new ones (default: start "
+                                            "from the beginning)")}
+    for option, (kind, metavar, text) in checkpoints.items():
+        p.add_argument(option, type=kind, default=None, metavar=metavar, help=text)
     p.add_argument("--isolate-timeout", type=float, default=None, metavar="SECONDS",
                    help="with --isolate: the longest one FMU call may take before its process is killed and "
                         "the run stops (default: 60 s)")
@@ -115,6 +128,10 @@ def _check_targets(args) -> None:
     if args.out is not None:
         result_format(args.out)
         check_writable(args.out, "--out")
+    if getattr(args, "checkpoint", None) is not None:
+        check_writable(args.checkpoint, "--checkpoint")
+    elif getattr(args, "checkpoint_at", None) is not None:
+        raise HarnessError(f"--checkpoint-at {args.checkpoint_at:g} needs --checkpoint FILE to write to")
     if args.plot is not None:
         check_writable(args.plot, "--plot", folder=True)
     elif getattr(args, "svg", False):
@@ -215,7 +232,9 @@ def _run(system, args) -> int:
                             tolerance=args.tolerance, start_values=parse_sets(args.set), output=args.output,
                             options=RunOptions(progress=None, in_process=False if args.fmi_only else None,
                                                isolate=_isolation(args)),
-                            on_error="return")
+                            on_error="return", from_checkpoint=getattr(args, "from_checkpoint", None))
+            if getattr(args, "checkpoint", None) is not None:
+                settings["checkpoint"] = (args.checkpoint, args.checkpoint_at)
             if getattr(args, "scenario", None):
                 df = simulate_scenario(system, args.scenario, **settings)
             else:
@@ -239,6 +258,8 @@ def _run(system, args) -> int:
         if a.get("transient") is not None and a["transient"].rows:
             a["transient"].write_json(out.with_name(f"{out.stem}.transient.json"))
     where = f"wrote {out}" if out is not None else "no --out given, result not written"
+    if (a.get("checkpoint") or {}).get("time") is not None:
+        where += f"; checkpoint {a['checkpoint']['path']} at t = {a['checkpoint']['time']:.9g} s"
     charts = None
     if args.plot is not None and len(df):
         if a.get("scenario"):  # a transient's charts beside the plain run's, not over them

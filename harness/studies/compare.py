@@ -277,6 +277,9 @@ def register(subparsers) -> None:
     p.add_argument("--step", type=float, default=None, metavar="SECONDS",
                    help="communication step [s] (default: the drive's)")
     p.add_argument("--master", default=None, help="master of every run (default: the drive's)")
+    p.add_argument("--from-checkpoint", type=Path, default=None, metavar="FILE",
+                   help="every variant continues this checkpoint of the drive (`run --checkpoint`): a shared "
+                        "start-up run once, each variant's values set at its time (default: each from the start)")
     p.add_argument("--out", type=Path, default=None, metavar="FILE.csv",
                    help="write the side-by-side table as CSV (default: printed only)")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
@@ -315,7 +318,7 @@ def _cli(args) -> int:
         found = limits.read(args.limits)
         limits.check_names(found, expected_names(system), f"limits file {args.limits}", f"drive {system.name}")
     result = compare(system, variants, stop_time=args.stop_time, step=args.step, master=args.master,
-                     options=RunOptions(progress=None))
+                     options=RunOptions(progress=None), from_checkpoint=getattr(args, "from_checkpoint", None))
     failed = _judge(result, found, args) if found else False
     print(result.table())
     for lab, verdicts in (result.verdicts if found else {}).items():
