@@ -37,6 +37,8 @@ SYSTEM = System(
     default_scene=base.SYSTEM.default_scene,
 )
 SYSTEM.chart = base.SYSTEM.chart
+# with the clutch closed the drive is the bed drive, so its precision question is the bed drive's
+SYSTEM.precision = base.SYSTEM.precision
 SYSTEM.quantities = dataclasses.replace(
     base.SYSTEM.quantities,
     brakes=(("clutch_brake", "flywheel.clutch_brake_torque", "flywheel.crank.w", "the clutch-brake on the main "
