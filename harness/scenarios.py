@@ -6,7 +6,7 @@ or read from a small YAML or JSON file::
 
     name: late_stop
     question: How far does the bed run after a stop at 1.5 s?
-    kind: stop                     # startup, speed_change, stop or load
+    kind: stop                     # startup, speed_change, stop, load or jam
     stop_time: 3.0                 # s
     parameters: {motor.holding_torque: 30.0, motor.brake_delay: 0.05}
     changes:                       # time [s], free input, value, ramp [s] (0: a step)
@@ -30,7 +30,9 @@ After the run, the transient's quantities (:func:`transient`) are in ``df.attrs[
 ``startup`` the time and main-shaft angle to 95 % of the speed the run ends at, and the peak motor, shaft and
 joint loads on the way; for a ``speed_change`` the new speed and the time to settle within 1 % of it; for a
 ``stop`` the stopping time and angle of the main shaft from the first change, the tool's overrun and the peak
-loads during the stop; for a ``load`` step the speed drop and the peak loads after it.  A drive that stops
+loads during the stop; for a ``load`` step the speed drop and the peak loads after it; for a ``jam`` (a tool
+that runs into an end stop the scenario sets) the time to blocked, the stop's peak and held load, the motor's
+overload and the peak loads in the jam (:mod:`harness.reporting.jams`).  A drive that stops
 (an emergency stop) ends as a complete run, not as a diverged one.
 """
 from __future__ import annotations
@@ -49,7 +51,7 @@ REACHED = 0.95      # start-up: the share of the final speed that counts as "up 
 SETTLED = 0.01      # speed change: the band around the new speed a settled cycle mean stays within
 STOPPED = 0.01      # stop: the share of the speed at the stop command below which the shaft counts as stopped
 DURING = {"startup": "on the way up to speed", "speed_change": "from the change on", "stop": "during the stop",
-          "load": "from the load step on"}   # the stretch a kind's peak loads are taken over, in words
+          "load": "from the load step on", "jam": "in the jam"}   # the stretch a kind's peak loads are taken over, in words
 
 
 # -- finding and reading ---------------------------------------------------------------------------------------
@@ -340,6 +342,10 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
         from harness.reporting.stops import stop_rows
 
         stop_rows(system, scenario, df, spec, cycles, t_e, row, loads)
+    elif scenario.kind == "jam":
+        from harness.reporting.jams import jam_rows
+
+        jam_rows(system, scenario, df, spec, row, loads)
     else:  # load
         w_e = at(w, t_e)
         later = t >= t_e

@@ -281,9 +281,10 @@ class Scenario:
     :mod:`harness.scenarios`: ``parameters`` (``Instance.parameter`` -> value) set the drive up for it (from
     rest, a brake's torque), ``changes`` drive its free inputs over time, ``stop_time`` [s] is its run.
     ``kind`` names what the transient quantities measure: ``startup`` (from rest to speed), ``speed_change``,
-    ``stop`` (an emergency stop from the first change on) or ``load`` (a load step, e.g. a jam); ``watch``: the
-    tool's position column (the bed, the knife) whose overrun a stop reports.  A stop runs past ``stop_time`` until
-the drive has settled (``settle_hold`` [s] at rest), up to ``settle_limit`` [s] (:mod:`harness.run.settling`).
+    ``stop`` (an emergency stop from the first change on), ``load`` (a load step) or ``jam`` (the tool runs into
+    an end stop the scenario sets, :mod:`harness.reporting.jams`); ``watch``: the tool's position column (the bed,
+    the knife) whose overrun a stop reports.  A stop or a jam runs past ``stop_time`` until the drive has settled
+at rest (``settle_hold`` [s]), up to ``settle_limit`` [s] (:mod:`harness.run.settling`).
 ``accuracy``: what the
     scenario's question needs against the monolithic reference (``study accuracy DRIVE --scenario NAME``,
     :func:`harness.studies.accuracy.search_scenario`): :class:`Requirement` whose ``quantity`` is a transient
@@ -299,4 +300,4 @@ the drive has settled (``settle_hold`` [s] at rest), up to ``settle_limit`` [s] 
     settle_hold: float | None = None     # s: a stop is settled after this long at rest (None: 0.25 s)
     settle_limit: float | None = None    # s: a stop's run goes on to at most this (None: 4 x stop_time)
 
-    KINDS = ("startup", "speed_change", "stop", "load")
+    KINDS = ("startup", "speed_change", "stop", "load", "jam")

@@ -38,7 +38,7 @@ from fmus.physics import knife as kn
 from harness.model import Experiment, Instance, System, bond
 from harness.specs import (AccuracySpec, Answer, Belt, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement,
                            Scene, Shaft, StabilitySpec, Zone)
-from systems import jam, motor_inputs, motor_scenarios
+from systems import blocking_jam, motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
 W_CRANK = 600.0 * RPM                         # rad/s
@@ -169,9 +169,15 @@ SYSTEM.chart = ChartSpec(
     crank_angle="shaft.crank.phi", origin_name="crank angle 0")
 
 # The transients the drive is sized by (harness.scenarios), with the motor at fidelity 1: start-up, speed change,
-# emergency stop and a jam at the knife: twice the motor's rated torque reduced to
-# the shaft through the belt (2200 W at 1425 rpm times 2.375: 35.0 N.m), stepped onto the knife node's take-off
-# (the knife's crank turns whole revolutions, so a stop has no overrun to check: harness.reporting.stops says so)
+# emergency stop (the knife's crank turns whole revolutions, so a stop has no overrun to check:
+# harness.reporting.stops says so) and a jam that blocks the knife: at 0.3 s (the knife then at about 19.7 rad, in
+# the fourth turn before its cut) the knife sticks in the block at crank angle 135 deg of that turn, the middle of
+# the cut (3 * 2 pi + 3 pi / 4 rad, absolute), and is held there (a catch): a stop six times as stiff as the two
+# shafts together (1e6 N.m/rad against C_red = 1.66e5; assumed) with 5 % of the critical damping of the knife's
+# J_red on it (2 * 0.05 * sqrt(1e6 * J_red))
+JAM_ANGLE = 3 * 2 * math.pi + 0.75 * math.pi   # rad
+JAM_STIFFNESS = 1.0e6                           # N.m/rad
 SYSTEM.scenarios = [*motor_scenarios(SYSTEM, {"shaft.w0": 0.0}, watch="linkage.rocker.phi", change_at=0.5,
                                      stop_time=1.0),
-                    jam(SYSTEM, "shaft.aux.tau", -2.0 * 2200.0 / (1425.0 * RPM) * 2.375, at=0.3, stop_time=0.6)]
+                    blocking_jam(SYSTEM, "shaft", JAM_ANGLE, JAM_STIFFNESS, 2 * 0.05 * math.sqrt(JAM_STIFFNESS * J_RED),
+                                 at=0.3, stop_time=1.0, what="the knife stuck in the book block mid-cut")]

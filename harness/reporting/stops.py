@@ -130,12 +130,13 @@ def stop_rows(system, scenario, df, spec, cycles, t_e: float, row, loads) -> Non
     if scenario.watch is not None:
         _overrun(df, scenario.watch, cycles, t, t_e, end, row)
     loads(t_e, end)
-    _belts(system, spec, df, on, row)
+    belt_rows(system, spec, df, on, row)
 
 
-def _belts(system, spec, df, on, row) -> None:
-    """Each declared belt's slip margin in the stop: its transmittable torque (Euler-Eytelwein,
-    :func:`harness.reporting.fatigue.belt_capacity`) over its peak torque from the command to settled."""
+def belt_rows(system, spec, df, on, row, during: str = "in the stop") -> None:
+    """Each declared belt's slip margin ``during`` the samples where ``on`` holds (a stop from the command to
+    settled, a jam): its transmittable torque (Euler-Eytelwein, :func:`harness.reporting.fatigue.belt_capacity`)
+    over its peak torque there."""
     from harness.reporting.fatigue import belt_capacity
     from harness.reporting.quantities import parameter
 
@@ -148,7 +149,7 @@ def _belts(system, spec, df, on, row) -> None:
                                  0.5 * float(parameter(system, df, inst, name)), math.radians(belt.groove))
         peak = float(np.max(np.abs(df[load.column].to_numpy(dtype=float)[on])))
         row(f"{load.name}_slip_margin", capacity / peak if peak > 0 else None, "1",
-            f"transmittable torque ({capacity:.4g} N.m) / peak belt torque in the stop: < 1 the belt slips")
+            f"transmittable torque ({capacity:.4g} N.m) / peak belt torque {during}: < 1 the belt slips")
 
 
 def _overrun(df, watch: str, cycles, t, t_e: float, end: float, row) -> None:
@@ -172,7 +173,7 @@ def _overrun(df, watch: str, cycles, t, t_e: float, end: float, row) -> None:
 OVERLOAD = 0.8    # the overload margin: a motor's peak torque stays below this share of its breakdown torque
 
 
-def overload_rows(system, motor: str, df, on, row) -> None:
+def overload_rows(system, motor: str, df, on, row, after: str = "after the step") -> None:
     """A load step's (a jam's) verdict on the motor over the samples where ``on`` holds: its peak torque over its
     breakdown torque against the margin :data:`OVERLOAD`, and its largest slip against its breakdown slip s_k
     (past it the motor is pulled out: it stalls), each named in its meaning."""
@@ -187,9 +188,9 @@ def overload_rows(system, motor: str, df, on, row) -> None:
     ratio = float(np.max(np.abs(df[torque].to_numpy(dtype=float)[on]))) / model.M_k
     word = "OVERLOAD" if ratio > OVERLOAD else "within the margin"
     row("motor_torque_peak_to_breakdown", ratio, "1",
-        f"{word}: peak motor torque after the step over its breakdown torque ({model.M_k:.4g} N.m; margin "
+        f"{word}: peak motor torque {after} over its breakdown torque ({model.M_k:.4g} N.m; margin "
         f"{OVERLOAD:g})")
     slip = 1.0 - float(np.min(df[speed].to_numpy(dtype=float)[on])) / model.p.w_sync
     pulled = "PULLED OUT (the motor stalls)" if slip > model.s_k else "on the stable branch"
-    row("motor_slip_peak", 100.0 * slip, "%", f"{pulled}: largest slip after the step, against the breakdown slip "
+    row("motor_slip_peak", 100.0 * slip, "%", f"{pulled}: largest slip {after}, against the breakdown slip "
         f"s_k = {100.0 * model.s_k:.3g} %")

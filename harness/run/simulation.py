@@ -419,7 +419,7 @@ def simulate_scenario(system, scenario, **options) -> pd.DataFrame:
         return df
     sc, options = scenarios.prepare(system, scenario, options)
     asked = options["stop_time"]
-    if sc.kind == "stop" and sc.changes and system.quantities is not None:
+    if sc.kind in ("stop", "jam") and sc.changes and system.quantities is not None:
         options = _until_settled(system, sc, options)
     df = simulate(system, **options)
     df.attrs["scenario"] = sc.name
@@ -435,7 +435,7 @@ def simulate_scenario(system, scenario, **options) -> pd.DataFrame:
 
 
 def _until_settled(system, sc, options: dict) -> dict:
-    """A stop's run options: on past its stop time until the drive has settled, up to its limit
+    """A stop's (a jam's) run options: on past its stop time until the drive has settled at rest, up to its limit
     (:mod:`harness.run.settling`)."""
     import dataclasses
 

@@ -8,7 +8,7 @@ in topological order of the strongly connected components of the instance graph,
 and a differential that feed each other's reactions) is swept as often as it has members, which is exact
 whenever the variable-level graph has no algebraic loop (the masters detect and report those).
 
-Three kinds of state are not plain ODE states and get explicit treatment here (the table ``_KINDS`` below,
+Five kinds of state are not plain ODE states and get explicit treatment here (the table ``_KINDS`` below,
 keyed by model class and fidelity, is the only place that knows about them):
 
 * *algebraic* states of rigid (fidelity-0) levels that ``advance`` sets from the held inputs (FourBar,
@@ -28,6 +28,9 @@ keyed by model class and fidelity, is the only place that knows about them):
   rotor's stop and a held rotor's breaking loose are events too; while it slides, the friction keeps the
   slide's sense (also where a stage of the integrator overshoots zero), while it holds, the rotor's angle and
   speed are frozen;
+* *an end stop* (a jam: RackBed, ParallelShafts with a stop): the tool reaching the stop and leaving it are
+  events (its force's kink), and where it reaches a catch the memory ``stop_caught`` is set as the FMU's step
+  sets it;
 * *step memory*: RackBed at fidelity 0 estimates the bed acceleration from the inputs of successive
   communication steps; a monolithic model has no steps, so that level is refused with a one-line error
   (use fidelity 1).
@@ -268,6 +271,42 @@ class _ClutchBrake(_Brake):
         return self.model.derivatives_open(t, x, u, friction)
 
 
+class _EndStop(_Switch):
+    """An end stop (a jam) of a model with :class:`fmus.physics.contact.EndStop`: the tool's coordinate against
+    the stop's position.  Where it reaches the stop a catch keeps it (the memory ``stop_caught`` set, as the FMU's
+    step does), and an end stop's force has its kink (an event restarts the integration there, and where the tool
+    leaves it); a caught tool has no switch left."""
+
+    @classmethod
+    def applies(cls, model) -> bool:
+        return model.has_stop
+
+    def __init__(self, i: int, model):
+        super().__init__(i, model)
+        self.q = model.outputs.index(model.stop_signals[0])
+        self.memory = [s.name for s in model.states].index("stop_caught")
+        self.mode = "clear"
+
+    def arm(self, t, x, u) -> None:
+        if x[self.memory] >= 0.5:
+            self.mode, self.direction = "caught", 0.0
+        elif self.value(t, x, u) > 0.0:
+            self.mode, self.direction = "contact", -1.0
+        else:
+            self.mode, self.direction = "clear", 1.0
+
+    def value(self, t, x, u) -> float:
+        if self.mode == "caught":
+            return 1.0
+        return self.model.stop_penetration(self.model.output(t, x, u)[self.q])
+
+    def switch(self, t, x, u) -> np.ndarray:
+        x = np.array(x, dtype=float)
+        if self.mode == "clear" and self.model.p.stop_catch:
+            x[self.memory] = 1.0
+        return x
+
+
 # (model class name, fidelity) -> kind of the non-ODE state (see the module docstring)
 _KINDS: dict[tuple[str, int], object] = {
     ("FourBarModel", 0): "algebraic",
@@ -279,6 +318,9 @@ _KINDS: dict[tuple[str, int], object] = {
     ("MotorBeltModel", 1): _Brake,
     ("MotorBeltModel", 2): _Brake,
     ("ClutchBrakeShaftModel", 1): _ClutchBrake,
+    ("ParallelShaftsModel", 0): _EndStop,
+    ("ParallelShaftsModel", 1): _EndStop,
+    ("RackBedModel", 1): _EndStop,
     ("RackBedModel", 0): "RackBed fidelity 0 estimates the bed acceleration from the inputs of successive "
                          "communication steps, which a monolithic model does not have; use fidelity 1",
 }

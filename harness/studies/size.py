@@ -7,13 +7,19 @@ value of the parameter tried; without ``--stop-time`` each run goes on to its fi
 drive's default stop time); with ``--scenario`` each run is that transient (a stop runs until settled) and the
 target names one of its quantities (``stopping_angle``).  First the bracket: the quantity at both ends of
 ``--range`` (default: a quarter and four times the drive's value, inside the range its FMU declares, each end
-moved halfway towards the drive's value while the FMU refuses it, e.g. a rated speed above the synchronous).  Where the target is met at one end and missed at the other, Brent's method
-finds the value where the quantity crosses the target (to ``--xtol`` of the range, runs reused); the answer is
-the boundary value on the side that meets it (the smallest value when the quantity falls as the parameter
-rises under ``<=``, the largest when it rises), verified by a run at it.  Where the target is met at both ends
-or at neither, it says so with the range the quantity took over the bracket; where the quantity's elasticity
-over the bracket, d ln Q / d ln p, is below 0.1 (a 16x change of the parameter moves it by less than 32 %), it
-says that the parameter barely governs it.
+moved halfway towards the drive's value while the FMU refuses it, e.g. a rated speed above the synchronous).
+Where the default bracket's target holds at both ends or at neither, the bracket widens: four times further out
+(a quarter, downward) on the side where the answer lies (met at both ends: where the quantity gets worse; at
+neither: where it gets better), the new bracket the old end and the new one, again until the target holds at
+one end only, the value reaches :data:`WIDEN` (64) times the drive's value (1/64 of it downward) or the range
+the FMU declares, or the FMU refuses every value further out (each tried by a run of one step and moved back
+halfway while refused); a ``--range`` given is searched as given.  Where the target is met at one end and missed
+at the other, Brent's method finds the value where the quantity crosses the target (to ``--xtol`` of the
+range, runs reused); the answer is the boundary value on the side that meets it (the smallest value when the
+quantity falls as the parameter rises under ``<=``, the largest when it rises), verified by a run at it.  Where
+the target is met at both ends or at neither, it says so with the range the quantity took over every value
+tried; where the quantity's elasticity over them, d ln Q / d ln p, is below 0.1 (a 16x change of the
+parameter moves it by less than 32 %), it says that the parameter barely governs it.
 
 Refused in one line before any run: a target that is not ``NAME <= VALUE`` or ``NAME >= VALUE``, a quantity the
 drive does not report (with the nearest names), a parameter the drive's FMUs do not have, a bracket that is not
@@ -31,6 +37,7 @@ from pathlib import Path
 from harness.errors import SystemDescriptionError
 
 WEAK = 0.1    # elasticity d ln Q / d ln p below which the parameter barely governs the quantity
+WIDEN = 64.0  # the default bracket widens to at most this many times the drive's value (1/WIDEN of it downward)
 
 
 @dataclass(frozen=True)
@@ -286,18 +293,35 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
             return quantities_at([p])[0]
 
         q_lo, q_hi = quantities_at([lo, hi])     # at once on a cluster
-        # the elasticity d ln Q / d ln p over the bracket: a 1 % change of the parameter moves Q by that many %
-        elasticity = (math.log(abs(q_hi) / abs(q_lo)) / math.log(hi / lo)) if q_lo * q_hi > 0 else math.inf
-        change = 100 * abs(q_hi - q_lo) / max(abs(q_lo), abs(q_hi))
-        weak = (f"; {target.quantity} changes by {change:.3g} % over this {hi / lo:g}x range of {parameter} "
+        first = (lo, hi)
+        while bracket is None and target.met(q_lo) == target.met(q_hi):   # the default bracket widens
+            upward = _outward(target, q_lo, q_hi)
+            new = None if upward is None else _beyond(system, parameter, p0, hi if upward else lo, upward, options)
+            if new is None:
+                break
+            if upward:
+                lo, q_lo, hi, q_hi = hi, q_hi, new, quantity(new)
+            else:
+                lo, q_lo, hi, q_hi = new, quantity(new), lo, q_lo
+        result.bracket = (lo, hi)
+        a, b = min(result.runs), max(result.runs)        # every value tried (the first bracket and its widening)
+        qa, qb = result.runs[a], result.runs[b]
+        widened = (f" (the bracket widened from [{first[0]:g}, {first[1]:g}] to [{a:g}, {b:g}], at most "
+                   f"{WIDEN:g} times the drive's value {p0:g} either way and inside what the FMU admits)"
+                   if (lo, hi) != first else "")
+        # the elasticity d ln Q / d ln p over the values tried: a 1 % change of the parameter moves Q by that many %
+        elasticity = (math.log(abs(qb) / abs(qa)) / math.log(b / a)) if qa * qb > 0 else math.inf
+        change = 100 * abs(qb - qa) / max(abs(qa), abs(qb))
+        weak = (f"; {target.quantity} changes by {change:.3g} % over this {b / a:g}x range of {parameter} "
                 f"(elasticity {elasticity:.2g}): the parameter barely governs it"
                 if abs(elasticity) < WEAK else "")
-        taken = f"{target.quantity} took {min(q_lo, q_hi):.4g} to {max(q_lo, q_hi):.4g} over [{lo:g}, {hi:g}]"
+        qs_all = list(result.runs.values())
+        taken = f"{target.quantity} took {min(qs_all):.4g} to {max(qs_all):.4g} over [{a:g}, {b:g}]"
         if target.met(q_lo) and target.met(q_hi):
-            result.message = f"{target} holds at both ends of the bracket ({taken}){weak}"
+            result.message = f"{target} holds at both ends of the bracket ({taken}){weak}{widened}"
             return result
         if not target.met(q_lo) and not target.met(q_hi):
-            result.message = f"no value of {parameter} in [{lo:g}, {hi:g}] meets {target}: {taken}{weak}"
+            result.message = f"no value of {parameter} in [{a:g}, {b:g}] meets {target}: {taken}{weak}{widened}"
             return result
         root = brentq(lambda p: quantity(p) - target.value, lo, hi, xtol=xtol * (hi - lo), maxiter=max_runs)
         # the boundary value on the side that meets the target, verified by its own run
@@ -314,7 +338,7 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         monotonic = all(d > 0 for d in steps) or all(d < 0 for d in steps)
         result.message = (f"{parameter} = {answer:.6g}: the {which} value in [{lo:g}, {hi:g}] that meets "
                           f"{target} ({target.quantity} = {result.verified:.6g} in the run at it; "
-                          f"{len(result.runs)} runs){weak}")
+                          f"{len(result.runs)} runs){weak}{widened}")
         if not monotonic:
             worst = max(result.runs, key=lambda p: result.runs[p] if target.op == "<=" else -result.runs[p])
             result.message = (f"{parameter} = {answer:.6g}: {target} holds from here towards {side:g}, but "
@@ -325,35 +349,65 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         return result
 
 
-def _admissible(system, parameter: str, p0: float, options: dict) -> tuple[float, float]:
-    """The default bracket: a quarter and four times the drive's value, inside the range the FMU declares for the
-    parameter, each end moved halfway (geometrically) towards the drive's value while the FMU refuses it (a rated
-    speed above the synchronous one), at most 12 times; each end tried by a run of one step."""
+def _declared(system, parameter: str) -> tuple[float, float]:
+    """The range the FMU declares for the parameter (min/max; open ends infinite)."""
     from harness.fmi.cache import model_description
     from harness.model import resolve_fmu
-    from harness.run import simulate
 
     inst, _, name = parameter.partition(".")
     v = next(v for v in model_description(resolve_fmu(system.instance(inst).fmu)).modelVariables if v.name == name)
     low = float(v.min) if getattr(v, "min", None) not in (None, "") else -math.inf
     high = float(v.max) if getattr(v, "max", None) not in (None, "") else math.inf
+    return low, high
+
+
+def _admitted(system, parameter: str, end: float, toward: float, options: dict) -> float:
+    """``end``, moved halfway (geometrically) towards ``toward`` while the FMU refuses it (a rated speed above the
+    synchronous one), at most 12 times; each value tried by a run of one step."""
     import warnings
 
-    from harness.run import RunWarning
+    from harness.run import RunWarning, simulate
 
-    ends = []
-    for end in (max(p0 / 4.0, low), min(p0 * 4.0, high)):
-        for _ in range(12):
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RunWarning)      # a refused value is the answer sought here
-                one = simulate(system, stop_time=system.experiment.step, step=system.experiment.step,
-                               start_values={**(options.get("start_values") or {}), parameter: end},
-                               options=options.get("options"))
-            if not one.attrs.get("bad_input"):
-                break
-            end = math.sqrt(end * p0)
-        ends.append(end)
-    return ends[0], ends[1]
+    for _ in range(12):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RunWarning)      # a refused value is the answer sought here
+            one = simulate(system, stop_time=system.experiment.step, step=system.experiment.step,
+                           start_values={**(options.get("start_values") or {}), parameter: end},
+                           options=options.get("options"))
+        if not one.attrs.get("bad_input"):
+            break
+        end = math.sqrt(end * toward)
+    return end
+
+
+def _admissible(system, parameter: str, p0: float, options: dict) -> tuple[float, float]:
+    """The default bracket: a quarter and four times the drive's value, inside the range the FMU declares for the
+    parameter, each end moved towards the drive's value while the FMU refuses it (:func:`_admitted`)."""
+    low, high = _declared(system, parameter)
+    return (_admitted(system, parameter, max(p0 / 4.0, low), p0, options),
+            _admitted(system, parameter, min(p0 * 4.0, high), p0, options))
+
+
+def _beyond(system, parameter: str, p0: float, end: float, upward: bool, options: dict) -> float | None:
+    """The default bracket's next end past ``end``: four times further out (a quarter, downward), inside the range
+    the FMU declares and admits (:func:`_admitted`, moved back towards ``end``) and within :data:`WIDEN` times the
+    drive's value (1/WIDEN of it downward); None when no value further out is left."""
+    low, high = _declared(system, parameter)
+    new = min(end * 4.0, high, p0 * WIDEN) if upward else max(end / 4.0, low, p0 / WIDEN)
+    if not (new > 0.0) or abs(new - end) <= 1e-9 * abs(end):
+        return None
+    new = _admitted(system, parameter, new, end, options)
+    return None if abs(new - end) <= 1e-6 * abs(end) else new
+
+
+def _outward(target: Target, q_lo: float, q_hi: float) -> bool | None:
+    """Which way the default bracket widens when the target holds at both ends or at neither: True upward, False
+    downward, None where the quantity is the same at both ends.  Met at both ends, the boundary lies where the
+    quantity gets worse (larger under ``<=``); met at neither, where it gets better."""
+    if q_hi == q_lo:
+        return None
+    worse_up = (q_hi > q_lo) == (target.op == "<=")
+    return worse_up if target.met(q_lo) else not worse_up
 
 
 def check_target(system, target: Target) -> None:
@@ -406,7 +460,9 @@ def register(subparsers) -> None:
     p.add_argument("--target", required=True, metavar="'QUANTITY <= VALUE'",
                    help="the engineering quantity's target (names as `run` prints them)")
     p.add_argument("--range", nargs=2, type=float, default=None, metavar=("LOW", "HIGH"),
-                   help="the bracket searched (default: a quarter and four times the drive's value)")
+                   help="the bracket searched, as given (default: a quarter and four times the drive's value, "
+                        "widened four times further on the answer's side where the target holds at both ends or at "
+                        "neither, up to 64 times the drive's value either way)")
     p.add_argument("--xtol", type=float, default=1e-3, metavar="SHARE",
                    help="the answer's tolerance as a share of the bracket (default 1e-3)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
