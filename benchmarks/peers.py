@@ -342,6 +342,8 @@ def run_fmu_libcosim(fmu_path, stop_time: float, step: float, parameters: dict, 
     execution_cls, slave_cls, observer_cls, enums = _libcosim()
     execution = execution_cls.from_step_size(step_nanoseconds(step))
     slave = slave_cls(fmu_path=str(Path(fmu_path).resolve()), instance_name=name)
+    if not slave.ptr():   # libcosimpy does not check: adding a slave that was not made segfaults
+        raise _libcosim_error("create slave", f"{fmu_path}:")
     index = execution.add_local_slave(slave)
     if index < 0:
         raise _libcosim_error("add slave", f"{fmu_path}:")

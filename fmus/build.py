@@ -1,6 +1,7 @@
 """The one way to build the press-drive FMUs with pythonfmu (library of ``build_fmus.py``).
 
     python build_fmus.py [--fmi-version 2|3] [--model-exchange] [--out DIR] [--only NAME ...] [--no-validate]
+                         [--standalone]
 
 Both FMI versions are built from the same declarations by the same command: FMI 2.0 (the default, pythonfmu,
 into build/fmus) or FMI 3.0 co-simulation (``--fmi-version 3``, pythonfmu3, into build/fmus3; the declaration on
@@ -16,7 +17,9 @@ FMU of a build, so a process imports it once for all of them; the declaration in
 ``pd_<name>_<hash>``, the hash over the declaration and the runtime.  So FMUs of any toolkit version load, unload
 and reload side by side in one process.  On Linux the host loader
 (``fmus/loader/pressdrive_loader.c``, for FMI 3.0 ``pressdrive_loader3.c``, compiled here) goes in front of
-pythonfmu's (pythonfmu3's) wrapper, so the FMU also loads in hosts that do not run Python (:func:`add_loader`).
+pythonfmu's (pythonfmu3's) wrapper, so the FMU also loads in hosts that do not run Python, and the FMU gets what
+its host needs to know (:func:`finish`, :mod:`fmus.packaging`: the check of its Python, requirements.txt,
+documentation/index.html); ``--standalone`` FMUs carry their own Python and numpy (:mod:`fmus.standalone`).
 The modelDescription is written completely by the base slave (units, ModelStructure with dependencies,
 InitialUnknowns); an FMI 3.0 FMU also gets its power bonds as terminals (:func:`add_terminals`).  The build then
 checks each FMU with ``fmpy.validation`` and exits non-zero, naming the FMU, if a build or a check fails.
@@ -31,10 +34,8 @@ import importlib
 import io
 import os
 import shutil
-import site
 import subprocess
 import sys
-import sysconfig
 import tempfile
 import zipfile
 from pathlib import Path
@@ -209,23 +210,19 @@ def fmu_module(package: str, module: str, name: str, fmi_version: int = 2, model
     return "\n".join(lines) + "\n"
 
 
-def python_environment() -> str:
-    """resources/pressdrive_python.txt: the Python this build runs on, for the host loader."""
-    libdir = sysconfig.get_config_var("LIBDIR") or ""
-    name = sysconfig.get_config_var("INSTSONAME") or sysconfig.get_config_var("LDLIBRARY") or ""
-    paths = [p for p in site.getsitepackages() if Path(p).is_dir()]
-    return "\n".join((f"version={sys.version_info.major}.{sys.version_info.minor}",
-                      f"libpython={Path(libdir) / name}", f"home={sys.base_prefix}",
-                      f"path={':'.join(paths)}")) + "\n"
-
-
-def compile_loader(dest: Path, fmi_version: int = 2) -> Path:
+def compile_loader(dest: Path, fmi_version: int = 2, standalone: bool = False) -> Path:
     """Compile the host loader of this FMI version (fmus/loader/pressdrive_loader.c, pressdrive_loader3.c) with
-    the C compiler of the machine; FMI 3.0's takes its prototypes from the FMI 3.0 headers pythonfmu3 ships."""
+    the C compiler of the machine; FMI 3.0's takes its prototypes from the FMI 3.0 headers pythonfmu3 ships.
+    ``standalone``: the loader of a standalone FMU, which also starts the interpreter the FMU carries
+    (pressdrive_pyconfig.c, compiled against that Python's headers: :mod:`fmus.standalone`)."""
     source = LOADERS[fmi_version][0]
     cc = os.environ.get("CC", "cc")
-    out = dest / f"{source.stem}.so"
+    out = dest / f"{source.stem}{'_standalone' if standalone else ''}.so"
     cmd = [cc, "-shared", "-fPIC", "-O2", "-o", str(out), str(source), "-ldl", "-lpthread"]
+    if standalone:
+        from fmus.standalone import include_dir
+
+        cmd[6:6] = [str(LOADER.parent / "pressdrive_pyconfig.c"), f"-I{include_dir()}"]
     if fmi_version == 3:
         import pythonfmu3
 
@@ -240,33 +237,31 @@ def compile_loader(dest: Path, fmi_version: int = 2) -> Path:
     return out
 
 
-def add_loader(fmu: Path, loader: Path, fmi_version: int = 2) -> None:
-    """Put the host loader in front of pythonfmu's wrapper: binaries/linux64/<id>.so is the loader, the
-    wrapper moves to <id>_pythonfmu.so, and resources/pressdrive_python.txt records this Python (FMI 3.0:
-    binaries/x86_64-linux/<id>.so and <id>_pythonfmu3.so)."""
-    _, platform, exporter = LOADERS[fmi_version]
-    tmp = fmu.with_suffix(".fmu.part")
-    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
-        names = zin.namelist()
-        wrapper = [n for n in names if n.startswith(f"binaries/{platform}/") and n.endswith(".so")]
-        if len(wrapper) != 1:
-            raise RuntimeError(f"{fmu.name}: expected one binaries/{platform}/*.so, found {wrapper}")
-        for n in names:
-            data = zin.read(n)
-            if n == wrapper[0]:
-                zout.writestr(n.removesuffix(".so") + f"_{exporter}.so", data)
-                zout.write(loader, n)
-            else:
-                zout.writestr(zin.getinfo(n), data)
-        zout.writestr("resources/pressdrive_python.txt", python_environment())
-    os.replace(tmp, fmu)
+def finish(fmu: Path, loader: Path | None, fmi_version: int = 2, standalone: bool = False,
+           extra: tuple[str, ...] = ()) -> None:
+    """The exporter's archive ``fmu`` made the FMU the toolkit ships (:func:`fmus.packaging.finish`: the host loader
+    in front of the exporter's wrapper, the check, requirements, documentation); ``standalone``: with the
+    interpreter the FMU's code needs (:mod:`fmus.standalone`, measured on the FMU's own code), for which ``loader``
+    must be compiled with ``standalone=True``; ``extra``: requirements beyond numpy."""
+    from fmus.packaging import finish as finish_archive
+
+    carried = archive = None
+    if standalone:
+        from fmus.standalone import imported_files, runtime
+
+        with tempfile.TemporaryDirectory(prefix="pressdrive_imports_") as tmp:
+            with zipfile.ZipFile(fmu) as z:
+                z.extractall(tmp)
+            carried, archive = runtime(fmi_version, imported_files(Path(tmp) / "resources"))
+    finish_archive(fmu, fmi_version, loader, carried, archive, extra)
 
 
 def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path | None = None,
-              fmi_version: int = 2, model_exchange: bool = False) -> Path:
+              fmi_version: int = 2, model_exchange: bool = False, standalone: bool = False) -> Path:
     """Build one FMU from its declaration into ``out`` (its code under build-unique names, see
-    :func:`stage_isolated`); with ``loader`` (compiled for the same FMI version), the host loader goes in front
-    of the exporter's wrapper."""
+    :func:`stage_isolated`) and finish it (:func:`finish`); with ``loader`` (compiled for the same FMI version, and
+    with ``standalone=True`` for a standalone FMU), the host loader goes in front of the exporter's wrapper;
+    ``standalone``: the FMU carries its own Python and numpy (:mod:`fmus.standalone`)."""
     if fmi_version == 3:
         import pythonfmu3 as pythonfmu
         from pythonfmu3.builder import FmuBuilder
@@ -286,10 +281,9 @@ def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path
             # the pythonfmu in use is a copy from some FMU's resources (no binaries of its own)
             raise RuntimeError(f"{fmu.name} has no binaries: the pythonfmu imported from "
                                f"{Path(pythonfmu.__file__).parent} is not an installed package")
-    if loader is not None:
-        add_loader(fmu, loader, fmi_version)
     if fmi_version == 3:
         add_terminals(fmu, script)
+    finish(fmu, loader, fmi_version, standalone)
     return fmu
 
 
@@ -328,7 +322,7 @@ def _pythonfmu_build(FmuBuilder, script: Path, out: Path, runtime: Path, doc_dir
         fmu = Path(FmuBuilder.build_FMU(
             script, dest=out, project_files=[runtime],
             documentation_folder=doc_dir if doc_dir.is_dir() else None,
-            canHandleVariableCommunicationStepSize=True, needsExecutionTool=False, **state))
+            canHandleVariableCommunicationStepSize=True, **state))
     return fmu
 
 
@@ -350,6 +344,9 @@ def main(argv: list[str] | None = None) -> int:
                          "for FMI 3.0 model exchange)")
     ap.add_argument("--only", nargs="*", default=None, help="build only these modules (e.g. pd_fourbar)")
     ap.add_argument("--no-validate", action="store_true", help="skip the fmpy validation of each FMU")
+    ap.add_argument("--standalone", action="store_true",
+                    help="FMUs that carry their own Python and numpy, for hosts without Python on machines without "
+                         "Python (linux64; about 12 MB each: docs/howto/export.md)")
     args = ap.parse_args(argv)
     if args.model_exchange and args.fmi_version != 3:
         print(f"build_fmus: --model-exchange builds FMI 3.0 FMUs: add --fmi-version 3 (got {args.fmi_version})",
@@ -364,6 +361,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"build_fmus: FMI {args.fmi_version}.0 FMUs are built with {exporter}, which does not import here "
               f"({e}); install it with: pip install {exporter}", file=sys.stderr)
         return 2
+    if args.standalone:
+        from fmus.standalone import unavailable
+
+        reason = unavailable()
+        if reason:
+            print(f"build_fmus: --standalone: {reason}", file=sys.stderr)
+            return 2
 
     scripts = component_scripts()
     if args.only:
@@ -379,7 +383,7 @@ def main(argv: list[str] | None = None) -> int:
         loader = None
         if sys.platform.startswith("linux"):
             try:
-                loader = compile_loader(Path(tmp), args.fmi_version)
+                loader = compile_loader(Path(tmp), args.fmi_version, args.standalone)
             except RuntimeError as e:
                 print(f"build_fmus: FAILED host loader: {e}", file=sys.stderr)
                 return 1
@@ -390,7 +394,7 @@ def main(argv: list[str] | None = None) -> int:
             try:
                 try:
                     staged = build_one(script, stage, loader=loader, fmi_version=args.fmi_version,
-                                       model_exchange=args.model_exchange)
+                                       model_exchange=args.model_exchange, standalone=args.standalone)
                 except Exception as e:  # report and continue with the others
                     print(f"build_fmus: FAILED {script.name}: {type(e).__name__}: {e}", file=sys.stderr)
                     failed.append(script.name)

@@ -35,13 +35,14 @@ def report(result, path, system=None):
     return write_run_report(load(system if system is not None else result.attrs["system"]), result, path)
 
 
-def export_fmu(system, out, outputs=None, fmi_version: int = 2):
+def export_fmu(system, out, outputs=None, fmi_version: int = 2, standalone: bool = False):
     """Write ``system`` (a name in systems/, a .py or .ssp file, or a System) as one co-simulation FMU of the
-    whole drive at ``out`` (:func:`harness.export.drive_fmu.export_fmu`) and return its path."""
+    whole drive at ``out`` (:func:`harness.export.drive_fmu.export_fmu`; ``standalone``: with its own Python and
+    numpy) and return its path."""
     from harness.export.drive_fmu import export_fmu as export
     from harness.run import load
 
-    return export(load(system), out, outputs=outputs, fmi_version=fmi_version)
+    return export(load(system), out, outputs=outputs, fmi_version=fmi_version, standalone=standalone)
 
 
 def modes(system, parameters=None, points: int = 0):

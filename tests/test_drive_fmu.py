@@ -40,19 +40,6 @@ OMS_CLI = Path(sys.executable).parent / "OMSimulator"
 
 
 @pytest.fixture(scope="module")
-def drive_fmus(fmu_dir, tmp_path_factory):
-    out = tmp_path_factory.mktemp("drive_fmus")
-    cache = {}
-
-    def get(name, fmi_version=2):
-        if (name, fmi_version) not in cache:
-            cache[name, fmi_version] = export_fmu(load(name).on_fmus(fmu_dir), out / f"{name}_fmi{fmi_version}.fmu",
-                                                  fmi_version=fmi_version)
-        return cache[name, fmi_version]
-    return get
-
-
-@pytest.fixture(scope="module")
 def bed_reference():
     """The bed drive's accuracy reference (computed once for every test that asks: tests/reference_cache.py)."""
     from reference_cache import shared

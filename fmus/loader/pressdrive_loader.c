@@ -3,19 +3,20 @@
  * pythonfmu's stock wrapper needs the symbols of libpython but does not link it, so it loads only into a
  * process that already runs Python.  This small library stands in front of it (built by fmus/build.py):
  *
- *   - on the first fmi2Instantiate it makes sure Python is there: if the host has no Python symbols, it
- *     dlopen()s the libpython recorded at build time (resources/pressdrive_python.txt, overridable by
- *     PRESSDRIVE_LIBPYTHON) with RTLD_GLOBAL; if Python is not initialised, it sets the recorded home
- *     (PRESSDRIVE_PYTHONHOME), initialises it without signal handlers, adds the recorded site folders
- *     (PRESSDRIVE_PYTHONPATH, ':'-separated) with site.addsitedir, imports pythonfmu from there and
- *     releases the GIL (the wrapper takes it with PyGILState_Ensure on every call, from any thread);
+ *   - on the first fmi2Instantiate it makes sure a Python of an allowed version is there and started
+ *     (pressdrive_python.c: the host's own; a standalone FMU's own interpreter; PRESSDRIVE_LIBPYTHON; the
+ *     builder's libpython where it still is; any libpython3.x the dynamic linker finds), then checks in it what
+ *     the FMU's code needs (resources/pressdrive_check.py, fmus/hostcheck.py: requirements.txt and the FMU's own
+ *     module) before any model code runs;
  *   - it then loads pythonfmu's wrapper, shipped next to it as <modelIdentifier>_pythonfmu.so, with
- *     RTLD_LOCAL and forwards every fmi2* call to it;
- *   - if that environment is gone it logs one fmi2Error line through the host's FMI logger, naming what is
- *     missing and the variable to set, and fmi2Instantiate returns NULL.
+ *     RTLD_LOCAL and forwards every fmi2* call to it, with its own logger between the wrapper and the host
+ *     ("the logger between the wrapper and the host" below: no NULL string reaches the host, warnings and
+ *     errors pass with debug logging off);
+ *   - when a piece is missing it logs one fmi2Error line through the host's FMI logger (whether or not debug
+ *     logging is on), naming what is missing and how to supply it, and fmi2Instantiate returns NULL.
  *
- * A host that already runs Python (FMPy, libcosimpy, ecospy, the harness) is left alone: Python is found
- * initialised and nothing but the forwarding happens.
+ * A host that already runs Python (FMPy, libcosimpy, ecospy, the harness) keeps its Python: the loader only
+ * checks its version and the FMU's needs in it, then forwards.
  *
  * Directional derivatives: pythonfmu's wrappers answer fmi2GetDirectionalDerivative (fmi3...) "not supported".
  * The loader answers them itself from the slave: a toolkit slave, while the wrapper constructs it, offers its
@@ -37,6 +38,7 @@
 #include <libgen.h>
 #include <limits.h>
 #include <pthread.h>
+#include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -73,35 +75,7 @@ typedef struct {
 #define PRESSDRIVE_EXPORTER "pythonfmu"
 #endif
 
-/* ---------------------------------------------------------------------------------------- configuration */
-static char cfg_version[32], cfg_libpython[PATH_MAX], cfg_home[PATH_MAX], cfg_path[8 * PATH_MAX];
-
-static void strip(char *s) {
-    size_t n = strlen(s);
-    while (n && (s[n - 1] == '\n' || s[n - 1] == '\r' || s[n - 1] == ' ')) s[--n] = 0;
-}
-
-static void read_config(const char *file) {
-    FILE *f = fopen(file, "r");
-    char line[8 * PATH_MAX + 32];
-    if (!f) return;
-    while (fgets(line, sizeof line, f)) {
-        char *eq = strchr(line, '=');
-        if (!eq) continue;
-        *eq = 0;
-        strip(eq + 1);
-        if (!strcmp(line, "version")) snprintf(cfg_version, sizeof cfg_version, "%s", eq + 1);
-        else if (!strcmp(line, "libpython")) snprintf(cfg_libpython, sizeof cfg_libpython, "%s", eq + 1);
-        else if (!strcmp(line, "home")) snprintf(cfg_home, sizeof cfg_home, "%s", eq + 1);
-        else if (!strcmp(line, "path")) snprintf(cfg_path, sizeof cfg_path, "%s", eq + 1);
-    }
-    fclose(f);
-}
-
-static const char *setting(const char *env, const char *recorded) {
-    const char *v = getenv(env);
-    return (v && *v) ? v : recorded;
-}
+#include "pressdrive_python.c"        /* the Python the FMU runs on: found, started, checked */
 
 /* ------------------------------------------------------------------------------------------ the wrapper */
 #ifndef PRESSDRIVE_FMI3
@@ -147,6 +121,8 @@ static struct {
     const char *(*utf8)(PyObject *);
     void (*decref)(PyObject *);
     int (*callable)(PyObject *);
+    PyObject *(*dict_item)(PyObject *, const char *);
+    PyObject *(*call_function)(PyObject *, const char *, ...);
     int bound;
 } api;
 
@@ -168,6 +144,103 @@ static void log_error(const fmi2CallbackFunctions *cb, fmi2String instance, cons
 }
 #endif
 
+/* -------------------------------------------------------------- the logger between the wrapper and the host */
+/* pythonfmu's wrappers report a Python exception through the host's logger with a NULL category (cppfmu's
+ * PyLogger): a host that makes a string of it dies there (OMSimulator 3.0: "terminate called after throwing an
+ * instance of 'std::logic_error': basic_string: construction from null", measured on a drive FMU whose
+ * initialisation raised).  And with the host's debug logging off they pass nothing on, errors included (FMPy's
+ * simulate_fmu then says "fmi2ExitInitializationMode failed" and no more).  So the wrapper gets this loader's
+ * logger, always with logging on, and the loader hands the host one "%s" line per message, with the instance
+ * name, the category (the status's own where the wrapper gave none) and the text never NULL and on one line:
+ * every warning and error, and the rest only while the host asked for debug logging.  One Shim per instance holds
+ * the host's callbacks, from instantiation to fmi*FreeInstance. */
+typedef struct Shim {
+    void *instance;                               /* the wrapper's instance (NULL while it is being made) */
+    int host_logging;                             /* the host's debug logging (fmi*Instantiate, fmi*SetDebugLogging) */
+    struct Shim *next;
+    fmi2CallbackFunctions host2, mine2;           /* FMI 2.0: the host's callbacks, and the wrapper's copy */
+    void *env3, *log3, *update3;                  /* FMI 3.0: the host's environment, logger, intermediate update */
+} Shim;
+
+static Shim *shims = NULL;
+
+static const char *status_category(int status) {
+    static const char *names[] = {"logAll", "logStatusWarning", "logStatusDiscard", "logStatusError",
+                                  "logStatusFatal", "logStatusPending"};
+    return status >= 0 && status <= 5 ? names[status] : "logAll";
+}
+
+static Shim *new_shim(void) {
+    Shim *s = calloc(1, sizeof *s);
+    if (!s) return NULL;
+    pthread_mutex_lock(&lock);
+    s->next = shims, shims = s;
+    pthread_mutex_unlock(&lock);
+    return s;
+}
+
+/* the instance the wrapper made with this shim (NULL: it made none, the shim goes) */
+static void bind_shim(Shim *s, void *instance) {
+    if (!s) return;
+    pthread_mutex_lock(&lock);
+    s->instance = instance;
+    pthread_mutex_unlock(&lock);
+}
+
+/* the host's debug logging of ``instance``, recorded (the wrapper keeps logging everything) */
+static void host_logging(void *instance, int on) {
+    pthread_mutex_lock(&lock);
+    for (Shim *p = shims; p; p = p->next)
+        if (p->instance == instance) p->host_logging = on;
+    pthread_mutex_unlock(&lock);
+}
+
+/* the message as one line of text; 0 when the host does not want it (a debug message with its logging off) */
+static int shim_text(const Shim *s, int status, char *text) {
+    for (char *c = text; *c; c++)
+        if (*c == '\n' || *c == '\r') *c = ' ';
+    return status > 0 || !s || s->host_logging;
+}
+
+static void drop_shim(void *instance) {
+    Shim *gone = NULL;
+    pthread_mutex_lock(&lock);
+    for (Shim **p = &shims; *p; p = &(*p)->next)
+        if ((*p)->instance == instance) { gone = *p; *p = gone->next; break; }
+    pthread_mutex_unlock(&lock);
+    free(gone);
+}
+
+#ifndef PRESSDRIVE_FMI3
+static void shim_logger2(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String category,
+                         fmi2String message, ...) {
+    Shim *s = env;
+    char text[8192];
+    va_list ap;
+    va_start(ap, message);
+    vsnprintf(text, sizeof text, message ? message : "", ap);
+    va_end(ap);
+    if (!shim_text(s, status, text)) return;
+    if (s && s->host2.logger)
+        s->host2.logger(s->host2.componentEnvironment, name ? name : "", status,
+                        category ? category : status_category(status), "%s", text);
+    else
+        fprintf(stderr, "%s: %s\n", name ? name : "pressdrive FMU", text);
+}
+
+/* the callbacks the wrapper gets for an instance: the host's, with this loader's logger (NULL: out of memory) */
+static Shim *shim2(const fmi2CallbackFunctions *host, int logging) {
+    Shim *s = host ? new_shim() : NULL;
+    if (!s) return NULL;
+    s->host_logging = logging;
+    s->host2 = *host;
+    s->mine2 = *host;
+    s->mine2.logger = shim_logger2;
+    s->mine2.componentEnvironment = s;
+    return s;
+}
+#endif
+
 /* pythonfmu's wrappers (0.7 for FMI 2.0, pythonfmu3 0.3.4 for FMI 3.0) keep their interpreter handle in a
  * namespace-scope std::shared_ptr and clear it again from an __attribute__((destructor)) function,
  * finalizePythonInterpreter: at exit the C++ destructor of the shared_ptr runs first (an exit handler), then
@@ -185,102 +258,57 @@ static void clear_wrapper_state_first_at_exit(void *symbol) {
     if (clear) atexit(clear);
 }
 
-static int file_exists(const char *p) {
-    struct stat st;
-    return p && *p && stat(p, &st) == 0;
-}
+/* the FMU's root folder (<root>/binaries/<platform>/X.so) and this binary's folder */
+static char self[PATH_MAX], root[PATH_MAX], bindir[PATH_MAX];
 
-/* append s to a Python single-quoted literal in out */
-static void py_literal(char *out, size_t n, const char *s) {
-    size_t k = strlen(out);
-    if (k + 2 >= n) return;
-    out[k++] = '\'';
-    for (; *s && k + 4 < n; s++) {
-        if (*s == '\'' || *s == '\\') out[k++] = '\\';
-        out[k++] = *s;
-    }
-    out[k++] = '\'';
-    out[k] = 0;
-}
-
-/* Python present and initialised, then the wrapper loaded; 0 on success, else err holds one line. */
-static int prepare(char *err, size_t n) {
+static int locate(char *err, size_t n) {
     Dl_info info;
-    char self[PATH_MAX], root[PATH_MAX], wrapper[PATH_MAX], config[PATH_MAX + 64];
-    if (!dladdr((void *)&prepare, &info) || !info.dli_fname || !realpath(info.dli_fname, self)) {
+    if (!dladdr((void *)&locate, &info) || !info.dli_fname || !realpath(info.dli_fname, self)) {
         snprintf(err, n, "pressdrive loader: cannot find its own file");
         return -1;
     }
     snprintf(root, sizeof root, "%s", self);
-    for (int i = 0; i < 3; i++) { /* <root>/binaries/linux64/X.so */
+    for (int i = 0; i < 3; i++) {
         char *d = dirname(root);
         memmove(root, d, strlen(d) + 1);
+        if (i == 0) snprintf(bindir, sizeof bindir, "%s", root);
     }
+    return 0;
+}
+
+/* Python present, of an allowed version and initialised (pressdrive_python.c); 0, else err holds one line. */
+static int prepare(char *err, size_t n) {
+    char config[PATH_MAX + 64], chosen[2 * PATH_MAX + 64];
+    enum origin origin;
+    if (locate(err, n) != 0) return -1;
     snprintf(config, sizeof config, "%s/resources/pressdrive_python.txt", root);
     read_config(config);
-    const char *libpython = setting("PRESSDRIVE_LIBPYTHON", cfg_libpython);
-    const char *home = setting("PRESSDRIVE_PYTHONHOME", cfg_home);
-    const char *path = setting("PRESSDRIVE_PYTHONPATH", cfg_path);
-
-    void *py = RTLD_DEFAULT;
-    if (!dlsym(RTLD_DEFAULT, "Py_IsInitialized")) {
-        if (!file_exists(libpython)) {
-            snprintf(err, n, "the Python environment this FMU was built for is gone: no libpython at '%s' "
-                     "(set PRESSDRIVE_LIBPYTHON to a libpython%s, PRESSDRIVE_PYTHONHOME and PRESSDRIVE_PYTHONPATH "
-                     "to an environment with numpy, scipy and " PRESSDRIVE_EXPORTER ")", libpython, cfg_version);
-            return -1;
-        }
-        py = dlopen(libpython, RTLD_NOW | RTLD_GLOBAL);
-        if (!py) {
-            snprintf(err, n, "cannot load libpython '%s' (%s); set PRESSDRIVE_LIBPYTHON", libpython, dlerror());
-            return -1;
-        }
-    }
+    if (!cfg.minimum[0]) snprintf(cfg.minimum, sizeof cfg.minimum, "%s", cfg.version);
+    void *py = find_python(bindir, chosen, sizeof chosen, &origin, err, n);
+    if (!py) return -1;
     python = py;
     const char *(*get_version)(void) = (const char *(*)(void))dlsym(py, "Py_GetVersion");
     int (*is_initialized)(void) = (int (*)(void))dlsym(py, "Py_IsInitialized");
     if (!get_version || !is_initialized) {
-        snprintf(err, n, "'%s' is not a libpython (no Py_GetVersion); set PRESSDRIVE_LIBPYTHON", libpython);
+        snprintf(err, n, "%s is not a libpython (no Py_GetVersion)", chosen);
         return -1;
     }
-    const char *version = get_version();
-    size_t lv = strlen(cfg_version);
-    if (lv && (strncmp(version, cfg_version, lv) != 0 || version[lv] != '.')) {
-        snprintf(err, n, "this FMU was built for Python %s, the process runs Python %.20s", cfg_version, version);
+    char version[32];
+    snprintf(version, sizeof version, "%s", get_version());
+    version[strcspn(version, " ")] = 0;
+    if (version_number(version) < version_number(cfg.minimum)) {
+        snprintf(err, n, "this FMU needs Python %s or newer; the Python of %s is %s: %s", cfg.minimum, chosen,
+                 version, origin == FROM_HOST ? "run it from a newer Python (e.g. a virtualenv of Python 3.12 with "
+                 "fmpy)" : "set PRESSDRIVE_LIBPYTHON to the libpython of a newer Python");
         return -1;
     }
-    if (!is_initialized()) {
-        if (!file_exists(home)) {
-            snprintf(err, n, "the Python environment this FMU was built for is gone: no Python home '%s' "
-                     "(set PRESSDRIVE_PYTHONHOME)", home);
-            return -1;
-        }
-        wchar_t *(*decode)(const char *, size_t *) = (wchar_t *(*)(const char *, size_t *))dlsym(py, "Py_DecodeLocale");
-        void (*set_home)(const wchar_t *) = (void (*)(const wchar_t *))dlsym(py, "Py_SetPythonHome");
-        void (*init)(int) = (void (*)(int))dlsym(py, "Py_InitializeEx");
-        int (*run)(const char *) = (int (*)(const char *))dlsym(py, "PyRun_SimpleString");
-        void *(*save_thread)(void) = (void *(*)(void))dlsym(py, "PyEval_SaveThread");
-        if (!decode || !set_home || !init || !run || !save_thread) {
-            snprintf(err, n, "libpython '%s' lacks the embedding API", libpython);
-            return -1;
-        }
-        static wchar_t *whome; /* must outlive the interpreter */
-        whome = decode(home, NULL);
-        set_home(whome);
-        init(0);
-        static char script[16 * PATH_MAX];
-        snprintf(script, sizeof script, "import site, sys\nfor _p in ");
-        py_literal(script, sizeof script, path);
-        strncat(script, ".split(':'):\n    if _p: site.addsitedir(_p)\nimport " PRESSDRIVE_EXPORTER "\n",
-                sizeof script - strlen(script) - 1);
-        int rc = run(script);
-        save_thread();
-        if (rc != 0) {
-            snprintf(err, n, "the Python environment this FMU was built for is gone or incomplete: importing "
-                     PRESSDRIVE_EXPORTER " from '%s' failed (traceback on stderr; set PRESSDRIVE_PYTHONPATH)", path);
-            return -1;
-        }
-    }
+    if (!is_initialized() && start_python(py, origin, bindir, chosen, err, n) != 0) return -1;
+    return 0;
+}
+
+/* the exporter's wrapper, shipped next to this binary as <modelIdentifier>_<exporter>.so, loaded and resolved */
+static int load_wrapper(char *err, size_t n) {
+    char wrapper[PATH_MAX + 32];
     snprintf(wrapper, sizeof wrapper, "%s", self);
     size_t k = strlen(wrapper);
     if (k > 3 && !strcmp(wrapper + k - 3, ".so")) wrapper[k - 3] = 0;
@@ -308,7 +336,8 @@ static int bind_api(void) {
     BIND(size, "PySequence_Size") BIND(item, "PySequence_GetItem") BIND(as_double, "PyFloat_AsDouble")
     BIND(occurred, "PyErr_Occurred") BIND(fetch, "PyErr_Fetch") BIND(clear, "PyErr_Clear")
     BIND(str, "PyObject_Str") BIND(utf8, "PyUnicode_AsUTF8") BIND(decref, "Py_DecRef")
-    BIND(callable, "PyCallable_Check")
+    BIND(callable, "PyCallable_Check") BIND(dict_item, "PyDict_GetItemString")
+    BIND(call_function, "PyObject_CallFunction")
 #undef BIND
     api.bound = 1;
     return 1;
@@ -456,6 +485,38 @@ done:
     return rc;
 }
 
+/* resources/pressdrive_check.py (fmus/hostcheck.py): what the FMU's code needs, checked in the Python found by
+ * prepare() before the wrapper runs any of it: "" when everything is there, else one line for err.  The script runs
+ * in a namespace of its own (runpy.run_path), so nothing of it stays in the host's modules. */
+static int run_check(char *err, size_t n) {
+    char script[PATH_MAX + 64], resources[PATH_MAX + 16];
+    snprintf(script, sizeof script, "%s/resources/pressdrive_check.py", root);
+    snprintf(resources, sizeof resources, "%s/resources", root);
+    if (!file_exists(script)) return 0;   /* an FMU without its check (not built by this toolkit's build) */
+    if (!bind_api()) {
+        snprintf(err, n, "the Python of this process lacks a function of its C API the loader calls");
+        return -1;
+    }
+    int rc = -1, g = api.gil_ensure();
+    PyObject *runpy = api.import("runpy"), *ns = NULL, *answer = NULL;
+    if (runpy) ns = api.call_method(runpy, "run_path", "s", script);
+    PyObject *check = ns ? api.dict_item(ns, "check") : NULL;   /* borrowed */
+    if (check) answer = api.call_function(check, "s", resources);
+    const char *text = answer ? api.utf8(answer) : NULL;
+    if (!text) {
+        char why[512];
+        python_error(why, sizeof why);
+        snprintf(err, n, "this FMU's check of its Python (resources/pressdrive_check.py) failed: %s", why);
+    } else if (*text) {
+        snprintf(err, n, "%s", text);
+    } else {
+        rc = 0;
+    }
+    decref(answer); decref(ns); decref(runpy);
+    api.gil_release(g);
+    return rc;
+}
+
 /* Python and the wrapper ready, once per process (either FMI version's instantiation calls it): 0 when ready,
  * else -1 with the reason in err; ``step``: where prepare() puts the wrapper's doStep symbol (read after it,
  * for clear_wrapper_state_first_at_exit) */
@@ -464,7 +525,7 @@ static int ensure_ready(char *err, size_t n, void *const *step) {
     pthread_mutex_lock(&lock);
     if (!ready) {
         err[0] = 0;
-        if (prepare(err, n) != 0) {
+        if (prepare(err, n) != 0 || run_check(err, n) != 0 || load_wrapper(err, n) != 0) {
             rc = -1;
         } else {
             clear_wrapper_state_first_at_exit(*step);
@@ -489,9 +550,12 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
         return NULL;
     }
     clear_offer();
+    Shim *shim = shim2(functions, loggingOn);
     fmi2Component c = ((fmi2Component (*)(fmi2String, fmi2Type, fmi2String, fmi2String, const fmi2CallbackFunctions *,
                                           fmi2Boolean, fmi2Boolean))p_fmi2Instantiate)(
-        instanceName, fmuType, guid, resourceLocation, functions, visible, loggingOn);
+        instanceName, fmuType, guid, resourceLocation, shim ? &shim->mine2 : functions, visible, shim ? 1 : loggingOn);
+    bind_shim(shim, c);
+    if (!c) drop_shim(NULL);
     keep_offer(c, instanceName, functions, NULL, NULL);
     return c;
 }
@@ -499,11 +563,17 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
 #define FWD(name, params, args) \
     EXPORT fmi2Status name params { return ((fmi2Status (*) params)p_##name) args; }
 
-FWD(fmi2SetDebugLogging, (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cats[]), (c, on, n, cats))
+/* recorded for the loader's logger; the wrapper keeps logging every category (see "the logger between ...") */
+EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cats[]) {
+    host_logging(c, on);
+    return ((fmi2Status (*)(fmi2Component, fmi2Boolean, size_t, const fmi2String *))p_fmi2SetDebugLogging)(
+        c, 1, on ? n : 0, on ? cats : NULL);
+}
 EXPORT void fmi2FreeInstance(fmi2Component c) {
     if (!c || !p_fmi2FreeInstance) return;
     drop_offer(c);
     ((void (*)(fmi2Component))p_fmi2FreeInstance)(c);
+    drop_shim(c);
 }
 FWD(fmi2SetupExperiment, (fmi2Component c, fmi2Boolean tolDef, fmi2Real tol, fmi2Real t0, fmi2Boolean stopDef, fmi2Real t1),
     (c, tolDef, tol, t0, stopDef, t1))

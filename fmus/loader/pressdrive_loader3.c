@@ -56,12 +56,47 @@ static int ready3(fmi3String instance, fmi3InstanceEnvironment env, fmi3LogMessa
 
 const char *fmi3GetVersion(void) { return fmi3Version; }
 
+/* the host's logger and intermediate update behind this loader's (pressdrive_loader.c: "the logger between the
+ * wrapper and the host"): no NULL string reaches the host */
+static void shim_logger3(fmi3InstanceEnvironment env, fmi3Status status, fmi3String category, fmi3String message) {
+    Shim *s = env;
+    char text[8192];
+    snprintf(text, sizeof text, "%s", message ? message : "");
+    if (!shim_text(s, status, text)) return;
+    fmi3LogMessageCallback log = s ? (fmi3LogMessageCallback)s->log3 : NULL;
+    if (log) log(s->env3, status, category ? category : status_category(status), text);
+    else fprintf(stderr, "pressdrive FMU: %s\n", text);
+}
+
+static void shim_update3(fmi3InstanceEnvironment env, fmi3Float64 t, fmi3Boolean set, fmi3Boolean get,
+                         fmi3Boolean finished, fmi3Boolean early, fmi3Boolean *requested, fmi3Float64 *when) {
+    Shim *s = env;
+    ((fmi3IntermediateUpdateCallback)s->update3)(s->env3, t, set, get, finished, early, requested, when);
+}
+
+static Shim *shim3(fmi3InstanceEnvironment env, fmi3LogMessageCallback log, fmi3IntermediateUpdateCallback update,
+                   int logging) {
+    Shim *s = new_shim();
+    if (!s) return NULL;
+    s->host_logging = logging;
+    s->env3 = env, s->log3 = (void *)log, s->update3 = (void *)update;
+    return s;
+}
+
+/* the instance the wrapper made with ``shim`` (its callbacks'), or NULL and the shim gone */
+static fmi3Instance made(Shim *shim, fmi3Instance c) {
+    bind_shim(shim, c);
+    if (!c) drop_shim(NULL);
+    return c;
+}
+
 fmi3Instance fmi3InstantiateModelExchange(fmi3String name, fmi3String token, fmi3String resources,
                                           fmi3Boolean visible, fmi3Boolean loggingOn,
                                           fmi3InstanceEnvironment env, fmi3LogMessageCallback log) {
     if (!ready3(name, env, log)) return NULL;
-    return ((fmi3InstantiateModelExchangeTYPE *)p_fmi3InstantiateModelExchange)(
-        name, token, resources, visible, loggingOn, env, log);
+    Shim *shim = shim3(env, log, NULL, loggingOn);
+    return made(shim, ((fmi3InstantiateModelExchangeTYPE *)p_fmi3InstantiateModelExchange)(
+        name, token, resources, visible, shim ? fmi3True : loggingOn, shim ? shim : env, shim ? shim_logger3 : log));
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3String resources,
@@ -71,9 +106,10 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
                                          fmi3LogMessageCallback log, fmi3IntermediateUpdateCallback update) {
     if (!ready3(name, env, log)) return NULL;
     clear_offer();   /* directional derivatives: pressdrive_loader.c */
-    fmi3Instance c = ((fmi3InstantiateCoSimulationTYPE *)p_fmi3InstantiateCoSimulation)(
-        name, token, resources, visible, loggingOn, eventModeUsed, earlyReturnAllowed, required, nRequired, env,
-        log, update);
+    Shim *shim = shim3(env, log, update, loggingOn);
+    fmi3Instance c = made(shim, ((fmi3InstantiateCoSimulationTYPE *)p_fmi3InstantiateCoSimulation)(
+        name, token, resources, visible, shim ? fmi3True : loggingOn, eventModeUsed, earlyReturnAllowed, required, nRequired,
+        shim ? shim : env, shim ? shim_logger3 : log, shim && update ? shim_update3 : update));
     keep_offer(c, name, NULL, env, (void *)log);
     return c;
 }
@@ -93,6 +129,7 @@ void fmi3FreeInstance(fmi3Instance c) {
     if (!c || !p_fmi3FreeInstance) return;
     drop_offer(c);
     ((fmi3FreeInstanceTYPE *)p_fmi3FreeInstance)(c);
+    drop_shim(c);
 }
 
 /* any other call needs an instance, so the wrapper is loaded by then */
@@ -103,7 +140,11 @@ void fmi3FreeInstance(fmi3Instance c) {
 #define GETTER(name, type) FWD3(name, (fmi3Instance c, VR, type v[], size_t n), (c, vr, nvr, v, n))
 #define SETTER(name, type) FWD3(name, (fmi3Instance c, VR, const type v[], size_t n), (c, vr, nvr, v, n))
 
-FWD3(fmi3SetDebugLogging, (fmi3Instance c, fmi3Boolean on, size_t n, const fmi3String cats[]), (c, on, n, cats))
+/* recorded for the loader's logger; the wrapper keeps logging every category (pressdrive_loader.c) */
+fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean on, size_t n, const fmi3String cats[]) {
+    host_logging(c, on);
+    return ((fmi3SetDebugLoggingTYPE *)p_fmi3SetDebugLogging)(c, fmi3True, on ? n : 0, on ? cats : NULL);
+}
 FWD3(fmi3EnterInitializationMode, (fmi3Instance c, fmi3Boolean tolDef, fmi3Float64 tol, fmi3Float64 t0,
                                    fmi3Boolean stopDef, fmi3Float64 t1), (c, tolDef, tol, t0, stopDef, t1))
 FWD3(fmi3ExitInitializationMode, (fmi3Instance c), (c))

@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .base import Model, ParameterError, Params, Signal, param
+from .hybrid import hybrid
 
 RESIDUALS = ("r17", "r18", "r19", "r20", "r21", "r22", "r23", "r24")
 DEFAULT_SET = ("r24", "r18", "r23", "r21")
@@ -267,8 +268,9 @@ def solve_sectors(task: SectorTask, use: tuple[str, ...] | str = DEFAULT_SET, st
                   tol: float = 1e-9, junction_tol: float = JUNCTION_TOL) -> SectorSolution:
     """Solve the transcendental system (25) for (eps1, eps2, kappa, beta0).
 
-    ``use``: four residual names (root finding, scipy.optimize.root, hybr) or "lsq" (least squares over
-    all eight with scipy.optimize.least_squares).  Several starting points; the first converged feasible
+    ``use``: four residual names (root finding by Powell's hybrid method, :func:`fmus.physics.hybrid.hybrid`: SciPy's
+    ``optimize.root`` "hybr" in numpy) or "lsq" (least squares over all eight with scipy.optimize.least_squares,
+    for the synthesis studies; an FMU never asks it).  Several starting points; the first converged feasible
     solution with the smallest residual norm wins.  ``converged`` means every used residual is below
     ``tol`` (for "lsq": the solver converged; the residuals tell how well the data fit).
 
@@ -279,8 +281,6 @@ def solve_sectors(task: SectorTask, use: tuple[str, ...] | str = DEFAULT_SET, st
     the other four: with data that over-determine (25) inconsistently the solution is marked infeasible
     and the message names the unmet conditions.  Given quantities out of range (:data:`GIVEN_RANGES`)
     raise ValueError."""
-    from scipy import optimize   # here: every FMU imports this module, and scipy.optimize is slow to import
-
     bad_given = out_of_range(task)
     if bad_given is not None:
         name, v, allowed = bad_given
@@ -310,13 +310,14 @@ def solve_sectors(task: SectorTask, use: tuple[str, ...] | str = DEFAULT_SET, st
     best = None
     with np.errstate(all="ignore"):
         for x0 in (starts or DEFAULT_STARTS):
-            if lsq:
+            if lsq:   # the synthesis studies' least squares (SciPy); an FMU solves its four conditions below
+                from scipy import optimize
+
                 sol = optimize.least_squares(f, x0, bounds=([-5, -0.999, 1e-3, 1e-3], [5, 0.999, 20, math.pi - 1e-3]),
                                              xtol=1e-14, ftol=1e-14, gtol=1e-14)
                 x, ok = sol.x, sol.success
-            else:
-                sol = optimize.root(f, x0, method="hybr", options={"xtol": 1e-13})
-                x = sol.x
+            else:     # Powell's hybrid method, SciPy's "hybr" in numpy (an FMU needs no SciPy)
+                x = hybrid(f, x0, xtol=1e-13)
                 ok = bool(np.all(np.isfinite(x))) and float(np.max(np.abs(f(x)))) < tol
             buildable, why = _feasible(x, task.delta0) if np.all(np.isfinite(x)) else (False, "non-finite")
             feas = buildable

@@ -8,7 +8,7 @@ the same declarations as the component FMUs (``fmus/build.py``):
 * its code is the slave plus the harness modules it imports, under names unique to this build
   (``harness_<hash>``, like the component FMUs' ``fmus_<hash>``), so two versions load side by side;
 * ``resources/members/<Model>.fmu``: the member FMUs, run in the host's Python by the in-process path;
-* the host loader goes in front of pythonfmu's wrapper (``fmus.build.add_loader``), so hosts without Python
+* the host loader goes in front of pythonfmu's wrapper (``fmus.build.finish``), so hosts without Python
   (OMSimulator's command line) load it as they load the component FMUs;
 * its interface: every member parameter as ``Instance.parameter`` with the drive's value as start value, unit
   and description (Real ones settable before initialisation, ``fixed``; the Integer ones, fidelities, laws,
@@ -86,6 +86,10 @@ def _packable(name: str, path: Path) -> None:
     if not any(n.startswith(f"binaries/{PLATFORM}/") and n.endswith(".so") for n in names):
         raise SystemDescriptionError(f"member {name} ({path.name}) cannot be packed into a drive FMU: it has no binary "
                                      f"for {PLATFORM} (binaries/{PLATFORM}/*.so)")
+    if "resources/slavemodule.txt" not in names:
+        raise SystemDescriptionError(f"member {name} ({path.name}) cannot be packed into a drive FMU: it is not a "
+                                     f"pythonfmu FMU, and a drive FMU runs its members in its own Python (in process), "
+                                     f"so that it needs nothing of its host but numpy")
 
 
 def _rates(system: System) -> dict:
@@ -191,40 +195,57 @@ def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, 
     return spec, paths
 
 
-def harness_modules(start: Path = HERE / "drive_slave.py") -> list[Path]:
-    """The harness source files the slave needs: ``start`` and every harness module it imports, transitively
-    (also imports inside functions), with the packages' ``__init__.py``."""
-    root = HARNESS.parent
-    seen: set[Path] = set()
+def _resolve(dotted: str) -> Path | None:
+    """The source of a module of the toolkit (``harness.x.y``, ``fmus.x``): its ``.py`` file or its package's
+    ``__init__.py``; None for anything else."""
+    base = HARNESS.parent.joinpath(*dotted.split("."))
+    for cand in (base.with_suffix(".py"), base / "__init__.py"):
+        if cand.is_file():
+            return cand
+    return None
+
+
+def harness_modules(start: Path = HERE / "drive_slave.py") -> dict[str, Path]:
+    """What the drive FMU's own copy of the harness holds: file (relative to the copy's package) -> source.
+
+    ``start`` and every harness module it imports, transitively (imports inside functions too); a package's
+    ``__init__.py`` only where a module imports a name from the package itself (:func:`stage` writes an empty one
+    for every other package: ``harness.fmi``'s would import FMPy, ``harness``'s the whole toolkit); and, under
+    ``fmus/``, the ``fmus`` modules they import at module level (the refusal contract, standard library only: an
+    import of ``fmus`` inside a function is never run in the FMU and is not followed)."""
+    found: dict[str, Path] = {}
     todo = [start]
     while todo:
         f = todo.pop()
-        if f in seen:
+        rel = str(f.relative_to(HARNESS)) if f.is_relative_to(HARNESS) else f"fmus/{f.relative_to(HARNESS.parent / 'fmus')}"
+        if rel in found:
             continue
-        seen.add(f)
-        for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
+        found[rel] = f
+        tree = ast.parse(f.read_text(encoding="utf-8"))
+        top = {id(n) for n in tree.body}
+        for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-                names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+                pkg = _resolve(node.module)
+                subs = [_resolve(f"{node.module}.{a.name}") for a in node.names]
+                wanted = [x for x in subs if x is not None]
+                if pkg is not None and (pkg.name != "__init__.py" or len(wanted) < len(subs)):
+                    wanted.append(pkg)     # a module, or names of the package itself
+                module = node.module
             elif isinstance(node, ast.Import):
-                names = [a.name for a in node.names]
+                wanted = [x for x in (_resolve(a.name) for a in node.names) if x is not None]
+                module = node.names[0].name
             else:
                 continue
-            for n in names:
-                if n.split(".")[0] != "harness":
-                    continue
-                parts = n.split(".")
-                for k in range(1, len(parts) + 1):
-                    base = root.joinpath(*parts[:k])
-                    for cand in (base.with_suffix(".py"), base / "__init__.py"):
-                        if cand == HARNESS / "__init__.py":
-                            continue   # the package's lazy API (run, studies): the FMU gets an empty one
-                        if cand.is_file() and cand not in seen:
-                            todo.append(cand)
-    return sorted(seen)
+            head = module.split(".")[0]
+            if head == "harness" or (head == "fmus" and id(node) in top):
+                todo += [w for w in wanted if w != HARNESS / "__init__.py"]
+    return dict(sorted(found.items()))
 
 
 def _rename(text: str, package: str) -> str:
-    return re.sub(r"^(\s*)(from|import)\s+harness(?=[.\s])", rf"\1\2 {package}", text, flags=re.M)
+    """The copy's imports: ``harness`` is the package itself, ``fmus`` its ``fmus`` sub-package."""
+    text = re.sub(r"^(\s*)(from|import)\s+harness(?=[.\s])", rf"\1\2 {package}", text, flags=re.M)
+    return re.sub(r"^(\s*)from\s+fmus(?=[.\s])", rf"\1from {package}.fmus", text, flags=re.M)
 
 
 SLAVES = {2: ("drive_slave.py", "DriveSlave"), 3: ("drive_slave3.py", "DriveSlave3")}   # per FMI version
@@ -237,29 +258,34 @@ def stage(system: System, dest: Path, outputs: list[str] | None = None,
     slave_file, slave_class = SLAVES[fmi_version]
     files = harness_modules(HERE / slave_file)
     h = hashlib.sha1(json.dumps(spec, sort_keys=True).encode() + str(fmi_version).encode())
-    for f in files:
-        h.update(str(f.relative_to(HARNESS.parent)).encode())
+    for rel, f in files.items():
+        h.update(rel.encode())
         h.update(f.read_bytes())
     digest = h.hexdigest()[:12]
     package = f"harness_{digest}"
-    for f in files:
-        target = dest / package / f.relative_to(HARNESS)
+    for rel, f in files.items():
+        target = dest / package / rel
         target.parent.mkdir(parents=True, exist_ok=True)
         target.write_text(_rename(f.read_text(encoding="utf-8"), package), encoding="utf-8")
-    (dest / package / "__init__.py").write_text('"""The harness modules a drive FMU runs (harness.export.drive_fmu)."""\n',
-                                                encoding="utf-8")
+    for folder in [dest / package, *(p for p in (dest / package).rglob("*") if p.is_dir())]:
+        if not (folder / "__init__.py").is_file():   # a package whose own names the slave does not import
+            (folder / "__init__.py").write_text('"""Part of the harness a drive FMU carries (harness.export.'
+                                                'drive_fmu)."""\n', encoding="utf-8")
     members = dest / "members"
     members.mkdir()
     for p in sorted(set(paths.values())):
         shutil.copy2(p, members / p.name)
     cls = model_class_name(system)
-    modules = sorted(".".join((Path(package) / f.relative_to(HARNESS)).with_suffix("").parts).removesuffix(".__init__")
-                     for f in files + [HARNESS / "__init__.py"])
+    modules = sorted(".".join(f.relative_to(dest).with_suffix("").parts).removesuffix(".__init__")
+                     for f in (dest / package).rglob("*.py"))
     text = (f'"""Drive FMU {cls}: the drive {system.name} with the toolkit\'s master inside '
             f'(harness.export.drive_slave)."""\n'
             f"import json\n\nfrom {package}.export.{slave_file[:-3]} import {slave_class}\n"
+            f"from {package}.fmi.cache import use_standard_library_reader\n"
             + ("from pythonfmu3 import Fmi3Slave  # noqa: F401 (pythonfmu3 finds the class by this word)\n"
                if fmi_version == 3 else "") +
+            "\n# this copy of the harness reads its members' modelDescriptions without FMPy (harness.fmi.description)\n"
+            "use_standard_library_reader()\n"
             f"\nSPEC = {json.dumps(json.dumps(spec))}\n\n\n"
             f"class {cls}({slave_class}{', Fmi3Slave' if fmi_version == 3 else ''}):\n"
             f"    spec = json.loads(SPEC)\n\n\n"
@@ -270,11 +296,13 @@ def stage(system: System, dest: Path, outputs: list[str] | None = None,
     return script, [dest / package, members], spec
 
 
-def export_fmu(system: System, out: str | Path, outputs: list[str] | None = None, fmi_version: int = 2) -> Path:
+def export_fmu(system: System, out: str | Path, outputs: list[str] | None = None, fmi_version: int = 2,
+               standalone: bool = False) -> Path:
     """Write ``system`` as one co-simulation FMU at ``out`` and return its path (module docstring); ``outputs``:
-    ``Instance.variable`` outputs to offer (default :func:`default_outputs`).  ``harness.export_fmu`` also takes
+    ``Instance.variable`` outputs to offer (default :func:`default_outputs`); ``standalone``: the FMU carries its
+    own Python and numpy, for hosts without Python (:mod:`fmus.standalone`).  ``harness.export_fmu`` also takes
     a system's name."""
-    from fmus.build import add_loader, compile_loader
+    from fmus.build import compile_loader, finish
 
     if not isinstance(system, System):
         raise SystemDescriptionError(f"export_fmu: expected a System, got {type(system).__name__} (harness.export_fmu "
@@ -295,10 +323,9 @@ def export_fmu(system: System, out: str | Path, outputs: list[str] | None = None
         state = {"canGetAndSetFMUState" if fmi_version == 3 else "canGetAndSetFMUstate": spec["rollback"]}
         with contextlib.redirect_stdout(io.StringIO()):
             fmu = Path(FmuBuilder.build_FMU(script, dest=tmp / "out", project_files=project,
-                                            canHandleVariableCommunicationStepSize=True, needsExecutionTool=False,
-                                            **state))
-        if sys.platform.startswith("linux"):
-            add_loader(fmu, compile_loader(tmp, fmi_version), fmi_version)
+                                            canHandleVariableCommunicationStepSize=True, **state))
+        loader = compile_loader(tmp, fmi_version, standalone) if sys.platform.startswith("linux") else None
+        finish(fmu, loader, fmi_version, standalone)
         out.parent.mkdir(parents=True, exist_ok=True)
         part = out.with_name(out.name + ".part")
         shutil.copyfile(fmu, part)

@@ -12,7 +12,7 @@ from xml.etree.ElementTree import Element, SubElement
 from pythonfmu3 import (Fmi3Causality, Fmi3Initial, Fmi3Slave, Fmi3Status, Fmi3StepResult, Fmi3Variability,
                         Float64, Int32)
 
-from harness.export.drive_slave import DriveBehaviour
+from harness.export.drive_behaviour import DriveBehaviour
 
 CO_SIMULATION = {"needsExecutionTool": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
                  "canSerializeFMUState": "false", "canHandleVariableCommunicationStepSize": "true"}

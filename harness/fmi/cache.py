@@ -38,9 +38,27 @@ _FMI3_AS_FMI2 = {"Float64": "Real", "Float32": "Real", **{t: "Integer" for t in 
 _UNZIPPED: dict[tuple[str, float, str], Path] = {}
 
 
+# Who reads a modelDescription.xml: FMPy (the default), or the standard library (harness.fmi.description, FMI 2.0)
+# in the copy of the harness a drive FMU carries, which needs nothing of its host but numpy
+# (:func:`use_standard_library_reader`, called by harness.export.drive_behaviour).
+_OWN_READER: list = []
+
+
+def use_standard_library_reader() -> None:
+    """Read every modelDescription with :func:`harness.fmi.description.read` from now on in this copy of the
+    harness (a drive FMU's own: FMPy and lxml need not be there)."""
+    from harness.fmi.description import read
+
+    _OWN_READER[:] = [read]
+
+
 def model_description(path: str | Path):
-    """fmpy model description of an FMU file (cached by path and modification time)."""
-    from fmpy import read_model_description
+    """fmpy model description of an FMU file (cached by path and modification time); in a drive FMU's own copy of
+    the harness, the standard library's (:func:`use_standard_library_reader`)."""
+    if _OWN_READER:
+        read_model_description = _OWN_READER[0]
+    else:
+        from fmpy import read_model_description
 
     p = Path(path).resolve()
     if not p.is_file():

@@ -36,7 +36,9 @@ import numpy as np
 
 from fmus.refusal import CATEGORY as REFUSAL_CATEGORY
 from harness.errors import FMUError, StepDiscarded
-from harness.fmi.fmu import DISCARD, ERROR, FATAL, WARNING, FMUInstance, RealBlock, toolkit_annotation
+from harness.fmi.annotation import toolkit_annotation
+from harness.fmi.instance import FMUInstance, RealBlock
+from harness.fmi.status import DISCARD, ERROR, FATAL, WARNING
 
 _SLAVE_BASE = "Fmi2Slave"
 

@@ -10,7 +10,6 @@ from ctypes import c_double, c_uint
 from pathlib import Path
 
 import numpy as np
-from fmpy.fmi1 import FMICallException
 
 from fmus.refusal import CATEGORY as REFUSAL_CATEGORY
 from fmus.refusal import Refusal
@@ -18,6 +17,12 @@ from harness.errors import FMUError, ParameterRefused, StepDiscarded
 from harness.fmi.annotation import advanced_positions
 from harness.fmi.cache import model_description, unzipped
 from harness.fmi.status import DISCARD, ERROR, WARNING
+
+try:
+    from fmpy.fmi1 import FMICallException
+except ImportError:   # the harness a drive FMU carries runs its members in process only: no FMPy call to catch
+    class FMICallException(Exception):
+        """Stands in for FMPy's exception where FMPy is not installed (nothing raises it then)."""
 
 # -- extraction (the one archive cache, :mod:`harness.fmi.cache`) -------------------------------------------
 

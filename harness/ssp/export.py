@@ -229,6 +229,9 @@ def register(subparsers) -> None:
                         "step control over the drive's power bonds); default fixedStep")
     p.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
                    help="FMI version of a drive FMU (.fmu): 2 (pythonfmu) or 3 (pythonfmu3); default 2")
+    p.add_argument("--standalone", action="store_true",
+                   help="a drive FMU (.fmu) that carries its own Python and numpy, for hosts without Python on "
+                        "machines without Python (linux64; docs/howto/export.md)")
     p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
                    help="an output the drive FMU offers (repeatable; default: the signals of the drive's chart "
                         "and accuracy requirements)")
@@ -251,10 +254,12 @@ def _run_export(args) -> int:
     if suffix == ".fmu":
         from harness.export.drive_fmu import export_fmu
 
-        out = export_fmu(load(args.system), args.out, outputs=args.output, fmi_version=args.fmi_version)
+        out = export_fmu(load(args.system), args.out, outputs=args.output, fmi_version=args.fmi_version,
+                         standalone=args.standalone)
     elif suffix == ".ssp":
-        if args.output:
-            raise SystemDescriptionError(f"--output applies to a drive FMU (.fmu), not to {args.out}")
+        if args.output or args.standalone:
+            flag = "--output" if args.output else "--standalone"
+            raise SystemDescriptionError(f"{flag} applies to a drive FMU (.fmu), not to {args.out}")
         out = export_ssp(load(args.system), args.out)
     else:
         raise SystemDescriptionError(f"{args.out}: the export writes an .ssp (SSP archive) or an .fmu (one FMU of the "
