@@ -128,6 +128,7 @@ def toolkit_fmus(fmi_version: int = 2, model_exchange: bool = False) -> Path:
     (and interface).  Keyed by everything under fmus/ (declarations, runtime, loaders, docs packed into each
     FMU, the build itself), the Python the FMUs record, the exporters, fmpy (the validation) and the compiler."""
     from fmus import build as build_fmus
+    from fmus.packaging import python_config
 
     argv = ["--fmi-version", str(fmi_version)] + (["--model-exchange"] if model_exchange else [])
 
@@ -136,6 +137,6 @@ def toolkit_fmus(fmi_version: int = 2, model_exchange: bool = False) -> Path:
             raise BuildError(f"build_fmus.py {' '.join(argv)} (see its FAILED lines on stderr)")
 
     kind = f"fmi{fmi_version}" + ("me" if model_exchange else "")
-    return cached(kind, [ROOT / "fmus", ROOT / "build_fmus.py", build_fmus.python_environment(),
+    return cached(kind, [ROOT / "fmus", ROOT / "build_fmus.py", python_config(),
                          _package_version("pythonfmu"), _package_version("pythonfmu3"), _package_version("fmpy"),
                          version_line(os.environ.get("CC", "cc"))], make)
