@@ -223,10 +223,11 @@ def compile_loader(dest: Path, fmi_version: int = 2, standalone: bool = False) -
         from fmus.standalone import include_dir
 
         cmd[6:6] = [str(LOADER.parent / "pressdrive_pyconfig.c"), f"-I{include_dir()}"]
-    if fmi_version == 3:
-        import pythonfmu3
+    if fmi_version == 3:   # the installed distribution's headers (not whatever `pythonfmu3` a test or FMU put first)
+        from importlib import metadata
 
-        cmd.insert(1, f"-I{Path(pythonfmu3.__file__).parent / 'pythonfmu-export' / 'src' / 'fmi'}")
+        headers = metadata.distribution("pythonfmu3").locate_file("pythonfmu3/pythonfmu-export/src/fmi")
+        cmd.insert(1, f"-I{headers}")
     try:
         r = subprocess.run(cmd, capture_output=True, text=True)
     except FileNotFoundError:

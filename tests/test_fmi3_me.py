@@ -202,7 +202,7 @@ def test_omsimulator_3_0_refuses_fmi3_model_exchange(me_dir):
     import sys
     import textwrap
 
-    from test_fmi3_export import _omsimulator_missing
+    from test_fmi3_hosts import _omsimulator_missing
 
     reason = _omsimulator_missing()
     if reason:

@@ -348,7 +348,7 @@ def test_omsimulator_takes_the_member_connections_and_not_terminal_names(pair3, 
     """Why the export lists members: OMSimulator 3.0 (an SSP host nobody here wrote) refuses a connection that
     names a terminal, as SSP 1.0 lets it (a connector is a variable); the same drive's export with member
     connections it runs (tests/test_fmi3_export.py compares its numbers)."""
-    from test_fmi3_export import _omsimulator_missing, _run_script
+    from test_fmi3_hosts import _omsimulator_missing, _run_script
 
     reason = _omsimulator_missing()
     if reason:
