@@ -33,6 +33,7 @@ import hashlib
 import importlib
 import io
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -257,31 +258,60 @@ def finish(fmu: Path, loader: Path | None, fmi_version: int = 2, standalone: boo
     finish_archive(fmu, fmi_version, loader, carried, archive, extra)
 
 
+EXPORTERS = {2: "pythonfmu", 3: "pythonfmu3"}
+# what an FMU of the toolkit imports under its build's names: its runtime package (fmus_<hash>, a drive's
+# harness_<hash>) and its module (<declaration>_<hash>, <drive>_fmu_<hash>): stage_isolated, drive_fmu.stage
+_RUNTIME = re.compile(r"(fmus|harness)_[0-9a-f]{12}(\.|$)|\w+_[0-9a-f]{12}$")
+
+
+@contextlib.contextmanager
+def installed_exporter(fmi_version: int = 2):
+    """pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) ``FmuBuilder`` as installed, for the length of a build.
+
+    Every FMU the toolkit writes carries the Python part of its exporter's package in its resources (a host needs
+    nothing of it installed: fmus.packaging), and a host that runs such an FMU in this process (FMPy through the
+    exporter's C wrapper) imports that copy, which has no binaries or headers to build with.  Where the package
+    in ``sys.modules`` is such a copy, the installed one takes its place while the build runs (the FMU classes the
+    build imports must subclass the builder's own slave class) and the copy is put back afterwards."""
+    from importlib import metadata
+
+    name = EXPORTERS[fmi_version]
+    try:
+        installed = Path(metadata.distribution(name).locate_file(name)).resolve()
+    except metadata.PackageNotFoundError:
+        raise RuntimeError(f"building an FMI {fmi_version}.0 FMU needs {name} installed (pip install {name})") \
+            from None
+    current = sys.modules.get(name)
+    ours = current is None or Path(current.__file__).resolve().parent == installed
+    # the exporter's modules, and the FMUs' own modules (_RUNTIME) imported on the copy
+    mine = lambda: [k for k in sys.modules if k == name or k.startswith(name + ".") or _RUNTIME.match(k)]  # noqa: E731
+    saved = {} if ours else {k: sys.modules.pop(k) for k in mine()}
+    if not ours:
+        sys.path.insert(0, str(installed.parent))
+    try:
+        yield importlib.import_module(f"{name}.builder").FmuBuilder
+    finally:
+        if not ours:
+            sys.path.remove(str(installed.parent))
+            for k in mine():
+                del sys.modules[k]
+            sys.modules.update(saved)
+
+
 def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path | None = None,
               fmi_version: int = 2, model_exchange: bool = False, standalone: bool = False) -> Path:
     """Build one FMU from its declaration into ``out`` (its code under build-unique names, see
     :func:`stage_isolated`) and finish it (:func:`finish`); with ``loader`` (compiled for the same FMI version, and
     with ``standalone=True`` for a standalone FMU), the host loader goes in front of the exporter's wrapper;
     ``standalone``: the FMU carries its own Python and numpy (:mod:`fmus.standalone`)."""
-    if fmi_version == 3:
-        import pythonfmu3 as pythonfmu
-        from pythonfmu3.builder import FmuBuilder
-    else:
-        import pythonfmu
-        from pythonfmu.builder import FmuBuilder
-
     doc_dir = DOCS / script.stem.removeprefix("pd_")
     stage = Path(tempfile.mkdtemp(prefix=f"pressdrive_src_{script.stem}_"))
     try:
-        staged, runtime = stage_isolated(script, stage, fmi_version, model_exchange)
-        fmu = _pythonfmu_build(FmuBuilder, staged, out, runtime, doc_dir, fmi_version)
+        with installed_exporter(fmi_version) as FmuBuilder:
+            staged, runtime = stage_isolated(script, stage, fmi_version, model_exchange)
+            fmu = _pythonfmu_build(FmuBuilder, staged, out, runtime, doc_dir, fmi_version)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
-    with zipfile.ZipFile(fmu) as z:
-        if not any(n.startswith("binaries/") and not n.endswith("/") for n in z.namelist()):
-            # the pythonfmu in use is a copy from some FMU's resources (no binaries of its own)
-            raise RuntimeError(f"{fmu.name} has no binaries: the pythonfmu imported from "
-                               f"{Path(pythonfmu.__file__).parent} is not an installed package")
     if fmi_version == 3:
         add_terminals(fmu, script)
     finish(fmu, loader, fmi_version, standalone)

@@ -465,3 +465,30 @@ def test_a_hosts_coarse_step_reads_the_feeders_take_up_instants_on_the_drives_ow
     # read from the 1 ms samples alone, the instants are off by more than the drive's step
     sampled = qoi.value(expr, host.drop(columns="feeder.impact_count.rise_time"))
     assert np.max(np.abs(sampled - expected)) > 2e-4
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_drive_fmu_exports_after_an_fmu_ran_in_the_same_process(fmu_dir, fmu3_dir, version, tmp_path):
+    """An FMU of the toolkit run in this process through FMPy imports the copy of its exporter's package that it
+    carries (Python only: no binaries, no headers); exporting a drive FMU afterwards in the same process builds with
+    the installed exporter (fmus.build.installed_exporter) and leaves the running copy in place.  Before that, the
+    export found the copy and wrote an FMU without binaries."""
+    from test_hosts import _run_script
+
+    component = (fmu_dir if version == 2 else fmu3_dir) / "Inertia.fmu"
+    name = "pythonfmu3" if version == 3 else "pythonfmu"
+    out = _run_script(f"""
+        import sys, zipfile
+        from fmpy import simulate_fmu
+        simulate_fmu({str(component)!r}, stop_time=0.01, step_size=1e-3)
+        print("carried", "/resources/" in sys.modules[{name!r}].__file__)
+        from harness import export_fmu
+        fmu = export_fmu("two_inertia", {str(tmp_path / "drive.fmu")!r}, fmi_version={version})
+        print("binaries", sorted(n for n in zipfile.ZipFile(fmu).namelist() if n.startswith("binaries/")))
+        print("still carried", "/resources/" in sys.modules[{name!r}].__file__)
+    """)
+    lines = dict(line.split(" ", 1) if not line.startswith("still") else ("still", line[14:])
+                 for line in out.splitlines())
+    assert lines["carried"] == "True", out               # the premise: the running FMU's copy is the one imported
+    assert ".so" in lines["binaries"], out
+    assert lines["still"] == "True", out

@@ -302,7 +302,7 @@ def export_fmu(system: System, out: str | Path, outputs: list[str] | None = None
     ``Instance.variable`` outputs to offer (default :func:`default_outputs`); ``standalone``: the FMU carries its
     own Python and numpy, for hosts without Python (:mod:`fmus.standalone`).  ``harness.export_fmu`` also takes
     a system's name."""
-    from fmus.build import compile_loader, finish
+    from fmus.build import compile_loader, finish, installed_exporter
 
     if not isinstance(system, System):
         raise SystemDescriptionError(f"export_fmu: expected a System, got {type(system).__name__} (harness.export_fmu "
@@ -312,16 +312,11 @@ def export_fmu(system: System, out: str | Path, outputs: list[str] | None = None
         raise SystemDescriptionError(f"{out}: a drive FMU must end in .fmu")
     if fmi_version not in SLAVES:
         raise SystemDescriptionError(f"drive FMU: FMI version {fmi_version!r} is not built (allowed: 2, 3)")
-    if fmi_version == 3:
-        from pythonfmu3.builder import FmuBuilder
-    else:
-        from pythonfmu.builder import FmuBuilder
-
     tmp = Path(tempfile.mkdtemp(prefix=f"pressdrive_drive_{system.name}_"))
     try:
         script, project, spec = stage(system, tmp / "src", outputs, fmi_version)
         state = {"canGetAndSetFMUState" if fmi_version == 3 else "canGetAndSetFMUstate": spec["rollback"]}
-        with contextlib.redirect_stdout(io.StringIO()):
+        with contextlib.redirect_stdout(io.StringIO()), installed_exporter(fmi_version) as FmuBuilder:
             fmu = Path(FmuBuilder.build_FMU(script, dest=tmp / "out", project_files=project,
                                             canHandleVariableCommunicationStepSize=True, **state))
         loader = compile_loader(tmp, fmi_version, standalone) if sys.platform.startswith("linux") else None
