@@ -13,6 +13,7 @@ from typing import Any, ClassVar, Sequence
 import numpy as np
 
 from . import integrate
+from .mathns import SCALAR
 
 
 DIFFERENCE_STEP = 6e-6   # relative step of Model.output_jacobian_by_differences (~ cube root of the float epsilon)
@@ -143,6 +144,11 @@ class Model:
     # whether the inputs set memory at once, so that a host that integrates derivatives() must call
     # advance(t, 0.0, x, u) when an input changes (a brake's timer restarted by a released command)
     input_memory: ClassVar[bool] = False
+    # the math the equations take their functions from: ``math`` for this one variant (fmus.physics.mathns); a batch
+    # of variants calls the same methods on a view whose ``m`` is the vector namespace (fmus.physics.variants)
+    m: ClassVar = SCALAR
+    # the batch form of the model (a subclass of fmus.physics.variants.Vectorised), None: each variant's scalar model
+    Batch: ClassVar = None
 
     def __init__(self, p: Params):
         p.validate()

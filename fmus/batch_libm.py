@@ -1,0 +1,102 @@
+"""Compiled element loops over the C library's math functions for a batch of variants (:mod:`fmus.physics.mathns`).
+
+Python's ``math`` calls the C library's ``exp``, ``tanh``, ``acos``, ``sin``, ``cos``, ``atan2`` and ``pow``; numpy
+computes most of them by its own approximations, which differ in the last bit.  A batch of variants must give each
+variant the bits its own FMU gives, so :data:`fmus.physics.mathns.VECTOR` calls the C library's functions element by
+element: here in a loop compiled once (``fmus/batch_libm.c``, with the machine's C compiler, ``$CC`` else ``cc``)
+into the cache folder (``$PRESSDRIVE_CACHE/libm``, else ``<temp>/pressdrive_libm``), about ten times faster than
+Python's ``math`` per element.  Without a compiler the batch keeps the per-element Python loop (the same bits,
+slower) and :func:`status` says so.
+"""
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .physics import mathns
+
+SOURCE = Path(__file__).with_name("batch_libm.c")
+UNARY = ("exp", "tanh", "acos", "sin", "cos")
+BINARY = ("atan2", "pow")
+_state = {"tried": False, "why": ""}
+
+
+def cache_dir() -> Path:
+    env = os.environ.get("PRESSDRIVE_CACHE")
+    return Path(env) / "libm" if env else Path(tempfile.gettempdir()) / "pressdrive_libm"
+
+
+def _build() -> Path:
+    """The shared library for this source and interpreter, compiled once (written beside, then moved in whole)."""
+    text = SOURCE.read_bytes()
+    digest = hashlib.sha256(text + sys.version.encode()).hexdigest()[:16]
+    out = cache_dir() / digest / "pd_libm.so"
+    if out.is_file():
+        return out
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".pd_libm.{os.getpid()}.so")
+    cc = os.environ.get("CC", "cc")
+    cmd = [cc, "-shared", "-fPIC", "-O2", "-fno-fast-math", "-o", str(tmp), str(SOURCE), "-lm"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0 or not tmp.is_file():
+        raise OSError(f"{' '.join(cmd)} failed: {' '.join((r.stderr or '').split())[:300]}")
+    os.replace(tmp, out)
+    return out
+
+
+def _unary(cfun):
+    def f(x):
+        x = np.ascontiguousarray(x, dtype=float)
+        out = np.empty_like(x)
+        cfun(x.ctypes.data, out.ctypes.data, x.size)
+        return out
+    return f
+
+
+def _binary(cfun):
+    def f(a, b):
+        a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+        a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+        out = np.empty_like(a)
+        cfun(a.ctypes.data, b.ctypes.data, out.ctypes.data, a.size)
+        return out
+    return f
+
+
+def install() -> str:
+    """Give :data:`fmus.physics.mathns.VECTOR` the compiled loops (once per process); returns :func:`status`."""
+    if _state["tried"]:
+        return status()
+    _state["tried"] = True
+    try:
+        lib = ctypes.CDLL(str(_build()))
+    except (OSError, FileNotFoundError) as e:
+        _state["why"] = f"no compiled loops ({' '.join(str(e).split())[:200]}): math per element"
+        mathns.VECTOR.trig()
+        return status()
+    functions = {}
+    for name in UNARY + BINARY:
+        cfun = getattr(lib, f"pd_{name}")
+        cfun.restype = None
+        n = 2 if name in UNARY else 3
+        cfun.argtypes = [ctypes.c_void_p] * n + [ctypes.c_long]
+        functions[name] = (_unary if name in UNARY else _binary)(cfun)
+    mathns.install_loops(functions, "compiled")
+    mathns.VECTOR.trig()
+    return status()
+
+
+def status() -> str:
+    """How :data:`~fmus.physics.mathns.VECTOR` computes the C library's functions: one line."""
+    v = mathns.VECTOR
+    trig = "numpy's sin and cos" if v.sin is np.sin else "the C library's sin and cos"
+    if v.loops == "compiled":
+        return f"compiled loops over the C library's functions ({trig}; hypot by Python's math per element)"
+    return _state["why"] or f"Python's math per element ({trig})"

@@ -1,0 +1,164 @@
+"""The math of one variant and of many: the namespaces the hot equations take their functions from.
+
+An equation written once, ``def rate(m, x, ...)``, runs on plain floats with :data:`SCALAR` (``math``: an FMU's
+one instance, one variant) and on arrays over variants with :data:`VECTOR` (a batch of variants stepped together,
+:mod:`fmus.physics.variants`), giving the same bits for every variant.  Arithmetic (``+ - * /``) is the same IEEE
+operation on a float and on an array element; the functions are not: numpy computes ``exp``, ``tanh``, ``acos``,
+``atan2``, ``hypot`` and ``**`` by its own approximations (SIMD), which differ from ``math``'s in the last bit for
+a few percent of the arguments.  So :data:`VECTOR` takes
+
+* from numpy what is correctly rounded there as in ``math``: ``sqrt``, ``fabs``, ``copysign``, ``floor``, ``%``,
+  and ``sin``/``cos`` where numpy computes them as ``math`` does (checked when first used, on a sample);
+* libm's own function element by element for the rest: a compiled loop over the C library's functions (the ones
+  ``math`` calls; :func:`install_loops`, given by :mod:`fmus.batch_libm`), else Python's ``math`` per element;
+  ``hypot`` always the latter (CPython computes it by its own algorithm, not the C library's).
+
+Every namespace has the same names: ``sqrt sin cos exp tanh acos atan2 hypot copysign fabs floor pow`` as in
+``math``, ``pi``, and what branches need: ``where(c, a, b)`` (``a if c else b``), ``clip(x, lo, hi)`` (``min(hi,
+max(lo, x))``, Python's semantics), ``minimum``/``maximum`` (Python's ``min``/``max`` of two).  :data:`NUMPY` is
+numpy itself under those names (the synthesis tools' array evaluation, as they computed it before).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+class Scalar:
+    """``math`` for one float, with the branch helpers of the other namespaces."""
+    scalar = True
+    pi = math.pi
+    sqrt, sin, cos, exp, tanh = math.sqrt, math.sin, math.cos, math.exp, math.tanh
+    acos, atan2, hypot, copysign, fabs = math.acos, math.atan2, math.hypot, math.copysign, math.fabs
+    minimum, maximum = min, max
+
+    @staticmethod
+    def floor(x):
+        return float(math.floor(x))
+
+    @staticmethod
+    def pow(x, y):
+        return x ** y
+
+    @staticmethod
+    def where(c, a, b):
+        return a if c else b
+
+    @staticmethod
+    def clip(x, lo, hi):
+        return min(hi, max(lo, x))
+
+    @staticmethod
+    def stack(items):
+        """A state or rate vector of these numbers."""
+        return np.array(items)
+
+
+class Numpy:
+    """numpy under the namespace's names: its own approximations (the array evaluations of the synthesis tools)."""
+    scalar = False
+    pi = np.pi
+    sqrt, sin, cos, exp, tanh = np.sqrt, np.sin, np.cos, np.exp, np.tanh
+    acos, atan2, hypot, copysign, fabs, floor = np.arccos, np.arctan2, np.hypot, np.copysign, np.abs, np.floor
+    pow, where, clip = np.power, np.where, np.clip
+    minimum, maximum = np.minimum, np.maximum
+    stack = staticmethod(np.array)
+
+
+def _each(f):
+    """``f`` of ``math`` element by element on arrays (scalars broadcast): math's bits at Python's speed."""
+    def g(*args):
+        arrays = np.broadcast_arrays(*[np.asarray(a, dtype=float) for a in args])
+        if arrays[0].ndim == 0:
+            return np.float64(f(*(float(a) for a in arrays)))
+        out = np.fromiter(map(f, *(a.ravel().tolist() for a in arrays)), float, arrays[0].size)
+        return out.reshape(arrays[0].shape)
+    g.__name__ = f.__name__
+    return g
+
+
+def _safe(f):
+    """``f`` with ``math``'s domain and range errors as NaN and inf (a failed variant, found by the batch's check of
+    its state, not an exception that would stop every variant)."""
+    def g(*args):
+        try:
+            return f(*args)
+        except ValueError:
+            return math.nan
+        except OverflowError:
+            return math.inf
+    g.__name__ = f.__name__
+    return g
+
+
+def _pow(x, y):
+    return x ** y
+
+
+class Vector:
+    """Arrays over variants with ``math``'s bits (module docstring).  The element-by-element functions are
+    Python's until :func:`install_loops` gives compiled ones."""
+    scalar = False
+    pi = math.pi
+    sqrt, copysign, fabs, floor = np.sqrt, np.copysign, np.abs, np.floor
+    hypot = staticmethod(_each(_safe(math.hypot)))
+
+    def __init__(self):
+        self.loops = "python"
+        for name, f in (("exp", math.exp), ("tanh", math.tanh), ("acos", math.acos), ("atan2", math.atan2),
+                        ("pow", _pow), ("sin", math.sin), ("cos", math.cos)):
+            setattr(self, name, _each(_safe(f)))
+        self._trig_checked = False
+
+    def install(self, functions: dict, label: str) -> None:
+        """Take ``functions`` (name -> array function giving math's bits) in place of the per-element ones."""
+        for name, f in functions.items():
+            setattr(self, name, f)
+        self.loops = label
+
+    def trig(self) -> None:
+        """Use numpy's own sin and cos if they give math's bits on a sample of arguments (checked once)."""
+        if self._trig_checked:
+            return
+        self._trig_checked = True
+        x = np.concatenate([np.linspace(-40.0, 40.0, 4001), np.random.default_rng(7).uniform(-1e4, 1e4, 4000),
+                            np.random.default_rng(8).normal(0.0, 1e-3, 2000)])
+        for name, f, g in (("sin", np.sin, math.sin), ("cos", np.cos, math.cos)):
+            if np.array_equal(f(x).view(np.int64), np.array([g(v) for v in x.tolist()]).view(np.int64)):
+                setattr(self, name, f)
+
+    @staticmethod
+    def where(c, a, b):
+        return np.where(c, a, b)
+
+    @staticmethod
+    def stack(items):
+        """Rows of these values over the variants (numbers broadcast): states or rates x variants."""
+        return np.stack(np.broadcast_arrays(*[np.asarray(i, dtype=float) for i in items]))
+
+    @staticmethod
+    def clip(x, lo, hi):
+        """``min(hi, max(lo, x))`` as Python evaluates it (NaN gives ``lo``, as there)."""
+        x = np.where(x > lo, x, lo)
+        return np.where(x < hi, x, hi)
+
+    @staticmethod
+    def minimum(a, b):
+        """Python's ``min(a, b)``: ``b`` where ``b < a``, else ``a``."""
+        return np.where(b < a, b, a)
+
+    @staticmethod
+    def maximum(a, b):
+        """Python's ``max(a, b)``: ``b`` where ``b > a``, else ``a``."""
+        return np.where(b > a, b, a)
+
+
+SCALAR = Scalar()
+NUMPY = Numpy()
+VECTOR = Vector()
+
+
+def install_loops(functions: dict, label: str) -> None:
+    """Compiled element loops over the C library's functions for :data:`VECTOR` (:mod:`fmus.batch_libm`)."""
+    VECTOR.install(functions, label)
