@@ -10,3 +10,4 @@ void pd_sin(const double *x, double *y, long n) { for (long i = 0; i < n; i++) y
 void pd_cos(const double *x, double *y, long n) { for (long i = 0; i < n; i++) y[i] = cos(x[i]); }
 void pd_atan2(const double *a, const double *b, double *y, long n) { for (long i = 0; i < n; i++) y[i] = atan2(a[i], b[i]); }
 void pd_pow(const double *a, const double *b, double *y, long n) { for (long i = 0; i < n; i++) y[i] = pow(a[i], b[i]); }
+void pd_hypot(const double *a, const double *b, double *y, long n) { for (long i = 0; i < n; i++) y[i] = hypot(a[i], b[i]); }

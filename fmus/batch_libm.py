@@ -1,6 +1,7 @@
 """Compiled element loops over the C library's math functions for a batch of variants (:mod:`fmus.physics.mathns`).
 
-Python's ``math`` calls the C library's ``exp``, ``tanh``, ``acos``, ``sin``, ``cos``, ``atan2`` and ``pow``; numpy
+Python's ``math`` calls the C library's ``exp``, ``tanh``, ``acos``, ``sin``, ``cos``, ``atan2`` and ``pow`` (and
+``abs`` of a complex number its ``hypot``, which ``math.hypot`` is not: CPython computes that itself); numpy
 computes most of them by its own approximations, which differ in the last bit.  A batch of variants must give each
 variant the bits its own FMU gives, so :data:`fmus.physics.mathns.VECTOR` calls the C library's functions element by
 element: here in a loop compiled once (``fmus/batch_libm.c``, with the machine's C compiler, ``$CC`` else ``cc``)
@@ -24,7 +25,7 @@ from .physics import mathns
 
 SOURCE = Path(__file__).with_name("batch_libm.c")
 UNARY = ("exp", "tanh", "acos", "sin", "cos")
-BINARY = ("atan2", "pow")
+BINARY = ("atan2", "pow", "chypot")
 _state = {"tried": False, "why": ""}
 
 
@@ -83,7 +84,7 @@ def install() -> str:
         return status()
     functions = {}
     for name in UNARY + BINARY:
-        cfun = getattr(lib, f"pd_{name}")
+        cfun = getattr(lib, f"pd_{name.removeprefix('c')}" if name == "chypot" else f"pd_{name}")
         cfun.restype = None
         n = 2 if name in UNARY else 3
         cfun.argtypes = [ctypes.c_void_p] * n + [ctypes.c_long]

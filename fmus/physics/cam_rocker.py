@@ -76,7 +76,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import contact, groove, integrate
+from . import contact, groove, integrate, integrate_batch, variants
 from .base import Model, ParameterError, Params, Signal, last_call, param
 from .cam_rocker_kv import EXP_STEP_PHASE, KelvinVoigtPin
 from .cam_rocker_stone import SlidingStone
@@ -202,8 +202,8 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
     def kinematics(self, phi: float) -> tuple[float, float, float]:
         """(G, dG/dphi, d2G/dphi2) of the rocker."""
         if self.p.mechanism == 0:
-            return self.kulisa.scalar(phi)
-        s, s1, s2 = self.cycle.scalar(phi)
+            return self.kulisa(phi, self.m)
+        s, s1, s2 = self.cycle(phi, self.m)
         sw = self.p.swing
         return sw * s, sw * s1, sw * s2
 
@@ -223,24 +223,28 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
     def geometry(self, phi: float, kin=None) -> tuple[float, float]:
         """(pressure angle [rad], stone/contact radius [m]) at crank angle phi (rigid kinematics); ``kin`` is
         ``kinematics(phi)`` when the caller has it."""
-        p = self.p
+        p, m = self.p, self.m
         g, g1, _ = kin or self.kinematics(phi)
         if p.mechanism == 0:
-            rho, _, theta = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
+            rho, _, theta = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch, m)
             return theta, rho * p.crank_radius
         cx, cy, ex, ey, vx, vy = self._roller(g, g1)
-        vn = math.hypot(vx, vy)
-        theta = 0.0 if vn == 0.0 else math.acos(min(1.0, abs(vx * ey - vy * ex) / vn))
-        return theta, math.hypot(cx, cy)
+        vn = m.hypot(vx, vy)
+        if m.scalar:
+            theta = 0.0 if vn == 0.0 else math.acos(min(1.0, abs(vx * ey - vy * ex) / vn))
+        else:
+            still = vn == 0.0
+            theta = m.where(still, 0.0, m.acos(m.minimum(1.0, abs(vx * ey - vy * ex) / m.where(still, 1.0, vn))))
+        return theta, m.hypot(cx, cy)
 
     def _roller(self, g: float, g1: float) -> tuple[float, float, float, float, float, float]:
         """Cam mechanism at follower angle psi = psi0 + G: the roller centre C (cam frame), the direction e of its
         velocity (psi increasing) and its velocity v relative to the cam per unit crank speed (geometry() and
         geometry_slopes())."""
-        a, l = self.p.cam_distance, self.p.follower_arm
+        a, l, m = self.p.cam_distance, self.p.follower_arm, self.m
         psi = self.psi0 + g
-        cx, cy = a - l * math.cos(psi), l * math.sin(psi)
-        ex, ey = math.sin(psi), math.cos(psi)
+        cx, cy = a - l * m.cos(psi), l * m.sin(psi)
+        ex, ey = m.sin(psi), m.cos(psi)
         return cx, cy, ex, ey, l * g1 * ex + cy, l * g1 * ey - cx
 
     def geometry_slopes(self, phi: float, kin) -> tuple[float, float]:
@@ -518,3 +522,55 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
         if F != 0.0:
             D[5] = math.copysign(1.0, F) * dF
         return D
+
+
+class CamRockerBatch(variants.Vectorised):
+    """Variants of :class:`CamRockerModel` stepped together (fmus.physics.variants): the law, the kinematics and the
+    geometry of the rigid level (fidelity 0) and the elastic transmission (fidelity 1, RK4 on each variant's own
+    sub-steps) on arrays, the model's own methods.  The clearance levels (fidelity 2 and 3), whose contacts are
+    events, run each variant's scalar model.  A disc cam's pressure angle and roller radius are left out when no
+    one reads them (``rows``): both are finite wherever the kinematics are."""
+    attributes = ("branch", "kulisa", "cycle", "psi0", "r_min", "r_max")
+
+    @classmethod
+    def refuses(cls, models):
+        return "its clearance's contact events" if models[0].p.fidelity >= 2 else None
+
+    @classmethod
+    def key(cls, model):
+        """The law and its phases (or the groove's base four-bar): objects built from real parameters."""
+        p = model.p
+        if p.mechanism == 0:
+            return (p.law_n, p.law_km, p.lambda1, p.lambda2, p.lambda3, p.dwell)
+        return (p.law_n, p.law_km, p.phase_forward, p.phase_return, p.dwell, p.phi_start)
+
+    def __init__(self, models):
+        super().__init__(models)
+        self.v._rigid_at = variants.last_call(self.v._rigid_kinematics)
+        self._law_only = variants.last_call(lambda phi: (self.v.kinematics(phi), (0.0, 0.0)))
+
+    def output(self, t, X, U, rows=None):
+        v = self.v
+        if rows is not None and v.p.mechanism == 1 and not {3, 4} & set(rows):
+            memo = v._rigid_at                 # the rigid law alone: no geometry asked for
+            v._rigid_at = self._law_only
+            try:
+                return v.m.stack(v.output(t, X, U))
+            finally:
+                v._rigid_at = memo
+        return v.m.stack(v.output(t, X, U))
+
+    def advance(self, t0, h, X, U):
+        v = self.v
+        x = np.array(X, dtype=float)
+        if v.p.fidelity == 0:
+            return x
+
+        def acc(t, gamma, omega):
+            return v._acceleration(t, gamma, omega, x, U, t0, v._kin)
+
+        x[0], x[1] = integrate_batch.rk4_pairs(acc, t0, h, v.max_substep, x[0], x[1])
+        return x
+
+
+CamRockerModel.Batch = CamRockerBatch

@@ -14,7 +14,7 @@ a few percent of the arguments.  So :data:`VECTOR` takes
   ``hypot`` always the latter (CPython computes it by its own algorithm, not the C library's).
 
 Every namespace has the same names: ``sqrt sin cos exp tanh acos atan2 hypot copysign fabs floor pow`` as in
-``math``, ``pi``, and what branches need: ``where(c, a, b)`` (``a if c else b``), ``clip(x, lo, hi)`` (``min(hi,
+``math`` (:data:`VECTOR` also ``chypot``: ``abs`` of a complex number, the C library's hypot), ``pi``, and what branches need: ``where(c, a, b)`` (``a if c else b``), ``clip(x, lo, hi)`` (``min(hi,
 max(lo, x))``, Python's semantics), ``minimum``/``maximum`` (Python's ``min``/``max`` of two).  :data:`NUMPY` is
 numpy itself under those names (the synthesis tools' array evaluation, as they computed it before).
 """
@@ -61,7 +61,7 @@ class Numpy:
     pi = np.pi
     sqrt, sin, cos, exp, tanh = np.sqrt, np.sin, np.cos, np.exp, np.tanh
     acos, atan2, hypot, copysign, fabs, floor = np.arccos, np.arctan2, np.hypot, np.copysign, np.abs, np.floor
-    pow, where, clip = np.power, np.where, np.clip
+    pow, where, clip = np.power, np.where, staticmethod(np.clip)
     minimum, maximum = np.minimum, np.maximum
     stack = staticmethod(np.array)
 
@@ -96,6 +96,11 @@ def _pow(x, y):
     return x ** y
 
 
+def _cabs(x, y):
+    """``abs(complex(x, y))``: the C library's hypot (what CPython's complex abs calls)."""
+    return abs(complex(x, y))
+
+
 class Vector:
     """Arrays over variants with ``math``'s bits (module docstring).  The element-by-element functions are
     Python's until :func:`install_loops` gives compiled ones."""
@@ -107,7 +112,7 @@ class Vector:
     def __init__(self):
         self.loops = "python"
         for name, f in (("exp", math.exp), ("tanh", math.tanh), ("acos", math.acos), ("atan2", math.atan2),
-                        ("pow", _pow), ("sin", math.sin), ("cos", math.cos)):
+                        ("pow", _pow), ("sin", math.sin), ("cos", math.cos), ("chypot", _cabs)):
             setattr(self, name, _each(_safe(f)))
         self._trig_checked = False
 
@@ -135,7 +140,11 @@ class Vector:
     @staticmethod
     def stack(items):
         """Rows of these values over the variants (numbers broadcast): states or rates x variants."""
-        return np.stack(np.broadcast_arrays(*[np.asarray(i, dtype=float) for i in items]))
+        n = next((i.shape[0] for i in items if isinstance(i, np.ndarray) and i.ndim), 1)
+        out = np.empty((len(items), n))
+        for k, i in enumerate(items):
+            out[k] = i
+        return out
 
     @staticmethod
     def clip(x, lo, hi):
@@ -157,6 +166,16 @@ class Vector:
 SCALAR = Scalar()
 NUMPY = Numpy()
 VECTOR = Vector()
+
+
+def namespace(m):
+    """The namespace of ``m``: :data:`SCALAR` for the ``math`` module, :data:`NUMPY` for ``numpy``, ``m`` itself
+    for a namespace (the laws and kinematics take any of them)."""
+    if m is math:
+        return SCALAR
+    if m is np or m is None:
+        return NUMPY
+    return m
 
 
 def install_loops(functions: dict, label: str) -> None:

@@ -68,7 +68,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import integrate
-from . import variants
+from . import integrate_batch, variants
 from .base import Model, ParameterError, Params, Signal, param
 from .variants import Vectorised
 
@@ -367,20 +367,20 @@ class MotorBeltBatch(Vectorised):
             x[3] = np.where(U[3] >= 0.5, x[3], 0.0)
             return x
         if v.p_scalar.fidelity == 0:
-            x = variants.rk4(lambda *a: v.derivatives_with(*a), t0, h, x, U, v.max_substep)
+            x = integrate_batch.rk4(lambda *a: v.derivatives_with(*a), t0, h, x, U, v.max_substep)
             x[3] = np.where(U[3] >= 0.5, x[3], 0.0)
             return x
         braking = (v.p.holding_torque != 0.0) & (U[3] >= 0.5)
         x[3] = 0.0
         if v.p_scalar.fidelity != 1:
-            x = variants.rk4(lambda *a: v.derivatives_with(*a), t0, h, x, U, v.max_substep)
+            x = integrate_batch.rk4(lambda *a: v.derivatives_with(*a), t0, h, x, U, v.max_substep)
         else:
             theta = x[2]
 
             def acc(t, phi, w):
                 return v._rates(t, (phi, w, theta), U, t0)[0]
 
-            x[0], x[1] = variants.rk4_pairs(acc, t0, h, v.max_substep, x[0], x[1])
+            x[0], x[1] = integrate_batch.rk4_pairs(acc, t0, h, v.max_substep, x[0], x[1])
         return self.by_scalar(braking, t0, h, X, U, x)
 
 

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import integrate
+from . import integrate_batch, variants
 from .base import Model, ParameterError, Params, Signal, param
 
 GRAVITY = 9.80665
@@ -90,20 +91,22 @@ class RackBedModel(Model):
     # -- force laws ----------------------------------------------------------------------------------------
     def friction(self, v: float) -> float:
         p = self.p
-        return self.F_coulomb * math.tanh(v / p.v_reg) + p.d_visc * v
+        return self.F_coulomb * self.m.tanh(v / p.v_reg) + p.d_visc * v
 
     def zone(self, s: float) -> float:
         """Printing-zone profile g_zone(s) in [0, 1] (cubic smoothstep ramps at both ends)."""
-        p = self.p
-        x = min(max((s - p.s_print_start) / p.ramp, 0.0), 1.0)
-        y = min(max((p.s_print_end - s) / p.ramp, 0.0), 1.0)
+        p, m = self.p, self.m
+        x = m.minimum(m.maximum((s - p.s_print_start) / p.ramp, 0.0), 1.0)
+        y = m.minimum(m.maximum((p.s_print_end - s) / p.ramp, 0.0), 1.0)
         return x * x * (3.0 - 2.0 * x) * y * y * (3.0 - 2.0 * y)
 
     def printing_load(self, s: float, v: float) -> float:
-        p = self.p
-        if v <= 0.0 or p.F_print == 0.0:
-            return 0.0
-        return p.F_print * self.zone(s) * math.tanh(v / p.v_reg)
+        p, m = self.p, self.m
+        if m.scalar:
+            if v <= 0.0 or p.F_print == 0.0:
+                return 0.0
+            return p.F_print * self.zone(s) * math.tanh(v / p.v_reg)
+        return m.where((v <= 0.0) | (p.F_print == 0.0), 0.0, p.F_print * self.zone(s) * m.tanh(v / p.v_reg))
 
     # -- Model interface -----------------------------------------------------------------------------------
     def substep_limit(self) -> float:
@@ -141,8 +144,12 @@ class RackBedModel(Model):
             x[0], x[1] = integrate.rk4_pairs(lambda t, s, v: self._acceleration(t, s, v, u, t0), t0, h,
                                              self.max_substep, float(x[0]), float(x[1]))
             return x
-        a_est = self.R * (u[1] - x[2]) / x[3] if x[3] > 0.0 else 0.0
-        return np.array([self.R * (u[0] + u[1] * h), self.R * u[1], u[1], h, a_est])
+        m = self.m
+        if m.scalar:
+            a_est = self.R * (u[1] - x[2]) / x[3] if x[3] > 0.0 else 0.0
+        else:
+            a_est = m.where(x[3] > 0.0, self.R * (u[1] - x[2]) / m.where(x[3] > 0.0, x[3], 1.0), 0.0)
+        return m.stack((self.R * (u[0] + u[1] * h), self.R * u[1], u[1], h, a_est))
 
     def output(self, t, x, u):
         p = self.p
@@ -194,3 +201,24 @@ class RackBedModel(Model):
         """Elastic energy of the rack mesh [J] (fidelity 1)."""
         stretch = self.R * phi - x[0]
         return 0.5 * self.p.c_mesh * stretch * stretch
+
+
+class RackBedBatch(variants.Vectorised):
+    """Variants of :class:`RackBedModel` stepped together (fmus.physics.variants): the model's own mesh, friction
+    and printing load on arrays."""
+    attributes = ("R", "F_coulomb")
+
+    def output(self, t, X, U, rows=None):
+        return self.v.m.stack(self.v.output(t, X, U))
+
+    def advance(self, t0, h, X, U):
+        v = self.v
+        if v.p.fidelity != 1:
+            return v.advance(t0, h, X, U)
+        x = np.array(X, dtype=float)
+        x[0], x[1] = integrate_batch.rk4_pairs(lambda t, s, w: v._acceleration(t, s, w, U, t0), t0, h, v.max_substep,
+                                        x[0], x[1])
+        return x
+
+
+RackBedModel.Batch = RackBedBatch

@@ -106,6 +106,8 @@ def view_of(models: Sequence[Model], names: Sequence[str] = ()) -> Model:
     v = object.__new__(type(first))
     v.p, v.m, v.n, v.p_scalar = SimpleNamespace(**params), VECTOR, len(models), first.p
     for name in names:
+        if not hasattr(first, name):     # an attribute of another structure (mechanism, fidelity) than this one
+            continue
         values = [getattr(m, name) for m in models]
         if isinstance(values[0], (float, int)) and not isinstance(values[0], bool):
             setattr(v, name, np.array(values, dtype=float))
@@ -122,6 +124,13 @@ class Vectorised(Variants):
 
     attributes: tuple[str, ...] = ()
 
+    @classmethod
+    def key(cls, model) -> tuple:
+        """What must be the same in every variant this form steps at once, beyond the structure (a law built from
+        real parameters, a linkage's kind): variants of different keys are stepped as separate batches
+        (:class:`Split`).  Default: nothing."""
+        return ()
+
     def __init__(self, models):
         super().__init__(models)
         self.v = view_of(self.models, ("max_substep",) + tuple(self.attributes))
@@ -137,58 +146,76 @@ class Vectorised(Variants):
         return out
 
 
-def substeps(h: float, max_substep: np.ndarray) -> np.ndarray:
-    """:func:`fmus.physics.integrate.substeps` of each variant (its own ``max_substep``), as floats."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        n = np.ceil(h / max_substep * (1.0 - 1e-12))
-    return np.maximum(1.0, np.where(np.isfinite(max_substep), n, 1.0))
+def last_call(fn):
+    """:func:`fmus.physics.base.last_call` for arrays over variants: a call with arguments equal, element by element,
+    to the previous call's returns the previous result (a master reads a component's outputs twice at one
+    communication point, before and after an input that does not move the memoised geometry is set)."""
+    memo: list = [None, None]
+
+    def call(*args):
+        last = memo[0]
+        if last is None or len(last) != len(args) or not all(
+                a is b or (np.shape(a) == np.shape(b) and np.array_equal(a, b)) for a, b in zip(args, last)):
+            memo[0], memo[1] = tuple(np.array(a, copy=True) if isinstance(a, np.ndarray) else a for a in args), fn(*args)
+        return memo[1]
+    return call
 
 
-def rk4_pairs(acc, t0: float, h: float, max_substep: np.ndarray, q: np.ndarray, v: np.ndarray):
-    """:func:`fmus.physics.integrate.rk4_pairs` of every variant on its own sub-steps (``n`` of each from its own
-    ``max_substep``): the same sub-step times t0 + i h/n and numbers, a variant with fewer sub-steps held after
-    its last (the step of the largest count is taken by all, the others keep their values)."""
-    from .integrate import rk4_pair
+class Split(Variants):
+    """Variants in sub-batches of one :meth:`Vectorised.key` each, stepped one sub-batch after the other; the states,
+    inputs and outputs stay in the variants' order."""
 
-    n = substeps(h, max_substep)
-    top = int(n.max())
-    if top == 1:
-        return rk4_pair(acc, t0 + 0 * (h / n), h / n, q, v)
-    dt = h / n
-    for i in range(top):
-        q1, v1 = rk4_pair(acc, t0 + i * dt, dt, q, v)
-        if i >= int(n.min()):
-            live = i < n
-            q1, v1 = np.where(live, q1, q), np.where(live, v1, v)
-        q, v = q1, v1
-    return q, v
+    def __init__(self, models, parts: list[tuple[np.ndarray, Variants]] | None = None):
+        super().__init__(models)
+        if parts is None:
+            form = type(self.models[0]).Batch
+            keys: dict = {}
+            for i, m in enumerate(self.models):
+                keys.setdefault(form.key(m), []).append(i)
+            parts = [(np.array(idx, dtype=np.intp), _formed([self.models[i] for i in idx], form))
+                     for idx in keys.values()]
+        self.parts = parts
+
+    def initial_state(self, U):
+        return self._each(lambda b, cols: b.initial_state(U[:, cols]), len(self.cls.states))
+
+    def output(self, t, X, U, rows=None):
+        return self._each(lambda b, cols: b.output(t, X[:, cols], U[:, cols], rows), len(self.cls.outputs))
+
+    def advance(self, t0, h, X, U):
+        return self._each(lambda b, cols: b.advance(t0, h, X[:, cols], U[:, cols]), X.shape[0])
+
+    def _each(self, f, rows: int) -> np.ndarray:
+        out = np.zeros((rows, self.n))
+        for cols, b in self.parts:
+            out[:, cols] = f(b, cols)
+        return out
+
+    def take(self, keep):
+        where = np.full(self.n, -1)
+        where[keep] = np.arange(len(keep))
+        parts = []
+        for cols, b in self.parts:
+            mine = np.flatnonzero(where[cols] >= 0)
+            if mine.size:
+                parts.append((where[cols[mine]], b.take(mine)))
+        return Split([self.models[i] for i in keep], parts)
 
 
-def rk4(f, t0: float, h: float, x: np.ndarray, u, max_substep: np.ndarray) -> np.ndarray:
-    """:func:`fmus.physics.integrate.rk4` of every variant (states x variants) on its own sub-steps, as
-    :func:`rk4_pairs` takes them."""
-    n = substeps(h, max_substep)
-    top = int(n.max())
-    dt = h / n
-    for i in range(top):
-        t = t0 + i * dt
-        k1 = f(t, x, u, t0)
-        k2 = f(t + 0.5 * dt, x + 0.5 * dt * k1, u, t0)
-        k3 = f(t + 0.5 * dt, x + 0.5 * dt * k2, u, t0)
-        k4 = f(t + dt, x + dt * k3, u, t0)
-        x1 = x + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        x = np.where(i < n, x1, x) if i >= int(n.min()) else x1
-    return x
+def _formed(models, form) -> Variants:
+    return form(models) if form.refuses(models) is None else ScalarLoop(models)
 
 
 def batch_of(models: Sequence[Model], vectorise: bool = True) -> Variants:
     """The batch of ``models`` (one class, one structure): the class's vectorised form where it takes them
-    (``vectorise``), else :class:`ScalarLoop`."""
+    (``vectorise``; split by its :meth:`Vectorised.key` where the variants differ in it), else :class:`ScalarLoop`."""
     cls = type(models[0])
     form = getattr(cls, "Batch", None) if vectorise else None
-    if form is not None and form.refuses(models) is None:
-        return form(models)
-    return ScalarLoop(models)
+    if form is None:
+        return ScalarLoop(models)
+    if len({form.key(m) for m in models}) > 1:
+        return Split(models)
+    return _formed(models, form)
 
 
 def finite_columns(X: np.ndarray) -> np.ndarray:
@@ -196,5 +223,5 @@ def finite_columns(X: np.ndarray) -> np.ndarray:
     return np.isfinite(X).all(axis=0) if X.size else np.ones(X.shape[1], dtype=bool)
 
 
-__all__ = ["Variants", "ScalarLoop", "Vectorised", "view_of", "batch_of", "structure", "rk4", "rk4_pairs",
-           "substeps", "finite_columns", "math"]
+__all__ = ["Variants", "ScalarLoop", "Vectorised", "Split", "view_of", "batch_of", "structure", "last_call",
+           "finite_columns", "math"]

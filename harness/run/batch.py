@@ -148,7 +148,7 @@ def simulate_batch(system, variants: list[dict], settings: dict | None = None, k
     math_status = batch_libm.install()
     wall, cpu = _time.perf_counter(), _time.process_time()
     results = [VariantResult(dict(v)) for v in variants]
-    groups, refused = _groups(system, variants, options)
+    groups, refused, built = _groups(system, variants)
     info = dict(system=system.name, master=run["master"], variants=len(variants), vector_math=math_status,
                 groups=[], costs={}, rerun=0)
     for i, why in refused.items():
@@ -157,7 +157,7 @@ def simulate_batch(system, variants: list[dict], settings: dict | None = None, k
     for key, members in groups:
         for start in range(0, len(members), max(1, options.chunk)):
             chunk = members[start:start + options.chunk]
-            _run_chunk(system, run, [variants[i] for i in chunk], [results[i] for i in chunk], keep, options, info)
+            _run_chunk(system, run, [built[i] for i in chunk], [results[i] for i in chunk], keep, options, info)
             done += len(chunk)
             if options.progress is not None:
                 options.progress(done, len(variants))
@@ -170,33 +170,44 @@ def simulate_batch(system, variants: list[dict], settings: dict | None = None, k
     return BatchRun(results, info)
 
 
-def _groups(system, variants: list[dict], options: BatchOptions):
-    """[(structure, [variant indices])] in the order first seen, and {variant: why it cannot be built}."""
+def _groups(system, variants: list[dict]):
+    """The variants by structure: ([(structure, [variant indices])] in the order first seen, {variant: why it cannot
+    be built}, {variant: its models by instance}).  Each value is checked against the FMUs' declarations as
+    :func:`simulate` checks it (the system itself once)."""
+    from fmus.batch import build_model, model_structure
+    from harness.model import model_description, resolve_fmu
     from harness.run.parameters import split_parameters
 
+    mds = {inst.name: model_description(resolve_fmu(inst.fmu)) for inst in system.instances}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        system.validate(mds)
+    check = system.values_check(mds)
     groups: dict = {}
     refused: dict[int, str] = {}
+    built: dict[int, dict] = {}
     declarations = _declarations(system)
     for i, v in enumerate(variants):
         try:
+            check(v)
             params = split_parameters(system, v)
         except SystemDescriptionError as e:
             refused[i] = str(e)
             continue
-        key, why = [], None
+        key, models, why = [], {}, None
         for inst in system.instances:
-            from fmus.batch import build_model, model_structure
-
             model, why = build_model(declarations[inst.name], params[inst.name])
             if model is None:
                 why = f"system {system.name}: instance {inst.name}: {why}"
                 break
+            models[inst.name] = model
             key.append(model_structure(model))
         if why is not None:
             refused[i] = why
             continue
+        built[i] = models
         groups.setdefault(tuple(key), []).append(i)
-    return list(groups.items()), refused
+    return list(groups.items()), refused, built
 
 
 def _declarations(system) -> dict:
@@ -213,31 +224,27 @@ def _declarations(system) -> dict:
     return out
 
 
-def _run_chunk(system, run: dict, variants: list[dict], results: list[VariantResult], keep: Keep,
+def _run_chunk(system, run: dict, models: list[dict], results: list[VariantResult], keep: Keep,
                options: BatchOptions, info: dict) -> None:
-    """Step one chunk of variants of one structure together and fill their results."""
-    from fmus.batch import Batch, build_model
+    """Step one chunk of variants of one structure (``models``: each variant's models by instance) together and
+    fill their results."""
+    from fmus.batch import Batch
     from harness.master.batch import BatchEmpty, BatchInstance, batch_master_class
     from harness.master.extrapolation import extrapolation as make_extrapolation
     from harness.model import model_description, resolve_fmu
-    from harness.run.parameters import split_parameters
 
     declarations = _declarations(system)
-    params = [split_parameters(system, v) for v in variants]
     fmus = {}
     for inst in system.instances:
-        models = [build_model(declarations[inst.name], p[inst.name])[0] for p in params]
-        unit = Batch(declarations[inst.name], inst.name, models, options.vectorise)
+        unit = Batch(declarations[inst.name], inst.name, [m[inst.name] for m in models], options.vectorise)
         fmus[inst.name] = BatchInstance(inst.name, model_description(resolve_fmu(inst.fmu)), unit)
     mds = {n: f.md for n, f in fmus.items()}
-    for p, v in zip(params, variants):
-        system.validate(mds, {f"{i}.{k}": x for i, d in p.items() for k, x in d.items() if f"{i}.{k}" in v})
     cls = batch_master_class(run["master"])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m = cls(fmus, system.all_connections(mds), system.bonds, make_extrapolation(run["extrapolation"]),
                 options.blowup)
-    info["groups"].append({"variants": len(variants), "forms": {n: f.unit.form for n, f in fmus.items()}})
+    info["groups"].append({"variants": len(models), "forms": {n: f.unit.form for n, f in fmus.items()}})
     rec = BatchRecording(m, keep, run, system)
     observers = [rec]
     screen = None
