@@ -87,6 +87,9 @@ class Batch:
                          for port, pos in zip(declaration.ports, declaration._port_positions()) if pos is not None]
         self.ranges = [(i, v.name, v.min, v.max) for i, v in enumerate(v for v in io if v.causality == "input")
                        if v.min is not None or v.max is not None]
+        self.rows: list[int] | None = None     # the outputs read (None: all), set by the master
+        self._checked = False                  # every input checked once (then: those set since)
+        self._initial: tuple | None = None     # (inputs, states) of the last initial state, in initialisation
         self.time = 0.0
         self.last_step = 0.0
         self.initialised = False
@@ -117,10 +120,17 @@ class Batch:
         """Outputs ``idx`` (positions in the model's outputs) x variants, computed once per change."""
         if self.stale:
             if not self.initialised:
-                self.X = self.physics.initial_state(self.U)
-            self.Y = self.physics.output(self.time, self.X, self.inputs_now())
+                self.X = self._initial_state()
+            self.Y = self.physics.output(self.time, self.X, self.inputs_now(), self.rows)
             self.stale = False
         return self.Y[idx]
+
+    def _initial_state(self) -> np.ndarray:
+        """The model's initial state for the present inputs (the slave computes it at every refresh in
+        initialisation; the same inputs give the same state, so it is kept while they stay)."""
+        if self._initial is None or not np.array_equal(self._initial[0], self.U):
+            self._initial = (self.U.copy(), self.physics.initial_state(self.U))
+        return self._initial[1]
 
     def inputs_now(self) -> np.ndarray:
         """The inputs as the model saw them at the present time (``PressBehaviour._inputs_now``)."""
@@ -141,9 +151,19 @@ class Batch:
         self.time = float(t)
 
     def check_inputs(self) -> list[tuple[int, str]]:
-        """(variant, one line) of every variant with an input outside its declared range or not finite."""
-        bad: dict[int, str] = {}
+        """(variant, one line) of every variant with an input outside its declared range or not finite (the slave's
+        check; an input not set since the last check holds a value already checked)."""
         U = self.U
+        fresh = [i for i, f in enumerate(self.fresh) if f] if self._checked else list(range(len(self.fresh)))
+        self._checked = True
+        if not fresh:
+            return []
+        sub = U[fresh]
+        ranged = [r for r in self.ranges if r[0] in fresh]
+        if np.isfinite(sub).all() and all(((lo is None or (U[i] >= lo).all()) and (hi is None or (U[i] <= hi).all()))
+                                          for i, _, lo, hi in ranged):
+            return []
+        bad: dict[int, str] = {}
         for i, name, lo, hi in self.ranges:
             out = np.zeros(U.shape[1], dtype=bool)
             if lo is not None:
@@ -162,7 +182,7 @@ class Batch:
 
     def exit_initialization(self) -> list[tuple[int, str]]:
         failed = self.check_inputs()
-        self.X = self.physics.initial_state(self.U)
+        self.X = self._initial_state()
         self.initialised = True
         self.stale = True
         return failed
@@ -170,8 +190,7 @@ class Batch:
     def step(self, t: float, h: float) -> list[tuple[int, str]]:
         """``do_step(t, h)`` of every variant; returns (variant, one line) of those that failed."""
         failed = dict(self.check_inputs())
-        with np.errstate(all="ignore"):
-            X = self.physics.advance(t, h, self.X, self.U)
+        X = self.physics.advance(t, h, self.X, self.U)    # (numpy's warnings are off for the batch's run)
         ok = finite_columns(X)
         for k in np.flatnonzero(~ok).tolist():
             if k not in failed:

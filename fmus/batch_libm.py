@@ -6,7 +6,7 @@ computes most of them by its own approximations, which differ in the last bit.  
 variant the bits its own FMU gives, so :data:`fmus.physics.mathns.VECTOR` calls the C library's functions element by
 element: here in a loop compiled once (``fmus/batch_libm.c``, with the machine's C compiler, ``$CC`` else ``cc``)
 into the cache folder (``$PRESSDRIVE_CACHE/libm``, else ``<temp>/pressdrive_libm``), about ten times faster than
-Python's ``math`` per element.  Without a compiler the batch keeps the per-element Python loop (the same bits,
+Python's ``math`` per element; ``math.hypot`` (CPython's own algorithm) is called per element from there too.  Without a compiler the batch keeps the per-element Python loop (the same bits,
 slower) and :func:`status` says so.
 """
 from __future__ import annotations
@@ -16,6 +16,7 @@ import hashlib
 import os
 import subprocess
 import sys
+import sysconfig
 import tempfile
 from pathlib import Path
 
@@ -44,7 +45,8 @@ def _build() -> Path:
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".pd_libm.{os.getpid()}.so")
     cc = os.environ.get("CC", "cc")
-    cmd = [cc, "-shared", "-fPIC", "-O2", "-fno-fast-math", "-o", str(tmp), str(SOURCE), "-lm"]
+    include = sysconfig.get_paths()["include"]
+    cmd = [cc, "-shared", "-fPIC", "-O2", "-fno-fast-math", f"-I{include}", "-o", str(tmp), str(SOURCE), "-lm"]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0 or not tmp.is_file():
         raise OSError(f"{' '.join(cmd)} failed: {' '.join((r.stderr or '').split())[:300]}")
@@ -71,13 +73,30 @@ def _binary(cfun):
     return f
 
 
+def _pyhypot(cfun):
+    """``math.hypot`` element by element, the function object called from the compiled loop."""
+    import math
+
+    cfun.restype = ctypes.c_int
+    cfun.argtypes = [ctypes.py_object, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_long]
+
+    def f(a, b):
+        a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+        a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+        out = np.empty_like(a)
+        if cfun(math.hypot, a.ctypes.data, b.ctypes.data, out.ctypes.data, a.size) != 0:
+            raise FloatingPointError("math.hypot failed in the batch's element loop")
+        return out
+    return f
+
+
 def install() -> str:
     """Give :data:`fmus.physics.mathns.VECTOR` the compiled loops (once per process); returns :func:`status`."""
     if _state["tried"]:
         return status()
     _state["tried"] = True
     try:
-        lib = ctypes.CDLL(str(_build()))
+        lib = ctypes.PyDLL(str(_build()))
     except (OSError, FileNotFoundError) as e:
         _state["why"] = f"no compiled loops ({' '.join(str(e).split())[:200]}): math per element"
         mathns.VECTOR.trig()
@@ -89,6 +108,7 @@ def install() -> str:
         n = 2 if name in UNARY else 3
         cfun.argtypes = [ctypes.c_void_p] * n + [ctypes.c_long]
         functions[name] = (_unary if name in UNARY else _binary)(cfun)
+    functions["hypot"] = _pyhypot(lib.pd_pyhypot)
     mathns.install_loops(functions, "compiled")
     mathns.VECTOR.trig()
     return status()
@@ -99,5 +119,5 @@ def status() -> str:
     v = mathns.VECTOR
     trig = "numpy's sin and cos" if v.sin is np.sin else "the C library's sin and cos"
     if v.loops == "compiled":
-        return f"compiled loops over the C library's functions ({trig}; hypot by Python's math per element)"
+        return f"compiled loops over the C library's functions ({trig}; math.hypot called per element)"
     return _state["why"] or f"Python's math per element ({trig})"

@@ -209,7 +209,16 @@ class JamesDifferentialBatch(variants.Vectorised):
         return "fidelity 1's exponential step" if models[0].p.fidelity != 0 else None
 
     def output(self, t, X, U, rows=None):
-        return self.v.m.stack(self.v.output(t, X, U))
+        v = self.v
+        if rows is not None and set(rows) <= {0, 1, 2, 3} and v.p.fidelity == 0:   # powers and mesh unread
+            k = v.k
+            w_r, w_c = v.ring(U)[1], U[3]
+            phi_s, w_s = v.kinematic(U)
+            t_ring, t_c = static_torques(U[4], w_r, w_c, k, v.p.efficiency, v.m)
+            Y = np.zeros((len(v.outputs), self.n))
+            Y[0], Y[1], Y[2], Y[3] = v.p.ring_sense * -t_ring, -t_c, phi_s, w_s
+            return Y
+        return v.m.stack(v.output(t, X, U))
 
     def advance(self, t0, h, X, U):
         return self.v.advance(t0, h, X, U)

@@ -278,18 +278,19 @@ class FourBarModel(Model):
             dt = min(dt, inertia / p.belt_damping)
         return dt
 
-    def rigid_kinematics(self, phi: float) -> tuple[float, float, float]:
+    def rigid_kinematics(self, phi: float, mu: bool = True) -> tuple[float, float, float]:
         """(psi, dpsi/dphi, mu) of the rigid linkage, psi continuous over full turns of a double crank.
 
         The parallelogram is taken on its parallelogram branch (psi = phi), the branch seed 003's belt
         between the two crank shafts holds at the dead points; its transmission angle is the angle between
-        coupler (parallel to the frame) and rocker.
+        coupler (parallel to the frame) and rocker.  ``mu=False``: a crank-rocker's or double crank's
+        transmission angle is not computed (None).
         """
         m = self.m
         if self.kind == "parallelogram":
             mu = abs(m.atan2(m.sin(phi), m.cos(phi)))
             return (float(phi), 1.0, mu) if m.scalar else (phi, np.ones_like(phi), mu)
-        psi, v, _, mu = kinematics(phi, self._a, self._b, self._f, self._r, self.p.branch, m)
+        psi, v, _, mu = kinematics(phi, self._a, self._b, self._f, self._r, self.p.branch, m, mu)
         if self.kind == "double-crank":
             d = psi - phi - self._offset0
             psi = phi + self._offset0 + m.atan2(m.sin(d), m.cos(d))
@@ -300,11 +301,11 @@ class FourBarModel(Model):
         psi, v, _ = self.rigid_kinematics(phi)
         return psi, v * w
 
-    def _geometry(self, phi, wc, psi, w):
-        """(q, qdot, ex, ey, arm_rocker, arm_crank) of the elastic coupler."""
+    def _geometry(self, phi, wc, psi, w, trig=None):
+        """(q, qdot, ex, ey, arm_rocker, arm_crank) of the elastic coupler (``trig``: (cos phi, sin phi, cos psi,
+        sin psi) when the caller has them)."""
         a, r, m = self._a, self._r, self.m
-        c, s = m.cos(phi), m.sin(phi)
-        cp, sp = m.cos(psi), m.sin(psi)
+        c, s, cp, sp = trig or (m.cos(phi), m.sin(phi), m.cos(psi), m.sin(psi))
         dx = self._f + r * cp - a * c
         dy = r * sp - a * s
         length = m.hypot(dx, dy)
@@ -425,7 +426,7 @@ class FourBarModel(Model):
         a, r, p, m = self._a, self._r, self.p, self.m
         c, s = m.cos(phi), m.sin(phi)
         cp, sp = m.cos(psi), m.sin(psi)
-        q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w)
+        q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w, (c, s, cp, sp))
         force, acc = self._elastic_acc(phi, wc, tau, psi, w, q, qd, arm)
         k, cd = p.coupler_stiffness, p.coupler_damping
         length = q + self._b
@@ -540,7 +541,7 @@ class FourBarModel(Model):
         a, r = self._a, self._r
         c, s = math.cos(phi), math.sin(phi)
         cp, sp = math.cos(psi), math.sin(psi)
-        q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w)
+        q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w, (c, s, cp, sp))
         length = q + self._b
         rr_c = -r * a * (cp * c + sp * s)
         arm_psi = -r * (ex * cp + ey * sp) + (r * r - arm * arm) / length
@@ -669,9 +670,25 @@ class FourBarBatch(variants.Vectorised):
     def __init__(self, models):
         super().__init__(models)
         self.v._coupler_at = variants.last_call(self.v._coupler)
+        self._ports = variants.last_call(self._port_outputs)   # a point's geometry, read at each visit
+
+    def _port_outputs(self, phi, wc, tau, psi, w, v_impact):
+        v = self.v
+        q, qd, _, _, arm, arm_crank = v._geometry(phi, wc, psi, w)
+        return v._tension(q, qd, arm, v_impact) * arm_crank - v._belt(phi, wc, psi, w)
 
     def output(self, t, X, U, rows=None):
-        return self.v.m.stack(self.v.output(t, X, U))
+        v = self.v
+        if rows is not None and set(rows) <= {0, 1, 2}:   # the ports alone (transmission angle, forces unread)
+            Y = np.zeros((len(v.outputs), self.n))
+            if v.p.fidelity == 0:
+                psi, ratio, _ = v.rigid_kinematics(U[0], mu=False)
+                Y[0], Y[1], Y[2] = U[2] * ratio, psi, ratio * U[1]
+            else:
+                Y[0] = self._ports(U[0], U[1], U[2], X[0], X[1], X[2])
+                Y[1], Y[2] = X[0], X[1]
+            return Y
+        return v.m.stack(v.output(t, X, U))
 
     def advance(self, t0, h, X, U):
         v = self.v

@@ -78,21 +78,53 @@ def _sub_real(a, x: float):
     return (a[0] - x, a[1] - 0.0) if _MIXED_AS_COMPLEX else (a[0] - x, a[1])
 
 
+class _Divisor:
+    """A complex divisor ``b`` = (re, im) arrays prepared for CPython's quotient, Smith's method: the larger part of
+    the divisor scales both; the ratio and denominator of each side are computed once for any number of
+    dividends (:meth:`divide`)."""
+
+    def __init__(self, b):
+        self.b = b
+        self.real_big = np.abs(b[0]) >= np.abs(b[1])
+        self.all_real = bool(self.real_big.all())
+        self.all_imag = not self.all_real and not self.real_big.any()
+        if not self.all_imag:
+            self.r1 = b[1] / b[0]
+            self.d1 = b[0] + b[1] * self.r1
+        if not self.all_real:
+            self.r2 = b[0] / b[1]
+            self.d2 = b[0] * self.r2 + b[1]
+
+    def divide(self, a):
+        if self.all_real:
+            return (a[0] + a[1] * self.r1) / self.d1, (a[1] - a[0] * self.r1) / self.d1
+        side2 = (a[0] * self.r2 + a[1]) / self.d2, (a[1] * self.r2 - a[0]) / self.d2
+        if self.all_imag:
+            return side2
+        side1 = (a[0] + a[1] * self.r1) / self.d1, (a[1] - a[0] * self.r1) / self.d1
+        return np.where(self.real_big, side1[0], side2[0]), np.where(self.real_big, side1[1], side2[1])
+
+
 def _div(a, b):
-    """CPython's quotient of two complex numbers: Smith's method (the larger part of the divisor scales both)."""
-    with np.errstate(all="ignore"):
-        real_big = np.abs(b[0]) >= np.abs(b[1])
-        r1 = b[1] / b[0]
-        d1 = b[0] + b[1] * r1
-        r2 = b[0] / b[1]
-        d2 = b[0] * r2 + b[1]
-        return (np.where(real_big, (a[0] + a[1] * r1) / d1, (a[0] * r2 + a[1]) / d2),
-                np.where(real_big, (a[1] - a[0] * r1) / d1, (a[1] * r2 - a[0]) / d2))
+    """CPython's quotient of two complex numbers (:class:`_Divisor`)."""
+    return _Divisor(b).divide(a)
+
+
+def _phis_complex_exp(z):
+    """:func:`fmus.physics.integrate._phis` of complex ``z`` = (re, im) arrays beyond the series' radius."""
+    ex = VECTOR.exp(z[0])
+    e = (ex * VECTOR.cos(z[1]), ex * VECTOR.sin(z[1]))
+    by_z = _Divisor(z)
+    p1 = by_z.divide(_sub_real(e, 1.0))
+    p2 = by_z.divide(_sub_real(p1, 1.0))
+    return p1, p2, by_z.divide(_sub_real(p2, 0.5))
 
 
 def _phis_complex(z):
     """:func:`fmus.physics.integrate._phis` of complex ``z`` = (re, im) arrays: three (re, im) pairs."""
     small = VECTOR.chypot(z[0], z[1]) < integrate.SERIES_RADIUS
+    if not small.any():
+        return _phis_complex_exp(z)
     out = [(np.empty_like(z[0]), np.empty_like(z[0])) for _ in range(3)]
     if small.any():
         zs = (z[0][small], z[1][small])
@@ -109,13 +141,7 @@ def _phis_complex(z):
             o[0][small], o[1][small] = p
     big = ~small
     if big.any():
-        zb = (z[0][big], z[1][big])
-        ex = VECTOR.exp(zb[0])
-        e = (ex * VECTOR.cos(zb[1]), ex * VECTOR.sin(zb[1]))
-        p1 = _div(_sub_real(e, 1.0), zb)
-        p2 = _div(_sub_real(p1, 1.0), zb)
-        p3 = _div(_sub_real(p2, 0.5), zb)
-        for o, p in zip(out, (p1, p2, p3)):
+        for o, p in zip(out, _phis_complex_exp((z[0][big], z[1][big]))):
             o[0][big], o[1][big] = p
     return out
 
@@ -146,7 +172,6 @@ def _phis_real(z):
 def phi_matrices_2x2(j00, j01, j10, j11, h):
     """:func:`fmus.physics.integrate.phi_matrices_2x2` of every variant (module docstring): (A, B, C), each a
     4-tuple of arrays."""
-    j00, j01, j10, j11, h = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (j00, j01, j10, j11, h)))
     p = (j00 + j11) * h
     q = (j00 * j11 - j01 * j10) * h * h
     disc = 0.25 * p * p - q
@@ -156,6 +181,10 @@ def phi_matrices_2x2(j00, j01, j10, j11, h):
     series = (2.0 * root < integrate.EIGEN_GAP * np.where(span > 1.0, span, 1.0)) | (span > 700.0)
     cplx = ~series & (disc < 0.0)
     real = ~series & ~(disc < 0.0)
+    if cplx.all():      # every variant a complex pair (an underdamped mode): no subsets
+        coef = [(f[1] / root, f[0] - alpha * f[1] / root) for f in _phis_complex((alpha, root))]
+        return _assembled(coef, j00, j01, j10, j11, h)
+    j00, j01, j10, j11, h = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (j00, j01, j10, j11, h)))
     coef = [(np.empty_like(p), np.empty_like(p)) for _ in range(3)]
     if cplx.any():
         al, ro = alpha[cplx], root[cplx]
@@ -169,18 +198,24 @@ def phi_matrices_2x2(j00, j01, j10, j11, h):
         for (c, d), f1, f2 in zip(coef, _phis_real(mu1), _phis_real(mu2)):
             c[real] = (f1 - f2) / gap
             d[real] = (mu1 * f2 - mu2 * f1) / gap
-    m00, m01, m10, m11 = h * j00, h * j01, h * j10, h * j11
-    out = []
-    scale = h
-    for c, d in coef:
-        out.append([scale * (c * m00 + d), scale * c * m01, scale * c * m10, scale * (c * m11 + d)])
-        scale = scale * h
+    out = _assembled(coef, j00, j01, j10, j11, h)
     for i in np.flatnonzero(series).tolist():   # the scalar's series, one variant at a time
         one = integrate.phi_matrices_2x2(float(j00[i]), float(j01[i]), float(j10[i]), float(j11[i]), float(h[i]))
         for o, m in zip(out, one):
             for k in range(4):
                 o[k][i] = m[k]
     return tuple(tuple(o) for o in out)
+
+
+def _assembled(coef, j00, j01, j10, j11, h):
+    """(A, B, C) from the phi-functions' coefficients (c, d): h^k (c M + d I), M = hJ, as the scalar assembles them."""
+    m00, m01, m10, m11 = h * j00, h * j01, h * j10, h * j11
+    out = []
+    scale = h
+    for c, d in coef:
+        out.append([scale * (c * m00 + d), scale * c * m01, scale * c * m10, scale * (c * m11 + d)])
+        scale = scale * h
+    return out
 
 
 def exprb32_pair(acc, t, dt, q, v, jet):

@@ -44,6 +44,7 @@ their formulas.  What the seed says of each is in :data:`SEED_UNDEFINED`.
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import Callable, Sequence
 
@@ -269,14 +270,20 @@ KNOWN_LAWS: tuple[str, ...] = LAW_NAMES
 """Every name :func:`get_law` builds (the components' laws; seed 001's named laws are refused)."""
 
 
+@functools.lru_cache(maxsize=256)
+def _family(name: str, kw: tuple) -> Law:
+    """A family's law for its parameters, made once (a law is immutable; the seed's carrier laws take milliseconds
+    to synthesise and check, and a batch builds one model per variant)."""
+    return _FAMILIES[name][0](**dict(kw))
+
+
 def get_law(name: str, **params: float) -> Law:
     """The law ``name``; family parameters: ``n`` (power), ``k_m`` (P6, composite).  Unused ones are ignored."""
     if name in _FIXED:
         return _FIXED[name]
     if name in _FAMILIES:
-        make, defaults = _FAMILIES[name]
-        kw = {p: float(params.get(p, v)) for p, v in defaults.items()}
-        return make(**kw)
+        _, defaults = _FAMILIES[name]
+        return _family(name, tuple((p, float(params.get(p, v))) for p, v in defaults.items()))
     seed = _UNDEFINED_ALIASES.get(name, name)
     if seed in SEED_UNDEFINED:
         raise ValueError(f"{_undefined(seed)}; known laws: {', '.join(KNOWN_LAWS)}")

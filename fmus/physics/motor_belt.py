@@ -145,8 +145,10 @@ class MotorBeltModel(Model):
             if supply == 1.0:
                 return self._kloss_rated(w_m)
             return 0.0 if supply <= 0.0 else self._kloss_supplied(w_m, supply)
-        return m.where(supply == 1.0, self._kloss_rated(w_m),
-                       m.where(supply <= 0.0, 0.0, self._kloss_supplied(w_m, supply)))
+        rated = supply == 1.0
+        if rated.all():
+            return self._kloss_rated(w_m)
+        return m.where(rated, self._kloss_rated(w_m), m.where(supply <= 0.0, 0.0, self._kloss_supplied(w_m, supply)))
 
     def _kloss_rated(self, w_m):
         """The Kloss torque at the rated supply, in the slip s (as the characteristic is written)."""
@@ -358,7 +360,13 @@ class MotorBeltBatch(Vectorised):
     attributes = ("r_m", "r_d", "ratio", "M_n", "s_n", "M_k", "s_k", "F_rated", "creep_gain")
 
     def output(self, t, X, U, rows=None):
-        return np.stack(np.broadcast_arrays(*self.v.output(t, X, U)))
+        v = self.v
+        if rows is not None and set(rows) <= {0, 1, 5}:    # the belt alone (the motor's torque and powers unread)
+            force, _ = v._belt(X, U[0], U[1])
+            Y = np.zeros((len(v.outputs), self.n))
+            Y[0], Y[1], Y[5] = force * v.r_d, X[1], force * v.r_m
+            return Y
+        return v.m.stack(v.output(t, X, U))
 
     def advance(self, t0, h, X, U):
         v = self.v

@@ -89,9 +89,10 @@ class RackBedModel(Model):
         super().__init__(p)
 
     # -- force laws ----------------------------------------------------------------------------------------
-    def friction(self, v: float) -> float:
+    def friction(self, v: float, th=None) -> float:
+        """Guideway friction [N] at bed speed v (``th``: tanh(v / v_reg) when the caller has it)."""
         p = self.p
-        return self.F_coulomb * self.m.tanh(v / p.v_reg) + p.d_visc * v
+        return self.F_coulomb * (self.m.tanh(v / p.v_reg) if th is None else th) + p.d_visc * v
 
     def zone(self, s: float) -> float:
         """Printing-zone profile g_zone(s) in [0, 1] (cubic smoothstep ramps at both ends)."""
@@ -100,13 +101,18 @@ class RackBedModel(Model):
         y = m.minimum(m.maximum((p.s_print_end - s) / p.ramp, 0.0), 1.0)
         return x * x * (3.0 - 2.0 * x) * y * y * (3.0 - 2.0 * y)
 
-    def printing_load(self, s: float, v: float) -> float:
+    def printing_load(self, s: float, v: float, th=None) -> float:
+        """Printing load [N] at bed position s and speed v (``th``: tanh(v / v_reg) when the caller has it)."""
         p, m = self.p, self.m
         if m.scalar:
             if v <= 0.0 or p.F_print == 0.0:
                 return 0.0
-            return p.F_print * self.zone(s) * math.tanh(v / p.v_reg)
-        return m.where((v <= 0.0) | (p.F_print == 0.0), 0.0, p.F_print * self.zone(s) * m.tanh(v / p.v_reg))
+            return p.F_print * self.zone(s) * (math.tanh(v / p.v_reg) if th is None else th)
+        off = (v <= 0.0) | (p.F_print == 0.0)
+        if off.all():
+            return np.zeros_like(v)
+        th = m.tanh(v / p.v_reg) if th is None else th
+        return m.where(off, 0.0, p.F_print * self.zone(s) * th)
 
     # -- Model interface -----------------------------------------------------------------------------------
     def substep_limit(self) -> float:
@@ -123,7 +129,8 @@ class RackBedModel(Model):
     def _acceleration(self, t, s, v, u, t0) -> float:
         p = self.p
         f_mesh = p.c_mesh * (self.R * (u[0] + u[1] * (t - t0)) - s) + p.d_mesh * (self.R * u[1] - v)
-        return (f_mesh - self.friction(v) - self.printing_load(s, v)) / p.m_T
+        th = self.m.tanh(v / p.v_reg)
+        return (f_mesh - self.friction(v, th) - self.printing_load(s, v, th)) / p.m_T
 
     def derivatives(self, t, x, u, t0):
         if self.p.fidelity == 0:
@@ -209,7 +216,14 @@ class RackBedBatch(variants.Vectorised):
     attributes = ("R", "F_coulomb")
 
     def output(self, t, X, U, rows=None):
-        return self.v.m.stack(self.v.output(t, X, U))
+        v = self.v
+        if rows is not None and v.p.fidelity == 1 and 3 not in rows:   # the mesh alone (the acceleration unread)
+            p = v.p
+            f_mesh = p.c_mesh * (v.R * U[0] - X[0]) + p.d_mesh * (v.R * U[1] - X[1])
+            Y = np.zeros((len(v.outputs), self.n))
+            Y[0], Y[1], Y[2], Y[4] = -v.R * f_mesh, X[0], X[1], f_mesh
+            return Y
+        return v.m.stack(v.output(t, X, U))
 
     def advance(self, t0, h, X, U):
         v = self.v

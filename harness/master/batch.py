@@ -72,12 +72,21 @@ class BatchInstance:
 
 
 class _Columns:
-    """An instance's places in the batch: its inputs and outputs in its unit's order (``in_idx``, ``out_idx``),
-    its sources and its outputs among the history's (signal, variant) columns (``srcN``, ``hist_slice``)."""
-    __slots__ = ("in_idx", "out_idx", "srcN", "hist_slice")
+    """An instance's places in the batch: its connected inputs in its unit's order (``in_idx``), the outputs read
+    (``out_idx`` in the unit's order, ``rows`` in the signals), its sources (``src``, and among the history's
+    (signal, variant) columns ``srcN``), its outputs' history columns (``hist_slice``), the connections' factor and
+    offset as columns (``unit``: every factor is 1, so ``factor * y`` is ``y`` itself, bit for bit)."""
+    __slots__ = ("in_idx", "out_idx", "rows", "src", "srcN", "hist_slice", "fac", "off", "unit")
 
-    def __init__(self, in_idx, out_idx, srcN, hist_slice):
-        self.in_idx, self.out_idx, self.srcN, self.hist_slice = in_idx, out_idx, srcN, hist_slice
+    def __init__(self, it, in_idx, out_idx, rows, srcN, hist_slice):
+        self.in_idx, self.out_idx, self.rows, self.srcN, self.hist_slice = in_idx, out_idx, rows, srcN, hist_slice
+        self.src = it.src
+        self.fac, self.off = it.factor[:, None], it.offset[:, None]
+        self.unit = bool(np.all(it.factor == 1.0))
+
+    def linked(self, y: np.ndarray) -> np.ndarray:
+        """``factor * y + offset`` (connections' values from their sources' ``y``, inputs x variants)."""
+        return y + self.off if self.unit else self.fac * y + self.off
 
 
 class BatchMaster(Master):
@@ -97,9 +106,23 @@ class BatchMaster(Master):
         self.U = np.zeros((len(self.src), self.n))
         self.history = History(len(self.signal_names) * self.n, self.history_depth())
         self.bond_log = np.zeros((3, len(self._bonds), self.n))
+        # the signals read: those that feed a connection or a power bond, and those declaring a range (checked);
+        # :meth:`keep_signals` adds what is recorded (default: every signal)
+        self.needed = set(range(len(self.signal_names)))
+        self._unit_factor = bool(np.all(self.factor == 1.0))
         self._prepare_batch()
-        self.costs: dict[str, float] = {it.name: 0.0 for it in self.insts}   # CPU seconds in each component
+        self.costs: dict[str, float] = {it.name: 0.0 for it in self.insts}   # seconds in each component
         self.costs["master"] = 0.0
+
+    def keep_signals(self, names) -> None:
+        """Read only the signals that feed a connection or a bond, declare a range, or are named here (recorded):
+        an output nobody reads is not computed (the vectorised physics leaves it out where it can)."""
+        need = {int(k) for k in self.src} | {int(k) for b in self._bonds for k in (b[1], b[3])}
+        if self._range is not None:
+            need |= {int(k) for k in self._range[0]}
+        need |= {self.signal_index[nm] for nm in names}
+        self.needed = need
+        self._prepare_batch()
 
     def _prepare_batch(self) -> None:
         """The index arrays over (signal, variant) columns for the present number of variants."""
@@ -110,12 +133,17 @@ class BatchMaster(Master):
         pos = self._advanced_positions
         self._posN = (self._advanced_positions_src[:, None] * n + cols).reshape(-1) if pos.size else pos
         self._c = {}
+        self._needed_rows = np.array(sorted(self.needed), dtype=np.intp)
         for it in self.insts:
             unit = it.fmu.unit
-            self._c[it.name] = _Columns([unit.in_index[nm] for nm in it.inp.names],
-                                        [unit.out_index[nm] for nm in it.out.names],
+            read = [k for k in range(it.output_slice.start, it.output_slice.stop) if k in self.needed]
+            rows = (slice(read[0], read[-1] + 1) if read and read[-1] - read[0] + 1 == len(read) else
+                    np.array(read, dtype=np.intp))
+            out_idx = [unit.out_index[it.out.names[k - it.output_slice.start]] for k in read]
+            self._c[it.name] = _Columns(it, [unit.in_index[nm] for nm in it.inp.names], out_idx, rows,
                                         (it.src[:, None] * n + cols).reshape(-1),
                                         slice(it.output_slice.start * n, it.output_slice.stop * n))
+            unit.rows = sorted(out_idx) if len(out_idx) < len(unit.output_names) else None
         self.bond_power = self.bond_log[:2]
         self.bond_energy = self.bond_log[2]
         self._b = tuple(np.array([b[k] for b in self._bonds], dtype=np.intp) for k in range(4))
@@ -126,12 +154,15 @@ class BatchMaster(Master):
 
     def _read(self, it) -> None:
         t0 = _time.process_time()
-        self.Y[it.output_slice] = it.fmu.unit.outputs(self._c[it.name].out_idx)
+        c = self._c[it.name]
+        if c.out_idx:
+            self.Y[c.rows] = it.fmu.unit.outputs(c.out_idx)
         self.costs[it.name] += _time.process_time() - t0
 
     def _set_point_inputs_batch(self, it) -> None:
-        if len(self._c[it.name].in_idx):
-            self._unit_set(it, it.factor[:, None] * self.Y[it.src] + it.offset[:, None])
+        c = self._c[it.name]
+        if c.in_idx:
+            self._unit_set(it, c.linked(self.Y[c.src]))
 
     def _exchange(self, t: float) -> None:
         for op, arg in self._plan:
@@ -146,18 +177,40 @@ class BatchMaster(Master):
             self._read(it)
         self.history.push_all(t, self.Y.reshape(-1))
 
+    def _extrapolated(self, idx: np.ndarray, idxN: np.ndarray, t: float, h: float) -> np.ndarray:
+        """:meth:`harness.master.extrapolation.Polynomial.held` of the sources ``idx`` (signals; ``idxN`` their
+        (signal, variant) columns) over every variant, signals x variants.  Where every source has its full set of
+        samples (the polynomial's fast path) the weights are computed once per signal from its sample times, the
+        same for every variant, and applied to the variants' values: the same operations element by element."""
+        hist, order, n = self.history, self.extrapolation.order, self.n
+        cols = idx * n
+        if order == 0:
+            return hist.y[0, idxN].reshape(-1, n)
+        if hist.n[cols].min() <= order:
+            return self.extrapolation.held(hist, idxN, t, h).reshape(-1, n)
+        te = t + 0.5 * h
+        ts = hist.t[:order + 1, cols][:, :, None]
+        y = hist.y[:order + 1, idxN].reshape(order + 1, -1, n)
+        if order == 1:
+            return y[0] + (te - ts[0]) / (ts[0] - ts[1]) * (y[0] - y[1])
+        a, b, c = te - ts[0], te - ts[1], te - ts[2]
+        return (y[0] * b * c / ((ts[0] - ts[1]) * (ts[0] - ts[2]))
+                + y[1] * a * c / ((ts[1] - ts[0]) * (ts[1] - ts[2]))
+                + y[2] * a * b / ((ts[2] - ts[0]) * (ts[2] - ts[1])))
+
     def _held(self, t: float, h: float) -> np.ndarray:
         """The held inputs of every instance (inputs x variants): :meth:`Master._hold_all_arrays`' values."""
         n = self.n
         hist = self.history
-        U = self._fac * self.extrapolation.held(hist, self._srcN, t, h).reshape(-1, n) + self._off
+        held = self._extrapolated(self.src, self._srcN, t, h)
+        U = held + self._off if self._unit_factor else self._fac * held + self._off
         pos = self._advanced_positions
         newest = hist.newest
         if pos.size and (self.extrapolation.order or newest is None or newest > t):
             newer = hist.t[0, self._posN] > t
             if self.extrapolation.order or newer.any():
                 start = np.where(newer, hist.y[1, self._posN], hist.y[0, self._posN]).reshape(-1, n)
-                U[pos] = self._fac[pos] * start + self._off[pos]
+                U[pos] = start + self._off[pos] if self._unit_factor else self._fac[pos] * start + self._off[pos]
         return U
 
     def _hold_all(self, t: float, h: float) -> None:
@@ -168,7 +221,8 @@ class BatchMaster(Master):
     def _held_values_batch(self, it, t: float, h: float) -> np.ndarray:
         """:meth:`Master._held_values` of one instance, inputs x variants."""
         n, hist = self.n, self.history
-        held = it.factor[:, None] * self.extrapolation.held(hist, self._c[it.name].srcN, t, h).reshape(-1, n) + it.offset[:, None]
+        c = self._c[it.name]
+        held = c.linked(self._extrapolated(c.src, c.srcN, t, h))
         if it.pos_idx.size:
             src = (it.src[it.pos_idx][:, None] * n + np.arange(n)).reshape(-1)
             newer = hist.t[0, src] > t
@@ -236,7 +290,11 @@ class BatchMaster(Master):
                 inst, var = self.signal_names[int(idx[j])].split(".", 1)
                 self._fail(k, t, f"t = {t:.9g} s: instance {inst}: output {var} = {float(Y[idx[j], k])!r} is outside "
                                  f"the range [{lo[j]:g}, {hi[j]:g}] its FMU {self.fmus[inst].md.modelName} declares")
-        bad = ~np.isfinite(Y) | (np.abs(Y) > self.blowup)
+        rows = self._needed_rows
+        if (np.abs(Y[rows]) <= self.blowup).all():      # finite and within the limit (NaN compares False)
+            return
+        bad = np.zeros(Y.shape, dtype=bool)
+        bad[rows] = ~np.isfinite(Y[rows]) | (np.abs(Y[rows]) > self.blowup)
         for k in np.flatnonzero(bad.any(axis=0)).tolist():
             j = int(np.argmax(bad[:, k]))
             inst, var = self.signal_names[j].split(".", 1)

@@ -157,6 +157,10 @@ class Reducers:
                          (min(s[0] for s in spans), max(s[1] for s in spans)))
         self.rec_rows: list = []      # (row index, time, values cols x n)
 
+    def columns(self) -> list[str]:
+        """The result columns the expressions read."""
+        return sorted({k[1] for k in self.keys} | set(self.rec_cols))
+
     def row(self, t: float, Y: np.ndarray, alive: np.ndarray, k: int, last: bool) -> None:
         """Row ``k`` at time ``t``: ``Y`` the batch's signals (signals x len(alive))."""
         if self.keys:

@@ -246,6 +246,7 @@ def _run_chunk(system, run: dict, models: list[dict], results: list[VariantResul
                 options.blowup)
     info["groups"].append({"variants": len(models), "forms": {n: f.unit.form for n, f in fmus.items()}})
     rec = BatchRecording(m, keep, run, system)
+    m.keep_signals(rec.columns + rec.reducers.columns())
     observers = [rec]
     screen = None
     if options.screen and m.bond_labels:
@@ -258,8 +259,9 @@ def _run_chunk(system, run: dict, models: list[dict], results: list[VariantResul
     controller = FixedStep(run["step_ns"])
     error = None
     try:
-        m.initialize(run["start_ns"], run["stop_ns"])
-        m.run(controller, run["stop_ns"], observers)
+        with np.errstate(all="ignore"):   # a failing variant's NaN and inf are found by the checks, not warned
+            m.initialize(run["start_ns"], run["stop_ns"])
+            m.run(controller, run["stop_ns"], observers)
     except BatchEmpty:
         pass
     except SimulationError as e:     # the batch itself stopped: every variant left runs on its own
