@@ -333,8 +333,11 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
         # v_impact and the contact flag are memory set at the sub-step boundaries (advance): a contact that
         # began inside the present sub-step (flag still 0) approaches at its present penetration rate, not
         # at the stored speed of the previous contact (0 before the first one)
-        v0 = x[2] if x[4] != 0.0 else abs(qd)
-        F = contact.contact_force(q, qd, p.clearance, k, p.contact_law, p.restitution, v0, m, p.contact_exponent)
+        if self.m.scalar:
+            v0 = x[2] if x[4] != 0.0 else abs(qd)
+            F = contact.contact_force(q, qd, p.clearance, k, p.contact_law, p.restitution, v0, m, p.contact_exponent)
+        else:   # a batch of variants: the Kelvin-Voigt law, the one its vectorised form takes (no onset speed)
+            F = contact.kelvin_voigt_force(q, qd, p.clearance, k, m, p.restitution, self.m, self._kv_zeta)
         return -F * R, F
 
     def _acceleration(self, t, gamma, omega, x, u, t0, kin=None) -> float:
@@ -526,15 +529,21 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
 
 class CamRockerBatch(variants.Vectorised):
     """Variants of :class:`CamRockerModel` stepped together (fmus.physics.variants): the law, the kinematics and the
-    geometry of the rigid level (fidelity 0) and the elastic transmission (fidelity 1, RK4 on each variant's own
-    sub-steps) on arrays, the model's own methods.  The clearance levels (fidelity 2 and 3), whose contacts are
-    events, run each variant's scalar model.  A disc cam's pressure angle and roller radius are left out when no
+    geometry of the rigid level (fidelity 0), the elastic transmission (fidelity 1, RK4 on each variant's own
+    sub-steps) and the Kelvin-Voigt play (fidelity 2: exponential steps, a variant with a contact event in the step
+    handed to its own scalar model) on arrays, the model's own methods.  Level 2 with the other contact laws and
+    level 3 run each variant's scalar model.  A disc cam's pressure angle and roller radius are left out when no
     one reads them (``rows``): both are finite wherever the kinematics are."""
     attributes = ("branch", "kulisa", "cycle", "psi0", "r_min", "r_max")
 
     @classmethod
     def refuses(cls, models):
-        return "its clearance's contact events" if models[0].p.fidelity >= 2 else None
+        p = models[0].p
+        if p.fidelity == 3:
+            return "level 3's two clearances"
+        if p.fidelity == 2 and not (p.contact_law == contact.KELVIN_VOIGT and models[0].exact_contact):
+            return "level 2's RK4 sub-steps of the Hunt-Crossley family"
+        return None
 
     @classmethod
     def key(cls, model):
@@ -548,6 +557,8 @@ class CamRockerBatch(variants.Vectorised):
         super().__init__(models)
         self.v._rigid_at = variants.last_call(self.v._rigid_kinematics)
         self._law_only = variants.last_call(lambda phi: (self.v.kinematics(phi), (0.0, 0.0)))
+        self.v._kv_zeta = np.array([contact.kelvin_voigt_zeta(m.p.restitution) for m in self.models])
+        self.v._exp_step = np.array([m._exp_step for m in self.models])
 
     def output(self, t, X, U, rows=None):
         v = self.v
@@ -565,12 +576,58 @@ class CamRockerBatch(variants.Vectorised):
         x = np.array(X, dtype=float)
         if v.p.fidelity == 0:
             return x
+        if v.p.fidelity == 2:
+            return self._advance_kelvin_voigt(t0, h, X, U)
 
         def acc(t, gamma, omega):
             return v._acceleration(t, gamma, omega, x, U, t0, v._kin)
 
         x[0], x[1] = integrate_batch.rk4_pairs(acc, t0, h, v.max_substep, x[0], x[1])
         return x
+
+    def _advance_kelvin_voigt(self, t0, h, X, U):
+        """Level 2, Kelvin-Voigt (:meth:`KelvinVoigtPin._advance_kelvin_voigt`) on arrays: each variant's exponential
+        steps in the contact mode of their start, on its own count of steps; a variant whose mode or wall changes
+        within a step (a contact event, located by bisection), whose jet is not finite, or whose contact begins on
+        a step boundary, takes the whole communication step with its own scalar model."""
+        v = self.v
+        phi0, w, tau = U[0], U[1], U[2]
+        x = np.array(X, dtype=float)
+        gamma, omega, flag = x[0], x[1], x[4]
+        n = integrate_batch.substeps(h, v._exp_step)
+        top, low = int(n.max()), int(n.min())
+        t = t0 + 0.0 * n
+        co = v._kv_coefficients(phi0 + w * (t - t0), w)
+        alone = np.zeros(self.n, dtype=bool)
+        for i in range(top):
+            live = i < n
+            t_end = np.where(i < n - 1, t0 + (i + 1) * h / n, t0 + h)
+            side, mode = v._kv_mode(gamma, omega, co)
+            jet = v._kv_jet(gamma, omega, tau, co, mode)
+            alone |= ~np.isfinite(jet[3]) & live
+
+            co_end = v._kv_coefficients(phi0 + w * (t_end - t0), w)
+
+            def acc(tt, g, om, mode=mode, co_end=co_end, t_end=t_end):
+                # the step's end: t + (t_end - t) is t_end exactly, wherever t and t_end are within a factor 2
+                same = tt == t_end
+                co_tt = co_end if same.all() else v._kv_coefficients(phi0 + w * (tt - t0), w)
+                return v._kv_acceleration(g, om, tau, co_tt, mode)
+
+            g1, o1 = integrate_batch.exprb32_pair(acc, t, t_end - t, gamma, omega, jet)
+            side1, mode1 = v._kv_mode(g1, o1, co_end)
+            changed = (side1 != side) | (mode1 != mode) | ((side1 != 0.0) & (flag == 0.0))
+            if i < low:         # every variant takes this step
+                alone |= changed
+                gamma, omega, flag, t, co = g1, o1, np.where(side1 == 0.0, 0.0, flag), t_end, co_end
+                continue
+            alone |= live & changed
+            gamma, omega = np.where(live, g1, gamma), np.where(live, o1, omega)
+            flag = np.where(live & (side1 == 0.0), 0.0, flag)
+            t = np.where(live, t_end, t)
+            co = tuple(np.where(live, a, b) for a, b in zip(co_end, co))
+        x[0], x[1], x[4] = gamma, omega, flag
+        return self.by_scalar(alone, t0, h, X, U, x)
 
 
 CamRockerModel.Batch = CamRockerBatch

@@ -46,6 +46,8 @@ from __future__ import annotations
 import functools
 import math
 
+from .mathns import SCALAR
+
 KELVIN_VOIGT, HUNT_CROSSLEY, LANKARANI_NIKRAVESH, FLORES = 0, 1, 2, 3
 LAWS = {
     KELVIN_VOIGT: "Kelvin-Voigt",
@@ -97,9 +99,11 @@ def kelvin_voigt_zeta(e: float) -> float:
             hi = mid
 
 
-def kelvin_voigt_damping(k: float, m_eff: float, e: float) -> float:
-    """Damping coefficient c [N.s/m] for which a no-pull Kelvin-Voigt contact rebounds with restitution e."""
-    return 2.0 * kelvin_voigt_zeta(e) * math.sqrt(k * m_eff)
+def kelvin_voigt_damping(k: float, m_eff: float, e: float, m=SCALAR, zeta=None) -> float:
+    """Damping coefficient c [N.s/m] for which a no-pull Kelvin-Voigt contact rebounds with restitution e (``m``:
+    the math namespace, fmus.physics.mathns; ``zeta``: :func:`kelvin_voigt_zeta` of e when the caller has it, as a
+    batch of variants has each variant's)."""
+    return 2.0 * (kelvin_voigt_zeta(e) if zeta is None else zeta) * m.sqrt(k * m_eff)
 
 
 def energy_speed(pen: float, k: float, m_eff: float, exponent: float = 1.0) -> float:
@@ -120,14 +124,33 @@ def hysteresis_factor(law: int, e: float, v0: float) -> float:
     raise ValueError(f"law {law!r} is not a Hunt-Crossley-type law")
 
 
-def penetration(q: float, q_dot: float, clearance: float) -> tuple[float, float, float]:
-    """(pen, pen_dot, side): side = +1/-1 for contact on the positive/negative wall, 0 when separated."""
+def penetration(q: float, q_dot: float, clearance: float, m=SCALAR) -> tuple[float, float, float]:
+    """(pen, pen_dot, side): side = +1/-1 for contact on the positive/negative wall, 0 when separated (``m``: the
+    math namespace, fmus.physics.mathns)."""
     half = 0.5 * clearance
-    if q > half:
-        return q - half, q_dot, 1.0
-    if q < -half:
-        return -q - half, -q_dot, -1.0
-    return 0.0, 0.0, 0.0
+    if m.scalar:
+        if q > half:
+            return q - half, q_dot, 1.0
+        if q < -half:
+            return -q - half, -q_dot, -1.0
+        return 0.0, 0.0, 0.0
+    up, down = q > half, q < -half
+    side = m.where(up, 1.0, m.where(down, -1.0, 0.0))
+    return (m.where(up, q - half, m.where(down, -q - half, 0.0)), m.where(up, q_dot, m.where(down, -q_dot, 0.0)),
+            side)
+
+
+def kelvin_voigt_force(q, q_dot, clearance: float, k, m_eff, e, m=SCALAR, zeta=None):
+    """:func:`contact_force` of the Kelvin-Voigt law (``m``: the math namespace; ``zeta`` as
+    :func:`kelvin_voigt_damping` takes it)."""
+    pen, pen_dot, side = penetration(q, q_dot, clearance, m)
+    if m.scalar:
+        if side == 0.0:
+            return 0.0
+        f = k * pen + kelvin_voigt_damping(k, m_eff, e) * pen_dot
+        return -side * max(f, 0.0)
+    f = k * pen + kelvin_voigt_damping(k, m_eff, e, m, zeta) * pen_dot
+    return m.where(side == 0.0, 0.0, -side * m.maximum(f, 0.0))
 
 
 def contact_force(q: float, q_dot: float, clearance: float, k: float, law: int, e: float,
@@ -138,14 +161,13 @@ def contact_force(q: float, q_dot: float, clearance: float, k: float, law: int, 
     the approach speed at the start of the current contact (Hunt-Crossley family), ``m_eff`` the reduced
     mass (Kelvin-Voigt damping; Hunt-Crossley family: energy speed of a persistent contact).
     """
+    if law == KELVIN_VOIGT:
+        return kelvin_voigt_force(q, q_dot, clearance, k, m_eff, e)
     pen, pen_dot, side = penetration(q, q_dot, clearance)
     if side == 0.0:
         return 0.0
-    if law == KELVIN_VOIGT:
-        f = k * pen + kelvin_voigt_damping(k, m_eff, e) * pen_dot
-    else:
-        v0 = max(abs(v_impact), energy_speed(pen, k, m_eff, exponent))   # persistent contact: module docstring
-        f = k * pen ** exponent * (1.0 + hysteresis_factor(law, e, v0) * pen_dot)
+    v0 = max(abs(v_impact), energy_speed(pen, k, m_eff, exponent))   # persistent contact: module docstring
+    f = k * pen ** exponent * (1.0 + hysteresis_factor(law, e, v0) * pen_dot)
     return -side * max(f, 0.0)
 
 

@@ -199,8 +199,12 @@ def phi_matrices_2x2(j00, j01, j10, j11, h):
             c[real] = (f1 - f2) / gap
             d[real] = (mu1 * f2 - mu2 * f1) / gap
     out = _assembled(coef, j00, j01, j10, j11, h)
-    for i in np.flatnonzero(series).tolist():   # the scalar's series, one variant at a time
-        one = integrate.phi_matrices_2x2(float(j00[i]), float(j01[i]), float(j10[i]), float(j11[i]), float(h[i]))
+    done: dict = {}     # the scalar's series, once per distinct matrix and step (a free flight's J = 0 is one)
+    for i in np.flatnonzero(series).tolist():
+        key = (float(j00[i]), float(j01[i]), float(j10[i]), float(j11[i]), float(h[i]))
+        one = done.get(key)
+        if one is None:
+            one = done[key] = integrate.phi_matrices_2x2(*key)
         for o, m in zip(out, one):
             for k in range(4):
                 o[k][i] = m[k]

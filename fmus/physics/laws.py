@@ -340,8 +340,11 @@ class DwellCycle:
                 return 1.0 - a, -b / P, -c / (P * P)
             return 0.0, 0.0, 0.0
         th = np.asarray(th, dtype=float)
-        s, s1, s2 = np.zeros_like(th), np.zeros_like(th), np.zeros_like(th)
         f = th < self._t1
+        if m is VECTOR and f.all():     # every variant on the forward phase: no subsets (the same numbers)
+            a, b, c = self.forward(th / F, m)
+            return a, b / F, c / F ** 2
+        s, s1, s2 = np.zeros_like(th), np.zeros_like(th), np.zeros_like(th)
         if f.any():
             a, b, c = self.forward(th[f] / F, m)
             s[f], s1[f], s2[f] = a, b / F, c / F ** 2

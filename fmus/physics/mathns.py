@@ -61,7 +61,7 @@ class Numpy:
     pi = np.pi
     sqrt, sin, cos, exp, tanh = np.sqrt, np.sin, np.cos, np.exp, np.tanh
     acos, atan2, hypot, copysign, fabs, floor = np.arccos, np.arctan2, np.hypot, np.copysign, np.abs, np.floor
-    pow, where, clip = np.power, np.where, staticmethod(np.clip)
+    pow, where, clip = np.power, staticmethod(np.where), staticmethod(np.clip)
     minimum, maximum = np.minimum, np.maximum
     stack = staticmethod(np.array)
 
@@ -133,9 +133,7 @@ class Vector:
             if np.array_equal(f(x).view(np.int64), np.array([g(v) for v in x.tolist()]).view(np.int64)):
                 setattr(self, name, f)
 
-    @staticmethod
-    def where(c, a, b):
-        return np.where(c, a, b)
+    where = staticmethod(np.where)
 
     @staticmethod
     def stack(items):

@@ -17,6 +17,14 @@ from .mathns import NUMPY, namespace
 PieceFn = Callable[[object, object], tuple]
 
 
+def _full(v, shape):
+    """``v`` (a piece's array, or a number it returns for every k) as a fresh array of ``shape`` (v times 1.0: the
+    same numbers)."""
+    if isinstance(v, np.ndarray) and v.shape == shape:
+        return v * 1.0
+    return np.broadcast_to(v, shape) * 1.0
+
+
 @dataclass(frozen=True)
 class Law:
     """A law of periodic motion: pieces ``(k_end, f)`` with ``f(k, m) -> (a, b, c)`` on [k_start, k_end].
@@ -46,8 +54,7 @@ class Law:
         k = np.asarray(k, dtype=float)
         k = np.clip(k, 0.0, 1.0) if m is NUMPY else np.where(k < 0.0, 0.0, np.where(k > 1.0, 1.0, k))
         if len(self.pieces) == 1:
-            a, b, c = self.pieces[0][1](k, m)
-            return np.broadcast_to(a, k.shape) * 1.0, np.broadcast_to(b, k.shape) * 1.0, np.broadcast_to(c, k.shape) * 1.0
+            return tuple(_full(v, k.shape) for v in self.pieces[0][1](k, m))
         a = np.empty_like(k)
         b = np.empty_like(k)
         c = np.empty_like(k)
