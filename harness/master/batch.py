@@ -268,7 +268,7 @@ class BatchMaster(Master):
         t, h, t_next = t_ns / NS, h_ns / NS, (t_ns + h_ns) / NS
         c0 = _time.process_time()
         spent = sum(self.costs.values())
-        self._failing = {}
+        self._drop_failed()      # those an observer failed at the last point (the divergence screen)
         Y0 = self.Y.copy() if self._bonds else None
         self._step_impl(t, h, t_next)
         self._check_batch(t_next)
@@ -318,6 +318,9 @@ class BatchMaster(Master):
             self.failures[int(self.alive[k])] = why
         keep = np.array([k for k in range(self.n) if k not in self._failing], dtype=np.intp)
         self._failing = {}
+        if not keep.size:
+            raise BatchEmpty(f"every variant of the batch failed (the last at t = "
+                             f"{max(t for t, _ in self.failures.values()):.9g} s)")
         self.alive = self.alive[keep]
         old_n, self.n = self.n, len(keep)
         hist = self.history
@@ -333,8 +336,6 @@ class BatchMaster(Master):
         for it in self.insts:
             it.fmu.unit.keep(keep)
         self._prepare_batch()
-        if self.n == 0:
-            raise BatchEmpty(f"every variant of the batch failed (the last at t = {max(t for t, _ in self.failures.values()):.9g} s)")
 
     def refresh(self, t: float) -> None:
         self._exchange(t)

@@ -180,10 +180,11 @@ class Reducers:
             values[:, alive] = Y[self._rec_idx]
             self.rec_rows.append((k, t, values))
 
-    def values(self, v: int, time: np.ndarray) -> dict:
-        """name -> value of variant ``v``, whose rows are ``time`` (those recorded while it ran); a value that
-        cannot be computed raises its QoIError."""
-        out = {}
+    def values(self, v: int, time: np.ndarray, out: dict | None = None) -> dict:
+        """name -> value of variant ``v``, whose rows are ``time`` (those recorded while it ran), filled into
+        ``out`` in the expressions' order; a value that cannot be computed raises its QoIError (those before it
+        are in ``out``)."""
+        out = {} if out is None else out
         frame = None
         for name, p in self.plans.items():
             if p.streamed:

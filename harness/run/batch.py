@@ -59,8 +59,9 @@ class BatchOptions:
 @dataclass
 class VariantResult:
     """One variant: ``start_values`` as given, ``complete``, ``error`` (one line, '' when complete), ``frame``
-    (:class:`Keep` ``frames``), ``values`` (the reduced quantities), ``alone`` (True: the result of its own scalar
-    run, after it failed in the batch or the screen could not clear it)."""
+    (:class:`Keep` ``frames``), ``values`` (the reduced quantities, in :class:`Keep` ``reduce``'s order, up to the
+    first that cannot be computed: ``value_error`` its one line), ``alone`` (True: the result of its own scalar run,
+    after it failed in the batch or the screen could not clear it; ``reason`` why)."""
     start_values: dict
     complete: bool = True
     error: str = ""
@@ -68,6 +69,7 @@ class VariantResult:
     values: dict = field(default_factory=dict)
     alone: bool = False
     reason: str = ""
+    value_error: str = ""
 
 
 @dataclass
@@ -343,8 +345,13 @@ class BatchRecording(Observer):
 
                 df.attrs["quantities"] = quantities(self.system, df)
             result.frame = df
-        if self.keep.reduce:
-            result.values = self.reducers.values(k, self.time[:n])
+        if self.keep.reduce and result.complete:
+            from harness.reporting.qoi import QoIError
+
+            try:
+                self.reducers.values(k, self.time[:n], result.values)
+            except QoIError as e:    # as a sweep's point reports it: the values before it kept
+                result.value_error = f"QoIError: {e}".splitlines()[0]
 
 
 def _alone(system, settings: dict, result: VariantResult, keep: Keep) -> None:
@@ -372,8 +379,9 @@ def _alone(system, settings: dict, result: VariantResult, keep: Keep) -> None:
         for name, expr in keep.reduce:
             try:
                 result.values[name] = qoi.evaluate(expr, df)
-            except qoi.QoIError:
-                result.values[name] = math.nan
+            except qoi.QoIError as e:
+                result.value_error = f"QoIError: {e}".splitlines()[0]
+                break
 
 
 __all__ = ["simulate_batch", "refusal", "Keep", "BatchOptions", "VariantResult", "BatchRun"]
