@@ -31,6 +31,9 @@ from harness.master.clock import NS
 from harness.master.observers import Observer
 
 
+MIN_VARIANTS = 8   # from about this many variants on a batch costs less than running them one by one (benchmarks)
+
+
 @dataclass(frozen=True)
 class Keep:
     """What a batch keeps of each variant: ``columns`` over time (None: every Real output; () none) as its
@@ -101,9 +104,17 @@ def refusal(system, settings: dict) -> str | None:
     control = settings.get("step_control", exp.step_control if exp else None)
     if control not in (None, "none"):
         return f"step control {control!r} chooses each variant's own steps"
-    for name in ("input", "isolate", "options", "tolerance", "on_error"):
-        if settings.get(name) is not None and name != "on_error":
-            return f"{name} is given (a batch runs the default experiment's fixed steps, no input signals)"
+    for name in ("input", "isolate", "tolerance"):
+        if settings.get(name) is not None:
+            return f"{name} is given (a batch runs fixed steps, with no input signals, in this process)"
+    options = settings.get("options")
+    if options is not None:
+        from dataclasses import replace
+
+        from harness.run.simulation import RunOptions
+
+        if replace(options, progress=None, logging=True) != RunOptions(progress=None):
+            return "run options other than the defaults are given"
     return None
 
 
@@ -305,6 +316,7 @@ class BatchRecording(Observer):
         self.data = np.full((rows, len(columns), n0), np.nan) if columns else None
         self.rows = 0
         self.last = np.full(n0, -1)
+        self.batch_size = n0          # the variants stepped together (a frame's attrs["batch"])
 
     def _record(self, t_ns: int) -> None:
         m, k = self.master, self.rows
@@ -335,11 +347,17 @@ class BatchRecording(Observer):
         if self.keep.frames and self.data is not None:
             df = pd.DataFrame(self.data[:n, :, k].copy(), columns=self.columns,
                               index=pd.Index(self.time[:n].copy(), name="time"))
-            df.attrs.update(system=self.system.name, master=self.master.name,
-                            extrapolation=self.master.extrapolation.order, step_control="none", step=self.run["step"],
-                            start_time=self.run["start_time"], stop_time=self.run["stop_time"],
-                            output_interval=self.sample_ns / NS, start_values=dict(result.start_values),
-                            complete=result.complete, error=result.error, batch=True)
+            from harness.run.simulation import column_units
+
+            m = self.master
+            df.attrs.update(system=self.system.name, master=m.name, extrapolation=m.extrapolation.order,
+                            step_control="none", step=self.run["step"], start_time=self.run["start_time"],
+                            stop_time=self.run["stop_time"], tolerance=None, output_interval=self.sample_ns / NS,
+                            inputs=[], units=column_units(m.fmus, self.columns),
+                            start_values=dict(result.start_values), steps=max(0, n - 1), fmu_steps=max(0, n - 1) *
+                            len(m.insts), complete=result.complete, error=result.error, suspect=result.reason,
+                            diverged=False, blew_up=False, interrupted=False, bad_input=False,
+                            batch=self.batch_size)
             if self.keep.quantities:
                 from harness.reporting.quantities import quantities
 

@@ -231,10 +231,13 @@ def _heading_line(df) -> str:
     return q.heading().splitlines()[0] + " (the first variant's; each variant's own steady cycles)" if q else ""
 
 
-def compare(system, variants, **options) -> Comparison:
+def compare(system, variants, batch: bool = True, **options) -> Comparison:
     """Run every variant of ``system`` (a name in systems/ or a System; variants as :class:`Variant` or
     ``"LABEL: ..."`` strings) with :func:`harness.run.simulate` and ``options`` (the same for all) and return the
-    :class:`Comparison`.  A variant's ``start_values`` go over ``options["start_values"]``."""
+    :class:`Comparison`.  A variant's ``start_values`` go over ``options["start_values"]``.  ``batch``: the variants
+    that change parameters run together as one batch where the batch applies and they are enough to pay for it
+    (:data:`harness.run.batch.MIN_VARIANTS`; :mod:`harness.run.batch`: each variant's own numbers, bit for bit),
+    else one after the other."""
     from harness.reporting.quantities import quantities
     from harness.results import read_csv
     from harness.run import load, simulate
@@ -243,6 +246,8 @@ def compare(system, variants, **options) -> Comparison:
     variants = [v if isinstance(v, Variant) else parse_variant(v) for v in variants]
     check(system, variants)
     base = dict(options.pop("start_values", None) or {})
+    runs = [v for v in variants if v.result is None]
+    batched = _batched(system, runs, base, options) if batch else {}
     results = {}
     for v in variants:
         if v.result is not None:
@@ -250,7 +255,9 @@ def compare(system, variants, **options) -> Comparison:
             df.attrs["quantities"] = quantities(system, df)
             df.attrs["variant"] = f"the saved result {v.result}"
         else:
-            df = simulate(system, start_values={**base, **v.start_values}, **options)
+            df = batched.get(v.label)
+            if df is None:
+                df = simulate(system, start_values={**base, **v.start_values}, **options)
             df.attrs["variant"] = ", ".join(f"{k} = {x:g}" if isinstance(x, (int, float)) else f"{k} = {x}"
                                             for k, x in v.start_values.items()) or "the drive as declared"
             if not df.attrs.get("complete", True):
@@ -258,6 +265,19 @@ def compare(system, variants, **options) -> Comparison:
                                              f"{df.attrs.get('error')}")
         results[v.label] = df
     return Comparison(system, results)
+
+
+def _batched(system, runs: list[Variant], base: dict, options: dict) -> dict:
+    """{label: result} of the variants ``runs`` stepped as one batch (harness.run.batch), or {} where the batch does
+    not apply (they then run one by one)."""
+    from harness.run.batch import MIN_VARIANTS, BatchOptions, Keep, refusal, simulate_batch
+
+    settings = {k: v for k, v in options.items() if v is not None}
+    if len(runs) < MIN_VARIANTS or refusal(system, settings) is not None:
+        return {}
+    run = simulate_batch(system, [{**base, **v.start_values} for v in runs], settings,
+                         Keep(columns=None, frames=True, quantities=True), BatchOptions())
+    return {v.label: r.frame for v, r in zip(runs, run.results)}
 
 
 def register(subparsers) -> None:
@@ -275,6 +295,10 @@ def register(subparsers) -> None:
     p.add_argument("--step", type=float, default=None, metavar="SECONDS",
                    help="communication step [s] (default: the drive's)")
     p.add_argument("--master", default=None, help="master of every run (default: the drive's)")
+    p.add_argument("--no-batch", action="store_true",
+                   help="run the variants one after the other (default: together, as one batch of variants, where "
+                        "the drive's FMUs are the toolkit's and the method is jacobi, jacobi-sampled or "
+                        "gauss-seidel; the same numbers)")
     p.add_argument("--out", type=Path, default=None, metavar="FILE.csv",
                    help="write the side-by-side table as CSV (default: printed only)")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
@@ -301,8 +325,8 @@ def _cli(args) -> int:
 
         check_report_path(args.report)
     check(system, variants)
-    result = compare(system, variants, stop_time=args.stop_time, step=args.step, master=args.master,
-                     options=RunOptions(progress=None))
+    result = compare(system, variants, batch=not args.no_batch, stop_time=args.stop_time, step=args.step,
+                     master=args.master, options=RunOptions(progress=None))
     print(result.table())
     if args.out is not None:
         result.frame().to_csv(args.out)

@@ -2,9 +2,12 @@
 :func:`size`.
 
 The engineering quantity (:mod:`harness.reporting.quantities`) is computed from a co-simulation run of the drive for each
-value of the parameter tried.  First the bracket: the quantity at both ends of ``--range`` (default: a quarter
-and four times the drive's value).  Where the target is met at one end and missed at the other, Brent's method
-finds the value where the quantity crosses the target (to ``--xtol`` of the range, runs reused); the answer is
+value of the parameter tried.  First the bracket: the quantity at ``--candidates`` values spread geometrically over
+``--range`` (default 8 values between a quarter and four times the drive's value), run at once as one batch of
+variants where the batch applies (:mod:`harness.run.batch`: each value's own numbers), else side by side on a
+cluster or one after the other.  Where the target is met at one end and missed at the other, Brent's method
+finds the value where the quantity crosses the target inside the pair of neighbouring candidates where it first
+changes, seen from the end that meets it (to ``--xtol`` of the range, runs reused); the answer is
 the boundary value on the side that meets it (the smallest value when the quantity falls as the parameter
 rises under ``<=``, the largest when it rises), verified by a run at it.  Where the target is met at both ends
 or at neither, it says so with the range the quantity took over the bracket; where the quantity's elasticity
@@ -188,13 +191,59 @@ def _sent(system, given):
                        f"start_values for the changed parameters")
 
 
+def _batch_applies(system, options: dict, n: int) -> bool:
+    """Whether ``n`` runs of ``system`` under ``options`` go as one batch (harness.run.batch): the batch applies and
+    ``n`` is at least the batch's break-even count."""
+    from harness.run.batch import MIN_VARIANTS, refusal
+
+    return n >= MIN_VARIANTS and refusal(system, {k: v for k, v in options.items() if v is not None}) is None
+
+
+def run_batch_at(system, parameter: str, quantity: str, start_values: dict, options: dict, values: list) -> list:
+    """:func:`run_at` of each of ``values`` as one batch of variants (harness.run.batch), in this process or on a
+    dask worker: the same outcomes, each the quantity of its own run's numbers."""
+    from harness.reporting.quantities import quantities
+    from harness.run import load
+    from harness.run.batch import BatchOptions, Keep, simulate_batch
+    from harness.studies.sweep_cluster import SystemFile, system_on_worker
+
+    if isinstance(system, (str, SystemFile)):
+        key = system if isinstance(system, str) else system.digest
+        if key not in _LOADED:
+            _LOADED[key] = load(system_on_worker(system))
+        system = _LOADED[key]
+    settings = {k: v for k, v in options.items() if v is not None}
+    run = simulate_batch(system, [{**start_values, parameter: v} for v in values], settings,
+                         Keep(columns=None, frames=True, quantities=True), BatchOptions())
+    out = []
+    for v, r in zip(values, run.results):
+        if not r.complete:
+            out.append(dict(value=None, frame=None, error=f"the run at {parameter} = {v:g} stopped: {r.error}"))
+            continue
+        q = r.frame.attrs["quantities"] if "quantities" in r.frame.attrs else quantities(system, r.frame)
+        found = q[quantity]
+        if found is None or not isinstance(found, (int, float)):
+            out.append(dict(value=None, frame=None, error=f"{quantity} has no value at {parameter} = {v:g}: "
+                                                          f"{q.row(quantity).note or q.heading()}"))
+            continue
+        out.append(dict(value=float(found), frame=r.frame, error=""))
+    return out
+
+
 @contextlib.contextmanager
-def _runner(system, given, scheduler: str | None):
+def _runner(system, given, scheduler: str | None, together: bool = False):
     """(what each run is given as the drive, a function running a list of :func:`run_at` argument tuples and
     returning their outcomes in order): in this process, or on the workers of the dask scheduler at
-    ``scheduler`` (checked first as a sweep checks it; a drive file sent as bytes once)."""
+    ``scheduler`` (checked first as a sweep checks it; a drive file sent as bytes once).  ``together``: a list of
+    at least :data:`harness.run.batch.MIN_VARIANTS` calls runs as one batch (:func:`run_batch_at`)."""
+    from harness.run.batch import MIN_VARIANTS
+
+    def one_batch(calls) -> bool:
+        return together and len(calls) >= MIN_VARIANTS
+
     if scheduler is None:
-        yield system, lambda calls: [run_at(*c) for c in calls]
+        yield system, lambda calls: (run_batch_at(*calls[0][:5], [c[5] for c in calls]) if one_batch(calls) else
+                                     [run_at(*c) for c in calls])
         return
     from dask.distributed import Client
 
@@ -205,16 +254,22 @@ def _runner(system, given, scheduler: str | None):
     with Client(scheduler) as client:
         if isinstance(ref, SystemFile):
             ref = client.submit(payload, ref, key=f"system-file-{ref.digest[:32]}")
-        yield ref, lambda calls: client.gather([client.submit(run_at, *c, pure=False) for c in calls])
+        yield ref, lambda calls: (client.submit(run_batch_at, *calls[0][:5], [c[5] for c in calls], pure=False).result()
+                                  if one_batch(calls) else
+                                  client.gather([client.submit(run_at, *c, pure=False) for c in calls]))
 
 
 def size(system, parameter: str, target, bracket: tuple[float, float] | None = None, xtol: float = 1e-3,
-         max_runs: int = 16, scheduler: str | None = None, **options) -> Sizing:
+         max_runs: int = 16, scheduler: str | None = None, candidates: int = 8, batch: bool = True,
+         **options) -> Sizing:
     """Size ``parameter`` (``Instance.parameter``) of ``system`` so that ``target`` (a :class:`Target` or
-    ``"NAME <= VALUE"``) holds; ``options`` go to every :func:`harness.run.simulate` run.  ``scheduler``: the
-    address of a dask scheduler; the runs then go to its workers (the two ends of the bracket at once, then
-    each of the root finding's runs) through the sweep's machinery (:mod:`harness.studies.sweep_cluster`: the
-    address checked first, a drive file sent as bytes); the answer is the same as without one."""
+    ``"NAME <= VALUE"``) holds; ``options`` go to every :func:`harness.run.simulate` run.  ``candidates``: the
+    values tried at once first, spread geometrically over the bracket, its ends included (at least 2); ``batch``:
+    those run as one batch of variants where the batch applies (:mod:`harness.run.batch`; the same numbers as their
+    own runs).  ``scheduler``: the address of a dask scheduler; the runs then go to its workers (the candidates at
+    once, as one batch or side by side, then each of the root finding's runs) through the sweep's machinery
+    (:mod:`harness.studies.sweep_cluster`: the address checked first, a drive file sent as bytes); the answer is the
+    same as without one."""
     from scipy.optimize import brentq
 
     from harness.run import load
@@ -230,9 +285,13 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
                                      f"increasing values (the drive's value is {p0:g})")
     check_target(system, target)
     base = dict(options.pop("start_values", None) or {})
+    if isinstance(candidates, bool) or not isinstance(candidates, int) or candidates < 2:
+        raise SystemDescriptionError(f"size {system.name}: candidates = {candidates!r} must be a whole number >= 2 "
+                                     f"(the bracket's two ends at least)")
     result = Sizing(parameter, target, (lo, hi), system=system)
     frames = {}
-    with _runner(system, given, scheduler) as (ref, submit):
+    together = batch and _batch_applies(system, options, candidates)
+    with _runner(system, given, scheduler, together) as (ref, submit):
 
         def quantities_at(ps: list[float]) -> list[float]:
             todo = [p for p in dict.fromkeys(ps) if p not in result.runs]
@@ -248,7 +307,10 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         def quantity(p: float) -> float:
             return quantities_at([p])[0]
 
-        q_lo, q_hi = quantities_at([lo, hi])     # at once on a cluster
+        grid = [lo * (hi / lo) ** (k / (candidates - 1)) for k in range(candidates)]
+        grid[-1] = hi
+        qs = quantities_at(grid)                 # at once: one batch, or side by side on a cluster
+        q_lo, q_hi = qs[0], qs[-1]
         # the elasticity d ln Q / d ln p over the bracket: a 1 % change of the parameter moves Q by that many %
         elasticity = (math.log(abs(q_hi) / abs(q_lo)) / math.log(hi / lo)) if q_lo * q_hi > 0 else math.inf
         change = 100 * abs(q_hi - q_lo) / max(abs(q_lo), abs(q_hi))
@@ -262,9 +324,12 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         if not target.met(q_lo) and not target.met(q_hi):
             result.message = f"no value of {parameter} in [{lo:g}, {hi:g}] meets {target}: {taken}{weak}"
             return result
-        root = brentq(lambda p: quantity(p) - target.value, lo, hi, xtol=xtol * (hi - lo), maxiter=max_runs)
-        # the boundary value on the side that meets the target, verified by its own run
+        # the neighbouring candidates where the target first stops being met, seen from the end that meets it
         side = lo if target.met(q_lo) else hi
+        pairs = list(zip(grid, grid[1:], qs, qs[1:]))
+        a, b, _, _ = next(p for p in (pairs if side == lo else pairs[::-1]) if target.met(p[2]) != target.met(p[3]))
+        root = brentq(lambda p: quantity(p) - target.value, a, b, xtol=xtol * (hi - lo), maxiter=max_runs)
+        # the boundary value on the side that meets the target, verified by its own run
         answer = root
         if not target.met(quantity(answer)):
             answer = min(result.runs, key=lambda p: abs(p - root) if target.met(result.runs[p]) and
@@ -339,6 +404,13 @@ def register(subparsers) -> None:
                    help="the engineering quantity's target (names as `run` prints them)")
     p.add_argument("--range", nargs=2, type=float, default=None, metavar=("LOW", "HIGH"),
                    help="the bracket searched (default: a quarter and four times the drive's value)")
+    p.add_argument("--candidates", type=int, default=8, metavar="N",
+                   help="values tried at once first, spread geometrically over the range, its ends included "
+                        "(default 8; run as one batch of variants where the batch applies)")
+    p.add_argument("--no-batch", action="store_true",
+                   help="run the candidates one after the other (default: as one batch of variants, where the "
+                        "drive's FMUs are the toolkit's and the method is jacobi, jacobi-sampled or gauss-seidel; "
+                        "the same numbers)")
     p.add_argument("--xtol", type=float, default=1e-3, metavar="SHARE",
                    help="the answer's tolerance as a share of the bracket (default 1e-3)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
@@ -371,8 +443,8 @@ def _cli(args) -> int:
 
         check_scheduler(args.scheduler)   # one line for a wrong address, before any run
     result = size(args.system, args.vary, target, tuple(args.range) if args.range else None, xtol=args.xtol,
-                  scheduler=args.scheduler, stop_time=args.stop_time, start_values=parse_sets(args.set),
-                  options=RunOptions(progress=None))
+                  scheduler=args.scheduler, candidates=args.candidates, batch=not args.no_batch,
+                  stop_time=args.stop_time, start_values=parse_sets(args.set), options=RunOptions(progress=None))
     print(result.message)
     print(f"runs ({args.vary} -> {target.quantity}): {_runs(result.runs)}")
     if args.report is not None:

@@ -352,7 +352,9 @@ def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, w
         if log is not None:
             log.add(row)
 
-    batched = batch and bool(todo) and sweep_batch.refusal(system_name, spec) is None
+    from harness.run.batch import MIN_VARIANTS
+
+    batched = batch and len(todo) >= MIN_VARIANTS and sweep_batch.refusal(system_name, spec) is None
 
     def bar(items, total):
         return _progress(items, progress, total=total)
