@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import integrate
-from . import variants
+from . import integrate_batch, variants
 from .base import Model, ParameterError, Params, Signal, param
 from .mathns import SCALAR
 
@@ -201,12 +201,9 @@ class JamesDifferentialModel(Model):
 
 
 class JamesDifferentialBatch(variants.Vectorised):
-    """Variants of :class:`JamesDifferentialModel` together: its kinematics, mesh and static torques on arrays."""
+    """Variants of :class:`JamesDifferentialModel` together: its kinematics, mesh and static torques on arrays, the
+    compliant mesh's exponential step (fidelity 1) too."""
     attributes = ("k", "kp")
-
-    @classmethod
-    def refuses(cls, models):
-        return "fidelity 1's exponential step" if models[0].p.fidelity != 0 else None
 
     def output(self, t, X, U, rows=None):
         v = self.v
@@ -221,7 +218,17 @@ class JamesDifferentialBatch(variants.Vectorised):
         return v.m.stack(v.output(t, X, U))
 
     def advance(self, t0, h, X, U):
-        return self.v.advance(t0, h, X, U)
+        v = self.v
+        p = v.p
+        if p.fidelity == 0:
+            return v.advance(t0, h, X, U)
+        j = p.sun_inertia
+
+        def acc(t, q, w):
+            return (v.mesh((q, w), U, t - t0) + U[4]) / j
+        q, w = X[0], X[1]
+        jet = (acc(t0, q, w), -p.c_alpha / j, -p.d_mesh / j, p.c_alpha * v.kinematic(U)[1] / j)
+        return v.m.stack(integrate_batch.exprb32_pair(acc, t0, h, q, w, jet))
 
 
 JamesDifferentialModel.Batch = JamesDifferentialBatch
