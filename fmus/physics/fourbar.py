@@ -472,12 +472,8 @@ class FourBarModel(Model):
             _, _, _, _, arm, _ = self._geometry(u[0], u[1], psi, v * u[1])
             # at a dead point (arm = 0, reached exactly only by a parallelogram) the coupler force of the
             # rigid linkage is indeterminate; seed 003's belt between the crank shafts carries the torque
-            m = self.m
-            if m.scalar:
-                force = u[2] / arm if abs(arm) > 1e-12 * self._r else 0.0
-            else:
-                dead = ~(abs(arm) > 1e-12 * self._r)
-                force = m.where(dead, 0.0, u[2] / m.where(dead, 1.0, arm))
+            live, m = abs(arm) > 1e-12 * self._r, self.m
+            force = m.where(live, u[2] / m.where(live, arm, 1.0), 0.0)
             return (u[2] * v, psi, v * u[1], mu, force, 0.0, 1.0, x[3], x[4], x[5])
         q, qd, arm, arm_crank, mu = self._coupler_at(u[0], u[1], x[0], x[1])
         force = self._tension(q, qd, arm, x[2])
@@ -655,7 +651,7 @@ class FourBarBatch(variants.Vectorised):
     """Variants of :class:`FourBarModel` stepped together (fmus.physics.variants): the rigid kinematics (fidelity 0)
     and the elastic coupler's exponential steps (fidelity 1, each variant on its own count of steps) on arrays, the
     model's own geometry, forces and jet.  The clearance level (fidelity 2), whose contact events are located per
-    variant, runs each variant's scalar model; variants of different linkage kinds are stepped apart (``key``)."""
+    variant, runs each variant's scalar model; linkages of other kinds (the kinematics branch on it) go apart."""
     attributes = ("_a", "_b", "_f", "_r", "_inertia", "_keep", "_half", "_offset0", "kind")
 
     @classmethod
@@ -664,18 +660,16 @@ class FourBarBatch(variants.Vectorised):
 
     @classmethod
     def key(cls, model):
-        """The linkage's kind (crank-rocker, double crank, parallelogram): its kinematics branch on it."""
         return (model.kind,)
 
     def __init__(self, models):
         super().__init__(models)
         self.v._coupler_at = variants.last_call(self.v._coupler)
-        self._ports = variants.last_call(self._port_outputs)   # a point's geometry, read at each visit
+        self._ports = variants.last_call(self._crank_tau)   # a point's geometry, read at each visit
 
-    def _port_outputs(self, phi, wc, tau, psi, w, v_impact):
-        v = self.v
-        q, qd, _, _, arm, arm_crank = v._geometry(phi, wc, psi, w)
-        return v._tension(q, qd, arm, v_impact) * arm_crank - v._belt(phi, wc, psi, w)
+    def _crank_tau(self, phi, wc, tau, psi, w, v_impact):
+        q, qd, _, _, arm, arm_crank = self.v._geometry(phi, wc, psi, w)
+        return self.v._tension(q, qd, arm, v_impact) * arm_crank - self.v._belt(phi, wc, psi, w)
 
     def output(self, t, X, U, rows=None):
         v = self.v
@@ -696,16 +690,10 @@ class FourBarBatch(variants.Vectorised):
             return v.advance(t0, h, X, U)
         phi0, wc, tau = U[0], U[1], U[2]
         n = np.maximum(1.0, np.ceil(np.abs(wc) * h / KINEMATIC_ANGLE * (1.0 - 1e-12)))
-        acc_at, jet_at = v._acc_at, v._acc_jet_at
-
-        def acc(t, psi, w):
-            return acc_at(phi0 + wc * (t - t0), wc, tau, psi, w)
-
-        def jet(t, psi, w):
-            return jet_at(phi0 + wc * (t - t0), wc, tau, psi, w)
-
         y = np.array(X, dtype=float)
-        y[PSI], y[W] = integrate_batch.march_pair(acc, jet, t0, h, n, X[PSI], X[W])
+        y[PSI], y[W] = integrate_batch.march_pair(lambda t, q, w: v._acc_at(phi0 + wc * (t - t0), wc, tau, q, w),
+                                                  lambda t, q, w: v._acc_jet_at(phi0 + wc * (t - t0), wc, tau, q, w),
+                                                  t0, h, n, X[PSI], X[W])
         return y
 
 
