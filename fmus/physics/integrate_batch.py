@@ -15,6 +15,7 @@ complex with imaginary part 0.0 (CPython up to 3.13), so its zero terms are kept
 """
 from __future__ import annotations
 
+import functools
 import sys
 
 import numpy as np
@@ -199,16 +200,19 @@ def phi_matrices_2x2(j00, j01, j10, j11, h):
             c[real] = (f1 - f2) / gap
             d[real] = (mu1 * f2 - mu2 * f1) / gap
     out = _assembled(coef, j00, j01, j10, j11, h)
-    done: dict = {}     # the scalar's series, once per distinct matrix and step (a free flight's J = 0 is one)
-    for i in np.flatnonzero(series).tolist():
-        key = (float(j00[i]), float(j01[i]), float(j10[i]), float(j11[i]), float(h[i]))
-        one = done.get(key)
-        if one is None:
-            one = done[key] = integrate.phi_matrices_2x2(*key)
+    for i in np.flatnonzero(series).tolist():    # the scalar's series, once per distinct matrix and step
+        one = _series(float(j00[i]), float(j01[i]), float(j10[i]), float(j11[i]), float(h[i]))
         for o, m in zip(out, one):
             for k in range(4):
                 o[k][i] = m[k]
     return tuple(tuple(o) for o in out)
+
+
+@functools.lru_cache(maxsize=4096)
+def _series(j00: float, j01: float, j10: float, j11: float, h: float):
+    """:func:`fmus.physics.integrate.phi_matrices_2x2` of one matrix and step (a pure function, kept: a free
+    flight's J = [[0, 1], [0, 0]] comes back every step with the same step length)."""
+    return integrate.phi_matrices_2x2(j00, j01, j10, j11, h)
 
 
 def _assembled(coef, j00, j01, j10, j11, h):

@@ -22,6 +22,7 @@ import math
 import time as _time
 import warnings
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -86,14 +87,13 @@ class BatchRun:
 def refusal(system, settings: dict) -> str | None:
     """Why the variants of ``system`` under ``settings`` (:func:`simulate`'s keyword arguments) cannot be run as a
     batch (one line), None when they can."""
-    from fmus.build import catalog
     from harness.master.batch import REFUSED, BATCH_MASTERS
     from harness.master import master_class
 
-    cat = catalog()
-    foreign = [i.name for i in system.instances if str(i.fmu) not in cat]
+    foreign = [i.name for i in system.instances if _component(i.fmu) is None]
     if foreign:
-        return f"instance {foreign[0]} is an FMU the toolkit did not build ({system.instance(foreign[0]).fmu})"
+        return (f"instance {foreign[0]} is an FMU other than this toolkit's build of its components "
+                f"({system.instance(foreign[0]).fmu})")
     exp = system.experiment
     master = settings.get("master") or (exp.master if exp else "jacobi")
     key = master_class(master).name
@@ -227,14 +227,46 @@ def _declarations(system) -> dict:
     """Instance name -> its component's declaration class."""
     import importlib
 
-    from fmus.build import catalog
-
-    cat = catalog()
     out = {}
     for inst in system.instances:
-        module = importlib.import_module(f"fmus.components.{cat[str(inst.fmu)].stem}")
-        out[inst.name] = getattr(module, str(inst.fmu))
+        model, script = _component(inst.fmu)
+        out[inst.name] = getattr(importlib.import_module(f"fmus.components.{script}"), model)
     return out
+
+
+def _component(fmu) -> tuple[str, str] | None:
+    """(model name, declaration module) of an instance's FMU when it is this toolkit's build of one of its
+    components: a model name of the catalog, or an FMU file (an SSP's, an exported one) whose bundled code is the
+    component's present code (its module ``pd_<name>_<hash>``, the hash over the declaration and the runtime,
+    :func:`fmus.build.code_hash`); None for any other FMU, whose numbers a batch cannot promise."""
+    import zipfile
+
+    from fmus.build import catalog, code_hash
+
+    cat = catalog()
+    name = str(fmu)
+    if name in cat:
+        return name, cat[name].stem
+    path = Path(name)
+    if path.suffix.lower() != ".fmu" or not path.is_file():
+        return None
+    known = _CODE.get(path)
+    if known is None or known[0] != path.stat().st_mtime_ns:
+        found = None
+        try:
+            with zipfile.ZipFile(path) as z:
+                names = z.namelist()
+        except (OSError, zipfile.BadZipFile):
+            names = []
+        for model, script in cat.items():
+            if f"resources/{script.stem}_{code_hash(script)}.py" in names:
+                found = (model, script.stem)
+                break
+        known = _CODE[path] = (path.stat().st_mtime_ns, found)
+    return known[1]
+
+
+_CODE: dict = {}   # FMU file -> (modification time, its component or None)
 
 
 def _run_chunk(system, run: dict, models: list[dict], results: list[VariantResult], keep: Keep,

@@ -73,14 +73,14 @@ def run_points(system_name, spec, points: list[dict]) -> list[dict]:
 
 
 def chunks(todo: list, workers: int) -> list[list]:
-    """The points in batches: as many as the workers (at least two per worker where there are enough points, so
-    one slow batch does not hold the others), each at most :data:`CHUNK` points and, where there are enough, at
+    """The points in batches: as many as the workers (two per worker where there are several workers and enough
+    points, so one slow batch does not hold the others; one batch in this process), each at most :data:`CHUNK` points and, where there are enough, at
     least :data:`harness.run.batch.MIN_VARIANTS` (fewer cost more as a batch than one by one)."""
     from harness.run.batch import MIN_VARIANTS
 
     if not todo:
         return []
-    parts = max(1, workers) * (2 if len(todo) >= 4 * max(1, workers) else 1)
+    parts = max(1, workers) * (2 if workers > 1 and len(todo) >= 4 * workers else 1)
     parts = max(1, min(parts, len(todo) // MIN_VARIANTS))     # each batch large enough to pay for itself
     size = min(CHUNK, max(1, math.ceil(len(todo) / parts)))
     return [todo[i:i + size] for i in range(0, len(todo), size)]
