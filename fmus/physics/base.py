@@ -165,6 +165,11 @@ class Model:
     # the batch form of the model (a subclass of fmus.physics.variants.Vectorised), None: each variant's scalar model
     Batch: ClassVar = None
 
+    def __new__(cls, *args, **kwargs):
+        self = super().__new__(cls)
+        self.m = cls.m      # the instance's own: Python reads it faster than the class's (mathns._as_module)
+        return self
+
     def __init__(self, p: Params):
         p.validate()
         self.p = p

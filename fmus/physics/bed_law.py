@@ -76,7 +76,7 @@ def bed_invariants(k, u, m=np):
     def rise(x):
         return C / (w * w) * (1.0 - m.cos(w * x)), V * m.sin(w * x), C * m.cos(w * x)
 
-    m = namespace(m)
+    m = m if m is SCALAR else namespace(m)
     if m.scalar:
         if k <= u:
             return rise(k)
@@ -156,7 +156,7 @@ class FourBarStroke:
 
     def invariants(self, k, m=np):
         """(a_delta, b_delta, c_delta) at phase share k (``m``: the namespace, mathns.namespace)."""
-        m = namespace(m)
+        m = m if m is SCALAR else namespace(m)
         phi = self.start + k * self.span
         psi, v, acc, _ = fourbar.kinematics(phi if m.scalar else np.asarray(phi, dtype=float), self.a, self.b,
                                             self.f, self.r, self.branch, m, mu=False)

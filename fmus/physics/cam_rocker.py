@@ -195,6 +195,7 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
         # level 2, Kelvin-Voigt: the exponential step, sized on the contact's frequency
         w_c = math.sqrt(p.contact_stiffness * self.r_max * self.r_max / p.rocker_inertia)
         self._exp_step = EXP_STEP_PHASE / w_c
+        self._kv_zeta = None     # a batch's view holds each variant's kelvin_voigt_zeta (one variant: its own)
         # output(): the rigid kinematics and geometry of one crank angle, asked twice per communication point
         self._rigid_at = last_call(self._rigid_kinematics)
 
@@ -202,8 +203,8 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
     def kinematics(self, phi: float) -> tuple[float, float, float]:
         """(G, dG/dphi, d2G/dphi2) of the rocker."""
         if self.p.mechanism == 0:
-            return self.kulisa(phi, self.m)
-        s, s1, s2 = self.cycle(phi, self.m)
+            return self.kulisa.at(phi, self.m)
+        s, s1, s2 = self.cycle.at(phi, self.m)
         sw = self.p.swing
         return sw * s, sw * s1, sw * s2
 
@@ -333,11 +334,9 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
         # v_impact and the contact flag are memory set at the sub-step boundaries (advance): a contact that
         # began inside the present sub-step (flag still 0) approaches at its present penetration rate, not
         # at the stored speed of the previous contact (0 before the first one)
-        if self.m.scalar:
-            v0 = x[2] if x[4] != 0.0 else abs(qd)
-            F = contact.contact_force(q, qd, p.clearance, k, p.contact_law, p.restitution, v0, m, p.contact_exponent)
-        else:   # a batch of variants: the Kelvin-Voigt law, the one its vectorised form takes (no onset speed)
-            F = contact.kelvin_voigt_force(q, qd, p.clearance, k, m, p.restitution, self.m, self._kv_zeta)
+        v0 = (x[2] if x[4] != 0.0 else abs(qd)) if self.m.scalar else 0.0   # (a batch: Kelvin-Voigt, no onset speed)
+        F = contact.contact_force(q, qd, p.clearance, k, p.contact_law, p.restitution, v0, m, p.contact_exponent,
+                                  self.m, self._kv_zeta)
         return -F * R, F
 
     def _acceleration(self, t, gamma, omega, x, u, t0, kin=None) -> float:

@@ -7,7 +7,6 @@ kinematics and pin geometry (``_kin``, ``_pin_stiffness``, ``lever``) and contac
 """
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
@@ -38,7 +37,7 @@ class KelvinVoigtPin:
         else:
             R, r_t = p.follower_arm, 0.0
         k, m = self._pin_stiffness(R)
-        c = contact.kelvin_voigt_damping(k, m, p.restitution, ns, getattr(self, "_kv_zeta", None))
+        c = contact.kelvin_voigt_damping(k, m, p.restitution, ns, self._kv_zeta)
         kr2, cr2 = k * R * R, c * R * R
         k_r = -2.0 * k * k * R / p.stiffness
         if ns.scalar:
@@ -104,10 +103,14 @@ class KelvinVoigtPin:
         (onset: impacts + 1, v_impact = the penetration rate; separation: flag 0).  A change that comes and
         goes within one step is not seen (as at RK4's sub-step boundaries)."""
         phi0, w, tau = u[0], u[1], u[2]
-        at_angle = functools.cache(lambda phi: self._kv_coefficients(phi, w))   # once per crank angle
+        at_angle = {}       # once per crank angle (a dict: functools.cache would cost ~2 us to make, each step)
 
         def coefficients(t):
-            return at_angle(phi0 + w * (t - t0))
+            phi = phi0 + w * (t - t0)
+            co = at_angle.get(phi)
+            if co is None:
+                co = at_angle[phi] = self._kv_coefficients(phi, w)
+            return co
 
         def step(t, dt, gamma, omega, mode):
             def acc(tt, g, om):

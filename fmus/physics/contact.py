@@ -39,7 +39,9 @@ for Flores at e = 0.2): the largest damping the same law reaches at the peak of 
 bounded by C sqrt((n + 1) / (2 n)) times the linearised contact frequency.  The criterion has no free
 constant.  That bound (``damping_per_frequency``) sizes the integrators' sub-steps (``max_substep``).
 
-All functions are scalar (plain floats) because they sit in the innermost loop of the integrators.
+The functions take plain floats: they sit in the innermost loop of the integrators.  ``penetration``,
+``kelvin_voigt_damping`` and ``contact_force`` also take a math namespace ``m`` (fmus.physics.mathns): VECTOR
+for arrays over a batch of variants, each element the float's bits.
 """
 from __future__ import annotations
 
@@ -140,34 +142,29 @@ def penetration(q: float, q_dot: float, clearance: float, m=SCALAR) -> tuple[flo
             side)
 
 
-def kelvin_voigt_force(q, q_dot, clearance: float, k, m_eff, e, m=SCALAR, zeta=None):
-    """:func:`contact_force` of the Kelvin-Voigt law (``m``: the math namespace; ``zeta`` as
-    :func:`kelvin_voigt_damping` takes it)."""
-    pen, pen_dot, side = penetration(q, q_dot, clearance, m)
-    if m.scalar:
-        if side == 0.0:
-            return 0.0
-        f = k * pen + kelvin_voigt_damping(k, m_eff, e) * pen_dot
-        return -side * max(f, 0.0)
-    f = k * pen + kelvin_voigt_damping(k, m_eff, e, m, zeta) * pen_dot
-    return m.where(side == 0.0, 0.0, -side * m.maximum(f, 0.0))
-
-
 def contact_force(q: float, q_dot: float, clearance: float, k: float, law: int, e: float,
-                  v_impact: float, m_eff: float, exponent: float = 1.0) -> float:
+                  v_impact: float, m_eff: float, exponent: float = 1.0, m=SCALAR, zeta=None) -> float:
     """Signed force along q [N] that the joint exerts to push q back into the clearance band.
 
     Returns a value of the sign opposite to q while in contact and 0 while separated.  ``v_impact`` is
     the approach speed at the start of the current contact (Hunt-Crossley family), ``m_eff`` the reduced
-    mass (Kelvin-Voigt damping; Hunt-Crossley family: energy speed of a persistent contact).
+    mass (Kelvin-Voigt damping; Hunt-Crossley family: energy speed of a persistent contact).  ``m``: the math
+    namespace (fmus.physics.mathns); on arrays over a batch of variants the Kelvin-Voigt law, the one the
+    vectorised models step (``zeta``: each variant's :func:`kelvin_voigt_zeta`).
     """
-    if law == KELVIN_VOIGT:
-        return kelvin_voigt_force(q, q_dot, clearance, k, m_eff, e)
-    pen, pen_dot, side = penetration(q, q_dot, clearance)
+    pen, pen_dot, side = penetration(q, q_dot, clearance, m)
+    if not m.scalar:
+        if law != KELVIN_VOIGT:
+            raise ValueError(f"a batch of variants steps the Kelvin-Voigt contact law only, not {LAWS.get(law, law)}")
+        f = k * pen + kelvin_voigt_damping(k, m_eff, e, m, zeta) * pen_dot
+        return m.where(side == 0.0, 0.0, -side * m.maximum(f, 0.0))
     if side == 0.0:
         return 0.0
-    v0 = max(abs(v_impact), energy_speed(pen, k, m_eff, exponent))   # persistent contact: module docstring
-    f = k * pen ** exponent * (1.0 + hysteresis_factor(law, e, v0) * pen_dot)
+    if law == KELVIN_VOIGT:
+        f = k * pen + kelvin_voigt_damping(k, m_eff, e) * pen_dot
+    else:
+        v0 = max(abs(v_impact), energy_speed(pen, k, m_eff, exponent))   # persistent contact: module docstring
+        f = k * pen ** exponent * (1.0 + hysteresis_factor(law, e, v0) * pen_dot)
     return -side * max(f, 0.0)
 
 

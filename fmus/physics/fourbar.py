@@ -137,29 +137,29 @@ def position(phi, a, b, f, r, branch=1, m=None):
     """(psi, theta_c): rocker angle and coupler angle (A -> D) for crank angle(s) phi (closed form); ``m`` the
     math namespace (mathns.namespace: numpy, the default, or NUMPY for arrays; ``math`` or SCALAR for one float,
     twenty times faster than numpy scalars; VECTOR for a batch of variants, each element one float's bits)."""
-    m = namespace(m)
+    return kinematics(phi, a, b, f, r, branch, m, rates=False)
+
+
+def kinematics(phi, a, b, f, r, branch=1, m=None, mu=True, rates=True):
+    """(psi, dpsi/dphi, d2psi/dphi2, mu): position, velocity and acceleration ratios, transmission angle, at crank
+    angle(s) phi; ``m`` as :func:`position` (numpy's arccos, arctan2 and hypot round differently from math's in the
+    last bit: an array evaluation by NUMPY differs from the per-angle one by a few ulps, one by VECTOR does not).
+    ``mu=False``: the transmission angle is not computed (None); ``rates=False``: :func:`position`'s answer."""
+    m = m if m is SCALAR else namespace(m)
     vx = a * m.cos(phi) - f
     vy = a * m.sin(phi)
     d = m.hypot(vx, vy)
     theta_a = m.pi + m.atan2(-vy, -vx)
-    gamma = m.acos(m.clip((r * r + d * d - b * b) / (2.0 * r * d), -1.0, 1.0))
+    gamma = m.acos(m.minimum(1.0, m.maximum(-1.0, (r * r + d * d - b * b) / (2.0 * r * d))))
     psi = theta_a - branch * gamma
-    theta_c = m.atan2(r * m.sin(psi) - vy, f + r * m.cos(psi) - a * m.cos(phi))
-    return psi, theta_c
-
-
-def kinematics(phi, a, b, f, r, branch=1, m=None, mu=True):
-    """(psi, dpsi/dphi, d2psi/dphi2, mu): position, velocity and acceleration ratios, transmission angle, at crank
-    angle(s) phi; ``m`` as :func:`position` (numpy's arccos, arctan2 and hypot round differently from math's in the
-    last bit: an array evaluation by NUMPY differs from the per-angle one by a few ulps, one by VECTOR does not).
-    ``mu=False``: the transmission angle is not computed (None)."""
-    m = namespace(m)
-    psi, th = position(phi, a, b, f, r, branch, m)
+    th = m.atan2(r * m.sin(psi) - vy, f + r * m.cos(psi) - a * m.cos(phi))
+    if not rates:
+        return psi, th
     s_cr = m.sin(th - psi)
     v = a * m.sin(th - phi) / (r * s_cr)
     vc = a * m.sin(psi - phi) / (b * s_cr)
     acc = (-a * m.cos(th - phi) - b * vc * vc + r * v * v * m.cos(th - psi)) / (r * s_cr)
-    return psi, v, acc, m.acos(m.clip(m.cos(th - psi), -1.0, 1.0)) if mu else None
+    return psi, v, acc, m.acos(m.minimum(1.0, m.maximum(-1.0, m.cos(th - psi)))) if mu else None
 
 
 def extreme_transmission(a, b, f, r):
@@ -473,7 +473,7 @@ class FourBarModel(Model):
             # at a dead point (arm = 0, reached exactly only by a parallelogram) the coupler force of the
             # rigid linkage is indeterminate; seed 003's belt between the crank shafts carries the torque
             live, m = abs(arm) > 1e-12 * self._r, self.m
-            force = m.where(live, u[2] / m.where(live, arm, 1.0), 0.0)
+            force = (u[2] / arm if live else 0.0) if m.scalar else m.where(live, u[2] / m.where(live, arm, 1.0), 0.0)
             return (u[2] * v, psi, v * u[1], mu, force, 0.0, 1.0, x[3], x[4], x[5])
         q, qd, arm, arm_crank, mu = self._coupler_at(u[0], u[1], x[0], x[1])
         force = self._tension(q, qd, arm, x[2])

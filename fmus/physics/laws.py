@@ -320,43 +320,45 @@ class DwellCycle:
         self._t2 = phase_forward + dwell
         self._t3 = phase_forward + dwell + phase_return
 
-    def __call__(self, phi, m=None):
+    def at(self, phi, m=None):
         """(s, ds/dphi, d2s/dphi2) at crank angle(s) ``phi`` [rad]: ``m`` the namespace (mathns.namespace: ``math``
         or SCALAR for one float, numpy (the default) or NUMPY for an array, VECTOR for a batch of variants).  One
         phase per angle (forward, top dwell, return, bottom dwell), its law evaluated on the angles in it only.
         The return phase's d2s/dphi2 is -c / P^2 with P^2 as each evaluation has always written it (P*P for
         one float and for a batch, whose elements are one float's; P**2 for numpy)."""
-        m = namespace(m)
+        m = m if m is SCALAR else namespace(m)
         th = (phi - self.phi_start) % TWO_PI
         P, F = self.phase_return, self.phase_forward
         if m.scalar:
             if th < self._t1:
-                a, b, c = self.forward(th / F, m)
+                a, b, c = self.forward.at(th / F, m)
                 return a, b / F, c / F ** 2
             if th < self._t2:
                 return 1.0, 0.0, 0.0
             if th < self._t3:
-                a, b, c = self.ret((th - self._t2) / P, m)
+                a, b, c = self.ret.at((th - self._t2) / P, m)
                 return 1.0 - a, -b / P, -c / (P * P)
             return 0.0, 0.0, 0.0
         th = np.asarray(th, dtype=float)
         f = th < self._t1
         if m is VECTOR and f.all():     # every variant on the forward phase: no subsets (the same numbers)
-            a, b, c = self.forward(th / F, m)
+            a, b, c = self.forward.at(th / F, m)
             return a, b / F, c / F ** 2
         s, s1, s2 = np.zeros_like(th), np.zeros_like(th), np.zeros_like(th)
         if f.any():
-            a, b, c = self.forward(th[f] / F, m)
+            a, b, c = self.forward.at(th[f] / F, m)
             s[f], s1[f], s2[f] = a, b / F, c / F ** 2
         s[~f & (th < self._t2)] = 1.0
         r = (th >= self._t2) & (th < self._t3)
         if r.any():
-            a, b, c = self.ret((th[r] - self._t2) / P, m)
+            a, b, c = self.ret.at((th[r] - self._t2) / P, m)
             s[r], s1[r], s2[r] = 1.0 - a, -b / P, -c / (P * P if m is VECTOR else P ** 2)
         return s, s1, s2
 
+    __call__ = at   # also cycle(phi, m); hot paths call .at (calling an instance costs ~100 ns more)
+
     def jerk(self, phi: float) -> float:
-        """d3s/dphi3 at one crank angle: the phase :meth:`__call__` takes there, its law's jerk (Law.jerk) scaled
+        """d3s/dphi3 at one crank angle: the phase :meth:`at` takes there, its law's jerk (Law.jerk) scaled
         like its acceleration by one more 1/phase; 0 in the dwells."""
         th = (phi - self.phi_start) % TWO_PI
         if th < self._t1:

@@ -12,7 +12,7 @@ from typing import Callable
 
 import numpy as np
 
-from .mathns import NUMPY, namespace
+from .mathns import NUMPY, SCALAR, namespace
 
 PieceFn = Callable[[object, object], tuple]
 
@@ -38,13 +38,13 @@ class Law:
     params: tuple[tuple[str, float], ...] = ()
     jerks: tuple[Callable[[object, object], object], ...] = ()
 
-    def __call__(self, k, m=None):
+    def at(self, k, m=None):
         """(a, b, c) at the phase share(s) ``k``, clipped to [0, 1]: ``m`` the namespace (mathns.namespace: ``math``
         or SCALAR for one float, numpy (the default) or NUMPY for an array, VECTOR for a batch of variants).  Each
         k takes the first piece whose end lies beyond it (the last piece up to and with 1); a piece is evaluated
         on its own k only.  The clip is numpy's for NUMPY, Python's comparisons otherwise (a batch's elements are
         one float's)."""
-        m = namespace(m)
+        m = m if m is SCALAR else namespace(m)
         if m.scalar:
             k = 0.0 if k < 0.0 else (1.0 if k > 1.0 else k)
             for end, f in self.pieces:
@@ -68,8 +68,10 @@ class Law:
             start = end
         return a, b, c
 
+    __call__ = at   # also law(k, m); hot paths call .at (calling an instance costs ~100 ns more)
+
     def jerk(self, k: float) -> float:
-        """dc/dk at one k, from the piece :meth:`__call__` takes there (at a junction, the piece on its right, as
+        """dc/dk at one k, from the piece :meth:`at` takes there (at a junction, the piece on its right, as
         scalar's); 0 outside [0, 1], where scalar clips k (a, b, c held constant)."""
         if not self.jerks:
             raise ValueError(f"law {self.name!r} gives no jerk (dc/dk): its pieces have no derivative of c")

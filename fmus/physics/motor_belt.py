@@ -219,7 +219,7 @@ class MotorBeltModel(Model):
     def derivatives_with(self, t, x, u, t0, friction: float = 0.0):
         """dx/dt with a given friction torque on the rotor (the brake's, as the caller decides)."""
         m = self.m
-        timer_rate = m.where(u[3] >= 0.5, 1.0, 0.0)
+        timer_rate = 1.0 * (u[3] >= 0.5)     # 1 while the brake is commanded (a bool times 1.0: no call)
         if self.p.fidelity == 0:
             return m.stack((self.p.w_rated * u[2], 0.0, 0.0, timer_rate))
         return m.stack((x[1], *self._rates(t, x, u, t0, friction), timer_rate))
@@ -312,7 +312,10 @@ class MotorBeltModel(Model):
         belt_torque = force * self.r_m
         motor_torque = belt_torque if p.fidelity == 0 else self.kloss_torque(x[1], u[2])
         air_gap = motor_torque * p.w_sync * u[2]
-        p_el = self.m.where(air_gap >= 0.0, air_gap / p.efficiency, air_gap * p.efficiency)
+        if self.m.scalar:
+            p_el = air_gap / p.efficiency if air_gap >= 0.0 else air_gap * p.efficiency
+        else:
+            p_el = self.m.where(air_gap >= 0.0, air_gap / p.efficiency, air_gap * p.efficiency)
         return (force * self.r_d, x[1], motor_torque, p_el, motor_torque * x[1], belt_torque,
                 self._brake_torque(x, u, motor_torque, belt_torque))
 

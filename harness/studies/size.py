@@ -395,9 +395,9 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "size", help="size one parameter of a drive to an engineering-quantity target",
         description="Find the smallest (or largest) value of one parameter for which an engineering quantity "
-                    "meets a target (QUANTITY <= VALUE or >= VALUE): the quantity at both ends of the bracket, "
-                    "then Brent's method over co-simulation runs, runs reused; the answer is verified by a run at "
-                    "it. A target no value in the bracket meets is one line with the range the quantity took.")
+                    "meets a target (QUANTITY <= VALUE or >= VALUE): the quantity at --candidates values over the "
+                    "bracket, run at once, then Brent's method inside the pair where the target is first crossed, "
+                    "runs reused; the answer is verified by a run at it. A target no value in the bracket meets is one line with the range the quantity took.")
     p.add_argument("system", help="system name in systems/ (e.g. bed_drive), a .py file defining SYSTEM, or .ssp")
     p.add_argument("--vary", required=True, metavar="Instance.param", help="the parameter to size")
     p.add_argument("--target", required=True, metavar="'QUANTITY <= VALUE'",
@@ -418,7 +418,7 @@ def register(subparsers) -> None:
     p.add_argument("--set", action="append", default=[], metavar="Instance.param=VALUE",
                    help="other parameter values, the same in every run")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="address of a dask scheduler: the runs go to its workers (the bracket's two ends at once, "
+                   help="address of a dask scheduler: the runs go to its workers (the candidates at once, "
                         "then the root finding's runs), as a sweep's points do (default: in this process)")
     p.add_argument("--report", type=Path, default=None, metavar="FILE.html",
                    help="write one self-contained HTML page: the answer, the runs tried, the verifying run's "
