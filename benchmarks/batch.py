@@ -23,7 +23,6 @@ and 50 times at 1000; the feeder sweep at least 10 times less CPU than OMSimulat
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import os
@@ -184,20 +183,13 @@ def goal_lines(rows: list[dict], sweep_rows: list[dict], quick: bool) -> list[tu
     return lines
 
 
-def write(rows: list[dict], path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    return path
-
-
 def run(out: Path, quick: bool, timeout: float, drives=DRIVES, log=print) -> list[tuple]:
     """Everything of the module docstring; ``quick``: N = 1 and 10 of the bed drive, a 10-point sweep (a smoke
     test: the numbers mean nothing).  Returns the goal lines."""
     rows = per_variant(drives if not quick else ("bed_drive",), SIZES if not quick else (1, 10), timeout, log)
     sweep_rows = feeder_sweep(10 if quick else 50, timeout, log)
+    from benchmarks.scopes import write
+
     write(rows, out / "batch.csv")
     write(sweep_rows, out / "batch_sweep.csv")
     lines = goal_lines(rows, sweep_rows, quick)

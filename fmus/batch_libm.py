@@ -4,15 +4,17 @@ Python's ``math`` calls the C library's ``exp``, ``tanh``, ``acos``, ``sin``, ``
 ``abs`` of a complex number its ``hypot``, which ``math.hypot`` is not: CPython computes that itself); numpy
 computes most of them by its own approximations, which differ in the last bit.  A batch of variants must give each
 variant the bits its own FMU gives, so :data:`fmus.physics.mathns.VECTOR` calls the C library's functions element by
-element: here in a loop compiled once (``fmus/batch_libm.c``, with the machine's C compiler, ``$CC`` else ``cc``)
-into the cache folder (``$PRESSDRIVE_CACHE/libm``, else ``<temp>/pressdrive_libm``), about ten times faster than
-Python's ``math`` per element; ``math.hypot`` (CPython's own algorithm) is called per element from there too.  Without a compiler the batch keeps the per-element Python loop (the same bits,
-slower) and :func:`status` says so.
+element: here in a loop compiled once (``fmus/batch_libm.c``, a CPython extension module, with the machine's C
+compiler, ``$CC`` else ``cc``, and the interpreter's headers) into the cache folder (``$PRESSDRIVE_CACHE/libm``,
+else ``<temp>/pressdrive_libm``), about ten times faster than Python's ``math`` per element and about a microsecond
+a call; ``math.hypot`` (CPython's own algorithm) is called per element from there too.  Without a compiler the
+batch keeps the per-element Python loop (the same bits, slower) and :func:`status` says so.
 """
 from __future__ import annotations
 
-import ctypes
 import hashlib
+import importlib.machinery
+import importlib.util
 import os
 import subprocess
 import sys
@@ -36,10 +38,9 @@ def cache_dir() -> Path:
 
 
 def _build() -> Path:
-    """The shared library for this source and interpreter, compiled once (written beside, then moved in whole)."""
     text = SOURCE.read_bytes()
     digest = hashlib.sha256(text + sys.version.encode()).hexdigest()[:16]
-    out = cache_dir() / digest / "pd_libm.so"
+    out = cache_dir() / digest / f"pd_libm{sysconfig.get_config_var('EXT_SUFFIX') or '.so'}"
     if out.is_file():
         return out
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -54,21 +55,47 @@ def _build() -> Path:
     return out
 
 
+def _load(path: Path):
+    """The compiled module (a CPython extension named pd_libm) from ``path``."""
+    loader = importlib.machinery.ExtensionFileLoader("pd_libm", str(path))
+    spec = importlib.util.spec_from_file_location("pd_libm", str(path), loader=loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
 def _unary(cfun):
     def f(x):
         x = np.ascontiguousarray(x, dtype=float)
         out = np.empty_like(x)
-        cfun(x.ctypes.data, out.ctypes.data, x.size)
+        cfun(x, out)
         return out
     return f
 
 
+def _operands(a, b):
+    """(a, b, the output's shape): floats stay floats (the loop takes one for every element), arrays C-contiguous
+    float64; numpy's broadcasting where the shapes differ otherwise."""
+    fa, fb = isinstance(a, float), isinstance(b, float)
+    if not fa:
+        a = np.ascontiguousarray(a, dtype=float)
+    if not fb:
+        b = np.ascontiguousarray(b, dtype=float)
+    if fa and not fb:
+        return a, b, b.shape
+    if fb and not fa:
+        return a, b, a.shape
+    if not (fa or fb) and a.shape == b.shape:
+        return a, b, a.shape
+    a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+    return np.ascontiguousarray(a), np.ascontiguousarray(b), a.shape
+
+
 def _binary(cfun):
     def f(a, b):
-        a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
-        a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
-        out = np.empty_like(a)
-        cfun(a.ctypes.data, b.ctypes.data, out.ctypes.data, a.size)
+        a, b, shape = _operands(a, b)
+        out = np.empty(shape)
+        cfun(a, b, out)
         return out
     return f
 
@@ -77,15 +104,10 @@ def _pyhypot(cfun):
     """``math.hypot`` element by element, the function object called from the compiled loop."""
     import math
 
-    cfun.restype = ctypes.c_int
-    cfun.argtypes = [ctypes.py_object, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_long]
-
     def f(a, b):
-        a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
-        a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
-        out = np.empty_like(a)
-        if cfun(math.hypot, a.ctypes.data, b.ctypes.data, out.ctypes.data, a.size) != 0:
-            raise FloatingPointError("math.hypot failed in the batch's element loop")
+        a, b, shape = _operands(a, b)
+        out = np.empty(shape)
+        cfun(math.hypot, a, b, out)
         return out
     return f
 
@@ -96,19 +118,14 @@ def install() -> str:
         return status()
     _state["tried"] = True
     try:
-        lib = ctypes.PyDLL(str(_build()))
-    except (OSError, FileNotFoundError) as e:
+        lib = _load(_build())
+    except (OSError, ImportError) as e:
         _state["why"] = f"no compiled loops ({' '.join(str(e).split())[:200]}): math per element"
         mathns.VECTOR.trig()
         return status()
-    functions = {}
-    for name in UNARY + BINARY:
-        cfun = getattr(lib, f"pd_{name.removeprefix('c')}" if name == "chypot" else f"pd_{name}")
-        cfun.restype = None
-        n = 2 if name in UNARY else 3
-        cfun.argtypes = [ctypes.c_void_p] * n + [ctypes.c_long]
-        functions[name] = (_unary if name in UNARY else _binary)(cfun)
-    functions["hypot"] = _pyhypot(lib.pd_pyhypot)
+    functions = {name: _unary(getattr(lib, name)) for name in UNARY}
+    functions.update({name: _binary(getattr(lib, name.removeprefix("c"))) for name in BINARY})
+    functions["hypot"] = _pyhypot(lib.pyhypot)
     mathns.install_loops(functions, "compiled")
     mathns.VECTOR.trig()
     return status()

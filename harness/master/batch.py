@@ -27,8 +27,8 @@ import numpy as np
 
 from harness.errors import SimulationError, SystemDescriptionError
 from harness.fmi.instance import RealBlock
-from harness.master import graph
 from harness.master.clock import NS
+from harness.master.explicit import GaussSeidel, Jacobi
 from harness.master.extrapolation import History
 from harness.master.loop import Master
 
@@ -185,12 +185,12 @@ class BatchMaster(Master):
         hist, order, n = self.history, self.extrapolation.order, self.n
         cols = idx * n
         if order == 0:
-            return hist.y[0, idxN].reshape(-1, n)
+            return hist.y[0].reshape(-1, n)[idx]
         if hist.n[cols].min() <= order:
             return self.extrapolation.held(hist, idxN, t, h).reshape(-1, n)
         te = t + 0.5 * h
         ts = hist.t[:order + 1, cols][:, :, None]
-        y = hist.y[:order + 1, idxN].reshape(order + 1, -1, n)
+        y = hist.y[:order + 1].reshape(order + 1, -1, n)[:, idx]     # whole rows of variants: no element gather
         if order == 1:
             return y[0] + (te - ts[0]) / (ts[0] - ts[1]) * (y[0] - y[1])
         a, b, c = te - ts[0], te - ts[1], te - ts[2]
@@ -348,35 +348,23 @@ class BatchMaster(Master):
 
 
 class BatchJacobi(BatchMaster):
-    """``jacobi`` on the batch (:class:`harness.master.explicit.Jacobi`)."""
+    """``jacobi`` on the batch: :class:`harness.master.explicit.Jacobi`'s own step on the batch's arrays."""
     name = "jacobi"
-
-    def history_depth(self) -> int:
-        return self.extrapolation.order + 1
-
-    def _step_impl(self, t, h, t_next):
-        self._hold_all(t, h)
-        self._step_fmus(self.insts, t, h, no_prior_state=True)
-        self._exchange(t_next)
+    history_depth = Jacobi.history_depth
+    _step_impl = Jacobi._step_impl
+    _outputs_at = BatchMaster._exchange
 
 
 class BatchJacobiSampled(BatchJacobi):
     """``jacobi-sampled`` on the batch (:class:`harness.master.explicit.JacobiSampled`)."""
     name = "jacobi-sampled"
-
-    def _step_impl(self, t, h, t_next):
-        self._hold_all(t, h)
-        self._step_fmus(self.insts, t, h, no_prior_state=True)
-        self._read_all(t_next)
+    _outputs_at = BatchMaster._read_all
 
 
 class BatchGaussSeidel(BatchMaster):
-    """``gauss-seidel`` on the batch (:class:`harness.master.explicit.GaussSeidel`)."""
+    """``gauss-seidel`` on the batch (:class:`harness.master.explicit.GaussSeidel`: its stepping order)."""
     name = "gauss-seidel"
-
-    def _prepare(self) -> None:
-        order = graph.stepping_order(self.connections, self.mds)
-        self.order = [self.insts[self.index[nm]] for nm in order]
+    _prepare = GaussSeidel._prepare
 
     def _step_impl(self, t, h, t_next):
         point = self.extrapolation.order >= 1

@@ -264,7 +264,8 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
          **options) -> Sizing:
     """Size ``parameter`` (``Instance.parameter``) of ``system`` so that ``target`` (a :class:`Target` or
     ``"NAME <= VALUE"``) holds; ``options`` go to every :func:`harness.run.simulate` run.  ``candidates``: the
-    values tried at once first, spread geometrically over the bracket, its ends included (at least 2); ``batch``:
+    values tried at once first, spread geometrically over the bracket, its ends included (at least 2), then at
+    most ``max_runs`` more (the root finding and the verifying run); ``batch``:
     those run as one batch of variants where the batch applies (:mod:`harness.run.batch`; the same numbers as their
     own runs).  ``scheduler``: the address of a dask scheduler; the runs then go to its workers (the candidates at
     once, as one batch or side by side, then each of the root finding's runs) through the sweep's machinery
@@ -295,8 +296,9 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
 
         def quantities_at(ps: list[float]) -> list[float]:
             todo = [p for p in dict.fromkeys(ps) if p not in result.runs]
-            if len(result.runs) + len(todo) > max_runs:
-                raise SystemDescriptionError(f"size {system.name}: {max_runs} runs used without settling {parameter}; "
+            if len(result.runs) + len(todo) > candidates + max_runs:
+                raise SystemDescriptionError(f"size {system.name}: {candidates} candidates and {max_runs} more runs "
+                                             f"used without settling {parameter}; "
                                              f"runs: {_runs(result.runs)}")
             for p, run in zip(todo, submit([(ref, parameter, target.quantity, base, options, p) for p in todo])):
                 if run["error"]:
