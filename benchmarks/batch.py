@@ -43,6 +43,7 @@ COLUMN = {"bed_drive": "bed.bed.s", "feeder_gto52": "feeder.pin_force", "proof_p
 GOALS = {("bed_drive", 100): 20.0, ("bed_drive", 1000): 50.0}
 SWEEP_GOAL = 10.0          # OMSimulator's CPU over the harness's, the 50-point feeder sweep
 SCALAR_RUNS = 3
+QUICK_STOP = 0.02         # s: every run of --quick
 
 
 def variants(name: str, n: int) -> list[dict]:
@@ -62,7 +63,8 @@ def worker(spec: dict) -> dict:
     from harness.run.batch import BatchOptions, Keep, simulate_batch
 
     name, n = spec["name"], spec["n"]
-    settings = {"stop_time": STOP[name]} if name in STOP else {}
+    stop = spec.get("stop") or STOP.get(name)
+    settings = {"stop_time": stop} if stop else {}
     column = COLUMN[name]
     vs = variants(name, n)
     if spec.get("scalar"):
@@ -98,15 +100,16 @@ def _launch(spec: dict, timeout: float) -> dict:
     return {"error": f"exit code {r.returncode}: " + " ".join((r.stderr or "").split())[-300:]}
 
 
-def per_variant(drives, sizes, timeout: float, log=print) -> list[dict]:
-    """One row per drive and N: the batch's CPU per variant, the scalar run's, their ratio, and the batch's parts."""
+def per_variant(drives, sizes, timeout: float, log=print, stop: float | None = None) -> list[dict]:
+    """One row per drive and N: the batch's CPU per variant, the scalar run's, their ratio, and the batch's parts
+    (``stop``: every run's stop time, in place of :data:`STOP` and the default experiments)."""
     rows = []
     for name in drives:
-        scalar = _launch({"name": name, "n": SCALAR_RUNS, "scalar": True}, timeout)
+        scalar = _launch({"name": name, "n": SCALAR_RUNS, "scalar": True, "stop": stop}, timeout)
         log(f"{name}: scalar runs {scalar}")
         for n in sizes:
-            b = _launch({"name": name, "n": n}, timeout)
-            row = {"drive": name, "n": n, "stop_time": STOP.get(name, "default"),
+            b = _launch({"name": name, "n": n, "stop": stop}, timeout)
+            row = {"drive": name, "n": n, "stop_time": stop or STOP.get(name, "default"),
                    "scalar_cpu_per_run": scalar.get("cpu_per_run", math.nan),
                    "batch_cpu": b.get("cpu", math.nan), "batch_cpu_per_variant": b.get("cpu_per_variant", math.nan),
                    "error": b.get("error", "") or scalar.get("error", "") or b.get("first_error", "")}
@@ -124,8 +127,9 @@ def per_variant(drives, sizes, timeout: float, log=print) -> list[dict]:
     return rows
 
 
-def feeder_sweep(points: int, timeout: float, log=print) -> list[dict]:
-    """The 50-point feeder sweep (module docstring): CPU seconds of each tool's whole process, pinned."""
+def feeder_sweep(points: int, timeout: float, log=print, stop: float | None = None) -> list[dict]:
+    """The 50-point feeder sweep (module docstring): CPU seconds of each tool's whole process, pinned (``stop``:
+    each point's stop time in place of the drive's accuracy run's)."""
     import tempfile
 
     from benchmarks import host_accuracy
@@ -135,7 +139,7 @@ def feeder_sweep(points: int, timeout: float, log=print) -> list[dict]:
 
     name = "feeder_gto52"
     system = load(name)
-    stop = system.accuracy.stop_time
+    stop = stop or system.accuracy.stop_time
     values = sweep_values(name, points)
     configs = {"harness": Config("harness", 4e-4, "jacobi", 1), "omsimulator": Config("omsimulator", 2e-4)}
     rows = []
@@ -184,10 +188,14 @@ def goal_lines(rows: list[dict], sweep_rows: list[dict], quick: bool) -> list[tu
 
 
 def run(out: Path, quick: bool, timeout: float, drives=DRIVES, log=print) -> list[tuple]:
-    """Everything of the module docstring; ``quick``: N = 1 and 10 of the bed drive, a 10-point sweep (a smoke
-    test: the numbers mean nothing).  Returns the goal lines."""
-    rows = per_variant(drives if not quick else ("bed_drive",), SIZES if not quick else (1, 10), timeout, log)
-    sweep_rows = feeder_sweep(10 if quick else 50, timeout, log)
+    """Everything of the module docstring; ``quick``: N = 1 and 10 of the bed drive and an 8-point sweep, all of
+    :data:`QUICK_STOP` (a smoke test: the numbers mean nothing).  Returns the goal lines."""
+    if quick:
+        rows = per_variant(("bed_drive",), (1, 10), timeout, log, QUICK_STOP)
+        sweep_rows = feeder_sweep(8, timeout, log, QUICK_STOP)
+    else:
+        rows = per_variant(drives, SIZES, timeout, log)
+        sweep_rows = feeder_sweep(50, timeout, log)
     from benchmarks.scopes import write
 
     write(rows, out / "batch.csv")

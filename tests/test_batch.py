@@ -107,6 +107,24 @@ def test_a_variant_that_fails_is_taken_out_alone_and_run_on_its_own():
     assert run.results[0].complete and not run.results[0].alone and run.results[3].complete
 
 
+def test_the_screens_window_maximum_is_numpys_over_the_window():
+    """The screen's running window maximum (two stacks) equals numpy's max over the stacked window rows (NaN
+    included) for windows that move forward by random amounts, jump, and shrink to nothing."""
+    from harness.master.batch_watch import _WindowMax
+
+    rng = np.random.default_rng(3)
+    rows = [rng.random((2, 5)) for _ in range(300)]
+    rows[37][1, 2] = math.nan
+    w, a, b = _WindowMax((2, 5)), 0, 0
+    for _ in range(250):
+        b = min(len(rows), b + int(rng.integers(0, 3)))
+        a = min(b, a + int(rng.integers(0, 2)))
+        if rng.random() < 0.03:
+            a = b = min(len(rows), b + 5)
+        want = np.max(np.stack(rows[a:b]), axis=0) if b > a else np.zeros((2, 5))
+        assert np.array_equal(w.max(rows, a, b), want, equal_nan=True), (a, b)
+
+
 def test_the_divergence_screen_stops_a_variant_where_the_scalar_detector_does():
     variants = [{"b.c": c} for c in (1000.0, 2000.0, 5000.0)]
     settings = {"stop_time": 0.3, "master": "jacobi", "extrapolation": 0, "step": 1e-3}

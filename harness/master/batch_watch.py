@@ -24,30 +24,45 @@ from harness.master.observers import Observer
 
 
 class _WindowMax:
-    """The largest of ``rows[a:b]`` per column for windows whose bounds never move back: extended by the rows
-    added, recomputed only for the columns whose maximum left the window."""
+    """The largest of ``rows[a:b]`` per element for windows whose bounds never move back, as a queue of two stacks:
+    the rows entered since the last transfer folded into one running maximum, the older ones held as suffix maxima
+    (computed once, when the window's start reaches them): each row costs about two elementwise maxima in all,
+    whatever the window's length.  numpy's maximum propagates NaN as its max does: the same values."""
 
     def __init__(self, shape):
-        self.a = self.b = 0
-        self.value = np.zeros(shape)
+        self.a = self.b = self.mid = 0
+        self.zero = np.zeros(shape)
+        self.suffix: dict[int, np.ndarray] = {}     # i in [a, mid): the largest of rows[i:mid]
+        self.back = None                            # the largest of rows[mid:b]
 
     def max(self, rows: list, a: int, b: int) -> np.ndarray:
         if b <= a:
-            self.a, self.b = a, b
-            self.value = np.zeros_like(self.value)
-            return self.value
-        if a >= self.b or self.b <= self.a:         # no overlap with the last window: from scratch
-            self.value = np.max(np.stack(rows[a:b]), axis=0)
-        else:
-            if b > self.b:
-                self.value = np.maximum(self.value, np.max(np.stack(rows[self.b:b]), axis=0))
-            if a > self.a:
-                left = np.max(np.stack(rows[self.a:a]), axis=0) >= self.value    # the maximum may have left
-                if left.any():
-                    idx = np.nonzero(left)
-                    self.value[idx] = np.max(np.stack(rows[a:b])[(slice(None),) + idx], axis=0)
-        self.a, self.b = a, b
-        return self.value
+            self.a = self.b = self.mid = b
+            self.suffix, self.back = {}, None
+            return self.zero
+        if a >= self.b:                             # no overlap with the last window: from scratch
+            self.a = self.b = self.mid = a
+            self.suffix, self.back = {}, None
+        for i in range(self.b, b):
+            self.back = rows[i] if self.back is None else np.maximum(self.back, rows[i])
+        self.b = b
+        for i in range(self.a, min(a, self.mid)):
+            del self.suffix[i]
+        self.a = a
+        if a >= self.mid:                           # the front is used up: the rows since the transfer move there
+            self.suffix, acc = {}, None
+            for i in range(self.b - 1, a - 1, -1):
+                acc = rows[i] if acc is None else np.maximum(rows[i], acc)
+                self.suffix[i] = acc
+            self.mid, self.back = self.b, None
+        front = self.suffix[a]
+        return front if self.back is None else np.maximum(front, self.back)
+
+    def take(self, columns) -> None:
+        """Keep only ``columns`` (an index of the rows' columns: the variants still in the batch)."""
+        self.zero = self.zero[columns]
+        self.suffix = {i: s[columns] for i, s in self.suffix.items()}
+        self.back = None if self.back is None else self.back[columns]
 
 
 class DivergenceScreen(Observer):
@@ -136,7 +151,7 @@ class DivergenceScreen(Observer):
         for rows in (self.peaks, self.flows, self.energies):
             rows[:] = [r[take] if r is not None else None for r in rows]
         for w in self.quarters:
-            w.value = w.value[take]
+            w.take(take)
         self.shape = self.peak.shape
 
     # -- the detector's tests ------------------------------------------------------------------------------------
