@@ -360,6 +360,21 @@ def _split(column: str, instances: list[str]) -> tuple[str, str]:
     raise SystemDescriptionError(f"output {column!r} names no instance of the system ({', '.join(sorted(instances))})")
 
 
+def libcosim_targets(execution, enums, outputs: list) -> list[tuple[int, int]]:
+    """(slave index, value reference) of each 'Instance.variable' of ``outputs`` in a libcosim execution (Real
+    variables only; another name is refused in one line)."""
+    slaves = {info.name.decode(): info.index for info in execution.slave_infos()}
+    refs = {i: {v.name.decode(): v.reference for v in execution.slave_variables(i)
+                if v.type == enums.CosimVariableType.REAL.value} for i in slaves.values()}
+    targets = []
+    for column in outputs:
+        inst, var = _split(column, list(slaves))
+        if var not in refs[slaves[inst]]:
+            raise SystemDescriptionError(f"{inst}: no Real variable {var!r} to record")
+        targets.append((slaves[inst], refs[slaves[inst]][var]))
+    return targets
+
+
 def run_ssp_libcosim(ssp_path, stop_time: float, step: float, outputs: list) -> pd.DataFrame:
     """A whole SSP system (``.ssp`` archive, folder, or ``SystemStructure.ssd``) in libcosim, with the given
     fixed step (which overrides the OSP ``FixedStepMaster`` annotation).  ``outputs``: 'Instance.variable'."""
@@ -372,15 +387,7 @@ def run_ssp_libcosim(ssp_path, stop_time: float, step: float, outputs: list) -> 
         execution = execution_cls.from_ssp_file(str(path), step_nanoseconds(step))
     except AssertionError as e:
         raise _libcosim_error("load SSP", f"{path}:") from e
-    slaves = {info.name.decode(): info.index for info in execution.slave_infos()}
-    refs = {i: {v.name.decode(): v.reference for v in execution.slave_variables(i)
-                if v.type == enums.CosimVariableType.REAL.value} for i in slaves.values()}
-    targets = []
-    for column in outputs:
-        inst, var = _split(column, list(slaves))
-        if var not in refs[slaves[inst]]:
-            raise SystemDescriptionError(f"{inst}: no Real variable {var!r} to record")
-        targets.append((slaves[inst], refs[slaves[inst]][var]))
+    targets = libcosim_targets(execution, enums, outputs)
     observer = _libcosim_record(execution, observer_cls, enums, targets, n)
     return _libcosim_run(execution, observer, targets, n, step, list(outputs))
 

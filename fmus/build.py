@@ -320,8 +320,10 @@ def add_terminals(fmu: Path, script: Path) -> None:
 
 def _pythonfmu_build(FmuBuilder, script: Path, out: Path, runtime: Path, doc_dir: Path,
                      fmi_version: int = 2) -> Path:
-    # FMI 3.0 spells the state capability canGetAndSetFMUState (fmus.slave3 sets every capability itself too)
-    state = {"canGetAndSetFMUState" if fmi_version == 3 else "canGetAndSetFMUstate": True}
+    # FMI 3.0 spells the state capability canGetAndSetFMUState (fmus.slave3 sets every capability itself too); an
+    # FMI 2.0 slave serializes its state too (fmus.slave_core.state_to_bytes: the checkpoints of harness.run)
+    state = ({"canGetAndSetFMUState": True} if fmi_version == 3 else
+             {"canGetAndSetFMUstate": True, "canSerializeFMUstate": True})
     with contextlib.redirect_stdout(io.StringIO()):
         fmu = Path(FmuBuilder.build_FMU(
             script, dest=out, project_files=[runtime],

@@ -11,6 +11,7 @@ exporters' C wrappers need besides is :mod:`fmus.wrapper_glue`.
 from __future__ import annotations
 
 import functools
+import json
 
 import math
 from dataclasses import dataclass, fields
@@ -87,6 +88,46 @@ class SlaveState:
     def key(cls, slave) -> tuple:
         """The slave's present state but the derived fields, as a key (compared with ``==``)."""
         return tuple(_key_part(getattr(slave, f"_{f.name}")) for f in fields(cls) if f.name not in cls.DERIVED)
+
+
+def _encoded(value):
+    """A state field as JSON: arrays, tuples and dicts tagged (dict keys may be numbers), floats exact (repr)."""
+    if isinstance(value, np.ndarray):
+        return {"__array__": value.tolist(), "dtype": str(value.dtype)}
+    if isinstance(value, tuple):
+        return {"__tuple__": [_encoded(v) for v in value]}
+    if isinstance(value, dict):
+        return {"__dict__": [[_encoded(k), _encoded(v)] for k, v in value.items()]}
+    if isinstance(value, list):
+        return [_encoded(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _decoded(value):
+    if isinstance(value, list):
+        return [_decoded(v) for v in value]
+    if isinstance(value, dict):
+        if "__array__" in value:
+            return np.array(value["__array__"], dtype=value["dtype"])
+        if "__tuple__" in value:
+            return tuple(_decoded(v) for v in value["__tuple__"])
+        if "__dict__" in value:
+            return {_decoded(k): _decoded(v) for k, v in value["__dict__"]}
+    return value
+
+
+def state_to_bytes(state: SlaveState) -> bytes:
+    """A saved state as bytes (fmi2SerializeFMUstate): every field but the model (rebuilt from the parameters
+    when the state is set), as JSON whose floats round-trip exactly."""
+    body = {f.name: _encoded(getattr(state, f.name)) for f in fields(state) if f.name != "model"}
+    return json.dumps({"state": type(state).__name__, "fields": body}).encode("utf-8")
+
+
+def state_from_bytes(data: bytes) -> dict:
+    """The fields of :func:`state_to_bytes`'s bytes (the model None), for the slave's ``_set_fmu_state``."""
+    return {k: _decoded(v) for k, v in json.loads(bytes(data).decode("utf-8"))["fields"].items()}
 
 
 class PressBehaviour(Component):
@@ -373,8 +414,16 @@ class PressBehaviour(Component):
     def _get_fmu_state(self) -> SlaveState:
         return self._state_type.of(self)
 
-    def _set_fmu_state(self, state: SlaveState) -> None:
+    def _set_fmu_state(self, state) -> None:
+        if isinstance(state, dict):   # deserialized (state_from_bytes): the model is built again from par
+            state = self._state_type(model=None, **state)
         state.restore(self)
+        if self._model is None and self._initialised:
+            self._build_model()
+
+    # serialized states (pythonfmu calls these on the class): fmi2SerializeFMUstate / fmi2DeSerializeFMUstate
+    _fmu_state_to_bytes = staticmethod(state_to_bytes)
+    _fmu_state_from_bytes = staticmethod(state_from_bytes)
 
     # -- what the modelDescription says, in names (each version writes it in its own XML) ---------------------
     def _units_by_name(self) -> dict[str, str]:

@@ -12,7 +12,7 @@ FMU), :mod:`harness.studies`, :mod:`harness.synthesis`.  Heavy imports happen on
 from __future__ import annotations
 
 __all__ = ["load", "simulate", "simulate_scenario", "RunOptions", "bond_energy", "to_csv", "MASTERS", "export_fmu",
-           "report"]
+           "report", "modes"]
 
 
 def report(result, path, system=None):
@@ -42,6 +42,14 @@ def export_fmu(system, out, outputs=None, fmi_version: int = 2):
     from harness.run import load
 
     return export(load(system), out, outputs=outputs, fmi_version=fmi_version)
+
+
+def modes(system, parameters=None, points: int = 0):
+    """The torsional natural frequencies and mode shapes of ``system`` linearised about its operating point
+    (:func:`harness.studies.modes.modes`): a :class:`harness.studies.modes.Modes`."""
+    from harness.studies.modes import modes as find
+
+    return find(system, parameters, points)
 
 
 def __getattr__(name):

@@ -41,10 +41,14 @@ class _Version(argparse._VersionAction):
 COMMANDS = (
     ("list", "list the shipped systems with their descriptions"),
     ("show", "show a system: instances, bonds, scenes and every variable with its unit"),
-    ("run", "run a system (name in systems/, a .py file defining SYSTEM, or .ssp/.ssd) and write its result"),
+    ("run", "run a system (name in systems/, a .py file defining SYSTEM, .ssp/.ssd or an OspSystemStructure.xml) and "
+            "write its result"),
     ("compare", "two or more designs of a drive side by side: their engineering quantities and charts"),
     ("size", "size one parameter of a drive to an engineering-quantity target"),
-    ("export", "write a system as an SSP 1.0 archive (FMUs included) or as one co-simulation FMU (.fmu)"),
+    ("modes", "the drive's torsional natural frequencies, mode shapes and exciting orders"),
+    ("duty", "the motor's thermal check over a duty cycle: starts and stops per hour"),
+    ("export", "write a system as an SSP 1.0 archive (FMUs included), as one co-simulation FMU (.fmu) or as OSP's "
+               "OspSystemStructure.xml (--format osp)"),
     ("synth", "mechanism synthesis and analysis tools of the seeds"),
     ("study", "numerical studies (stability, precision)"),
     ("scene", "answer a scene's question with the coarsest adequate model"),
@@ -81,12 +85,14 @@ def build_parser(command: str | None = None, top_only: bool = False) -> argparse
         _accept_negative_numbers(ap)
         return ap
     from harness import describe, run, ssp, synthesis
-    from harness.studies import accuracy, compare, precision, scenes, size, stability, sweep, takeup
+    from harness.studies import accuracy, compare, duty, modes, precision, scenes, size, stability, sweep, takeup
 
     describe.register(sub)        # list, show SYSTEM
     run.register(sub)             # run a system
     compare.register(sub)         # compare X --variant ... --variant ...
     size.register(sub)            # size X --vary I.p --target 'Q <= V'
+    modes.register(sub)           # modes X: torsional natural frequencies
+    duty.register(sub)            # duty X --starts N --stops N: the motor's thermal check
     ssp.register(sub)             # export a system as SSP
     synthesis.register(sub)       # synth fourbar|groove|sectors|knife
     study = sub.add_parser("study", help="numerical studies (stability, precision)",

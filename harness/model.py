@@ -43,10 +43,13 @@ def _split(ref: str, what: str) -> tuple[str, str]:
 @dataclass
 class Instance:
     """One FMU instance: ``fmu`` is a path to a .fmu or a bare model name (``"FourBar"``, see
-    :func:`resolve_fmu`); ``parameters`` maps parameter names to values."""
+    :func:`resolve_fmu`); ``parameters`` maps parameter names to values; ``step`` [s], when given, its own
+    communication step, a whole multiple of the run's step (each FMU at its own rate:
+    :mod:`harness.master.multirate`); None: the run's step."""
     name: str
     fmu: str | Path
     parameters: dict = field(default_factory=dict)
+    step: float | None = None
 
 
 @dataclass
@@ -114,6 +117,12 @@ class Experiment:
     step_control: str | None = None
     tolerance: float | None = None
     start_time: float = 0.0     # an SSP's DefaultExperiment may start later (harness.ssp)
+    # options of the variable-step control (harness.master.stepcontrol.StepOptions' fields by name, e.g. an OSP
+    # EccoConfiguration's: harness.osp); None: the controller's defaults
+    step_options: dict | None = None
+    # instance -> its own step as a whole multiple of this experiment's step (harness.master.multirate): taken by
+    # a run with this experiment's master and step; a run with another step or master steps every FMU at its step
+    rates: dict | None = None
 
 
 @dataclass
@@ -157,7 +166,7 @@ class System:
         keeps it."""
         return replace(self, instances=[
             Instance(i.name, i.fmu if str(i.fmu).endswith(".fmu") else Path(folder) / f"{i.fmu}.fmu",
-                     dict(i.parameters)) for i in self.instances])
+                     dict(i.parameters), i.step) for i in self.instances])
 
     def bond_is_translational(self, b: Bond, model_descriptions: dict | None) -> bool:
         """Whether bond ``b`` is translational (ports ``.s/.v/.f``) rather than rotational (``.phi/.w/.tau``):
@@ -365,6 +374,17 @@ def _check_parameter(v, ref: str, value) -> None:
     elif v.type == "String":
         if not isinstance(value, str):
             raise SystemDescriptionError(f"parameter {ref} = {value!r} must be a string")
+
+
+def host_step(system: "System") -> float:
+    """The step an SSP or OSP export declares to other hosts (its OSP step): the drive's ``sampled_host_step`` where it
+    declares one below its experiment's step -- libcosim, Ecos and FMPy read outputs right after each step and
+    hold them, and need a smaller step than the harness's own master to meet the drive's accuracy --
+    else the experiment's step.  The harness's own step goes in the ``pd:Experiment`` annotation."""
+    step = float(system.experiment.step)
+    accuracy = getattr(system, "accuracy", None)
+    sampled = getattr(accuracy, "sampled_host_step", None)
+    return min(step, float(sampled)) if sampled else step
 
 
 # -- FMU resolution ---------------------------------------------------------------------------------------------

@@ -152,10 +152,17 @@ class Recorder:
             np.take(self.master.y, self._idx_y, out=row[:len(self._idx_y)])
         else:
             row[self._cols_y] = self.master.y[self._idx_y]
-        for fmu, block, cols in self._extra:
-            row[cols] = fmu.get(block)
-        for fmu, var, _, _, values in self._typed:
-            values.append(fmu.get_value(var))
+        fresh = getattr(self.master, "fresh", None)   # None: every instance is at a point of its own (one rate)
+        if fresh is None or k == 0:
+            for fmu, block, cols in self._extra:
+                row[cols] = fmu.get(block)
+            for fmu, var, _, _, values in self._typed:
+                values.append(fmu.get_value(var))
+        else:   # an instance amid its own step (harness.master.multirate) keeps the values of its last point
+            for fmu, block, cols in self._extra:
+                row[cols] = fmu.get(block) if fmu.name in fresh else self.data[k - 1, cols]
+            for fmu, var, _, _, values in self._typed:
+                values.append(fmu.get_value(var) if fmu.name in fresh else values[-1])
         if self.bonds.shape[2]:
             self.bonds[k] = self.master.bond_log
         self.rows = k + 1

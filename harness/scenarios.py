@@ -6,7 +6,7 @@ or read from a small YAML or JSON file::
 
     name: late_stop
     question: How far does the bed run after a stop at 1.5 s?
-    kind: stop                     # startup, speed_change, stop or load
+    kind: stop                     # startup, speed_change, stop, load or jam
     stop_time: 3.0                 # s
     parameters: {motor.holding_torque: 30.0, motor.brake_delay: 0.05}
     changes:                       # time [s], free input, value, ramp [s] (0: a step)
@@ -30,12 +30,13 @@ After the run, the transient's quantities (:func:`transient`) are in ``df.attrs[
 ``startup`` the time and main-shaft angle to 95 % of the speed the run ends at, and the peak motor, shaft and
 joint loads on the way; for a ``speed_change`` the new speed and the time to settle within 1 % of it; for a
 ``stop`` the stopping time and angle of the main shaft from the first change, the tool's overrun and the peak
-loads during the stop; for a ``load`` step the speed drop and the peak loads after it.  A drive that stops
+loads during the stop; for a ``load`` step the speed drop and the peak loads after it; for a ``jam`` (a tool
+that runs into an end stop the scenario sets) the time to blocked, the stop's peak and held load, the motor's
+overload and the peak loads in the jam (:mod:`harness.reporting.jams`).  A drive that stops
 (an emergency stop) ends as a complete run, not as a diverged one.
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -43,14 +44,14 @@ import numpy as np
 import pandas as pd
 
 from harness.errors import SystemDescriptionError
-from harness.specs import Change, Requirement, Scenario
+from harness.specs import Change, Requirement, Scenario, load_file
 
 RPM = 2 * math.pi / 60
 REACHED = 0.95      # start-up: the share of the final speed that counts as "up to speed"
 SETTLED = 0.01      # speed change: the band around the new speed a settled cycle mean stays within
 STOPPED = 0.01      # stop: the share of the speed at the stop command below which the shaft counts as stopped
 DURING = {"startup": "on the way up to speed", "speed_change": "from the change on", "stop": "during the stop",
-          "load": "from the load step on"}   # the stretch a kind's peak loads are taken over, in words
+          "load": "from the load step on", "jam": "in the jam"}   # the stretch a kind's peak loads are taken over, in words
 
 
 # -- finding and reading ---------------------------------------------------------------------------------------
@@ -78,18 +79,7 @@ def find(system, name_or_file) -> Scenario:
 def read(path: str | Path) -> Scenario:
     """A scenario from a YAML or JSON file (the module docstring's form)."""
     path = Path(path)
-    if not path.is_file():
-        raise SystemDescriptionError(f"scenario file {path} does not exist")
-    try:
-        if path.suffix.lower() == ".json":
-            data = json.loads(path.read_text())
-        else:
-            import yaml
-
-            data = yaml.safe_load(path.read_text())
-    except Exception as e:  # a malformed file: one line naming it
-        raise SystemDescriptionError(f"scenario file {path}: cannot be read ({type(e).__name__}: "
-                                     f"{str(e).splitlines()[0]})") from None
+    data = load_file(path, "scenario file")
     if not isinstance(data, dict):
         raise SystemDescriptionError(f"scenario file {path}: a mapping with name, question, kind, stop_time, "
                                      f"parameters "
@@ -349,35 +339,22 @@ def transient(system, scenario: Scenario, df: pd.DataFrame):
                 f"{100 * SETTLED:g} % of the final speed", "" if settled else "not settled within the run")
         loads(t_e)
     elif scenario.kind == "stop":
-        w_e = at(w, t_e)
-        moving = np.flatnonzero((t >= t_e) & (np.abs(w) > STOPPED * abs(w_e)))
-        stopped = t[-1] >= t_e and (moving.size == 0 or moving[-1] < len(t) - 1)
-        if stopped and w_e != 0.0:
-            k = moving[-1] + 1 if moving.size else int(np.searchsorted(t, t_e))
-            row("stopping_time", t[k] - t_e, "s", f"from the first change until the main shaft stays below "
-                f"{100 * STOPPED:g} % of its speed then ({w_e / RPM:.4g} rpm)")
-            row("stopping_angle", math.degrees(abs(angle[k] - at(angle, t_e))), "deg",
-                "main-shaft angle turned in that time")
-        else:
-            row("stopping_time", None, "s", "time to stop", "the main shaft does not stop within the run")
-        if scenario.watch is not None:
-            x = df[scenario.watch].to_numpy(dtype=float)
-            done = np.flatnonzero(cycles.bounds[1:] <= t_e)
-            if done.size:
-                k = int(done[-1])
-                prior = (t >= cycles.bounds[k]) & (t <= cycles.bounds[k + 1])
-                later = t >= t_e
-                unit = df.attrs.get("units", {}).get(scenario.watch, "")
-                row("overrun", max(0.0, x[later].max() - x[prior].max(), x[prior].min() - x[later].min()), unit,
-                    f"how far {scenario.watch} moves past the range it swept in the last cycle before the stop")
-            else:
-                row("overrun", None, "", f"overrun of {scenario.watch}", "no complete cycle before the stop")
-        loads(t_e)
+        from harness.reporting.stops import stop_rows
+
+        stop_rows(system, scenario, df, spec, cycles, t_e, row, loads)
+    elif scenario.kind == "jam":
+        from harness.reporting.jams import jam_rows
+
+        jam_rows(system, scenario, df, spec, row, loads)
     else:  # load
         w_e = at(w, t_e)
         later = t >= t_e
         row("speed_drop", 100 * (1 - np.min(np.abs(w[later])) / abs(w_e)) if w_e else None, "%",
             "largest drop of the main-shaft speed after the load step, of its speed then")
+        if spec.motor is not None:
+            from harness.reporting.stops import overload_rows
+
+            overload_rows(system, spec.motor, df, later, row)
         loads(t_e)
     return _transient_table(title, system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
 

@@ -23,6 +23,28 @@ from dataclasses import dataclass
 from typing import Callable
 
 
+def load_file(path, what: str):
+    """The data of a YAML (or, by its suffix, JSON) file a user hands in (a scenario, limits), refused in one line
+    naming ``what`` and the file when it is missing or cannot be read."""
+    import json
+    from pathlib import Path
+
+    from harness.errors import SystemDescriptionError
+
+    path = Path(path)
+    if not path.is_file():
+        raise SystemDescriptionError(f"{what} {path} does not exist")
+    try:
+        if path.suffix.lower() == ".json":
+            return json.loads(path.read_text())
+        import yaml
+
+        return yaml.safe_load(path.read_text())
+    except Exception as e:  # a malformed file: one line naming it
+        raise SystemDescriptionError(f"{what} {path}: cannot be read ({type(e).__name__}: "
+                                     f"{str(e).splitlines()[0]})") from None
+
+
 @dataclass
 class Scene:
     name: str
@@ -154,6 +176,35 @@ class Load:
     name: str
     column: str
     what: str
+    slope: float = 5.0    # Wohler slope m of its damage-equivalent range (5: machined shafts)
+
+
+@dataclass(frozen=True)
+class Shaft:
+    """A solid round shaft whose torque is the :class:`Load` ``load``: its shear stress tau = 16 T / (pi d^3)
+    [MPa], peak and damage-equivalent, from the diameter the instance parameter ``diameter``
+    (``"Instance.parameter"`` [m]) holds; ``share``: the share of the load's torque one shaft carries (0.5 for
+    two equal shafts in parallel)."""
+    load: str
+    diameter: str
+    share: float = 1.0
+
+
+@dataclass(frozen=True)
+class Belt:
+    """A belt whose torque on a pulley is the :class:`Load` ``load``; the pulley's pitch diameter is the instance
+    parameter ``diameter`` (``"Instance.parameter"`` [m]).  Its transmittable torque on that pulley
+    T = F_1 (1 - exp(-mu' beta)) r (Euler-Eytelwein, :func:`harness.reporting.fatigue.belt_capacity`):
+    ``tight_force`` F_1 [N] the allowable tight-side force of the belt(s), ``mu`` the friction coefficient,
+    ``wrap`` beta [deg] on the pulley that slips first, ``groove`` the V-groove's angle [deg] (0: flat belt);
+    ``source`` says where the numbers come from."""
+    load: str
+    diameter: str
+    tight_force: float
+    mu: float
+    wrap: float
+    groove: float = 0.0
+    source: str = ""
 
 
 @dataclass(frozen=True)
@@ -195,7 +246,9 @@ class QuantitySpec:
     (relative) of the cycle before's and every later cycle's is too; what comes before is the start-up.
 
     ``motor``: the MotorBelt instance whose torque, electrical power and rating are reported (None: none);
-    ``loads``: every joint, contact, mesh, rack and shaft load; ``answers``: the drive's own questions."""
+    ``loads``: every joint, contact, mesh, rack and shaft load; ``answers``: the drive's own questions;
+    ``shafts``: the shear stress of the shafts among the loads; ``belts``: the belts' transmittable torque and
+    slip margin."""
     shaft_angle: str
     shaft_speed: str
     shaft_name: str
@@ -206,6 +259,10 @@ class QuantitySpec:
     loads: tuple[Load, ...] = ()
     answers: tuple[Answer, ...] = ()
     settle: float = 1e-3
+    shafts: tuple[Shaft, ...] = ()
+    belts: tuple[Belt, ...] = ()
+    brakes: tuple[tuple[str, str, str, str], ...] = ()   # (name, torque column, speed column, what): a stop's
+    # brakes whose energy it reports (harness.reporting.stops); empty: the motor's rotor brake
 
 
 @dataclass(frozen=True)
@@ -224,8 +281,11 @@ class Scenario:
     :mod:`harness.scenarios`: ``parameters`` (``Instance.parameter`` -> value) set the drive up for it (from
     rest, a brake's torque), ``changes`` drive its free inputs over time, ``stop_time`` [s] is its run.
     ``kind`` names what the transient quantities measure: ``startup`` (from rest to speed), ``speed_change``,
-    ``stop`` (an emergency stop from the first change on) or ``load`` (a load step, e.g. a jam); ``watch``: the
-    tool's position column (the bed, the knife) whose overrun a stop reports.  ``accuracy``: what the
+    ``stop`` (an emergency stop from the first change on), ``load`` (a load step) or ``jam`` (the tool runs into
+    an end stop the scenario sets, :mod:`harness.reporting.jams`); ``watch``: the tool's position column (the bed,
+    the knife) whose overrun a stop reports.  A stop or a jam runs past ``stop_time`` until the drive has settled
+at rest (``settle_hold`` [s]), up to ``settle_limit`` [s] (:mod:`harness.run.settling`).
+``accuracy``: what the
     scenario's question needs against the monolithic reference (``study accuracy DRIVE --scenario NAME``,
     :func:`harness.studies.accuracy.search_scenario`): :class:`Requirement` whose ``quantity`` is a transient
     quantity's name (``stopping_time``, ``shaft_torque_peak``: compared as a number) or a qoi expression."""
@@ -237,5 +297,7 @@ class Scenario:
     parameters: tuple[tuple[str, float], ...] = ()
     watch: str | None = None
     accuracy: tuple[Requirement, ...] = ()
+    settle_hold: float | None = None     # s: a stop is settled after this long at rest (None: 0.25 s)
+    settle_limit: float | None = None    # s: a stop's run goes on to at most this (None: 4 x stop_time)
 
-    KINDS = ("startup", "speed_change", "stop", "load")
+    KINDS = ("startup", "speed_change", "stop", "load", "jam")

@@ -123,6 +123,40 @@ def jam_accuracy() -> tuple:
     return (Requirement("speed drop", "speed_drop", 0.2, "%"), *_peaks("motor_torque_peak", "shaft_torque_peak"))
 
 
+def blocked_jam_accuracy(load: str = "stop_torque", held: bool = True) -> tuple:
+    """A blocking jam's (:func:`blocking_jam`): the time to the first standstill to 2 ms (as a stopping time), the
+    stop's peak ``load`` (``stop_torque`` or ``stop_force``) and, where the drive comes to rest (``held``), its
+    load on the blocked drive, the peak motor, main-shaft and belt torque in the jam, each to 2 %."""
+    from harness.specs import Requirement
+
+    unit = "N.m" if load == "stop_torque" else "N"
+    return (Requirement("time to the first standstill", "time_to_block", STOP_TIME, "s"),
+            Requirement("peak load of the stop", f"{load}_peak", PEAK, unit, relative=True),
+            *((Requirement("load of the stop on the blocked drive", f"{load}_held", PEAK, unit, relative=True),)
+              if held else ()),
+            *_peaks("motor_torque_peak", "shaft_torque_peak", "belt_torque_peak"))
+
+
+def blocking_jam(system, instance: str, position: float, stiffness: float, damping: float, *, at: float,
+                 stop_time: float, what: str, catch: int = 1, motor: str = "motor", accuracy: tuple | None = None,
+                 settle_limit: float | None = None):
+    """A jam that blocks the tool (``kind: jam``, :mod:`harness.reporting.jams`): at ``at`` an end stop appears in
+    the path of instance ``instance``'s tool at ``position`` (its ``stop_stiffness`` set by a change; its
+    position, ``damping`` and ``catch`` set up as parameters: :class:`fmus.physics.contact.EndStop`), ``what``
+    saying what it is; the motor at fidelity 1 or above.  The run goes on until the drive has settled at rest, up
+    to ``settle_limit`` [s] (None: four times ``stop_time``)."""
+    from harness.specs import Change, Scenario
+
+    dynamic = (((f"{motor}.fidelity", 1),) if system.instance(motor).parameters.get("fidelity", 1) == 0 else ())
+    kind = "caught and held" if catch else "an end stop that cannot pull"
+    return Scenario("jam", f"What does a jam that blocks the tool ({what}: {kind}) do to the drive: how fast is it "
+                    f"blocked, what peak loads does it put on the parts, is the motor overloaded?", "jam", stop_time,
+                    (Change(at, f"{instance}.stop_stiffness", stiffness),),
+                    parameters=dynamic + ((f"{instance}.stop_position", position),
+                                          (f"{instance}.stop_damping", damping), (f"{instance}.stop_catch", catch)),
+                    accuracy=accuracy if accuracy is not None else blocked_jam_accuracy(), settle_limit=settle_limit)
+
+
 def jam(system, variable: str, torque: float, *, at: float = 1.0, stop_time: float = 2.0, motor: str = "motor"):
     """A jam: a load torque ``torque`` [N.m] stepped onto the free input ``variable`` at ``at`` (harness.scenarios),
     the motor at fidelity 1 or above (its speed can drop)."""

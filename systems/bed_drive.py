@@ -51,9 +51,9 @@ import math
 
 from fmus.physics import bed_law, fourbar, fourbar_synthesis
 from harness.model import Experiment, Instance, System, bond
-from harness.specs import (AccuracySpec, Answer, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement, Scene,
-                           StabilitySpec, Zone)
-from systems import motor_inputs, motor_scenarios
+from harness.specs import (AccuracySpec, Answer, Belt, ChartSpec, Load, Panel, PrecisionSpec, QuantitySpec, Requirement,
+                           Scene, Shaft, StabilitySpec, Zone)
+from systems import blocked_jam_accuracy, blocking_jam, motor_inputs, motor_scenarios
 
 RPM = 2 * math.pi / 60
 CRANK, COUPLER, FRAME, ROCKER = 0.1, 0.191579, 0.210526, 0.225263  # m: seed 004 ratios x 0.1 m
@@ -178,7 +178,7 @@ SYSTEM = System(
             Panel("Torques on the main shaft", ("flywheel.shaft_torque", "fourbar.crank.tau", "cam.crank.tau"),
                   ("transmitted by the shaft", "four-bar crank", "disc cam")),
             Panel("Rack mesh force on the bed", ("bed.mesh_force",)),
-            Panel("Motor torque", ("motor.motor_torque",), cycle=False),
+            Panel("Motor torque", ("motor.motor_torque",)),
             Panel("Motor electrical power (+: drawn from the grid)", ("motor.power_electrical",)),
         ),
         zones=(Zone(f"printing zone: bed at {PRINT_ZONE[0]:g} to {PRINT_ZONE[1]:g} m on the working stroke", IN_ZONE),),
@@ -216,6 +216,12 @@ SYSTEM.quantities = QuantitySpec(
         Answer("speed_fluctuation_motor", "fluctuation", ("motor.motor_speed",), "%",
                "delta of the motor rotor (motor.motor_speed), w_mean the cycle's time mean", scale=100.0),
     ),
+    # the main shaft's stress from its diameter; the belt's slip margin: three SPZ V-belts (assumed: the seed gives
+    # no drive data), 500 N allowable tight-side force each, mu 0.3 in a 34 deg groove, 125.9 deg of wrap on the
+    # 40 mm motor pulley at a 1 m centre distance (pi - 2 asin((0.95 - 0.04) / 2))
+    shafts=(Shaft("shaft_torque", "flywheel.d"),),
+    belts=(Belt("belt_torque", "motor.d_driven_pulley", tight_force=1500.0, mu=0.3, wrap=125.9, groove=34.0,
+                source="three SPZ belts, assumed"),),
 )
 
 # The transients the drive is sized by (harness.scenarios): start-up from rest, a speed change through the supply
@@ -233,3 +239,18 @@ SYSTEM.scenarios = motor_scenarios(SYSTEM, {"flywheel.w0": 0.0}, watch="bed.bed.
         Requirement("crank speed through the stop", 'r["flywheel.crank.w"]', 0.02, "rad/s"),
     ),
 })
+# A jam that blocks the bed: at 1.0 s (the start of the second working stroke, the bed near 0 m) a foreign body
+# wedges the bed at 0.16 m, the middle of the printing zone, and holds it (a catch): a stop 10 times as stiff as the
+# rack mesh it acts in series with (2e8 N/m against c_mesh = 2e7; assumed), 10 % of the critical damping of the
+# bed's mass on it (0.2 * sqrt(2e8 * m_T)).  Held at the bed, the drive does not come to rest: the stalled motor
+# keeps the flywheel, crank and mechanism swinging against the rack mesh at about 12 Hz (the monolithic reference
+# too; no belt slip is modelled, and the belt's slip margin in the jam is 0.19), so the run ends at its stop time
+# (settle_limit) and the accuracy asks no load on a blocked drive
+JAM_POSITION, JAM_STIFFNESS = 0.16, 2.0e8        # m, N/m
+SYSTEM.scenarios.append(blocking_jam(SYSTEM, "bed", JAM_POSITION, JAM_STIFFNESS,
+                                     0.2 * math.sqrt(JAM_STIFFNESS * SYSTEM.instance("bed").parameters["m_T"]),
+                                     at=1.0, stop_time=2.0, settle_limit=2.0,
+                                     what="a foreign body wedging the bed mid-print",
+                                     accuracy=(*blocked_jam_accuracy("stop_force", held=False),
+                                               Requirement("peak rack force in the jam", "rack_force_peak", 0.02,
+                                                           "N", relative=True))))

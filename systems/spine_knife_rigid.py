@@ -42,7 +42,7 @@ SYSTEM = System(
 
 # The engineering quantities and the run chart are the belt variant's, without its motor (no motor instance here)
 SYSTEM.quantities = dataclasses.replace(
-    base.SYSTEM.quantities, motor=None,
+    base.SYSTEM.quantities, motor=None, belts=(),
     loads=tuple(load for load in base.SYSTEM.quantities.loads if not load.column.startswith("motor.")))
 SYSTEM.chart = dataclasses.replace(
     base.SYSTEM.chart, panels=tuple(p for p in base.SYSTEM.chart.panels if not p.columns[0].startswith("motor.")))

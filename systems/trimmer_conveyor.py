@@ -56,7 +56,10 @@ SYSTEM = System(
         bond("drive.pulley", "motor.pulley"),
         bond("drive.crank", "trim.shaft"),
     ],
-    experiment=Experiment(stop_time=WINDOW[1], step=2e-4, master="jacobi"),
+    # the knives' load at 25 base steps (12.5 ms), everything else at 0.5 ms: the cheapest rates that meet the
+    # accuracy below (python -m benchmarks.multirate: 0.68 of the FMU steps and 0.55 of the stepping CPU time of
+    # every FMU at 0.5 ms, the largest single step that meets it; docs/performance.md)
+    experiment=Experiment(stop_time=WINDOW[1], step=5e-4, master="jacobi", rates={"trim": 25}),
     free_inputs={**motor_inputs(),
                  "drive.aux.tau": "the drive shaft's second take-off drives nothing here: no torque on it"},
     scenes=[
@@ -75,8 +78,8 @@ SYSTEM = System(
                     "N.m", relative=True),
     ), stop_time=0.4,
         # hosts that read outputs after the step and hold them (libcosim, Ecos, FMPy): jacobi-sampled with hold
-        # meets this at 0.5 ms, the ladder's largest (mean 0.007 %, peak 0.63 %); the SSP declares the experiment's
-        # 0.2 ms, the smaller (harness.ssp.host_step; tests/test_host_accuracy.py)
+        # meets this at 0.5 ms, the ladder's largest (mean 0.007 %, peak 0.63 %), the experiment's step too
+        # (harness.ssp.host_step; tests/test_host_accuracy.py)
         sampled_host_step=5e-4),
     default_scene="mean_moment",  # the article's quantity: the moment on the drive shaft (its Fig. 1)
     precision=PrecisionSpec("trim.shaft.tau", "moment on the drive shaft", "N.m", stop_time=0.6,

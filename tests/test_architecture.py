@@ -18,10 +18,11 @@ LAYERS = [
     (2, ("harness.errors", "harness.fmi")),                       # the FMI layer and the errors
     (3, ("harness.specs", "harness.model", "harness.results",     # the system as data, the result type
          "harness.master")),                                      # the masters and their parts
-    (4, ("harness", "harness.run", "harness.ssp", "harness.reporting", "harness.export",   # run, SSP, answers, export
+    (4, ("harness.run", "harness.ssp", "harness.osp", "harness.reporting", "harness.export",   # run, SSP, OSP,
+                                                                                               # answers, export
          "harness.signals", "harness.scenarios", "harness.describe",
          "systems")),                                             # the drives as data, loaded by run.load
-    (5, ("harness.studies", "harness.synthesis", "harness.__main__")),  # studies, synthesis, CLI
+    (5, ("harness", "harness.studies", "harness.synthesis", "harness.__main__")),  # the facade, studies, CLI
 ]
 OUTSIDE = ("benchmarks", "tests")        # may import anything; nothing in the layers may import them
 PACKAGES = ("fmus", "harness", "systems", "benchmarks")

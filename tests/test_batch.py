@@ -45,7 +45,8 @@ DRIVES = {
     "bed_drive": (0.02, [{}, {"flywheel.J_flywheel": 6.0, "bed.m_T": 300.0}, {"fourbar.fidelity": 0},
                          {"fourbar.fidelity": 2, "fourbar.clearance": 1e-5}, {"cam.fidelity": 1},
                          {"cam.fidelity": 2}, {"diff.fidelity": 1}, {"bed.fidelity": 0}, {"motor.fidelity": 2},
-                         {"flywheel.fidelity": 0}]),
+                         {"flywheel.fidelity": 0}, {"bed.stop_stiffness": 1e8, "bed.stop_position": 0.2},
+                         {"bed.stop_stiffness": 1e8, "bed.stop_position": 0.2, "bed.stop_catch": 1}]),
     "feeder_gto52": (0.01, [{}, {"feeder.clearance": 2e-5, "flywheel.d": 0.028}, {"feeder.fidelity": 0},
                             {"feeder.fidelity": 1}, {"feeder.fidelity": 3}, {"motor.fidelity": 0},
                             {"feeder.contact_law": 2}]),
@@ -55,12 +56,15 @@ DRIVES = {
     "trimmer_conveyor": (0.01, [{}, {"trim.thickness": 0.018, "drive.J_flywheel": 1.0}, {"motor.fidelity": 1},
                                 {"drive.fidelity": 0}]),
 }
+# the trimmer's declared experiment steps its knife load at its own rate (multirate: refused, below); at another
+# step every instance steps at it
+SETTINGS = {"trimmer_conveyor": {"step": 2.5e-4}}
 
 
 @pytest.mark.parametrize("name", sorted(DRIVES))
 def test_every_variant_of_a_drive_is_its_own_scalar_run(name):
     stop, variants = DRIVES[name]
-    run = assert_batch_is_scalar(name, variants, {"stop_time": stop})
+    run = assert_batch_is_scalar(name, variants, {"stop_time": stop, **SETTINGS.get(name, {})})
     assert sum(g["variants"] for g in run.info["groups"]) == len(variants) and len(run.info["groups"]) >= 2
 
 
@@ -145,6 +149,11 @@ def test_methods_whose_algebra_does_not_vectorise_are_refused_by_name():
             simulate_batch(system, [{}, {}], {"master": master, "stop_time": 0.01})
     assert "step control" in refusal(system, {"step_control": "richardson"})
     assert refusal(load("two_inertia"), {"master": "gauss-seidel"}) is None
+    # each FMU at its own rate (the trimmer's declared experiment), a checkpoint: every variant's own run
+    trimmer = load("trimmer_conveyor")
+    assert "instance trim steps at its own rate" in refusal(trimmer, {})
+    assert refusal(trimmer, {"step": 2.5e-4}) is None and refusal(trimmer, {"master": "gauss-seidel"}) is None
+    assert "from_checkpoint is given" in refusal(system, {"from_checkpoint": "x.ckpt"})
 
 
 def test_quantities_of_interest_streamed_or_recorded_are_those_of_the_whole_result():

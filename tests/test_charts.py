@@ -86,7 +86,7 @@ def test_charts_leave_room_for_every_label(bed, feeder, figures, tmp_path):
 def test_time_chart_panels_name_the_signal_unit_and_carry_time_ticks(bed, figures, tmp_path):
     system, df = bed
     paths = charts.plot_result(system, df, tmp_path)
-    assert [p.name for p in paths] == ["bed_drive.png", "bed_drive_cycle.png"]   # SVG only when asked
+    assert [p.name for p in paths] == ["bed_drive.png", "bed_drive_cycle.png", "bed_drive_polar.png"]   # SVG only when asked
     axes = visible_axes(figures["bed_drive"])
     titles = [ax.get_title(loc="left") for ax in axes]
     assert "Bed position s [m]" in titles and "Bed speed v [m/s]" in titles
@@ -123,7 +123,7 @@ def test_cycle_chart_runs_over_one_turn_against_crank_angle_with_the_zone(bed, f
     axes = visible_axes(fig)
     titles = [ax.get_title(loc="left") for ax in axes]
     assert "Bed position s [m]" in titles and any("Torques" in t for t in titles)
-    assert "Motor torque [N.m]" not in titles                       # declared cycle=False
+    assert "Motor torque [N.m]" in titles                           # the motor's torque against the crank angle
     for ax in axes:
         assert ax.get_xlim() == (0.0, 360.0) and "crank angle [deg]" in ax.get_xlabel()
         xs = np.concatenate([line.get_xdata() for line in ax.get_lines() if len(line.get_xdata()) > 2])
@@ -179,12 +179,18 @@ def test_run_plot_writes_and_names_both_charts(fmu_dir, tmp_path, monkeypatch, c
     monkeypatch.setattr(warnings, "showwarning", warnings.showwarning)   # main() sets its own
     assert main(["run", "bed_drive", "--stop-time", "1.05", "--plot", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["bed_drive.png", "bed_drive_cycle.png"]   # PNG only
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bed_drive.png", "bed_drive_cycle.png",
+                                                          "bed_drive_polar.png"]   # PNG only
     assert str(tmp_path / "bed_drive.png") in out and str(tmp_path / "bed_drive_cycle.png") in out
     svg = tmp_path / "svg"
     assert main(["run", "bed_drive", "--stop-time", "1.05", "--plot", str(svg), "--svg", "--quiet-quantities"]) == 0
     assert sorted(p.name for p in svg.iterdir()) == ["bed_drive.png", "bed_drive.svg", "bed_drive_cycle.png",
-                                                     "bed_drive_cycle.svg"]
+                                                     "bed_drive_cycle.svg", "bed_drive_polar.png",
+                                                     "bed_drive_polar.svg"]
+    # named after --out: two runs into one folder keep their charts apart
+    assert main(["run", "bed_drive", "--stop-time", "1.05", "--plot", str(svg), "--out", str(tmp_path / "x.csv"),
+                 "--quiet-quantities"]) == 0
+    assert {"x.png", "x_cycle.png", "x_polar.png", "bed_drive.png"} <= {p.name for p in svg.iterdir()}
     assert (svg / "bed_drive_cycle.svg").read_text().lstrip().startswith("<?xml")
 
 

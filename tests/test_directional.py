@@ -34,7 +34,8 @@ BASES = (0.2, 1.1, 2.0, -0.6)
 # parameters that give the loads a slope at all (their defaults are a constant torque; the knife's block arrives
 # at t = 0, its entry ramp then half way); the components without feed-through (the torques only drive states)
 PARAMETERS = {"TorqueLoad": {"c": 40.0, "d": 0.3, "T_coulomb": 2.0}, "KnifeLoad": {"t_block": -1e-3}}
-NO_FEEDTHROUGH = {"Inertia", "FlywheelShaft", "ParallelShafts"}
+NO_FEEDTHROUGH = {"Inertia", "FlywheelShaft", "ParallelShafts",
+                  "ClutchBrakeShaft"}   # its holding brake feeds its torques through only while it holds, at rest
 
 
 @pytest.fixture(scope="session")

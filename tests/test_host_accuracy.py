@@ -51,6 +51,10 @@ MISSES = {
                                "initialisation passed to the first step equals libcosim (2.7 um at 0.3 s).  Its "
                                "other cause, no input set before initialisation (0.205 m), the export's bound "
                                "start values remove",
+    ("trimmer_conveyor", "fmpy-ssp"): "peak drive-shaft torque 1.5 % off at 0.5 ms (mean moment 0.0067 %) where "
+                                      "libcosim and Ecos, the same algorithm, have 0.63 %; at the 0.2 ms the SSP "
+                                      "declared before the drive's experiment took 0.5 ms (its rates, issue 60) it "
+                                      "met (0.34 %)",
     ("spine_knife", "fmpy-ssp"): "peak knife-shaft twist 16 % off at 0.05 ms (knife 15.7 um, torque 0.002 %) where "
                                  "libcosim and Ecos meet with the same algorithm: FMPy's simulate_ssp hands every "
                                  "input 0.0 in its first step, and the kick rings in the flywheels' belt mode into "

@@ -134,7 +134,7 @@ def test_a_diverged_run_keeps_the_complete_chart_and_csv_of_an_earlier_run(tmp_p
     assert rc == 0, err
     before = {p.name: p.read_bytes() for p in charts.iterdir()}
     csv_before = out.read_bytes()
-    assert "bed_drive.png" in before
+    assert "bed.png" in before                      # the charts are named after --out
     rc, _, err = cli("run", "bed_drive", "--master", "jacobi-sampled", "--stop-time", "0.5", "--out", out,
                      "--plot", charts)
     line = one_error(err)
@@ -142,8 +142,8 @@ def test_a_diverged_run_keeps_the_complete_chart_and_csv_of_an_earlier_run(tmp_p
     for name, data in before.items():
         assert (charts / name).read_bytes() == data, name
     assert out.read_bytes() == csv_before
-    assert (charts / "bed_drive.partial.png").exists() and (tmp_path / "bed.partial.csv").exists()
-    assert "bed_drive.partial.png" in line
+    assert (charts / "bed.partial.png").exists() and (tmp_path / "bed.partial.csv").exists()
+    assert "bed.partial.png" in line
 
 
 # -- 5. systems by the names a newcomer tries ----------------------------------------------------------------
@@ -161,7 +161,7 @@ def test_any_python_file_defining_system(tmp_path):
 
 
 @pytest.mark.parametrize("given, expected", [
-    ("g.txt", "system 'g.txt' is neither a system name nor a .py, .ssp or .ssd file"),
+    ("g.txt", "system 'g.txt' is neither a system name nor a .py, .ssp, .ssd or OspSystemStructure.xml file"),
     ("bed_drvie", "unknown system 'bed_drvie' (did you mean 'bed_drive'?)"),
     ("nothing_here.py", "system file 'nothing_here.py' does not exist"),
 ])

@@ -89,7 +89,7 @@ def test_fidelity_zero_is_eq11_with_the_shafts_in_parallel():
 def test_exact_step_matches_an_integration_of_the_equations(fidelity, h):
     m = ParallelShaftsModel(ParallelShaftsParams(fidelity=fidelity))
     rng = np.random.default_rng(3)
-    x0 = m.initial_state((0.0, 0.0, 0.0)) + np.array([0.0, 0.0, 1e-4, 0.3, -2e-4, -0.1]) * (fidelity == 1)
+    x0 = m.initial_state((0.0, 0.0, 0.0)) + np.array([0.0, 0.0, 1e-4, 0.3, -2e-4, -0.1, 0.0]) * (fidelity == 1)
     u = tuple(rng.normal(size=3) * 10)
     sol = solve_ivp(lambda t, x: m.derivatives(t, x, u, 0.0), (0.0, h), x0, method="DOP853", rtol=1e-12, atol=1e-13)
     got = m.advance(0.0, h, x0, u)

@@ -218,3 +218,24 @@ def test_harness_report_writes_a_runs_page_and_refuses_what_is_not_a_result(run,
 
     with pytest.raises(SystemError_, match="ending in .html"):
         harness.report(df, tmp_path / "r.txt", system=system)
+
+
+def test_the_page_lists_every_parameter_with_unit_and_no_expression(run, page):
+    """Every parameter of every instance, defaults too, as the FMU declares it (its unit, its start unless the
+    drive or the run sets it); the page shows no Python expression (the accuracy's zones by their labels)."""
+    system, df = run
+    _, text = page
+    rows = {(c[0], c[1]): c for c in _cells(text) if len(c) == 6}
+    for inst in system.instances:
+        for v in model_description(resolve_fmu(inst.fmu)).modelVariables:
+            if v.causality != "parameter":
+                continue
+            key = f"{inst.name}.{v.name}"
+            by = "run" if key in CHANGED else "drive" if v.name in inst.parameters else "FMU default"
+            value = CHANGED.get(key, inst.parameters.get(v.name, v.start))
+            cell = rows[(inst.name, v.name)]
+            assert cell[4] == by and cell[3] == (v.unit or getattr(v.declaredType, "unit", None) or "-")
+            if by != "FMU default" or v.type == "Real":
+                assert cell[2] == h.number(float(value) if v.type == "Real" else value), (key, cell)
+    for expression in ('r["', "window(", "peak(", "between("):
+        assert expression not in html.unescape(text)

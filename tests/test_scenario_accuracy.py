@@ -8,7 +8,7 @@ from harness import load
 from harness.studies.accuracy import search_scenario
 
 MEASURED = [  # (drive, scenario, master, order, step): the cheapest of the ladder the page shows
-    ("spine_knife", "jam", "jacobi", 1, 5e-4),
+    ("spine_knife", "jam", "jacobi", 1, 2e-4),
     ("spine_knife", "startup", "jacobi", 1, 5e-4),
     ("spine_knife", "estop", "jacobi", 1, 5e-4),
     ("spine_knife", "speed_change", "jacobi", 1, 5e-4),
@@ -21,6 +21,7 @@ MEASURED = [  # (drive, scenario, master, order, step): the cheapest of the ladd
     ("feeder_gto52", "speed_change", "jacobi", 1, 2e-4),
     ("bed_drive", "startup", "jacobi", 1, 5e-4),
     ("bed_drive", "speed_change", "jacobi", 1, 5e-4),
+    ("bed_drive", "jam", "jacobi", 1, 5e-4),
     ("proof_press", "startup", "jacobi", 1, 1e-3),
     ("proof_press", "estop", "jacobi", 1, 1e-3),
     ("proof_press", "speed_change", "jacobi", 1, 5e-4),

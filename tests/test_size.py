@@ -97,3 +97,51 @@ def test_sizing_on_a_dask_cluster_gives_the_serial_answer_from_the_same_runs():
     assert spread.runs == serial.runs and spread.answer == serial.answer and spread.message == serial.message
     assert spread.verifying.equals(serial.verifying)
     assert spread.verifying.attrs["quantities"]["motor_torque_rms_to_rated"] == serial.verified
+
+
+@pytest.mark.parametrize("op, q_lo, q_hi, upward", [
+    ("<=", 3.0, 2.0, True),     # met at neither end, the quantity falls as the parameter rises: the answer above
+    ("<=", 2.0, 3.0, False),    # met at neither, rising: below
+    ("<=", 0.3, 0.2, False),    # met at both, falling: the boundary (where it gets worse) below
+    ("<=", 0.2, 0.3, True),     # met at both, rising: above
+    (">=", 3.0, 2.0, True),     # met at both (>= 1), falling: worse above
+    (">=", 0.3, 0.2, False),    # met at neither, falling: better below
+    ("<=", 2.0, 2.0, None),     # flat: no way to widen
+])
+def test_the_default_bracket_widens_towards_the_answer(op, q_lo, q_hi, upward):
+    from harness.studies.size import _outward
+
+    assert _outward(parse_target(f"q {op} 1"), q_lo, q_hi) is upward
+
+
+@pytest.mark.slow
+def test_a_target_outside_the_default_bracket_is_found_by_widening_it():
+    """The trimmer's motor_torque_rms / rated torque falls as 1 / P_rated (its motor is an ideal speed source): a
+    target a tenth of the drive's value lies at ten times its rating, outside the default bracket (a quarter to
+    four times it); the bracket widens to sixteen times and finds P0 r0 / target (closed form), and says so."""
+    from harness import simulate
+    from harness.studies.size import _current
+
+    system = load("trimmer_conveyor")
+    p0 = _current(system, "motor.P_rated")
+    r0 = simulate(system, stop_time=1.2).attrs["quantities"]["motor_torque_rms_to_rated"]
+    found = size(system, "motor.P_rated", f"motor_torque_rms_to_rated <= {r0 / 10!r}", xtol=1e-3, stop_time=1.2)
+    assert found.answer == pytest.approx(10 * p0, rel=2e-3)
+    assert found.bracket == pytest.approx((4 * p0, 16 * p0)) and "the bracket widened from" in found.message
+
+
+def test_the_bracket_widens_no_further_than_its_limit_and_what_the_fmu_admits():
+    """Four times further out each time, up to 64 times the drive's value (1/64 of it downward), and no further;
+    a value the FMU refuses (a rated speed at or above the synchronous one) moved back towards the last end."""
+    from harness.studies.size import WIDEN, _beyond, _current
+
+    system = load("trimmer_conveyor")
+    p0 = _current(system, "motor.P_rated")
+    assert _beyond(system, "motor.P_rated", p0, 4 * p0, True, {}) == pytest.approx(16 * p0)
+    assert _beyond(system, "motor.P_rated", p0, 16 * p0, True, {}) == pytest.approx(WIDEN * p0)
+    assert _beyond(system, "motor.P_rated", p0, WIDEN * p0, True, {}) is None
+    assert _beyond(system, "motor.P_rated", p0, p0 / 16, False, {}) == pytest.approx(p0 / WIDEN)
+    w0 = _current(system, "motor.w_rated")
+    w_sync = _current(system, "motor.w_sync")
+    up = _beyond(system, "motor.w_rated", w0, w0, True, {})
+    assert w0 < up < w_sync      # 4 w0 is refused (above the synchronous speed): moved back below it

@@ -20,4 +20,6 @@ class ParallelShafts(Component):
                Output("kinetic_energy", "J", "kinetic energy of the three inertias"),
                Output("potential_energy", "J", "elastic energy of the shafts and the belt"),
                Output("dissipation", "W", "power dissipated in the shafts and the belt"))
+    # an end stop on the knife (a jam) appears while the press runs: its stiffness and damping may be set during it
+    tunable = ("stop_stiffness", "stop_damping")
     feedthrough = {}

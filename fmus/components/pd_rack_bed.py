@@ -12,6 +12,8 @@ class RackBed(Component):
                Output("bed.v", "m/s", "bed velocity"),
                Output("bed.a", "m/s2", "bed acceleration"),
                Output("mesh_force", "N", "force of the pinion on the rack, positive forward"))
+    # an end stop (a jam) appears while the press runs: its stiffness and damping may be set during the run
+    tunable = ("stop_stiffness", "stop_damping")
     # union over the levels: fidelity 0 takes s and v from the inputs, fidelity 1 has a and F from the mesh
     feedthrough = {"pinion.tau": ("pinion.phi", "pinion.w"), "mesh_force": ("pinion.phi", "pinion.w"),
                    "bed.a": ("pinion.phi", "pinion.w"), "bed.s": ("pinion.phi",), "bed.v": ("pinion.w",)}

@@ -237,3 +237,75 @@ def max_substep(omega: float, law: int, e: float, exponent: float = 1.0) -> floa
     the components take sqrt(k / m), which does for pen < n^(-1/(n-1)) m, 0.44 m at n = 1.5.)"""
     d = damping_per_frequency(law, e, exponent)
     return (SUBSTEP_PER_PERIOD if d * SUBSTEP_PER_PERIOD <= RATE_STEP else RATE_STEP / d) / omega
+
+
+# -- an end stop (a jam): the tool runs into something stiff -----------------------------------------------------
+def end_stop(pen: float, pen_dot: float, k: float, c: float) -> float:
+    """Force [N] (torque [N.m] on a rotation) with which a one-sided end stop pushes back against a penetration
+    ``pen`` (0 or less: clear of it) that grows at ``pen_dot``: the stated stiffness ``k`` and damping ``c`` of
+    a Kelvin-Voigt contact that cannot pull, max(k pen + c pen_dot, 0) (the damping part is limited, as in a
+    clearance joint above)."""
+    if pen <= 0.0:
+        return 0.0
+    return max(k * pen + c * pen_dot, 0.0)
+
+
+class EndStop:
+    """The end stop of a component (a mixin of its model): a jam at ``stop_position`` on one of its coordinates q,
+    with ``stop_stiffness`` (0: no stop) and ``stop_damping``, of one of two kinds (``stop_catch``):
+
+    * 0, an end stop: it blocks the forward motion past the stop and cannot pull (:func:`end_stop`); the tool
+      may rebound off it (an elastic drive with a flywheel does: its twist gives the energy back);
+    * 1, a catch: once the tool has reached the stop it is held there both ways by the same spring and damper,
+      k (q - q_stop) + c q' (a knife stuck in the block, a bed wedged), so the drive is blocked.  Whether it has
+      is the model's memory (a state: :meth:`stop_caught`, set where q passes the stop).
+
+    The component's parameters declare the four (the stiffness tunable: a jam sets it when it appears, while the
+    tool is short of the stop); ``stop_signals`` names the outputs that carry q and its rate, from which
+    :meth:`stop_load` follows (a report computes the stop's load from them)."""
+
+    stop_signals: tuple[str, str] = ("", "")
+
+    @property
+    def has_stop(self) -> bool:
+        return self.p.stop_stiffness > 0.0
+
+    def stop_penetration(self, q: float) -> float:
+        """How far q is past the stop (<= 0: short of it)."""
+        return q - self.p.stop_position
+
+    def stop_holds(self, q: float, caught: float) -> bool:
+        """Whether the stop acts both ways at q: a catch the tool has reached (``caught``, the memory) or is past."""
+        return bool(self.p.stop_catch) and (caught >= 0.5 or q > self.p.stop_position)
+
+    def stop_load(self, q: float, q_dot: float, caught: float = 0.0) -> float:
+        """The stop's force (torque) on the coordinate: against the penetration (a catch also against leaving)."""
+        p = self.p
+        pen = q - p.stop_position
+        if self.stop_holds(q, caught):
+            return -(p.stop_stiffness * pen + p.stop_damping * q_dot)
+        return -end_stop(pen, q_dot, p.stop_stiffness, p.stop_damping)
+
+    def stop_caught(self, q: float, caught: float) -> float:
+        """The memory after a (sub-)step that ends at q: 1 once a catch has been reached, else as it was."""
+        return 1.0 if self.p.stop_catch and q > self.p.stop_position else caught
+
+    def stop_energy(self, q: float, caught: float = 0.0) -> float:
+        """Elastic energy the stop holds at q [J]."""
+        pen = q - self.p.stop_position
+        return 0.5 * self.p.stop_stiffness * pen * pen if pen > 0.0 or self.stop_holds(q, caught) else 0.0
+
+    def stop_substep(self, inertia: float, stiffness: float = 0.0, damping: float = 0.0) -> float:
+        """Largest RK4 sub-step [s] for the coordinate's ``inertia`` (mass) held between the stop and the
+        component's own ``stiffness`` and ``damping`` on it (the sizing of :func:`max_substep`)."""
+        p = self.p
+        omega = math.sqrt((stiffness + p.stop_stiffness) / inertia)
+        rate = (damping + p.stop_damping) / inertia
+        return min(SUBSTEP_PER_PERIOD / omega, RATE_STEP / rate if rate > 0.0 else math.inf)
+
+    def stop_ode_form(self) -> str | None:
+        """Why the model with its stop is not an ODE a host could integrate (a catch's memory), or None."""
+        if self.has_stop and self.p.stop_catch:
+            return (f"{type(self).__name__} with a catching end stop (stop_catch = 1): whether the tool has reached "
+                    f"it is a memory its step sets, not an ODE")
+        return None

@@ -40,6 +40,15 @@ Fidelity levels
   1  eq. (10): the driven shaft S2 through the flywheel J1 and the elastic V-belt (two elastic degrees of
      freedom besides the rotation of the whole).
 
+End stop (a jam): with ``stop_stiffness`` > 0 the knife runs into a stiff stop at the knife angle
+``stop_position`` (an absolute angle phi1, whole turns counted from phi0) that blocks its forward rotation past
+it (:class:`.contact.EndStop`, a Kelvin-Voigt contact of stated stiffness and damping): J_red*dw1/dt gains
+-max(k_s (phi1 - phi_stop) + d_s w1, 0) while phi1 > phi_stop (``stop_catch`` = 0: it cannot pull, the knife
+may rebound), or -(k_s (phi1 - phi_stop) + d_s w1) from the instant the knife reached it on (``stop_catch`` = 1:
+the knife caught, the state ``stop_caught``).  A step in which the knife is short of the stop at both ends and
+not caught is the exact step below; one that touches it is integrated with RK4 on sub-steps sized by the stop's
+and the shafts' frequency on J_red.  0 (default): no stop, the linear system exactly.
+
 Integration is exact for inputs held over a step: the system is linear, x' = A x + B u, so
 x(t0 + h) = E x(t0) + F u with [[E, F], [0, I]] = exp([[A, B], [0, 0]] h), computed once per step size by
 scaling and squaring of the Taylor series (numpy only; the rotation of the whole makes A singular, which the
@@ -52,7 +61,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import integrate
 from .base import Model, Params, Signal, param
+from .contact import EndStop
 
 
 def shaft_stiffness(G: float, d: float, l: float) -> float:
@@ -104,11 +115,18 @@ class ParallelShaftsParams(Params):
                              choices=(0, 1))
     w0: float = param(2.0 * math.pi * 600.0 / 60.0, "rad/s", "initial angular velocity of every part (600 rpm)")
     phi0: float = param(0.0, "rad", "initial angle of every part")
+    stop_position: float = param(0.0, "rad", "knife angle phi1 of an end stop (a jam) that blocks the knife's "
+                                 "forward rotation past it: an absolute angle, whole turns counted")
+    stop_stiffness: float = param(0.0, "N.m/rad", "stiffness of the end stop on the knife (0: no stop)", low=0.0)
+    stop_damping: float = param(0.0, "N.m.s/rad", "damping of the end stop while it acts", low=0.0)
+    stop_catch: int = param(0, "", "0: an end stop (pushes back, never pulls: the knife may rebound); 1: a catch (the "
+                            "knife, once at the stop, is held there both ways: stuck in the block)", choices=(0, 1))
 
 
-class ParallelShaftsModel(Model):
+class ParallelShaftsModel(EndStop, Model):
     """Drive end, flywheel J1 and knife joined by two shafts and a belt; see the module docstring."""
     Params = ParallelShaftsParams
+    stop_signals = ("crank.phi", "crank.w")
     inputs = ("pulley.tau", "crank.tau", "aux.tau")
     outputs = ("pulley.phi", "pulley.w", "crank.phi", "crank.w", "aux.phi", "aux.w", "shaft_torque",
                "shaft_twist", "driven_twist", "belt_twist", "kinetic_energy", "potential_energy", "dissipation")
@@ -117,7 +135,8 @@ class ParallelShaftsModel(Model):
               Signal("phi_knife", "rad", "angle of the cranks and knife (phi1)"),
               Signal("w_knife", "rad/s", "angular velocity of the cranks and knife"),
               Signal("phi_flywheel", "rad", "angle of the flywheel J1 on the driven shaft (phi2)"),
-              Signal("w_flywheel", "rad/s", "angular velocity of the flywheel J1"))
+              Signal("w_flywheel", "rad/s", "angular velocity of the flywheel J1"),
+              Signal("stop_caught", "1", "1 once the knife has reached a catching end stop (stop_catch = 1), else 0"))
 
     def __init__(self, p: ParallelShaftsParams):
         p.validate()
@@ -126,7 +145,7 @@ class ParallelShaftsModel(Model):
         self.b_red = p.psi * math.sqrt(self.C_red * p.J_red) / (2.0 * math.pi)
         self.b1 = 0.5 * self.b_red
         self.A, self.B = self._matrices(p)
-        self._steps: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+        self._steps: dict[tuple[float, bool], tuple[np.ndarray, np.ndarray]] = {}
         super().__init__(p)
 
     def _matrices(self, p: ParallelShaftsParams) -> tuple[np.ndarray, np.ndarray]:
@@ -162,41 +181,89 @@ class ParallelShaftsModel(Model):
             B[4:6] = B[0:2]
         return A, B
 
+    def substep_limit(self) -> float:
+        """Exact steps (inf) without a stop; with one, the RK4 sub-step of the knife node between the stop and
+        the two shafts."""
+        if not self.has_stop:
+            return math.inf
+        return self.stop_substep(self.p.J_red, self.C_red, self.b_red)
+
     def initial_state(self, u):
         p = self.p
-        return np.array([p.phi0, p.w0, p.phi0, p.w0, p.phi0, p.w0])
+        return np.array([p.phi0, p.w0, p.phi0, p.w0, p.phi0, p.w0, 0.0])
 
     def derivatives(self, t, x, u, t0):
-        return self.A @ x + self.B @ np.array([u[0], u[1] + u[2]])
+        dx = np.zeros(7)
+        dx[:6] = self.A @ x[:6] + self.B @ np.array([u[0], u[1] + u[2]])
+        if self.has_stop:
+            dx[3] += self.stop_load(x[2], x[3], x[6]) / self.p.J_red
+        return dx
 
-    def step_matrices(self, h: float) -> tuple[np.ndarray, np.ndarray]:
+    def ode_form(self):
+        return self.stop_ode_form()
+
+    def step_matrices(self, h: float, caught: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """(E, F) of x(t0 + h) = E x(t0) + F u for inputs held over h (cached per h; a step controller's many
         sizes are kept to the last 16).  h is taken to the picosecond: a host whose time doubles wander an ulp
         off its grid (libcosim) would otherwise compute a new exponential every step, and the stiff shafts
-        (|A h| ~ 4e4 at 1 ms) turn that ulp into ~1e-11 of the result over 50 steps."""
+        (|A h| ~ 4e4 at 1 ms) turn that ulp into ~1e-11 of the result over 50 steps.  ``caught``: with the knife
+        held by a catch, a linear spring and damper to the stop's angle on it (u then ends with a 1 that carries
+        the stop's angle)."""
         h = round(h * 1e12) / 1e12
-        if h not in self._steps:
+        key = (h, caught)
+        if key not in self._steps:
             if len(self._steps) >= 16:
                 self._steps.pop(next(iter(self._steps)))
+            A, B = self._caught_matrices() if caught else (self.A, self.B)
+            n, m = B.shape
             # rates in units of the stiffest mode (w/Omega): the matrix is then balanced (entries ~ Omega*h);
             # unbalanced (c/J ~ 4e7 beside 1), the series loses the rigid rotation's last digits and the
             # energy balance of a run drifts by 0.3 % of what the shafts dissipate
-            omega = math.sqrt(float(np.max(np.abs(self.A[1::2, 0::2]))))
-            scale = np.ones(8)
+            omega = math.sqrt(float(np.max(np.abs(A[1::2, 0::2]))))
+            scale = np.ones(n + m)
             scale[1:6:2] = 1.0 / omega
-            aug = np.zeros((8, 8))
-            aug[:6, :6] = self.A * h
-            aug[:6, 6:] = self.B * h
+            aug = np.zeros((n + m, n + m))
+            aug[:n, :n] = A * h
+            aug[:n, n:] = B * h
             e = expm(scale[:, None] * aug / scale[None, :]) / scale[:, None] * scale[None, :]
-            self._steps[h] = (e[:6, :6], e[:6, 6:])
-        return self._steps[h]
+            self._steps[key] = (e[:n, :n], e[:n, n:])
+        return self._steps[key]
+
+    def _caught_matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        """(A, B) with the knife held by the catch: J_red w1' gains -k_s (phi1 - phi_stop) - d_s w1, the stop's
+        angle entering through a third input held at 1."""
+        p = self.p
+        A = self.A.copy()
+        A[3, 2] -= p.stop_stiffness / p.J_red
+        A[3, 3] -= p.stop_damping / p.J_red
+        B = np.zeros((6, 3))
+        B[:, :2] = self.B
+        B[3, 2] = p.stop_stiffness * p.stop_position / p.J_red
+        return A, B
 
     def advance(self, t0, h, x, u):
-        """Exact solution over [t0, t0 + h] for inputs held over the step."""
+        """Exact solution over [t0, t0 + h] for inputs held over the step (module docstring: a step that touches
+        the stop on RK4 sub-steps; with the knife caught, exact again)."""
         if h == 0.0:
             return np.array(x, dtype=float)
+        torque = u[1] + u[2]
+        if self.has_stop and x[6] >= 0.5:
+            E, F = self.step_matrices(h, caught=True)
+            return np.append(E @ x[:6] + F @ np.array([u[0], torque, 1.0]), 1.0)
         E, F = self.step_matrices(h)
-        return E @ x + F @ np.array([u[0], u[1] + u[2]])
+        end = np.append(E @ x[:6] + F @ np.array([u[0], torque]), x[6])
+        if self.has_stop and (self.stop_penetration(x[2]) > 0.0 or self.stop_penetration(end[2]) > 0.0):
+            return self._advance_at_stop(t0, h, np.array(x, dtype=float), u)
+        return end
+
+    def _advance_at_stop(self, t0, h, x, u):
+        """RK4 on sub-steps over a step that touches the stop, the catch's memory kept after each sub-step."""
+        n = integrate.substeps(h, self.max_substep)
+        dt = h / n
+        for i in range(n):
+            x = integrate.rk4(self.derivatives, t0 + i * dt, dt, x, u, math.inf)
+            x[6] = self.stop_caught(x[2], x[6])
+        return x
 
     def output(self, t, x, u):
         p = self.p
@@ -214,6 +281,12 @@ class ParallelShaftsModel(Model):
             kinetic = 0.5 * (p.J_drive * x[1] ** 2 + p.J_red * x[3] ** 2 + p.J_flywheel * x[5] ** 2)
             potential = 0.5 * (self.c1 * (q1 * q1 + q2 * q2) + p.belt_stiffness * qb * qb)
             dissipation = self.b1 * (q1d * q1d + q2d * q2d) + p.belt_damping * qbd * qbd
+        if self.has_stop:                # the stop's elastic energy, and the power its damping takes
+            energy = self.stop_energy(x[2], x[6])
+            if energy > 0.0:             # the damping's share of the stop's load, times the knife's speed
+                elastic = p.stop_stiffness * self.stop_penetration(x[2])
+                potential += energy
+                dissipation += (-self.stop_load(x[2], x[3], x[6]) - elastic) * x[3]
         return (x[0], x[1], x[2], x[3], x[2], x[3], torque, q1, q2, qb, kinetic, potential, dissipation)
 
     def output_jacobian(self, t, x, u):

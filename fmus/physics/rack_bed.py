@@ -27,6 +27,14 @@ Fidelity levels
      F_mesh = m_T*a + F_friction(v) + F_load(s, v).
 Both levels: pinion.tau = -R*F_mesh, mesh_force = F_mesh (force of the pinion on the rack).
 
+End stop (a jam; fidelity 1 only: the bed needs its own state): with ``stop_stiffness`` > 0 the bed runs into
+a stiff stop at ``stop_position`` that blocks its forward motion past it (:class:`.contact.EndStop`, a
+Kelvin-Voigt contact of stated stiffness and damping), m_T*a = F_mesh - F_friction - F_load - F_stop:
+F_stop = max(k_s (s - s_stop) + d_s v, 0) while s > s_stop (``stop_catch`` = 0: it cannot pull, the bed may
+rebound), or k_s (s - s_stop) + d_s v from the instant the bed reached it on (``stop_catch`` = 1: the bed
+wedged, the state ``stop_caught``).  The stiffness is tunable: a jam sets it while the bed is short of the stop
+(a stop set inside the bed's path pushes it back at once).  0 (default): no stop, the equations above exactly.
+
 Default data (representative; seed 004 gives no bed mass, pinion radius or printing load): bed 250 kg,
 module 4 mm with 25 teeth (R = 50 mm), mesh stiffness 4e8 N/m (about 14 N/(mm*um) per mm of face width,
 ISO 6336 single-pair value, times 30 mm), 10 % mesh damping ratio, lubricated slideway mu = 0.05,
@@ -42,6 +50,7 @@ import numpy as np
 from . import integrate
 from . import integrate_batch, variants
 from .base import Model, ParameterError, Params, Signal, param
+from .contact import EndStop
 
 GRAVITY = 9.80665
 
@@ -64,23 +73,35 @@ class RackBedParams(Params):
     s_print_end: float = param(0.7, "m", "bed position where the printing zone ends")
     ramp: float = param(0.02, "m", "length of the smooth load ramps at both ends of the zone", low=0.0,
                         low_open=True)
+    stop_position: float = param(0.0, "m", "bed position of an end stop (a jam) that blocks the bed's forward "
+                                 "motion past it")
+    stop_stiffness: float = param(0.0, "N/m", "stiffness of the end stop (0: no stop; a jam sets it while the bed "
+                                  "is short of the stop; fidelity 1)", low=0.0)
+    stop_damping: float = param(0.0, "N.s/m", "damping of the end stop while it acts", low=0.0)
+    stop_catch: int = param(0, "", "0: an end stop (pushes back, never pulls: the bed may rebound); 1: a catch (the "
+                            "bed, once at the stop, is held there both ways: wedged)", choices=(0, 1))
 
     def check(self):
         if not self.s_print_end - self.s_print_start >= 2.0 * self.ramp:
             raise ParameterError("s_print_end", self.s_print_end,
                                  f"must be >= s_print_start + 2*ramp = {self.s_print_start + 2.0 * self.ramp:g} m")
+        if self.stop_stiffness > 0.0 and self.fidelity == 0:
+            raise ParameterError("stop_stiffness", self.stop_stiffness, "an end stop needs the bed's own state: "
+                                 "fidelity 1 (the rigid mesh of fidelity 0 has none)", low=0.0)
 
 
-class RackBedModel(Model):
+class RackBedModel(EndStop, Model):
     """Pinion-rack-bed; see the module docstring."""
     Params = RackBedParams
+    stop_signals = ("bed.s", "bed.v")
     inputs = ("pinion.phi", "pinion.w")
     outputs = ("pinion.tau", "bed.s", "bed.v", "bed.a", "mesh_force")
     states = (Signal("s", "m", "bed position (fidelity 1; fidelity 0: R*phi extrapolated to the step end)"),
               Signal("v", "m/s", "bed velocity"),
               Signal("w_last", "rad/s", "pinion speed input at the start of the last step (fidelity 0)"),
               Signal("h_last", "s", "length of the last communication step (fidelity 0)"),
-              Signal("a_est", "m/s2", "bed acceleration estimated from the pinion speed inputs (fidelity 0)"))
+              Signal("a_est", "m/s2", "bed acceleration estimated from the pinion speed inputs (fidelity 0)"),
+              Signal("stop_caught", "1", "1 once the bed has reached a catching end stop (stop_catch = 1), else 0"))
 
     def __init__(self, p: RackBedParams):
         p.validate()
@@ -121,33 +142,44 @@ class RackBedModel(Model):
             return math.inf
         w_mesh = math.sqrt(p.c_mesh / p.m_T)
         rate = (p.d_mesh + p.d_visc + (self.F_coulomb + p.F_print) / p.v_reg) / p.m_T
-        return min(0.25 / w_mesh, 0.5 / rate)
+        limit = min(0.25 / w_mesh, 0.5 / rate if rate > 0.0 else math.inf)   # a bed without damping or friction
+        return min(limit, self.stop_substep(p.m_T, p.c_mesh, p.d_mesh + p.d_visc)) if self.has_stop else limit
 
     def initial_state(self, u):
-        return np.array([self.R * u[0], self.R * u[1], u[1], 0.0, 0.0])
+        return np.array([self.R * u[0], self.R * u[1], u[1], 0.0, 0.0, 0.0])
 
-    def _acceleration(self, t, s, v, u, t0) -> float:
+    def _acceleration(self, t, s, v, u, t0, caught: float = 0.0) -> float:
         p = self.p
         f_mesh = p.c_mesh * (self.R * (u[0] + u[1] * (t - t0)) - s) + p.d_mesh * (self.R * u[1] - v)
+        if self.has_stop:                # the stop's push on the bed joins the mesh's
+            f_mesh += self.stop_load(s, v, caught)
         th = self.m.tanh(v / p.v_reg)
         return (f_mesh - self.friction(v, th) - self.printing_load(s, v, th)) / p.m_T
 
     def derivatives(self, t, x, u, t0):
         if self.p.fidelity == 0:
-            return np.zeros(5)
-        return np.array([x[1], self._acceleration(t, x[0], x[1], u, t0), 0.0, 0.0, 0.0])
+            return np.zeros(6)
+        return np.array([x[1], self._acceleration(t, x[0], x[1], u, t0, x[5]), 0.0, 0.0, 0.0, 0.0])
 
     def ode_form(self):
         """Fidelity 0 takes the bed's acceleration from the input history (the last step's speed and size are
-        states): no ODE a host could integrate."""
+        states): no ODE a host could integrate; nor is a catching end stop's memory."""
         if self.p.fidelity == 0:
             return "fidelity 0's bed acceleration comes from the input history (w_last, h_last), not an ODE"
-        return None
+        return self.stop_ode_form()
 
     def advance(self, t0, h, x, u):
         if self.p.fidelity == 1:
             # RK4 on (s, v) in plain floats: the base class's rk4 numbers without an array per stage
             x = np.array(x, dtype=float)
+            if self.has_stop and self.p.stop_catch:     # a catch: its memory kept after each sub-step
+                n = integrate.substeps(h, self.max_substep)
+                dt = h / n
+                for i in range(n):
+                    x[0], x[1] = integrate.rk4_pair(lambda t, s, v: self._acceleration(t, s, v, u, t0, x[5]),
+                                                    t0 + i * dt, dt, float(x[0]), float(x[1]))
+                    x[5] = self.stop_caught(x[0], x[5])
+                return x
             x[0], x[1] = integrate.rk4_pairs(lambda t, s, v: self._acceleration(t, s, v, u, t0), t0, h,
                                              self.max_substep, float(x[0]), float(x[1]))
             return x
@@ -156,7 +188,7 @@ class RackBedModel(Model):
             a_est = self.R * (u[1] - x[2]) / x[3] if x[3] > 0.0 else 0.0
         else:
             a_est = m.where(x[3] > 0.0, self.R * (u[1] - x[2]) / m.where(x[3] > 0.0, x[3], 1.0), 0.0)
-        return m.stack((self.R * (u[0] + u[1] * h), self.R * u[1], u[1], h, a_est))
+        return m.stack((self.R * (u[0] + u[1] * h), self.R * u[1], u[1], h, a_est, 0.0))
 
     def output(self, t, x, u):
         p = self.p
@@ -166,7 +198,8 @@ class RackBedModel(Model):
         else:
             s, v = x[0], x[1]
             f_mesh = p.c_mesh * (self.R * u[0] - s) + p.d_mesh * (self.R * u[1] - v)
-            a = (f_mesh - self.friction(v) - self.printing_load(s, v)) / p.m_T
+            f_bed = f_mesh + self.stop_load(s, v, x[5]) if self.has_stop else f_mesh
+            a = (f_bed - self.friction(v) - self.printing_load(s, v)) / p.m_T
         return (-self.R * f_mesh, s, v, a, f_mesh)
 
     # -- the direct feed-through (output_jacobian) -----------------------------------------------------------
@@ -214,6 +247,20 @@ class RackBedBatch(variants.Vectorised):
     """Variants of :class:`RackBedModel` stepped together (fmus.physics.variants): the model's own mesh, friction
     and printing load on arrays."""
     attributes = ("R", "F_coulomb")
+
+    @classmethod
+    def key(cls, model):
+        return (model.has_stop,)
+
+    @classmethod
+    def refuses(cls, models):
+        if any(m.has_stop for m in models):
+            return "an end stop (a jam) on the bed: each variant's own model"
+        return None
+
+    def __init__(self, models):
+        super().__init__(models)
+        self.v.p.stop_stiffness = 0.0           # every variant's (refuses): the view's has_stop a plain False
 
     def output(self, t, X, U, rows=None):
         v = self.v

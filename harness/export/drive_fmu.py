@@ -34,6 +34,7 @@ import zipfile
 from pathlib import Path
 
 from harness.errors import SystemDescriptionError
+from harness.master.clock import NS
 from harness.model import System, model_description, resolve_fmu
 
 HERE = Path(__file__).resolve().parent      # harness/export
@@ -85,6 +86,15 @@ def _packable(name: str, path: Path) -> None:
     if not any(n.startswith(f"binaries/{PLATFORM}/") and n.endswith(".so") for n in names):
         raise SystemDescriptionError(f"member {name} ({path.name}) cannot be packed into a drive FMU: it has no binary "
                                      f"for {PLATFORM} (binaries/{PLATFORM}/*.so)")
+
+
+def _rates(system: System) -> dict:
+    """Each instance's own rate inside the drive FMU (harness.master.multirate): its own step, or its experiment's
+    rate, as a multiple of the drive's step."""
+    from harness.master.multirate import rates_of
+
+    step_ns = int(round(system.experiment.step * NS))
+    return {**(system.experiment.rates or {}), **rates_of(system.instances, step_ns, f"system {system.name}")}
 
 
 def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, dict[str, Path]]:
@@ -173,7 +183,7 @@ def drive_spec(system: System, outputs: list[str] | None = None) -> tuple[dict, 
         "bonds": [{"motion_out": b.motion_out, "motion_in": b.motion_in,
                    "translational": system.bond_is_translational(b, mds)} for b in system.bonds],
         "experiment": {"stop_time": float(exp.stop_time), "step": float(exp.step), "master": exp.master,
-                       "extrapolation": int(exp.extrapolation)},
+                       "extrapolation": int(exp.extrapolation), "rates": _rates(system)},
         "parameters": parameters, "inputs": inputs, "outputs": outs,
         "units": {u: BASE_UNITS[u] for u in sorted(units)},
         "rollback": all(bool(mds[n].coSimulation.canGetAndSetFMUstate) for n in mds),

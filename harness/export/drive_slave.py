@@ -256,6 +256,7 @@ class DriveBehaviour:
                 self._fmus[inst.name] = open_instance(inst.fmu, inst.name, logging_on=False, in_process=True)
             m = master_class(e["master"])(self._fmus, system.all_connections(mds), system.bonds,
                                           make_extrapolation(e["extrapolation"]))
+            m.use_rates(e.get("rates") or {}, self._step_ns)   # each member at its own rate, as the drive's run
             m.initialize(int(round(start * NS)), None if stop is None else int(round(stop * NS)), tol, params)
         except HarnessError as err:
             self._release()

@@ -21,7 +21,7 @@ in modules of their own; every name is importable from here as before.
 """
 from __future__ import annotations
 
-from ctypes import byref, c_char_p, c_double, c_int, c_uint
+from ctypes import byref, c_char_p, c_double, c_int, c_size_t, c_uint, create_string_buffer
 from pathlib import Path
 
 import numpy as np
@@ -226,3 +226,20 @@ class FMU(FMUInstance):
     def free_state(self, state) -> None:
         self._fmi("fmi2FreeFMUstate", self.c, byref(state))
         self._states = [s for s in self._states if s is not state]
+
+    def serialize_state(self, state) -> bytes:
+        if not self.can_serialize:
+            return super().serialize_state(state)
+        size = c_size_t()
+        self._fmi("fmi2SerializedFMUstateSize", self.c, state, byref(size))
+        buf = create_string_buffer(size.value)
+        self._fmi("fmi2SerializeFMUstate", self.c, state, buf, size)
+        return buf.raw
+
+    def deserialize_state(self, data: bytes):
+        if not self.can_serialize:
+            return super().deserialize_state(data)
+        state = fmi2FMUstate()
+        self._fmi("fmi2DeSerializeFMUstate", self.c, create_string_buffer(data, len(data)), len(data), byref(state))
+        self._states.append(state)
+        return state

@@ -40,7 +40,7 @@ class FMU1(FMUInstance):
         from fmpy.fmi1 import FMU1Slave
 
         super().__init__(path, name)
-        self.can_get_set_state = False
+        self.can_get_set_state = self.can_serialize = False   # FMI 1.0 co-simulation saves no state
         self.can_interpolate_inputs = False  # the master hands no input derivatives to FMI 1.0 FMUs
         self.max_input_derivative_order = 0
         self._start, self._stop = 0.0, None

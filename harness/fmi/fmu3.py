@@ -274,5 +274,29 @@ class FMU3(FMUInstance):
         self._call("fmi3FreeFMUState", self._slave.fmi3FreeFMUState, self._c, byref(state))
         self._states = [s for s in self._states if s is not state]
 
+    def serialize_state(self, state) -> bytes:
+        from ctypes import c_size_t, create_string_buffer
+
+        if not self.can_serialize:
+            return super().serialize_state(state)
+        size = c_size_t()
+        self._call("fmi3SerializedFMUStateSize", self._slave.fmi3SerializedFMUStateSize, self._c, state, byref(size))
+        buf = create_string_buffer(size.value)
+        self._call("fmi3SerializeFMUState", self._slave.fmi3SerializeFMUState, self._c, state, buf, size)
+        return buf.raw
+
+    def deserialize_state(self, data: bytes):
+        from ctypes import create_string_buffer
+
+        from fmpy.fmi3 import fmi3FMUState
+
+        if not self.can_serialize:
+            return super().deserialize_state(data)
+        state = fmi3FMUState()
+        self._call("fmi3DeserializeFMUState", self._slave.fmi3DeserializeFMUState, self._c,
+                   create_string_buffer(data, len(data)), len(data), byref(state))
+        self._states.append(state)
+        return state
+
 
 __all__ = ["FMU3"]

@@ -321,5 +321,17 @@ class InProcessFMU(FMUInstance):
     def free_state(self, state) -> None:
         state.value = None
 
+    def serialize_state(self, state) -> bytes:
+        if not self.can_serialize:
+            return super().serialize_state(state)
+        return bytes(self._call("fmi2SerializeFMUstate", self._slave._fmu_state_to_bytes, state.value))
+
+    def deserialize_state(self, data: bytes):
+        if not self.can_serialize:
+            return super().deserialize_state(data)
+        state = _State()
+        state.value = self._call("fmi2DeSerializeFMUstate", self._slave._fmu_state_from_bytes, bytes(data))
+        return state
+
 
 __all__ = ["InProcessFMU", "is_pythonfmu", "is_toolkit_fmu", "slave_class"]

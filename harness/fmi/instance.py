@@ -97,6 +97,9 @@ class FMUInstance:
         counts = Counter(v.name for v in self.md.modelVariables)
         self._ambiguous = {n for n, c in counts.items() if c > 1}
         self.can_get_set_state = bool(cs.canGetAndSetFMUstate)
+        # fmi2SerializeFMUstate & co (FMI 3.0: canSerializeFMUState): a state as bytes, for checkpoints
+        self.can_serialize = bool(getattr(cs, "canSerializeFMUstate", False) or
+                                  getattr(cs, "canSerializeFMUState", False))
         # a Model Exchange FMU is stepped by its own solver (harness.fmi.me): any step, inputs held
         self.can_vary_step = model_exchange or bool(cs.canHandleVariableCommunicationStepSize)
         self.can_interpolate_inputs = not model_exchange and bool(cs.canInterpolateInputs)
@@ -111,6 +114,17 @@ class FMUInstance:
         self.refusal: Refusal | None = None   # a parameter value the FMU refused, not yet raised (fmus.refusal)
         self.failed = False
         self.time: float | None = None
+
+    # -- FMU state as bytes (checkpoints: harness.run.checkpoint) ---------------------------------------------------
+    def serialize_state(self, state) -> bytes:
+        """A state (:meth:`get_state`'s) as bytes; refused in one line for an FMU that cannot serialize it."""
+        raise FMUError(self.name, "fmi2SerializeFMUstate", self.time, None,
+                       detail=f"{self.path.name} cannot serialize its state (no canSerializeFMUstate)")
+
+    def deserialize_state(self, data: bytes):
+        """A state from :meth:`serialize_state`'s bytes, to :meth:`set_state`."""
+        raise FMUError(self.name, "fmi2DeSerializeFMUstate", self.time, None,
+                       detail=f"{self.path.name} cannot serialize its state (no canSerializeFMUstate)")
 
     # -- values ----------------------------------------------------------------------------------------------
     def set(self, block: RealBlock, values=None) -> None:

@@ -97,8 +97,8 @@ class Isolation:
 
 
 # attributes of the child's instance the master reads (set by each FMI version's class on its own)
-_FLAGS = ("can_get_set_state", "can_vary_step", "can_interpolate_inputs", "provides_directional_derivative",
-          "max_input_derivative_order", "advanced_positions", "path_kind")
+_FLAGS = ("can_get_set_state", "can_serialize", "can_vary_step", "can_interpolate_inputs",
+          "provides_directional_derivative", "max_input_derivative_order", "advanced_positions", "path_kind")
 
 
 def _signal_name(code: int) -> str:
@@ -305,6 +305,12 @@ class IsolatedInstance(FMUInstance):
     def free_state(self, state) -> None:
         self._ask(f"{self._prefix}FreeFMUstate", "free_state", state)
 
+    def serialize_state(self, state) -> bytes:
+        return self._ask(f"{self._prefix}SerializeFMUstate", "serialize_state", state)
+
+    def deserialize_state(self, data: bytes):
+        return self._ask(f"{self._prefix}DeSerializeFMUstate", "deserialize_state", data)
+
 
 # -- the child ----------------------------------------------------------------------------------------------------
 def _serve(conn: Connection) -> None:
@@ -349,6 +355,12 @@ def _serve(conn: Connection) -> None:
             return inst.set_state(states[args[0]])
         if op == "free_state":
             return inst.free_state(states.pop(args[0]))
+        if op == "serialize_state":
+            return inst.serialize_state(states[args[0]])
+        if op == "deserialize_state":
+            key = counter[0] = counter[0] + 1
+            states[key] = inst.deserialize_state(args[0])
+            return key
         if op in ("setup", "enter_initialization", "exit_initialization", "terminate", "free", "set_value",
                   "get_value"):
             return getattr(inst, op)(*args)

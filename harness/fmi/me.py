@@ -415,6 +415,20 @@ class _Integrated:
     def free_state(self, state) -> None:
         super().free_state(state.fmu_state)
 
+    def serialize_state(self, state) -> bytes:
+        """The FMU's own bytes behind a JSON line of the solver's time, mode and next time event."""
+        import json
+
+        head = json.dumps([state.time, state.mode, state.next_event]).encode()
+        return head + b"\n" + super().serialize_state(state.fmu_state)
+
+    def deserialize_state(self, data: bytes):
+        import json
+
+        head, _, rest = bytes(data).partition(b"\n")
+        t, mode, next_event = json.loads(head)
+        return _MEState(super().deserialize_state(rest), t, mode, next_event)
+
 
 class ModelExchange2(_Integrated, FMU):
     """One instance of an FMI 2.0 Model Exchange FMU, stepped as a co-simulation instance (module docstring)."""

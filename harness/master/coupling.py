@@ -195,3 +195,15 @@ def exchange_plan(groups: list[list[int]], insts: list[Inst], connections, mds: 
             first.setdefault(i, last[i])
             final[node] = last[i]
     return plan
+
+
+def relink(master, k: int, factor: float, offset: float) -> None:
+    """Entry ``k`` of the held-input vector passes ``factor * source + offset`` from now on (a scenario's action on
+    a connected input, :mod:`harness.osp.scenario`): the master's arrays (and each instance's views of them) and
+    the plain-float copies of the links both change."""
+    master.factor[k], master.offset[k] = factor, offset
+    src = int(master.src[k])
+    master._links[k] = (src, factor, offset)
+    for it in master.insts:
+        if it.input_slice.start <= k < it.input_slice.stop:
+            it.links[k - it.input_slice.start] = (src, factor, offset)

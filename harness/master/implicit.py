@@ -19,6 +19,7 @@ class InterfaceJacobian(Master):
     where a stiff mode spans FMUs; two FMU steps per communication step.  Needs fmi2Get/SetFMUstate; non-Real
     connections are passed as by ``jacobi`` and take no part in the correction."""
     name = "jacobian"
+    checkpointed = ("jacobian", "theta", "_jac_h", "_jacobian_stale", "estimates", "retries")
     refreshes_discrete = True
     input_derivatives = False  # the correction is on the held (midpoint) values
 

@@ -43,6 +43,7 @@ from harness.master.clock import NS
 from harness.master.coupling import Inst as _Inst
 from harness.master.extrapolation import DEPTH, History, Polynomial
 from harness.master.iteration import IterationOptions, solve_fixed_point
+from harness.master.multirate import Rates
 
 __all__ = ["Master", "AssumptionWarning"]
 
@@ -99,6 +100,8 @@ class Master:
     solves_loops: ClassVar[bool] = False
     refreshes_discrete: ClassVar[bool] = False  # pass non-Real feed-through chains within a point (Jacobi)
     input_derivatives: ClassVar[bool] = True   # False: held values only (iterated or corrected methods)
+    multirate: ClassVar[bool] = False   # True: instances may step at their own rates (_step_rates)
+    checkpointed: ClassVar[tuple] = ()  # a method's own attributes a checkpoint keeps (harness.master.saved)
 
     def __init__(self, fmus: dict, connections, bonds=(), extrapolation: Polynomial | None = None,
                  iteration: IterationOptions | None = None, tolerance: float | None = None,
@@ -163,6 +166,7 @@ class Master:
         self.iterations = 0  # total iterations (iterative master)
         self.halvings = 0    # steps taken again as two halves (jacobian master: harness.master.jacobian.needs_halving)
         self.fmu_steps = 0   # do_step calls made, summed over the FMUs (only _step_fmus adds to it)
+        self.rates: Rates | None = None   # instances at their own rates (use_rates; None: every one at the step)
         self._prepare()
 
     def _prepare(self) -> None:
@@ -194,6 +198,52 @@ class Master:
     def history_depth(self) -> int:
         """Samples of each output the master keeps for its held inputs (all that any method needs)."""
         return DEPTH
+
+    # -- each FMU at its own rate (harness.master.multirate) -----------------------------------------------------
+    def use_rates(self, rates: dict[str, int], step_ns: int | None = None) -> None:
+        """Step the instances of ``rates`` (name -> whole multiple of the base step ``step_ns``, > 1) at their own
+        rates; the others at the base step.  A master that cannot (``multirate`` False) refuses in one line naming it and
+        the instances; no rate above 1 leaves the master as it was (the single-rate path, bit for bit)."""
+        slow = {n: r for n, r in rates.items() if r > 1}
+        if not slow:
+            return
+        if not self.multirate:
+            able = ", ".join(sorted(_multirate_masters()))
+            listed = ", ".join(f"{n} (every {r} steps)" for n, r in slow.items())
+            raise SystemDescriptionError(f"master {self.name!r} cannot step instances at their own rates: {listed}; "
+                                         f"use one of {able}, or give every instance the base step")
+        self.rates = Rates(self, slow, step_ns)
+
+    @property
+    def fresh(self) -> set | None:
+        """The instances at a communication point of their own at the master's time (None: every one)."""
+        return None if self.rates is None else self.rates.fresh
+
+    def _step_rates(self, t_ns: int, h_ns: int) -> None:
+        """One base step with instances at their own rates (a multirate method implements it)."""
+        raise NotImplementedError
+
+    def _exchange_some(self, t: float, which: list[int]) -> None:
+        """:meth:`_exchange` restricted to the instances ``which`` (at a point of their own at ``t``): the others'
+        outputs keep their last samples."""
+        self._run_plan(self.rates.plan(self._plan, which), t)
+        for sl in self.rates.ranges(which):
+            self.history.push(sl, t, self.y[sl])
+
+    def _pass_discrete_rates(self) -> None:
+        """:meth:`_pass_discrete` under rates: only the connections whose two ends' rates both divide the base
+        steps taken (:meth:`harness.master.multirate.Rates.discrete_now`)."""
+        now = self.rates.discrete_now()
+        n = len(self._discrete)
+        sampled = [(link, ok) for link, ok in zip(self._discrete, now[:n])]
+        values = [src.get_value(sv) if ok else None for (src, sv, *_), ok in sampled]
+        for (link, ok), value in zip(sampled, values):
+            if ok:
+                link[2].set_value(link[3], coupling.passed_value(link, value, self.t_ns / NS))
+        for link, ok in zip(self._discrete_chain, now[n:]):
+            if ok:
+                src, sv, dst, dv, _ = link
+                dst.set_value(dv, coupling.passed_value(link, src.get_value(sv), self.t_ns / NS))
 
     # -- power bonds -------------------------------------------------------------------------------------------
     def _prepare_bonds(self, bonds) -> None:
@@ -352,10 +402,16 @@ class Master:
     def _exchange(self, t: float) -> None:
         """Consistent outputs at communication point t (the plan of :func:`exchange_plan`); pushes them to the
         history."""
+        self._run_plan(self._plan, t)
+        self.history.push_all(t, self.y)
+
+    def _run_plan(self, plan: list, t: float) -> None:
+        """Evaluate an exchange plan at ``t`` into ``y``: visit (set the point inputs of) and read each instance in
+        turn, solve each algebraic loop."""
         y = self.y
         values = y.tolist()
         insts = self.insts
-        for op, arg in self._plan:
+        for op, arg in plan:
             if op == "loop":
                 y[:] = values
                 self._solve_loop(arg, t)
@@ -366,7 +422,6 @@ class Master:
                 self._set_point_inputs(it, values)
             values[it.output_slice] = it.fmu.get_list(it.out)
         y[:] = values
-        self.history.push_all(t, y)
 
     def _solve_loop(self, group: list[int], t: float) -> None:
         """Resolve an algebraic loop among ``group`` at a communication point (iterative master)."""
@@ -397,10 +452,12 @@ class Master:
                 it.fmu.free_state(old[0][k])
             states.append(it.fmu.get_state())
         self._slots[slot] = (states, self.y.copy(), self.history.snapshot(), self.u.copy(),
-                             self.bond_log.copy(), self.t_ns)
+                             self.bond_log.copy(), self.t_ns, None if self.rates is None else self.rates.state())
 
     def restore(self, slot: str = "step") -> None:
-        states, y, hist, u, bonds, t_ns = self._slots[slot]
+        states, y, hist, u, bonds, t_ns, rates = self._slots[slot]
+        if rates is not None:
+            self.rates.set_state(rates)
         for it, s in zip(self.insts, states):
             it.fmu.set_state(s)
         self.y[:] = y
@@ -417,7 +474,10 @@ class Master:
         """Consistent outputs at communication point t again, after inputs were set from outside the coupling
         (input signals, :mod:`harness.signals`): an output that depends directly on such an input passes its
         new value on in this step, not one step late."""
-        self._exchange(t)
+        if self.rates is not None:
+            self._exchange_some(t, self.rates.starting(self.t_ns))
+        else:
+            self._exchange(t)
         self._y_list = None
 
     def coupling_signals(self) -> np.ndarray:
@@ -432,8 +492,11 @@ class Master:
         inputs and outputs."""
         t = start_ns / NS
         stop = stop_ns / NS if stop_ns is not None else None
-        for it in self.insts:
-            it.fmu.setup(t, stop, tolerance)
+        for i, it in enumerate(self.insts):
+            own = stop   # an instance at its own rate ends its last own step at or after the run's stop
+            if self.rates is not None and stop_ns is not None and self.rates.r[i] > 1 and self.rates.step_ns:
+                own = self.rates.stop_of(i, start_ns, stop_ns) / NS
+            it.fmu.setup(t, own, tolerance)
             for k, v in (parameters or {}).get(it.name, {}).items():
                 it.fmu.set_value(k, v)
         for it in self.insts:
@@ -452,16 +515,28 @@ class Master:
         self._check(t)
         self._y_list = None
         self.t_ns = start_ns
+        if self.rates is not None:
+            self.rates.start(start_ns)
+            self.u[:] = self.factor * self.y[self.src] + self.offset   # every connection passes at the start
 
     def step(self, t_ns: int, h_ns: int) -> None:
         """One communication step from t_ns (must be the current time) of h_ns nanoseconds."""
         t, h, t_next = t_ns / NS, h_ns / NS, (t_ns + h_ns) / NS
         y0 = self._y_list if self._y_list is not None else self.y.tolist()
-        if self._discrete and not self.refreshes_discrete:
-            self._pass_discrete(t)  # values sampled at t, held over the step
-        self._step_impl(t, h, t_next)
-        if self._discrete and self.refreshes_discrete:
-            self._pass_discrete(t_next)  # refreshed at t_next, as Real feed-through is, before the point is recorded
+        if self.rates is not None:
+            discrete = bool(self._discrete or self._discrete_chain)
+            if discrete and not self.refreshes_discrete:
+                self._pass_discrete_rates()
+            self._step_rates(t_ns, h_ns)
+            if discrete and self.refreshes_discrete:
+                self.t_ns = t_ns + h_ns
+                self._pass_discrete_rates()
+        else:
+            if self._discrete and not self.refreshes_discrete:
+                self._pass_discrete(t)  # values sampled at t, held over the step
+            self._step_impl(t, h, t_next)
+            if self._discrete and self.refreshes_discrete:
+                self._pass_discrete(t_next)  # refreshed at t_next, as Real feed-through is, before the point is recorded
         y = self._y_list = self.y.tolist()
         self._check(t_next, y)
         if self._bonds:
@@ -481,7 +556,7 @@ class Master:
             it.fmu.do_step(t, h, no_prior_state=no_prior_state)
         self.fmu_steps += len(insts)
 
-    def run(self, controller, stop_ns: int, observers=(), inputs=None) -> int:
+    def run(self, controller, stop_ns: int, observers=(), inputs=None, first_ns: int | None = None) -> int:
         """THE run loop: communication steps from ``t_ns`` (after :meth:`initialize`) to ``stop_ns``, each taken
         by ``controller.advance`` (:mod:`harness.master.stepcontrol`, starting with its ``step_ns``).  ``inputs``
         (None or a :class:`harness.signals.Signals`): applied at each point before the step (``apply(t_ns)``),
@@ -490,16 +565,20 @@ class Master:
         a variable step control restarted from its first step; a variable step also ends on each of the inputs'
         row times (``next_time``).
         ``observers`` (:class:`harness.master.observers.Observer`) see the start, each input event, each accepted point
-        and the end, in the order given; ``on_end`` runs however the run ends.  Returns the time reached [ns]."""
+        and the end, in the order given; ``on_end`` runs however the run ends; one that can finish the run
+        (``can_finish``) ends it, complete, after the step where it sets ``finished``.  ``first_ns``: the first
+        step (default the controller's; a run resumed from a checkpoint takes the step proposed when it stopped).
+        Returns the time reached [ns]; the controller's ``next_ns`` is the step it proposes next."""
         observers = list(observers)
         t_ns = self.t_ns
         refresh = inputs is not None and any(c.source.split(".", 1)[0] in inputs.instances
                                              for c in self.connections)
         completed = False
+        enders = [o for o in observers if o.can_finish]
         try:
             for o in observers:
                 o.on_start(self, t_ns)
-            h_ns = controller.step_ns
+            h_ns = controller.step_ns if first_ns is None else first_ns
             while t_ns < stop_ns:
                 if inputs is not None:
                     inputs.apply(t_ns)
@@ -517,9 +596,12 @@ class Master:
                 t_prev = t_ns
                 until = stop_ns if event_ns is None else min(stop_ns, event_ns)
                 t_ns, h_ns = controller.advance(self, t_ns, h_ns, until)
+                controller.next_ns = h_ns
                 self.steps += 1
                 for o in observers:
                     o.on_step(self, t_prev, t_ns)
+                if enders and any(o.finished for o in enders):   # an observer ends the run here, complete
+                    break
             completed = True
         finally:
             for o in observers:
@@ -580,3 +662,14 @@ class Master:
         for it in self.insts:
             it.fmu.free()
         self._slots.clear()
+
+
+def _multirate_masters() -> dict:
+    """The defined masters that hold rates, by name (subclasses of :class:`Master` with ``multirate``)."""
+    found, todo = {}, list(Master.__subclasses__())
+    while todo:
+        cls = todo.pop(0)
+        if cls.multirate:
+            found.setdefault(cls.name, cls)
+        todo.extend(cls.__subclasses__())
+    return found

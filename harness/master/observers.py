@@ -3,7 +3,9 @@
 An :class:`Observer` is told of the run's start, each input event, each accepted communication point and the
 end (libcosim's observer habit).  It may read the master (``y``, ``bond_log``, ``t_ns``, the counters) and its
 FMUs' values, keep what it likes and raise to stop the run (a :class:`~harness.errors.SimulationError`:
-the divergence watch does); it must not set inputs, step FMUs or change the master's state.  The run's
+the divergence watch does), or set ``finished`` to end it as complete before its stop time (a stop that has
+settled: :class:`harness.run.settling.Settling`); it must not set inputs, step FMUs or change the master's
+state.  The run's
 observers, in the order the loop calls them:
 
 :class:`Recording`                  the result rows (a :class:`harness.results.Recorder`), at the start and at
@@ -24,7 +26,12 @@ __all__ = ["Observer", "Recording", "ProgressBar"]
 
 
 class Observer:
-    """The interface; every method does nothing by default.  Times are integer nanoseconds."""
+    """The interface; every method does nothing by default.  Times are integer nanoseconds.  ``finished``
+    (checked after each accepted step by observers whose ``can_finish`` is True): the run ends there,
+    complete."""
+
+    can_finish = False
+    finished = False
 
     def on_start(self, master, t_ns: int) -> None:
         """The master is initialized at ``t_ns``, before the first step."""
@@ -51,7 +58,15 @@ class Recording(Observer):
         self.recorder.record(t_ns / NS)
 
     def on_step(self, master, t_prev_ns, t_ns):
+        self.last_ns = t_ns
         if self.sample_ns is None or (t_ns - self.start_ns) % self.sample_ns == 0 or t_ns >= self.stop_ns:
+            self.recorder.record(t_ns / NS)
+            self.recorded_ns = t_ns
+
+    recorded_ns = last_ns = None
+
+    def on_end(self, master, t_ns, completed):
+        if completed and self.recorded_ns != self.last_ns and self.last_ns is not None:  # ended early: its last row
             self.recorder.record(t_ns / NS)
 
 

@@ -138,11 +138,11 @@ def _drawn_columns(df: pd.DataFrame, panels) -> dict[str, np.ndarray]:
     return {c: df[c].to_numpy(dtype=float) for p in panels for c in p.columns}
 
 
-def _time_figure(system, df: pd.DataFrame, panels, zones) -> Figure:
+def _time_figure(system, df: pd.DataFrame, panels, zones, stem: str) -> Figure:
     t = df.index.to_numpy(dtype=float)
     windows = [(s.name, w, set(qoi.columns(s.quantity))) for s in getattr(system, "scenes", [])
                for w in _scene_windows(s)]
-    return Figure(stem=system.name, title=f"{system.name} over time: {_status(df)}", x=t, xlabel="time [s]",
+    return Figure(stem=stem, title=f"{system.name} over time: {_status(df)}", x=t, xlabel="time [s]",
                   panels=list(panels), columns=_drawn_columns(df, panels), units=df.attrs.get("units") or {},
                   zones=[(label, _spans(t, on)) for label, on in zones],
                   windows=[[(name, w) for name, w, cols in windows if cols & set(p.columns) and w[0] < t[-1]]
@@ -190,7 +190,7 @@ def cycle_chart_missing(system, df: pd.DataFrame) -> str:
     return ""
 
 
-def _cycle_figure(system, df: pd.DataFrame, panels, zones) -> Figure | None:
+def _cycle_figure(system, df: pd.DataFrame, panels, zones, stem: str) -> Figure | None:
     spec = system.chart
     panels = [p for p in panels if p.cycle]
     if spec is None or spec.crank_angle not in df.columns or not panels:
@@ -202,7 +202,7 @@ def _cycle_figure(system, df: pd.DataFrame, panels, zones) -> Figure | None:
     rows, k, x = found
     t = df.index.to_numpy(dtype=float)[rows]
     what = "crank angle [deg]" if math.isclose(spec.cycle_angle, 2 * math.pi) else "machine cycle [deg, 360 per cycle]"
-    return Figure(stem=f"{system.name}_cycle",
+    return Figure(stem=f"{stem}_cycle",
                   title=f"{system.name}, one machine cycle: cycle {k + 1} (t = {t[0]:.3g} to {t[-1]:.3g} s), "
                         f"{_status(df)}",
                   x=x, xlabel=what + (f" from the {spec.origin_name}" if spec.origin_name else ""),
@@ -212,18 +212,33 @@ def _cycle_figure(system, df: pd.DataFrame, panels, zones) -> Figure | None:
                   xlim=(0.0, 360.0), xticks=np.arange(0.0, 361.0, 45.0))
 
 
-def figures(system, df: pd.DataFrame) -> list[Figure]:
+def figures(system, df: pd.DataFrame, stem: str | None = None) -> list[Figure]:
     """The run's charts as :class:`harness.reporting.chartdraw.Figure` s, ready to draw: over time, then (where the system
-    declares its crank angle and the run completed a machine cycle) over one cycle."""
+    declares its crank angle and the run completed a machine cycle) over one cycle, then a stop's own (where the
+    run is a stop scenario); their files are named from ``stem`` (default: the system's name)."""
+    from harness.reporting.stopchart import stop_figure
+
+    stem = stem or system.name
     panels, zones = _panels(system, df), _zones(system, df)
-    cycle = _cycle_figure(system, df, panels, zones)
-    return [_time_figure(system, df, panels, zones)] + ([cycle] if cycle is not None else [])
+    cycle = _cycle_figure(system, df, panels, zones, stem)
+    stop = stop_figure(system, df, stem)
+    return ([_time_figure(system, df, panels, zones, stem)] + ([cycle] if cycle is not None else [])
+            + ([stop] if stop is not None else []))
 
 
-def plot_result(system, df: pd.DataFrame, out_dir: str | Path, svg: bool = False) -> list[Path]:
-    """Write ``<out_dir>/<system>.png`` (over time) and, where the system declares its crank angle and the run
-    completed a revolution, ``<system>_cycle.png`` (over one machine cycle); ``svg=True``: each also as
-    ``.svg`` (vector, for a document; a second full drawing of each figure, so not by default).  Returns the
-    paths, the time chart's first."""
+def plot_result(system, df: pd.DataFrame, out_dir: str | Path, svg: bool = False, stem: str | None = None) -> list[Path]:
+    """Write ``<out_dir>/<stem>.png`` (over time; ``stem`` default: the system's name) and, where the system
+    declares its crank angle and the run completed a revolution, ``<stem>_cycle.png`` (over one machine cycle)
+    and ``<stem>_polar.png`` (its joint and contact forces against the crank angle, polar); a stop scenario's
+    run also ``<stem>_stop.png`` (speed to rest, brake and belt torque); ``svg=True``: each also as ``.svg``
+    (vector, for a document; a second full drawing of each figure, so not by default).  Returns the paths, the
+    time chart's first."""
+    from harness.reporting.stopchart import polar_figure
+
     out_dir = Path(out_dir)
-    return [p for f in figures(system, df) for p in draw(f, out_dir, svg)]
+    paths = [p for f in figures(system, df, stem) for p in draw(f, out_dir, svg)]
+    chart = getattr(system, "chart", None)
+    found = None
+    if chart is not None and chart.crank_angle in df.columns:
+        found = last_revolution(df[chart.crank_angle].to_numpy(dtype=float), chart.cycle_origin, chart.cycle_angle)
+    return paths + polar_figure(system, df, out_dir, stem or system.name, found, svg)

@@ -6,7 +6,8 @@ nothing fetched from the network.  A run's page holds
 
 * the engineering quantities with their units (:mod:`harness.reporting.quantities`), the start-up rule in the heading;
 * the charts (over time and over one machine cycle, :mod:`harness.reporting.charts`);
-* the drive: every instance with its FMU and fidelity, and every parameter whose value differs from its FMU's
+* the drive: every instance with its FMU and fidelity, every parameter of every instance with its value, unit
+  and who set it (the run, the drive or the FMU's default), and every parameter whose value differs from its FMU's
   declared default (set by the drive, or by the run), with the default beside it;
 * the method: master, extrapolation, step, step control, tolerance, stop time, steps, and whether it is the
   drive's declared method; the drive's declared accuracy (:class:`harness.specs.AccuracySpec`), the
@@ -161,9 +162,23 @@ def quantities_section(page: Page, q, heading: str = "Engineering quantities") -
     if q is None or not q.rows:
         page.section(heading, para("the drive declares no engineering quantities"))
         return
-    rows = [[r.name, r.value, r.unit or "-", r.over, r.what + (f" [{r.note}]" if r.note else "")] for r in q.rows]
+    judged = getattr(q, "verdicts", {}) or {}
+    rows = [[r.name, r.value, r.unit or "-", r.over, r.what + (f" [{r.note}]" if r.note else "")]
+            + ([f"{judged[r.name].word} ({judged[r.name].op} {judged[r.name].limit:g})" if r.name in judged else ""]
+               if judged else []) for r in q.rows]
     page.section(heading, f"<pre>{esc(q.heading())}</pre>",
-                 table(["quantity", "value", "unit", "over", "meaning"], rows, numeric={1}))
+                 table(["quantity", "value", "unit", "over", "meaning"] + (["limit"] if judged else []), rows,
+                       numeric={1}))
+
+
+def limits_section(page: Page, verdicts, source: str = "") -> None:
+    """The verdicts of ``--limits`` (:mod:`harness.reporting.limits`): quantity, value, limit, pass or FAIL."""
+    failed = sum(not v.passed for v in verdicts)
+    rows = [[v.quantity, v.value, v.unit or "-", f"{v.op} {v.limit:g}", v.word,
+             v.where + (f" [{v.note}]" if v.note else "")] for v in verdicts]
+    page.section("Limits", para(f"{len(verdicts) - failed} of {len(verdicts)} limits met"
+                                + (f", {failed} FAILED" if failed else "") + (f" ({source})" if source else "")),
+                 table(["quantity", "value", "unit", "limit", "verdict", "from"], rows, numeric={1}))
 
 
 def _fmu_variables(system) -> dict:
@@ -208,6 +223,29 @@ def changed_parameters(system, start_values: dict | None = None) -> list[list]:
     return rows
 
 
+def all_parameters(system, start_values: dict | None = None) -> list[list]:
+    """Every parameter of every instance, defaults too: [instance, parameter, value, unit, set by (``"run"``,
+    ``"drive"`` or ``"FMU default"``), what it is (the FMU's description)]."""
+    fmus = _fmu_variables(system)
+    run = dict(start_values or {})
+    rows = []
+    for inst in system.instances:
+        _model, variables = fmus[inst.name]
+        for name, v in variables.items():
+            if v.causality != "parameter":
+                continue
+            key = f"{inst.name}.{name}"
+            if key in run:
+                by, value = "run", run[key]
+            elif name in inst.parameters:
+                by, value = "drive", inst.parameters[name]
+            else:
+                by, value = "FMU default", _start(v)
+            unit = getattr(v, "unit", None) or getattr(getattr(v, "declaredType", None), "unit", None) or "-"
+            rows.append([inst.name, name, value, unit, by, v.description or ""])
+    return rows
+
+
 def _same(a, b) -> bool:
     try:
         return math.isclose(float(a), float(b), rel_tol=1e-12, abs_tol=0.0)
@@ -227,13 +265,16 @@ def drive_section(page: Page, system, start_values: dict | None = None, heading:
             fid = f"{start_values[key]} (run; drive: {fid})"
         inst_rows.append([inst.name, model, fid])
     changed = changed_parameters(system, start_values)
+    every = all_parameters(system, start_values)
     bonds = ", ".join(b.label for b in system.bonds)
     page.section(heading, para(system.description.splitlines()[0] if system.description else system.name),
                  table(["instance", "FMU", "fidelity"], inst_rows, numeric=set()),
                  para(f"power bonds (motion out -> motion in): {bonds}", "note") if bonds else "",
                  f"<h3>Parameters changed from the FMUs' defaults ({len(changed)})</h3>",
                  table(["instance", "parameter", "value", "FMU default", "unit", "set by"], changed, numeric={2, 3})
-                 if changed else para("none: every parameter at its FMU's default"))
+                 if changed else para("none: every parameter at its FMU's default"),
+                 f"<h3>Every parameter of every instance ({len(every)})</h3>",
+                 table(["instance", "parameter", "value", "unit", "set by", "what it is"], every, numeric={2}))
 
 
 def method_section(page: Page, system, attrs: dict) -> None:
@@ -258,12 +299,14 @@ def method_section(page: Page, system, attrs: dict) -> None:
                    numeric={1, 2})]
     acc = getattr(system, "accuracy", None)
     if acc is not None:
-        req = [[r.name, r.tolerance, ("relative" if r.relative else r.unit), r.quantity, r.where or "everywhere"]
+        zones = {z.where: z.label for z in (system.chart.zones if getattr(system, "chart", None) else ())}
+        req = [[r.name, r.tolerance, ("relative" if r.relative else r.unit),
+                zones.get(r.where, "where its condition holds") if r.where else "everywhere"]
                for r in acc.requirements]
         parts += [f"<h3>The drive's declared accuracy</h3>",
                   para(f"The requirements its declared method meets against the monolithic reference over "
                        f"{acc.stop_time:g} s (checked by `python -m harness study accuracy {system.name}`):"),
-                  table(["requirement", "tolerance", "unit", "quantity", "where"], req, numeric={1})]
+                  table(["requirement", "tolerance", "unit", "where"], req, numeric={1})]
     else:
         parts.append(para("the drive declares no accuracy requirements", "note"))
     page.section("Method", *parts)
@@ -281,6 +324,8 @@ def run_page(system, df, charts: list[Path] | None = None, title: str | None = N
     page = Page(title or f"{system.name}: run report",
                 f"{len(df)} points to t = {t_end:.6g} s, master {a.get('master')}, step {a.get('step', 0):g} s"
                 f"{status}")
+    if a.get("limits"):
+        limits_section(page, a["limits"])
     quantities_section(page, a.get("quantities"))
     if a.get("transient") is not None:
         quantities_section(page, a["transient"], heading=f"Transient quantities ({a.get('scenario')})")
@@ -339,4 +384,4 @@ def check_report_path(path: str | Path) -> Path:
 
 
 __all__ = ["Page", "run_page", "write_run_report", "check_report_path", "table", "frame_table", "image", "para",
-           "quantities_section", "drive_section", "method_section", "versions_section", "render_charts"]
+           "quantities_section", "limits_section", "drive_section", "all_parameters", "method_section", "versions_section", "render_charts"]

@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness.reporting import qoi
+from harness.reporting import fatigue, qoi
 from harness.results import KeptInAttrs
 from harness.specs import Answer, QuantitySpec
 
@@ -200,8 +200,11 @@ class Quantities(KeptInAttrs):
     Immutable once made; copies are the object itself (cheap in ``df.attrs``)."""
 
     def __init__(self, system: str, rows: list[Row], cycles: Cycles | None, shaft: str = "",
-                 cycle_name: str = ""):
+                 cycle_name: str = "", scope: str = ""):
         self.system, self.rows, self.cycles, self.shaft, self.cycle_name = system, tuple(rows), cycles, shaft, cycle_name
+        self.scope = scope   # the part of the run they are taken over, in words ('' : the whole run)
+
+    verdicts: dict = {}   # quantity -> harness.reporting.limits.Verdict, where --limits judged this table
 
     @property
     def names(self) -> list[str]:
@@ -230,12 +233,13 @@ class Quantities(KeptInAttrs):
         c = self.cycles
         if c is None:
             return f"{self.system}: no engineering quantities declared"
+        scope = f" ({self.scope})" if self.scope else ""
         if c.steady is None:
-            return f"{self.system}: {c.reason}"
+            return f"{self.system}{scope}: {c.reason}"
         a, b = c.steady
         first = c.first_steady + 1
         which = f"cycle {first}" if c.n_steady == 1 else f"cycles {first}-{len(c.means)}"
-        return (f"{self.system}: engineering quantities over the steady {which} of {len(c.means)} complete "
+        return (f"{self.system}: engineering quantities over the steady {which} of {len(c.means)} complete{scope} "
                 f"(t = {a:.4g} to {b:.4g} s); start-up: t < {a:.4g} s\n"
                 f"  one cycle: {self.cycle_name}; shaft speeds on the {self.shaft}\n"
                 f"  {c.rule()}")
@@ -249,8 +253,15 @@ class Quantities(KeptInAttrs):
             return lines[0]
         reason = self.cycles.reason if self.cycles is not None else ""
         silent = [r.name for r in self.rows if reason and r.note == reason]   # said once, in the heading
+        notes = [r.note for r in self.rows if r.value is None and r.note and r.note != reason]
+        shared = [n for n in dict.fromkeys(notes) if notes.count(n) >= 3]     # said once, below the table
+        grouped = {n: [r.name for r in self.rows if r.value is None and r.note == n] for n in shared}
+        quiet = set(silent) | {name for names in grouped.values() for name in names}
+        judged = self.verdicts
+        quiet -= set(judged)          # a quantity under a limit keeps its own line
         shown = [(r.name, _format(r.value) if r.value is not None else "-", r.unit or "-", r.over,
-                  r.what + (f" [{r.note}]" if r.note else "")) for r in self.rows if r.name not in silent]
+                  (f"[{judged[r.name].word} {judged[r.name].op} {judged[r.name].limit:g}] " if r.name in judged
+                   else "") + r.what + (f" [{r.note}]" if r.note else "")) for r in self.rows if r.name not in quiet]
         w = [max(len(s[i]) for s in shown + [("quantity", "value", "unit", "over", "")]) for i in range(4)]
         head = f"  {'quantity':<{w[0]}}  {'value':>{w[1]}}  {'unit':<{w[2]}}  {'over':<{w[3]}}  meaning"
         lines += [head, "  " + "-" * (len(head) - 2)]
@@ -263,11 +274,15 @@ class Quantities(KeptInAttrs):
         if silent:
             lines.append(textwrap.fill(f"  no value, for the reason above: {', '.join(silent)}", width,
                                        subsequent_indent="    "))
+        for note, names in grouped.items():
+            lines.append(textwrap.fill(f"  no value ({note}): {', '.join(names)}", width, subsequent_indent="    "))
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
         c = self.cycles
         out = {"system": self.system, "heading": self.heading()}
+        if self.scope:
+            out["scope"] = self.scope
         if c is not None:
             out["cycles"] = {"what": self.cycle_name, "shaft": self.shaft,
                              "bounds_s": [float(b) for b in c.bounds],
@@ -276,6 +291,10 @@ class Quantities(KeptInAttrs):
                              "steady_s": None if c.steady is None else list(c.steady),
                              "rule": c.rule(), "no_steady_reason": c.reason}
         out["quantities"] = [asdict(r) for r in self.rows]
+        for r in out["quantities"]:
+            v = self.verdicts.get(r["name"])
+            if v is not None:
+                r["limit"] = {"op": v.op, "value": v.limit, "verdict": v.word}
         return out
 
     def write_json(self, path: str | Path) -> Path:
@@ -328,7 +347,7 @@ def parameter(system, df: pd.DataFrame, instance: str, name: str):
     return None
 
 
-def quantities(system, df: pd.DataFrame) -> Quantities:
+def quantities(system, df: pd.DataFrame, scope: str = "") -> Quantities:
     """The engineering quantities of ``system`` (a :class:`~harness.model.System`; ``harness.load(name)`` for
     a name) from its result ``df`` (module docstring).  A system that declares none gets an empty table that
     says so; a quantity whose column the result lacks (``output=`` left it out) or that is zero throughout gets
@@ -344,7 +363,7 @@ def quantities(system, df: pd.DataFrame) -> Quantities:
         cycles = detect_cycles(t, df[spec.shaft_angle].to_numpy(dtype=float), spec.cycle_origin, spec.cycle_angle,
                                spec.settle, spec.cycle_name)
     rows = _Computer(system, spec, df, t, cycles).rows()
-    return Quantities(system.name, rows, cycles, spec.shaft_name, spec.cycle_name)
+    return Quantities(system.name, rows, cycles, spec.shaft_name, spec.cycle_name, scope)
 
 
 class _Computer:
@@ -358,6 +377,28 @@ class _Computer:
         end = steady[0] if steady is not None else t[-1] if t.size else 0.0
         self.startup = _Window(t, t[0] if t.size else 0.0, end)
         self.startup_over = "start-up" if steady is not None else "whole run"
+        self.at_speed = self._starts_at_speed()
+
+    def _starts_at_speed(self) -> str:
+        """Why the run's beginning is no start from rest ('' when it is one): its main shaft turns at the first
+        sample at more than 1 % of its first cycle's mean speed (or of its largest speed)."""
+        col = self.spec.shaft_speed
+        if col not in self.df.columns or not self.t.size:
+            return ""
+        w = self.col(col)
+        ref = abs(float(self.c.means[0])) if len(self.c.means) else float(np.max(np.abs(w)))
+        if abs(w[0]) <= 0.01 * ref:
+            return ""
+        return (f"the run starts at speed ({abs(w[0]) / RPM:.4g} rpm at t = {self.t[0]:g} s), not from rest: a "
+                f"start from rest is the drive's startup scenario (run DRIVE --scenario startup)")
+
+    def _startup(self, name, unit, what, column):
+        """A start-up peak of ``column``: None with the reason where the run does not start from rest."""
+        if self.at_speed:
+            self.out.append(Row(name, None, unit, self.startup_over, what, self.at_speed))
+            return
+        self.add(name, unit, self.startup_over, what, lambda: _reduce("peak", *self.on(self.startup, column)),
+                 (column,))
 
     # a row whose value could not be had, with the reason
     def _missing(self, column: str) -> str:
@@ -420,6 +461,10 @@ class _Computer:
             self._motor(s.motor)
         for load in s.loads:
             self._load(load)
+        for shaft in s.shafts:
+            self._shaft(shaft)
+        for belt in s.belts:
+            self._belt(belt)
         for ans in s.answers:
             self._answer(ans)
         return self.out
@@ -453,8 +498,8 @@ class _Computer:
                  lambda: _reduce("max", *self.on(self.steady, power)), (power,))
         self.add("energy_per_cycle", "J", "steady", "electrical energy drawn per steady machine cycle",
                  lambda: _integral(*self.on(self.steady, power)) / self.c.n_steady, (power,))
-        self.add("motor_torque_startup_peak", "N.m", self.startup_over, "max |T| of the motor during the start-up",
-                 lambda: _reduce("peak", *self.on(self.startup, torque)), (torque,))
+        self._startup("motor_torque_startup_peak", "N.m", "max |T| of the motor during the start-up from rest",
+                      torque)
 
     def _load(self, load):
         c = load.column
@@ -467,8 +512,64 @@ class _Computer:
                  lambda: _reduce("peak", *self.on(self.steady, c)), (c,))
         self.add(f"{load.name}_range", unit, "steady", "max - min (fatigue)",
                  lambda: _reduce("range", *self.on(self.steady, c)), (c,))
-        self.add(f"{load.name}_startup_peak", unit, self.startup_over, "peak |x| during the start-up",
-                 lambda: _reduce("peak", *self.on(self.startup, c)), (c,))
+        self._startup(f"{load.name}_startup_peak", unit, "peak |x| during the start-up from rest", c)
+        self.add(f"{load.name}_damage_equivalent", unit, "steady",
+                 f"damage-equivalent range per machine cycle, (sum n_i S_i^m / N_c)^(1/m), Wohler slope m = "
+                 f"{load.slope:g}: rainflow count (ASTM E1049) over the steady cycles",
+                 lambda: self._damage(c, load.slope), (c,))
+
+    def _damage(self, column: str, slope: float, scale: float = 1.0) -> float:
+        t, x, on = self.on(self.steady, column)
+        return fatigue.damage_equivalent(scale * x[on], self.c.n_steady, slope)
+
+    def _load_of(self, name: str, what: str):
+        load = next((ld for ld in self.spec.loads if ld.name == name), None)
+        if load is None:
+            raise ValueError(f"system {self.system.name}: {what} names no declared load {name!r} (loads: "
+                             f"{', '.join(ld.name for ld in self.spec.loads)})")
+        return load
+
+    def _value(self, key: str) -> float:
+        inst, _, name = key.partition(".")
+        v = parameter(self.system, self.df, inst, name)
+        if v is None:
+            raise _NoValue(f"no value of {key}")
+        return float(v)
+
+    def _shaft(self, shaft):
+        load = self._load_of(shaft.load, "a shaft")
+        c = load.column
+
+        def stress(kind: str) -> float:
+            d = self._value(shaft.diameter)
+            if kind == "peak":
+                torque = _reduce("peak", *self.on(self.steady, c))
+                return float(fatigue.shear_stress(torque * shaft.share, d)) / 1e6
+            return self._damage(c, load.slope, float(fatigue.shear_stress(shaft.share, d)) / 1e6)
+
+        each = f"; {shaft.share:g} of the torque in each shaft" if shaft.share != 1.0 else ""
+        self.add(f"{load.name}_shear_stress_peak", "MPa", "steady",
+                 f"tau = 16 T / (pi d^3) at the peak torque, d = {shaft.diameter}{each}", lambda: stress("peak"), (c,))
+        self.add(f"{load.name}_shear_stress_damage_equivalent", "MPa", "steady",
+                 f"damage-equivalent shear stress range per machine cycle (Wohler slope m = {load.slope:g}; "
+                 f"d = {shaft.diameter}{each})", lambda: stress("range"), (c,))
+
+    def _belt(self, belt):
+        load = self._load_of(belt.load, "a belt")
+        c = load.column
+
+        def capacity() -> float:
+            return fatigue.belt_capacity(belt.tight_force, belt.mu, math.radians(belt.wrap),
+                                         0.5 * self._value(belt.diameter), math.radians(belt.groove))
+
+        kind = f"V-belt, groove {belt.groove:g} deg" if belt.groove else "flat belt"
+        self.add(f"{load.name}_transmittable", "N.m", "rating",
+                 f"largest torque the belt transmits on the pulley of {belt.diameter} before it slips: F_1 (1 - "
+                 f"exp(-mu' beta)) r ({kind}; F_1 = {belt.tight_force:g} N, mu = {belt.mu:g}, beta = "
+                 f"{belt.wrap:g} deg{'; ' + belt.source if belt.source else ''})", capacity)
+        self.add(f"{load.name}_slip_margin", "1", "steady",
+                 "transmittable torque / peak belt torque over the steady cycles: > 1 the belt holds",
+                 lambda: capacity() / _reduce("peak", *self.on(self.steady, c)), (c,))
 
     # -- the drives' own answers -------------------------------------------------------------------------------
     def _mask(self, where: str | None) -> np.ndarray:

@@ -14,7 +14,8 @@ result, error and message are then exactly its scalar run's.  So is one whose po
 screen (:mod:`harness.master.batch_watch`) cannot clear: a run the scalar divergence detector might have stopped.
 
 Where the batch does not apply (:func:`refusal`: an FMU the toolkit did not build, a method whose algebra does not
-vectorise, variable step control, input signals, isolation) the caller runs each variant with :func:`simulate`.
+vectorise, variable step control, input signals, isolation, checkpoints, an instance at its own rate) the caller
+runs each variant with :func:`simulate`.
 """
 from __future__ import annotations
 
@@ -104,9 +105,17 @@ def refusal(system, settings: dict) -> str | None:
     control = settings.get("step_control", exp.step_control if exp else None)
     if control not in (None, "none"):
         return f"step control {control!r} chooses each variant's own steps"
-    for name in ("input", "isolate", "tolerance"):
+    for name in ("input", "isolate", "tolerance", "checkpoint", "from_checkpoint"):
         if settings.get(name) is not None:
-            return f"{name} is given (a batch runs fixed steps, with no input signals, in this process)"
+            return (f"{name} is given (a batch runs fixed steps from the start, with no input signals or "
+                    f"checkpoints, in this process)")
+    own = [i.name for i in system.instances if getattr(i, "step", None) is not None]
+    step = settings.get("step", settings.get("step_size"))
+    if not own and exp is not None and exp.rates and any(r > 1 for r in exp.rates.values()) \
+            and master_class(master) is master_class(exp.master) and (step is None or step == exp.step):
+        own = sorted(n for n, r in exp.rates.items() if r > 1)
+    if own:
+        return f"instance {own[0]} steps at its own rate (multirate: every variant's own run)"
     options = settings.get("options")
     if options is not None:
         from dataclasses import replace

@@ -18,7 +18,8 @@ from harness.run.simulation import RunOptions, partial_path, simulate, simulate_
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "run", help="run a system (name in systems/, a .py file defining SYSTEM, or .ssp/.ssd) and write its result",
+        "run", help="run a system (name in systems/, a .py file defining SYSTEM, .ssp/.ssd or an OspSystemStructure.xml) "
+                    "and write its result",
         description="Co-simulate a system and write the result as CSV or Parquet (time in s, one column per "
                     "Instance.variable). --out and --plot are checked before the run. A run that stops early "
                     "(divergence, FMU failure, Ctrl-C, SIGTERM) writes what it computed to OUT.partial.csv and "
@@ -27,7 +28,7 @@ def register(subparsers) -> None:
                     "those of harness.simulate(): --start-time is start_time, --set fills start_values, "
                     "--output is output, --input is input.")
     p.add_argument("system", help="system name in systems/ (e.g. bed_drive; `list` shows them), a .py file "
-                                  "defining SYSTEM, or an .ssp/.ssd file")
+                                  "defining SYSTEM, an .ssp/.ssd file or an OspSystemStructure.xml (or its folder)")
     p.add_argument("--start-time", type=float, default=None, metavar="SECONDS",
                    help="start time [s] (default: the system's default experiment, else 0)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
@@ -71,10 +72,11 @@ def register(subparsers) -> None:
                         "pandas.read_csv(FILE, header=[0, 1], index_col=0); Parquet keeps the units in its "
                         "metadata); default: names only")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
-                   help="write charts of the run: DIR/<system>.png (the system's signals over time) and, "
-                        "where the system declares its crank angle, DIR/<system>_cycle.png (over the last "
-                        "complete crank revolution); <name>.partial.png for a run that stopped early "
-                        "(default: no chart)")
+                   help="write charts of the run, named after --out (x.csv -> DIR/x.png; without --out after "
+                        "the system, <system>[_<scenario>].png): the signals over time and, where the system "
+                        "declares its crank angle, DIR/x_cycle.png (over the last complete crank revolution) and "
+                        "DIR/x_polar.png (joint forces against the crank angle); a stop's DIR/x_stop.png; "
+                        "<name>.partial.png for a run that stopped early (default: no chart)")
     p.add_argument("--svg", action="store_true",
                    help="with --plot: also write each chart as SVG (vector, for a document) beside its PNG "
                         "(default: PNG only; the SVG is a second drawing of each chart)")
@@ -83,6 +85,11 @@ def register(subparsers) -> None:
                         "charts (inline), the drive (instances, fidelities, parameters changed from their "
                         "defaults), the method with the drive's declared accuracy, versions and run time; checked "
                         "before the run (default: none)")
+    p.add_argument("--limits", type=Path, default=None, metavar="FILE.yaml",
+                   help="judge the run's quantities against limits: a YAML mapping 'quantity: \"<= VALUE\"' (the "
+                        "--target syntax of size); each is marked pass or FAIL in the printed table, the JSON "
+                        "(FILE.limits.json beside --out) and the report; exit status 3 after writing everything "
+                        "when any limit fails (default: no limits)")
     p.add_argument("--quiet-quantities", action="store_true",
                    help="do not print the table of the drive's engineering quantities after the run (default: "
                         "printed; with --out they are written beside the result as FILE.quantities.json "
@@ -95,6 +102,18 @@ def register(subparsers) -> None:
                         "of its own: a crash or a hang inside one of its calls stops the run in one line naming "
                         "the instance, the FMI call and the time, and the rows computed so far are kept "
                         "(default: every FMU in this process)")
+    checkpoints = {   # option: (type, metavar, help)
+        "--checkpoint": (Path, "FILE", "write the whole run's state to FILE (every FMU's serialized state, the "
+                                       "master's, the rows so far) at --checkpoint-at, and run on; `run SYSTEM "
+                                       "--from-checkpoint FILE` continues from it, bit for bit (default: none)"),
+        "--checkpoint-at": (float, "SECONDS", "with --checkpoint: the time [s] (the first communication point at "
+                                              "or after it; default: the stop time)"),
+        "--from-checkpoint": (Path, "FILE", "continue the run from a checkpoint FILE of the same system, toolkit "
+                                            "and FMUs, with the same options (--set values that differ are set at "
+                                            "its time); the result holds its rows and the new ones (default: start "
+                                            "from the beginning)")}
+    for option, (kind, metavar, text) in checkpoints.items():
+        p.add_argument(option, type=kind, default=None, metavar=metavar, help=text)
     p.add_argument("--isolate-timeout", type=float, default=None, metavar="SECONDS",
                    help="with --isolate: the longest one FMU call may take before its process is killed and "
                         "the run stops (default: 60 s)")
@@ -109,6 +128,10 @@ def _check_targets(args) -> None:
     if args.out is not None:
         result_format(args.out)
         check_writable(args.out, "--out")
+    if getattr(args, "checkpoint", None) is not None:
+        check_writable(args.checkpoint, "--checkpoint")
+    elif getattr(args, "checkpoint_at", None) is not None:
+        raise HarnessError(f"--checkpoint-at {args.checkpoint_at:g} needs --checkpoint FILE to write to")
     if args.plot is not None:
         check_writable(args.plot, "--plot", folder=True)
     elif getattr(args, "svg", False):
@@ -119,7 +142,7 @@ def _check_targets(args) -> None:
         check_report_path(args.report)
 
 
-def _plot(system, df, folder: Path, svg: bool = False) -> list[Path]:
+def _plot(system, df, folder: Path, svg: bool = False, stem: str | None = None) -> list[Path]:
     """The run's charts in ``folder`` (the PNGs are returned; ``svg``: also as SVG); an incomplete run's under
     ``<name>.partial.png`` (``.svg``), so they never replace the charts of a complete run (drawn beside,
     renamed)."""
@@ -129,10 +152,10 @@ def _plot(system, df, folder: Path, svg: bool = False) -> list[Path]:
     from harness.reporting.charts import plot_result
 
     if df.attrs.get("complete", True):
-        return [p for p in plot_result(system, df, folder, svg) if p.suffix == ".png"]
+        return [p for p in plot_result(system, df, folder, svg, stem) if p.suffix == ".png"]
     with tempfile.TemporaryDirectory(dir=folder, prefix=".partial-chart-") as tmp:
         paths = []
-        for drawn in plot_result(system, df, tmp, svg):
+        for drawn in plot_result(system, df, tmp, svg, stem):
             paths.append(Path(folder) / f"{drawn.stem}.partial{drawn.suffix}")
             os.replace(drawn, paths[-1])
     return [p for p in paths if p.suffix == ".png"]
@@ -154,7 +177,47 @@ def _divergence_hint(a: dict) -> str:
 def run_cli(args) -> int:
     system = load(args.system)  # a wrong name first: no folder is made for it
     _check_targets(args)
+    args.limit_list = _read_limits(system, args)
     return _run(system, args)
+
+
+def _read_limits(system, args) -> list:
+    """The ``--limits`` file read and, in a plain run (whose quantity names are known before it), its names
+    checked: refused in one line before the run."""
+    if getattr(args, "limits", None) is None:
+        return []
+    from harness.reporting import limits
+
+    found = limits.read(args.limits)
+    if not getattr(args, "scenario", None):
+        limits.check_names(found, expected_names(system), f"limits file {args.limits}", f"drive {system.name}")
+    return found
+
+
+def expected_names(system) -> list[str]:
+    """The names of the quantities a plain run of ``system`` gives (from an empty result)."""
+    import pandas as pd
+
+    from harness.reporting.quantities import quantities
+
+    return quantities(system, pd.DataFrame(index=pd.Index([], name="time", dtype=float))).names
+
+
+def _judge(args, df, out) -> tuple[str, bool]:
+    """The ``--limits`` verdicts on the run's quantities: marked in its tables, written beside ``out``; (the
+    printed table, whether any failed)."""
+    from harness.reporting import limits
+
+    a = df.attrs
+    tables = ([(a["scenario"], a["transient"])] if a.get("transient") is not None else []) + [("steady",
+                                                                                                a["quantities"])]
+    verdicts = limits.judge(args.limit_list, tables)
+    for where, q in tables:
+        limits.mark(q, verdicts, where)
+    a["limits"] = verdicts
+    if out is not None:
+        limits.write_json(verdicts, str(args.limits), limits.json_path(out))
+    return limits.table(verdicts, f"limits of {args.limits}"), any(not v.passed for v in verdicts)
 
 
 def _run(system, args) -> int:
@@ -169,7 +232,9 @@ def _run(system, args) -> int:
                             tolerance=args.tolerance, start_values=parse_sets(args.set), output=args.output,
                             options=RunOptions(progress=None, in_process=False if args.fmi_only else None,
                                                isolate=_isolation(args)),
-                            on_error="return")
+                            on_error="return", from_checkpoint=getattr(args, "from_checkpoint", None))
+            if getattr(args, "checkpoint", None) is not None:
+                settings["checkpoint"] = (args.checkpoint, args.checkpoint_at)
             if getattr(args, "scenario", None):
                 df = simulate_scenario(system, args.scenario, **settings)
             else:
@@ -183,6 +248,7 @@ def _run(system, args) -> int:
     out = args.out
     if out is not None and not a["complete"]:
         out = partial_path(out)
+    judged, failed = _judge(args, df, out) if getattr(args, "limit_list", None) else ("", False)
     if out is not None:
         from harness.results import write_result
 
@@ -192,13 +258,16 @@ def _run(system, args) -> int:
         if a.get("transient") is not None and a["transient"].rows:
             a["transient"].write_json(out.with_name(f"{out.stem}.transient.json"))
     where = f"wrote {out}" if out is not None else "no --out given, result not written"
+    if (a.get("checkpoint") or {}).get("time") is not None:
+        where += f"; checkpoint {a['checkpoint']['path']} at t = {a['checkpoint']['time']:.9g} s"
     charts = None
     if args.plot is not None and len(df):
         if a.get("scenario"):  # a transient's charts beside the plain run's, not over them
             import dataclasses
 
             system = dataclasses.replace(system, name=f"{system.name}_{a['scenario']}")
-        charts = _plot(system, df, args.plot, getattr(args, "svg", False))
+        charts = _plot(system, df, args.plot, getattr(args, "svg", False),
+                       stem=Path(args.out).stem if args.out is not None else None)
         where += "; chart " + ", ".join(str(p) for p in charts)
         from harness.reporting.charts import cycle_chart_missing
 
@@ -223,6 +292,12 @@ def _run(system, args) -> int:
         print(a["quantities"].table())
     if a.get("transient") is not None:
         print(a["transient"].table())
+    if judged:
+        print(judged)
+    if failed:
+        from harness.reporting.limits import FAILED
+
+        return FAILED
     return 0
 
 

@@ -38,12 +38,15 @@ from harness.master.extrapolation import extrapolation as make_extrapolation
 from harness.fmi import FMUInstance, open_instance, release
 from harness.master import ConvergenceError, IterationOptions, master_class
 from harness.master.clock import NS
+from harness.master.multirate import rates_of
 from harness.model import model_description, resolve_fmu
 from harness.master.observers import ProgressBar, Recording
 from harness.reporting.quantities import quantities
 from harness.results import Recorder
 from harness.signals import Signals, full_name
 from harness.master.stepcontrol import StepOptions, step_control as make_step_control
+from harness.run.checkpoint import (Checkpoint, Resume, Resumed, Writer, manifest, refuse_unserializable,
+                                    signals_digest)
 from harness.run.interrupts import RunInterrupted, RunWarning
 from harness.run.systems import load
 from harness.run.parameters import _positive, _renamed, split_parameters
@@ -81,7 +84,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
              extrapolation=None, step_control: str | None = None, tolerance: float | None = None,
              start_values: dict | None = None, output: list[str] | None = None, *, start_time: float | None = None,
              output_interval: float | None = None, input=None, on_error: str = "return",
-             options: RunOptions | None = None, isolate=None, **other_names) -> pd.DataFrame:
+             options: RunOptions | None = None, isolate=None, checkpoint=None, from_checkpoint=None,
+             **other_names) -> pd.DataFrame:
     """Co-simulate ``system`` and return its result: a DataFrame indexed by time [s], one column per
     ``Instance.variable`` (in the FMU's declared unit, ``df.attrs["units"]``).
 
@@ -128,6 +132,12 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     * ``options``: :class:`RunOptions` (iteration, step-control limits, blow-up limit, divergence detector,
       progress bar, FMU logging, in-process calls, isolation); default ``RunOptions()``.
     * ``isolate``: ``RunOptions.isolate`` given here (True: every foreign FMU in a child process of its own).
+    * ``checkpoint``: a file, or (file, time [s]): write the whole run's state there at the first communication
+      point at or after that time (default: the stop time) and run on (:mod:`harness.run.checkpoint`;
+      ``--checkpoint``, ``--checkpoint-at``); ``df.attrs["checkpoint"]`` says where and when.
+    * ``from_checkpoint``: a checkpoint file to continue from, to ``stop_time`` (``--from-checkpoint``): the
+      result is the run that was never interrupted, bit for bit; parameters that differ from the checkpoint's
+      are set at its time.
     * ``other_names``: FMPy's ``step_size`` and ``relative_tolerance``; ``parameters=`` and ``outputs=``, this
       function's former names of ``start_values`` and ``output``, still accepted with a DeprecationWarning.
 
@@ -185,6 +195,10 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
                                      f"stop_time = {stop_time!r} s" if start_ns else
                                      f"step = {step!r} s is longer than stop_time = {stop_time!r} s")
     sample_ns = _output_interval(output_interval, step, step_ns, step_control)
+    rates = {**_declared_rates(system, master, step_ns), **rates_of(system.instances, step_ns,
+                                                                      f"system {system.name}")}   # own rates
+    request = Checkpoint.of(checkpoint)
+    resume = Resume(from_checkpoint) if from_checkpoint is not None else None
     cls = master_class(master)
     extra = make_extrapolation(extrapolation)
     params = split_parameters(system, start_values)
@@ -194,7 +208,8 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
     mds = {name: model_description(p) for name, p in paths.items()}
     signals = None
     if input is not None:
-        signals = Signals(system, mds, system.all_connections(mds), input)
+        signals = (input.for_run(system, mds, system.all_connections(mds)) if hasattr(input, "for_run") else
+                   Signals(system, mds, system.all_connections(mds), input))   # a table, or a libcosim scenario
         for inst, values in signals.start_values(start_ns).items():  # set before the FMUs initialize
             params[inst].update(values)
     system.validate(mds, {f"{i}.{k}": v for i, d in params.items() for k, v in d.items()})
@@ -207,7 +222,14 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
             fmus[inst.name] = open_instance(paths[inst.name], inst.name, opts.logging, opts.in_process,
                                             isolate=opts.isolate)
         m = cls(fmus, connections, system.bonds, extra, opts.iteration, tolerance, opts.blowup)
-        controller = make_step_control(step_control, m, step_ns, tolerance, opts.steps)
+        m.use_rates(rates, step_ns)
+        if hasattr(signals, "attach"):   # a libcosim scenario acts on the master's coupling (harness.osp.scenario)
+            signals.attach(m)
+        controller = make_step_control(step_control, m, step_ns, tolerance, _step_options(opts, exp))
+        if m.rates is not None and controller.variable:
+            raise SystemDescriptionError(f"step_control = {controller.name!r} varies the step, but instances "
+                                         f"{', '.join(rates)} step at their own rates (a whole multiple of a fixed "
+                                         f"base step): use a fixed step, or give every instance the base step")
         if not controller.variable and (stop_ns - start_ns) % step_ns:
             for name, f in fmus.items():
                 if not f.can_vary_step:
@@ -222,10 +244,51 @@ def simulate(system, stop_time: float | None = None, step: float | None = None, 
                     tolerance=tolerance, output_interval=sample_ns / NS, inputs=signals.names if signals else [],
                     units=column_units(fmus, rec.columns))
         info["start_values"] = {k: (v.item() if hasattr(v, "item") else v) for k, v in (start_values or {}).items()}
+        writer = None
+        if request is not None or resume is not None:
+            refuse_unserializable(fmus, f"system {system.name}")
+            if hasattr(signals, "attach"):
+                raise SystemDescriptionError(f"system {system.name}: a checkpoint does not keep where a libcosim "
+                                             f"scenario is (its events run, its actions): run it from the start")
+            settings = dict(master=cls.name, extrapolation=extra.order, step_ns=step_ns, step_control=controller.name,
+                            tolerance=tolerance, start_ns=start_ns, sample_ns=sample_ns, output=list(rec.columns),
+                            inputs=None if signals is None else [signals.names, signals_digest(signals)],
+                            options=repr((opts.iteration, opts.steps, opts.blowup, opts.divergence)),
+                            rates=dict(rates))
+            head = manifest(system, paths, settings, params)
+            if resume is not None:
+                resume.check(head, stop_ns)
+            if request is not None:
+                writer = Writer(request, head, {}, stop_ns)
+        if m.rates is not None:
+            info["rates"] = dict(rates)   # instance -> its step as a multiple of the base step
         return _run(m, controller, rec, params, (start_ns, stop_ns, step_ns, sample_ns), tolerance, on_error, opts,
-                    info, system, signals)
+                    info, system, signals, (writer, resume))
     finally:
         release(m, fmus)
+
+
+def _declared_rates(system, master: str, step_ns: int) -> dict:
+    """The rates of the system's experiment (``Experiment.rates``) when the run takes its master and step."""
+    exp = system.experiment
+    if exp is None or not exp.rates or master_class(master) is not master_class(exp.master) \
+            or step_ns != int(round(exp.step * NS)):
+        return {}
+    names = {i.name for i in system.instances}
+    for name, rate in exp.rates.items():
+        if name not in names or isinstance(rate, bool) or not isinstance(rate, int) or rate < 1:
+            raise SystemDescriptionError(f"system {system.name}: experiment rates {name}={rate!r}: must name an "
+                                         f"instance ({', '.join(sorted(names))}) with a whole number >= 1")
+    return {n: r for n, r in exp.rates.items() if r > 1}
+
+
+def _step_options(opts: RunOptions, exp):
+    """The step-control options: the run's, or where it leaves them at their defaults those the system's
+    experiment declares (an OSP EccoConfiguration, :mod:`harness.osp`)."""
+    declared = getattr(exp, "step_options", None) if exp is not None else None
+    if declared and opts.steps == StepOptions():
+        return StepOptions(**declared)
+    return opts.steps
 
 
 def column_units(fmus: dict, columns: list[str]) -> dict[str, str]:
@@ -260,7 +323,8 @@ def _output_interval(output_interval, step: float, step_ns: int, step_control) -
     return sample_ns
 
 
-def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info, system, signals=None):
+def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, info, system, signals=None,
+         checkpoints=(None, None)):
     """Initialize ``m`` and run it over ``span`` = (start, stop, step, recording interval) [ns] in the one run
     loop (:meth:`harness.master.Master.run`), with the recording, the divergence watch and the progress bar as
     its observers and ``signals`` (a :class:`~harness.signals.Signals`) as its inputs; the result, marked as it
@@ -278,11 +342,20 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
         observers.append(watch)
     observers += list(opts.observers)
     observers.append(ProgressBar(stop_ns - start_ns, opts.progress))
+    writer, resume = checkpoints
+    if writer is not None:
+        writer.parts.update(controller=controller, recorder=rec, watch=watch)
+        observers.append(writer)
+    first_ns = None
     init_time = math.nan  # the initialisation's share of wall_time (NaN: it did not finish)
     try:
         m.initialize(start_ns, stop_ns, tolerance, params)
+        if resume is not None:   # the checkpoint's state; its rows and detector saw their start already
+            resume.restore(m, controller, rec, watch, params)
+            observers = [Resumed(o) if o is observers[0] or o is watch else o for o in observers]
+            first_ns = resume.first_ns(controller)
         init_time = _time.perf_counter() - wall
-        m.run(controller, stop_ns, observers, inputs=signals)
+        m.run(controller, stop_ns, observers, inputs=signals, first_ns=first_ns)
     except (FMUError, SimulationError, ConvergenceError) as e:
         error = str(e).splitlines()[0] if str(e) else type(e).__name__
         err_obj = e
@@ -301,6 +374,10 @@ def _run(m, controller, rec: Recorder, params, span, tolerance, on_error, opts, 
                 iterations=m.iterations,
                 fmu_steps=m.fmu_steps, halved_steps=m.halvings,
                 rejected=controller.rejected, max_error_estimate=controller.max_accepted_error)
+    if writer is not None:
+        info["checkpoint"] = {"path": str(writer.request.path), "time": writer.written}
+    if resume is not None:
+        info["resumed_from"] = {"path": str(resume.path), "time": resume.t_ns / NS}
     df = rec.frame(complete=not error, error=error, **info)
     df.attrs["diverged"] = isinstance(err_obj, Diverged)
     df.attrs["blew_up"] = isinstance(err_obj, BlowUp)
@@ -327,13 +404,50 @@ def simulate_scenario(system, scenario, **options) -> pd.DataFrame:
     ``options``, the scenario's parameters under the ``start_values`` given, its changes as the input signals and
     its stop time unless given.  ``df.attrs["scenario"]`` is its name, ``df.attrs["transient"]`` its quantities."""
     from harness import scenarios
+    from harness.osp.scenario import LibcosimScenario, is_libcosim_scenario
 
     system = load(system)
+    if is_libcosim_scenario(scenario):   # libcosim's format: its events act as libcosim's scenario manager has them
+        sc = LibcosimScenario(scenario)
+        if options.get("input") is not None:
+            raise SystemDescriptionError(f"scenario file {scenario} acts on the variables itself: give input signals "
+                                         f"or a scenario, not both")
+        if options.get("stop_time") is None and sc.end is not None:
+            options["stop_time"] = sc.end
+        df = simulate(system, **{**options, "input": sc})
+        df.attrs["scenario"] = Path(str(scenario)).stem
+        return df
     sc, options = scenarios.prepare(system, scenario, options)
+    asked = options["stop_time"]
+    if sc.kind in ("stop", "jam") and sc.changes and system.quantities is not None:
+        options = _until_settled(system, sc, options)
     df = simulate(system, **options)
     df.attrs["scenario"] = sc.name
+    df.attrs["stop_time_asked"] = asked
+    if sc.kind == "stop" and sc.changes:
+        df.attrs["stop_command"] = min(c.time for c in sc.changes)
+    if sc.kind != "startup" and sc.changes and len(df):   # the steady cycles are those before the first change
+        first = min(c.time for c in sc.changes)
+        df.attrs["quantities"] = quantities(system, df.loc[:first],
+                                            scope=f"before the scenario's first change at t = {first:g} s")
     df.attrs["transient"] = scenarios.transient(system, sc, df)
     return df
+
+
+def _until_settled(system, sc, options: dict) -> dict:
+    """A stop's (a jam's) run options: on past its stop time until the drive has settled at rest, up to its limit
+    (:mod:`harness.run.settling`)."""
+    import dataclasses
+
+    from harness.run.settling import HOLD, LIMIT, Settling
+
+    asked = options["stop_time"]
+    limit = max(asked, sc.settle_limit if sc.settle_limit is not None else LIMIT * sc.stop_time)
+    command = min(c.time for c in sc.changes)
+    watch = Settling(system.quantities.shaft_speed, round(command * NS), round(asked * NS),
+                     sc.settle_hold if sc.settle_hold is not None else HOLD)
+    opts = options.get("options") or RunOptions()
+    return {**options, "stop_time": limit, "options": dataclasses.replace(opts, observers=(*opts.observers, watch))}
 
 
 def partial_path(path: Path) -> Path:

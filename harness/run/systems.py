@@ -14,7 +14,8 @@ from harness.model import System, model_description
 def load(x) -> System:
     """A :class:`System` from a module name in ``systems/`` (its ``SYSTEM``; ``"bed_drive"``, also written
     ``"bed_drive.py"`` or ``"systems/bed_drive.py"``), the path of any Python file that defines ``SYSTEM``, an
-    .ssp/.ssd file or an SSP unpacked into a folder (holding SystemStructure.ssd), a bare .fmu (run alone,
+    .ssp/.ssd file or an SSP unpacked into a folder (holding SystemStructure.ssd), OSP's OspSystemStructure.xml
+    (or a folder holding one: :mod:`harness.osp`), a bare .fmu (run alone,
     :func:`_fmu_system`), or itself.  Anything else is a :class:`~harness.errors.SystemDescriptionError` in one
     line naming what was given and the known systems (with the closest name when it looks misspelt)."""
     if isinstance(x, System):
@@ -24,13 +25,21 @@ def load(x) -> System:
         from harness.ssp import load_ssp
 
         return load_ssp(s)
+    if s.lower().endswith(".xml") or (Path(s) / "OspSystemStructure.xml").is_file():
+        from harness.osp import is_osp_structure, load_osp
+
+        if is_osp_structure(s) or not Path(s).exists():
+            return load_osp(s)
+        raise SystemDescriptionError(f"{s}: an .xml system must be an OspSystemStructure (its root element is not); "
+                                     f"{_known_systems()}")
     if s.lower().endswith(".py"):
         return _load_file(Path(s))
     if s.lower().endswith(".fmu"):
         return _fmu_system(Path(s))
     name = s[len("systems."):] if s.startswith("systems.") else s
     if not name.isidentifier():  # a file of another kind, a folder, a path: no module name at all
-        raise SystemDescriptionError(f"system {s!r} is neither a system name nor a .py, .ssp or .ssd file; "
+        raise SystemDescriptionError(f"system {s!r} is neither a system name nor a .py, .ssp, .ssd or "
+                                     f"OspSystemStructure.xml file; "
                                      f"{_known_systems()}")
     try:
         module = importlib.import_module(f"systems.{name}")
@@ -89,7 +98,8 @@ def _system_of(module, where: str) -> System:
 
 
 def _known_systems() -> str:
-    return "known systems: " + ", ".join(system_names()) + " (or a .py file defining SYSTEM, or .ssp/.ssd)"
+    return ("known systems: " + ", ".join(system_names()) + " (or a .py file defining SYSTEM, .ssp/.ssd, or an "
+            "OspSystemStructure.xml)")
 
 
 def _close_match(name: str) -> str:

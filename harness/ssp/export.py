@@ -26,7 +26,7 @@ from xml.etree import ElementTree as ET
 
 from fmus.units import BASE_UNITS
 from harness.errors import SystemDescriptionError
-from harness.model import System, model_description, resolve_fmu
+from harness.model import System, host_step, model_description, resolve_fmu  # host_step: public here too
 from harness.ssp.format import FMU_TYPE, OSP_ANNOTATION, OWN_ANNOTATION, PARAMETER_SET
 from harness.ssp.start_values import consistent_inputs
 from harness.ssp.values import _q
@@ -134,6 +134,8 @@ def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] |
                 if v.type == "Real" and v.unit:
                     attrs["unit"] = v.unit
                 ET.SubElement(p, _q(f"ssv:{v.type}"), attrs)
+        if inst.step is not None:   # its own step, as libcosim reads it (harness.master.multirate)
+            ET.SubElement(_annotation(comp, OSP_ANNOTATION), _q("osp:StepSizeHint"), {"value": _num(float(inst.step))})
     # SSP 1.0's schema wants at least one ssd:Connection in ssd:Connections: a system of one FMU has none
     conn_el = ET.SubElement(sys_el, _q("ssd:Connections")) if connections else None
     for c in connections:
@@ -165,7 +167,8 @@ def build_ssd(system: System, sources: dict[str, str], starts: dict[str, dict] |
     if exp is not None:
         ET.SubElement(own, _q("pd:Experiment"), {k: str(v) for k, v in (
             ("master", exp.master), ("extrapolation", exp.extrapolation), ("stepControl", exp.step_control),
-            ("tolerance", exp.tolerance), ("step", _num(float(exp.step)) if exp.step else None)) if v is not None})
+            ("tolerance", exp.tolerance), ("step", _num(float(exp.step)) if exp.step else None),
+            ("rates", " ".join(f"{k}={v}" for k, v in exp.rates.items()) if exp.rates else None)) if v is not None})
     units_el = ET.SubElement(root, _q("ssd:Units"))
     for name in sorted(used_units):
         u = ET.SubElement(units_el, _q("ssc:Unit"), {"name": name})
@@ -195,17 +198,6 @@ def _value_table(parent: ET.Element, table: dict, boolean: bool) -> None:
         ET.SubElement(el, _q("ssc:MapEntry"), {"source": text(k), "target": text(v)})
 
 
-def host_step(system: System) -> float:
-    """The step the SSP declares to other hosts (the OSP annotation): the drive's ``sampled_host_step`` where it
-    declares one below its experiment's step -- libcosim, Ecos and FMPy read outputs right after each step and
-    hold them, and need a smaller step than the harness's own master to meet the drive's accuracy --
-    else the experiment's step.  The harness's own step goes in the ``pd:Experiment`` annotation."""
-    step = float(system.experiment.step)
-    accuracy = getattr(system, "accuracy", None)
-    sampled = getattr(accuracy, "sampled_host_step", None)
-    return min(step, float(sampled)) if sampled else step
-
-
 def _annotation(parent: ET.Element, kind: str) -> ET.Element:
     anns = parent.find(_q("ssd:Annotations"))
     if anns is None:
@@ -217,15 +209,24 @@ def _annotation(parent: ET.Element, kind: str) -> ET.Element:
 # CLI
 # --------------------------------------------------------------------------------------------------------
 def register(subparsers) -> None:
-    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included) or as one "
-                                             "co-simulation FMU (.fmu)",
+    p = subparsers.add_parser("export", help="write a system as an SSP 1.0 archive (FMUs included), as one "
+                                             "co-simulation FMU (.fmu) or as OSP's OspSystemStructure.xml "
+                                             "(--format osp)",
                               description="Write a system as an SSP 1.0 archive (OUT.ssp: its FMUs, their "
                                           "connections and parameter values) for other FMI/SSP tools, or as one "
                                           "co-simulation FMU of the whole drive (OUT.fmu: its FMUs inside, run by "
                                           "the drive's own master and step in each fmi2DoStep) for tools that "
                                           "import single FMUs.")
-    p.add_argument("system", help="system module name in systems/, or a .ssp/.ssd file")
-    p.add_argument("out", type=Path, help="output file: .ssp (SSP archive) or .fmu (one FMU of the drive)")
+    p.add_argument("system", help="system module name in systems/, a .ssp/.ssd file or an OspSystemStructure.xml")
+    p.add_argument("out", type=Path, help="output file: .ssp (SSP archive) or .fmu (one FMU of the drive); with "
+                                          "--format osp a folder")
+    p.add_argument("--format", choices=("ssp", "fmu", "osp"), default=None,
+                   help="what to write: ssp, fmu, or osp (OSP's OspSystemStructure.xml with an "
+                        "OspModelDescription per FMU and the FMUs, into the folder OUT: harness.osp.write); "
+                        "default: from OUT's suffix")
+    p.add_argument("--algorithm", choices=("fixedStep", "ecco"), default="fixedStep",
+                   help="--format osp: the OSP algorithm the file declares (ecco: libcosim's energy-conservation "
+                        "step control over the drive's power bonds); default fixedStep")
     p.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
                    help="FMI version of a drive FMU (.fmu): 2 (pythonfmu) or 3 (pythonfmu3); default 2")
     p.add_argument("--output", action="append", default=None, metavar="Instance.variable",
@@ -235,9 +236,18 @@ def register(subparsers) -> None:
 
 
 def _run_export(args) -> int:
-    from harness import load
+    from harness.run import load
 
     suffix = Path(args.out).suffix.lower()
+    if args.format == "osp":
+        from harness.osp.write import export_osp
+
+        if args.output:
+            raise SystemDescriptionError(f"--output applies to a drive FMU (.fmu), not to --format osp")
+        print(f"wrote {export_osp(load(args.system), args.out, algorithm=args.algorithm)}")
+        return 0
+    if args.format is not None and suffix != f".{args.format}":
+        raise SystemDescriptionError(f"--format {args.format}: {args.out} must end in .{args.format}")
     if suffix == ".fmu":
         from harness.export.drive_fmu import export_fmu
 

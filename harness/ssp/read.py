@@ -35,7 +35,7 @@ from harness.errors import SystemDescriptionError
 from harness.fmi.cache import model_exchange_only, terminals, unzipped
 from harness.model import Bond, Connection, Experiment, Instance, System, model_description
 from harness.ssp.bindings import Bindings
-from harness.ssp.format import FMU_TYPE, OWN_ANNOTATION
+from harness.ssp.format import FMU_TYPE, OSP_ANNOTATION, OWN_ANNOTATION
 from harness.ssp.values import VALUE_TABLES, Quantity, Unit, _q, units, value_table
 
 
@@ -366,9 +366,28 @@ class _Reader(Bindings):
                 fmu = model_exchange_only(fmu)
             except SystemDescriptionError as e:
                 raise self.fail(f"component '{name}': implementation='ModelExchange', but {e}") from None
-        inst = Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'", fmu))
+        inst = Instance(name=name, fmu=fmu, parameters=self.parameter_bindings(el, f"component '{name}'", fmu),
+                        step=self.step_size_hint(el, name))
         inst.parameters = {k: self.convert(v, inst, k) for k, v in inst.parameters.items()}
         return inst
+
+    def step_size_hint(self, el: ET.Element, name: str) -> float | None:
+        """The component's own step from OSP's annotation (``osp:StepSizeHint value``, libcosim's per-component
+        step: :mod:`harness.master.multirate`), or None."""
+        for ann in el.findall(f"{_q('ssd:Annotations')}/{_q('ssc:Annotation')}"):
+            if ann.get("type") != OSP_ANNOTATION:
+                continue
+            hint = ann.find(_q("osp:StepSizeHint"))
+            if hint is not None:
+                try:
+                    value = float(hint.get("value", ""))
+                except ValueError:
+                    value = float("nan")
+                if not (value > 0 and value < float("inf")):
+                    raise self.fail(f"component '{name}': osp:StepSizeHint value={hint.get('value')!r} must be a "
+                                    f"positive number of seconds")
+                return value
+        return None
 
     def drop_unknown_bindings(self, instances: list[Instance]) -> None:
         """A parameter binding names a variable its component's FMU lacks: OMSimulator warns and runs, so the
@@ -572,5 +591,12 @@ class _Reader(Bindings):
             step = float(extra["step"])
         return Experiment(stop_time=float(stop) if stop is not None else None, step=step,
                           master=extra.get("master", "jacobi"), extrapolation=int(extra.get("extrapolation", 0)),
-                          step_control=extra.get("stepControl"),
+                          step_control=extra.get("stepControl"), rates=_rates(extra.get("rates")),
                           tolerance=float(extra["tolerance"]) if "tolerance" in extra else None, start_time=start)
+
+
+def _rates(text: str | None) -> dict | None:
+    """The experiment's rates as the toolkit's annotation writes them (``"trim=25 motor=2"``)."""
+    if not text:
+        return None
+    return {k: int(v) for k, v in (item.split("=", 1) for item in text.split())}

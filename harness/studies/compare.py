@@ -210,6 +210,8 @@ class Comparison:
                                                float(df.index[-1]) if len(df) else 0.0,
                                                df.attrs.get("wall_time")] for lab, df in self.results.items()],
                                              numeric={2, 3, 4}))
+            for lab, verdicts in (getattr(self, "verdicts", None) or {}).items():
+                h.limits_section(page, verdicts, f"variant {lab}")
             page.section("Engineering quantities side by side",
                          h.para(_heading_line(first)), h.frame_table(self.frame(), "quantity"))
             page.section("Charts", *[h.image(p, f"{self.system.name}: the variants over their last machine cycle")
@@ -299,11 +301,18 @@ def register(subparsers) -> None:
                    help="run the variants one after the other (default: together, as one batch of variants, where "
                         "the drive's FMUs are the toolkit's and the method is jacobi, jacobi-sampled or "
                         "gauss-seidel; the same numbers)")
+    p.add_argument("--from-checkpoint", type=Path, default=None, metavar="FILE",
+                   help="every variant continues this checkpoint of the drive (`run --checkpoint`): a shared "
+                        "start-up run once, each variant's values set at its time (default: each from the start)")
     p.add_argument("--out", type=Path, default=None, metavar="FILE.csv",
                    help="write the side-by-side table as CSV (default: printed only)")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
                    help="draw the variants over their last machine cycle against the crank angle: "
                         "DIR/<drive>_compare.png (default: no chart)")
+    p.add_argument("--limits", type=Path, default=None, metavar="FILE.yaml",
+                   help="judge every variant's quantities against limits (a YAML mapping 'quantity: \"<= VALUE\"', "
+                        "as run --limits): pass or FAIL per variant, printed, in FILE.limits.json beside --out and "
+                        "in the report; exit status 3 after writing everything when any fails (default: none)")
     p.add_argument("--report", type=Path, default=None, metavar="FILE.html",
                    help="write one self-contained HTML page: the variants, the side-by-side table, the overlaid "
                         "chart, the drive, the method and versions; checked before any run (default: none)")
@@ -325,9 +334,20 @@ def _cli(args) -> int:
 
         check_report_path(args.report)
     check(system, variants)
-    result = compare(system, variants, batch=not args.no_batch, stop_time=args.stop_time, step=args.step,
-                     master=args.master, options=RunOptions(progress=None))
+    found = []
+    if getattr(args, "limits", None) is not None:
+        from harness.reporting import limits
+        from harness.run.cli import expected_names
+
+        found = limits.read(args.limits)
+        limits.check_names(found, expected_names(system), f"limits file {args.limits}", f"drive {system.name}")
+    result = compare(system, variants, batch=not getattr(args, "no_batch", False), stop_time=args.stop_time,
+                     step=args.step, master=args.master, options=RunOptions(progress=None),
+                     from_checkpoint=getattr(args, "from_checkpoint", None))
+    failed = _judge(result, found, args) if found else False
     print(result.table())
+    for lab, verdicts in (result.verdicts if found else {}).items():
+        print(limits.table(verdicts, f"variant {lab}: limits of {args.limits}"))
     if args.out is not None:
         result.frame().to_csv(args.out)
         print(f"wrote {args.out}")
@@ -338,4 +358,23 @@ def _cli(args) -> int:
               "or no variant completed a machine cycle")
     if args.report is not None:
         print(f"report {result.report(args.report, charts)}")
+    if failed:
+        return limits.FAILED
     return 0
+
+
+def _judge(result: Comparison, found: list, args) -> bool:
+    """Every variant's quantities against the limits (:mod:`harness.reporting.limits`), kept on ``result`` and
+    written beside ``--out``; whether any failed."""
+    import json
+
+    from harness.reporting import limits
+
+    result.verdicts = {}
+    for lab, df in result.results.items():
+        result.verdicts[lab] = limits.judge(found, [(lab, df.attrs["quantities"])])
+    if args.out is not None:
+        limits.json_path(args.out).write_text(json.dumps(
+            {lab: limits.to_dict(v, str(args.limits)) for lab, v in result.verdicts.items()}, indent=1,
+            allow_nan=False) + "\n")
+    return any(not v.passed for vs in result.verdicts.values() for v in vs)

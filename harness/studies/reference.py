@@ -8,7 +8,7 @@ in topological order of the strongly connected components of the instance graph,
 and a differential that feed each other's reactions) is swept as often as it has members, which is exact
 whenever the variable-level graph has no algebraic loop (the masters detect and report those).
 
-Three kinds of state are not plain ODE states and get explicit treatment here (the table ``_KINDS`` below,
+Five kinds of state are not plain ODE states and get explicit treatment here (the table ``_KINDS`` below,
 keyed by model class and fidelity, is the only place that knows about them):
 
 * *algebraic* states of rigid (fidelity-0) levels that ``advance`` sets from the held inputs (FourBar,
@@ -28,6 +28,9 @@ keyed by model class and fidelity, is the only place that knows about them):
   rotor's stop and a held rotor's breaking loose are events too; while it slides, the friction keeps the
   slide's sense (also where a stage of the integrator overshoots zero), while it holds, the rotor's angle and
   speed are frozen;
+* *an end stop* (a jam: RackBed, ParallelShafts with a stop): the tool reaching the stop and leaving it are
+  events (its force's kink), and where it reaches a catch the memory ``stop_caught`` is set as the FMU's step
+  sets it;
 * *step memory*: RackBed at fidelity 0 estimates the bed acceleration from the inputs of successive
   communication steps; a monolithic model has no steps, so that level is refused with a one-line error
   (use fidelity 1).
@@ -173,59 +176,135 @@ class _CamRockerContact(_Contact):
 class _Brake(_Switch):
     """MotorBelt's rotor brake: commanded, it takes hold when its timer reaches the delay; sliding, the rotor's
     speed reaching zero stops it; held, the rotor's other torques reaching the holding torque set it sliding.
-    While it slides, its friction keeps the slide's sense; while it holds, the rotor's angle and speed are frozen
-    (the rest of the drive moves on)."""
+    While it slides, its friction keeps the slide's sense (also where a stage of the integrator overshoots zero),
+    while it holds, the rotor's angle and speed are frozen (the rest of the drive moves on).  A brake of another
+    model names its speed, timer and command (``SPEED``, ``TIMER``, ``COMMAND``) and overrides the accessors."""
+
+    SPEED, TIMER, COMMAND = 1, 3, 3     # indices in x, x and u
+    mode = "released"                   # until armed: the model's own derivatives
 
     @classmethod
     def applies(cls, model) -> bool:
         return model.p.holding_torque > 0.0
 
+    def holding(self) -> float:
+        return self.model.p.holding_torque
+
+    def delay(self) -> float:
+        return self.model.p.brake_delay
+
+    def at_rest(self, t, x, u) -> float:
+        """The braked part's other torques at rest [N.m]."""
+        return self.model.rotor_torque_at_rest(t, x, u, t)
+
+    def sliding(self, t, x, u, friction: float) -> np.ndarray:
+        """dx/dt with the brake's torque ``friction``."""
+        return self.model.derivatives_with(t, x, u, t, friction)
+
     loose = False  # the held rotor has just broken loose: arm it sliding (its torques sit at the holding torque)
 
     def arm(self, t, x, u) -> None:
-        m = self.model
         loose, self.loose = self.loose, False
-        if u[3] < 0.5:
+        speed = x[self.SPEED]
+        if u[self.COMMAND] < 0.5:
             self.mode = "released"
-        elif x[3] < m.p.brake_delay:
+        elif x[self.TIMER] < self.delay():
             self.mode, self.direction = "engaging", 1.0
-        elif x[1] != 0.0:
-            self.mode, self.direction, self.sense = "sliding", -1.0, math.copysign(1.0, x[1])
-        elif not loose and abs(m.rotor_torque_at_rest(t, x, u, t)) <= m.p.holding_torque:
+        elif speed != 0.0:
+            self.mode, self.direction, self.sense = "sliding", -1.0, math.copysign(1.0, speed)
+        elif not loose and abs(self.at_rest(t, x, u)) <= self.holding():
             self.mode, self.direction = "held", -1.0
         else:
             self.mode, self.direction = "sliding", -1.0
-            self.sense = math.copysign(1.0, m.rotor_torque_at_rest(t, x, u, t))
+            self.sense = math.copysign(1.0, self.at_rest(t, x, u))
 
     def value(self, t, x, u) -> float:
-        m = self.model
         if self.mode == "engaging":
-            return x[3] - m.p.brake_delay
+            return x[self.TIMER] - self.delay()
         if self.mode == "sliding":
-            return self.sense * x[1]
+            return self.sense * x[self.SPEED]
         if self.mode == "held":
-            return m.p.holding_torque - abs(m.rotor_torque_at_rest(t, x, u, t))
+            return self.holding() - abs(self.at_rest(t, x, u))
         return 1.0
 
     def switch(self, t, x, u) -> np.ndarray:
         x = np.array(x, dtype=float)
         if self.mode == "engaging":
-            x[3] = max(x[3], self.model.p.brake_delay)
+            x[self.TIMER] = max(x[self.TIMER], self.delay())
         elif self.mode == "sliding":
-            x[1] = 0.0
+            x[self.SPEED] = 0.0
         elif self.mode == "held":
             self.loose = True
         return x
 
     def derivatives(self, t, x, u):
-        m = self.model
         if self.mode == "sliding":   # the friction's sense is the slide's, also where a stage overshoots zero
-            return m.derivatives_with(t, x, u, t, -m.p.holding_torque * self.sense)
-        if self.mode == "held":      # the rotor frozen; the brake's reaction holds it
-            dx = m.derivatives_with(t, x, u, t)
-            dx[0] = dx[1] = 0.0
+            return self.sliding(t, x, u, -self.holding() * self.sense)
+        if self.mode == "held":      # the braked part frozen; the brake's reaction holds it
+            dx = self.sliding(t, x, u, -self.at_rest(t, x, u))
+            dx[self.SPEED - 1] = dx[self.SPEED] = 0.0
             return dx
         return None
+
+
+class _ClutchBrake(_Brake):
+    """The clutch-brake of a ClutchBrakeShaft: the same switches on the crank side (its speed, timer, command)."""
+
+    SPEED, TIMER, COMMAND = 3, 5, 3
+
+    @classmethod
+    def applies(cls, model) -> bool:
+        return model.p.cb_torque > 0.0
+
+    def holding(self) -> float:
+        return self.model.p.cb_torque
+
+    def delay(self) -> float:
+        return self.model.p.cb_delay
+
+    def at_rest(self, t, x, u) -> float:
+        return u[1] + u[2]
+
+    def sliding(self, t, x, u, friction: float) -> np.ndarray:
+        if x[self.TIMER] < self.delay() or u[self.COMMAND] < 0.5:
+            return self.model.derivatives(t, x, u, t)
+        return self.model.derivatives_open(t, x, u, friction)
+
+
+class _EndStop(_Switch):
+    """An end stop (a jam) of a model with :class:`fmus.physics.contact.EndStop`: the tool's coordinate against
+    the stop's position.  Where it reaches the stop a catch keeps it (the memory ``stop_caught`` set, as the FMU's
+    step does), and an end stop's force has its kink (an event restarts the integration there, and where the tool
+    leaves it); a caught tool has no switch left."""
+
+    @classmethod
+    def applies(cls, model) -> bool:
+        return model.has_stop
+
+    def __init__(self, i: int, model):
+        super().__init__(i, model)
+        self.q = model.outputs.index(model.stop_signals[0])
+        self.memory = [s.name for s in model.states].index("stop_caught")
+        self.mode = "clear"
+
+    def arm(self, t, x, u) -> None:
+        if x[self.memory] >= 0.5:
+            self.mode, self.direction = "caught", 0.0
+        elif self.value(t, x, u) > 0.0:
+            self.mode, self.direction = "contact", -1.0
+        else:
+            self.mode, self.direction = "clear", 1.0
+
+    def value(self, t, x, u) -> float:
+        if self.mode == "caught":
+            return 1.0
+        return self.model.stop_penetration(self.model.output(t, x, u)[self.q])
+
+    def switch(self, t, x, u) -> np.ndarray:
+        x = np.array(x, dtype=float)
+        if self.mode == "clear" and self.model.p.stop_catch:
+            x[self.memory] = 1.0
+        return x
 
 
 # (model class name, fidelity) -> kind of the non-ODE state (see the module docstring)
@@ -238,6 +317,10 @@ _KINDS: dict[tuple[str, int], object] = {
     ("CamRockerModel", 2): _CamRockerContact,
     ("MotorBeltModel", 1): _Brake,
     ("MotorBeltModel", 2): _Brake,
+    ("ClutchBrakeShaftModel", 1): _ClutchBrake,
+    ("ParallelShaftsModel", 0): _EndStop,
+    ("ParallelShaftsModel", 1): _EndStop,
+    ("RackBedModel", 1): _EndStop,
     ("RackBedModel", 0): "RackBed fidelity 0 estimates the bed acceleration from the inputs of successive "
                          "communication steps, which a monolithic model does not have; use fidelity 1",
 }

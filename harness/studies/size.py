@@ -2,17 +2,27 @@
 :func:`size`.
 
 The engineering quantity (:mod:`harness.reporting.quantities`) is computed from a co-simulation run of the drive for each
-value of the parameter tried.  First the bracket: the quantity at ``--candidates`` values spread geometrically over
-``--range`` (default 8 values between a quarter and four times the drive's value), run at once as one batch of
-variants where the batch applies (:mod:`harness.run.batch`: each value's own numbers), else side by side on a
-cluster or one after the other.  Where the target is met at one end and missed at the other, Brent's method
-finds the value where the quantity crosses the target inside the pair of neighbouring candidates where it first
-changes, seen from the end that meets it (to ``--xtol`` of the range, runs reused); the answer is
-the boundary value on the side that meets it (the smallest value when the quantity falls as the parameter
-rises under ``<=``, the largest when it rises), verified by a run at it.  Where the target is met at both ends
-or at neither, it says so with the range the quantity took over the bracket; where the quantity's elasticity
-over the bracket, d ln Q / d ln p, is below 0.1 (a 16x change of the parameter moves it by less than 32 %), it
-says that the parameter barely governs it.
+value of the parameter tried; without ``--stop-time`` each run goes on to its first steady machine cycle
+(:class:`harness.run.settling.Steady`: three complete cycles at least, at most ``STEADY_LIMIT`` = 8 times the
+drive's default stop time); with ``--scenario`` each run is that transient (a stop runs until settled) and the
+target names one of its quantities (``stopping_angle``).  First the bracket: ``--range`` (default: a quarter and
+four times the drive's value, inside the range its FMU declares, each end moved halfway towards the drive's value
+while the FMU refuses it, e.g. a rated speed above the synchronous).  Where its runs go as one batch of variants
+(:mod:`harness.run.batch`: each value's own numbers; a given ``--stop-time``, no scenario) or side by side on a
+cluster, the quantity at ``--candidates`` values spread geometrically over it (default 8, its ends included) at
+once; else at its two ends.  Where the default bracket's target holds at both ends or at neither, the bracket
+widens: four times further out (a quarter, downward) on the side where the answer lies (met at both ends: where
+the quantity gets worse; at neither: where it gets better), the new bracket the old end and the new one, again
+until the target holds at one end only, the value reaches :data:`WIDEN` (64) times the drive's value (1/64 of it
+downward) or the range the FMU declares, or the FMU refuses every value further out (each tried by a run of one
+step and moved back halfway while refused); a ``--range`` given is searched as given.  Where the target is met at
+one end and missed at the other, Brent's method finds the value where the quantity crosses the target inside the
+pair of neighbouring values tried where it first changes, seen from the end that meets it (to ``--xtol`` of the
+range, runs reused); the answer is the boundary value on the side that meets it (the smallest value when the
+quantity falls as the parameter rises under ``<=``, the largest when it rises), verified by a run at it.  Where
+the target is met at both ends or at neither, it says so with the range the quantity took over every value
+tried; where the quantity's elasticity over them, d ln Q / d ln p, is below 0.1 (a 16x change of the
+parameter moves it by less than 32 %), it says that the parameter barely governs it.
 
 Refused in one line before any run: a target that is not ``NAME <= VALUE`` or ``NAME >= VALUE``, a quantity the
 drive does not report (with the nearest names), a parameter the drive's FMUs do not have, a bracket that is not
@@ -30,6 +40,7 @@ from pathlib import Path
 from harness.errors import SystemDescriptionError
 
 WEAK = 0.1    # elasticity d ln Q / d ln p below which the parameter barely governs the quantity
+WIDEN = 64.0  # the default bracket widens to at most this many times the drive's value (1/WIDEN of it downward)
 
 
 @dataclass(frozen=True)
@@ -153,11 +164,21 @@ def run_at(system, parameter: str, quantity: str, start_values: dict, options: d
             if key not in _LOADED:
                 _LOADED[key] = load(system_on_worker(system))
             system = _LOADED[key]
-        df = simulate(system, start_values={**start_values, parameter: value}, **options)
+        options = dict(options)
+        scenario = options.pop("scenario", None)
+        if options.pop("until_steady", False):
+            options = _until_steady(system, options)
+        if scenario is not None:
+            from harness.run import simulate_scenario
+
+            df = simulate_scenario(system, scenario, start_values={**start_values, parameter: value}, **options)
+        else:
+            df = simulate(system, start_values={**start_values, parameter: value}, **options)
         if not df.attrs.get("complete", True):
             return dict(value=None, frame=None, error=f"the run at {parameter} = {value:g} stopped: "
                                                       f"{df.attrs.get('error')}")
-        q = quantities(system, df)
+        q = df.attrs["transient"] if scenario is not None and quantity in df.attrs["transient"] else \
+            df.attrs["quantities"] if scenario is not None else quantities(system, df)
         found = q[quantity]
         if found is None or not isinstance(found, (int, float)):
             return dict(value=None, frame=None, error=f"{quantity} has no value at {parameter} = {value:g}: "
@@ -170,6 +191,22 @@ def run_at(system, parameter: str, quantity: str, start_values: dict, options: d
 
 
 _LOADED: dict = {}   # drive name or file digest -> System, per worker process
+STEADY_LIMIT = 8.0   # a sizing run without a stop time goes on to a steady cycle, at most this many times the drive's
+
+
+def _until_steady(system, options: dict) -> dict:
+    """A run's options that end it at its first steady cycle (:class:`harness.run.settling.Steady`), at most
+    :data:`STEADY_LIMIT` times the drive's stop time."""
+    import dataclasses
+
+    from harness.run import RunOptions
+    from harness.run.settling import Steady
+
+    spec = system.quantities
+    watch = Steady(spec.shaft_angle, spec.cycle_origin, spec.cycle_angle, spec.settle)
+    opts = options.get("options") or RunOptions()
+    return {**options, "stop_time": STEADY_LIMIT * system.experiment.stop_time,
+            "options": dataclasses.replace(opts, observers=(*opts.observers, watch))}
 
 
 def _sent(system, given):
@@ -196,6 +233,8 @@ def _batch_applies(system, options: dict, n: int) -> bool:
     ``n`` is at least the batch's break-even count."""
     from harness.run.batch import MIN_VARIANTS, refusal
 
+    if options.get("until_steady") or "scenario" in options:   # each run's own end (a steady cycle, a settled stop)
+        return False
     return n >= MIN_VARIANTS and refusal(system, {k: v for k, v in options.items() if v is not None}) is None
 
 
@@ -265,9 +304,10 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
     """Size ``parameter`` (``Instance.parameter``) of ``system`` so that ``target`` (a :class:`Target` or
     ``"NAME <= VALUE"``) holds; ``options`` go to every :func:`harness.run.simulate` run.  ``candidates``: the
     values tried at once first, spread geometrically over the bracket, its ends included (at least 2), then at
-    most ``max_runs`` more (the root finding and the verifying run); ``batch``:
-    those run as one batch of variants where the batch applies (:mod:`harness.run.batch`; the same numbers as their
-    own runs).  ``scheduler``: the address of a dask scheduler; the runs then go to its workers (the candidates at
+    most ``max_runs`` more (the widening, the root finding and the verifying run), where ``batch`` runs them as
+    one batch of variants (the batch applies: a ``stop_time`` given, no scenario; :mod:`harness.run.batch`, the
+    same numbers as their own runs) or a ``scheduler`` side by side; else the bracket's two ends first and
+    ``max_runs`` in all.  ``scheduler``: the address of a dask scheduler; the runs then go to its workers (the candidates at
     once, as one batch or side by side, then each of the root finding's runs) through the sweep's machinery
     (:mod:`harness.studies.sweep_cluster`: the address checked first, a drive file sent as bytes); the answer is the
     same as without one."""
@@ -279,12 +319,19 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
     system = load(system)
     target = target if isinstance(target, Target) else parse_target(target)
     p0 = _current(system, parameter)
-    lo, hi = bracket if bracket is not None else (p0 / 4.0, p0 * 4.0)
+    if "scenario" in options:            # the scenario's own value (a brake's torque) is the drive's value there
+        from harness.scenarios import find
+
+        p0 = float(dict(find(system, options["scenario"]).parameters).get(parameter, p0))
+    if options.get("stop_time") is None and "scenario" not in options and system.quantities is not None:
+        options["until_steady"] = True          # each run to its first steady cycle (at most STEADY_LIMIT x)
+    lo, hi = bracket if bracket is not None else _admissible(system, parameter, p0, options)
     if not (0.0 < lo < hi) or not all(map(math.isfinite, (lo, hi))):
         raise SystemDescriptionError(f"size {system.name}: bracket [{lo:g}, {hi:g}] of {parameter} must be two "
                                      f"positive "
                                      f"increasing values (the drive's value is {p0:g})")
-    check_target(system, target)
+    if "scenario" not in options:
+        check_target(system, target)
     base = dict(options.pop("start_values", None) or {})
     if isinstance(candidates, bool) or not isinstance(candidates, int) or candidates < 2:
         raise SystemDescriptionError(f"size {system.name}: candidates = {candidates!r} must be a whole number >= 2 "
@@ -292,13 +339,16 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
     result = Sizing(parameter, target, (lo, hi), system=system)
     frames = {}
     together = batch and _batch_applies(system, options, candidates)
+    # the bracket's values at once: --candidates of them where they run as one batch or side by side on a cluster
+    # (max_runs more after them), else its two ends (max_runs in all)
+    n = candidates if together or scheduler is not None else 2
+    budget = max_runs + (n if n > 2 else 0)
     with _runner(system, given, scheduler, together) as (ref, submit):
 
         def quantities_at(ps: list[float]) -> list[float]:
             todo = [p for p in dict.fromkeys(ps) if p not in result.runs]
-            if len(result.runs) + len(todo) > candidates + max_runs:
-                raise SystemDescriptionError(f"size {system.name}: {candidates} candidates and {max_runs} more runs "
-                                             f"used without settling {parameter}; "
+            if len(result.runs) + len(todo) > budget:
+                raise SystemDescriptionError(f"size {system.name}: {budget} runs used without settling {parameter}; "
                                              f"runs: {_runs(result.runs)}")
             for p, run in zip(todo, submit([(ref, parameter, target.quantity, base, options, p) for p in todo])):
                 if run["error"]:
@@ -309,28 +359,46 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         def quantity(p: float) -> float:
             return quantities_at([p])[0]
 
-        grid = [lo * (hi / lo) ** (k / (candidates - 1)) for k in range(candidates)]
+        grid = [lo * (hi / lo) ** (k / (n - 1)) for k in range(n)]
         grid[-1] = hi
-        qs = quantities_at(grid)                 # at once: one batch, or side by side on a cluster
+        qs = quantities_at(grid)
         q_lo, q_hi = qs[0], qs[-1]
-        # the elasticity d ln Q / d ln p over the bracket: a 1 % change of the parameter moves Q by that many %
-        elasticity = (math.log(abs(q_hi) / abs(q_lo)) / math.log(hi / lo)) if q_lo * q_hi > 0 else math.inf
-        change = 100 * abs(q_hi - q_lo) / max(abs(q_lo), abs(q_hi))
-        weak = (f"; {target.quantity} changes by {change:.3g} % over this {hi / lo:g}x range of {parameter} "
+        first = (lo, hi)
+        while bracket is None and target.met(q_lo) == target.met(q_hi):   # the default bracket widens
+            upward = _outward(target, q_lo, q_hi)
+            new = None if upward is None else _beyond(system, parameter, p0, hi if upward else lo, upward, options)
+            if new is None:
+                break
+            if upward:
+                lo, q_lo, hi, q_hi = hi, q_hi, new, quantity(new)
+            else:
+                lo, q_lo, hi, q_hi = new, quantity(new), lo, q_lo
+        result.bracket = (lo, hi)
+        a, b = min(result.runs), max(result.runs)        # every value tried (the first bracket and its widening)
+        qa, qb = result.runs[a], result.runs[b]
+        widened = (f" (the bracket widened from [{first[0]:g}, {first[1]:g}] to [{a:g}, {b:g}], at most "
+                   f"{WIDEN:g} times the drive's value {p0:g} either way and inside what the FMU admits)"
+                   if (lo, hi) != first else "")
+        # the elasticity d ln Q / d ln p over the values tried: a 1 % change of the parameter moves Q by that many %
+        elasticity = (math.log(abs(qb) / abs(qa)) / math.log(b / a)) if qa * qb > 0 else math.inf
+        change = 100 * abs(qb - qa) / max(abs(qa), abs(qb))
+        weak = (f"; {target.quantity} changes by {change:.3g} % over this {b / a:g}x range of {parameter} "
                 f"(elasticity {elasticity:.2g}): the parameter barely governs it"
                 if abs(elasticity) < WEAK else "")
-        taken = f"{target.quantity} took {min(q_lo, q_hi):.4g} to {max(q_lo, q_hi):.4g} over [{lo:g}, {hi:g}]"
+        qs_all = list(result.runs.values())
+        taken = f"{target.quantity} took {min(qs_all):.4g} to {max(qs_all):.4g} over [{a:g}, {b:g}]"
         if target.met(q_lo) and target.met(q_hi):
-            result.message = f"{target} holds at both ends of the bracket ({taken}){weak}"
+            result.message = f"{target} holds at both ends of the bracket ({taken}){weak}{widened}"
             return result
         if not target.met(q_lo) and not target.met(q_hi):
-            result.message = f"no value of {parameter} in [{lo:g}, {hi:g}] meets {target}: {taken}{weak}"
+            result.message = f"no value of {parameter} in [{a:g}, {b:g}] meets {target}: {taken}{weak}{widened}"
             return result
-        # the neighbouring candidates where the target first stops being met, seen from the end that meets it
+        # the neighbouring values tried where the target first stops being met, seen from the end that meets it
         side = lo if target.met(q_lo) else hi
-        pairs = list(zip(grid, grid[1:], qs, qs[1:]))
-        a, b, _, _ = next(p for p in (pairs if side == lo else pairs[::-1]) if target.met(p[2]) != target.met(p[3]))
-        root = brentq(lambda p: quantity(p) - target.value, a, b, xtol=xtol * (hi - lo), maxiter=max_runs)
+        tried = sorted(p for p in result.runs if lo <= p <= hi)
+        pairs = [(x, y) for x, y in zip(tried, tried[1:]) if target.met(result.runs[x]) != target.met(result.runs[y])]
+        x, y = pairs[0] if side == lo else pairs[-1]
+        root = brentq(lambda p: quantity(p) - target.value, x, y, xtol=xtol * (hi - lo), maxiter=max_runs)
         # the boundary value on the side that meets the target, verified by its own run
         answer = root
         if not target.met(quantity(answer)):
@@ -344,7 +412,7 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         monotonic = all(d > 0 for d in steps) or all(d < 0 for d in steps)
         result.message = (f"{parameter} = {answer:.6g}: the {which} value in [{lo:g}, {hi:g}] that meets "
                           f"{target} ({target.quantity} = {result.verified:.6g} in the run at it; "
-                          f"{len(result.runs)} runs){weak}")
+                          f"{len(result.runs)} runs){weak}{widened}")
         if not monotonic:
             worst = max(result.runs, key=lambda p: result.runs[p] if target.op == "<=" else -result.runs[p])
             result.message = (f"{parameter} = {answer:.6g}: {target} holds from here towards {side:g}, but "
@@ -353,6 +421,67 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
                               f"or miss it; narrow --range "
                               f"({target.quantity} = {result.verified:.6g} in the run at it; {len(result.runs)} runs)")
         return result
+
+
+def _declared(system, parameter: str) -> tuple[float, float]:
+    """The range the FMU declares for the parameter (min/max; open ends infinite)."""
+    from harness.fmi.cache import model_description
+    from harness.model import resolve_fmu
+
+    inst, _, name = parameter.partition(".")
+    v = next(v for v in model_description(resolve_fmu(system.instance(inst).fmu)).modelVariables if v.name == name)
+    low = float(v.min) if getattr(v, "min", None) not in (None, "") else -math.inf
+    high = float(v.max) if getattr(v, "max", None) not in (None, "") else math.inf
+    return low, high
+
+
+def _admitted(system, parameter: str, end: float, toward: float, options: dict) -> float:
+    """``end``, moved halfway (geometrically) towards ``toward`` while the FMU refuses it (a rated speed above the
+    synchronous one), at most 12 times; each value tried by a run of one step."""
+    import warnings
+
+    from harness.run import RunWarning, simulate
+
+    for _ in range(12):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RunWarning)      # a refused value is the answer sought here
+            one = simulate(system, stop_time=system.experiment.step, step=system.experiment.step,
+                           start_values={**(options.get("start_values") or {}), parameter: end},
+                           options=options.get("options"))
+        if not one.attrs.get("bad_input"):
+            break
+        end = math.sqrt(end * toward)
+    return end
+
+
+def _admissible(system, parameter: str, p0: float, options: dict) -> tuple[float, float]:
+    """The default bracket: a quarter and four times the drive's value, inside the range the FMU declares for the
+    parameter, each end moved towards the drive's value while the FMU refuses it (:func:`_admitted`)."""
+    low, high = _declared(system, parameter)
+    return (_admitted(system, parameter, max(p0 / 4.0, low), p0, options),
+            _admitted(system, parameter, min(p0 * 4.0, high), p0, options))
+
+
+def _beyond(system, parameter: str, p0: float, end: float, upward: bool, options: dict) -> float | None:
+    """The default bracket's next end past ``end``: four times further out (a quarter, downward), inside the range
+    the FMU declares and admits (:func:`_admitted`, moved back towards ``end``) and within :data:`WIDEN` times the
+    drive's value (1/WIDEN of it downward); None when no value further out is left."""
+    low, high = _declared(system, parameter)
+    new = min(end * 4.0, high, p0 * WIDEN) if upward else max(end / 4.0, low, p0 / WIDEN)
+    if not (new > 0.0) or abs(new - end) <= 1e-9 * abs(end):
+        return None
+    new = _admitted(system, parameter, new, end, options)
+    return None if abs(new - end) <= 1e-6 * abs(end) else new
+
+
+def _outward(target: Target, q_lo: float, q_hi: float) -> bool | None:
+    """Which way the default bracket widens when the target holds at both ends or at neither: True upward, False
+    downward, None where the quantity is the same at both ends.  Met at both ends, the boundary lies where the
+    quantity gets worse (larger under ``<=``); met at neither, where it gets better."""
+    if q_hi == q_lo:
+        return None
+    worse_up = (q_hi > q_lo) == (target.op == "<=")
+    return worse_up if target.met(q_lo) else not worse_up
 
 
 def check_target(system, target: Target) -> None:
@@ -405,10 +534,13 @@ def register(subparsers) -> None:
     p.add_argument("--target", required=True, metavar="'QUANTITY <= VALUE'",
                    help="the engineering quantity's target (names as `run` prints them)")
     p.add_argument("--range", nargs=2, type=float, default=None, metavar=("LOW", "HIGH"),
-                   help="the bracket searched (default: a quarter and four times the drive's value)")
+                   help="the bracket searched, as given (default: a quarter and four times the drive's value, "
+                        "widened four times further on the answer's side where the target holds at both ends or at "
+                        "neither, up to 64 times the drive's value either way)")
     p.add_argument("--candidates", type=int, default=8, metavar="N",
                    help="values tried at once first, spread geometrically over the range, its ends included "
-                        "(default 8; run as one batch of variants where the batch applies)")
+                        "(default 8; where they run as one batch of variants, with --stop-time and no scenario, "
+                        "or side by side on --scheduler; else the range's two ends)")
     p.add_argument("--no-batch", action="store_true",
                    help="run the candidates one after the other (default: as one batch of variants, where the "
                         "drive's FMUs are the toolkit's and the method is jacobi, jacobi-sampled or gauss-seidel; "
@@ -416,7 +548,12 @@ def register(subparsers) -> None:
     p.add_argument("--xtol", type=float, default=1e-3, metavar="SHARE",
                    help="the answer's tolerance as a share of the bracket (default 1e-3)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
-                   help="stop time [s] of every run (default: the drive's default experiment)")
+                   help="stop time [s] of every run (default: each run goes on to its first steady machine cycle, "
+                        "three complete cycles at least, at most 8 times the drive's default stop time)")
+    p.add_argument("--scenario", default=None, metavar="NAME|FILE",
+                   help="size through a transient: each run is the scenario (a stop runs until settled) and the "
+                        "target names one of its quantities (e.g. --vary motor.holding_torque --target "
+                        "'stopping_angle <= 60' --scenario estop) (default: a plain run's quantities)")
     p.add_argument("--set", action="append", default=[], metavar="Instance.param=VALUE",
                    help="other parameter values, the same in every run")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -435,7 +572,8 @@ def _cli(args) -> int:
     system = load(args.system)
     target = parse_target(args.target)
     _current(system, args.vary)
-    check_target(system, target)
+    if args.scenario is None:
+        check_target(system, target)
     if args.report is not None:
         from harness.reporting.htmlreport import check_report_path
 
@@ -444,9 +582,11 @@ def _cli(args) -> int:
         from harness.studies.sweep_cluster import check_scheduler
 
         check_scheduler(args.scheduler)   # one line for a wrong address, before any run
+    more = {"scenario": args.scenario} if args.scenario else {}
     result = size(args.system, args.vary, target, tuple(args.range) if args.range else None, xtol=args.xtol,
                   scheduler=args.scheduler, candidates=args.candidates, batch=not args.no_batch,
-                  stop_time=args.stop_time, start_values=parse_sets(args.set), options=RunOptions(progress=None))
+                  stop_time=args.stop_time, start_values=parse_sets(args.set), options=RunOptions(progress=None),
+                  **more)
     print(result.message)
     print(f"runs ({args.vary} -> {target.quantity}): {_runs(result.runs)}")
     if args.report is not None:

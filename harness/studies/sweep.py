@@ -14,6 +14,7 @@ A sweep is described by a YAML or JSON file::
       seed: 1
       ranges: {rpm: [100, 200]}         # or distributions: {flywheel.d: {normal: [0.03, 3.0e-4]}} (a tolerance
                                         # study; harness.studies.tolerance; --sample N draws N points)
+    from_checkpoint: startup.ckpt       # optional: every point continues this checkpoint (harness.run.checkpoint)
     set:                                # parameters of the run, as expressions of the sweep variables
       feeder.w0: "rpm * 2 * pi / 60"    # a sweep variable named like "Instance.param" is set directly
     outputs:                            # quantities of interest (harness.reporting.qoi expressions)
@@ -235,7 +236,8 @@ def _check_xspan(span, source: str):
 def parse_spec(data: dict, source: str = "<spec>", sample: int | None = None) -> SweepSpec:
     """The spec ``data`` read from ``source``; ``sample``: the points to draw from its ``sample:`` section in place
     of its ``n`` (``--sample N``; :mod:`harness.studies.tolerance`)."""
-    known = {"grid", "sample", "set", "outputs", "stop_time", "step", "master", "extrapolation", "system", "plot"}
+    known = {"grid", "sample", "set", "outputs", "stop_time", "step", "master", "extrapolation", "system", "plot",
+             "from_checkpoint"}
     unknown = set(data) - known
     if unknown:
         raise SweepError(f"{source}: unknown key(s) {sorted(unknown)}; expected some of {sorted(known)}")
@@ -274,6 +276,11 @@ def parse_spec(data: dict, source: str = "<spec>", sample: int | None = None) ->
     plot = _check_plot(data["plot"], names, sets, outputs, source) if "plot" in data else None
     run = {k: data[k] for k in ("stop_time", "step", "master", "extrapolation") if k in data}
     tolerance = "sample" in data and isinstance(data["sample"], dict) and "distributions" in data["sample"]
+    if "from_checkpoint" in data:   # a shared start-up: every point continues from it, its own values set then
+        ckpt = Path(str(data["from_checkpoint"])).expanduser()
+        if not ckpt.is_file():
+            raise SweepError(f"{source}: from_checkpoint: {ckpt} is no file")
+        run["from_checkpoint"] = str(ckpt.resolve())
     return SweepSpec(variables=names, points=points, set=sets, outputs=outputs, run=run,
                      system=data.get("system"), plot=plot, source=source, kind="grid" if "grid" in data else "sample",
                      tolerance=tolerance)
