@@ -82,7 +82,7 @@ def worker(spec: dict) -> dict:
             if not df.attrs["complete"]:
                 return {"error": df.attrs["error"]}
         return {"cpu_per_run": statistics.median(cpu), "runs": cpu, "steps": int(df.attrs["steps"])}
-    simulate_batch(name, vs[:1], {**settings, "stop_time": 0.01}, Keep(columns=(column,)))   # warm: imports, compiled loops
+    simulate_batch(name, vs[:1], {**settings, "stop_time": 0.01}, Keep(columns=(column,)))   # warm: imports, the vector math's check
     t0 = time.process_time()
     run = simulate_batch(name, vs, settings, Keep(columns=(column,)), BatchOptions())
     cpu = time.process_time() - t0

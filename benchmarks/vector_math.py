@@ -24,7 +24,8 @@ EDGES = [0.0, -0.0, 1.0, -1.0, math.inf, -math.inf, math.nan, 5e-324, -5e-324, 2
 def _safe(f):
     def g(*args):
         try:
-            return f(*args)
+            r = f(*args)
+            return math.nan if isinstance(r, complex) else r    # a negative base to a fractional power
         except ValueError:
             return math.nan
         except (OverflowError, ZeroDivisionError):

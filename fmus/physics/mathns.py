@@ -3,15 +3,27 @@
 An equation written once, ``def rate(m, x, ...)``, runs on plain floats with :data:`SCALAR` (``math``: an FMU's
 one instance, one variant) and on arrays over variants with :data:`VECTOR` (a batch of variants stepped together,
 :mod:`fmus.physics.variants`), giving the same bits for every variant.  Arithmetic (``+ - * /``) is the same IEEE
-operation on a float and on an array element; the functions are not: numpy computes ``exp``, ``tanh``, ``acos``,
-``atan2``, ``hypot`` and ``**`` by its own approximations (SIMD), which differ from ``math``'s in the last bit for
-a few percent of the arguments.  So :data:`VECTOR` takes
+operation on a float and on an array element; the functions are not always.  Measured on the project's machine
+(``python -m benchmarks.vector_math``: numpy 2.4.6 with AVX-512, CPython 3.11.7, glibc; 0.6 to 1.0 million
+arguments per function, uniform samples over the ranges the physics uses, e.g. exp on [-745, 710] and [-50, 1],
+tanh of v/v_reg on [-1e4, 1e4], acos on [-1, 1] and within 1e-6 of its ends, angles on [-40, 40] and [-1e6, 1e6],
+penetrations of 0 to 1e-3 to the powers 0.5, 1.5, 2.5, plus zeros of both signs, infinities, NaN, subnormals and
+the overflow edges; contiguous arrays, strided views and arrays of 1 to 17 elements), numpy's float64 ufuncs
+against ``math`` bit for bit:
 
-* from numpy what is correctly rounded there as in ``math``: ``sqrt``, ``fabs``, ``copysign``, ``floor``, ``%``,
-  and ``sin``/``cos`` where numpy computes them as ``math`` does (checked when first used, on a sample);
-* libm's own function element by element for the rest: a compiled loop over the C library's functions (the ones
-  ``math`` calls; :func:`install_loops`, given by :mod:`fmus.batch_libm`), else Python's ``math`` per element;
-  ``hypot`` always the latter (CPython computes it by its own algorithm, not the C library's).
+* ``np.sin``, ``np.cos``: equal on every argument (numpy calls the C library's, as ``math`` does);
+* ``np.hypot``: equal to the C library's hypot, which is ``abs(complex(x, y))`` (0 of 600 000 differ), but not
+  to ``math.hypot`` (CPython's own algorithm: 0.43 % differ by 1 ulp);
+* ``np.exp`` 4.5 %, ``np.tanh`` 16 % (up to 3 ulp), ``np.arccos`` 3.2 %, ``np.arctan2`` 3.2 %, ``np.power``
+  5.3 % of the arguments differ, by 1 ulp unless said (numpy's own SIMD approximations; in strided views and
+  short arrays too, so no layout avoids them).
+
+So :data:`VECTOR` takes ``sqrt``, ``fabs``, ``copysign``, ``floor`` (correctly rounded, the same everywhere) and
+``sin``, ``cos`` and ``chypot`` from numpy, where a check on a sample when a batch first runs finds numpy's bits
+equal to ``math``'s on the machine at hand (:meth:`Vector.check`; else Python's ``math`` per element), and
+``exp``, ``tanh``, ``acos``, ``atan2``, ``pow`` and ``hypot`` from Python's ``math`` called per element (about
+60 ns an element: a batch's equations cost that much more per call than numpy's, the price of each variant's
+own bits; no compiled code, so a user without a C compiler gets the same numbers).
 
 Every namespace has the same names: ``sqrt sin cos exp tanh acos atan2 hypot copysign fabs floor pow`` as in
 ``math`` (:data:`VECTOR` also ``chypot``: ``abs`` of a complex number, the C library's hypot), ``pi``, and what
@@ -23,6 +35,7 @@ more than the arithmetic it picks.
 """
 from __future__ import annotations
 
+import itertools
 import math
 import operator
 import types
@@ -62,18 +75,6 @@ class Numpy:
     stack = staticmethod(np.array)
 
 
-def _each(f):
-    """``f`` of ``math`` element by element on arrays (scalars broadcast): math's bits at Python's speed."""
-    def g(*args):
-        arrays = np.broadcast_arrays(*[np.asarray(a, dtype=float) for a in args])
-        if arrays[0].ndim == 0:
-            return np.float64(f(*(float(a) for a in arrays)))
-        out = np.fromiter(map(f, *(a.ravel().tolist() for a in arrays)), float, arrays[0].size)
-        return out.reshape(arrays[0].shape)
-    g.__name__ = f.__name__
-    return g
-
-
 def _safe(f):
     """``f`` with ``math``'s domain and range errors as NaN and inf (a failed variant, found by the batch's check of
     its state, not an exception that would stop every variant)."""
@@ -82,14 +83,45 @@ def _safe(f):
             return f(*args)
         except ValueError:
             return math.nan
-        except OverflowError:
+        except (OverflowError, ZeroDivisionError):
             return math.inf
     g.__name__ = f.__name__
     return g
 
 
-def _pow(x, y):
-    return x ** y
+def _each(f):
+    """``f`` of ``math`` element by element on arrays (numbers broadcast): ``math``'s bits, one Python call an
+    element; where an element raises (a domain or range error), every element again through :func:`_safe`."""
+    safe = _safe(f)
+
+    def g(*args):
+        if len(args) == 1:
+            x = args[0]
+            if not isinstance(x, np.ndarray) or x.ndim == 0:
+                return np.float64(safe(float(x)))
+            xs = [x.ravel().tolist()]
+        else:
+            a, b = args
+            fa, fb = not isinstance(a, np.ndarray) or a.ndim == 0, not isinstance(b, np.ndarray) or b.ndim == 0
+            if fa and fb:
+                return np.float64(safe(float(a), float(b)))
+            if fb or fa:
+                x = b if fa else a
+                one = itertools.repeat(float(a if fa else b), x.size)
+                xs = [one, x.ravel().tolist()] if fa else [x.ravel().tolist(), one]
+            else:
+                a, b = np.broadcast_arrays(a, b)
+                x = a
+                xs = [a.ravel().tolist(), b.ravel().tolist()]
+        try:
+            out = np.fromiter(map(f, *xs), float, x.size)
+        except (ValueError, OverflowError, ZeroDivisionError, TypeError):
+            xs = [x.ravel().tolist()] if len(args) == 1 else [np.broadcast_to(np.asarray(v, dtype=float),
+                                                                              x.shape).ravel().tolist() for v in args]
+            out = np.fromiter((float(v) if isinstance(v, float) else math.nan for v in map(safe, *xs)), float, x.size)
+        return out.reshape(x.shape)
+    g.__name__ = f.__name__
+    return g
 
 
 def _cabs(x, y):
@@ -98,36 +130,42 @@ def _cabs(x, y):
 
 
 class Vector:
-    """Arrays over variants with ``math``'s bits (module docstring).  The element-by-element functions are
-    Python's until :func:`install_loops` gives compiled ones."""
+    """Arrays over variants with ``math``'s bits (module docstring): numpy where its bits are ``math``'s, Python's
+    ``math`` per element elsewhere."""
     scalar = False
     pi = math.pi
     sqrt, copysign, fabs, floor = np.sqrt, np.copysign, np.abs, np.floor
-    hypot = staticmethod(_each(_safe(math.hypot)))
+    hypot = staticmethod(_each(math.hypot))
+    # numpy's ufunc for these where :meth:`check` finds its bits equal to math's (measured: the module docstring)
+    NUMPY_IF_EQUAL = (("sin", np.sin, math.sin), ("cos", np.cos, math.cos), ("chypot", np.hypot, _cabs))
 
     def __init__(self):
-        self.loops = "python"
         for name, f in (("exp", math.exp), ("tanh", math.tanh), ("acos", math.acos), ("atan2", math.atan2),
-                        ("pow", _pow), ("sin", math.sin), ("cos", math.cos), ("chypot", _cabs)):
-            setattr(self, name, _each(_safe(f)))
-        self._trig_checked = False
+                        ("pow", operator.pow), ("sin", math.sin), ("cos", math.cos), ("chypot", _cabs)):
+            setattr(self, name, _each(f))
+        self.checked = None
 
-    def install(self, functions: dict, label: str) -> None:
-        """Take ``functions`` (name -> array function giving math's bits) in place of the per-element ones."""
-        for name, f in functions.items():
-            setattr(self, name, f)
-        self.loops = label
-
-    def trig(self) -> None:
-        """Use numpy's own sin and cos if they give math's bits on a sample of arguments (checked once)."""
-        if self._trig_checked:
-            return
-        self._trig_checked = True
-        x = np.concatenate([np.linspace(-40.0, 40.0, 4001), np.random.default_rng(7).uniform(-1e4, 1e4, 4000),
-                            np.random.default_rng(8).normal(0.0, 1e-3, 2000)])
-        for name, f, g in (("sin", np.sin, math.sin), ("cos", np.cos, math.cos)):
-            if np.array_equal(f(x).view(np.int64), np.array([g(v) for v in x.tolist()]).view(np.int64)):
-                setattr(self, name, f)
+    def check(self) -> str:
+        """Take numpy's ``sin``, ``cos`` and ``hypot`` (as ``chypot``) where their bits equal ``math``'s on a sample
+        of arguments (checked once per process: numpy's loops depend on its build and the machine); returns one
+        line saying what computes each function."""
+        if self.checked is None:
+            rng = np.random.default_rng(7)
+            x = np.concatenate([np.linspace(-40.0, 40.0, 4001), rng.uniform(-1e4, 1e4, 4000),
+                                rng.normal(0.0, 1e-3, 2000), [0.0, -0.0, 1e-300, 5e-324, math.pi, 1e6]])
+            y = np.concatenate([rng.normal(0.0, 1.0, x.size - 6), [0.0, -0.0, 1e-300, 1e300, -1.0, 3.0]])
+            taken = []
+            for name, f, g in self.NUMPY_IF_EQUAL:
+                args = (x,) if g is not _cabs else (x, y)
+                ref = np.array([g(*v) for v in zip(*(a.tolist() for a in args))])
+                if np.array_equal(f(*args).view(np.int64), ref.view(np.int64)):
+                    setattr(self, name, f)
+                    taken.append(name)
+            rest = [n for n in ("exp", "tanh", "acos", "atan2", "pow", "hypot", "sin", "cos", "chypot")
+                    if n not in taken]
+            self.checked = (f"numpy's {', '.join(taken)} (their bits math's on this machine); " if taken else "") + \
+                f"Python's math per element for {', '.join(rest)}"
+        return self.checked
 
     where = staticmethod(np.where)
 
@@ -175,8 +213,3 @@ def namespace(m):
     if m is np or m is None:
         return NUMPY
     return m
-
-
-def install_loops(functions: dict, label: str) -> None:
-    """Compiled element loops over the C library's functions for :data:`VECTOR` (:mod:`fmus.batch_libm`)."""
-    VECTOR.install(functions, label)

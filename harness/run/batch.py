@@ -156,7 +156,7 @@ def simulate_batch(system, variants: list[dict], settings: dict | None = None, k
     """Run every variant (start values over the system's) of ``system`` under ``settings`` (:func:`simulate`'s
     stop_time, step, master, extrapolation, start_time, output_interval) and keep of each what ``keep`` asks
     (module docstring).  Raises :class:`SystemDescriptionError` where the batch does not apply (:func:`refusal`)."""
-    from fmus import batch_libm
+    from fmus.physics.mathns import VECTOR
     from harness.run.systems import load
 
     system = load(system)
@@ -167,7 +167,7 @@ def simulate_batch(system, variants: list[dict], settings: dict | None = None, k
     if why is not None:
         raise SystemDescriptionError(f"system {system.name}: no batch: {why}")
     run = _experiment(system, settings)
-    math_status = batch_libm.install()
+    math_status = VECTOR.check()
     wall, cpu = _time.perf_counter(), _time.process_time()
     results = [VariantResult(dict(v)) for v in variants]
     groups, refused, built = _groups(system, variants)
