@@ -25,9 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -93,16 +91,9 @@ def worker(spec: dict) -> dict:
 
 
 def _launch(spec: dict, timeout: float) -> dict:
-    cmd = ["taskset", "-c", "0", sys.executable, "-m", "benchmarks.batch", "--worker", json.dumps(spec)]
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
-    try:
-        r = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        return {"error": f"no result after {timeout:g} s"}
-    for line in reversed(r.stdout.splitlines()):
-        if line.startswith("RESULT "):
-            return json.loads(line[7:])
-    return {"error": f"exit code {r.returncode}: " + " ".join((r.stderr or "").split())[-300:]}
+    from benchmarks.launch import run_config
+
+    return run_config(spec, "pinned", timeout, ("benchmarks.batch", "--worker"))
 
 
 def per_variant(drives, sizes, timeout: float, log=print, stop: float | None = None) -> list[dict]:
@@ -115,6 +106,7 @@ def per_variant(drives, sizes, timeout: float, log=print, stop: float | None = N
         for n in sizes:
             b = _launch({"name": name, "n": n, "stop": stop}, timeout)
             row = {"drive": name, "n": n, "stop_time": stop or STOP.get(name, "default"),
+                   "step": STEP.get(name, "default"),
                    "scalar_cpu_per_run": scalar.get("cpu_per_run", math.nan),
                    "batch_cpu": b.get("cpu", math.nan), "batch_cpu_per_variant": b.get("cpu_per_variant", math.nan),
                    "error": b.get("error", "") or scalar.get("error", "") or b.get("first_error", "")}

@@ -19,7 +19,6 @@ runs each variant with :func:`simulate`.
 """
 from __future__ import annotations
 
-import math
 import time as _time
 import warnings
 from dataclasses import dataclass, field

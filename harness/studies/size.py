@@ -9,8 +9,8 @@ target names one of its quantities (``stopping_angle``).  First the bracket: ``-
 four times the drive's value, inside the range its FMU declares, each end moved halfway towards the drive's value
 while the FMU refuses it, e.g. a rated speed above the synchronous).  Where its runs go as one batch of variants
 (:mod:`harness.run.batch`: each value's own numbers; a given ``--stop-time``, no scenario), the quantity at
-``--candidates`` values spread geometrically over it (default 8, its ends included) at once; else at its two
-ends (at once on a cluster).  Where the default bracket's target holds at both ends or at neither, the bracket
+``--candidates`` values spread geometrically over it (default 8, its ends included) at once (``--no-batch``: the
+same runs one after the other); else at its two ends (at once on a cluster).  Where the default bracket's target holds at both ends or at neither, the bracket
 widens: four times further out (a quarter, downward) on the side where the answer lies (met at both ends: where
 the quantity gets worse; at neither: where it gets better), the new bracket the old end and the new one, again
 until the target holds at one end only, the value reaches :data:`WIDEN` (64) times the drive's value (1/64 of it
@@ -304,9 +304,10 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
     """Size ``parameter`` (``Instance.parameter``) of ``system`` so that ``target`` (a :class:`Target` or
     ``"NAME <= VALUE"``) holds; ``options`` go to every :func:`harness.run.simulate` run.  ``candidates``: the
     values tried at once first, spread geometrically over the bracket, its ends included (at least 2), then at
-    most ``max_runs`` more (the widening, the root finding and the verifying run), where ``batch`` runs them as
-    one batch of variants (the batch applies: a ``stop_time`` given, no scenario; :mod:`harness.run.batch`, the
-    same numbers as their own runs); else the bracket's two ends first and ``max_runs`` in all.  ``scheduler``: the address of a dask scheduler; the runs then go to its workers (the candidates at
+    most ``max_runs`` more (the widening, the root finding and the verifying run), where the batch applies (a
+    ``stop_time`` given, no scenario; :mod:`harness.run.batch`): ``batch`` runs them as one batch of variants (the
+    same numbers as their own runs), else one after the other; where it does not, the bracket's two ends first and
+    ``max_runs`` in all.  ``scheduler``: the address of a dask scheduler; the runs then go to its workers (the candidates at
     once, as one batch or side by side, then each of the root finding's runs) through the sweep's machinery
     (:mod:`harness.studies.sweep_cluster`: the address checked first, a drive file sent as bytes); the answer is the
     same as without one."""
@@ -337,10 +338,12 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
                                      f"(the bracket's two ends at least)")
     result = Sizing(parameter, target, (lo, hi), system=system)
     frames = {}
-    together = batch and _batch_applies(system, options, candidates)
-    # the bracket's values at once: --candidates of them where they run as one batch (on a cluster too; max_runs
-    # more after them), else its two ends (max_runs in all): the same runs with and without a cluster
-    n = candidates if together else 2
+    applies = _batch_applies(system, options, candidates)
+    together = batch and applies
+    # the bracket's values at once: --candidates of them where the batch applies (one batch, or one after the other
+    # with batch=False; on a cluster too; max_runs more after them), else its two ends (max_runs in all): the same
+    # runs with and without the batch, with and without a cluster
+    n = candidates if applies else 2
     budget = max_runs + (n if n > 2 else 0)
     with _runner(system, given, scheduler, together) as (ref, submit):
 
@@ -538,8 +541,8 @@ def register(subparsers) -> None:
                         "neither, up to 64 times the drive's value either way)")
     p.add_argument("--candidates", type=int, default=8, metavar="N",
                    help="values tried at once first, spread geometrically over the range, its ends included "
-                        "(default 8; where they run as one batch of variants, with --stop-time and no scenario; "
-                        "else the range's two ends)")
+                        "(default 8; where the batch applies, with --stop-time and no scenario; else the range's "
+                        "two ends)")
     p.add_argument("--no-batch", action="store_true",
                    help="run the candidates one after the other (default: as one batch of variants, where the "
                         "drive's FMUs are the toolkit's and the method is jacobi, jacobi-sampled or gauss-seidel; "
