@@ -388,8 +388,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-coupling", action="store_true",
                     help="skip the coupling goals (benchmarks.coupling: the largest steps at each drive's declared "
                          "accuracy, against the peers)")
+    ap.add_argument("--no-batch", action="store_true",
+                    help="skip the batches of variants (benchmarks.batch: the per-variant cost at 1, 10, 100 and 1000 "
+                         "variants of each drive against one run per variant, the 50-point feeder sweep against "
+                         "OMSimulator)")
+    ap.add_argument("--batch-only", action="store_true", help="run only the batches of variants (benchmarks.batch)")
     args = ap.parse_args(argv)
     args.out, args.chart = output_paths(args.quick, args.out, args.chart)
+    if args.batch_only:
+        from benchmarks import batch
+
+        batch.run(args.out, args.quick, args.timeout)
+        return 0
     cases = _csv_list(args.cases, CASES, "cases")
     tools = _csv_list(args.tools, TOOLS, "tools")
     modes = _csv_list(args.modes, MODES, "modes")
@@ -403,6 +413,10 @@ def main(argv: list[str] | None = None) -> int:
         for what, met, evidence in lines:
             print(f"[{'n/a ' if met is None else ('MET ' if met else 'MISS')}] {what}: {evidence}")
         print(f"wrote {coupling.write(lines, args.out / 'coupling_goals.csv')}")
+    if not args.no_batch:
+        from benchmarks import batch
+
+        batch.run(args.out, args.quick, args.timeout)
     print(f"\nwrote {path}")
     if not args.no_chart:
         print("chart " + ", ".join(str(p) for p in chart(rows, args.chart)))

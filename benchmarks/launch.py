@@ -14,9 +14,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def run_config(spec: dict, mode: str, timeout: float) -> dict:
-    """One configuration in a fresh subprocess (pinned to CPU 0 with taskset in mode 'pinned')."""
-    cmd = [sys.executable, "-m", "benchmarks.worker", json.dumps(spec)]
+def run_config(spec: dict, mode: str, timeout: float, worker: tuple[str, ...] = ("benchmarks.worker",)) -> dict:
+    """One configuration in a fresh subprocess (pinned to CPU 0 with taskset in mode 'pinned'): ``python -m``
+    ``worker`` (a module and its first arguments) with ``spec`` as JSON, whose last ``RESULT`` line is returned."""
+    cmd = [sys.executable, "-m", *worker, json.dumps(spec)]
     if mode == "pinned":
         if shutil.which("taskset") is None:
             return {"error": "taskset not found: cannot pin"}

@@ -202,27 +202,12 @@ class System:
                 raise SystemDescriptionError(f"system {self.name}: instance name {n!r} must be non-empty without '.'")
             seen.add(n)
         variables = {i: {v.name: v for v in model_descriptions[i].modelVariables} for i in names}
-
-        def lookup(ref: str, what: str):
-            inst, var = _split(ref, what)
-            if inst not in variables:
-                raise SystemDescriptionError(f"{what} {ref}: unknown instance {inst!r}{_did_you_mean(inst, variables)}")
-            v = variables[inst].get(var)
-            if v is None:
-                # a parameter's name is closer to what --set means than an output's
-                own = variables[inst].values()
-                close = _did_you_mean(var, [x.name for x in own if x.causality == "parameter"]) or \
-                    _did_you_mean(var, [x.name for x in own])
-                raise SystemDescriptionError(f"{what} {ref}: FMU {model_descriptions[inst].modelName} of instance "
-                                             f"{inst} has no variable {var!r}{close}")
-            return v
+        lookup = _lookup(variables, model_descriptions)
 
         for inst in self.instances:
             for p, value in inst.parameters.items():
                 _check_parameter(lookup(f"{inst.name}.{p}", "parameter"), f"{inst.name}.{p}", value)
-        for ref, value in (parameters or {}).items():
-            _check_parameter(lookup(ref, "parameter"), ref, value)
-        self._refuse(lookup, parameters)
+        self._check_values(lookup, parameters)
         for b in self.bonds:
             for port in (b.motion_out, b.motion_in):
                 _split(port, "bond port")
@@ -290,6 +275,19 @@ class System:
         return warns
 
 
+    def values_check(self, model_descriptions: dict):
+        """A function of ``{"Instance.param": value}`` raising :class:`SystemDescriptionError` where :meth:`validate`
+        would for those values (each a parameter of its FMU, of its type; no refused combination), for checking many
+        sets of values against one system already validated (a batch of variants, harness.run.batch)."""
+        variables = {i.name: {v.name: v for v in model_descriptions[i.name].modelVariables} for i in self.instances}
+        lookup = _lookup(variables, model_descriptions)
+        return lambda parameters: self._check_values(lookup, parameters)
+
+    def _check_values(self, lookup, parameters: dict | None) -> None:
+        for ref, value in (parameters or {}).items():
+            _check_parameter(lookup(ref, "parameter"), ref, value)
+        self._refuse(lookup, parameters)
+
     def _refuse(self, lookup, parameters: dict | None) -> None:
         """Raise SystemDescriptionError in one line when the parameter values (the system's, overridden by
         ``parameters``) make one of the system's :class:`Refusal` combinations."""
@@ -309,6 +307,25 @@ class System:
             else:
                 given = " with ".join(f"{ref} = {v!r}" for ref, v in taken.items())
                 raise SystemDescriptionError(f"system {self.name}: {given} is refused: {r.why}; use {r.instead}")
+
+
+def _lookup(variables: dict, model_descriptions: dict):
+    """``lookup(ref, what)``: the model variable ``Instance.variable`` names, or a one-line error naming what it is
+    (``what``) and the nearest names."""
+    def lookup(ref: str, what: str):
+        inst, var = _split(ref, what)
+        if inst not in variables:
+            raise SystemDescriptionError(f"{what} {ref}: unknown instance {inst!r}{_did_you_mean(inst, variables)}")
+        v = variables[inst].get(var)
+        if v is None:
+            # a parameter's name is closer to what --set means than an output's
+            own = variables[inst].values()
+            close = _did_you_mean(var, [x.name for x in own if x.causality == "parameter"]) or \
+                _did_you_mean(var, [x.name for x in own])
+            raise SystemDescriptionError(f"{what} {ref}: FMU {model_descriptions[inst].modelName} of instance "
+                                         f"{inst} has no variable {var!r}{close}")
+        return v
+    return lookup
 
 
 def _unit(v) -> str:

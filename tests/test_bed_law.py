@@ -37,7 +37,7 @@ def test_carrier_plus_fourbar_gives_the_uniform_bed_law(u):
     assert np.ptp(bed_b[zone]) < 1e-9 * np.mean(bed_b[zone])
     # the scalar path (the FMU's inner loop) is the array path
     for x in (0.0, 0.1, u, 0.5, 1 - u, 0.93, 1.0):
-        assert cl.law.scalar(x) == pytest.approx(tuple(float(v[0]) for v in cl.law(np.array([x]))), rel=1e-12, abs=1e-12)
+        assert cl.law(x, math) == pytest.approx(tuple(float(v[0]) for v in cl.law(np.array([x]))), rel=1e-12, abs=1e-12)
 
 
 def test_bed_law_closed_forms():

@@ -26,7 +26,7 @@ def test_quick_run_writes_csv_and_checks_results(fmu_dir, tmp_path):
     env = dict(os.environ, PRESSDRIVE_FMU_DIR=str(fmu_dir), PYTHONPATH=str(ROOT),
                PRESSDRIVE_COFMUPY_VENV=str(tmp_path / "blocker" / "venv"))
     proc = subprocess.run([sys.executable, "-m", "benchmarks", "--quick", "--cases", "ring", "--tools",
-                           "jacobi-sampled,fmpy,ctypes,cofmupy", "--modes", "unpinned", "--no-realtime",
+                           "jacobi-sampled,fmpy,ctypes,cofmupy", "--modes", "unpinned", "--no-realtime", "--no-batch",
                            "--out", str(tmp_path), "--chart", str(tmp_path / "b.png")],
                           capture_output=True, text=True, cwd=str(ROOT), env=env, timeout=120)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
@@ -41,6 +41,27 @@ def test_quick_run_writes_csv_and_checks_results(fmu_dir, tmp_path):
     # the CoFmuPy venv cannot be created here: the row says why, the others go on
     assert by_tool["cofmupy"]["note"].startswith("skipped: CoFmuPy virtual environment")
     assert (tmp_path / "b.png").stat().st_size > 0 and (tmp_path / "b.svg").is_file()
+
+
+@pytest.mark.slow
+def test_quick_batch_benchmark_writes_its_rows_and_goal_lines(tmp_path):
+    """``python -m benchmarks.batch --quick``: the bed drive at N = 1 and 10 against its scalar runs, each with its
+    parts, and the 8-point feeder sweep of each tool (OMSimulator's row says why where it cannot run); the goals
+    are printed as not judged (quick numbers mean nothing)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.run([sys.executable, "-m", "benchmarks.batch", "--quick", "--out", str(tmp_path)],
+                          capture_output=True, text=True, cwd=str(ROOT), env=env, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    rows = list(csv.DictReader(open(tmp_path / "batch.csv")))
+    assert [(r["drive"], r["n"]) for r in rows] == [("bed_drive", "1"), ("bed_drive", "10")]
+    for r in rows:
+        assert not r["error"] and float(r["ratio"]) > 0 and "fourbar" in r["parts"] and "master" in r["parts"], r
+    sweep = {r["tool"]: r for r in csv.DictReader(open(tmp_path / "batch_sweep.csv"))}
+    assert set(sweep) == {"harness (batched)", "harness --no-batch", "omsimulator"}
+    for tool in ("harness (batched)", "harness --no-batch"):
+        assert not sweep[tool]["error"] and float(sweep[tool]["cpu_s"]) > 0, sweep[tool]
+    assert sweep["omsimulator"]["error"] or float(sweep["omsimulator"]["cpu_s"]) > 0
+    assert proc.stdout.count("[n/a ]") == 3, proc.stdout[-2000:]
 
 
 def _rows(values: dict) -> tuple[list[dict], dict]:

@@ -40,7 +40,7 @@ def test_profile_point_is_on_the_ray_and_at_conrod_length():
     sel = inner & (p.speed > 0.2 * np.max(p.speed))
     assert np.allclose(kap[sel], p.curvature[sel], rtol=1e-3, atol=1e-3)
     for i in (5, 700, 1500):
-        rho, _, th = G.stone_scalar(p.phi[i], p.gamma[i], law.scalar(p.phi[i])[1], LAM1, lam2, G.base_branch(LAM1, lam2, LAM3))
+        rho, _, th = G.stone_scalar(p.phi[i], p.gamma[i], law(p.phi[i], math)[1], LAM1, lam2, G.base_branch(LAM1, lam2, LAM3))
         assert rho == pytest.approx(p.rho[i], abs=1e-12) and th == pytest.approx(p.theta[i], abs=1e-9)
 
 
@@ -50,9 +50,9 @@ def test_law_meets_the_base_fourbar_extremes_and_dwell():
     for phi_e, g_e in ext.values():
         assert float(G.base_fourbar_angle(phi_e, LAM1, lam2, LAM3)) == pytest.approx(g_e, abs=1e-12)
     law = G.kulisa_law(LAM1, lam2, LAM3, L.get_law("K0"), dwell=0.3)
-    g_end = law.scalar(ext["extended"][0])[0]
+    g_end = law(ext["extended"][0], math)[0]
     assert g_end == pytest.approx(ext["extended"][1], abs=1e-12)
-    assert law.scalar(ext["extended"][0] + 0.1)[1] == 0.0   # inside the dwell
+    assert law(ext["extended"][0] + 0.1, math)[1] == 0.0   # inside the dwell
 
 
 def _args(*extra):

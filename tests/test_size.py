@@ -54,6 +54,18 @@ def test_the_trimmer_motor_sized_to_a_thermal_target_against_its_closed_form():
     assert "motor_torque_rms_to_rated took" in none.message
 
 
+@pytest.mark.slow
+def test_more_candidates_than_the_root_findings_budget_are_all_run():
+    """The root finding's budget (max_runs, 16) counts the runs after the candidates: 17 candidates run (as one
+    batch), then Brent's method, and the answer is the closed form of the test above (P0 r0 / 0.8 from any run).
+    At one step for every FMU (the declared experiment's own rate for the knife load is not batched)."""
+    one = size(load("trimmer_conveyor"), "motor.P_rated", "motor_torque_rms_to_rated <= 0.8", (1000.0, 8000.0),
+               xtol=1e-3, stop_time=1.2, step=2.5e-4, candidates=17)
+    assert len(one.runs) > 17 and one.answer is not None
+    p_any, r_any = next(iter(one.runs.items()))
+    assert one.answer == pytest.approx(p_any * r_any / 0.8, rel=2e-3) and one.verified <= 0.8 + 1e-9
+
+
 def test_a_changed_drive_object_is_refused_for_a_scheduler_before_any_run():
     """The workers load the drive by its name: an object that differs from what its name loads would be sized
     as another drive, so it is refused in one line (an unchanged one goes by its name)."""

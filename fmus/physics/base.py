@@ -13,6 +13,7 @@ from typing import Any, ClassVar, Sequence
 import numpy as np
 
 from . import integrate
+from .mathns import SCALAR
 
 
 DIFFERENCE_STEP = 6e-6   # relative step of Model.output_jacobian_by_differences (~ cube root of the float epsilon)
@@ -53,28 +54,39 @@ class ParamSpec:
     is_integer: bool
 
 
+_SPECS: dict = {}   # Params class -> its ParamSpec tuple (Params.specs)
+_BOUNDS: dict = {}  # Params class -> (name, unit, low, high, low_open, choices) per field (Params.validate)
+
+
+def _bounds(cls) -> tuple:
+    """The admissible ranges of a parameter class's fields, read from their metadata once per class."""
+    known = _BOUNDS.get(cls)
+    if known is None:
+        known = _BOUNDS[cls] = tuple((f.name, f.metadata["unit"], f.metadata.get("low"), f.metadata.get("high"),
+                                      bool(f.metadata.get("low_open")), f.metadata.get("choices"))
+                                     for f in fields(cls))
+    return known
+
+
 @dataclass(frozen=True)
 class Params:
     """Base of every parameter dataclass: range checks from the field metadata."""
 
     def validate(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            meta = f.metadata
-            choices = meta.get("choices")
-            low, high = meta.get("low"), meta.get("high")
-            bounds = dict(low=low, high=high, low_open=bool(meta.get("low_open")), choices=choices)
+        for name, unit, low, high, low_open, choices in _bounds(type(self)):
+            value = getattr(self, name)
+            bounds = dict(low=low, high=high, low_open=low_open, choices=choices)
             if isinstance(value, float) and not math.isfinite(value):
-                raise ParameterError(f.name, value, "must be finite", **bounds)
+                raise ParameterError(name, value, "must be finite", **bounds)
             if choices is not None and value not in choices:
-                raise ParameterError(f.name, value, f"must be one of {list(choices)}", **bounds)
+                raise ParameterError(name, value, f"must be one of {list(choices)}", **bounds)
             if low is not None:
-                if meta.get("low_open") and not value > low:
-                    raise ParameterError(f.name, value, f"must be > {low:g} {meta['unit']}".rstrip(), **bounds)
-                if not meta.get("low_open") and not value >= low:
-                    raise ParameterError(f.name, value, f"must be >= {low:g} {meta['unit']}".rstrip(), **bounds)
+                if low_open and not value > low:
+                    raise ParameterError(name, value, f"must be > {low:g} {unit}".rstrip(), **bounds)
+                if not low_open and not value >= low:
+                    raise ParameterError(name, value, f"must be >= {low:g} {unit}".rstrip(), **bounds)
             if high is not None and not value <= high:
-                raise ParameterError(f.name, value, f"must be <= {high:g} {meta['unit']}".rstrip(), **bounds)
+                raise ParameterError(name, value, f"must be <= {high:g} {unit}".rstrip(), **bounds)
         self.check()
 
     def check(self) -> None:
@@ -82,17 +94,21 @@ class Params:
 
     @classmethod
     def specs(cls) -> list[ParamSpec]:
-        out = []
-        for f in fields(cls):
-            default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc]
-            out.append(ParamSpec(f.name, default, f.metadata["unit"], f.metadata["doc"],
-                                 isinstance(default, int) and not isinstance(default, bool)))
-        return out
+        """Every parameter's declaration, in field order (read once per class: a batch builds a model per variant)."""
+        known = _SPECS.get(cls)
+        if known is None:
+            out = []
+            for f in fields(cls):
+                default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc]
+                out.append(ParamSpec(f.name, default, f.metadata["unit"], f.metadata["doc"],
+                                     isinstance(default, int) and not isinstance(default, bool)))
+            known = _SPECS[cls] = tuple(out)
+        return list(known)
 
     @classmethod
     def from_mapping(cls, values: dict[str, Any]):
         """Build from a mapping, ignoring keys that are not parameters of this component."""
-        names = {f.name for f in fields(cls)}
+        names = {b[0] for b in _bounds(cls)}
         return cls(**{k: v for k, v in values.items() if k in names})
 
 
@@ -143,6 +159,16 @@ class Model:
     # whether the inputs set memory at once, so that a host that integrates derivatives() must call
     # advance(t, 0.0, x, u) when an input changes (a brake's timer restarted by a released command)
     input_memory: ClassVar[bool] = False
+    # the math the equations take their functions from: ``math`` for this one variant (fmus.physics.mathns); a batch
+    # of variants calls the same methods on a view whose ``m`` is the vector namespace (fmus.physics.variants)
+    m: ClassVar = SCALAR
+    # the batch form of the model (a subclass of fmus.physics.variants.Vectorised), None: each variant's scalar model
+    Batch: ClassVar = None
+
+    def __new__(cls, *args, **kwargs):
+        self = super().__new__(cls)
+        self.m = cls.m      # the instance's own: Python reads it faster than the class's (mathns._as_module)
+        return self
 
     def __init__(self, p: Params):
         p.validate()

@@ -51,6 +51,7 @@ from functools import lru_cache
 import numpy as np
 
 from . import fourbar, fourbar_synthesis
+from .mathns import SCALAR, namespace
 from .motion_law import Law
 
 SEED_LINKAGE = (1.0, 1.91579, 2.10526, 2.25263)   # seed 004: O2A : AD : O2O5 : DO5
@@ -75,7 +76,8 @@ def bed_invariants(k, u, m=np):
     def rise(x):
         return C / (w * w) * (1.0 - m.cos(w * x)), V * m.sin(w * x), C * m.cos(w * x)
 
-    if m is math:
+    m = m if m is SCALAR else namespace(m)
+    if m.scalar:
         if k <= u:
             return rise(k)
         if k >= 1.0 - u:
@@ -153,13 +155,11 @@ class FourBarStroke:
     psi0: float            # rocker angle at the stroke's start
 
     def invariants(self, k, m=np):
-        """(a_delta, b_delta, c_delta) at phase share k."""
+        """(a_delta, b_delta, c_delta) at phase share k (``m``: the namespace, mathns.namespace)."""
+        m = m if m is SCALAR else namespace(m)
         phi = self.start + k * self.span
-        if m is math:
-            psi, v, acc, _ = fourbar.kinematics_scalar(phi, self.a, self.b, self.f, self.r, self.branch)
-        else:
-            psi, v, acc, _ = fourbar.kinematics(np.asarray(phi, dtype=float), self.a, self.b, self.f, self.r,
-                                                self.branch)
+        psi, v, acc, _ = fourbar.kinematics(phi if m.scalar else np.asarray(phi, dtype=float), self.a, self.b,
+                                            self.f, self.r, self.branch, m, mu=False)
         return ((psi - self.psi0) / self.swing, v * self.span / self.swing, acc * self.span ** 2 / self.swing)
 
     def jerk(self, k: float) -> float:
@@ -167,11 +167,11 @@ class FourBarStroke:
         f + r e^(i psi) differentiated three times (real part after multiplying by e^(-i th)):
         j = v^3 + (3 r v acc cos(th - psi) - a sin(th - phi) - 3 b vc acc_c) / (r sin(th - psi)), with the
         coupler's vc = a sin(psi - phi) / (b sin(th - psi)) and acc_c = (r acc cos(th - psi) + r v^2 sin(th - psi)
-        - a sin(th - phi)) / b (the imaginary part of the second derivative); psi, v, acc are kinematics_scalar's
+        - a sin(th - phi)) / b (the imaginary part of the second derivative); psi, v, acc are kinematics'
         and th fourbar.position's (fourbar.py gives no third derivative)."""
         a, b, r = self.a, self.b, self.r
         phi = self.start + k * self.span
-        psi, v, acc, _ = fourbar.kinematics_scalar(phi, a, b, self.f, r, self.branch)
+        psi, v, acc, _ = fourbar.kinematics(phi, a, b, self.f, r, self.branch, SCALAR, mu=False)
         th = float(fourbar.position(phi, a, b, self.f, r, self.branch)[1])
         s_cr, c_cr, s_ta = math.sin(th - psi), math.cos(th - psi), math.sin(th - phi)
         vc = a * math.sin(psi - phi) / (b * s_cr)

@@ -76,7 +76,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import contact, groove, integrate
+from . import contact, groove, integrate, integrate_batch, variants
 from .base import Model, ParameterError, Params, Signal, last_call, param
 from .cam_rocker_kv import EXP_STEP_PHASE, KelvinVoigtPin
 from .cam_rocker_stone import SlidingStone
@@ -195,6 +195,7 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
         # level 2, Kelvin-Voigt: the exponential step, sized on the contact's frequency
         w_c = math.sqrt(p.contact_stiffness * self.r_max * self.r_max / p.rocker_inertia)
         self._exp_step = EXP_STEP_PHASE / w_c
+        self._kv_zeta = None     # a batch's view holds each variant's kelvin_voigt_zeta (one variant: its own)
         # output(): the rigid kinematics and geometry of one crank angle, asked twice per communication point
         self._rigid_at = last_call(self._rigid_kinematics)
 
@@ -202,8 +203,8 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
     def kinematics(self, phi: float) -> tuple[float, float, float]:
         """(G, dG/dphi, d2G/dphi2) of the rocker."""
         if self.p.mechanism == 0:
-            return self.kulisa.scalar(phi)
-        s, s1, s2 = self.cycle.scalar(phi)
+            return self.kulisa.at(phi, self.m)
+        s, s1, s2 = self.cycle.at(phi, self.m)
         sw = self.p.swing
         return sw * s, sw * s1, sw * s2
 
@@ -223,24 +224,28 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
     def geometry(self, phi: float, kin=None) -> tuple[float, float]:
         """(pressure angle [rad], stone/contact radius [m]) at crank angle phi (rigid kinematics); ``kin`` is
         ``kinematics(phi)`` when the caller has it."""
-        p = self.p
+        p, m = self.p, self.m
         g, g1, _ = kin or self.kinematics(phi)
         if p.mechanism == 0:
-            rho, _, theta = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
+            rho, _, theta = groove.stone_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch, m)
             return theta, rho * p.crank_radius
         cx, cy, ex, ey, vx, vy = self._roller(g, g1)
-        vn = math.hypot(vx, vy)
-        theta = 0.0 if vn == 0.0 else math.acos(min(1.0, abs(vx * ey - vy * ex) / vn))
-        return theta, math.hypot(cx, cy)
+        vn = m.hypot(vx, vy)
+        if m.scalar:
+            theta = 0.0 if vn == 0.0 else math.acos(min(1.0, abs(vx * ey - vy * ex) / vn))
+        else:
+            still = vn == 0.0
+            theta = m.where(still, 0.0, m.acos(m.minimum(1.0, abs(vx * ey - vy * ex) / m.where(still, 1.0, vn))))
+        return theta, m.hypot(cx, cy)
 
     def _roller(self, g: float, g1: float) -> tuple[float, float, float, float, float, float]:
         """Cam mechanism at follower angle psi = psi0 + G: the roller centre C (cam frame), the direction e of its
         velocity (psi increasing) and its velocity v relative to the cam per unit crank speed (geometry() and
         geometry_slopes())."""
-        a, l = self.p.cam_distance, self.p.follower_arm
+        a, l, m = self.p.cam_distance, self.p.follower_arm, self.m
         psi = self.psi0 + g
-        cx, cy = a - l * math.cos(psi), l * math.sin(psi)
-        ex, ey = math.sin(psi), math.cos(psi)
+        cx, cy = a - l * m.cos(psi), l * m.sin(psi)
+        ex, ey = m.sin(psi), m.cos(psi)
         return cx, cy, ex, ey, l * g1 * ex + cy, l * g1 * ey - cx
 
     def geometry_slopes(self, phi: float, kin) -> tuple[float, float]:
@@ -329,8 +334,9 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
         # v_impact and the contact flag are memory set at the sub-step boundaries (advance): a contact that
         # began inside the present sub-step (flag still 0) approaches at its present penetration rate, not
         # at the stored speed of the previous contact (0 before the first one)
-        v0 = x[2] if x[4] != 0.0 else abs(qd)
-        F = contact.contact_force(q, qd, p.clearance, k, p.contact_law, p.restitution, v0, m, p.contact_exponent)
+        v0 = (x[2] if x[4] != 0.0 else abs(qd)) if self.m.scalar else 0.0   # (a batch: Kelvin-Voigt, no onset speed)
+        F = contact.contact_force(q, qd, p.clearance, k, p.contact_law, p.restitution, v0, m, p.contact_exponent,
+                                  self.m, self._kv_zeta)
         return -F * R, F
 
     def _acceleration(self, t, gamma, omega, x, u, t0, kin=None) -> float:
@@ -518,3 +524,109 @@ class CamRockerModel(KelvinVoigtPin, SlidingStone, Model):
         if F != 0.0:
             D[5] = math.copysign(1.0, F) * dF
         return D
+
+
+class CamRockerBatch(variants.Vectorised):
+    """Variants of :class:`CamRockerModel` stepped together (fmus.physics.variants): the law, the kinematics and the
+    geometry of the rigid level (fidelity 0), the elastic transmission (fidelity 1, RK4 on each variant's own
+    sub-steps) and the Kelvin-Voigt play (fidelity 2: exponential steps, a variant with a contact event in the step
+    handed to its own scalar model) on arrays, the model's own methods.  Level 2 with the other contact laws and
+    level 3 run each variant's scalar model.  A disc cam's pressure angle and roller radius are left out when no
+    one reads them (``rows``): both are finite wherever the kinematics are."""
+    attributes = ("branch", "kulisa", "cycle", "psi0", "r_min", "r_max")
+
+    @classmethod
+    def refuses(cls, models):
+        p = models[0].p
+        if p.fidelity == 3:
+            return "level 3's two clearances"
+        if p.fidelity == 2 and not (p.contact_law == contact.KELVIN_VOIGT and models[0].exact_contact):
+            return "level 2's RK4 sub-steps of the Hunt-Crossley family"
+        return None
+
+    @classmethod
+    def key(cls, model):
+        """The law and its phases (or the groove's base four-bar): objects built from real parameters."""
+        p = model.p
+        if p.mechanism == 0:
+            return (p.law_n, p.law_km, p.lambda1, p.lambda2, p.lambda3, p.dwell)
+        return (p.law_n, p.law_km, p.phase_forward, p.phase_return, p.dwell, p.phi_start)
+
+    def __init__(self, models):
+        super().__init__(models)
+        self.v._rigid_at = variants.last_call(self.v._rigid_kinematics)
+        self._law_only = variants.last_call(lambda phi: (self.v.kinematics(phi), (0.0, 0.0)))
+        self.v._kv_zeta = np.array([contact.kelvin_voigt_zeta(m.p.restitution) for m in self.models])
+        self.v._exp_step = np.array([m._exp_step for m in self.models])
+
+    def output(self, t, X, U, rows=None):
+        v = self.v
+        if rows is not None and v.p.mechanism == 1 and not {3, 4} & set(rows):
+            memo = v._rigid_at                 # the rigid law alone: no geometry asked for
+            v._rigid_at = self._law_only
+            try:
+                return v.m.stack(v.output(t, X, U))
+            finally:
+                v._rigid_at = memo
+        return v.m.stack(v.output(t, X, U))
+
+    def advance(self, t0, h, X, U):
+        v = self.v
+        x = np.array(X, dtype=float)
+        if v.p.fidelity == 0:
+            return x
+        if v.p.fidelity == 2:
+            return self._advance_kelvin_voigt(t0, h, X, U)
+
+        def acc(t, gamma, omega):
+            return v._acceleration(t, gamma, omega, x, U, t0, v._kin)
+
+        x[0], x[1] = integrate_batch.rk4_pairs(acc, t0, h, v.max_substep, x[0], x[1])
+        return x
+
+    def _advance_kelvin_voigt(self, t0, h, X, U):
+        """Level 2, Kelvin-Voigt (:meth:`KelvinVoigtPin._advance_kelvin_voigt`) on arrays: each variant's exponential
+        steps in the contact mode of their start, on its own count of steps; a variant whose mode or wall changes
+        within a step (a contact event, located by bisection), whose jet is not finite, or whose contact begins on
+        a step boundary, takes the whole communication step with its own scalar model."""
+        v = self.v
+        phi0, w, tau = U[0], U[1], U[2]
+        x = np.array(X, dtype=float)
+        gamma, omega, flag = x[0], x[1], x[4]
+        n = integrate_batch.substeps(h, v._exp_step)
+        top, low = int(n.max()), int(n.min())
+        t = t0 + 0.0 * n
+        co = v._kv_coefficients(phi0 + w * (t - t0), w)
+        alone = np.zeros(self.n, dtype=bool)
+        for i in range(top):
+            live = i < n
+            t_end = np.where(i < n - 1, t0 + (i + 1) * h / n, t0 + h)
+            side, mode = v._kv_mode(gamma, omega, co)
+            jet = v._kv_jet(gamma, omega, tau, co, mode)
+            alone |= ~np.isfinite(jet[3]) & live
+
+            co_end = v._kv_coefficients(phi0 + w * (t_end - t0), w)
+
+            def acc(tt, g, om, mode=mode, co_end=co_end, t_end=t_end):
+                # the step's end: t + (t_end - t) is t_end exactly, wherever t and t_end are within a factor 2
+                same = tt == t_end
+                co_tt = co_end if same.all() else v._kv_coefficients(phi0 + w * (tt - t0), w)
+                return v._kv_acceleration(g, om, tau, co_tt, mode)
+
+            g1, o1 = integrate_batch.exprb32_pair(acc, t, t_end - t, gamma, omega, jet)
+            side1, mode1 = v._kv_mode(g1, o1, co_end)
+            changed = (side1 != side) | (mode1 != mode) | ((side1 != 0.0) & (flag == 0.0))
+            if i < low:         # every variant takes this step
+                alone |= changed
+                gamma, omega, flag, t, co = g1, o1, np.where(side1 == 0.0, 0.0, flag), t_end, co_end
+                continue
+            alone |= live & changed
+            gamma, omega = np.where(live, g1, gamma), np.where(live, o1, omega)
+            flag = np.where(live & (side1 == 0.0), 0.0, flag)
+            t = np.where(live, t_end, t)
+            co = tuple(np.where(live, a, b) for a, b in zip(co_end, co))
+        x[0], x[1], x[4] = gamma, omega, flag
+        return self.by_scalar(alone, t0, h, X, U, x)
+
+
+CamRockerModel.Batch = CamRockerBatch

@@ -7,7 +7,6 @@ kinematics and pin geometry (``_kin``, ``_pin_stiffness``, ``lever``) and contac
 """
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
@@ -30,18 +29,21 @@ class KelvinVoigtPin:
         rate R' in closed form, with
         dk/dR = -2 k^2 R / stiffness (the transmission in series with the contact) and
         c R^2 = 2 zeta sqrt(k J) |R|."""
-        p = self.p
+        p, ns = self.p, self.m
         g, g1, g2 = self.kinematics(phi)
         if p.mechanism == 0:
-            rho, rho1 = groove.stone_radius_rate_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch)
+            rho, rho1 = groove.stone_radius_rate_scalar(phi, g, g1, p.lambda1, p.lambda2, self.branch, ns)
             R, r_t = p.crank_radius * rho, p.crank_radius * rho1 * w
         else:
             R, r_t = p.follower_arm, 0.0
         k, m = self._pin_stiffness(R)
-        c = contact.kelvin_voigt_damping(k, m, p.restitution)
+        c = contact.kelvin_voigt_damping(k, m, p.restitution, ns, self._kv_zeta)
         kr2, cr2 = k * R * R, c * R * R
         k_r = -2.0 * k * k * R / p.stiffness
-        cr2_r = 0.5 * cr2 * k_r / k + (cr2 / R if R != 0.0 else 0.0)
+        if ns.scalar:
+            cr2_r = 0.5 * cr2 * k_r / k + (cr2 / R if R != 0.0 else 0.0)
+        else:
+            cr2_r = 0.5 * cr2 * k_r / k + ns.where(R != 0.0, cr2 / ns.where(R != 0.0, R, 1.0), 0.0)
         return (g, g1 * w, kr2, cr2, 0.5 * k * R * p.clearance,
                 g2 * w * w, (k_r * R * R + 2.0 * k * R) * r_t, cr2_r * r_t, 0.5 * p.clearance * (k_r * R + k) * r_t)
 
@@ -51,6 +53,11 @@ class KelvinVoigtPin:
         to 0 there: then 0)."""
         g, gw, kr2, cr2, krh, _, _, _, _ = co
         qr = kr2 * (g - gamma)                      # k R q, with q = R (G - gamma)
+        m = self.m
+        if not m.scalar:
+            side = m.where(qr > krh, 1.0, m.where(qr < -krh, -1.0, 0.0))
+            torque = qr - side * krh + cr2 * (gw - omega)
+            return side, m.where(side * torque > 0.0, side, 0.0)
         if qr > krh:
             side = 1.0
         elif qr < -krh:
@@ -64,22 +71,28 @@ class KelvinVoigtPin:
         """Rocker acceleration [rad/s2] with the Kelvin-Voigt play held in ``mode`` (0 free, +1/-1 pushing on
         that wall; the force law extended linearly beyond the mode's bounds, so that the step's Jacobian and
         time derivative are smooth)."""
-        if mode == 0.0:
+        m = self.m
+        if m.scalar and mode == 0.0:
             return tau / self.p.rocker_inertia
         g, gw, kr2, cr2, krh, _, _, _, _ = co
-        return (kr2 * (g - gamma) + cr2 * (gw - omega) - mode * krh + tau) / self.p.rocker_inertia
+        pushed = (kr2 * (g - gamma) + cr2 * (gw - omega) - mode * krh + tau) / self.p.rocker_inertia
+        return pushed if m.scalar else m.where(mode == 0.0, tau / self.p.rocker_inertia, pushed)
 
     def _kv_jet(self, gamma, omega, tau, co, mode):
         """(acceleration, its derivatives in gamma, omega and time) of :meth:`_kv_acceleration` at one instant,
         in closed form (exprb32_pair's ``jet``); None where the lever's rate is not finite (the stone at the end
         of its groove's reach): the step then takes differences."""
         a0 = self._kv_acceleration(gamma, omega, tau, co, mode)
-        if mode == 0.0:
+        m = self.m
+        if m.scalar and mode == 0.0:
             return a0, 0.0, 0.0, 0.0
         J = self.p.rocker_inertia
         g, gw, kr2, cr2, _, gw_t, kr2_t, cr2_t, krh_t = co
         a_t = (kr2_t * (g - gamma) + kr2 * gw + cr2_t * (gw - omega) + cr2 * gw_t - mode * krh_t) / J
-        return (a0, -kr2 / J, -cr2 / J, a_t) if math.isfinite(a_t) else None
+        if m.scalar:
+            return (a0, -kr2 / J, -cr2 / J, a_t) if math.isfinite(a_t) else None
+        free = mode == 0.0      # a batch: the free variants' rates, and a_t's finiteness in the jet's mask
+        return (a0, m.where(free, 0.0, -kr2 / J), m.where(free, 0.0, -cr2 / J), m.where(free, 0.0, a_t))
 
     def _advance_kelvin_voigt(self, t0, h, x, u):
         """Level 2 with the Kelvin-Voigt law: exponential Rosenbrock steps (integrate.exprb32_pair) of
@@ -90,10 +103,14 @@ class KelvinVoigtPin:
         (onset: impacts + 1, v_impact = the penetration rate; separation: flag 0).  A change that comes and
         goes within one step is not seen (as at RK4's sub-step boundaries)."""
         phi0, w, tau = u[0], u[1], u[2]
-        at_angle = functools.cache(lambda phi: self._kv_coefficients(phi, w))   # once per crank angle
+        at_angle = {}       # once per crank angle (a dict: functools.cache would cost ~2 us to make, each step)
 
         def coefficients(t):
-            return at_angle(phi0 + w * (t - t0))
+            phi = phi0 + w * (t - t0)
+            co = at_angle.get(phi)
+            if co is None:
+                co = at_angle[phi] = self._kv_coefficients(phi, w)
+            return co
 
         def step(t, dt, gamma, omega, mode):
             def acc(tt, g, om):

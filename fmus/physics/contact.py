@@ -39,12 +39,16 @@ for Flores at e = 0.2): the largest damping the same law reaches at the peak of 
 bounded by C sqrt((n + 1) / (2 n)) times the linearised contact frequency.  The criterion has no free
 constant.  That bound (``damping_per_frequency``) sizes the integrators' sub-steps (``max_substep``).
 
-All functions are scalar (plain floats) because they sit in the innermost loop of the integrators.
+The functions take plain floats: they sit in the innermost loop of the integrators.  ``penetration``,
+``kelvin_voigt_damping`` and ``contact_force`` also take a math namespace ``m`` (fmus.physics.mathns): VECTOR
+for arrays over a batch of variants, each element the float's bits.
 """
 from __future__ import annotations
 
 import functools
 import math
+
+from .mathns import SCALAR
 
 KELVIN_VOIGT, HUNT_CROSSLEY, LANKARANI_NIKRAVESH, FLORES = 0, 1, 2, 3
 LAWS = {
@@ -97,9 +101,11 @@ def kelvin_voigt_zeta(e: float) -> float:
             hi = mid
 
 
-def kelvin_voigt_damping(k: float, m_eff: float, e: float) -> float:
-    """Damping coefficient c [N.s/m] for which a no-pull Kelvin-Voigt contact rebounds with restitution e."""
-    return 2.0 * kelvin_voigt_zeta(e) * math.sqrt(k * m_eff)
+def kelvin_voigt_damping(k: float, m_eff: float, e: float, m=SCALAR, zeta=None) -> float:
+    """Damping coefficient c [N.s/m] for which a no-pull Kelvin-Voigt contact rebounds with restitution e (``m``:
+    the math namespace, fmus.physics.mathns; ``zeta``: :func:`kelvin_voigt_zeta` of e when the caller has it, as a
+    batch of variants has each variant's)."""
+    return 2.0 * (kelvin_voigt_zeta(e) if zeta is None else zeta) * m.sqrt(k * m_eff)
 
 
 def energy_speed(pen: float, k: float, m_eff: float, exponent: float = 1.0) -> float:
@@ -120,25 +126,38 @@ def hysteresis_factor(law: int, e: float, v0: float) -> float:
     raise ValueError(f"law {law!r} is not a Hunt-Crossley-type law")
 
 
-def penetration(q: float, q_dot: float, clearance: float) -> tuple[float, float, float]:
-    """(pen, pen_dot, side): side = +1/-1 for contact on the positive/negative wall, 0 when separated."""
+def penetration(q: float, q_dot: float, clearance: float, m=SCALAR) -> tuple[float, float, float]:
+    """(pen, pen_dot, side): side = +1/-1 for contact on the positive/negative wall, 0 when separated (``m``: the
+    math namespace, fmus.physics.mathns)."""
     half = 0.5 * clearance
-    if q > half:
-        return q - half, q_dot, 1.0
-    if q < -half:
-        return -q - half, -q_dot, -1.0
-    return 0.0, 0.0, 0.0
+    if m.scalar:
+        if q > half:
+            return q - half, q_dot, 1.0
+        if q < -half:
+            return -q - half, -q_dot, -1.0
+        return 0.0, 0.0, 0.0
+    up, down = q > half, q < -half
+    side = m.where(up, 1.0, m.where(down, -1.0, 0.0))
+    return (m.where(up, q - half, m.where(down, -q - half, 0.0)), m.where(up, q_dot, m.where(down, -q_dot, 0.0)),
+            side)
 
 
 def contact_force(q: float, q_dot: float, clearance: float, k: float, law: int, e: float,
-                  v_impact: float, m_eff: float, exponent: float = 1.0) -> float:
+                  v_impact: float, m_eff: float, exponent: float = 1.0, m=SCALAR, zeta=None) -> float:
     """Signed force along q [N] that the joint exerts to push q back into the clearance band.
 
     Returns a value of the sign opposite to q while in contact and 0 while separated.  ``v_impact`` is
     the approach speed at the start of the current contact (Hunt-Crossley family), ``m_eff`` the reduced
-    mass (Kelvin-Voigt damping; Hunt-Crossley family: energy speed of a persistent contact).
+    mass (Kelvin-Voigt damping; Hunt-Crossley family: energy speed of a persistent contact).  ``m``: the math
+    namespace (fmus.physics.mathns); on arrays over a batch of variants the Kelvin-Voigt law, the one the
+    vectorised models step (``zeta``: each variant's :func:`kelvin_voigt_zeta`).
     """
-    pen, pen_dot, side = penetration(q, q_dot, clearance)
+    pen, pen_dot, side = penetration(q, q_dot, clearance, m)
+    if not m.scalar:
+        if law != KELVIN_VOIGT:
+            raise ValueError(f"a batch of variants steps the Kelvin-Voigt contact law only, not {LAWS.get(law, law)}")
+        f = k * pen + kelvin_voigt_damping(k, m_eff, e, m, zeta) * pen_dot
+        return m.where(side == 0.0, 0.0, -side * m.maximum(f, 0.0))
     if side == 0.0:
         return 0.0
     if law == KELVIN_VOIGT:

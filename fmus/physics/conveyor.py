@@ -41,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import variants
 from .base import Model, ParameterError, Params, param
 
 
@@ -134,8 +135,10 @@ class ConveyorLoadModel(Model):
         p = self.p
         travel = p.x0 + p.r_pulley * u[0]
         edge, count = edge_in_zone(travel, p.pitch, p.cut_length, p.zone)
-        F = p.F0 + p.knives * p.w_cut * p.thickness / p.zone * float(edge)
-        return (-F * p.r_pulley / p.eta, F, float(count))
+        if self.m.scalar:
+            edge, count = float(edge), float(count)
+        F = p.F0 + p.knives * p.w_cut * p.thickness / p.zone * edge
+        return (-F * p.r_pulley / p.eta, F, count)
 
     def output_jacobian(self, t, x, u):
         """The transport force grows with the edge length in the zone, whose slope in the travel is the number of
@@ -145,3 +148,29 @@ class ConveyorLoadModel(Model):
         dF = p.knives * p.w_cut * p.thickness / p.zone * edge_slope(p.x0 + p.r_pulley * u[0], p.pitch,
                                                                     p.cut_length, p.zone) * p.r_pulley
         return np.array([[-dF * p.r_pulley / p.eta, 0.0], [dF, 0.0], [0.0, 0.0]])
+
+
+class ConveyorLoadBatch(variants.Vectorised):
+    """Variants of :class:`ConveyorLoadModel` together: the edge in the zone (its blocks' overlaps) on arrays.  The
+    blocks that can reach the zone follow from the pitch, cut length and zone: variants differing in them are
+    stepped apart (``key``)."""
+
+    @classmethod
+    def key(cls, model):
+        p = model.p
+        return (p.pitch, p.cut_length, p.zone)
+
+    def output(self, t, X, U, rows=None):
+        v = self.v
+        p0 = self.models[0].p
+        p = v.p
+        travel = p.x0 + p.r_pulley * U[0]
+        edge, count = edge_in_zone(travel, p0.pitch, p0.cut_length, p0.zone)
+        F = p.F0 + p.knives * p.w_cut * p.thickness / p.zone * edge
+        return v.m.stack((-F * p.r_pulley / p.eta, F, count))
+
+    def advance(self, t0, h, X, U):
+        return X
+
+
+ConveyorLoadModel.Batch = ConveyorLoadBatch

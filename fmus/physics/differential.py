@@ -48,7 +48,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import integrate
+from . import integrate_batch, variants
 from .base import Model, ParameterError, Params, Signal, param
+from .mathns import SCALAR
 
 
 @dataclass(frozen=True)
@@ -86,14 +88,19 @@ def willis_sun_speed(w_ring: float, w_carrier: float, k: float) -> float:
     return -k * w_ring + (1.0 + k) * w_carrier
 
 
-def static_torques(t_sun: float, w_ring: float, w_carrier: float, k: float, eta: float = 1.0):
-    """External torques (T_ring, T_carrier) that hold the massless gear set in equilibrium with T_sun."""
-    if eta == 1.0:
-        t_ring = k * t_sun
+def static_torques(t_sun: float, w_ring: float, w_carrier: float, k: float, eta: float = 1.0, m=SCALAR):
+    """External torques (T_ring, T_carrier) that hold the massless gear set in equilibrium with T_sun (``m``: the
+    math namespace, fmus.physics.mathns: one variant or arrays over many)."""
+    if m.scalar:
+        if eta == 1.0:
+            t_ring = k * t_sun
+        else:
+            # relative power entering the sun shaft (carrier frame): T_sun*(w_s - w_c) = T_sun*(-k)*(w_r - w_c)
+            p_rel_sun = -t_sun * k * (w_ring - w_carrier)
+            t_ring = eta * k * t_sun if p_rel_sun > 0.0 else k * t_sun / eta
     else:
-        # relative power entering the sun shaft (carrier frame): T_sun*(w_s - w_c) = T_sun*(-k)*(w_r - w_c)
         p_rel_sun = -t_sun * k * (w_ring - w_carrier)
-        t_ring = eta * k * t_sun if p_rel_sun > 0.0 else k * t_sun / eta
+        t_ring = m.where(eta == 1.0, k * t_sun, m.where(p_rel_sun > 0.0, eta * k * t_sun, k * t_sun / eta))
     return t_ring, -(t_sun + t_ring)
 
 
@@ -145,7 +152,7 @@ class JamesDifferentialModel(Model):
         and no stability limit (``substep_limit`` stays the mesh's time scale, for the reference solver)."""
         p = self.p
         if p.fidelity == 0:
-            return np.array(self.kinematic(u, h))
+            return self.m.stack(self.kinematic(u, h))
         j = p.sun_inertia
 
         def acc(t, q, v):
@@ -163,7 +170,7 @@ class JamesDifferentialModel(Model):
         else:
             phi_s, w_s = x[0], x[1]
             m = self.mesh(x, u)
-        t_ring, t_c = static_torques(-m, w_r, w_c, k, p.efficiency)
+        t_ring, t_c = static_torques(-m, w_r, w_c, k, p.efficiency, self.m)
         ring_tau, carrier_tau = -t_ring, -t_c
         return (p.ring_sense * ring_tau, carrier_tau, phi_s, w_s, -ring_tau * w_r, -carrier_tau * w_c, -u[4] * w_s,
                 self.kp * w_r + (1.0 - self.kp) * w_c, m)
@@ -191,3 +198,37 @@ class JamesDifferentialModel(Model):
         return np.array([s * d_ring, d_carrier, d_phis, d_ws,
                          -(d_ring * w_r + ring_tau * s * e[1]), -(d_carrier * w_c + carrier_tau * e[3]),
                          -(e[4] * w_s + u[4] * d_ws), self.kp * s * e[1] + (1.0 - self.kp) * e[3], dm])
+
+
+class JamesDifferentialBatch(variants.Vectorised):
+    """Variants of :class:`JamesDifferentialModel` together: its kinematics, mesh and static torques on arrays, the
+    compliant mesh's exponential step (fidelity 1) too."""
+    attributes = ("k", "kp")
+
+    def output(self, t, X, U, rows=None):
+        v = self.v
+        if rows is not None and set(rows) <= {0, 1, 2, 3} and v.p.fidelity == 0:   # powers and mesh unread
+            k = v.k
+            w_r, w_c = v.ring(U)[1], U[3]
+            phi_s, w_s = v.kinematic(U)
+            t_ring, t_c = static_torques(U[4], w_r, w_c, k, v.p.efficiency, v.m)
+            Y = np.zeros((len(v.outputs), self.n))
+            Y[0], Y[1], Y[2], Y[3] = v.p.ring_sense * -t_ring, -t_c, phi_s, w_s
+            return Y
+        return v.m.stack(v.output(t, X, U))
+
+    def advance(self, t0, h, X, U):
+        v = self.v
+        p = v.p
+        if p.fidelity == 0:
+            return v.advance(t0, h, X, U)
+        j = p.sun_inertia
+
+        def acc(t, q, w):
+            return (v.mesh((q, w), U, t - t0) + U[4]) / j
+        q, w = X[0], X[1]
+        jet = (acc(t0, q, w), -p.c_alpha / j, -p.d_mesh / j, p.c_alpha * v.kinematic(U)[1] / j)
+        return v.m.stack(integrate_batch.exprb32_pair(acc, t0, h, q, w, jet))
+
+
+JamesDifferentialModel.Batch = JamesDifferentialBatch

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import integrate_batch, variants
 from .base import Model, Params, Signal, param
 
 
@@ -93,3 +94,17 @@ class SpringInertiaModel(Model):
     def energy(self, x, u) -> float:
         p = self.p
         return 0.5 * p.J * x[1] ** 2 + 0.5 * p.c * (u[0] - x[0]) ** 2 + 0.5 * p.c_ground * x[0] ** 2
+
+
+class _Rk4Batch(variants.Vectorised):
+    """Variants of a model whose step is the base class's RK4 on its derivatives: those on arrays."""
+
+    def output(self, t, X, U, rows=None):
+        return self.v.m.stack(self.v.output(t, X, U))
+
+    def advance(self, t0, h, X, U):
+        return integrate_batch.rk4(self.v.derivatives, t0, h, np.array(X, dtype=float), U, self.v.max_substep)
+
+
+InertiaModel.Batch = _Rk4Batch
+SpringInertiaModel.Batch = _Rk4Batch

@@ -41,7 +41,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .base import Model, Params, Signal, param
+from .base import Model, Params, Signal, last_call, param
+from .variants import Vectorised
 
 
 @dataclass(frozen=True)
@@ -84,6 +85,12 @@ class FlywheelShaftModel(Model):
         self.sigma = 0.5 * self.b / self.J_red                # decay rate
         self.omega_d = math.sqrt(self.omega ** 2 - self.sigma ** 2)
         super().__init__(p)
+        self._constants = last_call(self.step_constants)   # the same h step after step
+
+    def step_constants(self, h):
+        """(exp(-sigma h), cos(omega_d h), sin(omega_d h)): the shaft mode's decay and turn over a step h."""
+        m = self.m
+        return m.exp(-self.sigma * h), m.cos(self.omega_d * h), m.sin(self.omega_d * h)
 
     def initial_state(self, u):
         p = self.p
@@ -119,17 +126,16 @@ class FlywheelShaftModel(Model):
         phi_c = big_phi + big_w * h + 0.5 * a * h * h
         w_c = big_w + a * h
         if self.p.fidelity == 0:
-            return np.array([phi_c, w_c, phi_c, w_c, (J2 * tp - J1 * tc) / Jt])
+            return self.m.stack((phi_c, w_c, phi_c, w_c, (J2 * tp - J1 * tc) / Jt))
         q_p = (tp / J1 - tc / J2) / (self.omega * self.omega)   # static twist under the held torques
         e0 = x[0] - x[2] - q_p
         v0 = x[1] - x[3]
         sg, wd = self.sigma, self.omega_d
-        decay = math.exp(-sg * h)
-        cs, sn = math.cos(wd * h), math.sin(wd * h)
+        decay, cs, sn = self._constants(h)
         q = q_p + decay * (e0 * cs + (v0 + sg * e0) / wd * sn)
         qd = decay * (v0 * cs - (self.omega * self.omega * e0 + sg * v0) / wd * sn)
         k1, k2 = J2 / Jt, J1 / Jt
-        return np.array([phi_c + k1 * q, w_c + k1 * qd, phi_c - k2 * q, w_c - k2 * qd, 0.0])
+        return self.m.stack((phi_c + k1 * q, w_c + k1 * qd, phi_c - k2 * q, w_c - k2 * qd, 0.0))
 
     def output(self, t, x, u):
         twist = x[0] - x[2]
@@ -141,3 +147,26 @@ class FlywheelShaftModel(Model):
     def output_jacobian(self, t, x, u):
         """Every output is a function of the state (the torques only drive it): no feed-through."""
         return np.zeros((len(self.outputs), len(self.inputs)))
+
+
+class FlywheelShaftBatch(Vectorised):
+    """Variants of :class:`FlywheelShaftModel` stepped together (fmus.physics.variants): the model's closed-form
+    step and outputs on arrays, the step constants of each variant computed once per step size."""
+    attributes = ("J1", "J2", "Jt", "J_red", "c", "b", "omega", "sigma", "omega_d")
+
+    def __init__(self, models):
+        super().__init__(models)
+        self.v._constants = last_call(self.v.step_constants)
+
+    def output(self, t, X, U, rows=None):
+        if rows is not None and max(rows) < 6:    # the motions alone (states; the torque and energies unread)
+            Y = np.zeros((len(self.v.outputs), self.n))
+            Y[:6] = X[[0, 1, 2, 3, 2, 3]]
+            return Y
+        return self.v.m.stack(self.v.output(t, X, U))
+
+    def advance(self, t0, h, X, U):
+        return self.v.advance(t0, h, X, U)
+
+
+FlywheelShaftModel.Batch = FlywheelShaftBatch

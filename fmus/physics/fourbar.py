@@ -86,6 +86,8 @@ import numpy as np
 
 from . import contact
 from .base import Model, ParameterError, Params, Signal, last_call, param
+from . import integrate_batch, variants
+from .mathns import SCALAR, namespace
 from .integrate import exprb32_pair, march_pair, rk4_pair, substeps
 
 # --------------------------------------------------------------------------------------------------------
@@ -131,45 +133,33 @@ def linkage_type(a: float, b: float, f: float, r: float, tol: float = 1e-12) -> 
     return "crank-rocker"
 
 
-def position(phi, a, b, f, r, branch=1):
-    """(psi, theta_c): rocker angle and coupler angle (A -> D) for crank angle phi (closed form)."""
-    vx = a * np.cos(phi) - f
-    vy = a * np.sin(phi)
-    d = np.hypot(vx, vy)
-    theta_a = np.pi + np.arctan2(-vy, -vx)
-    gamma = np.arccos(np.clip((r * r + d * d - b * b) / (2.0 * r * d), -1.0, 1.0))
+def position(phi, a, b, f, r, branch=1, m=None):
+    """(psi, theta_c): rocker angle and coupler angle (A -> D) for crank angle(s) phi (closed form); ``m`` the
+    math namespace (mathns.namespace: numpy, the default, or NUMPY for arrays; ``math`` or SCALAR for one float,
+    twenty times faster than numpy scalars; VECTOR for a batch of variants, each element one float's bits)."""
+    return kinematics(phi, a, b, f, r, branch, m, rates=False)
+
+
+def kinematics(phi, a, b, f, r, branch=1, m=None, mu=True, rates=True):
+    """(psi, dpsi/dphi, d2psi/dphi2, mu): position, velocity and acceleration ratios, transmission angle, at crank
+    angle(s) phi; ``m`` as :func:`position` (numpy's arccos, arctan2 and hypot round differently from math's in the
+    last bit: an array evaluation by NUMPY differs from the per-angle one by a few ulps, one by VECTOR does not).
+    ``mu=False``: the transmission angle is not computed (None); ``rates=False``: :func:`position`'s answer."""
+    m = m if m is SCALAR else namespace(m)
+    vx = a * m.cos(phi) - f
+    vy = a * m.sin(phi)
+    d = m.hypot(vx, vy)
+    theta_a = m.pi + m.atan2(-vy, -vx)
+    gamma = m.acos(m.minimum(1.0, m.maximum(-1.0, (r * r + d * d - b * b) / (2.0 * r * d))))
     psi = theta_a - branch * gamma
-    theta_c = np.arctan2(r * np.sin(psi) - vy, f + r * np.cos(psi) - a * np.cos(phi))
-    return psi, theta_c
-
-
-def kinematics(phi, a, b, f, r, branch=1):
-    """(psi, dpsi/dphi, d2psi/dphi2, mu): position, velocity and acceleration ratios, transmission angle."""
-    psi, th = position(phi, a, b, f, r, branch)
-    s_cr = np.sin(th - psi)
-    v = a * np.sin(th - phi) / (r * s_cr)
-    vc = a * np.sin(psi - phi) / (b * s_cr)
-    acc = (-a * np.cos(th - phi) - b * vc * vc + r * v * v * np.cos(th - psi)) / (r * s_cr)
-    mu = np.arccos(np.clip(np.cos(th - psi), -1.0, 1.0))
-    return psi, v, acc, mu
-
-
-def kinematics_scalar(phi: float, a: float, b: float, f: float, r: float, branch: int = 1):
-    """:func:`kinematics` at one crank angle in plain floats (math instead of numpy scalars, 20 times faster;
-    equal to it to a few ulps: numpy's arccos, arctan2 and hypot round differently in the last bit)."""
-    vx = a * math.cos(phi) - f
-    vy = a * math.sin(phi)
-    d = math.hypot(vx, vy)
-    theta_a = math.pi + math.atan2(-vy, -vx)
-    gamma = math.acos(min(1.0, max(-1.0, (r * r + d * d - b * b) / (2.0 * r * d))))
-    psi = theta_a - branch * gamma
-    th = math.atan2(r * math.sin(psi) - vy, f + r * math.cos(psi) - a * math.cos(phi))
-    s_cr = math.sin(th - psi)
-    v = a * math.sin(th - phi) / (r * s_cr)
-    vc = a * math.sin(psi - phi) / (b * s_cr)
-    acc = (-a * math.cos(th - phi) - b * vc * vc + r * v * v * math.cos(th - psi)) / (r * s_cr)
-    mu = math.acos(min(1.0, max(-1.0, math.cos(th - psi))))
-    return psi, v, acc, mu
+    th = m.atan2(r * m.sin(psi) - vy, f + r * m.cos(psi) - a * m.cos(phi))
+    if not rates:
+        return psi, th
+    s_cr = m.sin(th - psi)
+    v = a * m.sin(th - phi) / (r * s_cr)
+    vc = a * m.sin(psi - phi) / (b * s_cr)
+    acc = (-a * m.cos(th - phi) - b * vc * vc + r * v * v * m.cos(th - psi)) / (r * s_cr)
+    return psi, v, acc, m.acos(m.minimum(1.0, m.maximum(-1.0, m.cos(th - psi)))) if mu else None
 
 
 def extreme_transmission(a, b, f, r):
@@ -288,20 +278,22 @@ class FourBarModel(Model):
             dt = min(dt, inertia / p.belt_damping)
         return dt
 
-    def rigid_kinematics(self, phi: float) -> tuple[float, float, float]:
+    def rigid_kinematics(self, phi: float, mu: bool = True) -> tuple[float, float, float]:
         """(psi, dpsi/dphi, mu) of the rigid linkage, psi continuous over full turns of a double crank.
 
         The parallelogram is taken on its parallelogram branch (psi = phi), the branch seed 003's belt
         between the two crank shafts holds at the dead points; its transmission angle is the angle between
-        coupler (parallel to the frame) and rocker.
+        coupler (parallel to the frame) and rocker.  ``mu=False``: a crank-rocker's or double crank's
+        transmission angle is not computed (None).
         """
+        m = self.m
         if self.kind == "parallelogram":
-            mu = abs(math.atan2(math.sin(phi), math.cos(phi)))
-            return float(phi), 1.0, mu
-        psi, v, _, mu = kinematics_scalar(phi, self._a, self._b, self._f, self._r, self.p.branch)
+            mu = abs(m.atan2(m.sin(phi), m.cos(phi)))
+            return (float(phi), 1.0, mu) if m.scalar else (phi, np.ones_like(phi), mu)
+        psi, v, _, mu = kinematics(phi, self._a, self._b, self._f, self._r, self.p.branch, m, mu)
         if self.kind == "double-crank":
             d = psi - phi - self._offset0
-            psi = phi + self._offset0 + math.atan2(math.sin(d), math.cos(d))
+            psi = phi + self._offset0 + m.atan2(m.sin(d), m.cos(d))
         return psi, v, mu
 
     def rigid(self, phi: float, w: float) -> tuple[float, float]:
@@ -309,14 +301,14 @@ class FourBarModel(Model):
         psi, v, _ = self.rigid_kinematics(phi)
         return psi, v * w
 
-    def _geometry(self, phi, wc, psi, w):
-        """(q, qdot, ex, ey, arm_rocker, arm_crank) of the elastic coupler."""
-        a, r = self._a, self._r
-        c, s = math.cos(phi), math.sin(phi)
-        cp, sp = math.cos(psi), math.sin(psi)
+    def _geometry(self, phi, wc, psi, w, trig=None):
+        """(q, qdot, ex, ey, arm_rocker, arm_crank) of the elastic coupler (``trig``: (cos phi, sin phi, cos psi,
+        sin psi) when the caller has them)."""
+        a, r, m = self._a, self._r, self.m
+        c, s, cp, sp = trig or (m.cos(phi), m.sin(phi), m.cos(psi), m.sin(psi))
         dx = self._f + r * cp - a * c
         dy = r * sp - a * s
-        length = math.hypot(dx, dy)
+        length = m.hypot(dx, dy)
         ex, ey = dx / length, dy / length
         qd = ex * (-r * sp * w + a * s * wc) + ey * (r * cp * w - a * c * wc)
         return length - self._b, qd, ex, ey, r * (cp * ey - sp * ex), a * (c * ey - s * ex)
@@ -324,7 +316,8 @@ class FourBarModel(Model):
     def _coupler(self, phi, wc, psi, w):
         """(q, qdot, arm_rocker, arm_crank, transmission angle) of the elastic coupler (output)."""
         q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w)
-        return q, qd, arm, arm_crank, math.acos(max(-1.0, min(1.0, ex * math.cos(psi) + ey * math.sin(psi))))
+        m = self.m
+        return q, qd, arm, arm_crank, m.acos(m.maximum(-1.0, m.minimum(1.0, ex * m.cos(psi) + ey * m.sin(psi))))
 
     def _tension(self, q, qd, arm, v_impact):
         """Coupler tension [N] (positive pulls the pins together)."""
@@ -430,10 +423,10 @@ class FourBarModel(Model):
         form: with d = B - A the coupler vector, e = d/|d|, t_r = dd/dpsi and t_c = dd/dphi, the stretch q has
         dq/dpsi = e.t_r = arm and dq/dphi = e.t_c = -arm_crank, and the unit vector turns by
         de = (t - e (e.t)) / |d|, which gives the arms' rates."""
-        a, r, p = self._a, self._r, self.p
-        c, s = math.cos(phi), math.sin(phi)
-        cp, sp = math.cos(psi), math.sin(psi)
-        q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w)
+        a, r, p, m = self._a, self._r, self.p, self.m
+        c, s = m.cos(phi), m.sin(phi)
+        cp, sp = m.cos(psi), m.sin(psi)
+        q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w, (c, s, cp, sp))
         force, acc = self._elastic_acc(phi, wc, tau, psi, w, q, qd, arm)
         k, cd = p.coupler_stiffness, p.coupler_damping
         length = q + self._b
@@ -479,7 +472,8 @@ class FourBarModel(Model):
             _, _, _, _, arm, _ = self._geometry(u[0], u[1], psi, v * u[1])
             # at a dead point (arm = 0, reached exactly only by a parallelogram) the coupler force of the
             # rigid linkage is indeterminate; seed 003's belt between the crank shafts carries the torque
-            force = u[2] / arm if abs(arm) > 1e-12 * self._r else 0.0
+            live, m = abs(arm) > 1e-12 * self._r, self.m
+            force = (u[2] / arm if live else 0.0) if m.scalar else m.where(live, u[2] / m.where(live, arm, 1.0), 0.0)
             return (u[2] * v, psi, v * u[1], mu, force, 0.0, 1.0, x[3], x[4], x[5])
         q, qd, arm, arm_crank, mu = self._coupler_at(u[0], u[1], x[0], x[1])
         force = self._tension(q, qd, arm, x[2])
@@ -492,7 +486,7 @@ class FourBarModel(Model):
     def output_jacobian(self, t, x, u):
         """d outputs / d (crank.phi, crank.w, rocker.tau) in closed form at every fidelity.
 
-        Fidelity 0: the loop closure's psi' and psi'' (kinematics_scalar) and the coupler's geometry
+        Fidelity 0: the loop closure's psi' and psi'' (kinematics) and the coupler's geometry
         (:meth:`_geometry_slopes`) at the rigid pose psi(phi).  Fidelities 1 and 2: the rocker's (psi, w) are states,
         so only the crank pin moves with the inputs; the coupler tension F(q, qdot, arm) moves with phi through
         q (dq/dphi = -arm_crank), qdot (qd_phi) and the arm (arm_phi), and with crank.w through qdot
@@ -510,8 +504,8 @@ class FourBarModel(Model):
         D = np.zeros((len(self.outputs), len(self.inputs)))
         if p.fidelity == 0:
             psi, v, _ = self.rigid_kinematics(phi)
-            acc = 0.0 if self.kind == "parallelogram" else kinematics_scalar(phi, self._a, self._b, self._f,
-                                                                              self._r, p.branch)[2]
+            acc = 0.0 if self.kind == "parallelogram" else kinematics(phi, self._a, self._b, self._f, self._r,
+                                                                       p.branch, SCALAR, mu=False)[2]
             g = self._geometry_slopes(phi, wc, psi, v * wc)
             D[0] = (tau * acc, 0.0, v)                                  # crank.tau = tau * psi'
             D[1, 0] = v                                                 # rocker.phi = psi(phi)
@@ -543,7 +537,7 @@ class FourBarModel(Model):
         a, r = self._a, self._r
         c, s = math.cos(phi), math.sin(phi)
         cp, sp = math.cos(psi), math.sin(psi)
-        q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w)
+        q, qd, ex, ey, arm, arm_crank = self._geometry(phi, wc, psi, w, (c, s, cp, sp))
         length = q + self._b
         rr_c = -r * a * (cp * c + sp * s)
         arm_psi = -r * (ex * cp + ey * sp) + (r * r - arm * arm) / length
@@ -651,3 +645,56 @@ class FourBarModel(Model):
                 side_now = side_end
             t, x = t + tau, xc
         return self._step(t, x, t_end - t, u, t0, side_now != 0.0) if t_end > t else x
+
+
+class FourBarBatch(variants.Vectorised):
+    """Variants of :class:`FourBarModel` stepped together (fmus.physics.variants): the rigid kinematics (fidelity 0)
+    and the elastic coupler's exponential steps (fidelity 1, each variant on its own count of steps) on arrays, the
+    model's own geometry, forces and jet.  The clearance level (fidelity 2), whose contact events are located per
+    variant, runs each variant's scalar model; linkages of other kinds (the kinematics branch on it) go apart."""
+    attributes = ("_a", "_b", "_f", "_r", "_inertia", "_keep", "_half", "_offset0", "kind")
+
+    @classmethod
+    def refuses(cls, models):
+        return "the clearance level locates contact events per variant" if models[0].p.fidelity == 2 else None
+
+    @classmethod
+    def key(cls, model):
+        return (model.kind,)
+
+    def __init__(self, models):
+        super().__init__(models)
+        self.v._coupler_at = variants.last_call(self.v._coupler)
+        self._ports = variants.last_call(self._crank_tau)   # a point's geometry, read at each visit
+
+    def _crank_tau(self, phi, wc, tau, psi, w, v_impact):
+        q, qd, _, _, arm, arm_crank = self.v._geometry(phi, wc, psi, w)
+        return self.v._tension(q, qd, arm, v_impact) * arm_crank - self.v._belt(phi, wc, psi, w)
+
+    def output(self, t, X, U, rows=None):
+        v = self.v
+        if rows is not None and set(rows) <= {0, 1, 2}:   # the ports alone (transmission angle, forces unread)
+            Y = np.zeros((len(v.outputs), self.n))
+            if v.p.fidelity == 0:
+                psi, ratio, _ = v.rigid_kinematics(U[0], mu=False)
+                Y[0], Y[1], Y[2] = U[2] * ratio, psi, ratio * U[1]
+            else:
+                Y[0] = self._ports(U[0], U[1], U[2], X[0], X[1], X[2])
+                Y[1], Y[2] = X[0], X[1]
+            return Y
+        return v.m.stack(v.output(t, X, U))
+
+    def advance(self, t0, h, X, U):
+        v = self.v
+        if v.p.fidelity == 0:
+            return v.advance(t0, h, X, U)
+        phi0, wc, tau = U[0], U[1], U[2]
+        n = np.maximum(1.0, np.ceil(np.abs(wc) * h / KINEMATIC_ANGLE * (1.0 - 1e-12)))
+        y = np.array(X, dtype=float)
+        y[PSI], y[W] = integrate_batch.march_pair(lambda t, q, w: v._acc_at(phi0 + wc * (t - t0), wc, tau, q, w),
+                                                  lambda t, q, w: v._acc_jet_at(phi0 + wc * (t - t0), wc, tau, q, w),
+                                                  t0, h, n, X[PSI], X[W])
+        return y
+
+
+FourBarModel.Batch = FourBarBatch

@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .laws import DwellCycle, Law, TWO_PI
+from .mathns import SCALAR
 
 DEFAULT_MAX_PRESSURE = math.radians(60.0)
 CRITERIA = ("connection", "radius", "cusp", "undercut", "pressure")
@@ -91,15 +92,14 @@ class KulisaLaw:
     direction: float
     swing: float
 
-    def __call__(self, phi):
-        s, s1, s2 = self.cycle(phi)
+    def at(self, phi, m=None):
+        """(gamma_b, its first and second derivatives) at crank angle(s) phi (``m``: the namespace,
+        mathns.namespace; numpy by default)."""
+        s, s1, s2 = self.cycle.at(phi, m)
         k = self.direction * self.swing
         return self.gamma_start + k * s, k * s1, k * s2
 
-    def scalar(self, phi: float) -> tuple[float, float, float]:
-        s, s1, s2 = self.cycle.scalar(phi)
-        k = self.direction * self.swing
-        return self.gamma_start + k * s, k * s1, k * s2
+    __call__ = at   # also law(phi, m); hot paths call .at (calling an instance costs ~100 ns more)
 
     def jerk(self, phi: float) -> float:
         """d3gamma_b/dphi3 at one crank angle (the cycle's DwellCycle.jerk, scaled as the law)."""
@@ -150,7 +150,7 @@ def base_return_law(lam1: float, lam2: float, lam3: float, assembly: int = 1) ->
         a = (g_end - g) / span
         b = -(gp - gm) / (2.0 * h) * P / span
         c = -(gp - 2.0 * g + gm) / (h * h) * P * P / span
-        return (float(a), float(b), float(c)) if m is math else (a, b, c)
+        return (float(a), float(b), float(c)) if m.scalar else (a, b, c)
 
     return Law("base", f"the base four-bar's own return stroke (lambda1={lam1:g}, lambda2={lam2:g}, "
                f"lambda3={lam3:g})", ((1.0, piece),))
@@ -253,47 +253,64 @@ def stone_radius_scalar(phi: float, g: float, lam1: float, lam2: float, branch: 
 
 
 def stone_radius_rate_scalar(phi: float, g: float, g1: float, lam1: float, lam2: float,
-                             branch: int = 1) -> tuple[float, float]:
+                             branch: int = 1, m=SCALAR) -> tuple[float, float]:
     """(rho_i, drho_i/dphi) at one point (g1 = dG/dphi): rho_i as :func:`stone_radius_scalar` computes it (the
-    same operations), its rate as :func:`stone_scalar`'s; (NaN, NaN) when the connection is broken."""
-    sg, sd = math.sin(g), math.sin(phi - g)
+    same operations), its rate as :func:`stone_scalar`'s; (NaN, NaN) when the connection is broken.  ``m``: the
+    math namespace (fmus.physics.mathns; VECTOR: arrays over a batch of variants)."""
+    sg, sd = m.sin(g), m.sin(phi - g)
     N = lam1 * sg + sd
     q2 = lam2 * lam2 - N * N
-    if q2 < 0.0:
+    if m.scalar and q2 < 0.0:
         return math.nan, math.nan
-    cd, cg = math.cos(phi - g), math.cos(g)
-    Q = branch * math.sqrt(q2)
+    cd, cg = m.cos(phi - g), m.cos(g)
     N1 = lam1 * cg * g1 + cd * (1.0 - g1)
-    Q1 = -N * N1 / Q if Q != 0.0 else math.copysign(math.inf, -N * N1)
-    return cd - lam1 * cg + Q, -sd * (1.0 - g1) + lam1 * sg * g1 + Q1
+    if m.scalar:
+        Q = branch * math.sqrt(q2)
+        Q1 = -N * N1 / Q if Q != 0.0 else math.copysign(math.inf, -N * N1)
+        return cd - lam1 * cg + Q, -sd * (1.0 - g1) + lam1 * sg * g1 + Q1
+    broken = q2 < 0.0
+    Q = branch * m.sqrt(m.where(broken, 0.0, q2))
+    Q1 = m.where(Q != 0.0, -N * N1 / m.where(Q != 0.0, Q, 1.0), m.copysign(math.inf, -N * N1))
+    return (m.where(broken, math.nan, cd - lam1 * cg + Q),
+            m.where(broken, math.nan, -sd * (1.0 - g1) + lam1 * sg * g1 + Q1))
 
 
-def _stone_terms(phi: float, g: float, g1: float, lam1: float, lam2: float, branch: int) -> tuple:
+def _stone_terms(phi: float, g: float, g1: float, lam1: float, lam2: float, branch: int, m=SCALAR) -> tuple:
     """The terms :func:`stone_scalar` and :func:`stone_slopes_scalar` share: sin and cos of G and of phi - G,
     N = lambda1 sin G + sin(phi - G), Q = +-sqrt(lambda2^2 - N^2) (0 at the groove's reach), 1 - G', N'."""
-    sg, cg = math.sin(g), math.cos(g)
-    sd, cd = math.sin(phi - g), math.cos(phi - g)
+    sg, cg = m.sin(g), m.cos(g)
+    sd, cd = m.sin(phi - g), m.cos(phi - g)
     N = lam1 * sg + sd
-    Q = branch * math.sqrt(max(lam2 * lam2 - N * N, 0.0))
+    Q = branch * m.sqrt(m.maximum(lam2 * lam2 - N * N, 0.0))
     one = 1.0 - g1
     return sg, cg, sd, cd, N, Q, one, lam1 * cg * g1 + cd * one
 
 
-def stone_scalar(phi: float, g: float, g1: float, lam1: float, lam2: float, branch: int = 1) -> tuple[float, float, float]:
-    """(rho_i, drho_i/dphi, pressure angle theta) at one point, with math (per-step outputs)."""
-    sg, cg, sd, cd, N, Q, one, N1 = _stone_terms(phi, g, g1, lam1, lam2, branch)
-    Q1 = -N * N1 / Q if Q != 0.0 else math.copysign(math.inf, -N * N1)
+def stone_scalar(phi: float, g: float, g1: float, lam1: float, lam2: float, branch: int = 1,
+                 m=SCALAR) -> tuple[float, float, float]:
+    """(rho_i, drho_i/dphi, pressure angle theta) at one point, with math (per-step outputs); ``m``: the math
+    namespace (fmus.physics.mathns; VECTOR: arrays over a batch of variants)."""
+    sg, cg, sd, cd, N, Q, one, N1 = _stone_terms(phi, g, g1, lam1, lam2, branch, m)
+    if m.scalar:
+        Q1 = -N * N1 / Q if Q != 0.0 else math.copysign(math.inf, -N * N1)
+    else:
+        Q1 = m.where(Q != 0.0, -N * N1 / m.where(Q != 0.0, Q, 1.0), m.copysign(math.inf, -N * N1))
     rho = cd - lam1 * cg + Q
     r1 = -sd * one + lam1 * sg * g1 + Q1
     nt = rho * g1
-    sp = math.hypot(r1, nt)
-    if not math.isfinite(sp) or sp == 0.0:
-        return rho, r1, 0.0
     sm = N / lam2
     cm = Q / lam2
-    if nt == 0.0:
-        return rho, r1, 0.0
-    return rho, r1, math.acos(min(1.0, abs(r1 * cm - nt * sm) / abs(nt)))
+    if m.scalar:
+        sp = math.hypot(r1, nt)
+        if not math.isfinite(sp) or sp == 0.0:
+            return rho, r1, 0.0
+        if nt == 0.0:
+            return rho, r1, 0.0
+        return rho, r1, math.acos(min(1.0, abs(r1 * cm - nt * sm) / abs(nt)))
+    # hypot(r1, nt) is not finite exactly where r1 or nt is not, 0 exactly where both are 0
+    none = ~(np.isfinite(r1) & np.isfinite(nt)) | ((r1 == 0.0) & (nt == 0.0)) | (nt == 0.0)
+    z = m.minimum(1.0, abs(r1 * cm - nt * sm) / abs(m.where(none, 1.0, nt)))
+    return rho, r1, m.where(none, 0.0, m.acos(m.where(none, 1.0, z)))
 
 
 def stone_slopes_scalar(phi: float, g: float, g1: float, g2: float, lam1: float, lam2: float,
@@ -497,7 +514,7 @@ class RockerSlider:
                 ds = -sign * self.S                       # ds/da
                 out = ((g - g0) / G if stroke == "forward" else 1.0 - (g - g0) / G,
                        sign * gs * ds * b / G, sign * (gss * ds * ds * b * b + gs * ds * c) / G)
-                return tuple(float(v) for v in out) if m is math else out
+                return tuple(float(v) for v in out) if getattr(m, "scalar", m is math) else out
             return piece
 
         return Law(f"{slider.name}@rocker", f"law {slider.name} of the carriage seen on the rocker ({stroke} "

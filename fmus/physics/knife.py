@@ -42,6 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import variants
 from .base import Model, ParameterError, Params, param
 
 # inverse of V[k][j] = k**j (k, j = 1..4): A_j = h**-j * sum_k VINV[j][k] F_k   (spec §2.2)
@@ -264,6 +265,8 @@ class KnifeLoadModel(Model):
     def force(self, t: float, phi: float) -> tuple[float, float]:
         """(feed force, cutting flag) at time t and crank angle phi."""
         p = self.p
+        if not self.m.scalar:
+            return self._forces(t, phi)
         theta = phi % (2.0 * math.pi)
         if not (p.phi_s <= theta <= math.pi):
             return 0.0, 0.0
@@ -271,6 +274,20 @@ class KnifeLoadModel(Model):
         if K1 == 0.0:
             return 0.0, 0.0
         return poly_force((theta - p.phi_s) * self.scale, self.A) * K1, 1.0
+
+    def _forces(self, t, phi):
+        """:meth:`force` of a batch of variants (arrays): the same branches as masks."""
+        p, m = self.p, self.m
+        theta = phi % (2.0 * math.pi)
+        inside = (p.phi_s <= theta) & (theta <= math.pi)
+        if p.fidelity >= 1:
+            tau = t - p.t_block
+            K1 = m.where(tau <= 0.0, 0.0, m.minimum(tau / self.T_entry, 1.0))
+        else:
+            K1 = 1.0
+        cutting = inside & (K1 != 0.0)
+        F = poly_force((theta - p.phi_s) * self.scale, self.A) * K1
+        return m.where(cutting, F, 0.0), m.where(cutting, 1.0, 0.0)
 
     def output(self, t, x, u):
         F, cut = self.force(t, u[0])
@@ -292,3 +309,21 @@ class KnifeLoadModel(Model):
 def dist_force(F_T: float, kg: float) -> float:
     """Eqs. (7)-(8): F_dist = F' + F_fr = F_T k_geo (magnitudes added, A8)."""
     return F_T * kg
+
+
+class KnifeLoadBatch(variants.Vectorised):
+    """Variants of :class:`KnifeLoadModel` together: the cutting force law on arrays (it has no state)."""
+    attributes = ("T_entry", "kg", "scale")
+
+    def __init__(self, models):
+        super().__init__(models)
+        self.v.A = tuple(np.array([m.A[j] for m in self.models]) for j in range(4))
+
+    def output(self, t, X, U, rows=None):
+        return self.v.m.stack(self.v.output(t, X, U))
+
+    def advance(self, t0, h, X, U):
+        return X
+
+
+KnifeLoadModel.Batch = KnifeLoadBatch

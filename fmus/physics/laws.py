@@ -5,9 +5,11 @@ velocity invariant b = da/dk and the acceleration invariant c = d2a/dk2 (spec fe
 of stroke H driven over a phase of crank angle Phi at constant crank speed w moves as
 x = H*a, x' = H*b*w/Phi, x'' = H*c*(w/Phi)^2.
 
-Every law is written once as piece functions ``f(k, m)`` where ``m`` is the math namespace (``numpy`` for
-arrays, ``math`` for the scalar fast path used in the integrators' inner loop), so the vectorised and the
-scalar evaluation share the formulas.
+Every law is written once as piece functions ``f(k, m)`` where ``m`` is the math namespace
+(:mod:`fmus.physics.mathns`: ``SCALAR`` for one crank angle in the integrators' inner loop, ``NUMPY`` for the
+synthesis tools' arrays, ``VECTOR`` for a batch of variants, each element the scalar's bits), and a law, a dwell
+cycle (:class:`DwellCycle`) and a kulisa law (``groove.KulisaLaw``) are each one function of its argument and the
+namespace, so every evaluation shares the formulas.
 
 Registry (``get_law(name, **params)``):
 
@@ -42,11 +44,13 @@ their formulas.  What the seed says of each is in :data:`SEED_UNDEFINED`.
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import Callable, Sequence
 
 import numpy as np
 
+from .mathns import SCALAR, VECTOR, namespace  # noqa: F401
 from .motion_law import Law  # noqa: F401  (Law belongs to this module's interface: callers import it from here)
 
 PI = math.pi
@@ -80,8 +84,9 @@ def _double_harmonic_jerk(k, m):
 
 
 def _p345(k, m):
-    return (10 * k ** 3 - 15 * k ** 4 + 6 * k ** 5, 30 * k ** 2 - 60 * k ** 3 + 30 * k ** 4,
-            60 * k - 180 * k ** 2 + 120 * k ** 3)
+    p = m.pow
+    return (10 * p(k, 3) - 15 * p(k, 4) + 6 * p(k, 5), 30 * p(k, 2) - 60 * p(k, 3) + 30 * p(k, 4),
+            60 * k - 180 * p(k, 2) + 120 * p(k, 3))
 
 
 def _p345_jerk(k, m):
@@ -89,9 +94,10 @@ def _p345_jerk(k, m):
 
 
 def _p4567(k, m):
-    return (35 * k ** 4 - 84 * k ** 5 + 70 * k ** 6 - 20 * k ** 7,
-            140 * k ** 3 - 420 * k ** 4 + 420 * k ** 5 - 140 * k ** 6,
-            420 * k ** 2 - 1680 * k ** 3 + 2100 * k ** 4 - 840 * k ** 5)
+    p = m.pow
+    return (35 * p(k, 4) - 84 * p(k, 5) + 70 * p(k, 6) - 20 * p(k, 7),
+            140 * p(k, 3) - 420 * p(k, 4) + 420 * p(k, 5) - 140 * p(k, 6),
+            420 * p(k, 2) - 1680 * p(k, 3) + 2100 * p(k, 4) - 840 * p(k, 5))
 
 
 def _p4567_jerk(k, m):
@@ -110,8 +116,8 @@ def _power(n: float) -> Law:
 
     def first(k, m):
         t = 2.0 * k
-        return (C * (k * k / 2.0 - t ** (n + 2) / (4.0 * (n + 1) * (n + 2))),
-                C * (k - t ** (n + 1) / (2.0 * (n + 1))), C * (1.0 - t ** n))
+        return (C * (k * k / 2.0 - m.pow(t, n + 2) / (4.0 * (n + 1) * (n + 2))),
+                C * (k - m.pow(t, n + 1) / (2.0 * (n + 1))), C * (1.0 - m.pow(t, n)))
 
     def first_jerk(k, m):
         t = 2.0 * k
@@ -264,14 +270,20 @@ KNOWN_LAWS: tuple[str, ...] = LAW_NAMES
 """Every name :func:`get_law` builds (the components' laws; seed 001's named laws are refused)."""
 
 
+@functools.lru_cache(maxsize=256)
+def _family(name: str, kw: tuple) -> Law:
+    """A family's law for its parameters, made once (a law is immutable; the seed's carrier laws take milliseconds
+    to synthesise and check, and a batch builds one model per variant)."""
+    return _FAMILIES[name][0](**dict(kw))
+
+
 def get_law(name: str, **params: float) -> Law:
     """The law ``name``; family parameters: ``n`` (power), ``k_m`` (P6, composite).  Unused ones are ignored."""
     if name in _FIXED:
         return _FIXED[name]
     if name in _FAMILIES:
-        make, defaults = _FAMILIES[name]
-        kw = {p: float(params.get(p, v)) for p, v in defaults.items()}
-        return make(**kw)
+        _, defaults = _FAMILIES[name]
+        return _family(name, tuple((p, float(params.get(p, v))) for p, v in defaults.items()))
     seed = _UNDEFINED_ALIASES.get(name, name)
     if seed in SEED_UNDEFINED:
         raise ValueError(f"{_undefined(seed)}; known laws: {', '.join(KNOWN_LAWS)}")
@@ -308,36 +320,45 @@ class DwellCycle:
         self._t2 = phase_forward + dwell
         self._t3 = phase_forward + dwell + phase_return
 
-    def __call__(self, phi) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(s, ds/dphi, d2s/dphi2) for an array of crank angles [rad]."""
-        th = np.mod(np.asarray(phi, dtype=float) - self.phi_start, TWO_PI)
-        s = np.zeros_like(th)
-        s1 = np.zeros_like(th)
-        s2 = np.zeros_like(th)
+    def at(self, phi, m=None):
+        """(s, ds/dphi, d2s/dphi2) at crank angle(s) ``phi`` [rad]: ``m`` the namespace (mathns.namespace: ``math``
+        or SCALAR for one float, numpy (the default) or NUMPY for an array, VECTOR for a batch of variants).  One
+        phase per angle (forward, top dwell, return, bottom dwell), its law evaluated on the angles in it only.
+        The return phase's d2s/dphi2 is -c / P^2 with P^2 as each evaluation has always written it (P*P for
+        one float and for a batch, whose elements are one float's; P**2 for numpy)."""
+        m = m if m is SCALAR else namespace(m)
+        th = (phi - self.phi_start) % TWO_PI
+        P, F = self.phase_return, self.phase_forward
+        if m.scalar:
+            if th < self._t1:
+                a, b, c = self.forward.at(th / F, m)
+                return a, b / F, c / F ** 2
+            if th < self._t2:
+                return 1.0, 0.0, 0.0
+            if th < self._t3:
+                a, b, c = self.ret.at((th - self._t2) / P, m)
+                return 1.0 - a, -b / P, -c / (P * P)
+            return 0.0, 0.0, 0.0
+        th = np.asarray(th, dtype=float)
         f = th < self._t1
-        a, b, c = self.forward(th[f] / self.phase_forward)
-        s[f], s1[f], s2[f] = a, b / self.phase_forward, c / self.phase_forward ** 2
-        s[(th >= self._t1) & (th < self._t2)] = 1.0
+        if m is VECTOR and f.all():     # every variant on the forward phase: no subsets (the same numbers)
+            a, b, c = self.forward.at(th / F, m)
+            return a, b / F, c / F ** 2
+        s, s1, s2 = np.zeros_like(th), np.zeros_like(th), np.zeros_like(th)
+        if f.any():
+            a, b, c = self.forward.at(th[f] / F, m)
+            s[f], s1[f], s2[f] = a, b / F, c / F ** 2
+        s[~f & (th < self._t2)] = 1.0
         r = (th >= self._t2) & (th < self._t3)
-        a, b, c = self.ret((th[r] - self._t2) / self.phase_return)
-        s[r], s1[r], s2[r] = 1.0 - a, -b / self.phase_return, -c / self.phase_return ** 2
+        if r.any():
+            a, b, c = self.ret.at((th[r] - self._t2) / P, m)
+            s[r], s1[r], s2[r] = 1.0 - a, -b / P, -c / (P * P if m is VECTOR else P ** 2)
         return s, s1, s2
 
-    def scalar(self, phi: float) -> tuple[float, float, float]:
-        th = (phi - self.phi_start) % TWO_PI
-        if th < self._t1:
-            a, b, c = self.forward.scalar(th / self.phase_forward)
-            return a, b / self.phase_forward, c / self.phase_forward ** 2
-        if th < self._t2:
-            return 1.0, 0.0, 0.0
-        if th < self._t3:
-            P = self.phase_return
-            a, b, c = self.ret.scalar((th - self._t2) / P)
-            return 1.0 - a, -b / P, -c / (P * P)
-        return 0.0, 0.0, 0.0
+    __call__ = at   # also cycle(phi, m); hot paths call .at (calling an instance costs ~100 ns more)
 
     def jerk(self, phi: float) -> float:
-        """d3s/dphi3 at one crank angle: the phase :meth:`scalar` takes there, its law's jerk (Law.jerk) scaled
+        """d3s/dphi3 at one crank angle: the phase :meth:`at` takes there, its law's jerk (Law.jerk) scaled
         like its acceleration by one more 1/phase; 0 in the dwells."""
         th = (phi - self.phi_start) % TWO_PI
         if th < self._t1:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import variants
 from .base import Model, Params, param
 
 
@@ -39,7 +40,7 @@ class TorqueLoadModel(Model):
     def load_torque(self, phi: float, w: float) -> float:
         """Torque the load opposes to the motion [N.m] (the reaction on the driver is its negative)."""
         p = self.p
-        return p.T_const + p.T_coulomb * math.tanh(w / p.w_reg) + p.d * w + p.c * (phi - p.phi_ref)
+        return p.T_const + p.T_coulomb * self.m.tanh(w / p.w_reg) + p.d * w + p.c * (phi - p.phi_ref)
 
     def output(self, t, x, u):
         return (-self.load_torque(u[0], u[1]),)
@@ -52,3 +53,16 @@ class TorqueLoadModel(Model):
 
     def advance(self, t0, h, x, u):
         return x
+
+
+class TorqueLoadBatch(variants.Vectorised):
+    """Variants of :class:`TorqueLoadModel` together: its torque law on arrays (it has no state)."""
+
+    def output(self, t, X, U, rows=None):
+        return np.atleast_2d(-self.v.load_torque(U[0], U[1]))
+
+    def advance(self, t0, h, X, U):
+        return X
+
+
+TorqueLoadModel.Batch = TorqueLoadBatch

@@ -12,7 +12,17 @@ from typing import Callable
 
 import numpy as np
 
+from .mathns import NUMPY, SCALAR, namespace
+
 PieceFn = Callable[[object, object], tuple]
+
+
+def _full(v, shape):
+    """``v`` (a piece's array, or a number it returns for every k) as a fresh array of ``shape`` (v times 1.0: the
+    same numbers)."""
+    if isinstance(v, np.ndarray) and v.shape == shape:
+        return v * 1.0
+    return np.broadcast_to(v, shape) * 1.0
 
 
 @dataclass(frozen=True)
@@ -28,12 +38,23 @@ class Law:
     params: tuple[tuple[str, float], ...] = ()
     jerks: tuple[Callable[[object, object], object], ...] = ()
 
-    def __call__(self, k) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(a, b, c) for an array of k (values outside [0, 1] are clipped)."""
-        k = np.clip(np.asarray(k, dtype=float), 0.0, 1.0)
+    def at(self, k, m=None):
+        """(a, b, c) at the phase share(s) ``k``, clipped to [0, 1]: ``m`` the namespace (mathns.namespace: ``math``
+        or SCALAR for one float, numpy (the default) or NUMPY for an array, VECTOR for a batch of variants).  Each
+        k takes the first piece whose end lies beyond it (the last piece up to and with 1); a piece is evaluated
+        on its own k only.  The clip is numpy's for NUMPY, Python's comparisons otherwise (a batch's elements are
+        one float's)."""
+        m = m if m is SCALAR else namespace(m)
+        if m.scalar:
+            k = 0.0 if k < 0.0 else (1.0 if k > 1.0 else k)
+            for end, f in self.pieces:
+                if k < end:
+                    return f(k, m)
+            return self.pieces[-1][1](k, m)
+        k = np.asarray(k, dtype=float)
+        k = np.clip(k, 0.0, 1.0) if m is NUMPY else np.where(k < 0.0, 0.0, np.where(k > 1.0, 1.0, k))
         if len(self.pieces) == 1:
-            a, b, c = self.pieces[0][1](k, np)
-            return np.broadcast_to(a, k.shape) * 1.0, np.broadcast_to(b, k.shape) * 1.0, np.broadcast_to(c, k.shape) * 1.0
+            return tuple(_full(v, k.shape) for v in self.pieces[0][1](k, m))
         a = np.empty_like(k)
         b = np.empty_like(k)
         c = np.empty_like(k)
@@ -42,21 +63,15 @@ class Law:
             last = i == len(self.pieces) - 1
             mask = (k >= start) & ((k <= end) if last else (k < end))
             if np.any(mask):
-                pa, pb, pc = f(k[mask], np)
+                pa, pb, pc = f(k[mask], m)
                 a[mask], b[mask], c[mask] = pa, pb, pc
             start = end
         return a, b, c
 
-    def scalar(self, k: float) -> tuple[float, float, float]:
-        """(a, b, c) at one k, with ``math`` (the per-step fast path)."""
-        k = 0.0 if k < 0.0 else (1.0 if k > 1.0 else k)
-        for end, f in self.pieces:
-            if k < end:
-                return f(k, math)
-        return self.pieces[-1][1](k, math)
+    __call__ = at   # also law(k, m); hot paths call .at (calling an instance costs ~100 ns more)
 
     def jerk(self, k: float) -> float:
-        """dc/dk at one k, from the piece :meth:`scalar` takes there (at a junction, the piece on its right, as
+        """dc/dk at one k, from the piece :meth:`at` takes there (at a junction, the piece on its right, as
         scalar's); 0 outside [0, 1], where scalar clips k (a, b, c held constant)."""
         if not self.jerks:
             raise ValueError(f"law {self.name!r} gives no jerk (dc/dk): its pieces have no derivative of c")

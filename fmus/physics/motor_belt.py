@@ -68,7 +68,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import integrate
+from . import integrate_batch, variants
 from .base import Model, ParameterError, Params, Signal, param
+from .variants import Vectorised
 
 RPM = 2.0 * math.pi / 60.0
 
@@ -138,18 +140,32 @@ class MotorBeltModel(Model):
         """Kloss static characteristic M(s) = 2*M_k*s*s_k/(s**2 + s_k**2) [N.m] at rotor speed w_m; at another
         supply frequency (``supply`` times the rated one, flux kept) the same curve in the slip speed
         (module docstring); 0 when the supply is off."""
-        if supply == 1.0:
-            s = (self.p.w_sync - w_m) / self.p.w_sync
-            return 2.0 * self.M_k * s * self.s_k / (s * s + self.s_k * self.s_k)
-        if supply <= 0.0:
-            return 0.0
+        m = self.m
+        if m.scalar:
+            if supply == 1.0:
+                return self._kloss_rated(w_m)
+            return 0.0 if supply <= 0.0 else self._kloss_supplied(w_m, supply)
+        rated = supply == 1.0
+        if rated.all():
+            return self._kloss_rated(w_m)
+        return m.where(rated, self._kloss_rated(w_m), m.where(supply <= 0.0, 0.0, self._kloss_supplied(w_m, supply)))
+
+    def _kloss_rated(self, w_m):
+        """The Kloss torque at the rated supply, in the slip s (as the characteristic is written)."""
+        s = (self.p.w_sync - w_m) / self.p.w_sync
+        return 2.0 * self.M_k * s * self.s_k / (s * s + self.s_k * self.s_k)
+
+    def _kloss_supplied(self, w_m, supply):
+        """The Kloss torque at another supply frequency, in the slip speed (flux kept)."""
         slip = supply * self.p.w_sync - w_m
         slip_k = self.s_k * self.p.w_sync
         return 2.0 * self.M_k * slip * slip_k / (slip * slip + slip_k * slip_k)
 
     def brake_engaged(self, x, u) -> bool:
         """Whether the brake acts at the state x under the held inputs u."""
-        return self.p.holding_torque > 0.0 and u[3] >= 0.5 and x[3] >= self.p.brake_delay
+        if self.m.scalar:
+            return self.p.holding_torque > 0.0 and u[3] >= 0.5 and x[3] >= self.p.brake_delay
+        return (self.p.holding_torque > 0.0) & (u[3] >= 0.5) & (x[3] >= self.p.brake_delay)
 
     def _belt(self, x, phi_d: float, w_d: float):
         """(belt force F, elastic part F_el, creep rate) for rotor state x and driven pulley motion."""
@@ -192,17 +208,21 @@ class MotorBeltModel(Model):
     def friction(self, w_m: float, drive: float) -> float:
         """The engaged brake's torque on the rotor [N.m]: sliding, -holding_torque*sign(w_m); at rest, the reaction
         to the rotor's other torques ``drive`` while they stay within the holding torque, else the sliding one."""
-        t_b = self.p.holding_torque
-        if w_m != 0.0:
-            return -t_b * math.copysign(1.0, w_m)
-        return -drive if abs(drive) <= t_b else -t_b * math.copysign(1.0, drive)
+        t_b, m = self.p.holding_torque, self.m
+        if m.scalar:
+            if w_m != 0.0:
+                return -t_b * math.copysign(1.0, w_m)
+            return -drive if abs(drive) <= t_b else -t_b * math.copysign(1.0, drive)
+        return m.where(w_m != 0.0, -t_b * m.copysign(1.0, w_m),
+                       m.where(m.fabs(drive) <= t_b, -drive, -t_b * m.copysign(1.0, drive)))
 
     def derivatives_with(self, t, x, u, t0, friction: float = 0.0):
         """dx/dt with a given friction torque on the rotor (the brake's, as the caller decides)."""
-        timer_rate = 1.0 if u[3] >= 0.5 else 0.0
+        m = self.m
+        timer_rate = 1.0 * (u[3] >= 0.5)     # 1 while the brake is commanded (a bool times 1.0: no call)
         if self.p.fidelity == 0:
-            return np.array([self.p.w_rated * u[2], 0.0, 0.0, timer_rate])
-        return np.array([x[1], *self._rates(t, x, u, t0, friction), timer_rate])
+            return m.stack((self.p.w_rated * u[2], 0.0, 0.0, timer_rate))
+        return m.stack((x[1], *self._rates(t, x, u, t0, friction), timer_rate))
 
     def ode_form(self):
         if self.p.holding_torque > 0.0:
@@ -282,7 +302,9 @@ class MotorBeltModel(Model):
 
     def _brake_torque(self, x, u, motor_torque: float, belt_torque: float) -> float:
         """Torque of the brake on the rotor [N.m]: the sliding friction, or at rest the reaction that holds."""
-        return self.friction(x[1], motor_torque - belt_torque) if self.brake_engaged(x, u) else 0.0
+        if self.m.scalar:
+            return self.friction(x[1], motor_torque - belt_torque) if self.brake_engaged(x, u) else 0.0
+        return self.m.where(self.brake_engaged(x, u), self.friction(x[1], motor_torque - belt_torque), 0.0)
 
     def output(self, t, x, u):
         p = self.p
@@ -290,7 +312,10 @@ class MotorBeltModel(Model):
         belt_torque = force * self.r_m
         motor_torque = belt_torque if p.fidelity == 0 else self.kloss_torque(x[1], u[2])
         air_gap = motor_torque * p.w_sync * u[2]
-        p_el = air_gap / p.efficiency if air_gap >= 0.0 else air_gap * p.efficiency
+        if self.m.scalar:
+            p_el = air_gap / p.efficiency if air_gap >= 0.0 else air_gap * p.efficiency
+        else:
+            p_el = self.m.where(air_gap >= 0.0, air_gap / p.efficiency, air_gap * p.efficiency)
         return (force * self.r_d, x[1], motor_torque, p_el, motor_torque * x[1], belt_torque,
                 self._brake_torque(x, u, motor_torque, belt_torque))
 
@@ -329,3 +354,45 @@ class MotorBeltModel(Model):
         """Elastic energy of the belt [J]."""
         stretch = self.r_m * x[0] - self.r_d * (phi_d + x[2])
         return 0.5 * self.p.c_belt * stretch * stretch
+
+
+class MotorBeltBatch(Vectorised):
+    """Variants of :class:`MotorBeltModel` stepped together (fmus.physics.variants): the model's own rates, belt and
+    Kloss law on arrays; a variant whose brake is commanded (it may engage and stick within the step) takes the
+    step with its own scalar model."""
+    attributes = ("r_m", "r_d", "ratio", "M_n", "s_n", "M_k", "s_k", "F_rated", "creep_gain")
+
+    def output(self, t, X, U, rows=None):
+        v = self.v
+        if rows is not None and set(rows) <= {0, 1, 5}:    # the belt alone (the motor's torque and powers unread)
+            force, _ = v._belt(X, U[0], U[1])
+            Y = np.zeros((len(v.outputs), self.n))
+            Y[0], Y[1], Y[5] = force * v.r_d, X[1], force * v.r_m
+            return Y
+        return v.m.stack(v.output(t, X, U))
+
+    def advance(self, t0, h, X, U):
+        v = self.v
+        x = np.array(X, dtype=float)
+        if h == 0.0:
+            x[3] = np.where(U[3] >= 0.5, x[3], 0.0)
+            return x
+        if v.p_scalar.fidelity == 0:
+            x = integrate_batch.rk4(lambda *a: v.derivatives_with(*a), t0, h, x, U, v.max_substep)
+            x[3] = np.where(U[3] >= 0.5, x[3], 0.0)
+            return x
+        braking = (v.p.holding_torque != 0.0) & (U[3] >= 0.5)
+        x[3] = 0.0
+        if v.p_scalar.fidelity != 1:
+            x = integrate_batch.rk4(lambda *a: v.derivatives_with(*a), t0, h, x, U, v.max_substep)
+        else:
+            theta = x[2]
+
+            def acc(t, phi, w):
+                return v._rates(t, (phi, w, theta), U, t0)[0]
+
+            x[0], x[1] = integrate_batch.rk4_pairs(acc, t0, h, v.max_substep, x[0], x[1])
+        return self.by_scalar(braking, t0, h, X, U, x)
+
+
+MotorBeltModel.Batch = MotorBeltBatch

@@ -48,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import integrate
+from . import integrate_batch, variants
 from .base import Model, ParameterError, Params, Signal, param
 from .contact import EndStop
 
@@ -109,22 +110,30 @@ class RackBedModel(EndStop, Model):
         super().__init__(p)
 
     # -- force laws ----------------------------------------------------------------------------------------
-    def friction(self, v: float) -> float:
+    def friction(self, v: float, th=None) -> float:
+        """Guideway friction [N] at bed speed v (``th``: tanh(v / v_reg) when the caller has it)."""
         p = self.p
-        return self.F_coulomb * math.tanh(v / p.v_reg) + p.d_visc * v
+        return self.F_coulomb * (self.m.tanh(v / p.v_reg) if th is None else th) + p.d_visc * v
 
     def zone(self, s: float) -> float:
         """Printing-zone profile g_zone(s) in [0, 1] (cubic smoothstep ramps at both ends)."""
-        p = self.p
-        x = min(max((s - p.s_print_start) / p.ramp, 0.0), 1.0)
-        y = min(max((p.s_print_end - s) / p.ramp, 0.0), 1.0)
+        p, m = self.p, self.m
+        x = m.minimum(m.maximum((s - p.s_print_start) / p.ramp, 0.0), 1.0)
+        y = m.minimum(m.maximum((p.s_print_end - s) / p.ramp, 0.0), 1.0)
         return x * x * (3.0 - 2.0 * x) * y * y * (3.0 - 2.0 * y)
 
-    def printing_load(self, s: float, v: float) -> float:
-        p = self.p
-        if v <= 0.0 or p.F_print == 0.0:
-            return 0.0
-        return p.F_print * self.zone(s) * math.tanh(v / p.v_reg)
+    def printing_load(self, s: float, v: float, th=None) -> float:
+        """Printing load [N] at bed position s and speed v (``th``: tanh(v / v_reg) when the caller has it)."""
+        p, m = self.p, self.m
+        if m.scalar:
+            if v <= 0.0 or p.F_print == 0.0:
+                return 0.0
+            return p.F_print * self.zone(s) * (math.tanh(v / p.v_reg) if th is None else th)
+        off = (v <= 0.0) | (p.F_print == 0.0)
+        if off.all():
+            return np.zeros_like(v)
+        th = m.tanh(v / p.v_reg) if th is None else th
+        return m.where(off, 0.0, p.F_print * self.zone(s) * th)
 
     # -- Model interface -----------------------------------------------------------------------------------
     def substep_limit(self) -> float:
@@ -144,7 +153,8 @@ class RackBedModel(EndStop, Model):
         f_mesh = p.c_mesh * (self.R * (u[0] + u[1] * (t - t0)) - s) + p.d_mesh * (self.R * u[1] - v)
         if self.has_stop:                # the stop's push on the bed joins the mesh's
             f_mesh += self.stop_load(s, v, caught)
-        return (f_mesh - self.friction(v) - self.printing_load(s, v)) / p.m_T
+        th = self.m.tanh(v / p.v_reg)
+        return (f_mesh - self.friction(v, th) - self.printing_load(s, v, th)) / p.m_T
 
     def derivatives(self, t, x, u, t0):
         if self.p.fidelity == 0:
@@ -173,8 +183,12 @@ class RackBedModel(EndStop, Model):
             x[0], x[1] = integrate.rk4_pairs(lambda t, s, v: self._acceleration(t, s, v, u, t0), t0, h,
                                              self.max_substep, float(x[0]), float(x[1]))
             return x
-        a_est = self.R * (u[1] - x[2]) / x[3] if x[3] > 0.0 else 0.0
-        return np.array([self.R * (u[0] + u[1] * h), self.R * u[1], u[1], h, a_est, 0.0])
+        m = self.m
+        if m.scalar:
+            a_est = self.R * (u[1] - x[2]) / x[3] if x[3] > 0.0 else 0.0
+        else:
+            a_est = m.where(x[3] > 0.0, self.R * (u[1] - x[2]) / m.where(x[3] > 0.0, x[3], 1.0), 0.0)
+        return m.stack((self.R * (u[0] + u[1] * h), self.R * u[1], u[1], h, a_est, 0.0))
 
     def output(self, t, x, u):
         p = self.p
@@ -227,3 +241,45 @@ class RackBedModel(EndStop, Model):
         """Elastic energy of the rack mesh [J] (fidelity 1)."""
         stretch = self.R * phi - x[0]
         return 0.5 * self.p.c_mesh * stretch * stretch
+
+
+class RackBedBatch(variants.Vectorised):
+    """Variants of :class:`RackBedModel` stepped together (fmus.physics.variants): the model's own mesh, friction
+    and printing load on arrays."""
+    attributes = ("R", "F_coulomb")
+
+    @classmethod
+    def key(cls, model):
+        return (model.has_stop,)
+
+    @classmethod
+    def refuses(cls, models):
+        if any(m.has_stop for m in models):
+            return "an end stop (a jam) on the bed: each variant's own model"
+        return None
+
+    def __init__(self, models):
+        super().__init__(models)
+        self.v.p.stop_stiffness = 0.0           # every variant's (refuses): the view's has_stop a plain False
+
+    def output(self, t, X, U, rows=None):
+        v = self.v
+        if rows is not None and v.p.fidelity == 1 and 3 not in rows:   # the mesh alone (the acceleration unread)
+            p = v.p
+            f_mesh = p.c_mesh * (v.R * U[0] - X[0]) + p.d_mesh * (v.R * U[1] - X[1])
+            Y = np.zeros((len(v.outputs), self.n))
+            Y[0], Y[1], Y[2], Y[4] = -v.R * f_mesh, X[0], X[1], f_mesh
+            return Y
+        return v.m.stack(v.output(t, X, U))
+
+    def advance(self, t0, h, X, U):
+        v = self.v
+        if v.p.fidelity != 1:
+            return v.advance(t0, h, X, U)
+        x = np.array(X, dtype=float)
+        x[0], x[1] = integrate_batch.rk4_pairs(lambda t, s, w: v._acceleration(t, s, w, U, t0), t0, h, v.max_substep,
+                                        x[0], x[1])
+        return x
+
+
+RackBedModel.Batch = RackBedBatch

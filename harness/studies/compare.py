@@ -233,10 +233,13 @@ def _heading_line(df) -> str:
     return q.heading().splitlines()[0] + " (the first variant's; each variant's own steady cycles)" if q else ""
 
 
-def compare(system, variants, **options) -> Comparison:
+def compare(system, variants, batch: bool = True, **options) -> Comparison:
     """Run every variant of ``system`` (a name in systems/ or a System; variants as :class:`Variant` or
     ``"LABEL: ..."`` strings) with :func:`harness.run.simulate` and ``options`` (the same for all) and return the
-    :class:`Comparison`.  A variant's ``start_values`` go over ``options["start_values"]``."""
+    :class:`Comparison`.  A variant's ``start_values`` go over ``options["start_values"]``.  ``batch``: the variants
+    that change parameters run together as one batch where the batch applies and they are enough to pay for it
+    (:data:`harness.run.batch.MIN_VARIANTS`; :mod:`harness.run.batch`: each variant's own numbers, bit for bit),
+    else one after the other."""
     from harness.reporting.quantities import quantities
     from harness.results import read_csv
     from harness.run import load, simulate
@@ -245,6 +248,8 @@ def compare(system, variants, **options) -> Comparison:
     variants = [v if isinstance(v, Variant) else parse_variant(v) for v in variants]
     check(system, variants)
     base = dict(options.pop("start_values", None) or {})
+    runs = [v for v in variants if v.result is None]
+    batched = _batched(system, runs, base, options) if batch else {}
     results = {}
     for v in variants:
         if v.result is not None:
@@ -252,7 +257,9 @@ def compare(system, variants, **options) -> Comparison:
             df.attrs["quantities"] = quantities(system, df)
             df.attrs["variant"] = f"the saved result {v.result}"
         else:
-            df = simulate(system, start_values={**base, **v.start_values}, **options)
+            df = batched.get(v.label)
+            if df is None:
+                df = simulate(system, start_values={**base, **v.start_values}, **options)
             df.attrs["variant"] = ", ".join(f"{k} = {x:g}" if isinstance(x, (int, float)) else f"{k} = {x}"
                                             for k, x in v.start_values.items()) or "the drive as declared"
             if not df.attrs.get("complete", True):
@@ -260,6 +267,19 @@ def compare(system, variants, **options) -> Comparison:
                                              f"{df.attrs.get('error')}")
         results[v.label] = df
     return Comparison(system, results)
+
+
+def _batched(system, runs: list[Variant], base: dict, options: dict) -> dict:
+    """{label: result} of the variants ``runs`` stepped as one batch (harness.run.batch), or {} where the batch does
+    not apply (they then run one by one)."""
+    from harness.run.batch import MIN_VARIANTS, BatchOptions, Keep, refusal, simulate_batch
+
+    settings = {k: v for k, v in options.items() if v is not None}
+    if len(runs) < MIN_VARIANTS or refusal(system, settings) is not None:
+        return {}
+    run = simulate_batch(system, [{**base, **v.start_values} for v in runs], settings,
+                         Keep(columns=None, frames=True, quantities=True), BatchOptions())
+    return {v.label: r.frame for v, r in zip(runs, run.results)}
 
 
 def register(subparsers) -> None:
@@ -277,6 +297,10 @@ def register(subparsers) -> None:
     p.add_argument("--step", type=float, default=None, metavar="SECONDS",
                    help="communication step [s] (default: the drive's)")
     p.add_argument("--master", default=None, help="master of every run (default: the drive's)")
+    p.add_argument("--no-batch", action="store_true",
+                   help="run the variants one after the other (default: together, as one batch of variants, where "
+                        "the drive's FMUs are the toolkit's and the method is jacobi, jacobi-sampled or "
+                        "gauss-seidel; the same numbers)")
     p.add_argument("--from-checkpoint", type=Path, default=None, metavar="FILE",
                    help="every variant continues this checkpoint of the drive (`run --checkpoint`): a shared "
                         "start-up run once, each variant's values set at its time (default: each from the start)")
@@ -317,8 +341,9 @@ def _cli(args) -> int:
 
         found = limits.read(args.limits)
         limits.check_names(found, expected_names(system), f"limits file {args.limits}", f"drive {system.name}")
-    result = compare(system, variants, stop_time=args.stop_time, step=args.step, master=args.master,
-                     options=RunOptions(progress=None), from_checkpoint=getattr(args, "from_checkpoint", None))
+    result = compare(system, variants, batch=not getattr(args, "no_batch", False), stop_time=args.stop_time,
+                     step=args.step, master=args.master, options=RunOptions(progress=None),
+                     from_checkpoint=getattr(args, "from_checkpoint", None))
     failed = _judge(result, found, args) if found else False
     print(result.table())
     for lab, verdicts in (result.verdicts if found else {}).items():

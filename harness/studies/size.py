@@ -5,16 +5,19 @@ The engineering quantity (:mod:`harness.reporting.quantities`) is computed from 
 value of the parameter tried; without ``--stop-time`` each run goes on to its first steady machine cycle
 (:class:`harness.run.settling.Steady`: three complete cycles at least, at most ``STEADY_LIMIT`` = 8 times the
 drive's default stop time); with ``--scenario`` each run is that transient (a stop runs until settled) and the
-target names one of its quantities (``stopping_angle``).  First the bracket: the quantity at both ends of
-``--range`` (default: a quarter and four times the drive's value, inside the range its FMU declares, each end
-moved halfway towards the drive's value while the FMU refuses it, e.g. a rated speed above the synchronous).
-Where the default bracket's target holds at both ends or at neither, the bracket widens: four times further out
-(a quarter, downward) on the side where the answer lies (met at both ends: where the quantity gets worse; at
-neither: where it gets better), the new bracket the old end and the new one, again until the target holds at
-one end only, the value reaches :data:`WIDEN` (64) times the drive's value (1/64 of it downward) or the range
-the FMU declares, or the FMU refuses every value further out (each tried by a run of one step and moved back
-halfway while refused); a ``--range`` given is searched as given.  Where the target is met at one end and missed
-at the other, Brent's method finds the value where the quantity crosses the target (to ``--xtol`` of the
+target names one of its quantities (``stopping_angle``).  First the bracket: ``--range`` (default: a quarter and
+four times the drive's value, inside the range its FMU declares, each end moved halfway towards the drive's value
+while the FMU refuses it, e.g. a rated speed above the synchronous).  Where its runs go as one batch of variants
+(:mod:`harness.run.batch`: each value's own numbers; a given ``--stop-time``, no scenario), the quantity at
+``--candidates`` values spread geometrically over it (default 8, its ends included) at once (``--no-batch``: the
+same runs one after the other); else at its two ends (at once on a cluster).  Where the default bracket's target holds at both ends or at neither, the bracket
+widens: four times further out (a quarter, downward) on the side where the answer lies (met at both ends: where
+the quantity gets worse; at neither: where it gets better), the new bracket the old end and the new one, again
+until the target holds at one end only, the value reaches :data:`WIDEN` (64) times the drive's value (1/64 of it
+downward) or the range the FMU declares, or the FMU refuses every value further out (each tried by a run of one
+step and moved back halfway while refused); a ``--range`` given is searched as given.  Where the target is met at
+one end and missed at the other, Brent's method finds the value where the quantity crosses the target inside the
+pair of neighbouring values tried where it first changes, seen from the end that meets it (to ``--xtol`` of the
 range, runs reused); the answer is the boundary value on the side that meets it (the smallest value when the
 quantity falls as the parameter rises under ``<=``, the largest when it rises), verified by a run at it.  Where
 the target is met at both ends or at neither, it says so with the range the quantity took over every value
@@ -225,13 +228,61 @@ def _sent(system, given):
                        f"start_values for the changed parameters")
 
 
+def _batch_applies(system, options: dict, n: int) -> bool:
+    """Whether ``n`` runs of ``system`` under ``options`` go as one batch (harness.run.batch): the batch applies and
+    ``n`` is at least the batch's break-even count."""
+    from harness.run.batch import MIN_VARIANTS, refusal
+
+    if options.get("until_steady") or "scenario" in options:   # each run's own end (a steady cycle, a settled stop)
+        return False
+    return n >= MIN_VARIANTS and refusal(system, {k: v for k, v in options.items() if v is not None}) is None
+
+
+def run_batch_at(system, parameter: str, quantity: str, start_values: dict, options: dict, values: list) -> list:
+    """:func:`run_at` of each of ``values`` as one batch of variants (harness.run.batch), in this process or on a
+    dask worker: the same outcomes, each the quantity of its own run's numbers."""
+    from harness.reporting.quantities import quantities
+    from harness.run import load
+    from harness.run.batch import BatchOptions, Keep, simulate_batch
+    from harness.studies.sweep_cluster import SystemFile, system_on_worker
+
+    if isinstance(system, (str, SystemFile)):
+        key = system if isinstance(system, str) else system.digest
+        if key not in _LOADED:
+            _LOADED[key] = load(system_on_worker(system))
+        system = _LOADED[key]
+    settings = {k: v for k, v in options.items() if v is not None}
+    run = simulate_batch(system, [{**start_values, parameter: v} for v in values], settings,
+                         Keep(columns=None, frames=True, quantities=True), BatchOptions())
+    out = []
+    for v, r in zip(values, run.results):
+        if not r.complete:
+            out.append(dict(value=None, frame=None, error=f"the run at {parameter} = {v:g} stopped: {r.error}"))
+            continue
+        q = r.frame.attrs["quantities"] if "quantities" in r.frame.attrs else quantities(system, r.frame)
+        found = q[quantity]
+        if found is None or not isinstance(found, (int, float)):
+            out.append(dict(value=None, frame=None, error=f"{quantity} has no value at {parameter} = {v:g}: "
+                                                          f"{q.row(quantity).note or q.heading()}"))
+            continue
+        out.append(dict(value=float(found), frame=r.frame, error=""))
+    return out
+
+
 @contextlib.contextmanager
-def _runner(system, given, scheduler: str | None):
+def _runner(system, given, scheduler: str | None, together: bool = False):
     """(what each run is given as the drive, a function running a list of :func:`run_at` argument tuples and
     returning their outcomes in order): in this process, or on the workers of the dask scheduler at
-    ``scheduler`` (checked first as a sweep checks it; a drive file sent as bytes once)."""
+    ``scheduler`` (checked first as a sweep checks it; a drive file sent as bytes once).  ``together``: a list of
+    at least :data:`harness.run.batch.MIN_VARIANTS` calls runs as one batch (:func:`run_batch_at`)."""
+    from harness.run.batch import MIN_VARIANTS
+
+    def one_batch(calls) -> bool:
+        return together and len(calls) >= MIN_VARIANTS
+
     if scheduler is None:
-        yield system, lambda calls: [run_at(*c) for c in calls]
+        yield system, lambda calls: (run_batch_at(*calls[0][:5], [c[5] for c in calls]) if one_batch(calls) else
+                                     [run_at(*c) for c in calls])
         return
     from dask.distributed import Client
 
@@ -242,16 +293,24 @@ def _runner(system, given, scheduler: str | None):
     with Client(scheduler) as client:
         if isinstance(ref, SystemFile):
             ref = client.submit(payload, ref, key=f"system-file-{ref.digest[:32]}")
-        yield ref, lambda calls: client.gather([client.submit(run_at, *c, pure=False) for c in calls])
+        yield ref, lambda calls: (client.submit(run_batch_at, *calls[0][:5], [c[5] for c in calls], pure=False).result()
+                                  if one_batch(calls) else
+                                  client.gather([client.submit(run_at, *c, pure=False) for c in calls]))
 
 
 def size(system, parameter: str, target, bracket: tuple[float, float] | None = None, xtol: float = 1e-3,
-         max_runs: int = 16, scheduler: str | None = None, **options) -> Sizing:
+         max_runs: int = 16, scheduler: str | None = None, candidates: int = 8, batch: bool = True,
+         **options) -> Sizing:
     """Size ``parameter`` (``Instance.parameter``) of ``system`` so that ``target`` (a :class:`Target` or
-    ``"NAME <= VALUE"``) holds; ``options`` go to every :func:`harness.run.simulate` run.  ``scheduler``: the
-    address of a dask scheduler; the runs then go to its workers (the two ends of the bracket at once, then
-    each of the root finding's runs) through the sweep's machinery (:mod:`harness.studies.sweep_cluster`: the
-    address checked first, a drive file sent as bytes); the answer is the same as without one."""
+    ``"NAME <= VALUE"``) holds; ``options`` go to every :func:`harness.run.simulate` run.  ``candidates``: the
+    values tried at once first, spread geometrically over the bracket, its ends included (at least 2), then at
+    most ``max_runs`` more (the widening, the root finding and the verifying run), where the batch applies (a
+    ``stop_time`` given, no scenario; :mod:`harness.run.batch`): ``batch`` runs them as one batch of variants (the
+    same numbers as their own runs), else one after the other; where it does not, the bracket's two ends first and
+    ``max_runs`` in all.  ``scheduler``: the address of a dask scheduler; the runs then go to its workers (the candidates at
+    once, as one batch or side by side, then each of the root finding's runs) through the sweep's machinery
+    (:mod:`harness.studies.sweep_cluster`: the address checked first, a drive file sent as bytes); the answer is the
+    same as without one."""
     from scipy.optimize import brentq
 
     from harness.run import load
@@ -274,14 +333,24 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
     if "scenario" not in options:
         check_target(system, target)
     base = dict(options.pop("start_values", None) or {})
+    if isinstance(candidates, bool) or not isinstance(candidates, int) or candidates < 2:
+        raise SystemDescriptionError(f"size {system.name}: candidates = {candidates!r} must be a whole number >= 2 "
+                                     f"(the bracket's two ends at least)")
     result = Sizing(parameter, target, (lo, hi), system=system)
     frames = {}
-    with _runner(system, given, scheduler) as (ref, submit):
+    applies = _batch_applies(system, options, candidates)
+    together = batch and applies
+    # the bracket's values at once: --candidates of them where the batch applies (one batch, or one after the other
+    # with batch=False; on a cluster too; max_runs more after them), else its two ends (max_runs in all): the same
+    # runs with and without the batch, with and without a cluster
+    n = candidates if applies else 2
+    budget = max_runs + (n if n > 2 else 0)
+    with _runner(system, given, scheduler, together) as (ref, submit):
 
         def quantities_at(ps: list[float]) -> list[float]:
             todo = [p for p in dict.fromkeys(ps) if p not in result.runs]
-            if len(result.runs) + len(todo) > max_runs:
-                raise SystemDescriptionError(f"size {system.name}: {max_runs} runs used without settling {parameter}; "
+            if len(result.runs) + len(todo) > budget:
+                raise SystemDescriptionError(f"size {system.name}: {budget} runs used without settling {parameter}; "
                                              f"runs: {_runs(result.runs)}")
             for p, run in zip(todo, submit([(ref, parameter, target.quantity, base, options, p) for p in todo])):
                 if run["error"]:
@@ -292,7 +361,10 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         def quantity(p: float) -> float:
             return quantities_at([p])[0]
 
-        q_lo, q_hi = quantities_at([lo, hi])     # at once on a cluster
+        grid = [lo * (hi / lo) ** (k / (n - 1)) for k in range(n)]
+        grid[-1] = hi
+        qs = quantities_at(grid)
+        q_lo, q_hi = qs[0], qs[-1]
         first = (lo, hi)
         while bracket is None and target.met(q_lo) == target.met(q_hi):   # the default bracket widens
             upward = _outward(target, q_lo, q_hi)
@@ -323,9 +395,13 @@ def size(system, parameter: str, target, bracket: tuple[float, float] | None = N
         if not target.met(q_lo) and not target.met(q_hi):
             result.message = f"no value of {parameter} in [{a:g}, {b:g}] meets {target}: {taken}{weak}{widened}"
             return result
-        root = brentq(lambda p: quantity(p) - target.value, lo, hi, xtol=xtol * (hi - lo), maxiter=max_runs)
-        # the boundary value on the side that meets the target, verified by its own run
+        # the neighbouring values tried where the target first stops being met, seen from the end that meets it
         side = lo if target.met(q_lo) else hi
+        tried = sorted(p for p in result.runs if lo <= p <= hi)
+        pairs = [(x, y) for x, y in zip(tried, tried[1:]) if target.met(result.runs[x]) != target.met(result.runs[y])]
+        x, y = pairs[0] if side == lo else pairs[-1]
+        root = brentq(lambda p: quantity(p) - target.value, x, y, xtol=xtol * (hi - lo), maxiter=max_runs)
+        # the boundary value on the side that meets the target, verified by its own run
         answer = root
         if not target.met(quantity(answer)):
             answer = min(result.runs, key=lambda p: abs(p - root) if target.met(result.runs[p]) and
@@ -452,9 +528,9 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "size", help="size one parameter of a drive to an engineering-quantity target",
         description="Find the smallest (or largest) value of one parameter for which an engineering quantity "
-                    "meets a target (QUANTITY <= VALUE or >= VALUE): the quantity at both ends of the bracket, "
-                    "then Brent's method over co-simulation runs, runs reused; the answer is verified by a run at "
-                    "it. A target no value in the bracket meets is one line with the range the quantity took.")
+                    "meets a target (QUANTITY <= VALUE or >= VALUE): the quantity at --candidates values over the "
+                    "bracket, run at once, then Brent's method inside the pair where the target is first crossed, "
+                    "runs reused; the answer is verified by a run at it. A target no value in the bracket meets is one line with the range the quantity took.")
     p.add_argument("system", help="system name in systems/ (e.g. bed_drive), a .py file defining SYSTEM, or .ssp")
     p.add_argument("--vary", required=True, metavar="Instance.param", help="the parameter to size")
     p.add_argument("--target", required=True, metavar="'QUANTITY <= VALUE'",
@@ -463,6 +539,14 @@ def register(subparsers) -> None:
                    help="the bracket searched, as given (default: a quarter and four times the drive's value, "
                         "widened four times further on the answer's side where the target holds at both ends or at "
                         "neither, up to 64 times the drive's value either way)")
+    p.add_argument("--candidates", type=int, default=8, metavar="N",
+                   help="values tried at once first, spread geometrically over the range, its ends included "
+                        "(default 8; where the batch applies, with --stop-time and no scenario; else the range's "
+                        "two ends)")
+    p.add_argument("--no-batch", action="store_true",
+                   help="run the candidates one after the other (default: as one batch of variants, where the "
+                        "drive's FMUs are the toolkit's and the method is jacobi, jacobi-sampled or gauss-seidel; "
+                        "the same numbers)")
     p.add_argument("--xtol", type=float, default=1e-3, metavar="SHARE",
                    help="the answer's tolerance as a share of the bracket (default 1e-3)")
     p.add_argument("--stop-time", type=float, default=None, metavar="SECONDS",
@@ -475,7 +559,7 @@ def register(subparsers) -> None:
     p.add_argument("--set", action="append", default=[], metavar="Instance.param=VALUE",
                    help="other parameter values, the same in every run")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="address of a dask scheduler: the runs go to its workers (the bracket's two ends at once, "
+                   help="address of a dask scheduler: the runs go to its workers (the candidates at once, "
                         "then the root finding's runs), as a sweep's points do (default: in this process)")
     p.add_argument("--report", type=Path, default=None, metavar="FILE.html",
                    help="write one self-contained HTML page: the answer, the runs tried, the verifying run's "
@@ -502,8 +586,9 @@ def _cli(args) -> int:
         check_scheduler(args.scheduler)   # one line for a wrong address, before any run
     more = {"scenario": args.scenario} if args.scenario else {}
     result = size(args.system, args.vary, target, tuple(args.range) if args.range else None, xtol=args.xtol,
-                  scheduler=args.scheduler, stop_time=args.stop_time, start_values=parse_sets(args.set),
-                  options=RunOptions(progress=None), **more)
+                  scheduler=args.scheduler, candidates=args.candidates, batch=not args.no_batch,
+                  stop_time=args.stop_time, start_values=parse_sets(args.set), options=RunOptions(progress=None),
+                  **more)
     print(result.message)
     print(f"runs ({args.vary} -> {target.quantity}): {_runs(result.runs)}")
     if args.report is not None:

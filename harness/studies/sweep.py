@@ -12,7 +12,8 @@ A sweep is described by a YAML or JSON file::
       method: lhs
       n: 20
       seed: 1
-      ranges: {rpm: [100, 200]}
+      ranges: {rpm: [100, 200]}         # or distributions: {flywheel.d: {normal: [0.03, 3.0e-4]}} (a tolerance
+                                        # study; harness.studies.tolerance; --sample N draws N points)
     from_checkpoint: startup.ckpt       # optional: every point continues this checkpoint (harness.run.checkpoint)
     set:                                # parameters of the run, as expressions of the sweep variables
       feeder.w0: "rpm * 2 * pi / 60"    # a sweep variable named like "Instance.param" is set directly
@@ -75,10 +76,12 @@ class SweepSpec:
     plot: dict | None = None   # the checked ``plot:`` section
     source: str = "<spec>"
     kind: str = "grid"         # where the variables were declared: "grid" or "sample" (for the messages)
+    tolerance: bool = False    # drawn from stated distributions: a tolerance study (its spread is reported)
 
     def variable_key(self, name: str) -> str:
         """The spec key that declares sweep variable ``name`` (``grid.rpm``, ``sample.ranges.rpm``)."""
-        return f"grid.{name}" if self.kind == "grid" else f"sample.ranges.{name}"
+        return f"grid.{name}" if self.kind == "grid" else (f"sample.distributions.{name}" if self.tolerance else
+                                                           f"sample.ranges.{name}")
 
     def names_read_by_set(self) -> set[str]:
         """The names the ``set:`` expressions read (sweep variables; ``pi`` and ``sqrt`` left out)."""
@@ -230,7 +233,9 @@ def _check_xspan(span, source: str):
     return [float(span[0]), float(span[1]), span[2] if len(span) == 3 else None]
 
 
-def parse_spec(data: dict, source: str = "<spec>") -> SweepSpec:
+def parse_spec(data: dict, source: str = "<spec>", sample: int | None = None) -> SweepSpec:
+    """The spec ``data`` read from ``source``; ``sample``: the points to draw from its ``sample:`` section in place
+    of its ``n`` (``--sample N``; :mod:`harness.studies.tolerance`)."""
     known = {"grid", "sample", "set", "outputs", "stop_time", "step", "master", "extrapolation", "system", "plot",
              "from_checkpoint"}
     unknown = set(data) - known
@@ -238,6 +243,9 @@ def parse_spec(data: dict, source: str = "<spec>") -> SweepSpec:
         raise SweepError(f"{source}: unknown key(s) {sorted(unknown)}; expected some of {sorted(known)}")
     if ("grid" in data) == ("sample" in data):
         raise SweepError(f"{source}: give exactly one of 'grid' or 'sample'")
+    if sample is not None and "sample" not in data:
+        raise SweepError(f"{source}: --sample {sample} draws points from a 'sample:' section, which this spec does not "
+                         f"have (its points are a grid)")
     for key in ("grid", "set", "outputs"):
         if key in data and not isinstance(data[key], dict):
             raise SweepError(f"{source}: {key}: expected a mapping, not {type(data[key]).__name__}")
@@ -248,28 +256,9 @@ def parse_spec(data: dict, source: str = "<spec>") -> SweepSpec:
         axes = [_values(n, data["grid"][n], source) for n in names]
         points = [dict(zip(names, combo)) for combo in itertools.product(*axes)]
     else:
-        s = data["sample"]
-        if not isinstance(s, dict) or "n" not in s or not isinstance(s.get("ranges"), dict) or not s["ranges"]:
-            raise SweepError(f"{source}: sample: needs 'n' and 'ranges: {{name: [lo, hi], ...}}'")
-        for n_, r_ in s["ranges"].items():
-            try:
-                ok = (isinstance(r_, (list, tuple)) and len(r_) == 2 and not any(isinstance(x, bool) for x in r_)
-                      and float(r_[0]) < float(r_[1]))
-            except (TypeError, ValueError):
-                ok = False
-            if not ok:
-                raise SweepError(f"{source}: sample.ranges.{n_}: {r_!r} must be [lo, hi] with lo < hi")
-        if s.get("method", "lhs") != "lhs":
-            raise SweepError(f"{source}: sample.method: {s.get('method')!r} is not supported (lhs)")
-        if isinstance(s["n"], bool) or not (isinstance(s["n"], int) and s["n"] > 0):
-            raise SweepError(f"{source}: sample.n: {s['n']!r} must be a positive integer")
-        from scipy.stats import qmc
+        from harness.studies.tolerance import sample_points
 
-        names = list(s["ranges"])
-        lo = np.array([s["ranges"][n][0] for n in names], float)
-        hi = np.array([s["ranges"][n][1] for n in names], float)
-        unit = qmc.LatinHypercube(d=len(names), seed=s.get("seed", 0)).random(int(s["n"]))
-        points = [dict(zip(names, map(float, row))) for row in qmc.scale(unit, lo, hi)]
+        names, points = sample_points(data["sample"], source, sample)
     sets = dict(data.get("set") or {})
     ns = {n: 1.0 for n in names}
     ns.update(pi=math.pi, sqrt=math.sqrt)
@@ -286,16 +275,18 @@ def parse_spec(data: dict, source: str = "<spec>") -> SweepSpec:
             raise SweepError(f"{source}: outputs.{name}: {e}") from None
     plot = _check_plot(data["plot"], names, sets, outputs, source) if "plot" in data else None
     run = {k: data[k] for k in ("stop_time", "step", "master", "extrapolation") if k in data}
+    tolerance = "sample" in data and isinstance(data["sample"], dict) and "distributions" in data["sample"]
     if "from_checkpoint" in data:   # a shared start-up: every point continues from it, its own values set then
         ckpt = Path(str(data["from_checkpoint"])).expanduser()
         if not ckpt.is_file():
             raise SweepError(f"{source}: from_checkpoint: {ckpt} is no file")
         run["from_checkpoint"] = str(ckpt.resolve())
     return SweepSpec(variables=names, points=points, set=sets, outputs=outputs, run=run,
-                     system=data.get("system"), plot=plot, source=source, kind="grid" if "grid" in data else "sample")
+                     system=data.get("system"), plot=plot, source=source, kind="grid" if "grid" in data else "sample",
+                     tolerance=tolerance)
 
 
-def read_spec(path: str | Path) -> SweepSpec:
+def read_spec(path: str | Path, sample: int | None = None) -> SweepSpec:
     path = Path(path)
     if not path.exists():
         raise SweepError(f"{path}: no such sweep file")
@@ -311,7 +302,7 @@ def read_spec(path: str | Path) -> SweepSpec:
         raise SweepError(f"{path}: cannot parse ({type(e).__name__}: {' '.join(str(e).split())})") from None
     if not isinstance(data, dict):
         raise SweepError(f"{path}: expected a mapping at the top level")
-    return parse_spec(data, str(path))
+    return parse_spec(data, str(path), sample)
 
 
 def run_point(system_name, spec: SweepSpec, point: dict[str, float]) -> dict:
@@ -343,13 +334,16 @@ def run_point(system_name, spec: SweepSpec, point: dict[str, float]) -> dict:
 
 
 def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, workers: int | None = None,
-              progress: bool = True, log=None) -> pd.DataFrame:
+              progress: bool = True, log=None, batch: bool = True) -> pd.DataFrame:
     """Run every point; ``workers=0`` runs serially in this process (same results, bit for bit), ``None``
     starts two local workers, or one on a single CPU.  ``log``: a :class:`harness.studies.sweep_checks.PointLog`
     that receives each point as it finishes and whose points already done are skipped (``--resume``); the
-    result then holds them all, in the spec's order."""
+    result then holds them all, in the spec's order.  ``batch``: the points run as batches of variants where the
+    batch applies (:mod:`harness.studies.sweep_batch`: each point's own numbers, many points per run; on dask one
+    batch per task); False, or a system the batch does not take, runs one point at a time."""
     from harness import load
     from harness.model import resolve_fmu
+    from harness.studies import sweep_batch
     from harness.studies.sweep_checks import check_workers, default_workers, point_key
     from harness.studies.sweep_cluster import check_scheduler, payload, shipped
 
@@ -365,9 +359,19 @@ def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, w
         if log is not None:
             log.add(row)
 
+    from harness.run.batch import MIN_VARIANTS
+
+    batched = batch and len(todo) >= MIN_VARIANTS and sweep_batch.refusal(system_name, spec) is None
+
+    def bar(items, total):
+        return _progress(items, progress, total=total)
+
     if workers == 0 and scheduler is None:
-        for p in _progress(todo, progress):
-            finished(run_point(system_name, spec, p))
+        if batched:
+            sweep_batch.run(system_name, spec, todo, None, 1, finished, bar)
+        else:
+            for p in _progress(todo, progress):
+                finished(run_point(system_name, spec, p))
     elif todo:
         from dask.distributed import Client, LocalCluster, as_completed
 
@@ -381,6 +385,10 @@ def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, w
                                                       dashboard_address=":0", silence_logs=logging.ERROR)
         try:
             with Client(scheduler or cluster) as client:
+                if batched:
+                    n = len(client.scheduler_info().get("workers", {})) or workers or 1
+                    sweep_batch.run(system_name, spec, todo, client, n, finished, bar)
+                    todo = []
                 # a system file goes to the workers as bytes (they may share no disk with this process): as a
                 # task of its own that returns them, so the scheduler holds them once and computes them again
                 # when the worker holding them is lost (scattered data would be lost with it, and every point
@@ -388,7 +396,7 @@ def run_sweep(system_name: str, spec: SweepSpec, scheduler: str | None = None, w
                 system = shipped(system_name)
                 if not isinstance(system, str):
                     system = client.submit(payload, system, key=f"system-file-{system.digest[:32]}")
-                futures = [client.submit(run_point, system, spec, p, pure=False) for p in todo]
+                futures = [client.submit(run_point, system, spec, p, pure=False) for p in todo]   # (none batched)
                 try:
                     for fut in _progress(as_completed(futures), progress, total=len(futures)):
                         finished(fut.result())
@@ -454,6 +462,14 @@ def register(subparsers) -> None:
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
                    help="also write the charts of the spec's plot section to DIR/<spec stem>.png and .svg "
                         "(default: no charts)")
+    p.add_argument("--sample", type=int, default=None, metavar="N",
+                   help="draw N points from the spec's sample: section (its ranges, or the distributions of a "
+                        "tolerance study, whose spread of each quantity is then reported and written to "
+                        "OUT's stem.spread.csv) in place of its n (default: its n)")
+    p.add_argument("--no-batch", action="store_true",
+                   help="run the points one at a time (default: as batches of variants stepped together wherever "
+                        "the drive's FMUs are the toolkit's and the method is jacobi, jacobi-sampled or "
+                        "gauss-seidel; the same numbers per point)")
     p.add_argument("--report", type=Path, default=None, metavar="FILE.html",
                    help="write one self-contained HTML page: what was swept, the table of points, the spec's "
                         "chart, the drive and versions; checked before the first point (default: none)")
@@ -467,7 +483,7 @@ def _run_cli(args) -> int:
                                               partial_path, preflight)
 
     workers = default_workers() if args.workers is None else args.workers
-    spec = read_spec(args.grid)
+    spec = read_spec(args.grid, getattr(args, "sample", None))
     if args.plot is not None and spec.plot is None:
         raise SweepError(f"{args.grid}: --plot needs a 'plot:' section in the spec")
     out = Path(args.out or Path("results") / f"sweep_{Path(args.system).stem}.csv")
@@ -492,7 +508,8 @@ def _run_cli(args) -> int:
         print(f"warning: {log.path}: {log.dropped} torn or incomplete line(s) dropped; their points run again",
               file=sys.stderr)
     try:
-        df = run_sweep(args.system, spec, scheduler=args.scheduler, workers=workers, log=log)
+        df = run_sweep(args.system, spec, scheduler=args.scheduler, workers=workers, log=log,
+                       batch=not getattr(args, "no_batch", False))
     except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM as the command line raises it (status 143)
         from harness.run import interruption
 
@@ -507,6 +524,13 @@ def _run_cli(args) -> int:
     failed = int((df["error"] != "").sum())
     resumed = f" ({skipped} taken from {log.path.name})" if skipped else ""
     print(f"{len(df)} points{resumed}, {failed} failed; wrote {out}")
+    if spec.tolerance:
+        from harness.studies.tolerance import spread, spread_path, spread_table
+
+        table = spread(df, spec.outputs)
+        table.to_csv(spread_path(out))
+        print(f"spread of each quantity over the points that ran (wrote {spread_path(out)}):")
+        print(spread_table(table))
     paths = None
     if args.plot is not None:
         from harness.studies.sweep_checks import parameter_units
