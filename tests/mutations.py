@@ -56,8 +56,8 @@ MUTATIONS = (
              "harness/ssp/bindings.py", "if src.exponents != dst.exponents:", "if False:",
              ("tests/test_ssp.py", "-k", "unconvertible")),
     Mutation("parameter-low-bound", "a parameter below its lower bound is accepted",
-             "fmus/physics/base.py", "if not meta.get(\"low_open\") and not value >= low:",
-             "if not meta.get(\"low_open\") and value < low - 1e300:",
+             "fmus/physics/base.py", "if not low_open and not value >= low:",
+             "if not low_open and value < low - 1e300:",
              ("tests/test_fmus_built.py", "-k", "non_physical")),
     Mutation("explicit-factor", "Gauss-Seidel drops a connection's factor where it sets a feed-through FMU's "
              "inputs again at t + h (no test saw it: the new chain test does)",

@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.reporting.chartdraw import Figure, save_figure
+from harness.reporting import chartdraw
+from harness.reporting.chartdraw import Figure
 from harness.specs import Panel
 
 BEFORE = 0.1     # s of the run before the stop command the stop chart shows
@@ -89,5 +90,5 @@ def polar_figure(system, df, out_dir: str | Path, stem: str, found, svg: bool = 
                                          f"|F|, angle the crank angle{origin} (counter-clockwise)", 50 * cols)),
                  fontsize=9)
     fig.tight_layout()
-    return [p for p in save_figure(fig, Path(out_dir) / f"{stem}_polar", dpi=110, svg=svg)
+    return [p for p in chartdraw.save_figure(fig, Path(out_dir) / f"{stem}_polar", dpi=110, svg=svg)
             if svg or p.suffix == ".png"]
