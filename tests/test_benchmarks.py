@@ -176,7 +176,7 @@ def test_cofmupy_runs_in_its_venv_and_agrees_with_the_harness(fmu_dir, tmp_path)
     env = dict(os.environ, PRESSDRIVE_FMU_DIR=str(fmu_dir), PYTHONPATH=str(ROOT))
     proc = subprocess.run([sys.executable, "-m", "benchmarks", "--quick", "--cases", "ring,two_inertia,feeder_gto52",
                            "--tools", "jacobi-sampled,cofmupy", "--modes", "unpinned", "--no-realtime", "--no-chart",
-                           "--out", str(tmp_path)], capture_output=True, text=True, cwd=str(ROOT), env=env, timeout=600)
+                           "--no-batch", "--out", str(tmp_path)], capture_output=True, text=True, cwd=str(ROOT), env=env, timeout=600)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     rows = {(r["case"], r["tool"]): r for r in csv.DictReader(open(tmp_path / "benchmark.csv"))}
     for case, fmus, steps in (("ring", 6, 200), ("two_inertia", 2, 200), ("feeder_gto52", 4, 20)):  # feeder: Integer parameters

@@ -91,15 +91,16 @@ def test_quick_benchmark_writes_its_chart_beside_its_csv_not_over_the_tracked_on
     monkeypatch.setattr(bench, "write_csv", lambda rows, path: path)
     monkeypatch.setattr(bench, "report", lambda rows: None)
     monkeypatch.setattr(bench, "chart", lambda rows, path: seen.update(chart=path) or [path])
+    # --no-batch: the batches of variants are benchmarks.batch's, tested in test_benchmarks (a full one takes minutes)
     assert bench.main(["--quick", "--cases", "ring", "--tools", "jacobi-sampled", "--modes", "unpinned",
-                       "--no-realtime"]) == 0
+                       "--no-realtime", "--no-batch"]) == 0
     tracked = bench.ROOT / "docs" / "images" / "benchmark.png"
     assert seen["chart"] != tracked and seen["chart"].parent == seen["work"]
     assert seen["work"] != bench.ROOT / "results" / "benchmark"        # nor over a full run's CSV
     out = capsys.readouterr().out
     assert str(seen["chart"]) in out and "timings mean nothing" in out
     # a full run still writes the README's chart
-    bench.main(["--cases", "ring", "--tools", "jacobi-sampled", "--modes", "unpinned", "--no-realtime"])
+    bench.main(["--cases", "ring", "--tools", "jacobi-sampled", "--modes", "unpinned", "--no-realtime", "--no-batch"])
     assert seen["chart"] == tracked
 
 
