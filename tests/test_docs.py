@@ -349,11 +349,11 @@ def test_every_slow_command_on_a_page_runs(group, scratch, fmu_dir, monkeypatch,
         assert covered[1]() and all(not shown for _, _, shown in group), (page, command, covered[0])
         return
     study = shipped_study_sweep(command)
-    if study is not None:
+    if study is not None and all(not shown for _, _, shown in group):   # a page that shows its output runs it below
         import test_sweep_studies_cli
 
         parse_only(command)
-        assert study in test_sweep_studies_cli.STUDIES and all(not shown for _, _, shown in group), (page, command)
+        assert study in test_sweep_studies_cli.STUDIES, (page, command)
         return
     status, out, err = run_command(command, scratch, fmu_dir, monkeypatch, capsys)
     for page, command, shown in group:

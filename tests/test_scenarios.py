@@ -184,14 +184,24 @@ def test_an_emergency_stop_of_the_bed_drive_against_the_monolithic_reference():
                   tuple(Change(0.5, c.variable, c.value) for c in base.changes), base.parameters, base.watch)
     df = simulate_scenario(system, sc, on_error="raise")
     assert df.attrs["complete"]
-    ref = scenario_reference(system, sc, step=system.experiment.step)
-    w, wr = df["flywheel.crank.w"].to_numpy(), ref["flywheel.crank.w"].to_numpy()
+    # a stop runs on until the drive has settled (harness.run.settling); the reference a little further (its own
+    # settling is judged on what follows), compared over the run's time
+    ref = scenario_reference(system, sc, step=system.experiment.step, stop_time=float(df.index[-1]) + 0.25)
+    w, wr = df["flywheel.crank.w"].to_numpy(), ref["flywheel.crank.w"].to_numpy()[:len(df)]
+    assert np.allclose(ref.index[:len(df)], df.index, atol=1e-12)
     assert np.max(np.abs(w - wr)) < 0.005 * np.ptp(wr)
     q_ref = S.transient(system, sc, ref)
     q = df.attrs["transient"]
     assert q["stopping_time"] == pytest.approx(q_ref["stopping_time"], abs=2 * system.experiment.step)
     assert q["stopping_angle"] == pytest.approx(q_ref["stopping_angle"], rel=0.01)
-    assert np.all(np.abs(wr[ref.index > 0.5 + q_ref["stopping_time"] + 0.05]) < 0.01 * 6.3)
+    # the first standstill is followed by the belt's ring-down (stops.py: ring_down_peak); once settled, the
+    # reference's crank stays inside the band that defines rest (harness.reporting.stops.BAND of the speed at 0.5 s)
+    from harness.reporting.stops import BAND
+
+    assert q_ref["settle_time"] is not None and q_ref["settle_time"] >= q_ref["stopping_time"]
+    w_ref = ref["flywheel.crank.w"].to_numpy()
+    band = BAND * abs(float(np.interp(0.5, ref.index, w_ref)))
+    assert np.all(np.abs(w_ref[ref.index >= 0.5 + q_ref["settle_time"]]) <= band)
 
 
 # -- the accuracy a scenario declares, and the cheapest method that meets it -------------------------------------

@@ -12,7 +12,9 @@ import pytest
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-STUDIES = sorted((ROOT / "systems" / "studies").glob("*.yaml"))
+# the sweep specs among the shipped study files (each names its system; a --limits file beside them, a mapping of
+# quantities to conditions, names none)
+STUDIES = sorted(p for p in (ROOT / "systems" / "studies").glob("*.yaml") if "system" in yaml.safe_load(p.read_text()))
 
 
 @pytest.mark.slow
