@@ -224,11 +224,8 @@ def compile_loader(dest: Path, fmi_version: int = 2, standalone: bool = False) -
         from fmus.standalone import include_dir
 
         cmd[6:6] = [str(LOADER.parent / "pressdrive_pyconfig.c"), f"-I{include_dir()}"]
-    if fmi_version == 3:   # the installed distribution's headers (not whatever `pythonfmu3` a test or FMU put first)
-        from importlib import metadata
-
-        headers = metadata.distribution("pythonfmu3").locate_file("pythonfmu3/pythonfmu-export/src/fmi")
-        cmd.insert(1, f"-I{headers}")
+    if fmi_version == 3:   # the installed package's headers (not those of a copy an FMU run in this process put first)
+        cmd.insert(1, f"-I{installed_package('pythonfmu3') / 'pythonfmu-export' / 'src' / 'fmi'}")
     try:
         r = subprocess.run(cmd, capture_output=True, text=True)
     except FileNotFoundError:
@@ -264,6 +261,16 @@ EXPORTERS = {2: "pythonfmu", 3: "pythonfmu3"}
 _RUNTIME = re.compile(r"(fmus|harness)_[0-9a-f]{12}(\.|$)|\w+_[0-9a-f]{12}$")
 
 
+def installed_package(name: str) -> Path:
+    """The folder of the installed package ``name`` (its distribution's files), whichever copy is imported."""
+    from importlib import metadata
+
+    try:
+        return Path(metadata.distribution(name).locate_file(name)).resolve()
+    except metadata.PackageNotFoundError:
+        raise RuntimeError(f"building an FMU needs {name} installed (pip install {name})") from None
+
+
 @contextlib.contextmanager
 def installed_exporter(fmi_version: int = 2):
     """pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) ``FmuBuilder`` as installed, for the length of a build.
@@ -273,29 +280,25 @@ def installed_exporter(fmi_version: int = 2):
     exporter's C wrapper) imports that copy, which has no binaries or headers to build with.  Where the package
     in ``sys.modules`` is such a copy, the installed one takes its place while the build runs (the FMU classes the
     build imports must subclass the builder's own slave class) and the copy is put back afterwards."""
-    from importlib import metadata
-
     name = EXPORTERS[fmi_version]
-    try:
-        installed = Path(metadata.distribution(name).locate_file(name)).resolve()
-    except metadata.PackageNotFoundError:
-        raise RuntimeError(f"building an FMI {fmi_version}.0 FMU needs {name} installed (pip install {name})") \
-            from None
+    installed = installed_package(name)
     current = sys.modules.get(name)
-    ours = current is None or Path(current.__file__).resolve().parent == installed
-    # the exporter's modules, and the FMUs' own modules (_RUNTIME) imported on the copy
-    mine = lambda: [k for k in sys.modules if k == name or k.startswith(name + ".") or _RUNTIME.match(k)]  # noqa: E731
-    saved = {} if ours else {k: sys.modules.pop(k) for k in mine()}
-    if not ours:
-        sys.path.insert(0, str(installed.parent))
+    if current is None or Path(current.__file__).resolve().parent == installed:
+        yield importlib.import_module(f"{name}.builder").FmuBuilder
+        return
+
+    def on_the_copy() -> list[str]:   # the exporter's modules, and the FMUs' own (_RUNTIME) imported on the copy
+        return [k for k in sys.modules if k == name or k.startswith(name + ".") or _RUNTIME.match(k)]
+
+    saved = {k: sys.modules.pop(k) for k in on_the_copy()}
+    sys.path.insert(0, str(installed.parent))
     try:
         yield importlib.import_module(f"{name}.builder").FmuBuilder
     finally:
-        if not ours:
-            sys.path.remove(str(installed.parent))
-            for k in mine():
-                del sys.modules[k]
-            sys.modules.update(saved)
+        sys.path.remove(str(installed.parent))
+        for k in on_the_copy():
+            del sys.modules[k]
+        sys.modules.update(saved)
 
 
 def build_one(script: Path, out: Path, runtime: Path | None = None, loader: Path | None = None,

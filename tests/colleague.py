@@ -138,25 +138,22 @@ def venv(version: str, package: str | None = None) -> Path | str:
     where = ROOT / "build" / "colleague" / f"py{version}-{package.replace('==', '')}"
     if (where / ".complete").is_file():
         return where
-    shutil.rmtree(where, ignore_errors=True)
     where.parent.mkdir(parents=True, exist_ok=True)
-    # the virtualenv without its own pip (ensurepip costs 7 s), filled by this pip (pip >= 22.3: --python); a pip
-    # too new for that Python (pip 25 needs 3.10: the too-old-Python case) has the virtualenv install its own
+    # the virtualenv without its own pip (ensurepip costs 7 s), filled by this pip (pip >= 22.3: --python); where this
+    # pip no longer supports that Python (pip 25 needs 3.10: the too-old-Python case), the virtualenv's own pip
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV"))}
-    own_pip = [str(pythons[-1]), "-m", "venv", str(where)], [str(where / "bin" / "python"), "-m", "pip", "install",
-                                                              "-q", "--no-compile", package]
-    for attempt in (([str(pythons[-1]), "-m", "venv", "--without-pip", str(where)],
-                     [sys.executable, "-m", "pip", "--python", str(where / "bin" / "python"), "install", "-q",
-                      "--no-compile", package]), own_pip):
+    python, install = str(where / "bin" / "python"), ["install", "-q", "--no-compile", package]
+    attempts = (([str(pythons[-1]), "-m", "venv", "--without-pip", str(where)],
+                 [sys.executable, "-m", "pip", "--python", python, *install]),
+                ([str(pythons[-1]), "-m", "venv", str(where)], [python, "-m", "pip", *install]))
+    for attempt in attempts:
         shutil.rmtree(where, ignore_errors=True)
         for cmd in attempt:
             r = subprocess.run(cmd, capture_output=True, text=True, timeout=900, env=env)
             if r.returncode != 0:
                 break
-        if r.returncode == 0:
-            break
-    if r.returncode != 0:
-        shutil.rmtree(where, ignore_errors=True)
-        return f"making the colleague's virtualenv failed ({' '.join(cmd[:3])}): {r.stderr.strip()[-300:]}"
-    (where / ".complete").write_text(f"Python {version}, {package}\n")
-    return where
+        else:
+            (where / ".complete").write_text(f"Python {version}, {package}\n")
+            return where
+    shutil.rmtree(where, ignore_errors=True)
+    return f"making the colleague's virtualenv failed ({' '.join(cmd[:3])}): {r.stderr.strip()[-300:]}"
