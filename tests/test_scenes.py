@@ -62,9 +62,9 @@ def test_chosen_model_meets_tolerance_is_cheaper_and_a_repeat_uses_the_cache(out
     calls = []
     real_run = scenes._run
 
-    def spy(system_, scene_, fidelities, step, full_value_, master=None):
+    def spy(system_, scene_, fidelities, step, full_value_, master=None, runs=None):
         calls.append((step, master))
-        return real_run(system_, scene_, fidelities, step, full_value_, master)
+        return real_run(system_, scene_, fidelities, step, full_value_, master, runs)
 
     monkeypatch.setattr(scenes, "_run", spy)
     again = scenes.choose(system, scene, cache_dir=tmp_path)
@@ -82,6 +82,41 @@ def test_cli_runs_and_writes_table_and_chart(out_dir, monkeypatch, capsys):
     assert "chosen fidelities" in out and "speed-up" in out
     assert (tmp_path / "scene_two_inertia_mean_speed.png").stat().st_size > 1000
     assert (tmp_path / "scene_two_inertia_mean_speed.csv").read_text().count("\n") >= 3
+
+
+def test_all_scenes_share_their_runs_and_answer_as_each_alone(monkeypatch, tmp_path, capsys):
+    """``scene SYSTEM --all``: the two-inertia scenes (shortened to 0.06 s, the same stop time) answered together
+    make each distinct run once (their full model, its check at half the step and the searches' common steps
+    among them), and each scene's answer (full model, chosen configuration, every candidate's quantity) is the
+    one it gets answered alone."""
+    system = load("two_inertia")
+    short = [dataclasses.replace(s, stop_time=0.06) for s in system.scenes]
+    monkeypatch.setattr(system, "scenes", short)
+    made = []
+    real = scenes.trial
+
+    def counted(system_, **options):
+        made.append(options)
+        return real(system_, **options)
+
+    monkeypatch.setattr(scenes, "trial", counted)
+    monkeypatch.setattr(scenes, "_timed", lambda system_, scene, c, runs: c.wall_time)  # timing: not asked here
+    assert main(["scene", "two_inertia", "--all", "--out", str(tmp_path / "all")]) == 0
+    out = capsys.readouterr().out
+    assert [line.split(":")[0] for line in out.splitlines() if line.startswith("scene ")] == \
+        [f"scene {s.name}" for s in short], out
+    together = len(made)
+    alone = []
+    for scene in short:
+        made.clear()
+        alone.append(scenes.choose(system, scene, cache_dir=tmp_path / "alone"))
+        assert (tmp_path / "all" / f"scene_two_inertia_{scene.name}.csv").is_file()
+        table = pd.read_csv(tmp_path / "all" / f"scene_two_inertia_{scene.name}.csv")
+        assert list(table["value"].fillna(-1.0)) == list(alone[-1].table()["value"].fillna(-1.0)), scene.name
+        alone[-1] = len(made)
+    assert together < sum(alone), (together, alone)     # runs the scenes have in common were made once
+    assert main(["scene", "two_inertia", "mean_speed", "--all"]) == 2
+    assert "name a scene or give --all, not both" in capsys.readouterr().err
 
 
 def test_unknown_scene_is_one_line_naming_system_and_scenes(capsys):
@@ -125,11 +160,13 @@ def test_every_scene_of_a_system_and_two_choose_different_models(name, tmp_path,
     one FMU step per communication step, but ``jacobian`` takes two or more.  The search now counts FMU steps and
     doubles up to 1024 times the step.
 
-    Each distinct run is made once: the command runs the full model and the chosen model a second time only to
-    time them side by side for the speed-up it prints (that path is the default suite's, in
-    test_chosen_model_meets_tolerance_is_cheaper_and_a_repeat_uses_the_cache); here those repeats return the first
-    runs (the same arguments, so the same result), and the full model at its finest step, the dearest run of a
-    scene, is made once instead of twice."""
+    The scenes are answered together (``--all``), so the runs they have in common (the full model and its check
+    at half the step, the dearest runs of a search, when their stop times agree) are made once
+    (test_all_scenes_share_their_runs_and_answer_as_each_alone checks that this gives each scene's answer alone).
+    The command runs the full model and the chosen model a second time only to time them side by side for the
+    speed-up it prints (that path is the default suite's, in
+    test_chosen_model_meets_tolerance_is_cheaper_and_a_repeat_uses_the_cache); here the search's own wall times
+    stand for them."""
     chosen, seen = [], []
     real = scenes.choose
 
@@ -138,22 +175,14 @@ def test_every_scene_of_a_system_and_two_choose_different_models(name, tmp_path,
         seen.append(res)
         return res
 
-    made = {}
-    real_trial = scenes.trial
-
-    def once(system, **kwargs):
-        key = (system.name, repr(sorted(kwargs.items())))
-        if key not in made:
-            made[key] = real_trial(system, **kwargs)
-        return made[key]
-
     monkeypatch.setattr(scenes, "choose", keep)
-    monkeypatch.setattr(scenes, "trial", once)
+    monkeypatch.setattr(scenes, "_timed", lambda system_, scene, c, runs: c.wall_time)
     system = load(name)
-    for scene in system.scenes:
-        assert main(["scene", name, scene.name, "--out", str(tmp_path)]) == 0, capsys.readouterr().err
-        out = capsys.readouterr().out
-        res = seen[-1]
+    assert main(["scene", name, "--all", "--out", str(tmp_path)]) == 0, capsys.readouterr().err
+    blocks = capsys.readouterr().out.split("\nscene ")
+    assert len(blocks) == len(seen) == len(system.scenes), blocks
+    for scene, res, out in zip(system.scenes, seen, blocks):
+        assert res.scene.name == scene.name and scene.name in out.splitlines()[0], out
         assert f"full model: {res.full.master} at {res.full.step * 1e3:g} ms, agrees with its run at" in out, out
         bound = scene.tolerance * (abs(res.full.value) if scene.relative else 1.0)
         assert res.chosen.ok and res.chosen.error <= bound, (scene.name, res.chosen)
@@ -165,7 +194,7 @@ def test_every_scene_of_a_system_and_two_choose_different_models(name, tmp_path,
 def _fake_runs(behaviour):
     """A stand-in for scenes._run: ``behaviour[master](step)`` is the quantity (None: the run stops), so the
     full model's choice of method is tested without running FMUs."""
-    def run(system, scene, fidelities, step, full_value, master=None):
+    def run(system, scene, fidelities, step, full_value, master=None, runs=None):
         value = behaviour[master](step)
         if value is None:
             return scenes.Candidate(dict(fidelities), step, None, None, 0.01, False, f"{master} diverged", master, 10)

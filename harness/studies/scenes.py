@@ -28,6 +28,11 @@ A scene (declared as data in a ``systems/`` module, ``SYSTEM.scenes``) names a q
 
 Every candidate run is recorded (fidelities, step, master, quantity, error, wall time, FMU steps, its role)
 for the cost-vs-error chart.  The tolerance is relative to the full model's value unless ``relative=False``.
+
+Several scenes of one system answered together (``scene SYSTEM --all``, :class:`SharedRuns`) share their runs:
+a run of the same fidelities, step, master and stop time is made once and each scene's quantity read from it.
+The scenes of a drive ask different quantities of the same model, so their full models, its check at half the
+step (the dearest runs of a search) and the first lowered levels of the greedy search are the same runs.
 """
 from __future__ import annotations
 
@@ -144,17 +149,40 @@ def _key(system, scene: Scene) -> str:
     return h.hexdigest()[:16]
 
 
+class SharedRuns:
+    """The runs of the scenes ``scenes`` of ``system``, each distinct run made once (the module docstring): a
+    run records the columns every one of those scenes' quantities reads (all of them where one reads the whole
+    result), so any of the scenes evaluates its quantity on it."""
+
+    def __init__(self, system, scenes: list[Scene]):
+        wanted = [qoi.columns(s.quantity) for s in scenes]
+        self.output = None if not all(wanted) else list(dict.fromkeys(c for cols in wanted for c in cols))
+        self.system = system
+        self.made: dict[tuple, object] = {}
+        self.timed: dict[tuple, float] = {}    # a configuration's wall time measured side by side (choose, 4.)
+
+    def trial(self, key: tuple, **options):
+        if key not in self.made:
+            self.made[key] = trial(self.system, output=self.output, **options)
+        return self.made[key]
+
+
 def _run(system, scene: Scene, fidelities: dict[str, int], step: float, full_value: float | None,
-         master: str | None = None) -> Candidate:
+         master: str | None = None, runs: SharedRuns | None = None) -> Candidate:
+    """One candidate: the scene's quantity of ``system`` at ``fidelities``, ``step`` and ``master``, judged
+    against ``full_value`` (None: it is the full model).  ``runs``: shared with other scenes (made once)."""
     params = {f"{k}.fidelity": v for k, v in fidelities.items()}
     exp = system.experiment
     master = master or exp.master
     t0 = time.perf_counter()
     # quiet: a candidate that blows up or stops early is expected in the search and says so in its own row
     # (``note``); printed per run, five such lines named no configuration
-    run = trial(system, stop_time=scene.stop_time or exp.stop_time, step=step,
-                master=master, extrapolation=exp.extrapolation, start_values=params,
-                output=qoi.columns(scene.quantity) or None)
+    options = dict(stop_time=scene.stop_time or exp.stop_time, step=step, master=master,
+                   extrapolation=exp.extrapolation, start_values=params)
+    if runs is None:
+        run = trial(system, output=qoi.columns(scene.quantity) or None, **options)
+    else:
+        run = runs.trial(_configuration_key(options), **options)
     wall = run.wall_time
     steps = None if run.result is None else run.result.attrs.get("fmu_steps")
     steps = None if steps is None else int(steps)
@@ -169,6 +197,11 @@ def _run(system, scene: Scene, fidelities: dict[str, int], step: float, full_val
         return Candidate(dict(fidelities), step, value, 0.0, wall, True, "", master, steps)
     err = abs(value - full_value)
     return Candidate(dict(fidelities), step, value, err, wall, err <= _bound(scene, full_value), "", master, steps)
+
+
+def _configuration_key(options: dict) -> tuple:
+    """What makes two runs of one system the same run (their options, the fidelities sorted)."""
+    return tuple((k, tuple(sorted(v.items())) if isinstance(v, dict) else v) for k, v in sorted(options.items()))
 
 
 def _bound(scene: Scene, full_value: float) -> float:
@@ -203,20 +236,20 @@ def _methods(system) -> list[str]:
 
 
 def full_model(system, scene: Scene, fidelities: dict[str, int], step: float,
-               candidates: list[Candidate]) -> Candidate:
+               candidates: list[Candidate], runs: SharedRuns | None = None) -> Candidate:
     """The full model's run at ``step`` with the first method of :func:`_methods` that runs it to the end and
     agrees with its own run at half the step within :data:`FULL_MODEL_AGREEMENT` of the scene's tolerance (the
     module docstring: why this check).  Every run made is appended to ``candidates`` (the refused ones, then the
     full model and its check, with their ``role``); the accepted full model is returned.  None accepted:
-    :class:`FullModelError`."""
+    :class:`FullModelError`.  ``runs``: shared with other scenes (:class:`SharedRuns`)."""
     refused = []
     for master in _methods(system):
-        candidates.append(replace(_run(system, scene, fidelities, step, None, master), role="full model refused"))
+        candidates.append(replace(_run(system, scene, fidelities, step, None, master, runs), role="full model refused"))
         full = candidates[-1]
         if not full.ok:
             refused.append(f"{master} stopped: {full.note}")
             continue
-        candidates.append(replace(_run(system, scene, fidelities, step / 2, full.value, master),
+        candidates.append(replace(_run(system, scene, fidelities, step / 2, full.value, master, runs),
                                   role="full model refused"))
         half = candidates[-1]
         allowed = FULL_MODEL_AGREEMENT * _bound(scene, full.value)
@@ -252,7 +285,8 @@ def full_model_text(scene: Scene, full: Candidate, candidates: list[Candidate]) 
 
 
 def choose(system, scene: Scene, cache_dir: Path = Path("results/cache"), max_doublings: int = 10,
-           masters: tuple[str, ...] | None = None, remeasure: bool = False) -> SceneResult:
+           masters: tuple[str, ...] | None = None, remeasure: bool = False,
+           runs: SharedRuns | None = None) -> SceneResult:
     """Answer ``scene`` on ``system`` with the coarsest adequate model (module docstring: the search).
 
     ``masters``: the masters whose largest admissible step is searched (default: the full model's master, the
@@ -263,16 +297,17 @@ def choose(system, scene: Scene, cache_dir: Path = Path("results/cache"), max_do
     scene's step by default: a doubled run costs half the one before, and the tolerance ends the doubling
     first).  The full model's run is cached in ``cache_dir``; a
     repeat does not run it again and takes its wall time from the cache unless ``remeasure`` is True.
+    ``runs``: the runs shared with other scenes of the system (:class:`SharedRuns`; None: this scene's own).
     """
     candidates: list[Candidate] = []
     try:  # Ctrl-C or SIGTERM: the candidates run so far go with the interrupt
-        return _choose(system, scene, cache_dir, max_doublings, masters, remeasure, candidates)
+        return _choose(system, scene, cache_dir, max_doublings, masters, remeasure, candidates, runs)
     except KeyboardInterrupt as e:
         raise StudyInterrupted(candidate_table(candidates), e) from None
 
 
 def _choose(system, scene: Scene, cache_dir: Path, max_doublings: int, masters, remeasure: bool,
-            candidates: list[Candidate]) -> SceneResult:
+            candidates: list[Candidate], runs: SharedRuns | None) -> SceneResult:
     levels = fidelity_levels(system)
     full_f = {k: v[-1] for k, v in levels.items()}
     exp = system.experiment
@@ -280,10 +315,10 @@ def _choose(system, scene: Scene, cache_dir: Path, max_doublings: int, masters, 
     cache = cache_dir / f"{system.name}_{scene.name}_{_key(system, scene)}.json"
     cached = cache.exists()
     if cached:           # the full model first, then the runs that chose its method (as when it was run)
-        runs = [Candidate(**c) for c in json.loads(cache.read_text())]
-        candidates += [c for c in runs if c.role == "full model"] + [c for c in runs if c.role != "full model"]
+        stored = [Candidate(**c) for c in json.loads(cache.read_text())]
+        candidates += [c for c in stored if c.role == "full model"] + [c for c in stored if c.role != "full model"]
     else:
-        full_model(system, scene, full_f, step0, candidates)
+        full_model(system, scene, full_f, step0, candidates, runs)
         candidates.sort(key=lambda c: c.role != "full model")   # the full model first (stable: the rest in order)
         cache.parent.mkdir(parents=True, exist_ok=True)
         cache.write_text(json.dumps([asdict(c) for c in candidates]))
@@ -295,7 +330,7 @@ def _choose(system, scene: Scene, cache_dir: Path, max_doublings: int, masters, 
     for inst, lv in levels.items():  # greedy, in the system's instance order
         for level in lv[:-1]:
             trial = dict(current, **{inst: level})
-            c = _run(system, scene, trial, step0, full.value, master1)
+            c = _run(system, scene, trial, step0, full.value, master1, runs)
             candidates.append(c)
             if c.ok:
                 current = trial
@@ -305,14 +340,14 @@ def _choose(system, scene: Scene, cache_dir: Path, max_doublings: int, masters, 
     for master in masters:           # the largest admissible step of each master, by doubling
         step = step0
         if master != master1:
-            c = _run(system, scene, current, step0, full.value, master)
+            c = _run(system, scene, current, step0, full.value, master, runs)
             candidates.append(c)
             if not c.ok:
                 continue
             if _better(c, chosen):
                 chosen = c
         for _ in range(max_doublings):
-            c = _run(system, scene, current, step * 2, full.value, master)
+            c = _run(system, scene, current, step * 2, full.value, master, runs)
             candidates.append(c)
             if not c.ok:
                 break
@@ -320,15 +355,26 @@ def _choose(system, scene: Scene, cache_dir: Path, max_doublings: int, masters, 
             if _better(c, chosen):
                 chosen = c
     if remeasure or not cached:      # cost side by side in this process (warm: after the search)
-        full_again = _run(system, scene, full_f, step0, full.value, master1)
-        full = candidates[0] = replace(full, wall_time=full_again.wall_time)
+        full = candidates[0] = replace(full, wall_time=_timed(system, scene, full, runs))
         n_full = 1 + sum(c.role != "search" for c in candidates[1:])
         cache.write_text(json.dumps([asdict(c) for c in candidates[:n_full]]))
-        chosen_again = _run(system, scene, chosen.fidelities, chosen.step, full.value, chosen.master)
+        chosen_again = replace(chosen, wall_time=_timed(system, scene, chosen, runs))
     else:
         chosen_again = chosen
     speedup = full.wall_time / chosen_again.wall_time if chosen_again.wall_time > 0 else float("nan")
     return SceneResult(scene, full, chosen_again, candidates, speedup, cached_full=cached and not remeasure)
+
+
+def _timed(system, scene: Scene, c: Candidate, runs: SharedRuns | None) -> float:
+    """The wall time of candidate ``c``'s configuration run again, warm, beside the others (choose, 4.); with
+    shared runs, a configuration another scene timed already keeps that time (the same run)."""
+    key = (tuple(sorted(c.fidelities.items())), c.step, c.master, scene.stop_time or system.experiment.stop_time)
+    if runs is not None and key in runs.timed:
+        return runs.timed[key]
+    wall = _run(system, scene, c.fidelities, c.step, None, c.master).wall_time
+    if runs is not None:
+        runs.timed[key] = wall
+    return wall
 
 
 def configuration(c: Candidate, full: Candidate) -> str:
@@ -414,6 +460,9 @@ def register(subparsers) -> None:
                    help="scene name (see the system's SYSTEM.scenes; default: its default scene)")
     p.add_argument("--out", type=Path, default=Path("results"), help="folder for the chart and table")
     p.add_argument("--remeasure", action="store_true", help="time the full model again even if it is cached")
+    p.add_argument("--all", action="store_true",
+                   help="answer every scene of the system, in its order, sharing the runs they have in common "
+                        "(the same model, step, master and stop time run once)")
     p.set_defaults(func=_run_cli)
 
 
@@ -421,10 +470,28 @@ def _run_cli(args) -> int:
     from harness import load
 
     system = load(args.system)
-    scene = find_scene(system, args.scene)
+    if args.all and args.scene is not None:
+        print(f"error: scene {args.system}: name a scene or give --all, not both ({args.scene!r} and --all)",
+              file=sys.stderr)
+        return 2
+    asked = list(system.scenes) if args.all else [find_scene(system, args.scene)]
+    if not asked:
+        print(f"error: system {system.name} declares no scenes (SYSTEM.scenes in its module)", file=sys.stderr)
+        return 1
+    runs = SharedRuns(system, asked)
+    status = 0
+    for scene in asked:
+        status = _answer(system, scene, args, runs) or status
+        if status in (130, 143):        # interrupted: the rest is not asked
+            break
+    return status
+
+
+def _answer(system, scene: Scene, args, runs: SharedRuns) -> int:
+    """One scene answered and printed (its CSV and chart written); the exit status."""
     stem = args.out / f"scene_{system.name}_{scene.name}"
     try:
-        res = choose(system, scene, cache_dir=args.out / "cache", remeasure=args.remeasure)
+        res = choose(system, scene, cache_dir=args.out / "cache", remeasure=args.remeasure, runs=runs)
     except StudyInterrupted as e:
         return keep_interrupted(e, stem.with_suffix(".csv"), f"scene {scene.name} stopped during its search")
     except FullModelError as e:     # its runs kept, as an interrupted search keeps its candidates
