@@ -400,8 +400,8 @@ def simulate(p: TakeUpParams, rtol: float = 1e-10, samples: int = 0) -> TakeUpRe
             n = max(3, int(samples * (t_new - t) / t_end)) if samples > 0 else 0
             tt = np.linspace(t, t_new, max(n, 2001 if not history else 401))
             Y = sol.sol(tt)
-            q = np.array([joint(Y[:, k])[0] for k in range(len(tt))])
-            law = np.array([push[mode](Y[:, k]) for k in range(len(tt))]) if mode != 0 else np.zeros(len(tt))
+            q = joint(Y)[0]                         # on every sample at once (the same operations as per sample)
+            law = push[mode](Y) if mode != 0 else np.zeros(len(tt))
             F = np.maximum(law, 0.0)                                        # as applied
             if mode != 0:
                 F_min = min(F_min, float(law[:-1].min()) if len(law) > 1 else 0.0)
