@@ -287,6 +287,11 @@ def test_every_command_on_a_page_runs(page, command, shown, scratch, fmu_dir, mo
     if "# slow" in command:
         parse_only(command)
         return
+    covered = RUN_BY_TESTS.get(tuple(harness_argv(command) or ()))
+    if covered is not None:         # a test runs it as written and checks further (RUN_BY_TESTS)
+        parse_only(command)
+        assert covered[1]() and not shown, (page, command, covered[0])
+        return
     run_and_check(page, command, shown, scratch, fmu_dir, monkeypatch, capsys)
 
 
@@ -317,9 +322,13 @@ def _scene_of(system: str, scene: str) -> bool:
     return system in system_names() and scene in [s.name for s in load(system).scenes]
 
 
-# slow page commands that show no output and that a slow test runs as written (its --out aside) and checks
-# further: the page's command runs there, once.  The condition names the test's case, so a renamed case fails here.
+# page commands that show no output and that a test of the same suite runs as written (its output folder aside) and
+# checks further: the page's command runs there, once.  The condition names the test's case, so a renamed case
+# fails here.
 RUN_BY_TESTS = {
+    ("synth", "groove", "--seed-figures", "docs/images"): (
+        "tests/test_groove_seed001.py::test_seed_figures_command_writes_figs_2_4_7_and_the_statements",
+        lambda: '_args("--seed-figures", str(tmp_path))\n' in (ROOT / "tests" / "test_groove_seed001.py").read_text()),
     ("study", "stability", "two_inertia"): ("tests/test_study_cli.py::test_stability_map_of_the_two_inertia_benchmark_"
                                             "measured", lambda: '["study", "stability", "two_inertia", "--out"'
                                             in (ROOT / "tests" / "test_study_cli.py").read_text()),
@@ -327,6 +336,8 @@ RUN_BY_TESTS = {
                                           lambda: '["study", "stability", "bed_drive"' in (ROOT / "tests" / "test_stability.py").read_text()),
     ("study", "precision", "bed_drive"): ("tests/test_precision.py::test_default_study_of_every_system[bed_drive]",
                                           lambda: "bed_drive" in __import__("harness.studies.precision", fromlist=["x"]).PRECISION),
+    # asked there with the drive's other scenes (--all): the answer it gets alone
+    # (tests/test_scenes.py::test_all_scenes_share_their_runs_and_answer_as_each_alone)
     ("scene", "bed_drive", "bed_stroke"): ("tests/test_scenes.py::test_every_scene_of_a_system_and_two_choose_different_models"
                                            "[bed_drive]", lambda: _scene_of("bed_drive", "bed_stroke")),
 }

@@ -158,7 +158,9 @@ def test_the_command_refuses_the_seeds_undefined_laws_in_one_line(capsys):
 
 
 def test_seed_figures_command_writes_figs_2_4_7_and_the_statements(tmp_path, capsys):
-    a = _args("--seed-figures", str(tmp_path), "--points", "720")
+    """The page's command as written (docs/seeds_000_001.md, its folder aside: tests/test_docs.py leaves that
+    command to this test, RUN_BY_TESTS), its figures and its statements."""
+    a = _args("--seed-figures", str(tmp_path))
     assert a.func(a) == 0
     text = capsys.readouterr().out
     for stem in ("seed001_fig2", "seed001_fig4", "seed001_fig7"):
