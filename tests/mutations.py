@@ -89,6 +89,13 @@ MUTATIONS = (
     Mutation("extrapolation-midpoint", "extrapolated inputs held at the step's end instead of its midpoint",
              "harness/master/extrapolation.py", "        te = t + 0.5 * h\n", "        te = t + h\n",
              ("tests/test_harness_masters.py", "-k", "global_error_order")),
+    Mutation("scene-runs-unshared", "scenes answered together (--all) make every run again",
+             "harness/studies/scenes.py", "        if key not in self.made:\n", "        if True:\n",
+             ("tests/test_scenes.py", "-k", "share_their_runs")),
+    Mutation("scene-runs-columns", "a run shared by scenes records the first scene's columns only",
+             "harness/studies/scenes.py",
+             "self.output = None if not all(wanted) else list(dict.fromkeys(c for cols in wanted for c in cols))",
+             "self.output = wanted[0] or None", ("tests/test_scenes.py", "-k", "share_their_runs")),
 )
 
 
