@@ -171,14 +171,11 @@ def _run(system, scene: Scene, fidelities: dict[str, int], step: float, full_val
          master: str | None = None, runs: SharedRuns | None = None) -> Candidate:
     """One candidate: the scene's quantity of ``system`` at ``fidelities``, ``step`` and ``master``, judged
     against ``full_value`` (None: it is the full model).  ``runs``: shared with other scenes (made once)."""
-    params = {f"{k}.fidelity": v for k, v in fidelities.items()}
-    exp = system.experiment
-    master = master or exp.master
+    options = _options(system, scene, fidelities, step, master)
+    master = options["master"]
     t0 = time.perf_counter()
     # quiet: a candidate that blows up or stops early is expected in the search and says so in its own row
     # (``note``); printed per run, five such lines named no configuration
-    options = dict(stop_time=scene.stop_time or exp.stop_time, step=step, master=master,
-                   extrapolation=exp.extrapolation, start_values=params)
     if runs is None:
         run = trial(system, output=qoi.columns(scene.quantity) or None, **options)
     else:
@@ -197,6 +194,13 @@ def _run(system, scene: Scene, fidelities: dict[str, int], step: float, full_val
         return Candidate(dict(fidelities), step, value, 0.0, wall, True, "", master, steps)
     err = abs(value - full_value)
     return Candidate(dict(fidelities), step, value, err, wall, err <= _bound(scene, full_value), "", master, steps)
+
+
+def _options(system, scene: Scene, fidelities: dict[str, int], step: float, master: str | None) -> dict:
+    """The options of a candidate's run (:func:`harness.studies.trial.trial`'s, the recorded columns aside)."""
+    exp = system.experiment
+    return dict(stop_time=scene.stop_time or exp.stop_time, step=step, master=master or exp.master,
+                extrapolation=exp.extrapolation, start_values={f"{k}.fidelity": v for k, v in fidelities.items()})
 
 
 def _configuration_key(options: dict) -> tuple:
@@ -368,7 +372,7 @@ def _choose(system, scene: Scene, cache_dir: Path, max_doublings: int, masters, 
 def _timed(system, scene: Scene, c: Candidate, runs: SharedRuns | None) -> float:
     """The wall time of candidate ``c``'s configuration run again, warm, beside the others (choose, 4.); with
     shared runs, a configuration another scene timed already keeps that time (the same run)."""
-    key = (tuple(sorted(c.fidelities.items())), c.step, c.master, scene.stop_time or system.experiment.stop_time)
+    key = _configuration_key(_options(system, scene, c.fidelities, c.step, c.master))
     if runs is not None and key in runs.timed:
         return runs.timed[key]
     wall = _run(system, scene, c.fidelities, c.step, None, c.master).wall_time
